@@ -1,0 +1,33 @@
+// Model accuracy on a log: predicted distance (paper eq. 5) and/or position
+// against the measured ones.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+
+#include "hapticcal/io.hpp"
+#include "hapticcal/model.hpp"
+
+namespace hapticcal {
+
+struct ErrorStats {
+  double rms = 0;
+  double max = 0;  // largest absolute error
+};
+
+struct Evaluation {
+  int n = 0;
+  std::optional<ErrorStats> distance;  // predicted - measured distance [m]
+  std::optional<ErrorStats> position;  // |p_predicted - p_measured| [m]
+  Eigen::VectorXd distance_error;      // per row, signed
+  Eigen::VectorXd position_error;      // per row, Euclidean norm
+};
+
+// Throws InputError if the log's joint count differs from the model's or the log
+// holds neither distances nor positions.
+Evaluation evaluate(const DeviceModel& model, const Log& log);
+
+// Paper eq. (9): |RMS(e_c) - RMS(e_nc)| / |RMS(e_nc)| * 100.
+double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated);
+
+}  // namespace hapticcal

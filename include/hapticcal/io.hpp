@@ -1,0 +1,54 @@
+// Device files (YAML) and measurement logs (CSV), SPEC section 5. Every problem
+// with a file is an InputError naming the file, the line and the key or column.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "hapticcal/model.hpp"
+
+namespace hapticcal {
+
+// Device files: `format: hapticcal-device/1`.
+DeviceModel load_device(const std::string& path);
+// origin names the text in error messages (a file name).
+DeviceModel parse_device(const std::string& yaml_text, const std::string& origin);
+// YAML text that parse_device reads back to a bit-identical model.
+std::string device_to_yaml(const DeviceModel& model);
+// Written atomically: the file is either the old one or the complete new one.
+void save_device(const DeviceModel& model, const std::string& path);
+// Empty if the model is usable, else "key: reason" (e.g. "links[3].limits: lower >= upper").
+std::string check_device(const DeviceModel& model);
+
+// A measurement log: one row per sample, SI units (converted from the column units).
+struct Log {
+  std::string origin;
+  int rows = 0;
+  Eigen::MatrixXd q;            // rows x dof, joint readings [rad]
+  Eigen::MatrixXd ext;          // rows x dof, external encoders [rad]; columns without one are 0
+  std::vector<bool> has_ext;    // per joint
+  Eigen::VectorXd distance;     // [m], if has_distance
+  Eigen::MatrixXd position;     // rows x 3 [m], if has_position
+  Eigen::VectorXd t;            // [s], if has_time
+  bool has_distance = false, has_position = false, has_time = false;
+  std::vector<int> line;        // source line of each row
+  int dof() const { return static_cast<int>(q.cols()); }
+};
+
+// Reads a CSV log. Without `columns` the first non-comment line is the header;
+// with it, `columns` names every column ("_" skips one) and all lines are data.
+// Column names: q<i>, ext<i>, distance, x, y, z, t, each optionally followed by a
+// unit in brackets: [rad] [deg] for angles, [m] [mm] [um] for lengths, [s] [ms].
+Log read_log(const std::string& path, const std::vector<std::string>& columns = {});
+Log parse_log(const std::string& csv_text, const std::string& origin,
+              const std::vector<std::string>& columns = {});
+// Splits a --columns argument "q1[deg],q2[deg],x,_" into names.
+std::vector<std::string> split_columns(const std::string& list);
+
+// Writes text to path atomically (temporary file in the same directory, then
+// rename); creates missing parent directories.
+void write_file_atomically(const std::string& path, const std::string& text);
+std::string read_file(const std::string& path);
+
+}  // namespace hapticcal

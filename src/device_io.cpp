@@ -1,0 +1,402 @@
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <charconv>
+#include <cmath>
+#include <numbers>
+#include <regex>
+#include <set>
+
+#include "hapticcal/error.hpp"
+#include "hapticcal/io.hpp"
+#include "hapticcal/kinematics.hpp"
+
+namespace hapticcal {
+namespace {
+
+constexpr const char* kFormat = "hapticcal-device/1";
+
+std::string join(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
+
+// Reads YAML nodes strictly; every failure names the origin, line and key path.
+class Reader {
+ public:
+  explicit Reader(std::string origin) : origin_(std::move(origin)) {}
+
+  [[noreturn]] void fail(const YAML::Node& at, const std::string& key,
+                         const std::string& message) const {
+    const YAML::Mark mark = at.Mark();
+    throw InputError(origin_, mark.is_null() ? 0 : mark.line + 1, key, message);
+  }
+
+  void expect_map(const YAML::Node& node, const std::string& path) const {
+    if (!node.IsMap()) fail(node, path, "expected a mapping");
+  }
+
+  // Fails on keys outside `allowed` and on repeated keys.
+  void check_keys(const YAML::Node& map, const std::string& path,
+                  std::initializer_list<const char*> allowed) const {
+    expect_map(map, path);
+    std::set<std::string> seen;
+    for (const auto& kv : map) {
+      const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : "?";
+      bool ok = false;
+      for (const char* a : allowed) ok = ok || key == a;
+      if (!ok) {
+        std::string list;
+        for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
+        fail(kv.first, join(path, key), fmt::format("unknown key (expected one of: {})", list));
+      }
+      if (!seen.insert(key).second) fail(kv.first, join(path, key), "repeated key");
+    }
+  }
+
+  YAML::Node require(const YAML::Node& map, const std::string& path, const char* key) const {
+    const YAML::Node node = map[key];
+    if (!node) fail(map, join(path, key), "missing");
+    return node;
+  }
+
+  double number(const YAML::Node& node, const std::string& key) const {
+    if (!node.IsScalar() || node.Tag() == "!") fail(node, key, "expected a number");
+    const std::string& text = node.Scalar();
+    const char* begin = text.data();
+    const char* end = text.data() + text.size();
+    if (begin != end && *begin == '+') ++begin;
+    double value = 0;
+    const auto [ptr, ec] = std::from_chars(begin, end, value);
+    if (ec == std::errc::result_out_of_range) fail(node, key, fmt::format("'{}' is out of range", text));
+    if (ec != std::errc() || ptr != end) fail(node, key, fmt::format("'{}' is not a number", text));
+    if (!std::isfinite(value)) fail(node, key, fmt::format("'{}' is not finite", text));
+    return value;
+  }
+
+  double number(const YAML::Node& map, const std::string& path, const char* key) const {
+    return number(require(map, path, key), join(path, key));
+  }
+
+  std::string string(const YAML::Node& node, const std::string& key) const {
+    if (!node.IsScalar()) fail(node, key, "expected a string");
+    return node.Scalar();
+  }
+
+  std::vector<double> numbers(const YAML::Node& node, const std::string& key, int count) const {
+    if (!node.IsSequence()) fail(node, key, "expected a list of numbers");
+    if (count >= 0 && static_cast<int>(node.size()) != count) {
+      fail(node, key, fmt::format("expected {} numbers, got {}", count, node.size()));
+    }
+    std::vector<double> values;
+    for (size_t i = 0; i < node.size(); ++i) {
+      values.push_back(number(node[i], fmt::format("{}[{}]", key, i)));
+    }
+    return values;
+  }
+
+  Transmission transmission(const YAML::Node& node, const std::string& path, double lower,
+                            double upper) const {
+    expect_map(node, path);
+    const std::string type = string(require(node, path, "type"), join(path, "type"));
+    if (type == "capstan") {
+      check_keys(node, path,
+                 {"type", "ratio", "drum_distance", "offset", "ratio_error", "r_out", "beta_out",
+                  "r_in", "beta_in"});
+      Capstan c;
+      c.ratio = number(node, path, "ratio");
+      c.drum_distance = number(node, path, "drum_distance");
+      // The error terms default to the ideal drive (zero).
+      auto optional = [&](const char* key, double& field) {
+        if (node[key]) field = number(node[key], join(path, key));
+      };
+      optional("offset", c.offset);
+      optional("ratio_error", c.ratio_error);
+      optional("r_out", c.r_out);
+      optional("beta_out", c.beta_out);
+      optional("r_in", c.r_in);
+      optional("beta_in", c.beta_in);
+      return Transmission(c);
+    }
+    if (type == "parallelogram") {
+      check_keys(node, path, {"type", "L1", "L2", "L3", "L4"});
+      return Transmission(Parallelogram{number(node, path, "L1"), number(node, path, "L2"),
+                                        number(node, path, "L3"), number(node, path, "L4")});
+    }
+    if (type == "polynomial") {
+      check_keys(node, path, {"type", "basis", "domain", "coefficients"});
+      Polynomial poly;
+      poly.lower = lower;
+      poly.upper = upper;
+      if (node["basis"]) {
+        const std::string basis = string(node["basis"], join(path, "basis"));
+        if (basis == "monomial") {
+          poly.basis = PolynomialBasis::kMonomial;
+        } else if (basis != "chebyshev") {
+          fail(node["basis"], join(path, "basis"),
+               fmt::format("'{}' is not a basis (chebyshev or monomial)", basis));
+        }
+      }
+      if (node["domain"]) {
+        const auto d = numbers(node["domain"], join(path, "domain"), 2);
+        poly.lower = d[0];
+        poly.upper = d[1];
+      }
+      poly.coefficients = numbers(require(node, path, "coefficients"), join(path, "coefficients"), -1);
+      return Transmission(poly);
+    }
+    if (type == "chain") {
+      check_keys(node, path, {"type", "stages"});
+      const YAML::Node stages = require(node, path, "stages");
+      if (!stages.IsSequence()) fail(stages, join(path, "stages"), "expected a list");
+      Chain chain;
+      for (size_t k = 0; k < stages.size(); ++k) {
+        chain.stages.push_back(
+            transmission(stages[k], fmt::format("{}.stages[{}]", path, k), lower, upper));
+      }
+      return Transmission(chain);
+    }
+    fail(node["type"], join(path, "type"),
+         fmt::format("'{}' is not a transmission (capstan, parallelogram, polynomial, chain)", type));
+  }
+
+ private:
+  std::string origin_;
+};
+
+// Semantic checks shared by the loader and check_device: (key, reason) or empty.
+std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) {
+  static const std::regex kName("[A-Za-z_][A-Za-z0-9_]*");
+  const Link& link = model.links[i];
+  const std::string key = fmt::format("links[{}]", i);
+  if (!std::regex_match(link.name, kName) || link.name == "base" || link.name == "tool") {
+    return {key + ".name", fmt::format("'{}' is not a usable link name (letters, digits, _; "
+                                       "not 'base' or 'tool')", link.name)};
+  }
+  for (int j = 0; j < i; ++j) {
+    if (model.links[j].name == link.name) return {key + ".name", fmt::format("'{}' repeats links[{}]", link.name, j)};
+  }
+  for (double v : {link.a, link.alpha, link.d, link.theta, link.beta, link.lower, link.upper}) {
+    if (!std::isfinite(v)) return {key, "non-finite value"};
+  }
+  if (!(link.lower < link.upper)) {
+    return {key + ".limits", fmt::format("lower {} must be below upper {}", link.lower, link.upper)};
+  }
+  if (model.convention == Convention::kMdh && link.beta != 0) {
+    return {key + ".beta", "beta exists only in the standard DH convention"};
+  }
+  const std::string why = link.transmission.check(link.lower, link.upper);
+  if (!why.empty()) return {key + ".transmission", why};
+  for (double v : link.transmission.parameters()) {
+    if (!std::isfinite(v)) return {key + ".transmission", "non-finite value"};
+  }
+  return {};
+}
+
+std::string num(double v) { return fmt::format("{}", v); }
+
+std::string quoted(const std::string& s) {
+  std::string out = "\"";
+  for (const char ch : s) {
+    if (ch == '"' || ch == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (static_cast<unsigned char>(ch) < 0x20) {
+      out += fmt::format("\\x{:02x}", static_cast<unsigned char>(ch));
+    } else {
+      out += ch;
+    }
+  }
+  return out + "\"";
+}
+
+std::string numbers_text(const std::vector<double>& values) {
+  std::string out = "[";
+  for (size_t i = 0; i < values.size(); ++i) out += (i ? ", " : "") + num(values[i]);
+  return out + "]";
+}
+
+std::string transmission_text(const Transmission& t) {
+  struct Visitor {
+    std::string operator()(const std::monostate&) const { return {}; }
+    std::string operator()(const Capstan& c) const {
+      return fmt::format(
+          "{{type: capstan, ratio: {}, drum_distance: {}, offset: {}, ratio_error: {}, r_out: {}, "
+          "beta_out: {}, r_in: {}, beta_in: {}}}",
+          num(c.ratio), num(c.drum_distance), num(c.offset), num(c.ratio_error), num(c.r_out),
+          num(c.beta_out), num(c.r_in), num(c.beta_in));
+    }
+    std::string operator()(const Parallelogram& P) const {
+      return fmt::format("{{type: parallelogram, L1: {}, L2: {}, L3: {}, L4: {}}}", num(P.L1),
+                         num(P.L2), num(P.L3), num(P.L4));
+    }
+    std::string operator()(const Polynomial& p) const {
+      return fmt::format("{{type: polynomial, basis: {}, domain: [{}, {}], coefficients: {}}}",
+                         p.basis == PolynomialBasis::kChebyshev ? "chebyshev" : "monomial",
+                         num(p.lower), num(p.upper), numbers_text(p.coefficients));
+    }
+    std::string operator()(const Chain& chain) const {
+      std::string out = "{type: chain, stages: [";
+      for (size_t k = 0; k < chain.stages.size(); ++k) {
+        out += (k ? ", " : "") + transmission_text(chain.stages[k]);
+      }
+      return out + "]}";
+    }
+  };
+  return std::visit(Visitor{}, t.model());
+}
+
+}  // namespace
+
+DeviceModel parse_device(const std::string& text, const std::string& origin) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(origin, e.mark.is_null() ? 0 : e.mark.line + 1, "", "YAML: " + e.msg);
+  }
+  const Reader r(origin);
+  if (!root || root.IsNull()) throw InputError(origin, 0, "", "empty device file");
+  r.check_keys(root, "", {"format", "name", "convention", "base", "links", "tool"});
+  const std::string format = r.string(r.require(root, "", "format"), "format");
+  if (format != kFormat) {
+    r.fail(root["format"], "format", fmt::format("'{}' is not '{}'", format, kFormat));
+  }
+  DeviceModel model;
+  model.name = r.string(r.require(root, "", "name"), "name");
+  const std::string convention = r.string(r.require(root, "", "convention"), "convention");
+  if (convention == "dh") {
+    model.convention = Convention::kDh;
+  } else if (convention == "mdh") {
+    model.convention = Convention::kMdh;
+  } else {
+    r.fail(root["convention"], "convention", fmt::format("'{}' is not dh or mdh", convention));
+  }
+
+  const YAML::Node base = r.require(root, "", "base");
+  r.check_keys(base, "base", {"dh", "pose"});
+  if (base.size() != 1) r.fail(base, "base", "give exactly one of dh or pose");
+  auto read_pose = [&](const YAML::Node& node, const std::string& path, std::array<double, 6>& out) {
+    r.check_keys(node, path, {"xyz", "rpy"});
+    const auto xyz = r.numbers(r.require(node, path, "xyz"), join(path, "xyz"), 3);
+    const auto rpy = r.numbers(r.require(node, path, "rpy"), join(path, "rpy"), 3);
+    out = {xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2]};
+  };
+  if (base["dh"]) {
+    model.base_kind = BaseKind::kDh;
+    const YAML::Node dh = base["dh"];
+    r.check_keys(dh, "base.dh", {"a", "alpha", "d", "theta"});
+    model.base = {r.number(dh, "base.dh", "a"), r.number(dh, "base.dh", "alpha"),
+                  r.number(dh, "base.dh", "d"), r.number(dh, "base.dh", "theta"), 0.0, 0.0};
+  } else {
+    model.base_kind = BaseKind::kPose;
+    read_pose(base["pose"], "base.pose", model.base);
+  }
+
+  const YAML::Node links = r.require(root, "", "links");
+  if (!links.IsSequence() || links.size() == 0) r.fail(links, "links", "expected a non-empty list");
+  if (links.size() > static_cast<size_t>(kMaxDof)) {
+    r.fail(links, "links", fmt::format("at most {} links are supported", kMaxDof));
+  }
+  for (size_t i = 0; i < links.size(); ++i) {
+    const YAML::Node node = links[i];
+    const std::string path = fmt::format("links[{}]", i);
+    r.check_keys(node, path, {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
+    Link link;
+    link.name = r.string(r.require(node, path, "name"), join(path, "name"));
+    link.a = r.number(node, path, "a");
+    link.alpha = r.number(node, path, "alpha");
+    link.d = r.number(node, path, "d");
+    link.theta = r.number(node, path, "theta");
+    if (node["beta"]) {
+      if (model.convention == Convention::kMdh) {
+        r.fail(node["beta"], join(path, "beta"), "beta exists only in the standard DH convention");
+      }
+      link.beta = r.number(node["beta"], join(path, "beta"));
+    }
+    const auto limits = r.numbers(r.require(node, path, "limits"), join(path, "limits"), 2);
+    link.lower = limits[0];
+    link.upper = limits[1];
+    if (!(link.lower < link.upper)) {
+      r.fail(node["limits"], join(path, "limits"),
+             fmt::format("lower {} must be below upper {}", link.lower, link.upper));
+    }
+    if (node["transmission"]) {
+      link.transmission =
+          r.transmission(node["transmission"], join(path, "transmission"), link.lower, link.upper);
+    }
+    model.links.push_back(std::move(link));
+    const auto [key, why] = check_link(model, static_cast<int>(i));
+    if (!why.empty()) {
+      const YAML::Node at = key.ends_with(".transmission") ? node["transmission"]
+                            : key.ends_with(".name")       ? node["name"]
+                                                           : node;
+      r.fail(at, key, why);
+    }
+  }
+
+  if (root["tool"]) {
+    const YAML::Node tool = root["tool"];
+    r.check_keys(tool, "tool", {"pose"});
+    read_pose(r.require(tool, "tool", "pose"), "tool.pose", model.tool);
+  }
+  return model;
+}
+
+DeviceModel load_device(const std::string& path) { return parse_device(read_file(path), path); }
+
+std::string check_device(const DeviceModel& model) {
+  if (model.links.empty()) return "links: no links";
+  if (model.dof() > kMaxDof) return fmt::format("links: at most {} links are supported", kMaxDof);
+  for (double v : model.base) {
+    if (!std::isfinite(v)) return "base: non-finite value";
+  }
+  if (model.base_kind == BaseKind::kDh && (model.base[4] != 0 || model.base[5] != 0)) {
+    return "base: unused DH slots must be zero";
+  }
+  for (double v : model.tool) {
+    if (!std::isfinite(v)) return "tool: non-finite value";
+  }
+  for (int i = 0; i < model.dof(); ++i) {
+    const auto [key, why] = check_link(model, i);
+    if (!why.empty()) return key + ": " + why;
+  }
+  return {};
+}
+
+std::string device_to_yaml(const DeviceModel& model) {
+  std::string out;
+  out += fmt::format("format: {}\n", kFormat);
+  out += fmt::format("name: {}\n", quoted(model.name));
+  out += fmt::format("convention: {}\n", model.convention == Convention::kDh ? "dh" : "mdh");
+  const auto& b = model.base;
+  if (model.base_kind == BaseKind::kDh) {
+    out += fmt::format("base:\n  dh: {{a: {}, alpha: {}, d: {}, theta: {}}}\n", num(b[0]),
+                       num(b[1]), num(b[2]), num(b[3]));
+  } else {
+    out += fmt::format("base:\n  pose: {{xyz: [{}, {}, {}], rpy: [{}, {}, {}]}}\n", num(b[0]),
+                       num(b[1]), num(b[2]), num(b[3]), num(b[4]), num(b[5]));
+  }
+  out += "links:\n";
+  for (const Link& l : model.links) {
+    out += fmt::format("  - name: {}\n", quoted(l.name));
+    out += fmt::format("    a: {}\n    alpha: {}\n    d: {}\n    theta: {}\n", num(l.a),
+                       num(l.alpha), num(l.d), num(l.theta));
+    if (model.convention == Convention::kDh) out += fmt::format("    beta: {}\n", num(l.beta));
+    out += fmt::format("    limits: [{}, {}]\n", num(l.lower), num(l.upper));
+    if (!l.transmission.is_none()) {
+      out += fmt::format("    transmission: {}\n", transmission_text(l.transmission));
+    }
+  }
+  const auto& t = model.tool;
+  out += fmt::format("tool:\n  pose: {{xyz: [{}, {}, {}], rpy: [{}, {}, {}]}}\n", num(t[0]),
+                     num(t[1]), num(t[2]), num(t[3]), num(t[4]), num(t[5]));
+  return out;
+}
+
+void save_device(const DeviceModel& model, const std::string& path) {
+  const std::string why = check_device(model);
+  if (!why.empty()) throw InputError(path, 0, "", "refusing to write an unusable model: " + why);
+  write_file_atomically(path, device_to_yaml(model));
+}
+
+}  // namespace hapticcal

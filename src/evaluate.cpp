@@ -1,0 +1,50 @@
+#include "hapticcal/evaluate.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "hapticcal/error.hpp"
+#include "hapticcal/kinematics.hpp"
+
+namespace hapticcal {
+namespace {
+
+ErrorStats stats(const Eigen::VectorXd& e) {
+  return {std::sqrt(e.squaredNorm() / static_cast<double>(e.size())), e.cwiseAbs().maxCoeff()};
+}
+
+}  // namespace
+
+Evaluation evaluate(const DeviceModel& model, const Log& log) {
+  if (log.dof() != model.dof()) {
+    throw InputError(log.origin, 0, "",
+                     fmt::format("the log has {} joint columns but the model '{}' has {} joints",
+                                 log.dof(), model.name, model.dof()));
+  }
+  if (!log.has_distance && !log.has_position) {
+    throw InputError(log.origin, 0, "",
+                     "nothing to compare: the log has neither a distance nor x, y, z columns");
+  }
+  const PreparedModel prepared(model);
+  Evaluation ev;
+  ev.n = log.rows;
+  if (log.has_distance) ev.distance_error.resize(log.rows);
+  if (log.has_position) ev.position_error.resize(log.rows);
+  Eigen::VectorXd q(model.dof());
+  for (int r = 0; r < log.rows; ++r) {
+    q = log.q.row(r).transpose();
+    const Eigen::Vector3d p = prepared.forward(q.data()).p;
+    if (log.has_distance) ev.distance_error[r] = p.norm() - log.distance[r];
+    if (log.has_position) ev.position_error[r] = (p - log.position.row(r).transpose()).norm();
+  }
+  if (log.has_distance) ev.distance = stats(ev.distance_error);
+  if (log.has_position) ev.position = stats(ev.position_error);
+  return ev;
+}
+
+double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated) {
+  return std::abs(rms_calibrated - rms_uncalibrated) / std::abs(rms_uncalibrated) * 100.0;
+}
+
+}  // namespace hapticcal

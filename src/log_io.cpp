@@ -1,0 +1,277 @@
+#include <fmt/format.h>
+
+#include <charconv>
+#include <cmath>
+#include <numbers>
+#include <regex>
+
+#include "hapticcal/error.hpp"
+#include "hapticcal/io.hpp"
+
+namespace hapticcal {
+namespace {
+
+enum class Quantity { kSkip, kJoint, kExternal, kDistance, kX, kY, kZ, kTime };
+
+struct Column {
+  std::string name;  // as written, for messages
+  Quantity quantity = Quantity::kSkip;
+  int joint = 0;      // zero-based, for q and ext
+  double scale = 1;   // to SI
+};
+
+std::string trim(const std::string& s) {
+  const size_t b = s.find_first_not_of(" \t\r");
+  if (b == std::string::npos) return {};
+  const size_t e = s.find_last_not_of(" \t\r");
+  return s.substr(b, e - b + 1);
+}
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> fields;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = line.find(',', start);
+    fields.push_back(trim(line.substr(start, comma - start)));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return fields;
+}
+
+Column parse_column(const std::string& spec, const std::string& origin, int line) {
+  static const std::regex kSpec(R"(([A-Za-z_]+)([0-9]*)(\[([A-Za-z]+)\])?)");
+  std::smatch m;
+  if (!std::regex_match(spec, m, kSpec)) {
+    throw InputError(origin, line, spec.empty() ? "(empty)" : spec, "not a column name");
+  }
+  Column c;
+  c.name = spec;
+  const std::string base = m[1], index = m[2], unit = m[4];
+  const bool indexed = base == "q" || base == "ext";
+  if (base == "_" && index.empty() && unit.empty()) return c;
+  if (indexed != !index.empty()) {
+    throw InputError(origin, line, spec,
+                     "unknown column (expected q<i>, ext<i>, distance, x, y, z, t or _)");
+  }
+  if (indexed) {
+    if (index.size() > 3) throw InputError(origin, line, spec, "joint number too large");
+    const int i = std::stoi(index);
+    if (i < 1) throw InputError(origin, line, spec, "joint numbers start at 1");
+    c.joint = i - 1;
+    c.quantity = base == "q" ? Quantity::kJoint : Quantity::kExternal;
+  } else if (base == "distance") {
+    c.quantity = Quantity::kDistance;
+  } else if (base == "x") {
+    c.quantity = Quantity::kX;
+  } else if (base == "y") {
+    c.quantity = Quantity::kY;
+  } else if (base == "z") {
+    c.quantity = Quantity::kZ;
+  } else if (base == "t") {
+    c.quantity = Quantity::kTime;
+  } else {
+    throw InputError(origin, line, spec,
+                     "unknown column (expected q<i>, ext<i>, distance, x, y, z, t or _)");
+  }
+  const bool angle = c.quantity == Quantity::kJoint || c.quantity == Quantity::kExternal;
+  const bool time = c.quantity == Quantity::kTime;
+  if (unit.empty()) return c;
+  if (angle && unit == "rad") return c;
+  if (angle && unit == "deg") {
+    c.scale = std::numbers::pi / 180;
+    return c;
+  }
+  if (time && unit == "s") return c;
+  if (time && unit == "ms") {
+    c.scale = 1e-3;
+    return c;
+  }
+  if (!angle && !time) {
+    if (unit == "m") return c;
+    if (unit == "mm") {
+      c.scale = 1e-3;
+      return c;
+    }
+    if (unit == "um") {
+      c.scale = 1e-6;
+      return c;
+    }
+  }
+  throw InputError(origin, line, spec,
+                   fmt::format("unit '{}' does not fit (angles: rad, deg; lengths: m, mm, um; "
+                               "time: s, ms)", unit));
+}
+
+// Checks the set of columns as a whole; returns the number of joints.
+int check_columns(const std::vector<Column>& columns, const std::string& origin, int line) {
+  int dof = 0;
+  std::vector<int> count(8, 0);
+  std::vector<std::string> seen;
+  for (const Column& c : columns) {
+    if (c.quantity == Quantity::kSkip) continue;
+    const std::string id = fmt::format("{}:{}", static_cast<int>(c.quantity), c.joint);
+    for (const std::string& s : seen) {
+      if (s == id) throw InputError(origin, line, c.name, "column appears twice");
+    }
+    seen.push_back(id);
+    ++count[static_cast<int>(c.quantity)];
+    if (c.quantity == Quantity::kJoint) dof = std::max(dof, c.joint + 1);
+  }
+  if (dof == 0) throw InputError(origin, line, "q1", "missing: a log needs joint columns q1..qn");
+  if (count[static_cast<int>(Quantity::kJoint)] != dof) {
+    for (int i = 0; i < dof; ++i) {
+      bool found = false;
+      for (const Column& c : columns) found = found || (c.quantity == Quantity::kJoint && c.joint == i);
+      if (!found) throw InputError(origin, line, fmt::format("q{}", i + 1), "missing (joint columns must be q1..qn without gaps)");
+    }
+  }
+  for (const Column& c : columns) {
+    if (c.quantity == Quantity::kExternal && c.joint >= dof) {
+      throw InputError(origin, line, c.name, fmt::format("no joint {} (the log has q1..q{})", c.joint + 1, dof));
+    }
+  }
+  const int xyz = count[static_cast<int>(Quantity::kX)] + count[static_cast<int>(Quantity::kY)] +
+                  count[static_cast<int>(Quantity::kZ)];
+  if (xyz != 0 && xyz != 3) {
+    const char* missing = count[static_cast<int>(Quantity::kX)] == 0   ? "x"
+                          : count[static_cast<int>(Quantity::kY)] == 0 ? "y"
+                                                                       : "z";
+    throw InputError(origin, line, missing, "missing: positions need all of x, y, z");
+  }
+  return dof;
+}
+
+}  // namespace
+
+std::vector<std::string> split_columns(const std::string& list) { return split(list); }
+
+Log parse_log(const std::string& text, const std::string& origin,
+              const std::vector<std::string>& column_names) {
+  std::vector<Column> columns;
+  int dof = 0;
+  auto set_columns = [&](const std::vector<std::string>& names, int line) {
+    for (const std::string& n : names) columns.push_back(parse_column(n, origin, line));
+    dof = check_columns(columns, origin, line);
+  };
+  if (!column_names.empty()) set_columns(column_names, 0);
+
+  std::vector<std::vector<double>> rows;
+  std::vector<int> lines;
+  size_t pos = 0;
+  int line_no = 0;
+  while (pos <= text.size()) {
+    size_t eol = text.find('\n', pos);
+    if (eol == std::string::npos) eol = text.size();
+    const std::string line = trim(text.substr(pos, eol - pos));
+    pos = eol + 1;
+    ++line_no;
+    if (line.empty() || line[0] == '#') continue;
+    const std::vector<std::string> fields = split(line);
+    if (columns.empty()) {
+      set_columns(fields, line_no);
+      continue;
+    }
+    if (fields.size() != columns.size()) {
+      throw InputError(origin, line_no, "",
+                       fmt::format("{} fields, expected {} ({})", fields.size(), columns.size(),
+                                   column_names.empty() ? "one per header column" : "one per --columns entry"));
+    }
+    std::vector<double> row(columns.size(), 0.0);
+    for (size_t k = 0; k < fields.size(); ++k) {
+      if (columns[k].quantity == Quantity::kSkip) continue;
+      const std::string& f = fields[k];
+      const char* begin = f.data();
+      const char* end = f.data() + f.size();
+      if (begin != end && *begin == '+') ++begin;
+      double v = 0;
+      const auto [ptr, ec] = std::from_chars(begin, end, v);
+      if (ec != std::errc() || ptr != end || f.empty()) {
+        throw InputError(origin, line_no, columns[k].name,
+                         fmt::format("'{}' is not a number", f));
+      }
+      if (!std::isfinite(v)) {
+        throw InputError(origin, line_no, columns[k].name, fmt::format("'{}' is not finite", f));
+      }
+      row[k] = v * columns[k].scale;
+    }
+    rows.push_back(std::move(row));
+    lines.push_back(line_no);
+  }
+  if (columns.empty()) throw InputError(origin, 0, "", "empty log: no header and no data");
+  if (rows.empty()) throw InputError(origin, 0, "", "no data rows");
+
+  Log log;
+  log.origin = origin;
+  log.rows = static_cast<int>(rows.size());
+  log.line = lines;
+  log.q.setZero(log.rows, dof);
+  log.ext.setZero(log.rows, dof);
+  log.has_ext.assign(dof, false);
+  for (const Column& c : columns) {
+    switch (c.quantity) {
+      case Quantity::kDistance:
+        log.has_distance = true;
+        break;
+      case Quantity::kX:
+        log.has_position = true;
+        break;
+      case Quantity::kTime:
+        log.has_time = true;
+        break;
+      case Quantity::kExternal:
+        log.has_ext[c.joint] = true;
+        break;
+      default:
+        break;
+    }
+  }
+  if (log.has_distance) log.distance.setZero(log.rows);
+  if (log.has_position) log.position.setZero(log.rows, 3);
+  if (log.has_time) log.t.setZero(log.rows);
+  for (int r = 0; r < log.rows; ++r) {
+    for (size_t k = 0; k < columns.size(); ++k) {
+      const Column& c = columns[k];
+      const double v = rows[r][k];
+      switch (c.quantity) {
+        case Quantity::kJoint:
+          log.q(r, c.joint) = v;
+          break;
+        case Quantity::kExternal:
+          log.ext(r, c.joint) = v;
+          break;
+        case Quantity::kDistance:
+          log.distance[r] = v;
+          break;
+        case Quantity::kX:
+          log.position(r, 0) = v;
+          break;
+        case Quantity::kY:
+          log.position(r, 1) = v;
+          break;
+        case Quantity::kZ:
+          log.position(r, 2) = v;
+          break;
+        case Quantity::kTime:
+          log.t[r] = v;
+          break;
+        case Quantity::kSkip:
+          break;
+      }
+    }
+  }
+  if (log.has_distance) {
+    for (int r = 0; r < log.rows; ++r) {
+      if (!(log.distance[r] >= 0)) {
+        throw InputError(origin, log.line[r], "distance", "a distance cannot be negative");
+      }
+    }
+  }
+  return log;
+}
+
+Log read_log(const std::string& path, const std::vector<std::string>& columns) {
+  return parse_log(read_file(path), path, columns);
+}
+
+}  // namespace hapticcal
