@@ -62,6 +62,8 @@ class Reader {
   double number(const YAML::Node& node, const std::string& key) const {
     if (!node.IsScalar() || node.Tag() == "!") fail(node, key, "expected a number");
     const std::string& text = node.Scalar();
+    static const std::regex kYamlNonFinite(R"([-+]?\.(inf|Inf|INF|nan|NaN|NAN))");
+    if (std::regex_match(text, kYamlNonFinite)) fail(node, key, fmt::format("'{}' is not finite", text));
     const char* begin = text.data();
     const char* end = text.data() + text.size();
     if (begin != end && *begin == '+') ++begin;

@@ -44,7 +44,7 @@ Evaluation evaluate(const DeviceModel& model, const Log& log) {
 }
 
 double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated) {
-  return std::abs(rms_calibrated - rms_uncalibrated) / std::abs(rms_uncalibrated) * 100.0;
+  return (rms_uncalibrated - rms_calibrated) / std::abs(rms_uncalibrated) * 100.0;
 }
 
 }  // namespace hapticcal

@@ -150,11 +150,11 @@ Log parse_log(const std::string& text, const std::string& origin,
               const std::vector<std::string>& column_names) {
   std::vector<Column> columns;
   int dof = 0;
-  auto set_columns = [&](const std::vector<std::string>& names, int line) {
-    for (const std::string& n : names) columns.push_back(parse_column(n, origin, line));
-    dof = check_columns(columns, origin, line);
+  auto set_columns = [&](const std::vector<std::string>& names, const std::string& where, int line) {
+    for (const std::string& n : names) columns.push_back(parse_column(n, where, line));
+    dof = check_columns(columns, where, line);
   };
-  if (!column_names.empty()) set_columns(column_names, 0);
+  if (!column_names.empty()) set_columns(column_names, "--columns", 0);
 
   std::vector<std::vector<double>> rows;
   std::vector<int> lines;
@@ -169,7 +169,7 @@ Log parse_log(const std::string& text, const std::string& origin,
     if (line.empty() || line[0] == '#') continue;
     const std::vector<std::string> fields = split(line);
     if (columns.empty()) {
-      set_columns(fields, line_no);
+      set_columns(fields, origin, line_no);
       continue;
     }
     if (fields.size() != columns.size()) {

@@ -27,7 +27,9 @@ struct Evaluation {
 // holds neither distances nor positions.
 Evaluation evaluate(const DeviceModel& model, const Log& log);
 
-// Paper eq. (9): |RMS(e_c) - RMS(e_nc)| / |RMS(e_nc)| * 100.
+// Paper eq. (9), signed: (RMS(e_nc) - RMS(e_c)) / RMS(e_nc) * 100. It equals the
+// paper's |RMS(e_c) - RMS(e_nc)| / |RMS(e_nc)| * 100 whenever calibration helps,
+// and is negative when the "calibrated" model is worse, which eq. (9) would hide.
 double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated);
 
 }  // namespace hapticcal

@@ -1,0 +1,112 @@
+// Device files: the built-ins load, saved models load back bit-identical.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <random>
+
+#include "hapticcal/error.hpp"
+#include "hapticcal/io.hpp"
+#include "test_models.hpp"
+
+namespace hapticcal {
+namespace {
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+void expect_bit_identical(const DeviceModel& a, const DeviceModel& b) {
+  EXPECT_EQ(a.name, b.name);
+  EXPECT_EQ(a.convention, b.convention);
+  EXPECT_EQ(a.base_kind, b.base_kind);
+  const Eigen::VectorXd pa = a.kinematic_parameters(), pb = b.kinematic_parameters();
+  ASSERT_EQ(pa.size(), pb.size());
+  for (int k = 0; k < pa.size(); ++k) EXPECT_TRUE(same_bits(pa[k], pb[k])) << "slot " << k;
+  ASSERT_EQ(a.dof(), b.dof());
+  for (int i = 0; i < a.dof(); ++i) {
+    const Link &la = a.links[i], &lb = b.links[i];
+    EXPECT_EQ(la.name, lb.name);
+    EXPECT_TRUE(same_bits(la.lower, lb.lower) && same_bits(la.upper, lb.upper));
+    EXPECT_EQ(la.transmission.type_name(), lb.transmission.type_name());
+    const Eigen::VectorXd ta = la.transmission.parameters(), tb = lb.transmission.parameters();
+    ASSERT_EQ(ta.size(), tb.size());
+    for (int k = 0; k < ta.size(); ++k) EXPECT_TRUE(same_bits(ta[k], tb[k]));
+    // Constants outside the parameter vector too.
+    EXPECT_EQ(device_to_yaml(a), device_to_yaml(b));
+  }
+}
+
+TEST(DeviceIo, BuiltinDevicesLoadAndPassTheirChecks) {
+  for (const char* name : {"baser-7dof", "phantom-premium-1.5"}) {
+    const DeviceModel m = testing::builtin(name);
+    EXPECT_EQ(check_device(m), "") << name;
+  }
+  const DeviceModel baser = testing::builtin("baser-7dof");
+  EXPECT_EQ(baser.dof(), 7);
+  EXPECT_EQ(baser.base_kind, BaseKind::kDh);
+  EXPECT_EQ(baser.links[3].transmission.type_name(), "polynomial");
+  EXPECT_EQ(std::get<Polynomial>(baser.links[3].transmission.model()).order(), 10);
+  EXPECT_EQ(baser.parameter_info().size(), 4u + 7u * 5u + 6u);
+  EXPECT_EQ(testing::builtin("phantom-premium-1.5").dof(), 6);
+}
+
+TEST(DeviceIo, SavedModelLoadsBackBitIdentical) {
+  std::mt19937_64 rng(9);
+  std::vector<DeviceModel> models = {testing::builtin("baser-7dof"),
+                                     testing::builtin("phantom-premium-1.5"), testing::meca500()};
+  // Values with full 17-digit mantissas, tiny and large magnitudes, and negative zero.
+  for (int i = 0; i < 3; ++i) models.push_back(testing::perturbed(models[i], rng, 1e-3));
+  DeviceModel odd = models[0];
+  odd.links[0].a = 1e-300;
+  odd.links[1].d = -0.0;
+  odd.links[2].alpha = 1.0 / 3.0;
+  odd.name = "odd \"name\" with \\ and: colon";
+  std::get<Capstan>(odd.links[0].transmission.model()).r_out = 4.999999999999999e-3;
+  std::get<Polynomial>(odd.links[3].transmission.model()).coefficients[5] = -2.2250738585072014e-308;
+  models.push_back(odd);
+  DeviceModel chain = models[0];
+  chain.links[3].transmission = Transmission(Chain{{Transmission(Capstan{10, 0.005, 0.1, 0.02, 1e-4, -0.7, 2e-6, -2.1}),
+                                                     Transmission(Parallelogram{0.0495, 0.2093, 0.05, 0.21})}});
+  models.push_back(chain);
+
+  const std::string dir = ::testing::TempDir() + "/device_io_roundtrip";
+  for (size_t k = 0; k < models.size(); ++k) {
+    SCOPED_TRACE(k);
+    const std::string path = dir + "/model" + std::to_string(k) + ".yaml";
+    save_device(models[k], path);
+    const DeviceModel back = load_device(path);
+    expect_bit_identical(models[k], back);
+    EXPECT_EQ(read_file(path), device_to_yaml(back));
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST(DeviceIo, SaveRefusesAnUnusableModelAndLeavesNoFile) {
+  DeviceModel m = testing::builtin("baser-7dof");
+  m.links[2].lower = 1;
+  m.links[2].upper = -1;
+  const std::string path = ::testing::TempDir() + "/refused.yaml";
+  std::filesystem::remove(path);
+  EXPECT_THROW(save_device(m, path), InputError);
+  EXPECT_FALSE(std::filesystem::exists(path));
+}
+
+TEST(DeviceIo, ShippedMeca500FileIsWhatTheConverterMakesFromTheRealData) {
+  const std::string source = testing::shared_path("data/meca500");
+  if (!std::filesystem::exists(source)) GTEST_SKIP() << "no " << source;
+  const std::string out = ::testing::TempDir() + "/meca500_convert";
+  std::filesystem::remove_all(out);
+  const std::string cmd = std::string(HAPTICCAL_CONVERT_MECA500) + " " + source + " " + out;
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  EXPECT_EQ(read_file(out + "/meca500.yaml"),
+            read_file(testing::source_path("examples/meca500/meca500.yaml")));
+  for (const auto& e : std::filesystem::directory_iterator(out)) {
+    const std::string name = e.path().filename().string();
+    EXPECT_EQ(read_file(e.path().string()),
+              read_file(testing::source_path("examples/meca500/" + name)))
+        << name;
+  }
+  std::filesystem::remove_all(out);
+}
+
+}  // namespace
+}  // namespace hapticcal

@@ -1,0 +1,200 @@
+// Transmission models: closed forms, home reference, and every derivative
+// against central differences.
+#include <ceres/jet.h>
+#include <gtest/gtest.h>
+
+#include <numbers>
+#include <random>
+
+#include "hapticcal/transmission.hpp"
+
+namespace hapticcal {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180;
+
+// Paper Table 2, capstan 1 (radii in metres per SPEC section 3), R = 10, D = 5 mm.
+Capstan table2_capstan1() {
+  Capstan c;
+  c.ratio = 10;
+  c.drum_distance = 0.005;
+  c.ratio_error = -0.025;
+  c.r_out = 0.2e-3;
+  c.beta_out = -105 * kDeg;
+  c.r_in = 0.005e-3;
+  c.beta_in = -15 * kDeg;
+  c.offset = 0.01;  // never part of error()
+  return c;
+}
+
+// SPEC section 3: L1 = L3 = 0.05, L2 = L4 = 0.21, with Table 2's dL1, dL2.
+Parallelogram table2_parallelogram() { return {0.05 - 0.0005, 0.21 - 0.0007, 0.05, 0.21}; }
+
+Polynomial chebyshev10() {
+  Polynomial p;
+  p.lower = -std::numbers::pi / 4;
+  p.upper = std::numbers::pi / 4;
+  for (int k = 0; k <= 10; ++k) p.coefficients.push_back(std::pow(-0.5, k) * 1e-3);
+  return p;
+}
+
+Polynomial paper_table2_monomial() {
+  Polynomial p;
+  p.basis = PolynomialBasis::kMonomial;
+  p.coefficients = {0.000043, -0.005159, 0.040587,  -0.100185, -0.391253, 0.508398,
+                    1.436945, -0.983788, -2.185038, 0.633845,  1.191804};
+  return p;
+}
+
+Transmission joint4_chain() {
+  Capstan c = table2_capstan1();
+  c.ratio_error = 0.02;
+  c.r_out = 0.1e-3;
+  c.beta_out = -40 * kDeg;
+  c.r_in = 0.002e-3;
+  c.beta_in = -120 * kDeg;
+  return Transmission(Chain{{Transmission(c), Transmission(table2_parallelogram())}});
+}
+
+std::vector<std::pair<std::string, Transmission>> models() {
+  return {{"capstan", Transmission(table2_capstan1())},
+          {"parallelogram", Transmission(table2_parallelogram())},
+          {"chebyshev", Transmission(chebyshev10())},
+          {"monomial", Transmission(paper_table2_monomial())},
+          {"chain", joint4_chain()}};
+}
+
+TEST(Transmission, EveryModelIsZeroAtHome) {
+  for (const auto& [name, t] : models()) {
+    EXPECT_EQ(t.error(0.0), 0.0) << name;
+    EXPECT_LT(std::abs(PreparedTransmission(t).error(0.0)), 1e-17) << name;
+  }
+}
+
+TEST(Transmission, IdealParallelogramHasNoErrorOverPlusMinus45Degrees) {
+  const Transmission ideal(Parallelogram{0.05, 0.21, 0.05, 0.21});
+  for (int i = -450; i <= 450; ++i) {
+    const double q = i * 0.1 * kDeg;
+    EXPECT_LT(std::abs(ideal.error(q)), 1e-14) << q;
+    EXPECT_LT(std::abs(ideal.derivative(q)), 1e-12) << q;
+  }
+  // A real deviation does give an error (the test above can fail).
+  EXPECT_GT(std::abs(Transmission(table2_parallelogram()).error(0.5)), 1e-4);
+}
+
+TEST(Transmission, CapstanMatchesPaperEquation1TermByTerm) {
+  const Capstan c = table2_capstan1();
+  const double q = 0.7, R = c.ratio, D = c.drum_distance;
+  auto ecc = [&](double r, double u) { return std::atan(r * std::sin(u) / (D - r * std::cos(u))); };
+  const double expected = -c.ratio_error / (c.ratio_error + R) * q + ecc(c.r_out, q + c.beta_out) -
+                          ecc(c.r_out, c.beta_out) + ecc(c.r_in, R * q + c.beta_in) -
+                          ecc(c.r_in, c.beta_in);
+  EXPECT_NEAR(Transmission(c).error(q), expected, 1e-16);
+}
+
+TEST(Transmission, DerivativeWithRespectToReadingMatchesCentralDifferences) {
+  constexpr double kStep = 1e-6, kTolerance = 1e-8;
+  std::mt19937_64 rng(1);
+  std::uniform_real_distribution<double> u(-std::numbers::pi / 4, std::numbers::pi / 4);
+  for (const auto& [name, t] : models()) {
+    for (int i = 0; i < 50; ++i) {
+      const double q = u(rng);
+      const double numeric = (t.error(q + kStep) - t.error(q - kStep)) / (2 * kStep);
+      EXPECT_NEAR(t.derivative(q), numeric, kTolerance * (1 + std::abs(numeric))) << name << " q=" << q;
+    }
+  }
+}
+
+TEST(Transmission, ParameterDerivativesMatchCentralDifferences) {
+  constexpr double kRelativeStep = 1e-6, kTolerance = 1e-7;
+  std::mt19937_64 rng(2);
+  std::uniform_real_distribution<double> u(-std::numbers::pi / 4, std::numbers::pi / 4);
+  for (const auto& [name, t] : models()) {
+    const Eigen::VectorXd p0 = t.parameters();
+    ASSERT_EQ(p0.size(), t.num_parameters());
+    ASSERT_EQ(static_cast<int>(t.parameter_names().size()), t.num_parameters());
+    for (int i = 0; i < 20; ++i) {
+      const double q = u(rng);
+      std::vector<double> J(t.num_parameters());
+      t.parameter_jacobian(q, J.data());
+      for (int k = 0; k < t.num_parameters(); ++k) {
+        const double h = kRelativeStep * std::max(std::abs(p0[k]), 1e-3);
+        Transmission plus = t, minus = t;
+        Eigen::VectorXd pp = p0, pm = p0;
+        pp[k] += h;
+        pm[k] -= h;
+        plus.set_parameters(pp.data());
+        minus.set_parameters(pm.data());
+        const double numeric = (plus.error(q) - minus.error(q)) / (2 * h);
+        EXPECT_NEAR(J[k], numeric, kTolerance * (1 + std::abs(numeric)))
+            << name << "." << t.parameter_names()[k] << " q=" << q;
+      }
+    }
+  }
+}
+
+TEST(Transmission, GenericEvaluationRunsWithJetAndGivesTheParameterJacobian) {
+  using Jet = ceres::Jet<double, 16>;
+  for (const auto& [name, t] : models()) {
+    const Eigen::VectorXd p0 = t.parameters();
+    ASSERT_LE(p0.size(), 16);
+    std::vector<Jet> p(p0.size());
+    for (int k = 0; k < p0.size(); ++k) p[k] = Jet(p0[k], k);
+    const double q = 0.3;
+    const Jet e = t.error(p.data(), Jet(q));
+    EXPECT_NEAR(e.a, t.error(q), 1e-15) << name;
+    std::vector<double> J(t.num_parameters());
+    t.parameter_jacobian(q, J.data());
+    for (int k = 0; k < p0.size(); ++k) EXPECT_NEAR(e.v[k], J[k], 1e-12 * (1 + std::abs(J[k]))) << name;
+  }
+}
+
+TEST(Transmission, PreparedEvaluationEqualsGeneric) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-0.78, 0.78);  // the parallelogram closes over +-45 deg
+  for (const auto& [name, t] : models()) {
+    const PreparedTransmission fast(t);
+    for (int i = 0; i < 200; ++i) {
+      const double q = u(rng);
+      EXPECT_NEAR(fast.error(q), t.error(q), 1e-15) << name;
+    }
+  }
+}
+
+TEST(Transmission, ChainComposesItsStages) {
+  const Transmission chain = joint4_chain();
+  const auto& stages = std::get<Chain>(chain.model()).stages;
+  const double q = 0.4;
+  const double x = q + stages[0].error(q);
+  EXPECT_NEAR(chain.error(q), x + stages[1].error(x) - q, 1e-16);
+}
+
+TEST(Transmission, MonomialViewOfChebyshevFitReproducesIt) {
+  const Polynomial cheb = chebyshev10();
+  Polynomial mono;
+  mono.basis = PolynomialBasis::kMonomial;
+  mono.coefficients = monomial_coefficients(cheb);
+  ASSERT_EQ(mono.order(), 10);
+  for (double q = -0.78; q <= 0.78; q += 0.01) {
+    EXPECT_NEAR(Transmission(mono).error(q), Transmission(cheb).error(q), 1e-15) << q;
+  }
+  // Direct monomial sum of the paper's Table 2 coefficients (error(0) = 0 drops k0).
+  const Polynomial paper = paper_table2_monomial();
+  const double q = 0.5;
+  double sum = 0;
+  for (int k = 1; k <= 10; ++k) sum += paper.coefficients[k] * std::pow(q, k);
+  EXPECT_NEAR(Transmission(paper).error(q), sum, 1e-15);
+}
+
+TEST(Transmission, CheckRejectsUnusableModels) {
+  Capstan c = table2_capstan1();
+  c.r_out = 0.006;  // larger than D = 5 mm
+  EXPECT_NE(Transmission(c).check(-1, 1), "");
+  EXPECT_NE(Transmission(Parallelogram{0.05, 0.21, 0.05, 0.5}).check(-0.7, 0.7), "");
+  EXPECT_EQ(Transmission(table2_parallelogram()).check(-0.7, 0.7), "");
+  EXPECT_EQ(joint4_chain().check(-0.7, 0.7), "");
+  EXPECT_NE(Transmission(Chain{}).check(-1, 1), "");
+}
+
+}  // namespace
+}  // namespace hapticcal
