@@ -63,13 +63,15 @@ class Reader {
     if (!node.IsScalar() || node.Tag() == "!") fail(node, key, "expected a number");
     const std::string& text = node.Scalar();
     static const std::regex kYamlNonFinite(R"([-+]?\.(inf|Inf|INF|nan|NaN|NAN))");
-    if (std::regex_match(text, kYamlNonFinite)) fail(node, key, fmt::format("'{}' is not finite", text));
+    if (std::regex_match(text, kYamlNonFinite))
+      fail(node, key, fmt::format("'{}' is not finite", text));
     const char* begin = text.data();
     const char* end = text.data() + text.size();
     if (begin != end && *begin == '+') ++begin;
     double value = 0;
     const auto [ptr, ec] = std::from_chars(begin, end, value);
-    if (ec == std::errc::result_out_of_range) fail(node, key, fmt::format("'{}' is out of range", text));
+    if (ec == std::errc::result_out_of_range)
+      fail(node, key, fmt::format("'{}' is out of range", text));
     if (ec != std::errc() || ptr != end) fail(node, key, fmt::format("'{}' is not a number", text));
     if (!std::isfinite(value)) fail(node, key, fmt::format("'{}' is not finite", text));
     return value;
@@ -143,7 +145,8 @@ class Reader {
         poly.lower = d[0];
         poly.upper = d[1];
       }
-      poly.coefficients = numbers(require(node, path, "coefficients"), join(path, "coefficients"), -1);
+      poly.coefficients =
+          numbers(require(node, path, "coefficients"), join(path, "coefficients"), -1);
       return Transmission(poly);
     }
     if (type == "chain") {
@@ -158,7 +161,8 @@ class Reader {
       return Transmission(chain);
     }
     fail(node["type"], join(path, "type"),
-         fmt::format("'{}' is not a transmission (capstan, parallelogram, polynomial, chain)", type));
+         fmt::format("'{}' is not a transmission (capstan, parallelogram, polynomial, chain)",
+                     type));
   }
 
  private:
@@ -172,16 +176,19 @@ std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) 
   const std::string key = fmt::format("links[{}]", i);
   if (!std::regex_match(link.name, kName) || link.name == "base" || link.name == "tool") {
     return {key + ".name", fmt::format("'{}' is not a usable link name (letters, digits, _; "
-                                       "not 'base' or 'tool')", link.name)};
+                                       "not 'base' or 'tool')",
+                                       link.name)};
   }
   for (int j = 0; j < i; ++j) {
-    if (model.links[j].name == link.name) return {key + ".name", fmt::format("'{}' repeats links[{}]", link.name, j)};
+    if (model.links[j].name == link.name)
+      return {key + ".name", fmt::format("'{}' repeats links[{}]", link.name, j)};
   }
   for (double v : {link.a, link.alpha, link.d, link.theta, link.beta, link.lower, link.upper}) {
     if (!std::isfinite(v)) return {key, "non-finite value"};
   }
   if (!(link.lower < link.upper)) {
-    return {key + ".limits", fmt::format("lower {} must be below upper {}", link.lower, link.upper)};
+    return {key + ".limits",
+            fmt::format("lower {} must be below upper {}", link.lower, link.upper)};
   }
   if (model.convention == Convention::kMdh && link.beta != 0) {
     return {key + ".beta", "beta exists only in the standard DH convention"};
@@ -277,7 +284,8 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
   const YAML::Node base = r.require(root, "", "base");
   r.check_keys(base, "base", {"dh", "pose"});
   if (base.size() != 1) r.fail(base, "base", "give exactly one of dh or pose");
-  auto read_pose = [&](const YAML::Node& node, const std::string& path, std::array<double, 6>& out) {
+  auto read_pose = [&](const YAML::Node& node, const std::string& path,
+                       std::array<double, 6>& out) {
     r.check_keys(node, path, {"xyz", "rpy"});
     const auto xyz = r.numbers(r.require(node, path, "xyz"), join(path, "xyz"), 3);
     const auto rpy = r.numbers(r.require(node, path, "rpy"), join(path, "rpy"), 3);
@@ -287,8 +295,12 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
     model.base_kind = BaseKind::kDh;
     const YAML::Node dh = base["dh"];
     r.check_keys(dh, "base.dh", {"a", "alpha", "d", "theta"});
-    model.base = {r.number(dh, "base.dh", "a"), r.number(dh, "base.dh", "alpha"),
-                  r.number(dh, "base.dh", "d"), r.number(dh, "base.dh", "theta"), 0.0, 0.0};
+    model.base = {r.number(dh, "base.dh", "a"),
+                  r.number(dh, "base.dh", "alpha"),
+                  r.number(dh, "base.dh", "d"),
+                  r.number(dh, "base.dh", "theta"),
+                  0.0,
+                  0.0};
   } else {
     model.base_kind = BaseKind::kPose;
     read_pose(base["pose"], "base.pose", model.base);
@@ -302,7 +314,8 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
   for (size_t i = 0; i < links.size(); ++i) {
     const YAML::Node node = links[i];
     const std::string path = fmt::format("links[{}]", i);
-    r.check_keys(node, path, {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
+    r.check_keys(node, path,
+                 {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
     Link link;
     link.name = r.string(r.require(node, path, "name"), join(path, "name"));
     link.a = r.number(node, path, "a");

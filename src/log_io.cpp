@@ -16,8 +16,8 @@ enum class Quantity { kSkip, kJoint, kExternal, kDistance, kX, kY, kZ, kTime };
 struct Column {
   std::string name;  // as written, for messages
   Quantity quantity = Quantity::kSkip;
-  int joint = 0;      // zero-based, for q and ext
-  double scale = 1;   // to SI
+  int joint = 0;     // zero-based, for q and ext
+  double scale = 1;  // to SI
 };
 
 std::string trim(const std::string& s) {
@@ -100,7 +100,8 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
   }
   throw InputError(origin, line, spec,
                    fmt::format("unit '{}' does not fit (angles: rad, deg; lengths: m, mm, um; "
-                               "time: s, ms)", unit));
+                               "time: s, ms)",
+                               unit));
 }
 
 // Checks the set of columns as a whole; returns the number of joints.
@@ -122,13 +123,17 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
   if (count[static_cast<int>(Quantity::kJoint)] != dof) {
     for (int i = 0; i < dof; ++i) {
       bool found = false;
-      for (const Column& c : columns) found = found || (c.quantity == Quantity::kJoint && c.joint == i);
-      if (!found) throw InputError(origin, line, fmt::format("q{}", i + 1), "missing (joint columns must be q1..qn without gaps)");
+      for (const Column& c : columns)
+        found = found || (c.quantity == Quantity::kJoint && c.joint == i);
+      if (!found)
+        throw InputError(origin, line, fmt::format("q{}", i + 1),
+                         "missing (joint columns must be q1..qn without gaps)");
     }
   }
   for (const Column& c : columns) {
     if (c.quantity == Quantity::kExternal && c.joint >= dof) {
-      throw InputError(origin, line, c.name, fmt::format("no joint {} (the log has q1..q{})", c.joint + 1, dof));
+      throw InputError(origin, line, c.name,
+                       fmt::format("no joint {} (the log has q1..q{})", c.joint + 1, dof));
     }
   }
   const int xyz = count[static_cast<int>(Quantity::kX)] + count[static_cast<int>(Quantity::kY)] +
@@ -150,7 +155,8 @@ Log parse_log(const std::string& text, const std::string& origin,
               const std::vector<std::string>& column_names) {
   std::vector<Column> columns;
   int dof = 0;
-  auto set_columns = [&](const std::vector<std::string>& names, const std::string& where, int line) {
+  auto set_columns = [&](const std::vector<std::string>& names, const std::string& where,
+                         int line) {
     for (const std::string& n : names) columns.push_back(parse_column(n, where, line));
     dof = check_columns(columns, where, line);
   };
@@ -173,9 +179,10 @@ Log parse_log(const std::string& text, const std::string& origin,
       continue;
     }
     if (fields.size() != columns.size()) {
-      throw InputError(origin, line_no, "",
-                       fmt::format("{} fields, expected {} ({})", fields.size(), columns.size(),
-                                   column_names.empty() ? "one per header column" : "one per --columns entry"));
+      throw InputError(
+          origin, line_no, "",
+          fmt::format("{} fields, expected {} ({})", fields.size(), columns.size(),
+                      column_names.empty() ? "one per header column" : "one per --columns entry"));
     }
     std::vector<double> row(columns.size(), 0.0);
     for (size_t k = 0; k < fields.size(); ++k) {
@@ -187,8 +194,7 @@ Log parse_log(const std::string& text, const std::string& origin,
       double v = 0;
       const auto [ptr, ec] = std::from_chars(begin, end, v);
       if (ec != std::errc() || ptr != end || f.empty()) {
-        throw InputError(origin, line_no, columns[k].name,
-                         fmt::format("'{}' is not a number", f));
+        throw InputError(origin, line_no, columns[k].name, fmt::format("'{}' is not a number", f));
       }
       if (!std::isfinite(v)) {
         throw InputError(origin, line_no, columns[k].name, fmt::format("'{}' is not finite", f));

@@ -286,8 +286,7 @@ std::string Transmission::check(double lower, double upper) const {
       if (!(c.ratio > 0)) return "ratio must be positive";
       if (!(c.drum_distance > 0)) return "drum_distance must be positive";
       if (!(c.ratio + c.ratio_error > 0)) return "ratio + ratio_error must be positive";
-      if (!(std::abs(c.r_out) < c.drum_distance))
-        return "r_out must be smaller than drum_distance";
+      if (!(std::abs(c.r_out) < c.drum_distance)) return "r_out must be smaller than drum_distance";
       if (!(std::abs(c.r_in) < c.drum_distance)) return "r_in must be smaller than drum_distance";
       return {};
     }
@@ -367,31 +366,62 @@ PreparedTransmission::PreparedTransmission(const Transmission& t) {
     r_in_ = c->r_in;
     cos_bi_ = std::cos(c->beta_in);
     sin_bi_ = std::sin(c->beta_in);
-    home_ = std::atan2(r_out_ * sin_bo_, drum_ - r_out_ * cos_bo_) +
-            std::atan2(r_in_ * sin_bi_, drum_ - r_in_ * cos_bi_);
+    double t_out, t_in;
+    capstan_tangents(0.0, 1.0, 0.0, 1.0, t_out, t_in);
+    home_ = std::atan(t_out) + std::atan(t_in);
+    return;
+  }
+  if (const auto* p = std::get_if<Polynomial>(&t.model()); p && p->order() >= 1) {
+    kind_ = Kind::kPolynomial;
+    polynomial_ = *p;
+    polynomial_home_ = polynomial_value(*p, p->coefficients.data() + 1, 0.0);
+    if (p->basis == PolynomialBasis::kChebyshev) {
+      scale_ = 2 / (p->upper - p->lower);
+      shift_ = -(p->lower + p->upper) / (p->upper - p->lower);
+    }
     return;
   }
   kind_ = Kind::kGeneric;
   generic_ = t;
 }
 
+void PreparedTransmission::capstan_tangents(double so, double co, double si, double ci,
+                                            double& t_out, double& t_in) const {
+  const double s_out = so * cos_bo_ + co * sin_bo_, c_out = co * cos_bo_ - so * sin_bo_;
+  const double s_in = si * cos_bi_ + ci * sin_bi_, c_in = ci * cos_bi_ - si * sin_bi_;
+  t_out = r_out_ * s_out / (drum_ - r_out_ * c_out);
+  t_in = r_in_ * s_in / (drum_ - r_in_ * c_in);
+}
+
 double PreparedTransmission::error(double q) const {
   switch (kind_) {
     case Kind::kNone:
       return 0.0;
+    case Kind::kCapstan: {
+      double t_out, t_in;
+      capstan_tangents(std::sin(q), std::cos(q), std::sin(ratio_ * q), std::cos(ratio_ * q), t_out,
+                       t_in);
+      return capstan_error(q, std::atan(t_out), std::atan(t_in));
+    }
+    case Kind::kPolynomial: {
+      const std::vector<double>& c = polynomial_.coefficients;
+      const int n = polynomial_.order();
+      if (polynomial_.basis == PolynomialBasis::kMonomial) {
+        return polynomial_value(polynomial_, c.data() + 1, q) - polynomial_home_;
+      }
+      const double x = scale_ * q + shift_;  // Clenshaw, as polynomial_value
+      double b1 = 0, b2 = 0;
+      for (int k = n; k >= 1; --k) {
+        const double b0 = c[k] + 2 * x * b1 - b2;
+        b2 = b1;
+        b1 = b0;
+      }
+      return x * b1 - b2 - polynomial_home_;
+    }
     case Kind::kGeneric:
       return generic_.error(q);
-    case Kind::kCapstan:
-      break;
   }
-  // Eq. (1) with sin(q + b) expanded so that one sincos serves each drum, and
-  // atan(y / x) for atan2 since x = D - r cos u > 0 (check() demands |r| < D).
-  const double so = std::sin(q), co = std::cos(q);
-  const double si = std::sin(ratio_ * q), ci = std::cos(ratio_ * q);
-  const double s_out = so * cos_bo_ + co * sin_bo_, c_out = co * cos_bo_ - so * sin_bo_;
-  const double s_in = si * cos_bi_ + ci * sin_bi_, c_in = ci * cos_bi_ - si * sin_bi_;
-  return slope_ * q + std::atan(r_out_ * s_out / (drum_ - r_out_ * c_out)) +
-         std::atan(r_in_ * s_in / (drum_ - r_in_ * c_in)) - home_;
+  return 0.0;
 }
 
 }  // namespace hapticcal

@@ -61,11 +61,13 @@ TEST(DeviceIo, SavedModelLoadsBackBitIdentical) {
   odd.links[2].alpha = 1.0 / 3.0;
   odd.name = "odd \"name\" with \\ and: colon";
   std::get<Capstan>(odd.links[0].transmission.model()).r_out = 4.999999999999999e-3;
-  std::get<Polynomial>(odd.links[3].transmission.model()).coefficients[5] = -2.2250738585072014e-308;
+  std::get<Polynomial>(odd.links[3].transmission.model()).coefficients[5] =
+      -2.2250738585072014e-308;
   models.push_back(odd);
   DeviceModel chain = models[0];
-  chain.links[3].transmission = Transmission(Chain{{Transmission(Capstan{10, 0.005, 0.1, 0.02, 1e-4, -0.7, 2e-6, -2.1}),
-                                                     Transmission(Parallelogram{0.0495, 0.2093, 0.05, 0.21})}});
+  chain.links[3].transmission =
+      Transmission(Chain{{Transmission(Capstan{10, 0.005, 0.1, 0.02, 1e-4, -0.7, 2e-6, -2.1}),
+                          Transmission(Parallelogram{0.0495, 0.2093, 0.05, 0.21})}});
   models.push_back(chain);
 
   const std::string dir = ::testing::TempDir() + "/device_io_roundtrip";

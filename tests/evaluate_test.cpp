@@ -1,5 +1,7 @@
 // `hapticcal evaluate` on real data (Meca500 laser tracker) and on synthetic
 // distance logs, checked against independent computations.
+#include "hapticcal/evaluate.hpp"
+
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -10,7 +12,6 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "hapticcal/evaluate.hpp"
 #include "hapticcal/kinematics.hpp"
 #include "kdl_chain.hpp"
 #include "run_cli.hpp"
@@ -54,10 +55,10 @@ double independent_meca500_rms_mm(const std::string& dir, const std::string& log
   KDL::Chain chain;
   chain.addSegment(KDL::Segment(KDL::Joint(KDL::Joint::None), T_base));
   for (const auto& row : mdh) {  // alpha, a, theta_offset, d
-    chain.addSegment(KDL::Segment(KDL::Joint(KDL::Joint::None),
-                                  KDL::Frame::DH_Craig1989(row[1], row[0], 0, 0)));
-    chain.addSegment(KDL::Segment(KDL::Joint(KDL::Joint::RotZ),
-                                  KDL::Frame::DH_Craig1989(0, 0, row[3], row[2])));
+    chain.addSegment(
+        KDL::Segment(KDL::Joint(KDL::Joint::None), KDL::Frame::DH_Craig1989(row[1], row[0], 0, 0)));
+    chain.addSegment(
+        KDL::Segment(KDL::Joint(KDL::Joint::RotZ), KDL::Frame::DH_Craig1989(0, 0, row[3], row[2])));
   }
   chain.addSegment(KDL::Segment(KDL::Joint(KDL::Joint::None),
                                 KDL::Frame(KDL::Vector(tool[0][3], tool[1][3], tool[2][3]))));
@@ -79,9 +80,9 @@ TEST(Evaluate, Meca500ValidationRmsIs0837MillimetresAsTheRawDataGive) {
   const std::string dir = testing::shared_path("data/meca500");
   const std::string log = "val-norm_dist_data_0deg_160cube.csv";
   ASSERT_TRUE(std::filesystem::exists(dir + "/" + log)) << "the shared data set is missing";
-  const testing::CliResult r =
-      testing::run_cli("evaluate --json --model " + testing::source_path("examples/meca500/meca500.yaml") +
-                       " --log " + dir + "/" + log + " --columns " + kMecaColumns);
+  const testing::CliResult r = testing::run_cli(
+      "evaluate --json --model " + testing::source_path("examples/meca500/meca500.yaml") +
+      " --log " + dir + "/" + log + " --columns " + kMecaColumns);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["n"], 30);
@@ -95,12 +96,14 @@ TEST(Evaluate, Meca500ValidationRmsIs0837MillimetresAsTheRawDataGive) {
 TEST(Evaluate, ShippedConvertedLogsGiveTheSameAsRawLogsWithColumns) {
   const std::string dir = testing::shared_path("data/meca500");
   const std::string model = testing::source_path("examples/meca500/meca500.yaml");
-  for (const auto& e : std::filesystem::directory_iterator(testing::source_path("examples/meca500"))) {
+  for (const auto& e :
+       std::filesystem::directory_iterator(testing::source_path("examples/meca500"))) {
     const std::string name = e.path().filename().string();
     if (!name.ends_with(".csv")) continue;
-    const auto shipped = testing::run_cli("evaluate --json --model " + model + " --log " + e.path().string());
-    const auto raw = testing::run_cli("evaluate --json --model " + model + " --log " + dir + "/" + name +
-                                      " --columns " + kMecaColumns);
+    const auto shipped =
+        testing::run_cli("evaluate --json --model " + model + " --log " + e.path().string());
+    const auto raw = testing::run_cli("evaluate --json --model " + model + " --log " + dir + "/" +
+                                      name + " --columns " + kMecaColumns);
     ASSERT_EQ(shipped.exit_code, 0) << shipped.err;
     EXPECT_EQ(shipped.out, raw.out) << name;
   }
@@ -122,8 +125,9 @@ TEST(Evaluate, DistanceLogReportsDistanceKeysOnly) {
   }
   const std::string path = ::testing::TempDir() + "/distance_log.csv";
   std::ofstream(path) << csv;
-  const auto r = testing::run_cli("evaluate --json --model " + testing::source_path("data/devices/baser-7dof.yaml") +
-                                  " --log " + path);
+  const auto r =
+      testing::run_cli("evaluate --json --model " +
+                       testing::source_path("data/devices/baser-7dof.yaml") + " --log " + path);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   double sum = 0, max = 0;
@@ -138,8 +142,9 @@ TEST(Evaluate, DistanceLogReportsDistanceKeysOnly) {
 }
 
 TEST(Evaluate, HumanReadableOutputGivesMillimetres) {
-  const auto r = testing::run_cli("evaluate --model " + testing::source_path("examples/meca500/meca500.yaml") +
-                                  " --log " + testing::source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv"));
+  const auto r = testing::run_cli(
+      "evaluate --model " + testing::source_path("examples/meca500/meca500.yaml") + " --log " +
+      testing::source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv"));
   ASSERT_EQ(r.exit_code, 0);
   EXPECT_NE(r.out.find("position error: RMS 0.837"), std::string::npos) << r.out;
 }

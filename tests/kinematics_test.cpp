@@ -1,5 +1,7 @@
 // Forward kinematics, geometric Jacobian and parameter derivatives against
 // orocos KDL, central differences and ceres::Jet.
+#include "hapticcal/kinematics.hpp"
+
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 
@@ -7,7 +9,6 @@
 #include <kdl/chainjnttojacsolver.hpp>
 #include <random>
 
-#include "hapticcal/kinematics.hpp"
 #include "kdl_chain.hpp"
 #include "test_models.hpp"
 
@@ -73,9 +74,11 @@ TEST(Kinematics, ForwardKinematicsAndJacobianMatchKdlOn1000Configurations) {
       const Frame<double> ref = testing::from_kdl(kf);
 
       std::array<Frame<double>, kMaxDof + 1> frames;
-      const Frame<double> generic = forward_kinematics(s, params.data(), joint.data(), frames.data());
+      const Frame<double> generic =
+          forward_kinematics(s, params.data(), joint.data(), frames.data());
       Jacobian6<double> J, Jt;
-      const Frame<double> fast = prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, J);
+      const Frame<double> fast =
+          prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, J);
       prepared.forward_jacobian(q.data(), JacobianFrame::kTool, Jt);
       Jacobian6<double> Jg;
       geometric_jacobian(s, frames.data(), generic, JacobianFrame::kMeasurement, Jg);
@@ -95,7 +98,8 @@ TEST(Kinematics, ForwardKinematicsAndJacobianMatchKdlOn1000Configurations) {
           Jtref(r, c) = kjt(r, c);
         }
       }
-      worst_J = std::max({worst_J, (J - Jref).cwiseAbs().maxCoeff(), (Jg - Jref).cwiseAbs().maxCoeff()});
+      worst_J =
+          std::max({worst_J, (J - Jref).cwiseAbs().maxCoeff(), (Jg - Jref).cwiseAbs().maxCoeff()});
       worst_Jt = std::max(worst_Jt, (Jt - Jtref).cwiseAbs().maxCoeff());
     }
     EXPECT_LT(worst_p, 1e-12);
@@ -151,8 +155,10 @@ TEST(Kinematics, ParameterDerivativesMatchCentralDifferences) {
       const Eigen::VectorXd joint = random_readings(model, rng);
       Eigen::Matrix<double, 3, Eigen::Dynamic> J_p_params;
       Eigen::Matrix<double, 1, Eigen::Dynamic> J_delta_params;
-      const Eigen::Vector3d p = position_parameter_jacobian(s, params.data(), joint.data(), J_p_params);
-      const double delta = distance_parameter_jacobian(s, params.data(), joint.data(), J_delta_params);
+      const Eigen::Vector3d p =
+          position_parameter_jacobian(s, params.data(), joint.data(), J_p_params);
+      const double delta =
+          distance_parameter_jacobian(s, params.data(), joint.data(), J_delta_params);
       EXPECT_NEAR(delta, p.norm(), 1e-15);
       for (int k = 0; k < s.num_slots(); ++k) {
         if (!meaningful[k]) {
@@ -225,8 +231,9 @@ TEST(Kinematics, PaperDeviceHomePostureIsTheDrawnOne) {
   for (int i = 0; i < 7; ++i) {
     const double th = i == 3 ? std::numbers::pi / 2 : 0.0;
     const double a = i == 6 ? 0.02 : 0.0;
-    Frame<double> A{rot_z(std::cos(th), std::sin(th)) * rot_x(alpha_sign[i] == 0 ? 1.0 : 0.0, alpha_sign[i]),
-                    rot_z(std::cos(th), std::sin(th)) * Eigen::Vector3d(a, 0, d[i])};
+    Frame<double> A{
+        rot_z(std::cos(th), std::sin(th)) * rot_x(alpha_sign[i] == 0 ? 1.0 : 0.0, alpha_sign[i]),
+        rot_z(std::cos(th), std::sin(th)) * Eigen::Vector3d(a, 0, d[i])};
     T = T * A;
   }
   EXPECT_LT((p - T.p).norm(), 1e-15);

@@ -34,8 +34,8 @@ TEST(LogIo, ReadsHeaderUnitsAndCommentsIntoSiUnits) {
 }
 
 TEST(LogIo, ColumnsOptionReadsAHeaderlessLogAndSkipsUnderscores) {
-  const Log log = parse_log("10,20,1,2,3,0,0\n", "raw.csv",
-                            split_columns("q1[deg],q2[deg],x,y,z,_,_"));
+  const Log log =
+      parse_log("10,20,1,2,3,0,0\n", "raw.csv", split_columns("q1[deg],q2[deg],x,y,z,_,_"));
   ASSERT_EQ(log.rows, 1);
   EXPECT_DOUBLE_EQ(log.q(0, 1), 20 * std::numbers::pi / 180);
   EXPECT_TRUE(log.has_position);

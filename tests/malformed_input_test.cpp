@@ -41,9 +41,9 @@ TEST(MalformedInput, EachCaseGivesItsOneLineErrorAndExitCode2) {
     SCOPED_TRACE(c.file);
     const bool model = c.kind == "model";
     (model ? models : logs)++;
-    const std::string args =
-        "evaluate --model " + (model ? dir + "/" + c.file : dir + "/good-2dof.yaml") + " --log " +
-        (model ? dir + "/good-2dof.csv" : dir + "/" + c.file) + " " + c.extra;
+    const std::string args = "evaluate --model " +
+                             (model ? dir + "/" + c.file : dir + "/good-2dof.yaml") + " --log " +
+                             (model ? dir + "/good-2dof.csv" : dir + "/" + c.file) + " " + c.extra;
     const testing::CliResult r = testing::run_cli(args);
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_EQ(r.out, "");
@@ -59,7 +59,8 @@ TEST(MalformedInput, EachCaseGivesItsOneLineErrorAndExitCode2) {
 
 TEST(MalformedInput, GoodFilesOfTheSuitePass) {
   const std::string dir = testing::source_path("tests/malformed");
-  const auto r = testing::run_cli("evaluate --model " + dir + "/good-2dof.yaml --log " + dir + "/good-2dof.csv");
+  const auto r = testing::run_cli("evaluate --model " + dir + "/good-2dof.yaml --log " + dir +
+                                  "/good-2dof.csv");
   EXPECT_EQ(r.exit_code, 0) << r.err;
 }
 

@@ -1,12 +1,12 @@
 // Transmission models: closed forms, home reference, and every derivative
 // against central differences.
+#include "hapticcal/transmission.hpp"
+
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 
 #include <numbers>
 #include <random>
-
-#include "hapticcal/transmission.hpp"
 
 namespace hapticcal {
 namespace {
@@ -100,7 +100,8 @@ TEST(Transmission, DerivativeWithRespectToReadingMatchesCentralDifferences) {
     for (int i = 0; i < 50; ++i) {
       const double q = u(rng);
       const double numeric = (t.error(q + kStep) - t.error(q - kStep)) / (2 * kStep);
-      EXPECT_NEAR(t.derivative(q), numeric, kTolerance * (1 + std::abs(numeric))) << name << " q=" << q;
+      EXPECT_NEAR(t.derivative(q), numeric, kTolerance * (1 + std::abs(numeric)))
+          << name << " q=" << q;
     }
   }
 }
@@ -145,7 +146,8 @@ TEST(Transmission, GenericEvaluationRunsWithJetAndGivesTheParameterJacobian) {
     EXPECT_NEAR(e.a, t.error(q), 1e-15) << name;
     std::vector<double> J(t.num_parameters());
     t.parameter_jacobian(q, J.data());
-    for (int k = 0; k < p0.size(); ++k) EXPECT_NEAR(e.v[k], J[k], 1e-12 * (1 + std::abs(J[k]))) << name;
+    for (int k = 0; k < p0.size(); ++k)
+      EXPECT_NEAR(e.v[k], J[k], 1e-12 * (1 + std::abs(J[k]))) << name;
   }
 }
 

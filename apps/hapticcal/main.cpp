@@ -23,9 +23,8 @@ struct EvaluateOptions {
 
 int run_evaluate(const EvaluateOptions& o) {
   const hapticcal::DeviceModel model = hapticcal::load_device(o.model);
-  const hapticcal::Log log =
-      hapticcal::read_log(o.log, o.columns.empty() ? std::vector<std::string>{}
-                                                   : hapticcal::split_columns(o.columns));
+  const hapticcal::Log log = hapticcal::read_log(
+      o.log, o.columns.empty() ? std::vector<std::string>{} : hapticcal::split_columns(o.columns));
   const hapticcal::Evaluation ev = hapticcal::evaluate(model, log);
   if (o.json) {
     nlohmann::ordered_json j;

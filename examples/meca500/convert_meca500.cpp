@@ -29,7 +29,7 @@ Eigen::Matrix4d read_matrix(const std::string& path) {
 }
 
 // Meca500 R3 joint ranges (Mecademic's published specification), degrees.
-constexpr double kLimitsDeg[6][2] = {{-175, 175}, {-70, 90}, {-135, 70},
+constexpr double kLimitsDeg[6][2] = {{-175, 175}, {-70, 90},   {-135, 70},
                                      {-170, 170}, {-115, 115}, {-180, 180}};
 
 }  // namespace
@@ -58,7 +58,8 @@ int main(int argc, char** argv) {
     // alpha [rad], a [mm], theta_offset [rad], d [mm], one row per joint.
     const hapticcal::Log table = hapticcal::read_log(
         source / "mdh_nominal.csv", {"q1", "q2", "q3", "q4"});  // four plain numbers per row
-    if (table.rows != 6) throw hapticcal::InputError(source / "mdh_nominal.csv", 0, "", "expected 6 rows");
+    if (table.rows != 6)
+      throw hapticcal::InputError(source / "mdh_nominal.csv", 0, "", "expected 6 rows");
     for (int i = 0; i < 6; ++i) {
       hapticcal::Link link;
       link.name = fmt::format("j{}", i + 1);

@@ -14,11 +14,14 @@ template <typename T>
 using Mat3 = Eigen::Matrix<T, 3, 3>;
 
 // T_a_b: maps coordinates expressed in frame b into frame a (p_a = R * p_b + p).
+// Like an Eigen matrix, a default-constructed Frame is uninitialised (scratch
+// arrays of frames cost nothing); Frame::Identity() is the identity.
 template <typename T>
 struct Frame {
-  Mat3<T> R = Mat3<T>::Identity();
-  Vec3<T> p = Vec3<T>::Zero();
+  Mat3<T> R;
+  Vec3<T> p;
 
+  static Frame Identity() { return {Mat3<T>::Identity(), Vec3<T>::Zero()}; }
   Frame operator*(const Frame& b) const { return {R * b.R, R * b.p + p}; }
   Vec3<T> operator*(const Vec3<T>& v) const { return R * v + p; }
   Frame inverse() const {

@@ -25,14 +25,14 @@ std::string check_device(const DeviceModel& model);
 struct Log {
   std::string origin;
   int rows = 0;
-  Eigen::MatrixXd q;            // rows x dof, joint readings [rad]
-  Eigen::MatrixXd ext;          // rows x dof, external encoders [rad]; columns without one are 0
-  std::vector<bool> has_ext;    // per joint
-  Eigen::VectorXd distance;     // [m], if has_distance
-  Eigen::MatrixXd position;     // rows x 3 [m], if has_position
-  Eigen::VectorXd t;            // [s], if has_time
+  Eigen::MatrixXd q;          // rows x dof, joint readings [rad]
+  Eigen::MatrixXd ext;        // rows x dof, external encoders [rad]; columns without one are 0
+  std::vector<bool> has_ext;  // per joint
+  Eigen::VectorXd distance;   // [m], if has_distance
+  Eigen::MatrixXd position;   // rows x 3 [m], if has_position
+  Eigen::VectorXd t;          // [s], if has_time
   bool has_distance = false, has_position = false, has_time = false;
-  std::vector<int> line;        // source line of each row
+  std::vector<int> line;  // source line of each row
   int dof() const { return static_cast<int>(q.cols()); }
 };
 

@@ -29,53 +29,76 @@ template <typename T>
 using Jacobian6 = Eigen::Matrix<T, 6, Eigen::Dynamic>;
 
 // The parts of A_i that do not depend on the joint angle.
-//   DH:  A = Rz(theta) * [M | t],      M = Rx(alpha) Ry(beta), t = (a, 0, d)
-//   MDH: A = [M Rz(theta) | t],        M = Rx(alpha), t = (a, -sin(alpha) d, cos(alpha) d)
+//   DH:  A = Rz(theta) * T(a, 0, d) * Rx(alpha) * Ry(beta)
+//   MDH: A = Rx(alpha) * Tx(a) * Rz(theta) * Tz(d)
+// Each elementary rotation is applied to two columns only. apply_beta is false
+// only where beta is exactly zero in a prepared double model; the generic path
+// always applies Ry(beta) so that a Jet carries its derivative.
 template <typename T>
 struct LinkConstants {
-  Mat3<T> M;
-  Vec3<T> t;
-  T theta_offset;
+  T a, d, theta_offset;
+  T cos_alpha, sin_alpha, cos_beta, sin_beta;
+  bool apply_beta = true;
 };
 
 template <typename T>
 LinkConstants<T> link_constants(Convention convention, const T* slot) {
   using std::cos;
   using std::sin;
-  const T ca = cos(slot[kLinkAlpha]), sa = sin(slot[kLinkAlpha]);
   LinkConstants<T> k;
+  k.a = slot[kLinkA];
+  k.d = slot[kLinkD];
   k.theta_offset = slot[kLinkTheta];
-  if (convention == Convention::kDh) {
-    k.M = rot_x<T>(ca, sa) * rot_y<T>(cos(slot[kLinkBeta]), sin(slot[kLinkBeta]));
-    k.t = Vec3<T>(slot[kLinkA], T(0), slot[kLinkD]);
-  } else {
-    k.M = rot_x<T>(ca, sa);
-    k.t = Vec3<T>(slot[kLinkA], -sa * slot[kLinkD], ca * slot[kLinkD]);
-  }
+  k.cos_alpha = cos(slot[kLinkAlpha]);
+  k.sin_alpha = sin(slot[kLinkAlpha]);
+  k.cos_beta = cos(slot[kLinkBeta]);
+  k.sin_beta = sin(slot[kLinkBeta]);
+  k.apply_beta = convention == Convention::kDh;
   return k;
 }
 
-// prev * A_i for joint angle theta given by its cosine and sine.
+#if defined(__GNUC__)
+#define HAPTICCAL_INLINE [[gnu::always_inline]] inline
+#else
+#define HAPTICCAL_INLINE inline
+#endif
+
+// R * Rz(theta), R * Rx(alpha), R * Ry(beta) in place, by columns.
 template <typename T>
-Frame<T> compose_link(Convention convention, const Frame<T>& prev, const LinkConstants<T>& k,
-                      const T& c, const T& s) {
-  Frame<T> next;
+HAPTICCAL_INLINE void turn_z(Mat3<T>& R, const T& c, const T& s) {
+  const Vec3<T> x = R.col(0);
+  R.col(0) = c * x + s * R.col(1);
+  R.col(1) = c * R.col(1) - s * x;
+}
+template <typename T>
+HAPTICCAL_INLINE void turn_x(Mat3<T>& R, const T& c, const T& s) {
+  const Vec3<T> y = R.col(1);
+  R.col(1) = c * y + s * R.col(2);
+  R.col(2) = c * R.col(2) - s * y;
+}
+template <typename T>
+HAPTICCAL_INLINE void turn_y(Mat3<T>& R, const T& c, const T& s) {
+  const Vec3<T> x = R.col(0);
+  R.col(0) = c * x - s * R.col(2);
+  R.col(2) = s * x + c * R.col(2);
+}
+
+// next = prev * A_i for the joint angle theta given by its cosine and sine.
+template <typename T>
+HAPTICCAL_INLINE void compose_link(Convention convention, const Frame<T>& prev,
+                                   const LinkConstants<T>& k, const T& c, const T& s,
+                                   Frame<T>& next) {
+  next.R = prev.R;
   if (convention == Convention::kDh) {
-    Mat3<T> Rz;  // prev.R * Rz(theta), column by column
-    Rz.col(0) = c * prev.R.col(0) + s * prev.R.col(1);
-    Rz.col(1) = c * prev.R.col(1) - s * prev.R.col(0);
-    Rz.col(2) = prev.R.col(2);
-    next.R.noalias() = Rz * k.M;
-    next.p = prev.p + Rz * k.t;
+    turn_z(next.R, c, s);
+    next.p = prev.p + k.a * next.R.col(0) + k.d * next.R.col(2);
+    turn_x(next.R, k.cos_alpha, k.sin_alpha);
+    if (k.apply_beta) turn_y(next.R, k.cos_beta, k.sin_beta);
   } else {
-    Mat3<T> RM;
-    RM.noalias() = prev.R * k.M;
-    next.R.col(0) = c * RM.col(0) + s * RM.col(1);
-    next.R.col(1) = c * RM.col(1) - s * RM.col(0);
-    next.R.col(2) = RM.col(2);
-    next.p = prev.p + prev.R * k.t;
+    turn_x(next.R, k.cos_alpha, k.sin_alpha);
+    next.p = prev.p + k.a * next.R.col(0) + k.d * next.R.col(2);
+    turn_z(next.R, c, s);
   }
-  return next;
 }
 
 template <typename T>
@@ -87,8 +110,12 @@ Frame<T> base_frame(const ChainStructure& s, const T* params) {
   }
   // Paper's frame "w": a standard DH transform with its own (fixed) theta.
   const T slot[kLinkSlots] = {params[0], params[1], params[2], params[3], T(0)};
-  const LinkConstants<T> k = link_constants(Convention::kDh, slot);
-  return compose_link(Convention::kDh, Frame<T>{}, k, cos(k.theta_offset), sin(k.theta_offset));
+  LinkConstants<T> k = link_constants(Convention::kDh, slot);
+  k.apply_beta = false;
+  Frame<T> B;
+  compose_link(Convention::kDh, Frame<T>::Identity(), k, cos(k.theta_offset), sin(k.theta_offset),
+               B);
+  return B;
 }
 
 template <typename T>
@@ -104,23 +131,22 @@ Frame<T> forward_kinematics(const ChainStructure& s, const T* params, const T* j
                             Frame<T>* frames = nullptr) {
   using std::cos;
   using std::sin;
-  Frame<T> F = base_frame(s, params);
-  if (frames) frames[0] = F;
+  std::array<Frame<T>, kMaxDof + 1> local;
+  if (!frames) frames = local.data();
+  frames[0] = base_frame(s, params);
   for (int i = 0; i < s.dof; ++i) {
     const LinkConstants<T> k = link_constants(s.convention, params + s.link_slot(i));
     const T theta = joint[i] + k.theta_offset;
-    F = compose_link(s.convention, F, k, cos(theta), sin(theta));
-    if (frames) frames[i + 1] = F;
+    compose_link(s.convention, frames[i], k, cos(theta), sin(theta), frames[i + 1]);
   }
-  return F * tool_frame(s, params);
+  return frames[s.dof] * tool_frame(s, params);
 }
 
 // Geometric Jacobian (6 x n, linear rows first) of the tool point with respect to
 // the joint angles, from the frames of forward_kinematics.
 template <typename T>
 void geometric_jacobian(const ChainStructure& s, const Frame<T>* frames,
-                        const Frame<T>& T_meas_tool, JacobianFrame expressed_in,
-                        Jacobian6<T>& J) {
+                        const Frame<T>& T_meas_tool, JacobianFrame expressed_in, Jacobian6<T>& J) {
   J.resize(6, s.dof);
   for (int i = 0; i < s.dof; ++i) {
     // DH: joint i turns about z of frame i-1; MDH: about z of frame i.
@@ -165,16 +191,16 @@ Vec3<T> position_parameter_jacobian(const ChainStructure& s, const T* params, co
 
   const Frame<T>& B = frames[0];
   if (s.base_kind == BaseKind::kDh) {
-    dh_columns(Frame<T>{}, B, params[3], 0, false);
+    dh_columns(Frame<T>::Identity(), B, params[3], 0, false);
   } else {
     const Vec3<T> r = p - B.p;
     const T cy = cos(params[5]), sy = sin(params[5]);
     J_p_params.col(0) = Vec3<T>(T(1), T(0), T(0));
     J_p_params.col(1) = Vec3<T>(T(0), T(1), T(0));
     J_p_params.col(2) = Vec3<T>(T(0), T(0), T(1));
-    J_p_params.col(3) = Vec3<T>(B.R.col(0)).cross(r);         // roll: x of Rz Ry
-    J_p_params.col(4) = Vec3<T>(-sy, cy, T(0)).cross(r);      // pitch: y of Rz
-    J_p_params.col(5) = Vec3<T>(T(0), T(0), T(1)).cross(r);   // yaw: z
+    J_p_params.col(3) = Vec3<T>(B.R.col(0)).cross(r);        // roll: x of Rz Ry
+    J_p_params.col(4) = Vec3<T>(-sy, cy, T(0)).cross(r);     // pitch: y of Rz
+    J_p_params.col(5) = Vec3<T>(T(0), T(0), T(1)).cross(r);  // yaw: z
   }
   for (int i = 0; i < s.dof; ++i) {
     const int slot = s.link_slot(i);
@@ -229,6 +255,7 @@ class PreparedModel {
   Frame<double> base_, tool_;
   std::vector<LinkConstants<double>> links_;
   std::vector<PreparedTransmission> transmissions_;
+  std::vector<int> capstan_joints_;  // joints whose transmission is a capstan
 };
 
 }  // namespace hapticcal

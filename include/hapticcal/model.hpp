@@ -22,8 +22,8 @@ enum class BaseKind { kDh, kPose };
 struct Link {
   std::string name;
   double a = 0.0, alpha = 0.0, d = 0.0;
-  double theta = 0.0;  // joint offset theta_offset_i [rad]
-  double beta = 0.0;   // Hayati parameter (standard DH only) [rad]
+  double theta = 0.0;               // joint offset theta_offset_i [rad]
+  double beta = 0.0;                // Hayati parameter (standard DH only) [rad]
   double lower = 0.0, upper = 0.0;  // joint limits on q [rad]
   Transmission transmission;
 };

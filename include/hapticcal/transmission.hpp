@@ -124,8 +124,7 @@ T parallelogram_raw(const T* L, const T& qa) {
   const T s2 = L[0] * L[0] + L[1] * L[1] - T(2) * L[0] * L[1] * sin(qa);  // cos(pi/2 - qa)
   const T s = sqrt(s2);
   return acos((L[0] * L[0] + s2 - L[1] * L[1]) / (T(2) * L[0] * s)) +
-         acos((L[3] * L[3] + s2 - L[2] * L[2]) / (T(2) * L[3] * s)) - T(std::numbers::pi / 2) -
-         qa;
+         acos((L[3] * L[3] + s2 - L[2] * L[2]) / (T(2) * L[3] * s)) - T(std::numbers::pi / 2) - qa;
 }
 
 template <typename T>
@@ -186,21 +185,38 @@ T Transmission::error(const T* params, const T& q) const {
 std::vector<double> monomial_coefficients(const Polynomial& poly);
 
 // Derived constants for evaluating a transmission in a hot loop (1 kHz control,
-// identification): home terms and phase sines are computed once.
+// identification): home terms, phase sines and polynomial home values are
+// computed once. Results equal Transmission::error to a few ulp.
 class PreparedTransmission {
  public:
   PreparedTransmission() = default;
   explicit PreparedTransmission(const Transmission& transmission);
   double error(double q) const;
 
+  // Eq. (1) split so that a caller can batch its sines, cosines and arc
+  // tangents over joints (PreparedModel does): with sin(q + b) expanded, the
+  // error is slope q + atan(t_out) + atan(t_in) - home, where x = D - r cos u > 0
+  // (check() demands |r| < D) makes atan(y / x) equal atan2(y, x).
+  bool is_capstan() const { return kind_ == Kind::kCapstan; }
+  double ratio() const { return ratio_; }
+  void capstan_tangents(double sin_q, double cos_q, double sin_rq, double cos_rq, double& t_out,
+                        double& t_in) const;
+  double capstan_error(double q, double atan_out, double atan_in) const {
+    return slope_ * q + atan_out + atan_in - home_;
+  }
+
  private:
-  enum class Kind { kNone, kCapstan, kGeneric };
+  enum class Kind { kNone, kCapstan, kPolynomial, kGeneric };
+
   Kind kind_ = Kind::kNone;
   Transmission generic_;
   // Capstan constants.
   double ratio_ = 1, drum_ = 0, slope_ = 0, home_ = 0;
   double r_out_ = 0, cos_bo_ = 1, sin_bo_ = 0;
   double r_in_ = 0, cos_bi_ = 1, sin_bi_ = 0;
+  // Polynomial constants: x = scale q + shift maps the domain onto [-1, 1].
+  Polynomial polynomial_;
+  double polynomial_home_ = 0, scale_ = 1, shift_ = 0;
 };
 
 }  // namespace hapticcal

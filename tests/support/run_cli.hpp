@@ -28,7 +28,8 @@ inline CliResult run_cli(const std::string& args) {
   static int counter = 0;
   const std::string base = std::filesystem::temp_directory_path().string() + "/hapticcal_cli_" +
                            std::to_string(::getpid()) + "_" + std::to_string(counter++);
-  const std::string cmd = std::string(HAPTICCAL_CLI) + " " + args + " >" + base + ".out 2>" + base + ".err";
+  const std::string cmd =
+      std::string(HAPTICCAL_CLI) + " " + args + " >" + base + ".out 2>" + base + ".err";
   const int status = std::system(cmd.c_str());
   CliResult r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
