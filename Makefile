@@ -1,0 +1,52 @@
+# hapticcal quick start: `make run` and `make test` on a fresh Debian machine.
+# Both install missing Debian packages (apt-get), configure a Release build
+# with CMake and build with -j$(JOBS).
+BUILD ?= build
+SANITIZE_BUILD ?= build-sanitize
+JOBS ?= 2
+DEB_PACKAGES := cmake g++ make pkg-config libeigen3-dev libceres-dev libyaml-cpp-dev \
+  nlohmann-json3-dev libcli11-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev \
+  liborocos-kdl-dev gnuplot-nox
+SANITIZE_TARGETS := hapticcal_cli convert_meca500 malformed_input_test device_io_test \
+  log_io_test transmission_test
+
+.PHONY: all deps build run test bench clean
+
+all: build
+
+deps:
+	@missing=""; \
+	for p in $(DEB_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "hapticcal: installing Debian packages:$$missing"; \
+	  if [ "$$(id -u)" = 0 ]; then sudo=""; else sudo="sudo"; fi; \
+	  $$sudo apt-get update && \
+	  DEBIAN_FRONTEND=noninteractive $$sudo apt-get install -y --no-install-recommends $$missing; \
+	fi
+
+build: deps
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release
+	cmake --build $(BUILD) -j$(JOBS)
+
+# The main job. Until `simulate` (the paper's study) exists, evaluate the
+# shipped Meca500 example: nominal model on real laser-tracker data.
+run: build
+	./$(BUILD)/hapticcal evaluate --model examples/meca500/meca500.yaml \
+	  --log examples/meca500/val-norm_dist_data_0deg_160cube.csv
+
+# Every test in Release, then the input-handling tests again under
+# AddressSanitizer and UBSan.
+test: build
+	cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
+	cmake -S . -B $(SANITIZE_BUILD) -DCMAKE_BUILD_TYPE=Debug -DHAPTICCAL_SANITIZE=ON \
+	  -DHAPTICCAL_BUILD_BENCHMARKS=OFF
+	cmake --build $(SANITIZE_BUILD) -j$(JOBS) --target $(SANITIZE_TARGETS)
+	cd $(SANITIZE_BUILD) && ctest --output-on-failure -j$(JOBS) -L sanitize
+
+bench: build
+	./$(BUILD)/bench/fk_jacobian_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
+
+clean:
+	rm -rf $(BUILD) $(SANITIZE_BUILD)
