@@ -8,6 +8,8 @@
 #include <numbers>
 #include <random>
 
+#include "hapticcal/derivative_check.hpp"
+
 namespace hapticcal {
 namespace {
 
@@ -92,46 +94,46 @@ TEST(Transmission, CapstanMatchesPaperEquation1TermByTerm) {
   EXPECT_NEAR(Transmission(c).error(q), expected, 1e-16);
 }
 
+// hapticcal::check_reading_derivative: step 1e-6 rad, tolerance 1e-8 relative to 1 + |d|.
 TEST(Transmission, DerivativeWithRespectToReadingMatchesCentralDifferences) {
-  constexpr double kStep = 1e-6, kTolerance = 1e-8;
   std::mt19937_64 rng(1);
   std::uniform_real_distribution<double> u(-std::numbers::pi / 4, std::numbers::pi / 4);
   for (const auto& [name, t] : models()) {
     for (int i = 0; i < 50; ++i) {
       const double q = u(rng);
-      const double numeric = (t.error(q + kStep) - t.error(q - kStep)) / (2 * kStep);
-      EXPECT_NEAR(t.derivative(q), numeric, kTolerance * (1 + std::abs(numeric)))
-          << name << " q=" << q;
+      EXPECT_LT(check_reading_derivative(t, q, 1e-6).max_error, 1e-8) << name << " q=" << q;
     }
   }
 }
 
+// hapticcal::check_parameter_jacobian: step 1e-6 relative, tolerance 1e-7 relative.
 TEST(Transmission, ParameterDerivativesMatchCentralDifferences) {
-  constexpr double kRelativeStep = 1e-6, kTolerance = 1e-7;
   std::mt19937_64 rng(2);
   std::uniform_real_distribution<double> u(-std::numbers::pi / 4, std::numbers::pi / 4);
   for (const auto& [name, t] : models()) {
-    const Eigen::VectorXd p0 = t.parameters();
-    ASSERT_EQ(p0.size(), t.num_parameters());
+    ASSERT_EQ(t.parameters().size(), t.num_parameters());
     ASSERT_EQ(static_cast<int>(t.parameter_names().size()), t.num_parameters());
     for (int i = 0; i < 20; ++i) {
       const double q = u(rng);
-      std::vector<double> J(t.num_parameters());
-      t.parameter_jacobian(q, J.data());
-      for (int k = 0; k < t.num_parameters(); ++k) {
-        const double h = kRelativeStep * std::max(std::abs(p0[k]), 1e-3);
-        Transmission plus = t, minus = t;
-        Eigen::VectorXd pp = p0, pm = p0;
-        pp[k] += h;
-        pm[k] -= h;
-        plus.set_parameters(pp.data());
-        minus.set_parameters(pm.data());
-        const double numeric = (plus.error(q) - minus.error(q)) / (2 * h);
-        EXPECT_NEAR(J[k], numeric, kTolerance * (1 + std::abs(numeric)))
-            << name << "." << t.parameter_names()[k] << " q=" << q;
-      }
+      const DerivativeCheck check = check_parameter_jacobian(t, q, 1e-6);
+      EXPECT_LT(check.max_error, 1e-7) << name << "." << check.worst << " q=" << q;
     }
   }
+}
+
+// The public checker's central differences against a closed form.
+TEST(Transmission, CentralDifferenceMatchesAClosedForm) {
+  const Eigen::Vector2d x(0.3, -1.2);
+  const Eigen::MatrixXd J = central_difference(
+      [](const Eigen::VectorXd& v) {
+        return Eigen::Vector2d(std::sin(v[0]) * v[1], v[1] * v[1]).eval();
+      },
+      x, Eigen::Vector2d::Constant(1e-6));
+  ASSERT_EQ(J.rows(), 2);
+  EXPECT_NEAR(J(0, 0), std::cos(0.3) * -1.2, 1e-9);
+  EXPECT_NEAR(J(0, 1), std::sin(0.3), 1e-9);
+  EXPECT_NEAR(J(1, 0), 0.0, 1e-9);
+  EXPECT_NEAR(J(1, 1), -2.4, 1e-9);
 }
 
 TEST(Transmission, GenericEvaluationRunsWithJetAndGivesTheParameterJacobian) {
