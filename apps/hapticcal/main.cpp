@@ -9,6 +9,7 @@
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/evaluate.hpp"
+#include "hapticcal/identification.hpp"
 #include "hapticcal/io.hpp"
 
 namespace {
@@ -53,6 +54,102 @@ int run_evaluate(const EvaluateOptions& o) {
   return 0;
 }
 
+struct CalibrateOptions {
+  std::string model, log, columns, out = "hapticcal-out", fix, free;
+  bool no_transmission = false;
+  int samples = 0;
+  unsigned long long seed = 1;
+  double sigma = 0;
+  int polynomial_order = 0;
+  double tolerance = 1e-6;
+};
+
+std::vector<std::string> names(const std::string& list) {
+  return list.empty() ? std::vector<std::string>{} : hapticcal::split_columns(list);
+}
+
+// Values as the paper's Tables 2-5 print them: mm, mrad, deg.
+std::string kinematic_row(const hapticcal::ParameterEstimate& e) {
+  const bool angle = e.unit == hapticcal::ParameterUnit::kAngle;
+  const double f = angle ? 1e3 : 1e3;  // mrad or mm
+  return fmt::format("  {:<12} {:>12.4f} {:>12.4f} {:>10.4f} +- {:<9.4f} {:<4}  {:>6.3f} {}",
+                     e.name, e.nominal * f, e.value * f, (e.value - e.nominal) * f, e.sd * f,
+                     angle ? "mrad" : "mm", e.max_correlation, e.max_correlation_with);
+}
+
+void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::DeviceModel& nominal) {
+  if (!r.transmissions.empty()) {
+    fmt::print("Step 1: transmissions from the external encoders (paper Table 4)\n");
+    for (const hapticcal::TransmissionFit& t : r.transmissions) {
+      const std::string& link = nominal.links[t.joint].name;
+      fmt::print(
+          "  {} {} ({} samples): RMS of ext - q - c {:.4f} mrad before, {:.4f} mrad after{}\n",
+          link, t.type, t.n, t.rms_before * 1e3, t.rms_after * 1e3,
+          t.converged ? "" : " (did not converge)");
+      if (t.type == "capstan") {
+        const char* labels[] = {"Re", "ro", "bo", "ri", "bi"};
+        const double scale[] = {1, 1e3, 180 / M_PI, 1e3, 180 / M_PI};
+        const char* units[] = {"", "mm", "deg", "mm", "deg"};
+        for (int k = 0; k < 5; ++k) {
+          fmt::print("    {:<3} {:>12.6f} +- {:<10.6f} {}\n", labels[k], t.value[k] * scale[k],
+                     t.sd[k] * scale[k], units[k]);
+        }
+      } else {
+        fmt::print("    monomial view (rad):");
+        for (int k = static_cast<int>(t.monomial.size()) - 1; k >= 0; --k) {
+          fmt::print(" k{}={:.6f}", k, t.monomial[k]);
+        }
+        fmt::print("\n");
+      }
+      fmt::print("    c (encoder zero, nuisance) {:.6f} +- {:.6f} mrad\n", t.offset * 1e3,
+                 t.offset_sd * 1e3);
+    }
+  }
+  const hapticcal::KinematicFit& k = r.kinematics;
+  fmt::print("Step 2: kinematic parameters from {} ({} rows) (paper Table 5)\n",
+             k.kind == hapticcal::MeasurementKind::kPosition ? "positions" : "distances", k.rows);
+  fmt::print("  {:<12} {:>12} {:>12} {:>10}    {:<9} {:<4}  {}\n", "parameter", "nominal",
+             "identified", "deviation", "sd", "unit", "largest correlation");
+  for (const hapticcal::ParameterEstimate& e : k.parameters) {
+    if (e.identifiable) fmt::print("{}\n", kinematic_row(e));
+  }
+  fmt::print("  held at nominal:\n");
+  for (const hapticcal::ParameterEstimate& e : k.parameters) {
+    if (!e.identifiable) fmt::print("  {:<12} {}\n", e.name, e.reason);
+  }
+  fmt::print(
+      "  {} parameters identified; condition number {:.4g}; observability O1 {:.4g}, O4 "
+      "{:.4g} (angles scaled by {:.3f} m)\n",
+      k.identified, k.condition_number, k.observability.O1, k.observability.O4, k.length_scale);
+  fmt::print("  sd from sigma = {:.4g} mm ({}); solver: {} after {} iterations\n", k.sigma * 1e3,
+             k.sigma_given ? "given" : "residual estimate",
+             k.converged ? "converged" : "NOT converged", k.iterations);
+  fmt::print("  RMS residual: {:.4f} mm before, {:.4f} mm after\n", k.rms_before * 1e3,
+             k.rms_after * 1e3);
+  for (const std::string& note : r.notes) fmt::print("note: {}\n", note);
+}
+
+int run_calibrate(const CalibrateOptions& o) {
+  const hapticcal::DeviceModel model = hapticcal::load_device(o.model);
+  const hapticcal::Log log = hapticcal::read_log(o.log, names(o.columns));
+  hapticcal::CalibrationOptions options;
+  options.transmissions = !o.no_transmission;
+  options.samples = o.samples;
+  options.seed = o.seed;
+  if (o.sigma > 0) options.sigma = o.sigma;
+  if (o.polynomial_order > 0) options.polynomial_order = o.polynomial_order;
+  options.dependency_tolerance = o.tolerance;
+  options.fix = names(o.fix);
+  options.free = names(o.free);
+  const hapticcal::CalibrationResult result = hapticcal::calibrate(model, log, options);
+  print_summary(result, model);
+  hapticcal::save_device(result.calibrated, o.out + "/calibrated.yaml");
+  hapticcal::write_file_atomically(
+      o.out + "/results.json", hapticcal::calibration_json(result, model, o.model, o.log, options));
+  fmt::print("wrote {0}/calibrated.yaml and {0}/results.json (seed {1})\n", o.out, o.seed);
+  return 0;
+}
+
 int not_implemented(const char* command, int issue) {
   fmt::print(stderr, "hapticcal {}: not implemented yet (tracked in issue {})\n", command, issue);
   return kExitNotImplemented;
@@ -74,10 +171,35 @@ int main(int argc, char** argv) {
   simulate->add_option("--seed", seed, "Random seed");
   simulate->add_option("--out", out, "Output directory");
 
-  std::string cal_model, cal_log;
+  CalibrateOptions cal;
   auto* calibrate = app.add_subcommand("calibrate", "Two-step identification from a log");
-  calibrate->add_option("--model", cal_model, "Device file")->required();
-  calibrate->add_option("--log", cal_log, "Measurement log")->required();
+  calibrate->add_option("--model", cal.model, "Device file (YAML): the nominal model")->required();
+  calibrate->add_option("--log", cal.log, "Measurement log (CSV)")->required();
+  calibrate->add_flag("--no-transmission", cal.no_transmission,
+                      "Skip step 1: kinematic-only calibration");
+  calibrate->add_option("--samples", cal.samples, "Use N random rows of the log (0: all)")
+      ->check(CLI::NonNegativeNumber);
+  calibrate->add_option("--seed", cal.seed, "Seed of the row sample");
+  calibrate
+      ->add_option("--sigma", cal.sigma,
+                   "Measurement noise sd [m] for the standard deviations (default: "
+                   "estimated from the residuals)")
+      ->check(CLI::PositiveNumber);
+  calibrate
+      ->add_option("--polynomial-order", cal.polynomial_order,
+                   "Order of polynomial transmissions (default: the device file's, else 10)")
+      ->check(CLI::Range(1, 30));
+  calibrate->add_option("--fix", cal.fix, "Kinematic parameters held at nominal, e.g. j1.a,j2.d");
+  calibrate->add_option(
+      "--free", cal.free,
+      "Parameters added to the candidates, e.g. j2.beta (DH betas are not by default)");
+  calibrate->add_option("--columns", cal.columns, "Column names of a log without header");
+  calibrate
+      ->add_option("--dependency-tolerance", cal.tolerance,
+                   "A parameter whose scaled Jacobian column lies within this relative "
+                   "distance of the span of those before it is held (default 1e-6)")
+      ->check(CLI::Range(1e-12, 0.5));
+  calibrate->add_option("--out", cal.out, "Output directory (default hapticcal-out)");
 
   EvaluateOptions eval;
   auto* evaluate = app.add_subcommand("evaluate", "RMS and max error of a model on a log");
@@ -106,7 +228,7 @@ int main(int argc, char** argv) {
   try {
     if (*evaluate) return run_evaluate(eval);
     if (*simulate) return not_implemented("simulate", 4);
-    if (*calibrate) return not_implemented("calibrate", 3);
+    if (*calibrate) return run_calibrate(cal);
     if (*force) return not_implemented("force", 5);
   } catch (const hapticcal::InputError& e) {
     fmt::print(stderr, "hapticcal: {}\n", e.what());

@@ -1,0 +1,125 @@
+// Two-step identification (paper Fig. 6, SPEC section 2): transmission models
+// from external encoders, then the kinematic parameters from distance (paper
+// eq. 5, 7) or position measurements by Levenberg-Marquardt (Ceres), after an
+// identifiability analysis that holds parameters without effect or with a
+// dependent effect at nominal and says why.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hapticcal/io.hpp"
+#include "hapticcal/model.hpp"
+
+namespace hapticcal {
+
+enum class MeasurementKind { kDistance, kPosition };
+
+// Step 1 for one joint: ext - q = c + dtheta(q).
+struct TransmissionFit {
+  int joint = 0;                   // zero-based
+  std::string type;                // "capstan" or "polynomial"
+  int n = 0;                       // samples
+  std::vector<std::string> names;  // dotted: "j1.r_out", "j4.c3"
+  Eigen::VectorXd nominal, value, sd;
+  double offset = 0, offset_sd = 0;  // c, the external encoder's zero (nuisance)
+  double rms_before = 0;             // RMS of ext - q - c: the error left by an ideal model
+  double rms_after = 0;              // RMS of the fit residual
+  bool converged = true;
+  std::string message;
+  std::vector<double> monomial;  // polynomial: k_0..k_n in q (derived view)
+};
+
+struct ParameterEstimate {
+  std::string name;
+  int slot = 0;
+  ParameterUnit unit = ParameterUnit::kLength;
+  double nominal = 0, value = 0;
+  double sd = std::numeric_limits<double>::quiet_NaN();
+  bool identifiable = false;
+  std::string reason;  // why it is held at nominal, if it is
+  double max_correlation = 0;
+  std::string max_correlation_with;
+};
+
+// Borm & Menq's O1 = (s_1 ... s_L)^(1/L) / sqrt(m), O2 = s_L / s_1 (inverse
+// condition number), O3 = s_L, and Nahvi & Hollerbach's noise amplification
+// index O4 = s_L^2 / s_1, of the scaled identification Jacobian.
+struct ObservabilityIndices {
+  double O1 = 0, O2 = 0, O3 = 0, O4 = 0;
+};
+
+struct KinematicFit {
+  MeasurementKind kind = MeasurementKind::kDistance;
+  int rows = 0;
+  std::vector<ParameterEstimate> parameters;  // every candidate, in slot order
+  int identified = 0;
+  double condition_number = 0;
+  ObservabilityIndices observability;
+  double length_scale = 1;               // m: angle columns are scaled by it
+  double rms_before = 0, rms_after = 0;  // of the residuals [m]
+  double sigma = 0;                      // used for the standard deviations [m]
+  bool sigma_given = false;              // else the residual estimate
+  bool rank_deficient = false;  // the data leave structurally identifiable parameters unexcited
+  bool converged = false;
+  int iterations = 0;
+  std::string termination;  // Ceres's report
+};
+
+struct CalibrationOptions {
+  bool transmissions = true;            // false: the paper's kinematic-only calibration
+  int samples = 0;                      // 0: every row
+  std::uint64_t seed = 1;               // for samples
+  std::optional<double> sigma;          // measurement noise sd [m]
+  std::optional<int> polynomial_order;  // overrides the device file's
+  std::vector<std::string> fix, free;   // kinematic parameters by dotted name
+  double dependency_tolerance = 1e-6;   // relative residual of a column: "dependent"
+};
+
+struct CalibrationResult {
+  DeviceModel calibrated;
+  std::vector<TransmissionFit> transmissions;
+  KinematicFit kinematics;
+  std::vector<int> rows;           // log rows used, zero-based
+  std::vector<std::string> notes;  // things a user should know (one sentence each)
+};
+
+// The whole procedure. Throws InputError for logs that cannot be used (joint
+// count, no measurements, too few rows, a joint or encoder that never moves);
+// a solver that does not converge or data that do not excite the model are
+// reported in the result, not hidden.
+CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
+                            const CalibrationOptions& options);
+
+// Step 1 for one joint from its readings and external encoder. `order` overrides
+// the polynomial order. Returns the fitted transmission (without c).
+Transmission fit_transmission(const DeviceModel& model, int joint, const Eigen::VectorXd& q,
+                              const Eigen::VectorXd& ext, std::optional<int> order,
+                              TransmissionFit& fit);
+
+// Candidate kinematic parameters in priority order (links, then tool, then
+// base; DH betas only when freed): a dependent parameter is held in favour of
+// those before it. Throws InputError for unknown names in fix / free.
+std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std::string>& fix,
+                                 const std::vector<std::string>& free);
+
+// Draws `samples` distinct row indices of `rows` (all if samples <= 0 or >= rows),
+// reproducibly for a seed on every platform; sorted.
+std::vector<int> sample_rows(int rows, int samples, std::uint64_t seed);
+
+}  // namespace hapticcal
+
+namespace hapticcal {
+
+// results.json (SPEC section 5): every parameter by dotted name with nominal,
+// value, sd and identifiable (transmission parameters included), the condition
+// number, observability indices and RMS before / after. Metres and radians.
+std::string calibration_json(const CalibrationResult& result, const DeviceModel& nominal,
+                             const std::string& model_path, const std::string& log_path,
+                             const CalibrationOptions& options);
+
+}  // namespace hapticcal

@@ -1,0 +1,37 @@
+// The paper's simulated device and synthetic measurement logs (SPEC section 3).
+#pragma once
+
+#include <cstdint>
+
+#include "hapticcal/io.hpp"
+#include "hapticcal/model.hpp"
+
+namespace hapticcal {
+
+// Measurement noise of the paper's simulation: external encoders of 20000 ppr,
+// sigma_e = 2 pi / 20000 / 3 rad; the cable encoder sigma_m = 2 pi 0.015 sigma_e
+// (the paper's formula) or 0.015 sigma_e (the dimensionally consistent one).
+constexpr double kPaperSigmaE = 2 * 3.14159265358979323846 / 20000 / 3;
+constexpr double kPaperSigmaMPaper = 2 * 3.14159265358979323846 * 0.015 * kPaperSigmaE;
+constexpr double kPaperSigmaMConsistent = 0.015 * kPaperSigmaE;
+
+// The "actual" device of the paper's study from the built-in nominal one: Table 3
+// deviations (mm, mrad), Table 2 capstans on joints 1-3 (radii read in mm), and
+// joint 4 a capstan (Table 2's fourth drum) followed by a parallelogram with
+// L1 = L3 = 0.05 m, L2 = L4 = 0.21 m and dL1 = -0.5 mm, dL2 = -0.7 mm.
+DeviceModel paper_actual_device(const DeviceModel& nominal);
+
+struct SimulationNoise {
+  double sigma_ext = kPaperSigmaE;            // external encoders [rad]
+  double sigma_distance = kPaperSigmaMPaper;  // cable encoder [m]
+  double sigma_position = 0;                  // tracker [m]
+};
+
+// A log of `poses` readings drawn uniformly within the joint limits, with
+// ext<i> = q_i + dtheta_i(q_i) + c_i + noise for the joints with a transmission
+// (c_i = encoder zeros: 1, 2, 3 ... mrad), and the distance and/or position of
+// the actual device's tool point with noise. Reproducible for a seed.
+Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& noise,
+                 std::uint64_t seed, bool distance = true, bool position = false);
+
+}  // namespace hapticcal

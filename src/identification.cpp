@@ -1,0 +1,462 @@
+// Step 2 of the paper's procedure and the whole calibration.
+#include "hapticcal/identification.hpp"
+
+#include <ceres/ceres.h>
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+
+#include "hapticcal/error.hpp"
+#include "hapticcal/kinematics.hpp"
+
+namespace hapticcal {
+namespace {
+
+constexpr std::uint64_t kStructuralSeed = 20130601;  // synthetic poses of the structural analysis
+constexpr int kStructuralPoses = 400;
+
+// Measured values, one row per sample (1 distance or 3 coordinates), contiguous.
+using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+int residuals_per_row(MeasurementKind kind) { return kind == MeasurementKind::kPosition ? 3 : 1; }
+
+// Rows: predicted - measured; J: d residuals / d params (all slots).
+void measurement_rows(const ChainStructure& s, const double* params, const double* joint,
+                      MeasurementKind kind, const double* measured, double* residual,
+                      Eigen::Ref<Eigen::MatrixXd> J) {
+  Eigen::Matrix<double, 3, Eigen::Dynamic> J_p_params;
+  const Eigen::Vector3d p = position_parameter_jacobian(s, params, joint, J_p_params);
+  if (kind == MeasurementKind::kPosition) {
+    for (int k = 0; k < 3; ++k) residual[k] = p[k] - measured[k];
+    J = J_p_params;
+  } else {
+    const double delta = p.norm();
+    residual[0] = delta - measured[0];
+    J = (p / delta).transpose() * J_p_params;
+  }
+}
+
+// The stacked residuals and identification Jacobian at `params`.
+struct Stack {
+  Eigen::VectorXd r;
+  Eigen::MatrixXd J;  // rows x slots
+};
+
+Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
+            const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
+            const RowMatrix& measured) {
+  const int d = residuals_per_row(kind);
+  const int m = static_cast<int>(joints.size());
+  Stack out{Eigen::VectorXd(m * d), Eigen::MatrixXd(m * d, s.num_slots())};
+  for (int i = 0; i < m; ++i) {
+    measurement_rows(s, params.data(), joints[i].data(), kind, measured.row(i).data(),
+                     out.r.data() + d * i, out.J.middleRows(d * i, d));
+  }
+  return out;
+}
+
+// The used rows of the log as measured values (distances or positions).
+RowMatrix measured_values(const Log& log, const std::vector<int>& rows, MeasurementKind kind) {
+  const int d = residuals_per_row(kind);
+  RowMatrix out(rows.size(), d);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    if (kind == MeasurementKind::kPosition) {
+      out.row(i) = log.position.row(rows[i]);
+    } else {
+      out(i, 0) = log.distance[rows[i]];
+    }
+  }
+  return out;
+}
+
+class MeasurementCost : public ceres::CostFunction {
+ public:
+  MeasurementCost(ChainStructure s, std::vector<Eigen::VectorXd> joints, MeasurementKind kind,
+                  RowMatrix measured)
+      : s_(s), joints_(std::move(joints)), kind_(kind), measured_(std::move(measured)) {
+    set_num_residuals(static_cast<int>(joints_.size()) * residuals_per_row(kind));
+    mutable_parameter_block_sizes()->push_back(s.num_slots());
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const int d = residuals_per_row(kind_);
+    const int n = s_.num_slots();
+    Eigen::MatrixXd J(d, n);
+    for (size_t i = 0; i < joints_.size(); ++i) {
+      measurement_rows(s_, parameters[0], joints_[i].data(), kind_, measured_.row(i).data(),
+                       residuals + d * i, J);
+      if (jacobians && jacobians[0]) {
+        Eigen::Map<RowMatrix>(jacobians[0] + static_cast<size_t>(d) * i * n, d, n) = J;
+      }
+    }
+    return true;
+  }
+
+ private:
+  ChainStructure s_;
+  std::vector<Eigen::VectorXd> joints_;
+  MeasurementKind kind_;
+  RowMatrix measured_;
+};
+
+// One candidate's fate in the greedy rank test.
+struct Verdict {
+  enum Kind { kIdentified, kNoEffect, kDependent } kind = kIdentified;
+  std::vector<int> on;  // slots it depends on
+};
+
+// Greedy rank test in priority order on scale-free (unit) columns: a column
+// with no effect, or whose part outside the span of the columns accepted before
+// it is below `tolerance` of its norm, is held.
+std::map<int, Verdict> rank_test(const Eigen::MatrixXd& J, const std::vector<int>& order,
+                                 double tolerance) {
+  std::map<int, Verdict> out;
+  double largest = 0;
+  for (int slot : order) largest = std::max(largest, J.col(slot).norm());
+  std::vector<Eigen::VectorXd> basis;
+  std::vector<int> accepted;
+  for (int slot : order) {
+    const double norm = J.col(slot).norm();
+    if (!(norm > 1e-10 * largest) || largest == 0) {
+      out[slot] = {Verdict::kNoEffect, {}};
+      continue;
+    }
+    Eigen::VectorXd v = J.col(slot) / norm;
+    for (int pass = 0; pass < 2; ++pass) {  // Gram-Schmidt twice: orthogonal to rounding
+      for (const Eigen::VectorXd& b : basis) v -= b.dot(v) * b;
+    }
+    const double rest = v.norm();
+    if (rest < tolerance) {
+      // Which accepted parameters reproduce its effect.
+      Eigen::MatrixXd A(J.rows(), accepted.size());
+      for (size_t k = 0; k < accepted.size(); ++k) A.col(k) = J.col(accepted[k]).normalized();
+      const Eigen::VectorXd x = A.colPivHouseholderQr().solve(J.col(slot) / norm);
+      std::vector<std::pair<double, int>> weights;
+      for (size_t k = 0; k < accepted.size(); ++k) weights.push_back({std::abs(x[k]), accepted[k]});
+      std::sort(weights.rbegin(), weights.rend());
+      Verdict verdict{Verdict::kDependent, {}};
+      for (size_t k = 0; k < weights.size() && k < 3; ++k) {
+        if (weights[k].first > 0.1 * weights[0].first) verdict.on.push_back(weights[k].second);
+      }
+      out[slot] = verdict;
+      continue;
+    }
+    basis.push_back(v / rest);
+    accepted.push_back(slot);
+    out[slot] = {Verdict::kIdentified, {}};
+  }
+  return out;
+}
+
+std::string names_of(const std::vector<int>& slots, const std::map<int, std::string>& name) {
+  std::string out;
+  for (int s : slots) out += (out.empty() ? "" : ", ") + name.at(s);
+  return out;
+}
+
+double rms(const Eigen::VectorXd& r) {
+  return std::sqrt(r.squaredNorm() / std::max<Eigen::Index>(r.size(), 1));
+}
+
+}  // namespace
+
+std::vector<int> sample_rows(int rows, int samples, std::uint64_t seed) {
+  std::vector<int> all(rows);
+  for (int i = 0; i < rows; ++i) all[i] = i;
+  if (samples <= 0 || samples >= rows) return all;
+  // Partial Fisher-Yates with a bounded draw by rejection: the same rows for a
+  // seed on every platform (std::uniform_int_distribution is not specified).
+  std::mt19937_64 rng(seed);
+  for (int i = 0; i < samples; ++i) {
+    const std::uint64_t span = static_cast<std::uint64_t>(rows - i);
+    const std::uint64_t limit = UINT64_MAX - UINT64_MAX % span;
+    std::uint64_t draw;
+    do {
+      draw = rng();
+    } while (draw >= limit);
+    std::swap(all[i], all[i + static_cast<int>(draw % span)]);
+  }
+  all.resize(samples);
+  std::sort(all.begin(), all.end());
+  return all;
+}
+
+std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std::string>& fix,
+                                 const std::vector<std::string>& free) {
+  const std::vector<ParameterInfo> info = model.parameter_info();
+  std::map<std::string, int> slot_of;
+  for (const ParameterInfo& p : info) slot_of[p.name] = p.slot;
+  auto lookup = [&](const std::string& name, const char* option) {
+    const auto it = slot_of.find(name);
+    if (it == slot_of.end()) {
+      throw InputError(fmt::format("{}: '{}' is not a kinematic parameter of model '{}'", option,
+                                   name, model.name));
+    }
+    return it->second;
+  };
+  std::vector<bool> fixed(model.structure().num_slots(), false), freed(fixed.size(), false);
+  for (const std::string& name : fix) fixed[lookup(name, "--fix")] = true;
+  for (const std::string& name : free) freed[lookup(name, "--free")] = true;
+  const ChainStructure s = model.structure();
+  std::vector<int> order;
+  auto take = [&](int slot) {
+    if (fixed[slot]) return;
+    const bool beta =
+        slot >= kBaseSlots && slot < s.tool_slot() && (slot - kBaseSlots) % kLinkSlots == kLinkBeta;
+    if (beta && !freed[slot]) return;
+    order.push_back(slot);
+  };
+  for (const ParameterInfo& p : info) {
+    if (p.slot >= kBaseSlots && p.slot < s.tool_slot()) take(p.slot);
+  }
+  for (const ParameterInfo& p : info) {
+    if (p.slot >= s.tool_slot()) take(p.slot);
+  }
+  for (const ParameterInfo& p : info) {
+    if (p.slot < kBaseSlots) take(p.slot);
+  }
+  return order;
+}
+
+CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
+                            const CalibrationOptions& options) {
+  if (log.dof() != nominal.dof()) {
+    throw InputError(log.origin, 0, "",
+                     fmt::format("the log has {} joint columns but the model '{}' has {} joints",
+                                 log.dof(), nominal.name, nominal.dof()));
+  }
+  if (!log.has_distance && !log.has_position) {
+    throw InputError(log.origin, 0, "",
+                     "nothing to calibrate on: the log has neither a distance nor x, y, z columns");
+  }
+  if (options.samples < 0) throw InputError("--samples must not be negative");
+  if (options.sigma && !(*options.sigma > 0 && std::isfinite(*options.sigma))) {
+    throw InputError("--sigma must be a positive number of metres");
+  }
+  CalibrationResult result;
+  result.rows = sample_rows(log.rows, options.samples, options.seed);
+  const int m = static_cast<int>(result.rows.size());
+  DeviceModel model = nominal;
+  KinematicFit& fit = result.kinematics;
+  fit.kind = log.has_position ? MeasurementKind::kPosition : MeasurementKind::kDistance;
+  if (log.has_position && log.has_distance) {
+    result.notes.push_back("the log has positions and distances: positions are used");
+  }
+  fit.rows = m;
+
+  // Step 1: transmissions from the external encoders.
+  Eigen::MatrixXd q(m, model.dof());
+  for (int i = 0; i < m; ++i) q.row(i) = log.q.row(result.rows[i]);
+  bool any_ext = false;
+  for (int j = 0; j < model.dof(); ++j) any_ext = any_ext || log.has_ext[j];
+  if (options.transmissions) {
+    for (int j = 0; j < model.dof(); ++j) {
+      if (!log.has_ext[j]) continue;
+      Eigen::VectorXd ext(m);
+      for (int i = 0; i < m; ++i) ext[i] = log.ext(result.rows[i], j);
+      TransmissionFit tf;
+      const bool declared = !model.links[j].transmission.is_none();
+      Transmission fitted = fit_transmission(model, j, q.col(j), ext, options.polynomial_order, tf);
+      if (!declared) {
+        result.notes.push_back(fmt::format(
+            "{} has no transmission in the model: a polynomial of order {} was fitted to ext{}",
+            model.links[j].name, tf.value.size(), j + 1));
+      }
+      if (!tf.converged) {
+        result.notes.push_back(fmt::format("{}: the transmission fit did not converge: {}",
+                                           model.links[j].name, tf.message));
+      }
+      if (auto* c = std::get_if<Capstan>(&fitted.model())) c->offset = tf.offset;
+      model.links[j].transmission = fitted;
+      result.transmissions.push_back(tf);
+    }
+    if (!any_ext) result.notes.push_back("no ext<i> columns: step 1 (transmissions) skipped");
+  } else {
+    result.notes.push_back(
+        "--no-transmission: transmissions kept as in the device file (kinematic-only calibration)");
+  }
+
+  // Step 2: kinematic parameters from the compensated readings.
+  const ChainStructure s = model.structure();
+  std::vector<Eigen::VectorXd> joints(m);
+  for (int i = 0; i < m; ++i) joints[i] = model.compensate(q.row(i).transpose());
+  const RowMatrix measured = measured_values(log, result.rows, fit.kind);
+  const std::vector<int> candidates = candidate_slots(model, options.fix, options.free);
+  const int d = residuals_per_row(fit.kind);
+  if (m * d <= static_cast<int>(candidates.size())) {
+    throw InputError(log.origin, 0, "",
+                     fmt::format("too few measurements: {} rows give {} residuals for {} candidate "
+                                 "parameters",
+                                 m, m * d, candidates.size()));
+  }
+  const Eigen::VectorXd p0 = model.kinematic_parameters();
+  {
+    std::vector<Eigen::VectorXd> nominal_joints(m);
+    for (int i = 0; i < m; ++i) nominal_joints[i] = nominal.compensate(q.row(i).transpose());
+    fit.rms_before =
+        rms(stack(s, nominal.kinematic_parameters(), nominal_joints, fit.kind, measured).r);
+  }
+
+  // Identifiability: on synthetic poses over the joint limits (structural) and on the data.
+  std::mt19937_64 rng(kStructuralSeed);
+  std::vector<Eigen::VectorXd> synthetic(kStructuralPoses);
+  for (Eigen::VectorXd& qs : synthetic) {
+    Eigen::VectorXd reading(model.dof());
+    for (int j = 0; j < model.dof(); ++j) {
+      reading[j] =
+          std::uniform_real_distribution<double>(model.links[j].lower, model.links[j].upper)(rng);
+    }
+    qs = model.compensate(reading);
+  }
+  Stack data = stack(s, p0, joints, fit.kind, measured);
+  const Stack structural = stack(s, p0, synthetic, fit.kind, RowMatrix::Zero(kStructuralPoses, d));
+  // Metres and radians made comparable: angle columns times a length scale, the
+  // RMS distance of the tool point from the base origin.
+  const Frame<double> base = base_frame(s, p0.data());
+  double sum = 0;
+  for (const Eigen::VectorXd& jq : joints) {
+    sum += (forward_kinematics(s, p0.data(), jq.data()).p - base.p).squaredNorm();
+  }
+  fit.length_scale = std::max(std::sqrt(sum / m), 1e-3);
+  const std::vector<ParameterInfo> info = model.parameter_info();
+  Eigen::VectorXd scale = Eigen::VectorXd::Ones(s.num_slots());
+  std::map<int, std::string> name;
+  for (const ParameterInfo& p : info) {
+    name[p.slot] = p.name;
+    if (p.unit == ParameterUnit::kAngle) scale[p.slot] = fit.length_scale;
+  }
+  // An angle phi enters as L phi (metres at the tool): its column is divided by L.
+  auto scaled = [&](const Eigen::MatrixXd& J) {
+    return Eigen::MatrixXd(J * scale.cwiseInverse().asDiagonal());
+  };
+  const auto structural_verdict =
+      rank_test(scaled(structural.J), candidates, options.dependency_tolerance);
+  const auto data_verdict = rank_test(scaled(data.J), candidates, options.dependency_tolerance);
+
+  std::vector<int> identified;
+  std::map<int, std::string> reason;
+  for (int slot : candidates) {
+    const Verdict& sv = structural_verdict.at(slot);
+    const Verdict& dv = data_verdict.at(slot);
+    if (dv.kind == Verdict::kIdentified) {
+      identified.push_back(slot);
+    } else if (sv.kind == Verdict::kNoEffect) {
+      reason[slot] = "no effect on the measurements";
+    } else if (sv.kind == Verdict::kDependent) {
+      reason[slot] = "dependent: its effect is that of " + names_of(sv.on, name);
+    } else {
+      fit.rank_deficient = true;
+      reason[slot] = dv.kind == Verdict::kNoEffect
+                         ? "not excited by these measurements (no effect on them)"
+                         : "not excited by these measurements (here its effect is that of " +
+                               names_of(dv.on, name) + ")";
+    }
+  }
+  fit.identified = static_cast<int>(identified.size());
+
+  // Levenberg-Marquardt over the identified parameters (Ceres, analytic derivatives).
+  Eigen::VectorXd p = p0;
+  if (!identified.empty()) {
+    std::vector<int> constant;
+    for (int k = 0; k < s.num_slots(); ++k) {
+      if (std::find(identified.begin(), identified.end(), k) == identified.end())
+        constant.push_back(k);
+    }
+    ceres::Problem problem;
+    problem.AddResidualBlock(new MeasurementCost(s, joints, fit.kind, measured), nullptr, p.data());
+    if (!constant.empty()) {
+      problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
+    }
+    ceres::Solver::Options solver;
+    solver.linear_solver_type = ceres::DENSE_QR;
+    solver.logging_type = ceres::SILENT;
+    solver.max_num_iterations = 100;
+    solver.function_tolerance = 1e-14;
+    solver.parameter_tolerance = 1e-14;
+    solver.gradient_tolerance = 1e-16;
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, &problem, &summary);
+    fit.converged = summary.termination_type == ceres::CONVERGENCE;
+    fit.iterations = static_cast<int>(summary.iterations.size());
+    fit.termination = summary.message;
+    if (!fit.converged) {
+      result.notes.push_back("step 2 did not converge: " + summary.message);
+    }
+  } else {
+    fit.termination = "no parameter is identifiable from these measurements";
+    result.notes.push_back(fit.termination);
+  }
+  model.set_kinematic_parameters(p);
+  data = stack(s, p, joints, fit.kind, measured);
+  fit.rms_after = rms(data.r);
+
+  // Uncertainty, conditioning and observability of the identified parameters.
+  const int k = static_cast<int>(identified.size());
+  Eigen::MatrixXd Ji(data.J.rows(), k), Js(data.J.rows(), k);
+  for (int c = 0; c < k; ++c) {
+    Ji.col(c) = data.J.col(identified[c]);
+    Js.col(c) = Ji.col(c) / scale[identified[c]];
+  }
+  const int dof_residual = static_cast<int>(data.r.size()) - k;
+  fit.sigma_given = options.sigma.has_value();
+  fit.sigma =
+      options.sigma ? *options.sigma : std::sqrt(data.r.squaredNorm() / std::max(dof_residual, 1));
+  Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(k, k);
+  if (k > 0) {
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(Ji, Eigen::ComputeThinV);
+    const Eigen::VectorXd sv = svd.singularValues();
+    Eigen::VectorXd inv2(k);
+    for (int c = 0; c < k; ++c) inv2[c] = sv[c] > 0 ? 1 / (sv[c] * sv[c]) : INFINITY;
+    covariance =
+        fit.sigma * fit.sigma * svd.matrixV() * inv2.asDiagonal() * svd.matrixV().transpose();
+    const Eigen::VectorXd ss = Eigen::JacobiSVD<Eigen::MatrixXd>(Js).singularValues();
+    fit.condition_number = ss[k - 1] > 0 ? ss[0] / ss[k - 1] : INFINITY;
+    double log_sum = 0;
+    for (int c = 0; c < k; ++c) log_sum += std::log(ss[c]);
+    fit.observability = {std::exp(log_sum / k) / std::sqrt(static_cast<double>(Js.rows())),
+                         ss[k - 1] / ss[0], ss[k - 1], ss[k - 1] * ss[k - 1] / ss[0]};
+  }
+  for (const ParameterInfo& pi : info) {
+    ParameterEstimate e;
+    e.name = pi.name;
+    e.slot = pi.slot;
+    e.unit = pi.unit;
+    e.nominal = nominal.kinematic_parameters()[pi.slot];
+    e.value = p[pi.slot];
+    const auto it = std::find(identified.begin(), identified.end(), pi.slot);
+    if (it != identified.end()) {
+      const int c = static_cast<int>(it - identified.begin());
+      e.identifiable = true;
+      e.sd = std::sqrt(covariance(c, c));
+      for (int o = 0; o < k; ++o) {
+        if (o == c) continue;
+        const double rho = covariance(c, o) / std::sqrt(covariance(c, c) * covariance(o, o));
+        if (std::abs(rho) > std::abs(e.max_correlation)) {
+          e.max_correlation = rho;
+          e.max_correlation_with = name[identified[o]];
+        }
+      }
+    } else if (reason.count(pi.slot)) {
+      e.reason = reason[pi.slot];
+    } else if (std::find(options.fix.begin(), options.fix.end(), pi.name) != options.fix.end()) {
+      e.reason = "fixed by the user";
+    } else {
+      e.reason = "not a candidate (a DH beta: free it by name)";
+    }
+    fit.parameters.push_back(e);
+  }
+  if (fit.rank_deficient) {
+    result.notes.push_back(
+        "rank-deficient: these measurements do not excite every parameter the model can "
+        "identify; see the parameters marked 'not excited'");
+  }
+  result.calibrated = model;
+  return result;
+}
+
+}  // namespace hapticcal
