@@ -8,6 +8,7 @@
 #include <random>
 
 #include "hapticcal/kinematics.hpp"
+#include "hapticcal/simulation.hpp"
 #include "kdl_chain.hpp"
 #include "ratio_main.hpp"
 #include "test_models.hpp"
@@ -16,34 +17,12 @@ namespace {
 
 using namespace hapticcal;
 
-// The built-in device with the paper's assigned values: Table 3 deviations and
-// Table 2 capstans (radii in m), a 10th-order polynomial on joint 4.
+// The built-in device with the paper's assigned values (Table 3 deviations,
+// Table 2 capstans) as a calibrated model: joint 4 stays a 10th-order polynomial.
 DeviceModel calibrated_7dof() {
-  DeviceModel m = testing::builtin("baser-7dof");
-  constexpr double mrad = 1e-3, mm = 1e-3, deg = std::numbers::pi / 180;
-  const double d_alpha[] = {-1.5, 1.3, -1.4, 1.2, -1.1, -1.6, 1.7};
-  const double d_a[] = {-1.1, 1.6, -1.2, 1.4, -1.5, 1.4, -1.3};
-  const double d_d[] = {1.2, -1.5, 1.3, -1.3, 1.4, -1.2, 1.0};
-  const double d_theta[] = {1.0, 1.7, -1.3, 1.0, -1.2, -1.0, 1.1};
-  m.base[0] += 1.9 * mm;
-  m.base[1] += 1.5 * mrad;
-  for (int i = 0; i < 7; ++i) {
-    m.links[i].alpha += d_alpha[i] * mrad;
-    m.links[i].a += d_a[i] * mm;
-    m.links[i].d += d_d[i] * mm;
-    m.links[i].theta += d_theta[i] * mrad;
-  }
-  const double Re[] = {-0.025, -0.020, 0.015}, ro[] = {0.2, 0.25, 0.2},
-               ri[] = {0.005, 0.0025, 0.004};
-  const double bo[] = {-105, -10, 150}, bi[] = {-15, 140, -100};
-  for (int i = 0; i < 3; ++i) {
-    Capstan& c = std::get<Capstan>(m.links[i].transmission.model());
-    c.ratio_error = Re[i];
-    c.r_out = ro[i] * mm;
-    c.r_in = ri[i] * mm;
-    c.beta_out = bo[i] * deg;
-    c.beta_in = bi[i] * deg;
-  }
+  const DeviceModel nominal = testing::builtin("baser-7dof");
+  DeviceModel m = paper_actual_device(nominal);
+  m.links[3].transmission = nominal.links[3].transmission;
   Polynomial& p = std::get<Polynomial>(m.links[3].transmission.model());
   for (int k = 1; k <= 10; ++k) p.coefficients[k] = 1e-3 / (k * k);
   return m;
@@ -101,4 +80,7 @@ BENCHMARK(BM_FkJacobian_KDL);
 
 }  // namespace
 
-int main(int argc, char** argv) { return hapticcal::bench::ratio_main(argc, argv, {"KDL"}); }
+int main(int argc, char** argv) {
+  return hapticcal::bench::ratio_main(
+      argc, argv, hapticcal::bench::Pairs{{"BM_FkJacobian_Hapticcal", "BM_FkJacobian_KDL"}});
+}

@@ -1,6 +1,6 @@
 // A Google Benchmark main that, after the runs, prints the ratio of each
-// benchmark's median time to that of its reference run in the same process:
-// pairs are named BM_<Task>_Hapticcal and BM_<Task>_<Reference>.
+// measured benchmark's median real time to that of its reference run in the
+// same process (the machines are shared and noisy: ratios and medians travel).
 #pragma once
 
 #include <benchmark/benchmark.h>
@@ -8,6 +8,7 @@
 
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hapticcal::bench {
@@ -21,8 +22,10 @@ class MedianCollector : public benchmark::ConsoleReporter {
       const bool single = run.run_type == Run::RT_Iteration && run.repetitions <= 1;
       if (median || single) {
         const std::string base = name.substr(0, name.find('/'));
-        medians_[median ? base.substr(0, base.rfind("_median")) : base] =
-            run.GetAdjustedRealTime();  // in the run's time unit (ns by default)
+        const std::string key = median ? base.substr(0, base.rfind("_median")) : base;
+        // In nanoseconds whatever the benchmark's display unit.
+        medians_[key] =
+            run.GetAdjustedRealTime() / benchmark::GetTimeUnitMultiplier(run.time_unit) * 1e9;
       }
     }
     ConsoleReporter::ReportRuns(runs);
@@ -33,20 +36,19 @@ class MedianCollector : public benchmark::ConsoleReporter {
   std::map<std::string, double> medians_;
 };
 
-inline int ratio_main(int argc, char** argv, const std::vector<std::string>& references) {
+using Pairs = std::vector<std::pair<std::string, std::string>>;  // {measured, reference}
+
+inline int ratio_main(int argc, char** argv, const Pairs& pairs) {
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   MedianCollector reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
-  for (const auto& [name, t] : reporter.medians()) {
-    if (!name.ends_with("_Hapticcal")) continue;
-    const std::string task = name.substr(0, name.size() - std::string("_Hapticcal").size());
-    for (const std::string& ref : references) {
-      const auto it = reporter.medians().find(task + "_" + ref);
-      if (it == reporter.medians().end()) continue;
-      fmt::print("ratio {} / {}_{} (median real time): {:.3f}  ({:.1f} ns vs {:.1f} ns)\n", name,
-                 task, ref, t / it->second, t, it->second);
-    }
+  const auto& medians = reporter.medians();
+  for (const auto& [name, ref] : pairs) {
+    const auto a = medians.find(name), b = medians.find(ref);
+    if (a == medians.end() || b == medians.end()) continue;
+    fmt::print("ratio {} / {} (median real time): {:.3f}  ({:.1f} ns vs {:.1f} ns)\n", name, ref,
+               a->second / b->second, a->second, b->second);
   }
   benchmark::Shutdown();
   return 0;

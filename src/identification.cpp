@@ -25,11 +25,11 @@ using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::R
 int residuals_per_row(MeasurementKind kind) { return kind == MeasurementKind::kPosition ? 3 : 1; }
 
 // Rows: predicted - measured; J: d residuals / d params (all slots).
-void measurement_rows(const ChainStructure& s, const double* params, const double* joint,
-                      MeasurementKind kind, const double* measured, double* residual,
-                      Eigen::Ref<Eigen::MatrixXd> J) {
+void measurement_rows(const ChainStructure& s, const ChainConstants<double>& constants,
+                      const double* params, const double* joint, MeasurementKind kind,
+                      const double* measured, double* residual, Eigen::Ref<Eigen::MatrixXd> J) {
   Eigen::Matrix<double, 3, Eigen::Dynamic> J_p_params;
-  const Eigen::Vector3d p = position_parameter_jacobian(s, params, joint, J_p_params);
+  const Eigen::Vector3d p = position_parameter_jacobian(s, constants, params, joint, J_p_params);
   if (kind == MeasurementKind::kPosition) {
     for (int k = 0; k < 3; ++k) residual[k] = p[k] - measured[k];
     J = J_p_params;
@@ -52,8 +52,9 @@ Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
   const int d = residuals_per_row(kind);
   const int m = static_cast<int>(joints.size());
   Stack out{Eigen::VectorXd(m * d), Eigen::MatrixXd(m * d, s.num_slots())};
+  const ChainConstants<double> constants = chain_constants(s, params.data());
   for (int i = 0; i < m; ++i) {
-    measurement_rows(s, params.data(), joints[i].data(), kind, measured.row(i).data(),
+    measurement_rows(s, constants, params.data(), joints[i].data(), kind, measured.row(i).data(),
                      out.r.data() + d * i, out.J.middleRows(d * i, d));
   }
   return out;
@@ -87,9 +88,10 @@ class MeasurementCost : public ceres::CostFunction {
     const int d = residuals_per_row(kind_);
     const int n = s_.num_slots();
     Eigen::MatrixXd J(d, n);
+    const ChainConstants<double> constants = chain_constants(s_, parameters[0]);
     for (size_t i = 0; i < joints_.size(); ++i) {
-      measurement_rows(s_, parameters[0], joints_[i].data(), kind_, measured_.row(i).data(),
-                       residuals + d * i, J);
+      measurement_rows(s_, constants, parameters[0], joints_[i].data(), kind_,
+                       measured_.row(i).data(), residuals + d * i, J);
       if (jacobians && jacobians[0]) {
         Eigen::Map<RowMatrix>(jacobians[0] + static_cast<size_t>(d) * i * n, d, n) = J;
       }
@@ -159,8 +161,10 @@ std::string names_of(const std::vector<int>& slots, const std::map<int, std::str
   return out;
 }
 
-double rms(const Eigen::VectorXd& r) {
-  return std::sqrt(r.squaredNorm() / std::max<Eigen::Index>(r.size(), 1));
+// RMS of the per-measurement error, as `evaluate` reports it: the distance error,
+// or the Euclidean norm of the position error.
+double measurement_rms(const Eigen::VectorXd& r, MeasurementKind kind) {
+  return std::sqrt(r.squaredNorm() * residuals_per_row(kind) / std::max<Eigen::Index>(r.size(), 1));
 }
 
 }  // namespace
@@ -283,8 +287,12 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
 
   // Step 2: kinematic parameters from the compensated readings.
   const ChainStructure s = model.structure();
-  std::vector<Eigen::VectorXd> joints(m);
-  for (int i = 0; i < m; ++i) joints[i] = model.compensate(q.row(i).transpose());
+  const PreparedModel prepared(model);
+  std::vector<Eigen::VectorXd> joints(m, Eigen::VectorXd(model.dof()));
+  for (int i = 0; i < m; ++i) {
+    const Eigen::VectorXd qi = q.row(i).transpose();
+    prepared.compensate(qi.data(), joints[i].data());
+  }
   const RowMatrix measured = measured_values(log, result.rows, fit.kind);
   const std::vector<int> candidates = candidate_slots(model, options.fix, options.free);
   const int d = residuals_per_row(fit.kind);
@@ -296,10 +304,14 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   }
   const Eigen::VectorXd p0 = model.kinematic_parameters();
   {
-    std::vector<Eigen::VectorXd> nominal_joints(m);
-    for (int i = 0; i < m; ++i) nominal_joints[i] = nominal.compensate(q.row(i).transpose());
-    fit.rms_before =
-        rms(stack(s, nominal.kinematic_parameters(), nominal_joints, fit.kind, measured).r);
+    const PreparedModel prepared_nominal(nominal);
+    std::vector<Eigen::VectorXd> nominal_joints(m, Eigen::VectorXd(model.dof()));
+    for (int i = 0; i < m; ++i) {
+      const Eigen::VectorXd qi = q.row(i).transpose();
+      prepared_nominal.compensate(qi.data(), nominal_joints[i].data());
+    }
+    fit.rms_before = measurement_rms(
+        stack(s, nominal.kinematic_parameters(), nominal_joints, fit.kind, measured).r, fit.kind);
   }
 
   // Identifiability: on synthetic poses over the joint limits (structural) and on the data.
@@ -317,10 +329,10 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   const Stack structural = stack(s, p0, synthetic, fit.kind, RowMatrix::Zero(kStructuralPoses, d));
   // Metres and radians made comparable: angle columns times a length scale, the
   // RMS distance of the tool point from the base origin.
-  const Frame<double> base = base_frame(s, p0.data());
+  const ChainConstants<double> constants0 = chain_constants(s, p0.data());
   double sum = 0;
   for (const Eigen::VectorXd& jq : joints) {
-    sum += (forward_kinematics(s, p0.data(), jq.data()).p - base.p).squaredNorm();
+    sum += (forward_kinematics(s, constants0, jq.data()).p - constants0.base.p).squaredNorm();
   }
   fit.length_scale = std::max(std::sqrt(sum / m), 1e-3);
   const std::vector<ParameterInfo> info = model.parameter_info();
@@ -393,7 +405,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   }
   model.set_kinematic_parameters(p);
   data = stack(s, p, joints, fit.kind, measured);
-  fit.rms_after = rms(data.r);
+  fit.rms_after = measurement_rms(data.r, fit.kind);
 
   // Uncertainty, conditioning and observability of the identified parameters.
   const int k = static_cast<int>(identified.size());
@@ -406,15 +418,19 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   fit.sigma_given = options.sigma.has_value();
   fit.sigma =
       options.sigma ? *options.sigma : std::sqrt(data.r.squaredNorm() / std::max(dof_residual, 1));
+  // From the eigen-decomposition of the small normal matrices J^T J: the
+  // covariance sigma^2 (J^T J)^-1, and the singular values of the scaled J.
   Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(k, k);
   if (k > 0) {
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(Ji, Eigen::ComputeThinV);
-    const Eigen::VectorXd sv = svd.singularValues();
-    Eigen::VectorXd inv2(k);
-    for (int c = 0; c < k; ++c) inv2[c] = sv[c] > 0 ? 1 / (sv[c] * sv[c]) : INFINITY;
-    covariance =
-        fit.sigma * fit.sigma * svd.matrixV() * inv2.asDiagonal() * svd.matrixV().transpose();
-    const Eigen::VectorXd ss = Eigen::JacobiSVD<Eigen::MatrixXd>(Js).singularValues();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> normal(Ji.transpose() * Ji);
+    Eigen::VectorXd inverse = normal.eigenvalues();
+    for (int c = 0; c < k; ++c) inverse[c] = inverse[c] > 0 ? 1 / inverse[c] : INFINITY;
+    covariance = fit.sigma * fit.sigma * normal.eigenvectors() * inverse.asDiagonal() *
+                 normal.eigenvectors().transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> scaled_normal(Js.transpose() * Js,
+                                                                 Eigen::EigenvaluesOnly);
+    Eigen::VectorXd ss =
+        scaled_normal.eigenvalues().cwiseMax(0).cwiseSqrt().reverse();  // descending
     fit.condition_number = ss[k - 1] > 0 ? ss[0] / ss[k - 1] : INFINITY;
     double log_sum = 0;
     for (int c = 0; c < k; ++c) log_sum += std::log(ss[c]);

@@ -60,10 +60,12 @@ struct KinematicFit {
   int identified = 0;
   double condition_number = 0;
   ObservabilityIndices observability;
-  double length_scale = 1;               // m: angle columns are scaled by it
-  double rms_before = 0, rms_after = 0;  // of the residuals [m]
-  double sigma = 0;                      // used for the standard deviations [m]
-  bool sigma_given = false;              // else the residual estimate
+  double length_scale = 1;  // m: angle columns are scaled by it
+  // RMS measurement error [m] (distance error or Euclidean position error, as
+  // `evaluate` reports it) of the nominal device and of the calibrated one.
+  double rms_before = 0, rms_after = 0;
+  double sigma = 0;             // used for the standard deviations [m]
+  bool sigma_given = false;     // else the residual estimate
   bool rank_deficient = false;  // the data leave structurally identifiable parameters unexcited
   bool converged = false;
   int iterations = 0;

@@ -124,22 +124,46 @@ Frame<T> tool_frame(const ChainStructure& s, const T* params) {
   return pose_frame(t[0], t[1], t[2], t[3], t[4], t[5]);
 }
 
+// The parts of the chain that do not depend on the joint angles, computed once
+// per parameter vector and shared by every sample.
+template <typename T>
+struct ChainConstants {
+  Frame<T> base, tool;
+  std::array<LinkConstants<T>, kMaxDof> links;
+};
+
+template <typename T>
+ChainConstants<T> chain_constants(const ChainStructure& s, const T* params) {
+  assert(s.dof <= kMaxDof);
+  ChainConstants<T> c;
+  c.base = base_frame(s, params);
+  c.tool = tool_frame(s, params);
+  for (int i = 0; i < s.dof; ++i)
+    c.links[i] = link_constants(s.convention, params + s.link_slot(i));
+  return c;
+}
+
 // T_meas_tool for joint = q + dtheta(q) (the offsets are added here). If frames is
 // given it receives T_meas_i for i = 0..n (frame 0 is the base).
 template <typename T>
-Frame<T> forward_kinematics(const ChainStructure& s, const T* params, const T* joint,
+Frame<T> forward_kinematics(const ChainStructure& s, const ChainConstants<T>& c, const T* joint,
                             Frame<T>* frames = nullptr) {
   using std::cos;
   using std::sin;
   std::array<Frame<T>, kMaxDof + 1> local;
   if (!frames) frames = local.data();
-  frames[0] = base_frame(s, params);
+  frames[0] = c.base;
   for (int i = 0; i < s.dof; ++i) {
-    const LinkConstants<T> k = link_constants(s.convention, params + s.link_slot(i));
-    const T theta = joint[i] + k.theta_offset;
-    compose_link(s.convention, frames[i], k, cos(theta), sin(theta), frames[i + 1]);
+    const T theta = joint[i] + c.links[i].theta_offset;
+    compose_link(s.convention, frames[i], c.links[i], cos(theta), sin(theta), frames[i + 1]);
   }
-  return frames[s.dof] * tool_frame(s, params);
+  return frames[s.dof] * c.tool;
+}
+
+template <typename T>
+Frame<T> forward_kinematics(const ChainStructure& s, const T* params, const T* joint,
+                            Frame<T>* frames = nullptr) {
+  return forward_kinematics(s, chain_constants(s, params), joint, frames);
 }
 
 // Geometric Jacobian (6 x n, linear rows first) of the tool point with respect to
@@ -167,21 +191,24 @@ void geometric_jacobian(const ChainStructure& s, const Frame<T>* frames,
 // J_p_params: d p_meas / d params (3 x num_slots) of the tool point; columns of
 // slots without meaning are zero. Analytic: a parameter that turns about an axis u
 // through o moves p by u x (p - o); one that translates along u moves it by u.
+// This overload takes the chain constants of `params`, for many samples.
 template <typename T>
-Vec3<T> position_parameter_jacobian(const ChainStructure& s, const T* params, const T* joint,
+Vec3<T> position_parameter_jacobian(const ChainStructure& s, const ChainConstants<T>& constants,
+                                    const T* params, const T* joint,
                                     Eigen::Matrix<T, 3, Eigen::Dynamic>& J_p_params) {
   using std::cos;
   using std::sin;
   assert(s.dof <= kMaxDof);
   std::array<Frame<T>, kMaxDof + 1> frames;
-  const Vec3<T> p = forward_kinematics(s, params, joint, frames.data()).p;
+  const Vec3<T> p = forward_kinematics(s, constants, joint, frames.data()).p;
   J_p_params.setZero(3, s.num_slots());
 
-  // Standard DH transform prev -> next with angle theta, slots a, alpha, d, theta, beta.
-  auto dh_columns = [&](const Frame<T>& prev, const Frame<T>& next, const T& theta, int slot,
-                        bool with_beta) {
+  // Standard DH transform prev -> next, slots a, alpha, d, theta, beta. The x axis
+  // after Rz(theta) is next's x with Ry(beta) undone: c_beta x_next + s_beta z_next.
+  auto dh_columns = [&](const Frame<T>& prev, const Frame<T>& next, const T& cos_beta,
+                        const T& sin_beta, int slot, bool with_beta) {
     const Vec3<T> z = prev.R.col(2);
-    const Vec3<T> x = cos(theta) * prev.R.col(0) + sin(theta) * prev.R.col(1);
+    const Vec3<T> x = cos_beta * next.R.col(0) + sin_beta * next.R.col(2);
     J_p_params.col(slot + kLinkA) = x;
     J_p_params.col(slot + kLinkAlpha) = x.cross(p - next.p);
     J_p_params.col(slot + kLinkD) = z;
@@ -191,7 +218,7 @@ Vec3<T> position_parameter_jacobian(const ChainStructure& s, const T* params, co
 
   const Frame<T>& B = frames[0];
   if (s.base_kind == BaseKind::kDh) {
-    dh_columns(Frame<T>::Identity(), B, params[3], 0, false);
+    dh_columns(Frame<T>::Identity(), B, T(1), T(0), 0, false);
   } else {
     const Vec3<T> r = p - B.p;
     const T cy = cos(params[5]), sy = sin(params[5]);
@@ -207,7 +234,8 @@ Vec3<T> position_parameter_jacobian(const ChainStructure& s, const T* params, co
     const Frame<T>& prev = frames[i];
     const Frame<T>& next = frames[i + 1];
     if (s.convention == Convention::kDh) {
-      dh_columns(prev, next, joint[i] + params[slot + kLinkTheta], slot, true);
+      const LinkConstants<T>& k = constants.links[i];
+      dh_columns(prev, next, k.cos_beta, k.sin_beta, slot, true);
     } else {
       const Vec3<T> x = prev.R.col(0);
       const Vec3<T> z = next.R.col(2);
@@ -220,6 +248,12 @@ Vec3<T> position_parameter_jacobian(const ChainStructure& s, const T* params, co
   const Frame<T>& flange = frames[s.dof];
   for (int k = 0; k < 3; ++k) J_p_params.col(s.tool_slot() + k) = flange.R.col(k);
   return p;
+}
+
+template <typename T>
+Vec3<T> position_parameter_jacobian(const ChainStructure& s, const T* params, const T* joint,
+                                    Eigen::Matrix<T, 3, Eigen::Dynamic>& J_p_params) {
+  return position_parameter_jacobian(s, chain_constants(s, params), params, joint, J_p_params);
 }
 
 // J_delta_params: d |p_meas| / d params (paper eq. 5), 1 x num_slots. Returns delta.

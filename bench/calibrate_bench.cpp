@@ -1,0 +1,59 @@
+// SPEC section 7: the full two-step calibration of the default problem (the
+// paper's device, Tables 2-3, 200 poses with the SPEC noise), against a machine
+// yardstick in the same process: one pass of orocos KDL FK + Jacobian over the
+// same 200 poses.
+#include <kdl/chainfksolverpos_recursive.hpp>
+#include <kdl/chainjnttojacsolver.hpp>
+
+#include "hapticcal/identification.hpp"
+#include "hapticcal/simulation.hpp"
+#include "kdl_chain.hpp"
+#include "ratio_main.hpp"
+#include "test_models.hpp"
+
+namespace {
+
+using namespace hapticcal;
+
+void BM_Calibrate_Default(benchmark::State& state) {
+  const DeviceModel nominal = testing::builtin("baser-7dof");
+  const Log log = simulate_log(paper_actual_device(nominal), 200, SimulationNoise{}, 1);
+  for (auto _ : state) {
+    CalibrationResult r = calibrate(nominal, log, CalibrationOptions{});
+    benchmark::DoNotOptimize(r.kinematics.rms_after);
+  }
+}
+
+void BM_KdlPass200_Reference(benchmark::State& state) {
+  const DeviceModel nominal = testing::builtin("baser-7dof");
+  const DeviceModel actual = paper_actual_device(nominal);
+  const Log log = simulate_log(actual, 200, SimulationNoise{}, 1);
+  const KDL::Chain chain = testing::kdl_chain(nominal);
+  KDL::ChainFkSolverPos_recursive fk(chain);
+  KDL::ChainJntToJacSolver jac(chain);
+  std::vector<KDL::JntArray> qs;
+  for (int r = 0; r < log.rows; ++r) {
+    KDL::JntArray a(nominal.dof());
+    for (int i = 0; i < nominal.dof(); ++i) a(i) = log.q(r, i);
+    qs.push_back(a);
+  }
+  KDL::Frame T;
+  KDL::Jacobian J(nominal.dof());
+  for (auto _ : state) {
+    for (const KDL::JntArray& q : qs) {
+      fk.JntToCart(q, T);
+      jac.JntToJac(q, J);
+      benchmark::DoNotOptimize(T.p.data);
+    }
+  }
+}
+
+BENCHMARK(BM_Calibrate_Default)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_KdlPass200_Reference)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return hapticcal::bench::ratio_main(
+      argc, argv, hapticcal::bench::Pairs{{"BM_Calibrate_Default", "BM_KdlPass200_Reference"}});
+}
