@@ -47,6 +47,7 @@ test: build
 
 bench: build
 	./$(BUILD)/bench/fk_jacobian_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
+	./$(BUILD)/bench/calibrate_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
 
 clean:
 	rm -rf $(BUILD) $(SANITIZE_BUILD)
