@@ -10,93 +10,18 @@
 #include "hapticcal/error.hpp"
 #include "hapticcal/io.hpp"
 #include "hapticcal/kinematics.hpp"
+#include "yaml_reader.hpp"
 
 namespace hapticcal {
 namespace {
 
 constexpr const char* kFormat = "hapticcal-device/1";
 
-std::string join(const std::string& path, const std::string& key) {
-  return path.empty() ? key : path + "." + key;
-}
+using detail::join;
 
-// Reads YAML nodes strictly; every failure names the origin, line and key path.
-class Reader {
+class Reader : public detail::YamlReader {
  public:
-  explicit Reader(std::string origin) : origin_(std::move(origin)) {}
-
-  [[noreturn]] void fail(const YAML::Node& at, const std::string& key,
-                         const std::string& message) const {
-    const YAML::Mark mark = at.Mark();
-    throw InputError(origin_, mark.is_null() ? 0 : mark.line + 1, key, message);
-  }
-
-  void expect_map(const YAML::Node& node, const std::string& path) const {
-    if (!node.IsMap()) fail(node, path, "expected a mapping");
-  }
-
-  // Fails on keys outside `allowed` and on repeated keys.
-  void check_keys(const YAML::Node& map, const std::string& path,
-                  std::initializer_list<const char*> allowed) const {
-    expect_map(map, path);
-    std::set<std::string> seen;
-    for (const auto& kv : map) {
-      const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : "?";
-      bool ok = false;
-      for (const char* a : allowed) ok = ok || key == a;
-      if (!ok) {
-        std::string list;
-        for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
-        fail(kv.first, join(path, key), fmt::format("unknown key (expected one of: {})", list));
-      }
-      if (!seen.insert(key).second) fail(kv.first, join(path, key), "repeated key");
-    }
-  }
-
-  YAML::Node require(const YAML::Node& map, const std::string& path, const char* key) const {
-    const YAML::Node node = map[key];
-    if (!node) fail(map, join(path, key), "missing");
-    return node;
-  }
-
-  double number(const YAML::Node& node, const std::string& key) const {
-    if (!node.IsScalar() || node.Tag() == "!") fail(node, key, "expected a number");
-    const std::string& text = node.Scalar();
-    static const std::regex kYamlNonFinite(R"([-+]?\.(inf|Inf|INF|nan|NaN|NAN))");
-    if (std::regex_match(text, kYamlNonFinite))
-      fail(node, key, fmt::format("'{}' is not finite", text));
-    const char* begin = text.data();
-    const char* end = text.data() + text.size();
-    if (begin != end && *begin == '+') ++begin;
-    double value = 0;
-    const auto [ptr, ec] = std::from_chars(begin, end, value);
-    if (ec == std::errc::result_out_of_range)
-      fail(node, key, fmt::format("'{}' is out of range", text));
-    if (ec != std::errc() || ptr != end) fail(node, key, fmt::format("'{}' is not a number", text));
-    if (!std::isfinite(value)) fail(node, key, fmt::format("'{}' is not finite", text));
-    return value;
-  }
-
-  double number(const YAML::Node& map, const std::string& path, const char* key) const {
-    return number(require(map, path, key), join(path, key));
-  }
-
-  std::string string(const YAML::Node& node, const std::string& key) const {
-    if (!node.IsScalar()) fail(node, key, "expected a string");
-    return node.Scalar();
-  }
-
-  std::vector<double> numbers(const YAML::Node& node, const std::string& key, int count) const {
-    if (!node.IsSequence()) fail(node, key, "expected a list of numbers");
-    if (count >= 0 && static_cast<int>(node.size()) != count) {
-      fail(node, key, fmt::format("expected {} numbers, got {}", count, node.size()));
-    }
-    std::vector<double> values;
-    for (size_t i = 0; i < node.size(); ++i) {
-      values.push_back(number(node[i], fmt::format("{}[{}]", key, i)));
-    }
-    return values;
-  }
+  using YamlReader::YamlReader;
 
   Transmission transmission(const YAML::Node& node, const std::string& path, double lower,
                             double upper) const {

@@ -276,6 +276,39 @@ Log parse_log(const std::string& text, const std::string& origin,
   return log;
 }
 
+std::string log_to_csv(const Log& log) {
+  std::string out;
+  std::vector<std::string> header;
+  if (log.has_time) header.push_back("t");
+  for (int j = 0; j < log.dof(); ++j) header.push_back(fmt::format("q{}", j + 1));
+  for (int j = 0; j < log.dof(); ++j) {
+    if (log.has_ext[j]) header.push_back(fmt::format("ext{}", j + 1));
+  }
+  if (log.has_distance) header.push_back("distance");
+  if (log.has_position) header.insert(header.end(), {"x", "y", "z"});
+  for (size_t k = 0; k < header.size(); ++k) out += (k ? "," : "") + header[k];
+  out += '\n';
+  fmt::memory_buffer row;
+  for (int r = 0; r < log.rows; ++r) {
+    row.clear();
+    auto put = [&](double v) {
+      fmt::format_to(std::back_inserter(row), "{}{}", row.size() ? "," : "", v);
+    };
+    if (log.has_time) put(log.t[r]);
+    for (int j = 0; j < log.dof(); ++j) put(log.q(r, j));
+    for (int j = 0; j < log.dof(); ++j) {
+      if (log.has_ext[j]) put(log.ext(r, j));
+    }
+    if (log.has_distance) put(log.distance[r]);
+    if (log.has_position) {
+      for (int k = 0; k < 3; ++k) put(log.position(r, k));
+    }
+    out.append(row.data(), row.size());
+    out += '\n';
+  }
+  return out;
+}
+
 Log read_log(const std::string& path, const std::vector<std::string>& columns) {
   return parse_log(read_file(path), path, columns);
 }

@@ -1,5 +1,7 @@
 #include "hapticcal/simulation.hpp"
 
+#include <algorithm>
+#include <array>
 #include <numbers>
 #include <random>
 
@@ -82,6 +84,59 @@ Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& no
     if (position) {
       for (int k = 0; k < 3; ++k) log.position(r, k) = p[k] + noise.sigma_position * gauss(rng);
     }
+  }
+  return log;
+}
+
+Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_hz,
+                        const SimulationNoise& noise, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int n = actual.dof();
+  constexpr int kHarmonics = 4;
+  std::vector<std::array<double, kHarmonics>> freq(n), phase(n), amp(n);
+  for (int j = 0; j < n; ++j) {
+    double total = 0;
+    for (int k = 0; k < kHarmonics; ++k) {
+      freq[j][k] = 0.02 + 0.25 * unit(rng);  // Hz: slow, hand-guided motion
+      phase[j][k] = 2 * std::numbers::pi * unit(rng);
+      amp[j][k] = 0.2 + unit(rng);
+      total += amp[j][k];
+    }
+    for (double& a : amp[j]) a /= total;  // |sum| <= 1
+  }
+  const int rows = static_cast<int>(seconds * rate_hz);
+  const double rest = std::min(5.0, seconds / 10);  // at home, then a smooth start and stop
+  Log log;
+  log.origin = "simulated trajectory";
+  log.rows = rows;
+  log.q.resize(rows, n);
+  log.ext.setZero(rows, n);
+  log.has_ext.assign(n, false);
+  log.has_distance = log.has_time = true;
+  log.distance.resize(rows);
+  log.t.resize(rows);
+  const PreparedModel prepared(actual);
+  Eigen::VectorXd q(n);
+  for (int r = 0; r < rows; ++r) {
+    const double t = r / rate_hz;
+    const double u = std::clamp((std::min(t, seconds - t) - rest) / rest, 0.0, 1.0);
+    const double envelope = u * u * (3 - 2 * u);
+    for (int j = 0; j < n; ++j) {
+      const Link& l = actual.links[j];
+      const double half = 0.45 * std::min(-l.lower, l.upper);  // home (0) stays the centre
+      double v = 0;
+      for (int k = 0; k < kHarmonics; ++k) {
+        v += amp[j][k] * (std::sin(2 * std::numbers::pi * freq[j][k] * t + phase[j][k]) -
+                          std::sin(phase[j][k]));
+      }
+      q[j] = std::clamp(envelope * half * v, l.lower, l.upper);
+    }
+    log.t[r] = t;
+    log.q.row(r) = q.transpose();
+    log.distance[r] = prepared.forward(q.data()).p.norm() + noise.sigma_distance * gauss(rng);
+    log.line.push_back(r + 2);
   }
   return log;
 }

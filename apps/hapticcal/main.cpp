@@ -1,17 +1,20 @@
 // hapticcal command-line tool: argument parsing and printing over the library.
 // Exit codes: 0 success, 1 unexpected failure, 2 bad input (file, log or argument).
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <thread>
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/evaluate.hpp"
 #include "hapticcal/identification.hpp"
 #include "hapticcal/io.hpp"
+#include "hapticcal/study.hpp"
 
 namespace {
 
@@ -178,6 +181,112 @@ int run_calibrate(const CalibrateOptions& o) {
   return 0;
 }
 
+struct SimulateOptions {
+  std::string scenario, out = "hapticcal-out/simulate", device;
+  int trials = 0, threads = 0;
+  long long seed = -1;
+};
+
+void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r) {
+  const hapticcal::TrialResult& t = r.first;
+  const auto& mc = r.monte_carlo;
+  const bool many = r.trials > 1;
+  auto paper = [](const std::string& name) {
+    const auto p = hapticcal::paper_improvement_pct(name);
+    return p ? fmt::format("{:7.2f}", *p) : std::string("      -");
+  };
+  fmt::print("Table 2 analogue: capstan drives (assigned = truth; I % by paper eq. 8)\n");
+  fmt::print("  {:<16} {:>12} {:>12} {:>8} {:>8}{}\n", "parameter", "assigned", "identified", "I %",
+             "paper", many ? "   mean I %   RMSE/CRLB" : "");
+  for (const hapticcal::TransmissionFit& f : t.full.transmissions) {
+    if (f.type != "capstan") continue;
+    const Eigen::VectorXd truth = sc.actual.links[f.joint].transmission.parameters();
+    const double scale[] = {1, 1e3, 180 / M_PI, 1e3, 180 / M_PI};
+    const char* unit[] = {"", " mm", " deg", " mm", " deg"};
+    for (int k = 0; k < 5; ++k) {
+      const double ip =
+          (1 - std::abs(truth[k] - f.value[k]) / std::abs(truth[k] - f.nominal[k])) * 100;
+      std::string extra;
+      if (many) {
+        const auto& m = mc.at(f.names[k]);
+        extra = fmt::format("  {:9.2f}  {:9.3f}", m.mean_improvement_pct, m.efficiency);
+      }
+      fmt::print("  {:<16} {:>12.6f} {:>12.6f} {:>8.2f} {}{}{}\n", f.names[k], truth[k] * scale[k],
+                 f.value[k] * scale[k], ip, paper(f.names[k]), extra, unit[k]);
+    }
+  }
+  for (const hapticcal::TransmissionFit& f : t.full.transmissions) {
+    if (f.type != "polynomial") continue;
+    fmt::print("  {}: {}th-order polynomial, RMS residual {:.3g} mrad (Fig. 7: fig7_{}.csv)\n",
+               sc.nominal.links[f.joint].name, f.value.size(), f.rms_after * 1e3,
+               sc.nominal.links[f.joint].name);
+  }
+  fmt::print("Table 3 analogue: kinematic deviations (mm, mrad)\n");
+  fmt::print("  {:<12} {:>10} {:>10} {:>8} {:>8}{}\n", "parameter", "assigned", "identified", "I %",
+             "paper", many ? "   mean I %   RMSE/CRLB" : "");
+  for (const hapticcal::ParameterEstimate& e : t.full.kinematics.parameters) {
+    const double truth = sc.actual.kinematic_parameters()[e.slot];
+    if (!e.identifiable) {
+      if (truth != e.nominal) {
+        fmt::print("  {:<12} {:>10.3f} {:>10} {:>8} {:>8}   ({})\n", e.name,
+                   (truth - e.nominal) * 1e3, "-", "-", "-", e.reason);
+      }
+      continue;
+    }
+    const double ip = (1 - std::abs(truth - e.value) / std::abs(truth - e.nominal)) * 100;
+    std::string extra;
+    if (many) {
+      const auto& m = mc.at(e.name);
+      extra = fmt::format("  {:9.2f}  {:9.3f}", m.mean_improvement_pct, m.efficiency);
+    }
+    fmt::print("  {:<12} {:>10.3f} {:>10.3f} {:>8.2f} {}{}\n", e.name, (truth - e.nominal) * 1e3,
+               (e.value - e.nominal) * 1e3, ip, paper(e.name), extra);
+  }
+  auto rms = [](const std::vector<double>& v) {
+    double s = 0;
+    for (double x : v) s += x * x;
+    return std::sqrt(s / v.size());
+  };
+  fmt::print(
+      "Validation ({} poses, Fig. 8): position RMS {:.4f} -> {:.4f} mm, orientation RMS "
+      "{:.4f} -> {:.4f} mrad\n",
+      t.position_before.size(), rms(t.position_before) * 1e3, rms(t.position_after) * 1e3,
+      rms(t.orientation_before) * 1e3, rms(t.orientation_after) * 1e3);
+  fmt::print(
+      "Trajectory ({:.0f} s at {:.0f} Hz, Fig. 10): distance RMS {:.4f} mm nominal, {:.4f} mm "
+      "full ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %); paper: 96.6 % and 44.7 %\n",
+      sc.trajectory_seconds, sc.trajectory_rate_hz, t.trajectory_rms_before * 1e3,
+      t.trajectory_rms_full * 1e3,
+      hapticcal::rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
+      t.trajectory_rms_kinematic * 1e3,
+      hapticcal::rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before));
+}
+
+int run_simulate(const SimulateOptions& o) {
+  hapticcal::Scenario sc = o.scenario.empty() ? hapticcal::default_scenario(o.device)
+                                              : hapticcal::load_scenario(o.scenario, o.device);
+  if (o.trials > 0) sc.trials = o.trials;
+  if (o.seed >= 0) sc.seed = static_cast<std::uint64_t>(o.seed);
+  const int threads = o.threads > 0 ? o.threads : std::max(1u, std::thread::hardware_concurrency());
+  fmt::print("hapticcal simulate: {} trial(s), seed {}, {} thread(s), device {}\n", sc.trials,
+             sc.seed, std::min(threads, sc.trials), sc.device_path);
+  const bool bar = sc.trials > 1 && isatty(2);
+  const hapticcal::StudyResult r = hapticcal::run_study(sc, o.out, threads, [&](int k, int n) {
+    if (!bar) return;
+    const int width = 40, filled = width * k / n;
+    fmt::print(stderr, "\r[{}{}] {}/{}", std::string(filled, '#'), std::string(width - filled, ' '),
+               k, n);
+    if (k == n) fmt::print(stderr, "\n");
+  });
+  print_study(sc, r);
+  hapticcal::write_file_atomically(o.out + "/results.json", hapticcal::study_json(sc, r));
+  fmt::print(
+      "wrote {}/: results.json, nominal.yaml, actual.yaml, calibrated.yaml, "
+      "identification.csv, validation.csv, trajectory.csv, fig7/8/10 series\n",
+      o.out);
+  return 0;
+}
+
 int not_implemented(const char* command, int issue) {
   fmt::print(stderr, "hapticcal {}: not implemented yet (tracked in issue {})\n", command, issue);
   return kExitNotImplemented;
@@ -190,14 +299,19 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "hapticcal 0.1.0");
   app.require_subcommand(1);
 
-  std::string scenario, out;
-  int trials = 1;
-  unsigned long long seed = 1;
+  SimulateOptions sim;
+  sim.device = HAPTICCAL_DEFAULT_DEVICE;
+  std::string out;
   auto* simulate = app.add_subcommand("simulate", "Run the paper's simulation study (main job)");
-  simulate->add_option("--scenario", scenario, "Scenario file (YAML)")->check(CLI::ExistingFile);
-  simulate->add_option("--trials", trials, "Monte Carlo trials")->check(CLI::PositiveNumber);
-  simulate->add_option("--seed", seed, "Random seed");
-  simulate->add_option("--out", out, "Output directory");
+  simulate->add_option("--scenario", sim.scenario, "Scenario file (YAML)");
+  simulate->add_option("--trials", sim.trials, "Monte Carlo trials (default 1)")
+      ->check(CLI::PositiveNumber);
+  simulate->add_option("--seed", sim.seed, "Random seed (default 1)")
+      ->check(CLI::NonNegativeNumber);
+  simulate->add_option("--threads", sim.threads, "Threads (default: all cores)")
+      ->check(CLI::PositiveNumber);
+  simulate->add_option("--device", sim.device, "Nominal device file (default: the built-in 7-DOF)");
+  simulate->add_option("--out", sim.out, "Output directory (default hapticcal-out/simulate)");
 
   CalibrateOptions cal;
   auto* calibrate = app.add_subcommand("calibrate", "Two-step identification from a log");
@@ -258,7 +372,7 @@ int main(int argc, char** argv) {
 
   try {
     if (*evaluate) return run_evaluate(eval);
-    if (*simulate) return not_implemented("simulate", 4);
+    if (*simulate) return run_simulate(sim);
     if (*calibrate) return run_calibrate(cal);
     if (*force) return not_implemented("force", 5);
   } catch (const hapticcal::InputError& e) {

@@ -43,6 +43,9 @@ struct Log {
 Log read_log(const std::string& path, const std::vector<std::string>& columns = {});
 Log parse_log(const std::string& csv_text, const std::string& origin,
               const std::vector<std::string>& columns = {});
+// CSV text that parse_log reads back to the same numbers (header row; SI units;
+// shortest round-trip number format).
+std::string log_to_csv(const Log& log);
 // Splits a --columns argument "q1[deg],q2[deg],x,_" into names.
 std::vector<std::string> split_columns(const std::string& list);
 

@@ -34,4 +34,10 @@ struct SimulationNoise {
 Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& noise,
                  std::uint64_t seed, bool distance = true, bool position = false);
 
+// The experiment analogue of paper Fig. 10: a continuous random motion of
+// `seconds` sampled at `rate_hz`, at rest at home at both ends, each joint a sum
+// of slow sinusoids within its limits; columns t, q, distance (with noise).
+Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_hz,
+                        const SimulationNoise& noise, std::uint64_t seed);
+
 }  // namespace hapticcal

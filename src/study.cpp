@@ -1,0 +1,440 @@
+#include "hapticcal/study.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <atomic>
+#include <filesystem>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "hapticcal/error.hpp"
+#include "hapticcal/evaluate.hpp"
+#include "hapticcal/kinematics.hpp"
+#include "yaml_reader.hpp"
+
+namespace hapticcal {
+namespace {
+
+double rms(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x * x;
+  return v.empty() ? 0 : std::sqrt(s / v.size());
+}
+
+// Distance errors of a model on a log with distances.
+double distance_rms(const DeviceModel& model, const Log& log) {
+  return evaluate(model, log).distance->rms;
+}
+
+Eigen::VectorXd readings(const Log& log, int r) { return log.q.row(r).transpose(); }
+
+// Cramer-Rao variances at the truth: kinematic parameters from the distances of
+// the identification poses (sigma_m), capstan parameters and c from their
+// external encoders (sigma_e).
+std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
+                                   const CalibrationResult& full) {
+  std::map<std::string, double> out;
+  const DeviceModel& actual = sc.actual;
+  const ChainStructure s = actual.structure();
+  const Eigen::VectorXd p = actual.kinematic_parameters();
+  const PreparedModel prepared(actual);
+  std::vector<const ParameterEstimate*> identified;
+  for (const ParameterEstimate& e : full.kinematics.parameters) {
+    if (e.identifiable) identified.push_back(&e);
+  }
+  const int k = static_cast<int>(identified.size());
+  Eigen::MatrixXd J(ident.rows, k);
+  Eigen::VectorXd joint(actual.dof());
+  Eigen::Matrix<double, 1, Eigen::Dynamic> row;
+  for (int r = 0; r < ident.rows; ++r) {
+    const Eigen::VectorXd q = readings(ident, r);
+    prepared.compensate(q.data(), joint.data());
+    distance_parameter_jacobian(s, p.data(), joint.data(), row);
+    for (int c = 0; c < k; ++c) J(r, c) = row[identified[c]->slot];
+  }
+  if (k > 0) {
+    const Eigen::MatrixXd F =
+        J.transpose() * J / (sc.noise.sigma_distance * sc.noise.sigma_distance);
+    const Eigen::MatrixXd inverse = F.ldlt().solve(Eigen::MatrixXd::Identity(k, k));
+    for (int c = 0; c < k; ++c) out[identified[c]->name] = inverse(c, c);
+  }
+  for (const TransmissionFit& t : full.transmissions) {
+    const Transmission& truth = actual.links[t.joint].transmission;
+    if (t.type != "capstan" || !std::holds_alternative<Capstan>(truth.model())) continue;
+    Eigen::MatrixXd Jt(ident.rows, 6);
+    for (int r = 0; r < ident.rows; ++r) {
+      double J5[5];
+      truth.parameter_jacobian(ident.q(r, t.joint), J5);
+      for (int c = 0; c < 5; ++c) Jt(r, c) = J5[c];
+      Jt(r, 5) = 1.0;  // c
+    }
+    const Eigen::MatrixXd F = Jt.transpose() * Jt / (sc.noise.sigma_ext * sc.noise.sigma_ext);
+    const Eigen::MatrixXd inverse = F.ldlt().solve(Eigen::MatrixXd::Identity(6, 6));
+    for (int c = 0; c < 5; ++c) out[t.names[c]] = inverse(c, c);
+  }
+  return out;
+}
+
+double rotation_angle(const Eigen::Matrix3d& R) { return Eigen::AngleAxisd(R).angle(); }
+
+// Assigned (true) value, nominal value and identified value of every scored parameter.
+struct Scored {
+  double assigned, nominal, identified;
+};
+std::map<std::string, Scored> scored(const Scenario& sc, const CalibrationResult& full) {
+  std::map<std::string, Scored> out;
+  const Eigen::VectorXd truth = sc.actual.kinematic_parameters();
+  for (const ParameterEstimate& e : full.kinematics.parameters) {
+    if (e.identifiable) out[e.name] = {truth[e.slot], e.nominal, e.value};
+  }
+  for (const TransmissionFit& t : full.transmissions) {
+    const Transmission& tr = sc.actual.links[t.joint].transmission;
+    if (t.type != "capstan" || !std::holds_alternative<Capstan>(tr.model())) continue;
+    const Eigen::VectorXd tv = tr.parameters();
+    for (int c = 0; c < 5; ++c) out[t.names[c]] = {tv[c], t.nominal[c], t.value[c]};
+  }
+  return out;
+}
+
+double improvement(const Scored& s) {
+  return (1 - std::abs(s.assigned - s.identified) / std::abs(s.assigned - s.nominal)) * 100;
+}
+
+}  // namespace
+
+Scenario default_scenario(const std::string& device_path) {
+  Scenario sc;
+  sc.device_path = device_path;
+  sc.nominal = load_device(device_path);
+  sc.actual = paper_actual_device(sc.nominal);
+  return sc;
+}
+
+Scenario load_scenario(const std::string& path, const std::string& default_device_path) {
+  const std::string text = read_file(path);
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(path, e.mark.is_null() ? 0 : e.mark.line + 1, "", "YAML: " + e.msg);
+  }
+  const detail::YamlReader r(path);
+  r.check_keys(
+      root, "",
+      {"format", "device", "seed", "trials", "poses", "trajectory", "noise", "deviations"});
+  const std::string format = r.string(r.require(root, "", "format"), "format");
+  if (format != "hapticcal-scenario/1") {
+    r.fail(root["format"], "format", fmt::format("'{}' is not 'hapticcal-scenario/1'", format));
+  }
+  std::string device = default_device_path;
+  if (root["device"]) {
+    device = r.string(root["device"], "device");
+    const std::filesystem::path p(device);
+    if (p.is_relative()) device = (std::filesystem::path(path).parent_path() / p).string();
+  }
+  Scenario sc = default_scenario(device);
+  auto positive_int = [&](const YAML::Node& node, const std::string& key, int lo, int hi) {
+    const double v = r.number(node, key);
+    if (v != std::floor(v) || v < lo || v > hi)
+      r.fail(node, key, fmt::format("expected an integer in [{}, {}]", lo, hi));
+    return static_cast<int>(v);
+  };
+  if (root["seed"])
+    sc.seed = static_cast<std::uint64_t>(positive_int(root["seed"], "seed", 0, 2000000000));
+  if (root["trials"]) sc.trials = positive_int(root["trials"], "trials", 1, 100000);
+  if (const YAML::Node poses = root["poses"]) {
+    r.check_keys(poses, "poses", {"identification", "validation"});
+    if (poses["identification"])
+      sc.identification_poses =
+          positive_int(poses["identification"], "poses.identification", 1, 10000000);
+    if (poses["validation"])
+      sc.validation_poses = positive_int(poses["validation"], "poses.validation", 1, 10000000);
+  }
+  if (const YAML::Node tr = root["trajectory"]) {
+    r.check_keys(tr, "trajectory", {"seconds", "rate_hz"});
+    if (tr["seconds"]) sc.trajectory_seconds = r.number(tr["seconds"], "trajectory.seconds");
+    if (tr["rate_hz"]) sc.trajectory_rate_hz = r.number(tr["rate_hz"], "trajectory.rate_hz");
+    if (!(sc.trajectory_seconds > 0 && sc.trajectory_rate_hz > 0))
+      r.fail(tr, "trajectory", "seconds and rate_hz must be positive");
+  }
+  if (const YAML::Node noise = root["noise"]) {
+    r.check_keys(noise, "noise", {"sigma_e", "sigma_m"});
+    if (noise["sigma_e"]) sc.noise.sigma_ext = r.number(noise["sigma_e"], "noise.sigma_e");
+    if (const YAML::Node m = noise["sigma_m"]) {
+      if (m.IsScalar() && m.Scalar() == "paper") {
+        sc.noise.sigma_distance = 2 * std::numbers::pi * 0.015 * sc.noise.sigma_ext;
+      } else if (m.IsScalar() && m.Scalar() == "consistent") {
+        sc.sigma_m_formula = "consistent";
+        sc.noise.sigma_distance = 0.015 * sc.noise.sigma_ext;
+      } else {
+        sc.sigma_m_formula = "given";
+        sc.noise.sigma_distance = r.number(m, "noise.sigma_m");
+      }
+    } else {
+      sc.noise.sigma_distance = 2 * std::numbers::pi * 0.015 * sc.noise.sigma_ext;
+    }
+    if (!(sc.noise.sigma_ext > 0 && sc.noise.sigma_distance > 0))
+      r.fail(noise, "noise", "noise levels must be positive");
+  }
+  if (const YAML::Node dev = root["deviations"]) {
+    r.expect_map(dev, "deviations");
+    Eigen::VectorXd truth = sc.actual.kinematic_parameters();
+    const Eigen::VectorXd nominal = sc.nominal.kinematic_parameters();
+    const std::vector<ParameterInfo> info = sc.nominal.parameter_info();
+    for (const auto& kv : dev) {
+      const std::string name = kv.first.Scalar();
+      const auto it = std::find_if(info.begin(), info.end(),
+                                   [&](const ParameterInfo& p) { return p.name == name; });
+      if (it == info.end())
+        r.fail(kv.first, "deviations." + name, "not a kinematic parameter of the device");
+      truth[it->slot] = nominal[it->slot] + r.number(kv.second, "deviations." + name);
+    }
+    sc.actual.set_kinematic_parameters(truth);
+  }
+  return sc;
+}
+
+std::uint64_t trial_seed(std::uint64_t study_seed, int trial) {
+  std::uint64_t z = study_seed + 0x9E3779B97F4A7C15ull * static_cast<std::uint64_t>(trial + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string& out) {
+  TrialResult t;
+  t.seed = seed;
+  Log ident = simulate_log(sc.actual, sc.identification_poses, sc.noise, trial_seed(seed, 0));
+  SimulationNoise exact = sc.noise;
+  exact.sigma_position = 0;  // a perfect tracker: validation scores against the truth
+  Log val = simulate_log(sc.actual, sc.validation_poses, exact, trial_seed(seed, 1), true, true);
+  const bool files = !out.empty();
+  if (files) {
+    // The honest pipeline: what calibration sees comes from the files a real
+    // experiment would produce.
+    save_device(sc.nominal, out + "/nominal.yaml");
+    save_device(sc.actual, out + "/actual.yaml");
+    write_file_atomically(out + "/identification.csv", log_to_csv(ident));
+    write_file_atomically(out + "/validation.csv", log_to_csv(val));
+    ident = read_log(out + "/identification.csv");
+    val = read_log(out + "/validation.csv");
+  }
+  t.full = calibrate(sc.nominal, ident, CalibrationOptions{});
+  CalibrationOptions kin;
+  kin.transmissions = false;
+  t.kinematic_only = calibrate(sc.nominal, ident, kin);
+
+  // Fig. 8: validation poses against the truth.
+  const PreparedModel truth(sc.actual), before(sc.nominal), after(t.full.calibrated);
+  for (int r = 0; r < val.rows; ++r) {
+    const Eigen::VectorXd q = readings(val, r);
+    const Frame<double> Ta = truth.forward(q.data()), Tb = before.forward(q.data()),
+                        Tc = after.forward(q.data());
+    t.position_before.push_back((Tb.p - Ta.p).norm());
+    t.position_after.push_back((Tc.p - Ta.p).norm());
+    t.orientation_before.push_back(rotation_angle(Ta.R.transpose() * Tb.R));
+    t.orientation_after.push_back(rotation_angle(Ta.R.transpose() * Tc.R));
+  }
+  t.distance_rms_before = distance_rms(sc.nominal, val);
+  t.distance_rms_after = distance_rms(t.full.calibrated, val);
+  t.crlb_variance = crlb(sc, ident, t.full);
+  if (!files) return t;
+
+  // Fig. 10: the continuous motion, and the series for the figures.
+  Log traj = simulate_trajectory(sc.actual, sc.trajectory_seconds, sc.trajectory_rate_hz, sc.noise,
+                                 trial_seed(seed, 2));
+  write_file_atomically(out + "/trajectory.csv", log_to_csv(traj));
+  traj = read_log(out + "/trajectory.csv");
+  const Evaluation eb = evaluate(sc.nominal, traj), ef = evaluate(t.full.calibrated, traj),
+                   ek = evaluate(t.kinematic_only.calibrated, traj);
+  t.trajectory_rms_before = eb.distance->rms;
+  t.trajectory_rms_full = ef.distance->rms;
+  t.trajectory_rms_kinematic = ek.distance->rms;
+  save_device(t.full.calibrated, out + "/calibrated.yaml");
+  save_device(t.kinematic_only.calibrated, out + "/calibrated-kinematic-only.yaml");
+
+  std::string fig10 = "t,distance,error_nominal,error_full,error_kinematic_only\n";
+  const int step = std::max(1, static_cast<int>(sc.trajectory_rate_hz / 100));  // 100 Hz
+  for (int r = 0; r < traj.rows; r += step) {
+    fig10 += fmt::format("{},{},{},{},{}\n", traj.t[r], traj.distance[r], eb.distance_error[r],
+                         ef.distance_error[r], ek.distance_error[r]);
+  }
+  write_file_atomically(out + "/fig10_trajectory.csv", fig10);
+  std::string fig8 = "pose,position_before,position_after,orientation_before,orientation_after\n";
+  for (size_t r = 0; r < t.position_before.size(); ++r) {
+    fig8 += fmt::format("{},{},{},{},{}\n", r + 1, t.position_before[r], t.position_after[r],
+                        t.orientation_before[r], t.orientation_after[r]);
+  }
+  write_file_atomically(out + "/fig8_validation.csv", fig8);
+  // Fig. 7: joint 4's transmission error: measured (ext - q - c), identified, true.
+  for (const TransmissionFit& f : t.full.transmissions) {
+    if (f.type != "polynomial") continue;
+    const Transmission& fitted = t.full.calibrated.links[f.joint].transmission;
+    const Transmission& real = sc.actual.links[f.joint].transmission;
+    std::string fig7 = "q,measured,identified,truth\n";
+    for (int r = 0; r < ident.rows; ++r) {
+      const double q = ident.q(r, f.joint);
+      fig7 += fmt::format("{},{},{},{}\n", q, ident.ext(r, f.joint) - q - f.offset, fitted.error(q),
+                          real.error(q));
+    }
+    write_file_atomically(out + fmt::format("/fig7_{}.csv", t.full.calibrated.links[f.joint].name),
+                          fig7);
+  }
+  return t;
+}
+
+StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
+                      const std::function<void(int, int)>& progress) {
+  const int n = sc.trials;
+  std::vector<TrialResult> trials(n);
+  std::atomic<int> next{0}, done{0};
+  std::mutex report;
+  std::exception_ptr failure;
+  auto worker = [&] {
+    for (int k = next++; k < n; k = next++) {
+      try {
+        trials[k] = run_trial(sc, trial_seed(sc.seed, k), k == 0 ? out : "");
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(report);
+        if (!failure) failure = std::current_exception();
+      }
+      const int finished = ++done;
+      if (progress) {
+        const std::lock_guard<std::mutex> lock(report);
+        progress(finished, n);
+      }
+    }
+  };
+  threads = std::max(1, std::min(threads, n));
+  std::vector<std::thread> pool;
+  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
+  worker();
+  for (std::thread& th : pool) th.join();
+  if (failure) std::rethrow_exception(failure);
+
+  StudyResult result;
+  result.trials = n;
+  result.threads = threads;
+  // Statistics in trial order, so the thread count cannot change them.
+  std::map<std::string, std::vector<double>> identified, improvement_pct, variance;
+  std::map<std::string, Scored> reference;
+  for (const TrialResult& t : trials) {
+    for (const auto& [name, s] : scored(sc, t.full)) {
+      identified[name].push_back(s.identified);
+      improvement_pct[name].push_back(improvement(s));
+      reference[name] = s;
+      const auto v = t.crlb_variance.find(name);
+      if (v != t.crlb_variance.end()) variance[name].push_back(v->second);
+    }
+  }
+  for (const auto& [name, values] : identified) {
+    MonteCarloStats m;
+    m.trials = static_cast<int>(values.size());
+    m.assigned = reference[name].assigned;
+    m.nominal = reference[name].nominal;
+    double sum = 0, sq = 0, ip = 0;
+    for (size_t k = 0; k < values.size(); ++k) {
+      sum += values[k];
+      sq += (values[k] - m.assigned) * (values[k] - m.assigned);
+      ip += improvement_pct[name][k];
+    }
+    m.mean = sum / values.size();
+    m.rmse = std::sqrt(sq / values.size());
+    m.mean_improvement_pct = ip / values.size();
+    double var = 0;
+    for (double v : variance[name]) var += v;
+    m.crlb_sd = variance[name].empty() ? 0 : std::sqrt(var / variance[name].size());
+    m.efficiency = m.crlb_sd > 0 ? m.rmse / m.crlb_sd : 0;
+    result.monte_carlo[name] = m;
+  }
+  result.first = std::move(trials[0]);
+  return result;
+}
+
+std::optional<double> paper_improvement_pct(const std::string& name) {
+  // Baser & Konukseven (2013), Table 3 (kinematic) and Table 2 (capstans 1-3).
+  static const std::map<std::string, double> kPaper = {
+      {"j1.alpha", 98.47},       {"j2.alpha", 99.30},       {"j3.alpha", 99.73},
+      {"j4.alpha", 81.35},       {"j5.alpha", 80.01},       {"j6.alpha", 96.60},
+      {"base.a", 99.99},         {"j1.a", 98.97},           {"j2.a", 99.47},
+      {"j3.a", 99.99},           {"j4.a", 99.44},           {"j5.a", 99.99},
+      {"j6.a", 99.86},           {"j7.a", 99.99},           {"j1.d", 99.44},
+      {"j2.d", 99.71},           {"j3.d", 99.37},           {"j4.d", 97.64},
+      {"j5.d", 99.55},           {"j6.d", 99.99},           {"j7.d", 99.92},
+      {"j1.theta", 99.44},       {"j2.theta", 96.69},       {"j3.theta", 91.29},
+      {"j4.theta", 97.24},       {"j5.theta", 96.22},       {"j6.theta", 90.66},
+      {"j7.theta", 76.45},       {"j1.ratio_error", 99.72}, {"j2.ratio_error", 98.54},
+      {"j3.ratio_error", 92.89}, {"j1.r_out", 99.76},       {"j2.r_out", 99.28},
+      {"j3.r_out", 95.02},       {"j1.r_in", 99.36},        {"j2.r_in", 99.12},
+      {"j3.r_in", 99.75},        {"j1.beta_out", 99.74},    {"j2.beta_out", 99.22},
+      {"j3.beta_out", 99.20},    {"j1.beta_in", 97.24},     {"j2.beta_in", 99.99},
+      {"j3.beta_in", 99.14}};
+  const auto it = kPaper.find(name);
+  if (it == kPaper.end()) return std::nullopt;
+  return it->second;
+}
+
+std::string study_json(const Scenario& sc, const StudyResult& r) {
+  using json = nlohmann::ordered_json;
+  const TrialResult& t = r.first;
+  json j;
+  j["format"] = "hapticcal-study/1";
+  j["device"] = sc.device_path;
+  j["seed"] = sc.seed;
+  j["trials"] = r.trials;
+  j["noise"] = {{"sigma_e", sc.noise.sigma_ext},
+                {"sigma_m", sc.noise.sigma_distance},
+                {"sigma_m_formula", sc.sigma_m_formula}};
+  j["poses"] = {{"identification", sc.identification_poses}, {"validation", sc.validation_poses}};
+  json params = json::object();
+  for (const auto& [name, s] : scored(sc, t.full)) {
+    const auto paper = paper_improvement_pct(name);
+    const auto mc = r.monte_carlo.find(name);
+    params[name] = {
+        {"assigned", s.assigned},
+        {"nominal", s.nominal},
+        {"identified", s.identified},
+        {"improvement_pct", improvement(s)},
+        {"paper_improvement_pct", paper ? json(*paper) : json(nullptr)},
+        {"crlb_sd", mc != r.monte_carlo.end() ? json(mc->second.crlb_sd) : json(nullptr)}};
+  }
+  j["parameters"] = params;
+  j["held"] = json::object();
+  for (const ParameterEstimate& e : t.full.kinematics.parameters) {
+    if (!e.identifiable) j["held"][e.name] = e.reason;
+  }
+  auto rms_of = [](const std::vector<double>& v) { return rms(v); };
+  j["validation"] = {{"position_rms_before", rms_of(t.position_before)},
+                     {"position_rms_after", rms_of(t.position_after)},
+                     {"orientation_rms_before", rms_of(t.orientation_before)},
+                     {"orientation_rms_after", rms_of(t.orientation_after)},
+                     {"distance_rms_before", t.distance_rms_before},
+                     {"distance_rms_after", t.distance_rms_after}};
+  j["trajectory"] = {
+      {"rms_before", t.trajectory_rms_before},
+      {"rms_full", t.trajectory_rms_full},
+      {"rms_kinematic_only", t.trajectory_rms_kinematic},
+      {"improvement_full_pct", rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before)},
+      {"improvement_kinematic_only_pct",
+       rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before)},
+      {"paper_improvement_full_pct", 96.6},
+      {"paper_improvement_kinematic_only_pct", 44.7}};
+  if (r.trials > 1) {
+    json mc = json::object();
+    for (const auto& [name, m] : r.monte_carlo) {
+      mc[name] = {{"assigned", m.assigned},
+                  {"mean", m.mean},
+                  {"mean_improvement_pct", m.mean_improvement_pct},
+                  {"rmse", m.rmse},
+                  {"crlb_sd", m.crlb_sd},
+                  {"efficiency", m.efficiency},
+                  {"trials", m.trials}};
+    }
+    j["monte_carlo"] = mc;
+  }
+  return j.dump(2) + "\n";
+}
+
+}  // namespace hapticcal
