@@ -30,11 +30,9 @@ build: deps
 	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release
 	cmake --build $(BUILD) -j$(JOBS)
 
-# The main job. Until `simulate` (the paper's study) exists, evaluate the
-# shipped Meca500 example: nominal model on real laser-tracker data.
+# The main job: the paper's simulation study on the built-in 7-DOF device.
 run: build
-	./$(BUILD)/hapticcal evaluate --model examples/meca500/meca500.yaml \
-	  --log examples/meca500/val-norm_dist_data_0deg_160cube.csv
+	./$(BUILD)/hapticcal simulate
 
 # Every test in Release, then the input-handling tests again under
 # AddressSanitizer and UBSan.

@@ -2,11 +2,13 @@
 // paper's device, Tables 2-3, 200 poses with the SPEC noise), against a machine
 // yardstick in the same process: one pass of orocos KDL FK + Jacobian over the
 // same 200 poses.
+#include <filesystem>
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <kdl/chainjnttojacsolver.hpp>
 
 #include "hapticcal/identification.hpp"
 #include "hapticcal/simulation.hpp"
+#include "hapticcal/study.hpp"
 #include "kdl_chain.hpp"
 #include "ratio_main.hpp"
 #include "test_models.hpp"
@@ -48,7 +50,20 @@ void BM_KdlPass200_Reference(benchmark::State& state) {
   }
 }
 
+// Issue 4: one trial of the default study with its files (logs, trajectory of
+// 100 s at 1 kHz, models, figure series), as `hapticcal simulate` runs it.
+void BM_Simulate_DefaultTrial(benchmark::State& state) {
+  const Scenario sc = default_scenario(testing::source_path("data/devices/baser-7dof.yaml"));
+  const std::string out = "/tmp/hapticcal_bench_simulate";
+  for (auto _ : state) {
+    TrialResult t = run_trial(sc, trial_seed(sc.seed, 0), out);
+    benchmark::DoNotOptimize(t.trajectory_rms_full);
+  }
+  std::filesystem::remove_all(out);
+}
+
 BENCHMARK(BM_Calibrate_Default)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Simulate_DefaultTrial)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_KdlPass200_Reference)->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -30,9 +30,12 @@ double distance_rms(const DeviceModel& model, const Log& log) {
 
 Eigen::VectorXd readings(const Log& log, int r) { return log.q.row(r).transpose(); }
 
-// Cramer-Rao variances at the truth: kinematic parameters from the distances of
-// the identification poses (sigma_m), capstan parameters and c from their
-// external encoders (sigma_e).
+// Cramer-Rao variances at the truth for the two-step procedure. Step 1: each
+// fitted transmission's parameters (and c) from its external encoder, Fisher
+// information J^T J / sigma_e^2. Step 2: the kinematic parameters from the
+// distances, J_k^T J_k / sigma_m^2, plus the step-1 bounds carried in through the
+// compensated angles: d kin = G d trans with G = -(J_k^T J_k)^-1 J_k^T J_t, J_t
+// the distances' sensitivity to the transmission parameters.
 std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
                                    const CalibrationResult& full) {
   std::map<std::string, double> out;
@@ -45,35 +48,46 @@ std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
     if (e.identifiable) identified.push_back(&e);
   }
   const int k = static_cast<int>(identified.size());
-  Eigen::MatrixXd J(ident.rows, k);
+  const int m = ident.rows;
+  Eigen::MatrixXd Jk(m, k), dDelta_dTheta(m, actual.dof());
   Eigen::VectorXd joint(actual.dof());
   Eigen::Matrix<double, 1, Eigen::Dynamic> row;
-  for (int r = 0; r < ident.rows; ++r) {
+  Jacobian6<double> Jg;
+  for (int r = 0; r < m; ++r) {
     const Eigen::VectorXd q = readings(ident, r);
     prepared.compensate(q.data(), joint.data());
+    const Eigen::Vector3d tip =
+        prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, Jg).p;
+    dDelta_dTheta.row(r) = tip.normalized().transpose() * Jg.topRows<3>();
     distance_parameter_jacobian(s, p.data(), joint.data(), row);
-    for (int c = 0; c < k; ++c) J(r, c) = row[identified[c]->slot];
+    for (int c = 0; c < k; ++c) Jk(r, c) = row[identified[c]->slot];
   }
-  if (k > 0) {
-    const Eigen::MatrixXd F =
-        J.transpose() * J / (sc.noise.sigma_distance * sc.noise.sigma_distance);
-    const Eigen::MatrixXd inverse = F.ldlt().solve(Eigen::MatrixXd::Identity(k, k));
-    for (int c = 0; c < k; ++c) out[identified[c]->name] = inverse(c, c);
-  }
+  const double se2 = sc.noise.sigma_ext * sc.noise.sigma_ext;
+  const double sm2 = sc.noise.sigma_distance * sc.noise.sigma_distance;
+  const Eigen::MatrixXd Nk = Jk.transpose() * Jk;
+  const Eigen::MatrixXd Nk_inverse = Nk.ldlt().solve(Eigen::MatrixXd::Identity(k, k));
+  Eigen::MatrixXd kinematic = sm2 * Nk_inverse;
   for (const TransmissionFit& t : full.transmissions) {
-    const Transmission& truth = actual.links[t.joint].transmission;
-    if (t.type != "capstan" || !std::holds_alternative<Capstan>(truth.model())) continue;
-    Eigen::MatrixXd Jt(ident.rows, 6);
-    for (int r = 0; r < ident.rows; ++r) {
-      double J5[5];
-      truth.parameter_jacobian(ident.q(r, t.joint), J5);
-      for (int c = 0; c < 5; ++c) Jt(r, c) = J5[c];
-      Jt(r, 5) = 1.0;  // c
+    // The step-1 model as fitted (its basis for a polynomial), at the truth's readings.
+    const Transmission& model = full.calibrated.links[t.joint].transmission;
+    const int np = model.num_parameters();
+    Eigen::MatrixXd Je(m, np + 1);  // d (c + error) / d [params, c]
+    Eigen::VectorXd d(np);
+    for (int r = 0; r < m; ++r) {
+      model.parameter_jacobian(ident.q(r, t.joint), d.data());
+      Je.row(r).head(np) = d.transpose();
+      Je(r, np) = 1.0;
     }
-    const Eigen::MatrixXd F = Jt.transpose() * Jt / (sc.noise.sigma_ext * sc.noise.sigma_ext);
-    const Eigen::MatrixXd inverse = F.ldlt().solve(Eigen::MatrixXd::Identity(6, 6));
-    for (int c = 0; c < 5; ++c) out[t.names[c]] = inverse(c, c);
+    const Eigen::MatrixXd step1 =
+        se2 * (Je.transpose() * Je).ldlt().solve(Eigen::MatrixXd::Identity(np + 1, np + 1));
+    for (int c = 0; c < np; ++c) out[t.names[c]] = step1(c, c);
+    // Into step 2: J_t = d delta / d theta_j * d error_j / d params.
+    Eigen::MatrixXd Jt(m, np);
+    for (int r = 0; r < m; ++r) Jt.row(r) = dDelta_dTheta(r, t.joint) * Je.row(r).head(np);
+    const Eigen::MatrixXd G = -Nk_inverse * (Jk.transpose() * Jt);
+    kinematic += G * step1.topLeftCorner(np, np) * G.transpose();
   }
+  for (int c = 0; c < k; ++c) out[identified[c]->name] = kinematic(c, c);
   return out;
 }
 

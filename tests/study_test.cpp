@@ -1,0 +1,124 @@
+// The simulation study: reproducibility, the honest pipeline's files, scenario
+// files, and the Monte Carlo efficiency against the Cramer-Rao bound.
+#include "hapticcal/study.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "hapticcal/error.hpp"
+#include "run_cli.hpp"
+#include "test_models.hpp"
+
+namespace hapticcal {
+namespace {
+
+std::string device() { return testing::source_path("data/devices/baser-7dof.yaml"); }
+
+TEST(Study, SameSeedGivesTheSameResultsByteForByteWhateverTheThreadCount) {
+  const std::string a = ::testing::TempDir() + "/study_a", b = ::testing::TempDir() + "/study_b",
+                    c = ::testing::TempDir() + "/study_c";
+  for (const std::string& d : {a, b, c}) std::filesystem::remove_all(d);
+  ASSERT_EQ(testing::run_cli("simulate --trials 6 --threads 1 --out " + a).exit_code, 0);
+  ASSERT_EQ(testing::run_cli("simulate --trials 6 --threads 2 --out " + b).exit_code, 0);
+  ASSERT_EQ(testing::run_cli("simulate --trials 6 --threads 2 --seed 2 --out " + c).exit_code, 0);
+  for (const char* file : {"/results.json", "/identification.csv", "/calibrated.yaml"}) {
+    EXPECT_EQ(read_file(a + file), read_file(b + file)) << file;
+  }
+  EXPECT_NE(read_file(a + "/results.json"), read_file(c + "/results.json"));
+  for (const std::string& d : {a, b, c}) std::filesystem::remove_all(d);
+}
+
+TEST(Study, PipelineWritesWhatARealExperimentWouldAndScoresAgainstTheTruth) {
+  const std::string out = ::testing::TempDir() + "/study_files";
+  std::filesystem::remove_all(out);
+  const testing::CliResult r = testing::run_cli("simulate --out " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("Table 2 analogue"), std::string::npos);
+  EXPECT_NE(r.out.find("Table 3 analogue"), std::string::npos);
+  const Log ident = read_log(out + "/identification.csv");
+  EXPECT_EQ(ident.rows, 200);
+  EXPECT_EQ(ident.dof(), 7);
+  EXPECT_TRUE(ident.has_distance);
+  EXPECT_TRUE(ident.has_ext[0] && ident.has_ext[3] && !ident.has_ext[4]);
+  const Log traj = read_log(out + "/trajectory.csv");
+  EXPECT_EQ(traj.rows, 100000);
+  EXPECT_NEAR(traj.t[traj.rows - 1], 99.999, 1e-9);
+  EXPECT_EQ(traj.q.row(0).norm(), 0.0);  // at rest at home
+  for (const char* f : {"/nominal.yaml", "/actual.yaml", "/calibrated.yaml"}) {
+    EXPECT_EQ(load_device(out + f).dof(), 7) << f;
+  }
+  for (const char* f : {"/fig7_j4.csv", "/fig8_validation.csv", "/fig10_trajectory.csv"}) {
+    EXPECT_TRUE(std::filesystem::exists(out + f)) << f;
+  }
+  const auto j = nlohmann::json::parse(read_file(out + "/results.json"));
+  const auto& p = j["parameters"]["j4.alpha"];
+  for (const char* key :
+       {"assigned", "identified", "improvement_pct", "paper_improvement_pct", "crlb_sd"}) {
+    EXPECT_TRUE(p.contains(key)) << key;
+  }
+  EXPECT_EQ(p["paper_improvement_pct"].get<double>(), 81.35);
+  EXPECT_TRUE(j["parameters"]["j1.r_out"]["paper_improvement_pct"].is_number());
+  EXPECT_EQ(j["parameters"].size(), 28u + 15u);
+  // Fig. 8 and Fig. 10 (eq. 9): calibration helps, the kinematic-only one less.
+  EXPECT_LT(j["validation"]["position_rms_after"].get<double>(),
+            0.1 * j["validation"]["position_rms_before"].get<double>());
+  const double full = j["trajectory"]["improvement_full_pct"],
+               kin = j["trajectory"]["improvement_kinematic_only_pct"];
+  EXPECT_GT(full, 95.0);
+  EXPECT_GT(kin, 20.0);
+  EXPECT_LT(kin, 80.0);
+  std::filesystem::remove_all(out);
+}
+
+TEST(Study, ScenarioFileChangesTheStudyAndRejectsUnknownKeys) {
+  const std::string dir = ::testing::TempDir() + "/scenario";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/good.yaml") << "format: hapticcal-scenario/1\n"
+                                    << "device: " << device() << "\n"
+                                    << "seed: 5\ntrials: 3\n"
+                                    << "poses: {identification: 150, validation: 50}\n"
+                                    << "trajectory: {seconds: 10, rate_hz: 100}\n"
+                                    << "noise: {sigma_m: consistent}\n"
+                                    << "deviations: {j2.a: 0.002}\n";
+  const Scenario sc = load_scenario(dir + "/good.yaml", device());
+  EXPECT_EQ(sc.seed, 5u);
+  EXPECT_EQ(sc.trials, 3);
+  EXPECT_EQ(sc.identification_poses, 150);
+  EXPECT_DOUBLE_EQ(sc.noise.sigma_distance, kPaperSigmaMConsistent);
+  EXPECT_DOUBLE_EQ(sc.actual.links[1].a - sc.nominal.links[1].a, 0.002);
+  std::ofstream(dir + "/bad.yaml")
+      << "format: hapticcal-scenario/1\nposes: {identification: 150, colour: 3}\n";
+  try {
+    load_scenario(dir + "/bad.yaml", device());
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.yaml:2: poses.colour: unknown key"),
+              std::string::npos)
+        << e.what();
+  }
+  const auto r = testing::run_cli("simulate --scenario " + dir + "/bad.yaml --out " + dir + "/out");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
+  std::filesystem::remove_all(dir);
+}
+
+// RMSE / CRLB of every identified kinematic and capstan parameter. With N trials
+// the estimate of the ratio has a standard error of about 1 / sqrt(2 N); 1000
+// trials make the 0.9-1.1 band 4.5 standard errors wide on each side.
+TEST(Study, MonteCarloRmseMatchesTheCramerRaoBound) {
+  Scenario sc = default_scenario(device());
+  sc.trials = 1000;
+  const StudyResult r = run_study(sc, "", 2);
+  ASSERT_EQ(r.monte_carlo.size(), 28u + 15u);
+  for (const auto& [name, m] : r.monte_carlo) {
+    EXPECT_EQ(m.trials, 1000) << name;
+    EXPECT_GT(m.efficiency, 0.9) << name;
+    EXPECT_LT(m.efficiency, 1.1) << name;
+  }
+}
+
+}  // namespace
+}  // namespace hapticcal
