@@ -2,12 +2,33 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <numbers>
 #include <random>
 
 #include "hapticcal/kinematics.hpp"
 
 namespace hapticcal {
+
+double quantized_reading(double q, double ratio, double counts) {
+  if (counts <= 0) return q;
+  const double step = 2 * std::numbers::pi / (counts * ratio);
+  return std::round(q / step) * step;
+}
+
+namespace {
+
+double drive_ratio(const Link& link) {
+  if (const auto* c = std::get_if<Capstan>(&link.transmission.model())) return c->ratio;
+  if (const auto* chain = std::get_if<Chain>(&link.transmission.model())) {
+    for (const Transmission& stage : chain->stages) {
+      if (const auto* c = std::get_if<Capstan>(&stage.model())) return c->ratio;
+    }
+  }
+  return 1.0;
+}
+
+}  // namespace
 
 DeviceModel paper_actual_device(const DeviceModel& nominal) {
   DeviceModel m = nominal;
@@ -80,6 +101,10 @@ Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& no
     }
     const Eigen::VectorXd q = log.q.row(r).transpose();
     const Eigen::Vector3d p = prepared.forward(q.data()).p;
+    for (int j = 0; j < n; ++j) {
+      log.q(r, j) =
+          quantized_reading(q[j], drive_ratio(actual.links[j]), noise.motor_counts_per_rev);
+    }
     if (distance) log.distance[r] = p.norm() + noise.sigma_distance * gauss(rng);
     if (position) {
       for (int k = 0; k < 3; ++k) log.position(r, k) = p[k] + noise.sigma_position * gauss(rng);
@@ -134,8 +159,11 @@ Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_h
       q[j] = std::clamp(envelope * half * v, l.lower, l.upper);
     }
     log.t[r] = t;
-    log.q.row(r) = q.transpose();
     log.distance[r] = prepared.forward(q.data()).p.norm() + noise.sigma_distance * gauss(rng);
+    for (int j = 0; j < n; ++j) {
+      q[j] = quantized_reading(q[j], drive_ratio(actual.links[j]), noise.motor_counts_per_rev);
+    }
+    log.q.row(r) = q.transpose();
     log.line.push_back(r + 2);
   }
   return log;

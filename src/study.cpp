@@ -174,7 +174,13 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
       r.fail(tr, "trajectory", "seconds and rate_hz must be positive");
   }
   if (const YAML::Node noise = root["noise"]) {
-    r.check_keys(noise, "noise", {"sigma_e", "sigma_m"});
+    r.check_keys(noise, "noise", {"sigma_e", "sigma_m", "motor_counts_per_rev"});
+    if (noise["motor_counts_per_rev"]) {
+      sc.noise.motor_counts_per_rev =
+          r.number(noise["motor_counts_per_rev"], "noise.motor_counts_per_rev");
+      if (!(sc.noise.motor_counts_per_rev >= 0))
+        r.fail(noise, "noise.motor_counts_per_rev", "must not be negative");
+    }
     if (noise["sigma_e"]) sc.noise.sigma_ext = r.number(noise["sigma_e"], "noise.sigma_e");
     if (const YAML::Node m = noise["sigma_m"]) {
       if (m.IsScalar() && m.Scalar() == "paper") {
@@ -400,7 +406,8 @@ std::string study_json(const Scenario& sc, const StudyResult& r) {
   j["trials"] = r.trials;
   j["noise"] = {{"sigma_e", sc.noise.sigma_ext},
                 {"sigma_m", sc.noise.sigma_distance},
-                {"sigma_m_formula", sc.sigma_m_formula}};
+                {"sigma_m_formula", sc.sigma_m_formula},
+                {"motor_counts_per_rev", sc.noise.motor_counts_per_rev}};
   j["poses"] = {{"identification", sc.identification_poses}, {"validation", sc.validation_poses}};
   json params = json::object();
   for (const auto& [name, s] : scored(sc, t.full)) {

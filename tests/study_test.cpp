@@ -105,6 +105,21 @@ TEST(Study, ScenarioFileChangesTheStudyAndRejectsUnknownKeys) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(Study, MotorEncoderQuantisationRoundsTheReadingsOnly) {
+  const double step = 2 * M_PI / (4096 * 10.0);
+  EXPECT_DOUBLE_EQ(quantized_reading(0.3, 10, 4096), std::round(0.3 / step) * step);
+  EXPECT_EQ(quantized_reading(0.3, 10, 0), 0.3);
+  const DeviceModel actual = paper_actual_device(testing::builtin("baser-7dof"));
+  SimulationNoise noise;
+  noise.motor_counts_per_rev = 4096;
+  noise.sigma_distance = 0;
+  const Log log = simulate_log(actual, 20, noise, 1);
+  for (int r = 0; r < log.rows; ++r) {
+    EXPECT_NEAR(std::remainder(log.q(r, 0), step), 0.0, 1e-12);  // capstan joint: ratio 10
+    EXPECT_NEAR(std::remainder(log.q(r, 5), 2 * M_PI / 4096), 0.0, 1e-12);  // no drive: ratio 1
+  }
+}
+
 // RMSE / CRLB of every identified kinematic and capstan parameter. With N trials
 // the estimate of the ratio has a standard error of about 1 / sqrt(2 N); 1000
 // trials make the 0.9-1.1 band 4.5 standard errors wide on each side.

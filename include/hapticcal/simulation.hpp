@@ -25,7 +25,15 @@ struct SimulationNoise {
   double sigma_ext = kPaperSigmaE;            // external encoders [rad]
   double sigma_distance = kPaperSigmaMPaper;  // cable encoder [m]
   double sigma_position = 0;                  // tracker [m]
+  // Motor-encoder counts per motor turn (0: readings not quantised). The reading
+  // q is the motor count times 2 pi / (counts * R), R the joint's capstan ratio
+  // (1 without one); the truth follows the unquantised angle.
+  double motor_counts_per_rev = 0;
 };
+
+// The reading a motor encoder of `counts` per turn gives for joint angle q
+// through a drive of ratio R (no quantisation for counts <= 0).
+double quantized_reading(double q, double ratio, double counts);
 
 // A log of `poses` readings drawn uniformly within the joint limits, with
 // ext<i> = q_i + dtheta_i(q_i) + c_i + noise for the joints with a transmission

@@ -37,7 +37,7 @@ Scenario default_scenario(const std::string& device_path);
 //   device: PATH (relative to the file)     seed: N     trials: N
 //   poses: {identification: N, validation: N}
 //   trajectory: {seconds: S, rate_hz: F}
-//   noise: {sigma_e: RAD, sigma_m: paper | consistent | METRES}
+//   noise: {sigma_e: RAD, sigma_m: paper | consistent | METRES, motor_counts_per_rev: N}
 //   deviations: {DOTTED_NAME: VALUE, ...}   replaces Table 3's deviation of a kinematic
 //                                           parameter (SI, added to nominal)
 // Unknown keys are errors naming the file, line and key.
