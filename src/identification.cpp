@@ -12,6 +12,7 @@
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/kinematics.hpp"
+#include "solver_options.hpp"
 
 namespace hapticcal {
 namespace {
@@ -384,15 +385,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     if (!constant.empty()) {
       problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
     }
-    ceres::Solver::Options solver;
-    solver.linear_solver_type = ceres::DENSE_QR;
-    solver.logging_type = ceres::SILENT;
-    solver.max_num_iterations = 100;
-    solver.function_tolerance = 1e-14;
-    solver.parameter_tolerance = 1e-14;
-    solver.gradient_tolerance = 1e-16;
     ceres::Solver::Summary summary;
-    ceres::Solve(solver, &problem, &summary);
+    ceres::Solve(detail::levenberg_marquardt(100), &problem, &summary);
     fit.converged = summary.termination_type == ceres::CONVERGENCE;
     fit.iterations = static_cast<int>(summary.iterations.size());
     fit.termination = summary.message;

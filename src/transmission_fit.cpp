@@ -7,6 +7,7 @@
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/identification.hpp"
+#include "solver_options.hpp"
 
 namespace hapticcal {
 namespace {
@@ -123,15 +124,8 @@ void fit_capstan(const Capstan& nominal, const Eigen::VectorXd& q, const Eigen::
     problem.SetParameterLowerBound(p.data(), k, -0.99 * nominal.drum_distance);
     problem.SetParameterUpperBound(p.data(), k, 0.99 * nominal.drum_distance);
   }
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_QR;
-  options.logging_type = ceres::SILENT;
-  options.max_num_iterations = 200;
-  options.function_tolerance = 1e-14;
-  options.parameter_tolerance = 1e-14;
-  options.gradient_tolerance = 1e-16;
   ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
+  ceres::Solve(detail::levenberg_marquardt(200), &problem, &summary);
   fit.converged = summary.termination_type == ceres::CONVERGENCE;
   fit.message = summary.message;
   // A negative radius is the same drum with the phase turned by pi.

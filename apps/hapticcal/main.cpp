@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -102,7 +103,7 @@ std::vector<std::string> names(const std::string& list) {
 // Values as the paper's Tables 2-5 print them: mm, mrad, deg.
 std::string kinematic_row(const hapticcal::ParameterEstimate& e) {
   const bool angle = e.unit == hapticcal::ParameterUnit::kAngle;
-  const double f = angle ? 1e3 : 1e3;  // mrad or mm
+  const double f = 1e3;  // m -> mm, rad -> mrad
   return fmt::format("  {:<12} {:>12.4f} {:>12.4f} {:>10.4f} +- {:<9.4f} {:<4}  {:>6.3f} {}",
                      e.name, e.nominal * f, e.value * f, (e.value - e.nominal) * f, e.sd * f,
                      angle ? "mrad" : "mm", e.max_correlation, e.max_correlation_with);
@@ -179,6 +180,18 @@ int run_calibrate(const CalibrateOptions& o) {
       o.out + "/results.json", hapticcal::calibration_json(result, model, o.model, o.log, options));
   fmt::print("wrote {0}/calibrated.yaml and {0}/results.json (seed {1})\n", o.out, o.seed);
   return 0;
+}
+
+// The built-in 7-DOF device file: the source tree's in a build, else the one
+// installed beside the executable (PREFIX/share/hapticcal/devices).
+std::string builtin_device() {
+  namespace fs = std::filesystem;
+  if (fs::exists(HAPTICCAL_DEFAULT_DEVICE)) return HAPTICCAL_DEFAULT_DEVICE;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  const fs::path installed =
+      exe.parent_path().parent_path() / "share/hapticcal/devices/baser-7dof.yaml";
+  return !ec && fs::exists(installed) ? installed.string() : std::string(HAPTICCAL_DEFAULT_DEVICE);
 }
 
 struct SimulateOptions {
@@ -300,7 +313,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
 
   SimulateOptions sim;
-  sim.device = HAPTICCAL_DEFAULT_DEVICE;
+  sim.device = builtin_device();
   std::string out;
   auto* simulate = app.add_subcommand("simulate", "Run the paper's simulation study (main job)");
   simulate->add_option("--scenario", sim.scenario, "Scenario file (YAML)");

@@ -1,0 +1,24 @@
+// The Levenberg-Marquardt settings of both identification steps: dense QR for
+// these small dense problems, silent, and tight tolerances so that the stopping
+// point is the least-squares optimum to rounding (the Monte Carlo efficiency
+// study depends on it). Internal.
+#pragma once
+
+#include <ceres/ceres.h>
+
+namespace hapticcal::detail {
+
+inline ceres::Solver::Options levenberg_marquardt(int max_iterations) {
+  ceres::Solver::Options options;
+  options.minimizer_type = ceres::TRUST_REGION;
+  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.logging_type = ceres::SILENT;
+  options.max_num_iterations = max_iterations;
+  options.function_tolerance = 1e-14;
+  options.parameter_tolerance = 1e-14;
+  options.gradient_tolerance = 1e-16;
+  return options;
+}
+
+}  // namespace hapticcal::detail
