@@ -11,6 +11,7 @@
 #include <string>
 #include <thread>
 
+#include "hapticcal/control.hpp"
 #include "hapticcal/error.hpp"
 #include "hapticcal/evaluate.hpp"
 #include "hapticcal/identification.hpp"
@@ -20,7 +21,6 @@
 namespace {
 
 constexpr int kExitBadInput = 2;
-constexpr int kExitNotImplemented = 3;
 
 struct EvaluateOptions {
   std::string model, log, columns, reference;
@@ -300,9 +300,90 @@ int run_simulate(const SimulateOptions& o) {
   return 0;
 }
 
-int not_implemented(const char* command, int issue) {
-  fmt::print(stderr, "hapticcal {}: not implemented yet (tracked in issue {})\n", command, issue);
-  return kExitNotImplemented;
+struct ForceOptions {
+  std::string actual, nominal, calibrated, out = "hapticcal-out/force", posture;
+  hapticcal::ForceScenario scenario;
+};
+
+std::string force_csv(const hapticcal::ForceRun& run) {
+  std::string out = "t,Fd_x,Fd_y,Fd_z,F_x,F_y,F_z,M_x,M_y,M_z\n";
+  for (size_t k = 0; k < run.t.size(); ++k) {
+    const auto& d = run.desired[k];
+    const auto& m = run.measured[k];
+    out += fmt::format("{},{},{},{},{},{},{},{},{},{}\n", run.t[k], d[0], d[1], d[2], m[0], m[1],
+                       m[2], m[3], m[4], m[5]);
+  }
+  return out;
+}
+
+int run_force_study(ForceOptions o) {
+  const hapticcal::DeviceModel actual = hapticcal::load_device(o.actual);
+  const hapticcal::DeviceModel nominal = hapticcal::load_device(o.nominal);
+  const hapticcal::DeviceModel calibrated = hapticcal::load_device(o.calibrated);
+  hapticcal::ForceScenario& sc = o.scenario;
+  if (!o.posture.empty()) {
+    const std::vector<std::string> v = names(o.posture);
+    sc.posture.resize(v.size());
+    for (size_t i = 0; i < v.size(); ++i) {
+      try {
+        sc.posture[i] = std::stod(v[i]);
+      } catch (const std::exception&) {
+        throw hapticcal::InputError(fmt::format("--posture: '{}' is not a number", v[i]));
+      }
+    }
+  } else {
+    sc.posture = hapticcal::default_posture(actual);
+  }
+  const double limit = std::min(hapticcal::stable_gain_limit(actual, nominal, sc),
+                                hapticcal::stable_gain_limit(actual, calibrated, sc));
+  if (!(std::abs(sc.gain) < limit)) {
+    throw hapticcal::InputError(fmt::format(
+        "--gain {} is outside the stable range: |G| < {:.4f} for these models (1 / spectral radius "
+        "of the rendering map)",
+        sc.gain, limit));
+  }
+  const hapticcal::ForceRun before = hapticcal::run_force(actual, nominal, sc);
+  const hapticcal::ForceRun after = hapticcal::run_force(actual, calibrated, sc);
+  const double reduction =
+      hapticcal::rms_improvement_pct(after.transverse_rms, before.transverse_rms);
+  std::string posture;
+  for (int i = 0; i < sc.posture.size(); ++i)
+    posture += fmt::format("{}{}", i ? "," : "", sc.posture[i]);
+  fmt::print(
+      "hapticcal force: virtual wall K = {} N/m moved {} mm along the handle's z in {} s, "
+      "held {} s, at {} Hz; gain G = {} (stable for |G| < {:.4f}); joint {} locked; posture q = "
+      "[{}] rad{}\n",
+      sc.stiffness, sc.travel * 1e3, sc.move_seconds, sc.hold_seconds, sc.rate_hz, sc.gain, limit,
+      sc.locked_joint + 1, posture,
+      o.posture.empty() && actual.dof() == 7
+          ? " (home with j6 = 0.3 rad: home is a wrist singularity of this model)"
+          : "");
+  fmt::print(
+      "  transverse force (|Fx, Fy|) RMS: nominal model {:.4f} N, calibrated model {:.4f} N, "
+      "reduction {:.1f} %\n",
+      before.transverse_rms, after.transverse_rms, reduction);
+  fmt::print("  at the end: Fz {:.4f} N desired, {:.4f} N nominal, {:.4f} N calibrated\n",
+             before.desired.back()[2], before.measured.back()[2], after.measured.back()[2]);
+  hapticcal::write_file_atomically(o.out + "/force_nominal.csv", force_csv(before));
+  hapticcal::write_file_atomically(o.out + "/force_calibrated.csv", force_csv(after));
+  nlohmann::ordered_json j;
+  j["format"] = "hapticcal-force/1";
+  j["actual"] = o.actual;
+  j["nominal"] = o.nominal;
+  j["calibrated"] = o.calibrated;
+  j["stiffness"] = sc.stiffness;
+  j["travel"] = sc.travel;
+  j["gain"] = sc.gain;
+  j["stable_gain_limit"] = limit;
+  j["sensor_noise"] = sc.sensor_noise;
+  j["seed"] = sc.seed;
+  j["posture"] = std::vector<double>(sc.posture.data(), sc.posture.data() + sc.posture.size());
+  j["transverse_rms_nominal"] = before.transverse_rms;
+  j["transverse_rms_calibrated"] = after.transverse_rms;
+  j["reduction_pct"] = reduction;
+  hapticcal::write_file_atomically(o.out + "/results.json", j.dump(2) + "\n");
+  fmt::print("wrote {0}/force_nominal.csv, {0}/force_calibrated.csv, {0}/results.json\n", o.out);
+  return 0;
 }
 
 }  // namespace
@@ -368,12 +449,28 @@ int main(int argc, char** argv) {
                        "Column names of a log without header, comma separated, _ skips one "
                        "(e.g. q1[deg],q2[deg],x,y,z,_)");
 
-  std::string actual, nominal, calibrated;
-  auto* force = app.add_subcommand("force", "Force-control study (virtual wall)");
-  force->add_option("--actual", actual, "Device file of the true device")->required();
-  force->add_option("--nominal", nominal, "Nominal device file")->required();
-  force->add_option("--calibrated", calibrated, "Calibrated device file")->required();
-  force->add_option("--out", out, "Output directory");
+  ForceOptions fo;
+  auto* force = app.add_subcommand("force", "Force-control study (virtual wall, paper Figs 11-12)");
+  force->add_option("--actual", fo.actual, "Device file of the true device")->required();
+  force->add_option("--nominal", fo.nominal, "Controller model before calibration")->required();
+  force
+      ->add_option("--calibrated", fo.calibrated,
+                   "Controller model after calibration (the actual file: the truth as the model)")
+      ->required();
+  force->add_option("--out", fo.out, "Output directory (default hapticcal-out/force)");
+  force->add_option("--gain", fo.scenario.gain, "Force-loop gain G (default 0.5)");
+  force->add_option("--noise", fo.scenario.sensor_noise, "Force sensor noise sd [N] (default 0)")
+      ->check(CLI::NonNegativeNumber);
+  force->add_option("--stiffness", fo.scenario.stiffness, "Wall stiffness [N/m] (default 100)")
+      ->check(CLI::PositiveNumber);
+  force->add_option("--travel", fo.scenario.travel,
+                    "Wall travel along the handle's z [m] (default 0.02)");
+  force->add_option("--seconds", fo.scenario.move_seconds, "Time the wall takes (default 2 s)")
+      ->check(CLI::NonNegativeNumber);
+  force->add_option("--posture", fo.posture,
+                    "Readings q of the fixed handle, comma separated (default: home, j6 = 0.3 rad "
+                    "on a 7-joint device)");
+  force->add_option("--seed", fo.scenario.seed, "Seed of the sensor noise");
 
   try {
     app.parse(argc, argv);
@@ -387,7 +484,7 @@ int main(int argc, char** argv) {
     if (*evaluate) return run_evaluate(eval);
     if (*simulate) return run_simulate(sim);
     if (*calibrate) return run_calibrate(cal);
-    if (*force) return not_implemented("force", 5);
+    if (*force) return run_force_study(fo);
   } catch (const hapticcal::InputError& e) {
     fmt::print(stderr, "hapticcal: {}\n", e.what());
     return kExitBadInput;
