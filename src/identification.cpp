@@ -431,6 +431,13 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     fit.observability = {std::exp(log_sum / k) / std::sqrt(static_cast<double>(Js.rows())),
                          ss[k - 1] / ss[0], ss[k - 1], ss[k - 1] * ss[k - 1] / ss[0]};
   }
+  fit.correlation.resize(k, k);
+  for (int a = 0; a < k; ++a) {
+    fit.identified_names.push_back(name[identified[a]]);
+    for (int b = 0; b < k; ++b) {
+      fit.correlation(a, b) = covariance(a, b) / std::sqrt(covariance(a, a) * covariance(b, b));
+    }
+  }
   for (const ParameterInfo& pi : info) {
     ParameterEstimate e;
     e.name = pi.name;

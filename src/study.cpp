@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <atomic>
 #include <filesystem>
 #include <mutex>
@@ -363,6 +364,10 @@ StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
     m.mean = sum / values.size();
     m.rmse = std::sqrt(sq / values.size());
     m.mean_improvement_pct = ip / values.size();
+    std::vector<double> sorted = improvement_pct[name];
+    std::sort(sorted.begin(), sorted.end());
+    m.improvement_p05 = sorted[static_cast<size_t>(0.05 * (sorted.size() - 1))];
+    m.improvement_p95 = sorted[static_cast<size_t>(0.95 * (sorted.size() - 1))];
     double var = 0;
     for (double v : variance[name]) var += v;
     m.crlb_sd = variance[name].empty() ? 0 : std::sqrt(var / variance[name].size());
@@ -451,6 +456,8 @@ std::string study_json(const Scenario& sc, const StudyResult& r) {
                   {"rmse", m.rmse},
                   {"crlb_sd", m.crlb_sd},
                   {"efficiency", m.efficiency},
+                  {"improvement_p05", m.improvement_p05},
+                  {"improvement_p95", m.improvement_p95},
                   {"trials", m.trials}};
     }
     j["monte_carlo"] = mc;

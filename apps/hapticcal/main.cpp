@@ -16,6 +16,7 @@
 #include "hapticcal/evaluate.hpp"
 #include "hapticcal/identification.hpp"
 #include "hapticcal/io.hpp"
+#include "hapticcal/report.hpp"
 #include "hapticcal/study.hpp"
 
 namespace {
@@ -100,6 +101,14 @@ std::vector<std::string> names(const std::string& list) {
   return list.empty() ? std::vector<std::string>{} : hapticcal::split_columns(list);
 }
 
+// Writes DIR/report.html with its figures and says what was written.
+void report(const hapticcal::Report& r, const std::string& dir) {
+  std::string note;
+  const int drawn = hapticcal::write_report(r, dir, note);
+  fmt::print("report: {}/report.html ({} figures, SVG and PNG in {}/figures)\n", dir, drawn, dir);
+  if (!note.empty()) fmt::print("note: {}\n", note);
+}
+
 // Values as the paper's Tables 2-5 print them: mm, mrad, deg.
 std::string kinematic_row(const hapticcal::ParameterEstimate& e) {
   const bool angle = e.unit == hapticcal::ParameterUnit::kAngle;
@@ -178,6 +187,7 @@ int run_calibrate(const CalibrateOptions& o) {
   hapticcal::save_device(result.calibrated, o.out + "/calibrated.yaml");
   hapticcal::write_file_atomically(
       o.out + "/results.json", hapticcal::calibration_json(result, model, o.model, o.log, options));
+  report(hapticcal::calibration_report(result, model, log), o.out);
   fmt::print("wrote {0}/calibrated.yaml and {0}/results.json (seed {1})\n", o.out, o.seed);
   return 0;
 }
@@ -293,6 +303,7 @@ int run_simulate(const SimulateOptions& o) {
   });
   print_study(sc, r);
   hapticcal::write_file_atomically(o.out + "/results.json", hapticcal::study_json(sc, r));
+  report(hapticcal::study_report(sc, r, o.out), o.out);
   fmt::print(
       "wrote {}/: results.json, nominal.yaml, actual.yaml, calibrated.yaml, "
       "identification.csv, validation.csv, trajectory.csv, fig7/8/10 series\n",
@@ -382,6 +393,7 @@ int run_force_study(ForceOptions o) {
   j["transverse_rms_calibrated"] = after.transverse_rms;
   j["reduction_pct"] = reduction;
   hapticcal::write_file_atomically(o.out + "/results.json", j.dump(2) + "\n");
+  report(hapticcal::force_report(before, after, reduction), o.out);
   fmt::print("wrote {0}/force_nominal.csv, {0}/force_calibrated.csv, {0}/results.json\n", o.out);
   return 0;
 }

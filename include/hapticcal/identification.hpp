@@ -58,6 +58,8 @@ struct KinematicFit {
   int rows = 0;
   std::vector<ParameterEstimate> parameters;  // every candidate, in slot order
   int identified = 0;
+  Eigen::MatrixXd correlation;  // of the identified parameters, in their order
+  std::vector<std::string> identified_names;
   double condition_number = 0;
   ObservabilityIndices observability;
   double length_scale = 1;  // m: angle columns are scaled by it

@@ -71,6 +71,7 @@ std::uint64_t trial_seed(std::uint64_t study_seed, int trial);
 struct MonteCarloStats {
   double assigned = 0, nominal = 0, mean = 0, mean_improvement_pct = 0, rmse = 0, crlb_sd = 0,
          efficiency = 0;
+  double improvement_p05 = 0, improvement_p95 = 0;  // 5th and 95th percentiles of I %
   int trials = 0;
 };
 
