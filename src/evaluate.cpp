@@ -17,15 +17,7 @@ ErrorStats stats(const Eigen::VectorXd& e) {
 }  // namespace
 
 Evaluation evaluate(const DeviceModel& model, const Log& log) {
-  if (log.dof() != model.dof()) {
-    throw InputError(log.origin, 0, "",
-                     fmt::format("the log has {} joint columns but the model '{}' has {} joints",
-                                 log.dof(), model.name, model.dof()));
-  }
-  if (!log.has_distance && !log.has_position) {
-    throw InputError(log.origin, 0, "",
-                     "nothing to compare: the log has neither a distance nor x, y, z columns");
-  }
+  check_log_fits(log, model);
   const PreparedModel prepared(model);
   Evaluation ev;
   ev.n = log.rows;

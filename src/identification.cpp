@@ -230,15 +230,7 @@ std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std
 
 CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options) {
-  if (log.dof() != nominal.dof()) {
-    throw InputError(log.origin, 0, "",
-                     fmt::format("the log has {} joint columns but the model '{}' has {} joints",
-                                 log.dof(), nominal.name, nominal.dof()));
-  }
-  if (!log.has_distance && !log.has_position) {
-    throw InputError(log.origin, 0, "",
-                     "nothing to calibrate on: the log has neither a distance nor x, y, z columns");
-  }
+  check_log_fits(log, nominal);
   if (options.samples < 0) throw InputError("--samples must not be negative");
   if (options.sigma && !(*options.sigma > 0 && std::isfinite(*options.sigma))) {
     throw InputError("--sigma must be a positive number of metres");

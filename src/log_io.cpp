@@ -276,6 +276,18 @@ Log parse_log(const std::string& text, const std::string& origin,
   return log;
 }
 
+void check_log_fits(const Log& log, const DeviceModel& model) {
+  if (log.dof() != model.dof()) {
+    throw InputError(log.origin, 0, "",
+                     fmt::format("the log has {} joint columns but the model '{}' has {} joints",
+                                 log.dof(), model.name, model.dof()));
+  }
+  if (!log.has_distance && !log.has_position) {
+    throw InputError(log.origin, 0, "",
+                     "no measurements: the log has neither a distance nor x, y, z columns");
+  }
+}
+
 std::string log_to_csv(const Log& log) {
   std::string out;
   std::vector<std::string> header;

@@ -23,8 +23,7 @@ struct Evaluation {
   Eigen::VectorXd position_error;      // per row, Euclidean norm
 };
 
-// Throws InputError if the log's joint count differs from the model's or the log
-// holds neither distances nor positions.
+// Throws InputError if the log does not fit the model (check_log_fits).
 Evaluation evaluate(const DeviceModel& model, const Log& log);
 
 // Paper eq. (9), signed: (RMS(e_nc) - RMS(e_c)) / RMS(e_nc) * 100. It equals the

@@ -43,6 +43,10 @@ struct Log {
 Log read_log(const std::string& path, const std::vector<std::string>& columns = {});
 Log parse_log(const std::string& csv_text, const std::string& origin,
               const std::vector<std::string>& columns = {});
+// Throws InputError unless the log's joint count is the model's and it holds
+// distances or positions to compare the model with.
+void check_log_fits(const Log& log, const DeviceModel& model);
+
 // CSV text that parse_log reads back to the same numbers (header row; SI units;
 // shortest round-trip number format).
 std::string log_to_csv(const Log& log);
