@@ -183,9 +183,8 @@ Report study_report(const Scenario& sc, const StudyResult& r, const std::string&
       rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
       t.trajectory_rms_kinematic * 1e3,
       rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before)));
-  // Tables 2 and 3 analogues.
+  // Tables 2 and 3 analogues (identified parameters; capstans in SI units).
   std::vector<std::vector<std::string>> t2, t3;
-  const Eigen::VectorXd truth = sc.actual.kinematic_parameters();
   auto paper = [](const std::string& name) {
     const auto p = paper_improvement_pct(name);
     return p ? fmt::format("{:.2f}", *p) : std::string("-");
@@ -196,22 +195,18 @@ Report study_report(const Scenario& sc, const StudyResult& r, const std::string&
     return fmt::format("{:.3f}",
                        efficiency ? it->second.efficiency : it->second.mean_improvement_pct);
   };
-  for (const TransmissionFit& f : t.full.transmissions) {
-    if (f.type != "capstan") continue;
-    const Eigen::VectorXd tv = sc.actual.links[f.joint].transmission.parameters();
-    for (int c = 0; c < 5; ++c) {
-      const double ip = (1 - std::abs(tv[c] - f.value[c]) / std::abs(tv[c] - f.nominal[c])) * 100;
-      t2.push_back({f.names[c], fmt::format("{:.6g}", tv[c]), fmt::format("{:.6g}", f.value[c]),
-                    fmt::format("{:.2f}", ip), paper(f.names[c]), mc(f.names[c], false),
-                    mc(f.names[c], true)});
+  for (const StudyRow& row : study_rows(sc, t.full)) {
+    if (!row.held.empty()) continue;
+    const std::string ip = fmt::format("{:.2f}", row.improvement_pct);
+    if (row.capstan) {
+      t2.push_back({row.name, fmt::format("{:.6g}", row.assigned),
+                    fmt::format("{:.6g}", row.identified), ip, paper(row.name), mc(row.name, false),
+                    mc(row.name, true)});
+    } else {
+      t3.push_back({row.name, f4((row.assigned - row.nominal) * 1e3),
+                    f4((row.identified - row.nominal) * 1e3), ip, paper(row.name),
+                    mc(row.name, false), mc(row.name, true)});
     }
-  }
-  for (const ParameterEstimate& e : t.full.kinematics.parameters) {
-    if (!e.identifiable) continue;
-    const double ip =
-        (1 - std::abs(truth[e.slot] - e.value) / std::abs(truth[e.slot] - e.nominal)) * 100;
-    t3.push_back({e.name, f4((truth[e.slot] - e.nominal) * 1e3), f4((e.value - e.nominal) * 1e3),
-                  fmt::format("{:.2f}", ip), paper(e.name), mc(e.name, false), mc(e.name, true)});
   }
   const std::vector<std::string> header = {"parameter", "assigned", "identified", "I %",
                                            "paper I %", "mean I %", "RMSE / CRLB"};

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <thread>
 
 #include "hapticcal/error.hpp"
@@ -94,30 +95,36 @@ std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
 
 double rotation_angle(const Eigen::Matrix3d& R) { return Eigen::AngleAxisd(R).angle(); }
 
-// Assigned (true) value, nominal value and identified value of every scored parameter.
-struct Scored {
-  double assigned, nominal, identified;
-};
-std::map<std::string, Scored> scored(const Scenario& sc, const CalibrationResult& full) {
-  std::map<std::string, Scored> out;
+}  // namespace
+
+double improvement_pct(double assigned, double nominal, double identified) {
+  return (1 - std::abs(assigned - identified) / std::abs(assigned - nominal)) * 100;
+}
+
+std::vector<StudyRow> study_rows(const Scenario& sc, const CalibrationResult& full) {
+  std::vector<StudyRow> rows;
+  for (const TransmissionFit& t : full.transmissions) {
+    const Transmission& truth = sc.actual.links[t.joint].transmission;
+    if (t.type != "capstan" || !std::holds_alternative<Capstan>(truth.model())) continue;
+    const Eigen::VectorXd tv = truth.parameters();
+    const double scale[] = {1, 1e3, 180 / std::numbers::pi, 1e3, 180 / std::numbers::pi};
+    const char* unit[] = {"", "mm", "deg", "mm", "deg"};
+    for (int c = 0; c < 5; ++c) {
+      rows.push_back({t.names[c], true, tv[c], t.nominal[c], t.value[c],
+                      improvement_pct(tv[c], t.nominal[c], t.value[c]), "", scale[c], unit[c]});
+    }
+  }
   const Eigen::VectorXd truth = sc.actual.kinematic_parameters();
   for (const ParameterEstimate& e : full.kinematics.parameters) {
-    if (e.identifiable) out[e.name] = {truth[e.slot], e.nominal, e.value};
+    const double assigned = truth[e.slot];
+    if (!e.identifiable && assigned == e.nominal) continue;
+    rows.push_back({e.name, false, assigned, e.nominal, e.value,
+                    e.identifiable ? improvement_pct(assigned, e.nominal, e.value) : 0.0,
+                    e.identifiable ? "" : e.reason, 1e3,
+                    e.unit == ParameterUnit::kAngle ? "mrad" : "mm"});
   }
-  for (const TransmissionFit& t : full.transmissions) {
-    const Transmission& tr = sc.actual.links[t.joint].transmission;
-    if (t.type != "capstan" || !std::holds_alternative<Capstan>(tr.model())) continue;
-    const Eigen::VectorXd tv = tr.parameters();
-    for (int c = 0; c < 5; ++c) out[t.names[c]] = {tv[c], t.nominal[c], t.value[c]};
-  }
-  return out;
+  return rows;
 }
-
-double improvement(const Scored& s) {
-  return (1 - std::abs(s.assigned - s.identified) / std::abs(s.assigned - s.nominal)) * 100;
-}
-
-}  // namespace
 
 Scenario default_scenario(const std::string& device_path) {
   Scenario sc;
@@ -249,15 +256,20 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
 
   // Fig. 8: validation poses against the truth.
   const PreparedModel truth(sc.actual), before(sc.nominal), after(t.full.calibrated);
+  std::vector<double> position_before, position_after, orientation_before, orientation_after;
   for (int r = 0; r < val.rows; ++r) {
     const Eigen::VectorXd q = readings(val, r);
     const Frame<double> Ta = truth.forward(q.data()), Tb = before.forward(q.data()),
                         Tc = after.forward(q.data());
-    t.position_before.push_back((Tb.p - Ta.p).norm());
-    t.position_after.push_back((Tc.p - Ta.p).norm());
-    t.orientation_before.push_back(rotation_angle(Ta.R.transpose() * Tb.R));
-    t.orientation_after.push_back(rotation_angle(Ta.R.transpose() * Tc.R));
+    position_before.push_back((Tb.p - Ta.p).norm());
+    position_after.push_back((Tc.p - Ta.p).norm());
+    orientation_before.push_back(rotation_angle(Ta.R.transpose() * Tb.R));
+    orientation_after.push_back(rotation_angle(Ta.R.transpose() * Tc.R));
   }
+  t.position_rms_before = rms(position_before);
+  t.position_rms_after = rms(position_after);
+  t.orientation_rms_before = rms(orientation_before);
+  t.orientation_rms_after = rms(orientation_after);
   t.distance_rms_before = distance_rms(sc.nominal, val);
   t.distance_rms_after = distance_rms(t.full.calibrated, val);
   t.crlb_variance = crlb(sc, ident, t.full);
@@ -284,9 +296,9 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
   }
   write_file_atomically(out + "/fig10_trajectory.csv", fig10);
   std::string fig8 = "pose,position_before,position_after,orientation_before,orientation_after\n";
-  for (size_t r = 0; r < t.position_before.size(); ++r) {
-    fig8 += fmt::format("{},{},{},{},{}\n", r + 1, t.position_before[r], t.position_after[r],
-                        t.orientation_before[r], t.orientation_after[r]);
+  for (size_t r = 0; r < position_before.size(); ++r) {
+    fig8 += fmt::format("{},{},{},{},{}\n", r + 1, position_before[r], position_after[r],
+                        orientation_before[r], orientation_after[r]);
   }
   write_file_atomically(out + "/fig8_validation.csv", fig8);
   // Fig. 7: joint 4's transmission error: measured (ext - q - c), identified, true.
@@ -340,14 +352,15 @@ StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
   result.threads = threads;
   // Statistics in trial order, so the thread count cannot change them.
   std::map<std::string, std::vector<double>> identified, improvement_pct, variance;
-  std::map<std::string, Scored> reference;
+  std::map<std::string, StudyRow> reference;
   for (const TrialResult& t : trials) {
-    for (const auto& [name, s] : scored(sc, t.full)) {
-      identified[name].push_back(s.identified);
-      improvement_pct[name].push_back(improvement(s));
-      reference[name] = s;
-      const auto v = t.crlb_variance.find(name);
-      if (v != t.crlb_variance.end()) variance[name].push_back(v->second);
+    for (const StudyRow& row : study_rows(sc, t.full)) {
+      if (!row.held.empty()) continue;
+      identified[row.name].push_back(row.identified);
+      improvement_pct[row.name].push_back(row.improvement_pct);
+      reference[row.name] = row;
+      const auto v = t.crlb_variance.find(row.name);
+      if (v != t.crlb_variance.end()) variance[row.name].push_back(v->second);
     }
   }
   for (const auto& [name, values] : identified) {
@@ -415,14 +428,18 @@ std::string study_json(const Scenario& sc, const StudyResult& r) {
                 {"motor_counts_per_rev", sc.noise.motor_counts_per_rev}};
   j["poses"] = {{"identification", sc.identification_poses}, {"validation", sc.validation_poses}};
   json params = json::object();
-  for (const auto& [name, s] : scored(sc, t.full)) {
+  std::map<std::string, StudyRow> by_name;  // results.json lists them alphabetically
+  for (const StudyRow& row : study_rows(sc, t.full)) {
+    if (row.held.empty()) by_name[row.name] = row;
+  }
+  for (const auto& [name, row] : by_name) {
     const auto paper = paper_improvement_pct(name);
     const auto mc = r.monte_carlo.find(name);
     params[name] = {
-        {"assigned", s.assigned},
-        {"nominal", s.nominal},
-        {"identified", s.identified},
-        {"improvement_pct", improvement(s)},
+        {"assigned", row.assigned},
+        {"nominal", row.nominal},
+        {"identified", row.identified},
+        {"improvement_pct", row.improvement_pct},
         {"paper_improvement_pct", paper ? json(*paper) : json(nullptr)},
         {"crlb_sd", mc != r.monte_carlo.end() ? json(mc->second.crlb_sd) : json(nullptr)}};
   }
@@ -431,11 +448,10 @@ std::string study_json(const Scenario& sc, const StudyResult& r) {
   for (const ParameterEstimate& e : t.full.kinematics.parameters) {
     if (!e.identifiable) j["held"][e.name] = e.reason;
   }
-  auto rms_of = [](const std::vector<double>& v) { return rms(v); };
-  j["validation"] = {{"position_rms_before", rms_of(t.position_before)},
-                     {"position_rms_after", rms_of(t.position_after)},
-                     {"orientation_rms_before", rms_of(t.orientation_before)},
-                     {"orientation_rms_after", rms_of(t.orientation_after)},
+  j["validation"] = {{"position_rms_before", t.position_rms_before},
+                     {"position_rms_after", t.position_rms_after},
+                     {"orientation_rms_before", t.orientation_rms_before},
+                     {"orientation_rms_after", t.orientation_rms_after},
                      {"distance_rms_before", t.distance_rms_before},
                      {"distance_rms_after", t.distance_rms_after}};
   j["trajectory"] = {

@@ -218,25 +218,21 @@ void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r)
     const auto p = hapticcal::paper_improvement_pct(name);
     return p ? fmt::format("{:7.2f}", *p) : std::string("      -");
   };
+  const std::vector<hapticcal::StudyRow> rows = hapticcal::study_rows(sc, t.full);
+  auto monte_carlo = [&](const hapticcal::StudyRow& row) {
+    if (!many) return std::string();
+    const auto& m = mc.at(row.name);
+    return fmt::format("  {:9.2f}  {:9.3f}", m.mean_improvement_pct, m.efficiency);
+  };
   fmt::print("Table 2 analogue: capstan drives (assigned = truth; I % by paper eq. 8)\n");
   fmt::print("  {:<16} {:>12} {:>12} {:>8} {:>8}{}\n", "parameter", "assigned", "identified", "I %",
              "paper", many ? "   mean I %   RMSE/CRLB" : "");
-  for (const hapticcal::TransmissionFit& f : t.full.transmissions) {
-    if (f.type != "capstan") continue;
-    const Eigen::VectorXd truth = sc.actual.links[f.joint].transmission.parameters();
-    const double scale[] = {1, 1e3, 180 / M_PI, 1e3, 180 / M_PI};
-    const char* unit[] = {"", " mm", " deg", " mm", " deg"};
-    for (int k = 0; k < 5; ++k) {
-      const double ip =
-          (1 - std::abs(truth[k] - f.value[k]) / std::abs(truth[k] - f.nominal[k])) * 100;
-      std::string extra;
-      if (many) {
-        const auto& m = mc.at(f.names[k]);
-        extra = fmt::format("  {:9.2f}  {:9.3f}", m.mean_improvement_pct, m.efficiency);
-      }
-      fmt::print("  {:<16} {:>12.6f} {:>12.6f} {:>8.2f} {}{}{}\n", f.names[k], truth[k] * scale[k],
-                 f.value[k] * scale[k], ip, paper(f.names[k]), extra, unit[k]);
-    }
+  for (const hapticcal::StudyRow& row : rows) {
+    if (!row.capstan) continue;
+    fmt::print("  {:<16} {:>12.6f} {:>12.6f} {:>8.2f} {}{}{}\n", row.name,
+               row.assigned * row.paper_scale, row.identified * row.paper_scale,
+               row.improvement_pct, paper(row.name), monte_carlo(row),
+               row.paper_unit.empty() ? "" : " " + row.paper_unit);
   }
   for (const hapticcal::TransmissionFit& f : t.full.transmissions) {
     if (f.type != "polynomial") continue;
@@ -247,34 +243,23 @@ void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r)
   fmt::print("Table 3 analogue: kinematic deviations (mm, mrad)\n");
   fmt::print("  {:<12} {:>10} {:>10} {:>8} {:>8}{}\n", "parameter", "assigned", "identified", "I %",
              "paper", many ? "   mean I %   RMSE/CRLB" : "");
-  for (const hapticcal::ParameterEstimate& e : t.full.kinematics.parameters) {
-    const double truth = sc.actual.kinematic_parameters()[e.slot];
-    if (!e.identifiable) {
-      if (truth != e.nominal) {
-        fmt::print("  {:<12} {:>10.3f} {:>10} {:>8} {:>8}   ({})\n", e.name,
-                   (truth - e.nominal) * 1e3, "-", "-", "-", e.reason);
-      }
+  for (const hapticcal::StudyRow& row : rows) {
+    if (row.capstan) continue;
+    const double assigned = (row.assigned - row.nominal) * row.paper_scale;
+    if (!row.held.empty()) {
+      fmt::print("  {:<12} {:>10.3f} {:>10} {:>8} {:>8}   ({})\n", row.name, assigned, "-", "-",
+                 "-", row.held);
       continue;
     }
-    const double ip = (1 - std::abs(truth - e.value) / std::abs(truth - e.nominal)) * 100;
-    std::string extra;
-    if (many) {
-      const auto& m = mc.at(e.name);
-      extra = fmt::format("  {:9.2f}  {:9.3f}", m.mean_improvement_pct, m.efficiency);
-    }
-    fmt::print("  {:<12} {:>10.3f} {:>10.3f} {:>8.2f} {}{}\n", e.name, (truth - e.nominal) * 1e3,
-               (e.value - e.nominal) * 1e3, ip, paper(e.name), extra);
+    fmt::print("  {:<12} {:>10.3f} {:>10.3f} {:>8.2f} {}{}\n", row.name, assigned,
+               (row.identified - row.nominal) * row.paper_scale, row.improvement_pct,
+               paper(row.name), monte_carlo(row));
   }
-  auto rms = [](const std::vector<double>& v) {
-    double s = 0;
-    for (double x : v) s += x * x;
-    return std::sqrt(s / v.size());
-  };
   fmt::print(
       "Validation ({} poses, Fig. 8): position RMS {:.4f} -> {:.4f} mm, orientation RMS "
       "{:.4f} -> {:.4f} mrad\n",
-      t.position_before.size(), rms(t.position_before) * 1e3, rms(t.position_after) * 1e3,
-      rms(t.orientation_before) * 1e3, rms(t.orientation_after) * 1e3);
+      sc.validation_poses, t.position_rms_before * 1e3, t.position_rms_after * 1e3,
+      t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
   fmt::print(
       "Trajectory ({:.0f} s at {:.0f} Hz, Fig. 10): distance RMS {:.4f} mm nominal, {:.4f} mm "
       "full ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %); paper: 96.6 % and 44.7 %\n",

@@ -47,8 +47,10 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
 struct TrialResult {
   std::uint64_t seed = 0;
   CalibrationResult full, kinematic_only;
-  // Validation poses (Fig. 8): errors of the nominal and calibrated models against the truth.
-  std::vector<double> position_before, position_after, orientation_before, orientation_after;
+  // Validation poses (Fig. 8): RMS errors of the nominal and calibrated models
+  // against the truth (per pose in fig8_validation.csv).
+  double position_rms_before = 0, position_rms_after = 0;
+  double orientation_rms_before = 0, orientation_rms_after = 0;
   double distance_rms_before = 0, distance_rms_after = 0;
   // Trajectory (Fig. 10): distance error RMS of the nominal, fully and kinematically calibrated
   // models.
@@ -61,6 +63,24 @@ struct TrialResult {
 // validation.csv, trajectory.csv), nominal.yaml, actual.yaml and calibrated.yaml
 // are written there and calibration reads the logs back from the files.
 TrialResult run_trial(const Scenario& scenario, std::uint64_t seed, const std::string& out);
+
+// Paper eq. (8): (1 - |assigned - identified| / |assigned - nominal|) * 100.
+double improvement_pct(double assigned, double nominal, double identified);
+
+// One row of a trial's Table 2 (capstan) or Table 3 (kinematic) analogue.
+struct StudyRow {
+  std::string name;
+  bool capstan = false;
+  double assigned = 0, nominal = 0, identified = 0, improvement_pct = 0;
+  std::string held;  // why a kinematic parameter whose truth deviates was not identified
+  // The paper's units: Table 2 prints Re, r in mm, beta in deg; Table 3 deviations in mm, mrad.
+  double paper_scale = 1;
+  std::string paper_unit;
+};
+
+// The rows in table order: every identified capstan parameter, then every
+// kinematic parameter that was identified or whose truth deviates from nominal.
+std::vector<StudyRow> study_rows(const Scenario& scenario, const CalibrationResult& full);
 
 // Seed of trial k of a study: a SplitMix64 step from the study seed, so that the
 // trials are the same whatever the number of threads.
