@@ -115,9 +115,6 @@ std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) 
     return {key + ".limits",
             fmt::format("lower {} must be below upper {}", link.lower, link.upper)};
   }
-  if (model.convention == Convention::kMdh && link.beta != 0) {
-    return {key + ".beta", "beta exists only in the standard DH convention"};
-  }
   const std::string why = link.transmission.check(link.lower, link.upper);
   if (!why.empty()) return {key + ".transmission", why};
   for (double v : link.transmission.parameters()) {
@@ -247,12 +244,7 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
     link.alpha = r.number(node, path, "alpha");
     link.d = r.number(node, path, "d");
     link.theta = r.number(node, path, "theta");
-    if (node["beta"]) {
-      if (model.convention == Convention::kMdh) {
-        r.fail(node["beta"], join(path, "beta"), "beta exists only in the standard DH convention");
-      }
-      link.beta = r.number(node["beta"], join(path, "beta"));
-    }
+    if (node["beta"]) link.beta = r.number(node["beta"], join(path, "beta"));
     const auto limits = r.numbers(r.require(node, path, "limits"), join(path, "limits"), 2);
     link.lower = limits[0];
     link.upper = limits[1];
@@ -321,7 +313,7 @@ std::string device_to_yaml(const DeviceModel& model) {
     out += fmt::format("  - name: {}\n", quoted(l.name));
     out += fmt::format("    a: {}\n    alpha: {}\n    d: {}\n    theta: {}\n", num(l.a),
                        num(l.alpha), num(l.d), num(l.theta));
-    if (model.convention == Convention::kDh) out += fmt::format("    beta: {}\n", num(l.beta));
+    out += fmt::format("    beta: {}\n", num(l.beta));
     out += fmt::format("    limits: [{}, {}]\n", num(l.lower), num(l.upper));
     if (!l.transmission.is_none()) {
       out += fmt::format("    transmission: {}\n", transmission_text(l.transmission));

@@ -191,6 +191,16 @@ std::vector<int> sample_rows(int rows, int samples, std::uint64_t seed) {
   return all;
 }
 
+std::optional<int> parallel_axis_partner(const DeviceModel& model, int link) {
+  // DH: A_i twists joint i's axis into joint i+1's; MDH: joint i-1's into joint i's.
+  const int partner = model.convention == Convention::kDh ? link + 1 : link - 1;
+  if (partner < 0 || partner >= model.dof()) return std::nullopt;
+  if (std::abs(std::sin(model.links[link].alpha)) > std::sin(kParallelAxesDeg * M_PI / 180)) {
+    return std::nullopt;
+  }
+  return partner;
+}
+
 std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std::string>& fix,
                                  const std::vector<std::string>& free) {
   const std::vector<ParameterInfo> info = model.parameter_info();
@@ -213,7 +223,10 @@ std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std
     if (fixed[slot]) return;
     const bool beta =
         slot >= kBaseSlots && slot < s.tool_slot() && (slot - kBaseSlots) % kLinkSlots == kLinkBeta;
-    if (beta && !freed[slot]) return;
+    if (beta && !freed[slot]) {
+      const int link = (slot - kBaseSlots) / kLinkSlots;
+      if (!parallel_axis_partner(model, link) && model.links[link].beta == 0) return;
+    }
     order.push_back(slot);
   };
   for (const ParameterInfo& p : info) {
@@ -455,7 +468,10 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     } else if (std::find(options.fix.begin(), options.fix.end(), pi.name) != options.fix.end()) {
       e.reason = "fixed by the user";
     } else {
-      e.reason = "not a candidate (a DH beta: free it by name)";
+      e.reason = fmt::format(
+          "not a candidate: no neighbouring joint axis within {} deg of parallel (free it by "
+          "name)",
+          kParallelAxesDeg);
     }
     fit.parameters.push_back(e);
   }

@@ -122,9 +122,15 @@ Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const
         ez = ez3;
       }
     } else {
-      const V3 ey1 = k.cos_alpha * ey + k.sin_alpha * ez,
-               ez1 = k.cos_alpha * ez - k.sin_alpha * ey;           // Rx
-      o = o + k.a * ex + k.d * ez1;                                 // Tx(a) Tz(d)
+      const V3 ey1 = k.cos_alpha * ey + k.sin_alpha * ez;  // Rx
+      V3 ez1 = k.cos_alpha * ez - k.sin_alpha * ey;
+      o = o + k.a * ex;    // Tx(a)
+      if (k.apply_beta) {  // Ry(beta)
+        const V3 ex1 = k.cos_beta * ex - k.sin_beta * ez1;
+        ez1 = k.sin_beta * ex + k.cos_beta * ez1;
+        ex = ex1;
+      }
+      o = o + k.d * ez1;                                            // Tz(d)
       const V3 ex2 = ct * ex + st * ey1, ey2 = ct * ey1 - st * ex;  // Rz(theta)
       ex = ex2;
       ey = ey2;

@@ -52,7 +52,7 @@ std::vector<ParameterInfo> DeviceModel::parameter_info() const {
     info.push_back({n + ".alpha", o + kLinkAlpha, U::kAngle});
     info.push_back({n + ".d", o + kLinkD, U::kLength});
     info.push_back({n + ".theta", o + kLinkTheta, U::kAngle});
-    if (convention == Convention::kDh) info.push_back({n + ".beta", o + kLinkBeta, U::kAngle});
+    info.push_back({n + ".beta", o + kLinkBeta, U::kAngle});
   }
   const char* tool_names[] = {"tool.x", "tool.y", "tool.z", "tool.roll", "tool.pitch", "tool.yaw"};
   for (int k = 0; k < 6; ++k) {

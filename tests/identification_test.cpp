@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -105,7 +106,13 @@ TEST(Identification, Meca500ValidationRmsAfterCalibration) {
     std::printf("%-32s validation RMS %.4f mm -> %.4f mm (%d parameters)\n", set, before * 1e3,
                 after * 1e3, r.kinematics.identified);
     EXPECT_GT(before, 0.7e-3) << set;
-    const double bound = std::string(set) == "norm_dist_data_0deg_80cube" ? 0.07e-3 : 0.06e-3;
+    // The one set over the 0.06 mm: see the README (residual floor).
+    const double bound = std::string(set) == "norm_dist_data_0deg_80cube" ? 0.067e-3 : 0.06e-3;
+    // Joints 2 and 3 are parallel: the Hayati beta of j3 is the 27th parameter,
+    // and j3.d duplicates j2.d (distances along parallel axes add).
+    EXPECT_EQ(r.kinematics.identified, 27) << set;
+    EXPECT_TRUE(find(r.kinematics, "j3.beta").identifiable) << set;
+    EXPECT_NE(find(r.kinematics, "j3.d").reason.find("dependent"), std::string::npos) << set;
     EXPECT_LT(after, bound) << set;
   }
 }
@@ -187,6 +194,68 @@ TEST(Identification, FixAndFreeChangeTheCandidates) {
   // Links come before the tool, the tool before the base.
   EXPECT_EQ(all.front(), s.link_slot(0) + kLinkA);
   EXPECT_LT(all.back(), kBaseSlots);
+}
+
+// Hayati's beta where a joint axis is parallel to its neighbour, from the
+// nominal geometry: MDH j3 (Meca500 joints 2 and 3), DH j2 (PHANToM joints 2
+// and 3), none on the paper's device, whose last link (alpha 0) has no next joint.
+TEST(Identification, HayatiBetaIsACandidateOnlyBetweenParallelAxes) {
+  auto partners = [](const DeviceModel& m) {
+    std::vector<std::pair<int, int>> out;
+    for (int i = 0; i < m.dof(); ++i) {
+      if (const auto p = parallel_axis_partner(m, i)) out.emplace_back(i, *p);
+    }
+    return out;
+  };
+  using Pairs = std::vector<std::pair<int, int>>;
+  EXPECT_EQ(partners(testing::meca500()), (Pairs{{2, 1}}));
+  EXPECT_EQ(partners(testing::builtin("phantom-premium-1.5")), (Pairs{{1, 2}}));
+  EXPECT_EQ(partners(testing::builtin("baser-7dof")), Pairs{});
+  // Within 5 degrees counts as parallel (a calibrated model as the nominal).
+  DeviceModel tilted = testing::meca500();
+  tilted.links[2].alpha = 0.08;
+  EXPECT_EQ(partners(tilted), (Pairs{{2, 1}}));
+  tilted.links[2].alpha = 0.1;
+  EXPECT_EQ(partners(tilted), Pairs{});
+
+  const DeviceModel meca = testing::meca500();
+  const ChainStructure s = meca.structure();
+  const std::vector<int> slots = candidate_slots(meca, {}, {});
+  for (int i = 0; i < meca.dof(); ++i) {
+    const bool candidate = std::find(slots.begin(), slots.end(), s.link_slot(i) + kLinkBeta) !=
+                           slots.end();
+    EXPECT_EQ(candidate, i == 2) << meca.links[i].name;
+  }
+}
+
+// A tilt of j3's axis in the plane of the parallel j2 and j3 axes, which the
+// four MDH parameters cannot express: with j3.beta as a candidate it is
+// recovered within 4 sd and the fit reaches the tracker noise; held at zero, the
+// other parameters cannot absorb it.
+TEST(Identification, MdhBetaBetweenParallelAxesIsRecovered) {
+  const DeviceModel nominal = testing::meca500();
+  std::mt19937_64 rng(11);
+  DeviceModel actual = testing::perturbed(nominal, rng, 1e-3);
+  for (int i = 0; i < actual.dof(); ++i) actual.links[i].beta = 0;
+  actual.links[2].beta = 2e-3;
+  SimulationNoise noise;
+  noise.sigma_position = 5e-6;
+  const Log log = simulate_log(actual, 100, noise, 5, false, true);
+  const CalibrationResult r = calibrate(nominal, log, {});
+  ASSERT_TRUE(r.kinematics.converged);
+  EXPECT_EQ(r.kinematics.identified, 27);
+  const ParameterEstimate& beta = find(r.kinematics, "j3.beta");
+  ASSERT_TRUE(beta.identifiable);
+  EXPECT_LT(std::abs(beta.value - 2e-3), 4 * beta.sd) << beta.value << " +- " << beta.sd;
+  EXPECT_LT(r.kinematics.rms_after, 1.5 * noise.sigma_position * std::sqrt(3.0));
+
+  CalibrationOptions without;
+  without.fix = {"j3.beta"};
+  const CalibrationResult held = calibrate(nominal, log, without);
+  std::printf("j3.beta %.4f +- %.4f mrad (truth 2); RMS %.4f mm, %.4f mm with j3.beta held\n",
+              beta.value * 1e3, beta.sd * 1e3, r.kinematics.rms_after * 1e3,
+              held.kinematics.rms_after * 1e3);
+  EXPECT_GT(held.kinematics.rms_after, 5 * r.kinematics.rms_after);
 }
 
 TEST(Identification, RowSampleIsReproducibleDistinctAndSorted) {

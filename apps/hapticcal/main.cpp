@@ -425,7 +425,7 @@ int main(int argc, char** argv) {
   calibrate->add_option("--fix", cal.fix, "Kinematic parameters held at nominal, e.g. j1.a,j2.d");
   calibrate->add_option(
       "--free", cal.free,
-      "Parameters added to the candidates, e.g. j2.beta (DH betas are not by default)");
+      "Parameters added to the candidates, e.g. j2.beta (a beta is one by default only where neighbouring joint axes are parallel)");
   calibrate->add_option("--columns", cal.columns, "Column names of a log without header");
   calibrate
       ->add_option("--dependency-tolerance", cal.tolerance,

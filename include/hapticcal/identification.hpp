@@ -105,9 +105,18 @@ Transmission fit_transmission(const DeviceModel& model, int joint, const Eigen::
                               const Eigen::VectorXd& ext, std::optional<int> order,
                               TransmissionFit& fit);
 
+// Hayati's beta is what a joint axis parallel to its neighbour needs (paper,
+// after eq. 3: "used for the sequential parallel joints"): there the four DH
+// parameters cannot express a small tilt. The neighbouring joint whose axis link
+// `link`'s beta tilts against, if the two are within kParallelAxesDeg of
+// parallel in the model; otherwise none.
+constexpr double kParallelAxesDeg = 5.0;
+std::optional<int> parallel_axis_partner(const DeviceModel& model, int link);
+
 // Candidate kinematic parameters in priority order (links, then tool, then
-// base; DH betas only when freed): a dependent parameter is held in favour of
-// those before it. Throws InputError for unknown names in fix / free.
+// base): a dependent parameter is held in favour of those before it. A beta is a
+// candidate where parallel_axis_partner finds a partner, where the model's beta
+// is not zero, or when freed. Throws InputError for unknown names in fix / free.
 std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std::string>& fix,
                                  const std::vector<std::string>& free);
 

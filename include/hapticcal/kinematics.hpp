@@ -30,7 +30,7 @@ using Jacobian6 = Eigen::Matrix<T, 6, Eigen::Dynamic>;
 
 // The parts of A_i that do not depend on the joint angle.
 //   DH:  A = Rz(theta) * T(a, 0, d) * Rx(alpha) * Ry(beta)
-//   MDH: A = Rx(alpha) * Tx(a) * Rz(theta) * Tz(d)
+//   MDH: A = Rx(alpha) * Tx(a) * Ry(beta) * Rz(theta) * Tz(d)
 // Each elementary rotation is applied to two columns only. apply_beta is false
 // only where beta is exactly zero in a prepared double model; the generic path
 // always applies Ry(beta) so that a Jet carries its derivative.
@@ -53,7 +53,8 @@ LinkConstants<T> link_constants(Convention convention, const T* slot) {
   k.sin_alpha = sin(slot[kLinkAlpha]);
   k.cos_beta = cos(slot[kLinkBeta]);
   k.sin_beta = sin(slot[kLinkBeta]);
-  k.apply_beta = convention == Convention::kDh;
+  (void)convention;  // both conventions have a beta
+  k.apply_beta = true;
   return k;
 }
 
@@ -96,7 +97,9 @@ HAPTICCAL_INLINE void compose_link(Convention convention, const Frame<T>& prev,
     if (k.apply_beta) turn_y(next.R, k.cos_beta, k.sin_beta);
   } else {
     turn_x(next.R, k.cos_alpha, k.sin_alpha);
-    next.p = prev.p + k.a * next.R.col(0) + k.d * next.R.col(2);
+    next.p = prev.p + k.a * next.R.col(0);
+    if (k.apply_beta) turn_y(next.R, k.cos_beta, k.sin_beta);
+    next.p += k.d * next.R.col(2);
     turn_z(next.R, c, s);
   }
 }
@@ -237,12 +240,17 @@ Vec3<T> position_parameter_jacobian(const ChainStructure& s, const ChainConstant
       const LinkConstants<T>& k = constants.links[i];
       dh_columns(prev, next, k.cos_beta, k.sin_beta, slot, true);
     } else {
+      // Ry(beta) turns about y of prev * Rx(alpha) through the foot of the new
+      // axis on the common normal, next.p - d z.
+      const LinkConstants<T>& k = constants.links[i];
       const Vec3<T> x = prev.R.col(0);
+      const Vec3<T> y = k.cos_alpha * prev.R.col(1) + k.sin_alpha * prev.R.col(2);
       const Vec3<T> z = next.R.col(2);
       J_p_params.col(slot + kLinkA) = x;
       J_p_params.col(slot + kLinkAlpha) = x.cross(p - prev.p);
       J_p_params.col(slot + kLinkD) = z;
       J_p_params.col(slot + kLinkTheta) = z.cross(p - next.p);
+      J_p_params.col(slot + kLinkBeta) = y.cross(p - next.p + k.d * z);
     }
   }
   const Frame<T>& flange = frames[s.dof];

@@ -13,8 +13,11 @@ namespace hapticcal {
 
 // Standard DH with the Hayati beta (paper eq. 3):
 //   A_i = Rz(theta_i) * T(a_i, 0, d_i) * Rx(alpha_i) * Ry(beta_i)
-// Modified DH (Craig 1989, eq. 3.6):
-//   A_i = Rx(alpha_i) * Tx(a_i) * Rz(theta_i) * Tz(d_i)
+// Modified DH (Craig 1989, eq. 3.6), with a Hayati beta about the y axis at the
+// foot of the new joint axis (zero: Craig's transform):
+//   A_i = Rx(alpha_i) * Tx(a_i) * Ry(beta_i) * Rz(theta_i) * Tz(d_i)
+// beta is what a small tilt of a joint axis parallel to its neighbour needs: the
+// four DH parameters cannot express it (Hayati 1983).
 enum class Convention { kDh, kMdh };
 // The base transform B: a DH link without joint (paper's frame "w") or a pose.
 enum class BaseKind { kDh, kPose };
@@ -23,7 +26,7 @@ struct Link {
   std::string name;
   double a = 0.0, alpha = 0.0, d = 0.0;
   double theta = 0.0;               // joint offset theta_offset_i [rad]
-  double beta = 0.0;                // Hayati parameter (standard DH only) [rad]
+  double beta = 0.0;                // Hayati parameter [rad]
   double lower = 0.0, upper = 0.0;  // joint limits on q [rad]
   Transmission transmission;
 };
@@ -32,8 +35,7 @@ struct Link {
 //   base: 6 slots  (DH: a, alpha, d, theta, -, -;  pose: x, y, z, roll, pitch, yaw)
 //   link: 5 slots each (a, alpha, d, theta, beta)
 //   tool: 6 slots  (x, y, z, roll, pitch, yaw)
-// Slots without meaning for the model's convention (base DH slots 4-5, beta in
-// modified DH) must stay zero.
+// Slots without meaning (base DH slots 4-5) must stay zero.
 constexpr int kBaseSlots = 6;
 constexpr int kLinkSlots = 5;
 constexpr int kToolSlots = 6;

@@ -30,9 +30,10 @@ inline KDL::Chain kdl_chain(const DeviceModel& m) {
           l.name, KDL::Joint(KDL::Joint::RotZ),
           KDL::Frame::DH(l.a, l.alpha, l.d, l.theta) * KDL::Frame(KDL::Rotation::RotY(l.beta))));
     } else {
-      // Rx(alpha) Tx(a), then Rz(q) * Rz(theta) Tz(d)
-      chain.addSegment(KDL::Segment(l.name + "_fixed", KDL::Joint(KDL::Joint::None),
-                                    KDL::Frame::DH_Craig1989(l.a, l.alpha, 0, 0)));
+      // Rx(alpha) Tx(a) Ry(beta), then Rz(q) * Rz(theta) Tz(d)
+      chain.addSegment(KDL::Segment(
+          l.name + "_fixed", KDL::Joint(KDL::Joint::None),
+          KDL::Frame::DH_Craig1989(l.a, l.alpha, 0, 0) * KDL::Frame(KDL::Rotation::RotY(l.beta))));
       chain.addSegment(KDL::Segment(l.name, KDL::Joint(KDL::Joint::RotZ),
                                     KDL::Frame::DH_Craig1989(0, 0, l.d, l.theta)));
     }
