@@ -23,13 +23,12 @@ inline std::string slurp(const std::string& path) {
   return s.str();
 }
 
-// args is appended to the binary path as is (the caller quotes).
-inline CliResult run_cli(const std::string& args) {
+// args is appended to the program's path as is (the caller quotes).
+inline CliResult run_program(const std::string& program, const std::string& args) {
   static int counter = 0;
   const std::string base = std::filesystem::temp_directory_path().string() + "/hapticcal_cli_" +
                            std::to_string(::getpid()) + "_" + std::to_string(counter++);
-  const std::string cmd =
-      std::string(HAPTICCAL_CLI) + " " + args + " >" + base + ".out 2>" + base + ".err";
+  const std::string cmd = program + " " + args + " >" + base + ".out 2>" + base + ".err";
   const int status = std::system(cmd.c_str());
   CliResult r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
@@ -39,5 +38,7 @@ inline CliResult run_cli(const std::string& args) {
   std::filesystem::remove(base + ".err");
   return r;
 }
+
+inline CliResult run_cli(const std::string& args) { return run_program(HAPTICCAL_CLI, args); }
 
 }  // namespace hapticcal::testing
