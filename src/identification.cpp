@@ -191,10 +191,37 @@ std::vector<int> sample_rows(int rows, int samples, std::uint64_t seed) {
   return all;
 }
 
-std::optional<int> parallel_axis_partner(const DeviceModel& model, int link) {
-  // DH: A_i twists joint i's axis into joint i+1's; MDH: joint i-1's into joint i's.
+namespace {
+
+// The other joint whose axis link `link`'s twist alpha turns into (or from):
+// DH: A_i twists joint i's axis into joint i+1's; MDH: joint i-1's into joint i's.
+// None for the last DH link and the first MDH link (the tool or base pose).
+std::optional<int> twist_partner(const DeviceModel& model, int link) {
   const int partner = model.convention == Convention::kDh ? link + 1 : link - 1;
   if (partner < 0 || partner >= model.dof()) return std::nullopt;
+  return partner;
+}
+
+// Why a beta is not a candidate.
+std::string beta_left_out_reason(const DeviceModel& model, int link) {
+  const std::string& name = model.links[link].name;
+  const auto partner = twist_partner(model, link);
+  if (!partner) {
+    return fmt::format("not a candidate: no joint {} {} (free it by name)",
+                       model.convention == Convention::kDh ? "after" : "before", name);
+  }
+  const auto [first, second] = std::minmax(link, *partner);
+  return fmt::format(
+      "not a candidate: the axes of {} and {} are not within {} deg of parallel (free it by "
+      "name)",
+      model.links[first].name, model.links[second].name, kParallelAxesDeg);
+}
+
+}  // namespace
+
+std::optional<int> parallel_axis_partner(const DeviceModel& model, int link) {
+  const auto partner = twist_partner(model, link);
+  if (!partner) return std::nullopt;
   if (std::abs(std::sin(model.links[link].alpha)) > std::sin(kParallelAxesDeg * M_PI / 180)) {
     return std::nullopt;
   }
@@ -467,11 +494,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       e.reason = reason[pi.slot];
     } else if (std::find(options.fix.begin(), options.fix.end(), pi.name) != options.fix.end()) {
       e.reason = "fixed by the user";
-    } else {
-      e.reason = fmt::format(
-          "not a candidate: no neighbouring joint axis within {} deg of parallel (free it by "
-          "name)",
-          kParallelAxesDeg);
+    } else {  // a beta that candidate_slots left out
+      e.reason = beta_left_out_reason(nominal, (pi.slot - kBaseSlots) / kLinkSlots);
     }
     fit.parameters.push_back(e);
   }

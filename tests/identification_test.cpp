@@ -114,6 +114,9 @@ TEST(Identification, Meca500ValidationRmsAfterCalibration) {
     EXPECT_EQ(r.kinematics.identified, 27) << set;
     EXPECT_TRUE(find(r.kinematics, "j3.beta").identifiable) << set;
     EXPECT_NE(find(r.kinematics, "j3.d").reason.find("dependent"), std::string::npos) << set;
+    EXPECT_NE(find(r.kinematics, "j2.beta").reason.find("axes of j1 and j2 are not"),
+              std::string::npos);
+    EXPECT_NE(find(r.kinematics, "j1.beta").reason.find("no joint before j1"), std::string::npos);
     EXPECT_LT(after, bound) << set;
   }
   // That set's validation poses are not what limits it: calibrated on the 160 mm
@@ -127,9 +130,9 @@ TEST(Identification, Meca500ValidationRmsAfterCalibration) {
   EXPECT_LT(across, 0.05e-3);
 }
 
-// examples/meca500/joint_error_models on the set over 0.06 mm: a refit with an
-// extra family of joint-angle errors never ends above the geometric fit on the
-// calibration data (it has more freedom), and none brings validation to 0.06 mm.
+// examples/meca500/joint_error_models on the set over 0.06 mm: no family of
+// joint-angle errors added to the 27 parameters brings validation to 0.06 mm,
+// and the residuals of successive poses are uncorrelated (no drift).
 TEST(Identification, Meca500JointErrorModelsDoNotExplainTheResidual) {
   const std::string dir = testing::source_path("examples/meca500/");
   const testing::CliResult r =
@@ -159,10 +162,7 @@ TEST(Identification, Meca500JointErrorModelsDoNotExplainTheResidual) {
     ASSERT_TRUE(lag1 >> rho);
     EXPECT_LT(std::abs(rho), 0.25);
   }
-  for (std::size_t k = 1; k < rms.size(); ++k) {
-    EXPECT_LE(rms[k].first, rms[0].first + 1e-4);
-    EXPECT_GT(rms[k].second, 0.06);
-  }
+  for (std::size_t k = 1; k < rms.size(); ++k) EXPECT_GT(rms[k].second, 0.06);
 }
 
 TEST(Identification, DegenerateInputGivesAClearErrorOrARankDeficientResult) {
