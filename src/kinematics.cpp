@@ -30,9 +30,8 @@ PreparedModel::PreparedModel(const DeviceModel& model) : structure_(model.struct
   base_ = base_frame(structure_, params.data());
   tool_ = tool_frame(structure_, params.data());
   for (int i = 0; i < structure_.dof; ++i) {
-    LinkConstants<double> k =
-        link_constants(structure_.convention, params.data() + structure_.link_slot(i));
-    k.apply_beta = k.apply_beta && model.links[i].beta != 0.0;
+    LinkConstants<double> k = link_constants(params.data() + structure_.link_slot(i));
+    k.apply_beta = model.links[i].beta != 0.0;
     links_.push_back(k);
     transmissions_.emplace_back(model.links[i].transmission);
     if (transmissions_.back().is_capstan()) capstan_joints_.push_back(i);

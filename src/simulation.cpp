@@ -18,14 +18,23 @@ double quantized_reading(double q, double ratio, double counts) {
 
 namespace {
 
-double drive_ratio(const Link& link) {
-  if (const auto* c = std::get_if<Capstan>(&link.transmission.model())) return c->ratio;
-  if (const auto* chain = std::get_if<Chain>(&link.transmission.model())) {
-    for (const Transmission& stage : chain->stages) {
-      if (const auto* c = std::get_if<Capstan>(&stage.model())) return c->ratio;
+// Each joint's motor-to-joint ratio: its capstan's, 1 without one.
+std::vector<double> drive_ratios(const DeviceModel& model) {
+  std::vector<double> ratios(model.dof(), 1.0);
+  for (int j = 0; j < model.dof(); ++j) {
+    const auto& m = model.links[j].transmission.model();
+    if (const auto* c = std::get_if<Capstan>(&m)) {
+      ratios[j] = c->ratio;
+    } else if (const auto* chain = std::get_if<Chain>(&m)) {
+      for (const Transmission& stage : chain->stages) {
+        if (const auto* c = std::get_if<Capstan>(&stage.model())) {
+          ratios[j] = c->ratio;
+          break;
+        }
+      }
     }
   }
-  return 1.0;
+  return ratios;
 }
 
 }  // namespace
@@ -76,6 +85,7 @@ Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& no
   std::normal_distribution<double> gauss(0.0, 1.0);
   const int n = actual.dof();
   const PreparedModel prepared(actual);
+  const std::vector<double> ratio = drive_ratios(actual);
   Log log;
   log.origin = "simulated";
   log.rows = poses;
@@ -102,8 +112,7 @@ Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& no
     const Eigen::VectorXd q = log.q.row(r).transpose();
     const Eigen::Vector3d p = prepared.forward(q.data()).p;
     for (int j = 0; j < n; ++j) {
-      log.q(r, j) =
-          quantized_reading(q[j], drive_ratio(actual.links[j]), noise.motor_counts_per_rev);
+      log.q(r, j) = quantized_reading(q[j], ratio[j], noise.motor_counts_per_rev);
     }
     if (distance) log.distance[r] = p.norm() + noise.sigma_distance * gauss(rng);
     if (position) {
@@ -143,6 +152,7 @@ Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_h
   log.distance.resize(rows);
   log.t.resize(rows);
   const PreparedModel prepared(actual);
+  const std::vector<double> ratio = drive_ratios(actual);
   Eigen::VectorXd q(n);
   for (int r = 0; r < rows; ++r) {
     const double t = r / rate_hz;
@@ -160,9 +170,8 @@ Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_h
     }
     log.t[r] = t;
     log.distance[r] = prepared.forward(q.data()).p.norm() + noise.sigma_distance * gauss(rng);
-    for (int j = 0; j < n; ++j) {
-      q[j] = quantized_reading(q[j], drive_ratio(actual.links[j]), noise.motor_counts_per_rev);
-    }
+    for (int j = 0; j < n; ++j)
+      q[j] = quantized_reading(q[j], ratio[j], noise.motor_counts_per_rev);
     log.q.row(r) = q.transpose();
     log.line.push_back(r + 2);
   }

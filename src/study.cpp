@@ -190,18 +190,15 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
         r.fail(noise, "noise.motor_counts_per_rev", "must not be negative");
     }
     if (noise["sigma_e"]) sc.noise.sigma_ext = r.number(noise["sigma_e"], "noise.sigma_e");
+    sc.noise.sigma_distance = paper_sigma_m(sc.noise.sigma_ext);  // "paper", the default
     if (const YAML::Node m = noise["sigma_m"]) {
-      if (m.IsScalar() && m.Scalar() == "paper") {
-        sc.noise.sigma_distance = 2 * std::numbers::pi * 0.015 * sc.noise.sigma_ext;
-      } else if (m.IsScalar() && m.Scalar() == "consistent") {
+      if (m.IsScalar() && m.Scalar() == "consistent") {
         sc.sigma_m_formula = "consistent";
-        sc.noise.sigma_distance = 0.015 * sc.noise.sigma_ext;
-      } else {
+        sc.noise.sigma_distance = consistent_sigma_m(sc.noise.sigma_ext);
+      } else if (!(m.IsScalar() && m.Scalar() == "paper")) {
         sc.sigma_m_formula = "given";
         sc.noise.sigma_distance = r.number(m, "noise.sigma_m");
       }
-    } else {
-      sc.noise.sigma_distance = 2 * std::numbers::pi * 0.015 * sc.noise.sigma_ext;
     }
     if (!(sc.noise.sigma_ext > 0 && sc.noise.sigma_distance > 0))
       r.fail(noise, "noise", "noise levels must be positive");

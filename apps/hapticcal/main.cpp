@@ -423,9 +423,9 @@ int main(int argc, char** argv) {
                    "Order of polynomial transmissions (default: the device file's, else 10)")
       ->check(CLI::Range(1, 30));
   calibrate->add_option("--fix", cal.fix, "Kinematic parameters held at nominal, e.g. j1.a,j2.d");
-  calibrate->add_option(
-      "--free", cal.free,
-      "Parameters added to the candidates, e.g. j2.beta (a beta is one by default only where neighbouring joint axes are parallel)");
+  calibrate->add_option("--free", cal.free,
+                        "Parameters added to the candidates, e.g. j2.beta (a beta is one by "
+                        "default only where neighbouring joint axes are parallel)");
   calibrate->add_option("--columns", cal.columns, "Column names of a log without header");
   calibrate
       ->add_option("--dependency-tolerance", cal.tolerance,

@@ -42,7 +42,7 @@ struct LinkConstants {
 };
 
 template <typename T>
-LinkConstants<T> link_constants(Convention convention, const T* slot) {
+LinkConstants<T> link_constants(const T* slot) {
   using std::cos;
   using std::sin;
   LinkConstants<T> k;
@@ -53,8 +53,6 @@ LinkConstants<T> link_constants(Convention convention, const T* slot) {
   k.sin_alpha = sin(slot[kLinkAlpha]);
   k.cos_beta = cos(slot[kLinkBeta]);
   k.sin_beta = sin(slot[kLinkBeta]);
-  (void)convention;  // both conventions have a beta
-  k.apply_beta = true;
   return k;
 }
 
@@ -113,7 +111,7 @@ Frame<T> base_frame(const ChainStructure& s, const T* params) {
   }
   // Paper's frame "w": a standard DH transform with its own (fixed) theta.
   const T slot[kLinkSlots] = {params[0], params[1], params[2], params[3], T(0)};
-  LinkConstants<T> k = link_constants(Convention::kDh, slot);
+  LinkConstants<T> k = link_constants(slot);
   k.apply_beta = false;
   Frame<T> B;
   compose_link(Convention::kDh, Frame<T>::Identity(), k, cos(k.theta_offset), sin(k.theta_offset),
@@ -141,8 +139,7 @@ ChainConstants<T> chain_constants(const ChainStructure& s, const T* params) {
   ChainConstants<T> c;
   c.base = base_frame(s, params);
   c.tool = tool_frame(s, params);
-  for (int i = 0; i < s.dof; ++i)
-    c.links[i] = link_constants(s.convention, params + s.link_slot(i));
+  for (int i = 0; i < s.dof; ++i) c.links[i] = link_constants(params + s.link_slot(i));
   return c;
 }
 
@@ -236,13 +233,12 @@ Vec3<T> position_parameter_jacobian(const ChainStructure& s, const ChainConstant
     const int slot = s.link_slot(i);
     const Frame<T>& prev = frames[i];
     const Frame<T>& next = frames[i + 1];
+    const LinkConstants<T>& k = constants.links[i];
     if (s.convention == Convention::kDh) {
-      const LinkConstants<T>& k = constants.links[i];
       dh_columns(prev, next, k.cos_beta, k.sin_beta, slot, true);
     } else {
       // Ry(beta) turns about y of prev * Rx(alpha) through the foot of the new
       // axis on the common normal, next.p - d z.
-      const LinkConstants<T>& k = constants.links[i];
       const Vec3<T> x = prev.R.col(0);
       const Vec3<T> y = k.cos_alpha * prev.R.col(1) + k.sin_alpha * prev.R.col(2);
       const Vec3<T> z = next.R.col(2);

@@ -12,8 +12,12 @@ namespace hapticcal {
 // sigma_e = 2 pi / 20000 / 3 rad; the cable encoder sigma_m = 2 pi 0.015 sigma_e
 // (the paper's formula) or 0.015 sigma_e (the dimensionally consistent one).
 constexpr double kPaperSigmaE = 2 * 3.14159265358979323846 / 20000 / 3;
-constexpr double kPaperSigmaMPaper = 2 * 3.14159265358979323846 * 0.015 * kPaperSigmaE;
-constexpr double kPaperSigmaMConsistent = 0.015 * kPaperSigmaE;
+constexpr double paper_sigma_m(double sigma_e) {
+  return 2 * 3.14159265358979323846 * 0.015 * sigma_e;
+}
+constexpr double consistent_sigma_m(double sigma_e) { return 0.015 * sigma_e; }
+constexpr double kPaperSigmaMPaper = paper_sigma_m(kPaperSigmaE);
+constexpr double kPaperSigmaMConsistent = consistent_sigma_m(kPaperSigmaE);
 
 // The "actual" device of the paper's study from the built-in nominal one: Table 3
 // deviations (mm, mrad), Table 2 capstans on joints 1-3 (radii read in mm), and
