@@ -7,11 +7,15 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
+#include <numeric>
 #include <random>
+#include <unordered_map>
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/kinematics.hpp"
+#include "measurement_cost.hpp"
 #include "solver_options.hpp"
 
 namespace hapticcal {
@@ -20,26 +24,10 @@ namespace {
 constexpr std::uint64_t kStructuralSeed = 20130601;  // synthetic poses of the structural analysis
 constexpr int kStructuralPoses = 400;
 
-// Measured values, one row per sample (1 distance or 3 coordinates), contiguous.
-using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-
-int residuals_per_row(MeasurementKind kind) { return kind == MeasurementKind::kPosition ? 3 : 1; }
-
-// Rows: predicted - measured; J: d residuals / d params (all slots).
-void measurement_rows(const ChainStructure& s, const ChainConstants<double>& constants,
-                      const double* params, const double* joint, MeasurementKind kind,
-                      const double* measured, double* residual, Eigen::Ref<Eigen::MatrixXd> J) {
-  Eigen::Matrix<double, 3, Eigen::Dynamic> J_p_params;
-  const Eigen::Vector3d p = position_parameter_jacobian(s, constants, params, joint, J_p_params);
-  if (kind == MeasurementKind::kPosition) {
-    for (int k = 0; k < 3; ++k) residual[k] = p[k] - measured[k];
-    J = J_p_params;
-  } else {
-    const double delta = p.norm();
-    residual[0] = delta - measured[0];
-    J = (p / delta).transpose() * J_p_params;
-  }
-}
+using detail::measurement_rows;
+using detail::MeasurementCost;
+using detail::residuals_per_row;
+using detail::RowMatrix;
 
 // The stacked residuals and identification Jacobian at `params`.
 struct Stack {
@@ -74,38 +62,6 @@ RowMatrix measured_values(const Log& log, const std::vector<int>& rows, Measurem
   }
   return out;
 }
-
-class MeasurementCost : public ceres::CostFunction {
- public:
-  MeasurementCost(ChainStructure s, std::vector<Eigen::VectorXd> joints, MeasurementKind kind,
-                  RowMatrix measured)
-      : s_(s), joints_(std::move(joints)), kind_(kind), measured_(std::move(measured)) {
-    set_num_residuals(static_cast<int>(joints_.size()) * residuals_per_row(kind));
-    mutable_parameter_block_sizes()->push_back(s.num_slots());
-  }
-
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override {
-    const int d = residuals_per_row(kind_);
-    const int n = s_.num_slots();
-    Eigen::MatrixXd J(d, n);
-    const ChainConstants<double> constants = chain_constants(s_, parameters[0]);
-    for (size_t i = 0; i < joints_.size(); ++i) {
-      measurement_rows(s_, constants, parameters[0], joints_[i].data(), kind_,
-                       measured_.row(i).data(), residuals + d * i, J);
-      if (jacobians && jacobians[0]) {
-        Eigen::Map<RowMatrix>(jacobians[0] + static_cast<size_t>(d) * i * n, d, n) = J;
-      }
-    }
-    return true;
-  }
-
- private:
-  ChainStructure s_;
-  std::vector<Eigen::VectorXd> joints_;
-  MeasurementKind kind_;
-  RowMatrix measured_;
-};
 
 // One candidate's fate in the greedy rank test.
 struct Verdict {
@@ -191,6 +147,66 @@ std::vector<int> sample_rows(int rows, int samples, std::uint64_t seed) {
   return all;
 }
 
+const char* to_string(CalibrationStatus status) {
+  switch (status) {
+    case CalibrationStatus::kConverged:
+      return "converged";
+    case CalibrationStatus::kNotConverged:
+      return "not converged";
+    case CalibrationStatus::kNumericalFailure:
+      return "numerical failure";
+    case CalibrationStatus::kRankDeficient:
+      return "rank-deficient";
+  }
+  return "unknown";
+}
+
+std::vector<std::vector<int>> repeated_poses(const Log& log) {
+  std::vector<std::vector<int>> groups;
+  std::unordered_map<std::string, int> index;
+  index.reserve(static_cast<size_t>(log.rows));
+  std::string key(sizeof(double) * static_cast<size_t>(log.dof()), '\0');
+  for (int r = 0; r < log.rows; ++r) {
+    for (int j = 0; j < log.dof(); ++j) {
+      const double v = log.q(r, j);
+      std::memcpy(key.data() + sizeof(double) * j, &v, sizeof(double));
+    }
+    const auto [it, added] = index.try_emplace(key, static_cast<int>(groups.size()));
+    if (added) groups.emplace_back();
+    groups[it->second].push_back(r);
+  }
+  return groups;
+}
+
+Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups) {
+  Log out;
+  out.origin = log.origin;
+  out.rows = static_cast<int>(groups.size());
+  out.has_ext = log.has_ext;
+  out.has_distance = log.has_distance;
+  out.has_position = log.has_position;
+  out.has_time = log.has_time;
+  out.q.resize(out.rows, log.dof());
+  out.ext = Eigen::MatrixXd::Zero(out.rows, log.ext.cols());
+  if (log.has_distance) out.distance = Eigen::VectorXd::Zero(out.rows);
+  if (log.has_position) out.position = Eigen::MatrixXd::Zero(out.rows, 3);
+  if (log.has_time) out.t.resize(out.rows);
+  for (int g = 0; g < out.rows; ++g) {
+    const std::vector<int>& rows = groups[g];
+    const int first = rows.front();
+    out.q.row(g) = log.q.row(first);
+    out.line.push_back(first < static_cast<int>(log.line.size()) ? log.line[first] : 0);
+    if (log.has_time) out.t[g] = log.t[first];
+    const double w = 1.0 / static_cast<double>(rows.size());
+    for (int r : rows) {
+      if (log.ext.cols() > 0) out.ext.row(g) += w * log.ext.row(r);
+      if (log.has_distance) out.distance[g] += w * log.distance[r];
+      if (log.has_position) out.position.row(g) += w * log.position.row(r);
+    }
+  }
+  return out;
+}
+
 namespace {
 
 // The other joint whose axis link `link`'s twist alpha turns into (or from):
@@ -268,6 +284,122 @@ std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std
   return order;
 }
 
+namespace {
+
+// Readings outside the model's joint limits: an InputError when most of a
+// joint's readings are out (a unit missing from the header, or another
+// device), unless forced; a warning otherwise.
+void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
+                        std::vector<std::string>& notes) {
+  constexpr double kSlack = 1e-9;  // rad or m: rounding in the log
+  for (int j = 0; j < model.dof(); ++j) {
+    const Link& link = model.links[j];
+    int out = 0;
+    double largest = 0;
+    for (int r = 0; r < log.rows; ++r) {
+      const double q = log.q(r, j);
+      if (q < link.lower - kSlack || q > link.upper + kSlack) ++out;
+      largest = std::max(largest, std::abs(q));
+    }
+    if (out == 0) continue;
+    const double bound = std::max(std::abs(link.lower), std::abs(link.upper));
+    const std::string hint =
+        largest * M_PI / 180 <= bound + kSlack
+            ? fmt::format("; in degrees they would fit: name the column q{}[deg]", j + 1)
+            : "";
+    const std::string message = fmt::format(
+        "{} of {} readings are outside {}'s limits [{:.4g}, {:.4g}] rad (largest |q| {:.4g}){}", out,
+        log.rows, link.name, link.lower, link.upper, largest, hint);
+    if (2 * out > log.rows && !force) {
+      throw InputError(log.origin, 0, fmt::format("q{}", j + 1),
+                       message + " (--force calibrates anyway)");
+    }
+    notes.push_back(fmt::format("warning: q{}: {}", j + 1, message));
+  }
+}
+
+// A nominal error beyond kImplausibleReachFraction of the reach says the log is
+// not from this device (or not in its frame): an InputError unless forced.
+void check_reach(const ChainStructure& s, const DeviceModel& nominal,
+                 const std::vector<Eigen::VectorXd>& joints, double rms_before, bool force,
+                 std::vector<std::string>& notes) {
+  const Eigen::VectorXd p = nominal.kinematic_parameters();
+  const ChainConstants<double> constants = chain_constants(s, p.data());
+  double reach = 0;
+  for (const Eigen::VectorXd& q : joints) {
+    reach = std::max(reach, (forward_kinematics(s, constants, q.data()).p - constants.base.p).norm());
+  }
+  if (!(rms_before > kImplausibleReachFraction * reach)) return;
+  const std::string message = fmt::format(
+      "the nominal model's RMS error, {:.1f} mm, is more than {:.0f} % of the device's reach "
+      "({:.1f} mm): is this log from this device ({})?",
+      rms_before * 1e3, kImplausibleReachFraction * 100, reach * 1e3, nominal.name);
+  if (!force) throw InputError(message + " (--force calibrates anyway)");
+  notes.push_back("warning: " + message);
+}
+
+// RMS scatter of repeated measurements about their pose's mean (Euclidean for
+// positions), with rows - poses degrees of freedom; NaN without repeats.
+double repeatability(const Log& log, const std::vector<std::vector<int>>& poses,
+                     MeasurementKind kind) {
+  double sum = 0;
+  int dof = 0;
+  for (const std::vector<int>& rows : poses) {
+    if (rows.size() < 2) continue;
+    dof += static_cast<int>(rows.size()) - 1;
+    if (kind == MeasurementKind::kPosition) {
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (int r : rows) mean += log.position.row(r).transpose();
+      mean /= static_cast<double>(rows.size());
+      for (int r : rows) sum += (log.position.row(r).transpose() - mean).squaredNorm();
+    } else {
+      double mean = 0;
+      for (int r : rows) mean += log.distance[r];
+      mean /= static_cast<double>(rows.size());
+      for (int r : rows) sum += (log.distance[r] - mean) * (log.distance[r] - mean);
+    }
+  }
+  return dof > 0 ? std::sqrt(sum / dof) : std::numeric_limits<double>::quiet_NaN();
+}
+
+// The outcome: a numerical failure, then no convergence, then parameters the
+// data do not excite; else converged.
+void set_status(CalibrationResult& result, const std::vector<int>& identified) {
+  const KinematicFit& fit = result.kinematics;
+  bool finite = std::isfinite(fit.rms_after) && std::isfinite(fit.rms_before) &&
+                result.calibrated.kinematic_parameters().allFinite();
+  for (const ParameterEstimate& e : fit.parameters) {
+    finite = finite && (!e.identifiable || std::isfinite(e.sd));
+  }
+  std::string unexcited;
+  for (const ParameterEstimate& e : fit.parameters) {
+    if (e.reason.rfind("not excited", 0) == 0) unexcited += (unexcited.empty() ? "" : ", ") + e.name;
+  }
+  if (!finite || fit.numerical_failure) {
+    result.status = CalibrationStatus::kNumericalFailure;
+    result.status_reason = fit.numerical_failure
+                               ? "the solver failed: " + fit.termination
+                               : "the fit produced non-finite values (a measurement too large "
+                                 "for the model, or a degenerate model)";
+  } else if (!identified.empty() && !fit.converged) {
+    result.status = CalibrationStatus::kNotConverged;
+    result.status_reason =
+        fmt::format("Levenberg-Marquardt did not converge in {} iterations ({})", fit.iterations,
+                    fit.termination);
+  } else if (identified.empty()) {
+    result.status = CalibrationStatus::kRankDeficient;
+    result.status_reason = "no parameter is identifiable from these measurements";
+  } else if (fit.rank_deficient) {
+    result.status = CalibrationStatus::kRankDeficient;
+    result.status_reason = "these measurements do not excite " + unexcited;
+  } else {
+    result.status = CalibrationStatus::kConverged;
+    result.status_reason = fmt::format("converged in {} iterations", fit.iterations);
+  }
+}
+
+}  // namespace
+
 CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options) {
   check_log_fits(log, nominal);
@@ -276,26 +408,38 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     throw InputError("--sigma must be a positive number of metres");
   }
   CalibrationResult result;
-  result.rows = sample_rows(log.rows, options.samples, options.seed);
-  const int m = static_cast<int>(result.rows.size());
+  check_joint_limits(log, nominal, options.force, result.notes);
+  // Repeats of a pose are averaged: one pose, one row of the fit.
+  const std::vector<std::vector<int>> all_poses = repeated_poses(log);
+  for (int g : sample_rows(static_cast<int>(all_poses.size()), options.samples, options.seed)) {
+    result.poses.push_back(all_poses[g]);
+    result.rows.push_back(all_poses[g].front());
+  }
+  const Log poses = average_repeats(log, result.poses);
+  const int m = poses.rows;
+  std::vector<int> pose_index(m);
+  std::iota(pose_index.begin(), pose_index.end(), 0);
   DeviceModel model = nominal;
   KinematicFit& fit = result.kinematics;
   fit.kind = log.has_position ? MeasurementKind::kPosition : MeasurementKind::kDistance;
+  fit.poses = m;
+  fit.rows = 0;
+  for (const std::vector<int>& rows : result.poses) fit.rows += static_cast<int>(rows.size());
+  fit.repeatability = repeatability(log, result.poses, fit.kind);
   if (log.has_position && log.has_distance) {
     result.notes.push_back("the log has positions and distances: positions are used");
   }
-  fit.rows = m;
 
   // Step 1: transmissions from the external encoders.
   Eigen::MatrixXd q(m, model.dof());
-  for (int i = 0; i < m; ++i) q.row(i) = log.q.row(result.rows[i]);
+  for (int i = 0; i < m; ++i) q.row(i) = poses.q.row(i);
   bool any_ext = false;
   for (int j = 0; j < model.dof(); ++j) any_ext = any_ext || log.has_ext[j];
   if (options.transmissions) {
     for (int j = 0; j < model.dof(); ++j) {
       if (!log.has_ext[j]) continue;
       Eigen::VectorXd ext(m);
-      for (int i = 0; i < m; ++i) ext[i] = log.ext(result.rows[i], j);
+      for (int i = 0; i < m; ++i) ext[i] = poses.ext(i, j);
       TransmissionFit tf;
       const bool declared = !model.links[j].transmission.is_none();
       Transmission fitted = fit_transmission(model, j, q.col(j), ext, options.polynomial_order, tf);
@@ -326,13 +470,13 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     const Eigen::VectorXd qi = q.row(i).transpose();
     prepared.compensate(qi.data(), joints[i].data());
   }
-  const RowMatrix measured = measured_values(log, result.rows, fit.kind);
+  const RowMatrix measured = measured_values(poses, pose_index, fit.kind);
   const std::vector<int> candidates = candidate_slots(model, options.fix, options.free);
   const int d = residuals_per_row(fit.kind);
   if (m * d <= static_cast<int>(candidates.size())) {
     throw InputError(log.origin, 0, "",
-                     fmt::format("too few measurements: {} rows give {} residuals for {} candidate "
-                                 "parameters",
+                     fmt::format("too few measurements: {} poses give {} residuals for {} "
+                                 "candidate parameters",
                                  m, m * d, candidates.size()));
   }
   const Eigen::VectorXd p0 = model.kinematic_parameters();
@@ -345,6 +489,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     }
     fit.rms_before = measurement_rms(
         stack(s, nominal.kinematic_parameters(), nominal_joints, fit.kind, measured).r, fit.kind);
+    check_reach(s, nominal, nominal_joints, fit.rms_before, options.force, result.notes);
   }
 
   // Identifiability: on synthetic poses over the joint limits (structural) and on the data.
@@ -420,7 +565,9 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     ceres::Solver::Summary summary;
     ceres::Solve(detail::levenberg_marquardt(100), &problem, &summary);
     fit.converged = summary.termination_type == ceres::CONVERGENCE;
-    fit.iterations = static_cast<int>(summary.iterations.size());
+    fit.numerical_failure = summary.termination_type == ceres::FAILURE;
+    // Ceres lists iteration 0 (the start) too.
+    fit.iterations = std::max(static_cast<int>(summary.iterations.size()) - 1, 0);
     fit.termination = summary.message;
     if (!fit.converged) {
       result.notes.push_back("step 2 did not converge: " + summary.message);
@@ -482,6 +629,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       const int c = static_cast<int>(it - identified.begin());
       e.identifiable = true;
       e.sd = std::sqrt(covariance(c, c));
+      e.large_change = std::abs(e.value - e.nominal) >
+                       (e.unit == ParameterUnit::kAngle ? kLargeChangeAngle : kLargeChangeLength);
       for (int o = 0; o < k; ++o) {
         if (o == c) continue;
         const double rho = covariance(c, o) / std::sqrt(covariance(c, c) * covariance(o, o));
@@ -505,6 +654,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
         "identify; see the parameters marked 'not excited'");
   }
   result.calibrated = model;
+  set_status(result, identified);
   return result;
 }
 
