@@ -10,7 +10,7 @@ DEB_PACKAGES := cmake g++ make pkg-config libeigen3-dev libceres-dev libyaml-cpp
 SANITIZE_TARGETS := hapticcal_cli convert_meca500 malformed_input_test device_io_test \
   log_io_test transmission_test
 
-.PHONY: all deps build run test bench clean
+.PHONY: all deps configure build run test bench clean
 
 all: build
 
@@ -26,12 +26,16 @@ deps:
 	  DEBIAN_FRONTEND=noninteractive $$sudo apt-get install -y --no-install-recommends $$missing; \
 	fi
 
-build: deps
+configure: deps
 	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release
+
+build: configure
 	cmake --build $(BUILD) -j$(JOBS)
 
 # The main job: the paper's simulation study on the built-in 7-DOF device.
-run: build
+# Builds only what it runs (the command line), not the tests and benchmarks.
+run: configure
+	cmake --build $(BUILD) -j$(JOBS) --target hapticcal_cli
 	./$(BUILD)/hapticcal simulate
 
 # Every test in Release, then the input-handling tests again under
