@@ -3,14 +3,18 @@
 # with CMake and build with -j$(JOBS).
 BUILD ?= build
 SANITIZE_BUILD ?= build-sanitize
+FUZZ_BUILD ?= build-fuzz
+FUZZ_SECONDS ?= 60
 JOBS ?= 2
 DEB_PACKAGES := cmake g++ make pkg-config libeigen3-dev libceres-dev libyaml-cpp-dev \
   nlohmann-json3-dev libcli11-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev \
   liborocos-kdl-dev gnuplot-nox
+# Debian's clang and its compiler-rt (libclang_rt.fuzzer, ASan, UBSan) for `make fuzz`.
+FUZZ_PACKAGES := clang libclang-rt-dev
 SANITIZE_TARGETS := hapticcal_cli convert_meca500 malformed_input_test device_io_test \
   log_io_test transmission_test
 
-.PHONY: all deps configure build run test bench clean
+.PHONY: all deps configure build run test bench fuzz clean
 
 all: build
 
@@ -51,5 +55,16 @@ bench: build
 	./$(BUILD)/bench/fk_jacobian_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
 	./$(BUILD)/bench/calibrate_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
 
+# libFuzzer targets of fuzz/ (clang; library under ASan and UBSan), each run
+# for FUZZ_SECONDS on a scratch copy of the seed corpus in $(FUZZ_BUILD)/corpus;
+# fails if any finds a crash. The flags keep assertions (no -DNDEBUG).
+fuzz: deps
+	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(FUZZ_PACKAGES)"
+	CC=clang CXX=clang++ cmake -S . -B $(FUZZ_BUILD) -DCMAKE_CXX_COMPILER=clang++ \
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g" \
+	  -DHAPTICCAL_FUZZ=ON -DHAPTICCAL_BUILD_TESTS=OFF -DHAPTICCAL_BUILD_BENCHMARKS=OFF
+	cmake --build $(FUZZ_BUILD) -j$(JOBS) --target fuzz_targets
+	fuzz/run.sh $(FUZZ_BUILD) $(FUZZ_SECONDS)
+
 clean:
-	rm -rf $(BUILD) $(SANITIZE_BUILD)
+	rm -rf $(BUILD) $(SANITIZE_BUILD) $(FUZZ_BUILD)

@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# Runs each libFuzzer target of fuzz/ for SECONDS seconds on a scratch corpus
+# (BUILD/corpus/TARGET, seeded from the repository's device files, logs,
+# malformed inputs and fuzz/seeds; the repository is not modified) and fails if
+# any of them finds a crash, a leak, a timeout or an out-of-memory input.
+# Usage: fuzz/run.sh BUILD_DIR SECONDS [TARGET...]   (make fuzz calls it)
+set -uo pipefail
+src="$(cd "$(dirname "$0")/.." && pwd)"
+build="$(cd "$1" && pwd)"
+seconds="$2"
+shift 2
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_device fuzz_log fuzz_log_columns fuzz_scenario)
+
+seeds() {
+  case "$1" in
+    fuzz_device)
+      ls "$src"/data/devices/*.yaml "$src"/tests/malformed/*.yaml
+      find "$src/examples" -name '*.yaml' ;;
+    fuzz_log)
+      ls "$src"/tests/malformed/*.csv
+      find "$src/examples" -name '*.csv' ;;
+    fuzz_log_columns)  # the first line is the --columns list: a CSV's header is one
+      ls "$src"/tests/malformed/*.csv "$src"/fuzz/seeds/log_columns/*
+      find "$src/examples" -name '*.csv' ;;
+    fuzz_scenario)
+      ls "$src"/fuzz/seeds/scenario/* ;;
+  esac
+}
+dict() {
+  case "$1" in
+    fuzz_device) echo device ;;
+    fuzz_log | fuzz_log_columns) echo log ;;
+    fuzz_scenario) echo scenario ;;
+  esac
+}
+
+failed=()
+for t in "${targets[@]}"; do
+  corpus="$build/corpus/$t"
+  artifacts="$build/artifacts/$t"
+  mkdir -p "$corpus" "$artifacts" "$build/tmp"
+  seeds "$t" | while read -r f; do cp "$f" "$corpus/seed-$(basename "$f")"; done
+  echo "== $t: ${seconds}s, corpus $(ls "$corpus" | wc -l) inputs"
+  # TMPDIR: fuzz_scenario's scratch directory stays in the build tree.
+  if TMPDIR="$build/tmp" "$build/fuzz/$t" "$corpus" -dict="$src/fuzz/$(dict "$t").dict" \
+      -max_len=65536 -rss_limit_mb=2048 -timeout=10 -max_total_time="$seconds" \
+      -print_final_stats=1 -artifact_prefix="$artifacts/" >"$build/$t.log" 2>&1; then
+    grep -E '^stat::number_of_executed_units|^Done' "$build/$t.log" || true
+    echo "== $t: no crash; corpus now $(ls "$corpus" | wc -l) inputs"
+  else
+    tail -n 60 "$build/$t.log"
+    echo "== $t: FAILED, input in $artifacts (log $build/$t.log)"
+    failed+=("$t")
+  fi
+done
+if [ ${#failed[@]} -gt 0 ]; then
+  echo "fuzz: findings in: ${failed[*]}"
+  exit 1
+fi
+echo "fuzz: ${#targets[@]} targets, ${seconds}s each, no findings"
