@@ -1,12 +1,13 @@
 #include "hapticcal/report.hpp"
 
 #include <fmt/format.h>
-#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
 
 #include "hapticcal/io.hpp"
+#include "process.hpp"
 
 namespace hapticcal {
 namespace {
@@ -35,11 +36,15 @@ std::string quote(const std::string& s) {
   return out + "\"";
 }
 
-// The data file and gnuplot commands of one figure for a terminal.
+// The gnuplot commands of one figure for a terminal. `data` names the data file
+// relative to the figures folder (gnuplot runs there). The output file is the
+// variable `output_var`, defaulting to `output`: write_report sets it to a
+// temporary name, a user running the script gets the final one.
 std::string script(const FigureSpec& f, const std::string& data, const std::string& terminal,
-                   const std::string& output) {
-  std::string s = fmt::format("set terminal {}\nset termoption noenhanced\nset output {}\n",
-                              terminal, quote(output));
+                   const std::string& output_var, const std::string& output) {
+  std::string s = fmt::format(
+      "set terminal {}\nset termoption noenhanced\nif (!exists(\"{}\")) {} = {}\nset output {}\n",
+      terminal, output_var, output_var, quote(output), output_var);
   s += fmt::format("set title {} noenhanced\nset xlabel {} noenhanced\nset ylabel {} noenhanced\n",
                    quote(f.title), quote(f.xlabel), quote(f.ylabel));
   s += "set grid\nset key outside right top noenhanced\nset datafile separator ','\n";
@@ -144,21 +149,45 @@ int write_report(const Report& report, const std::string& dir, std::string& note
     const fs::path fig_dir = fs::path(dir) / "figures";
     fs::create_directories(fig_dir);
     for (const FigureSpec& f : report.figures) {
-      const std::string data = (fig_dir / (f.name + ".csv")).string();
-      const std::string svg = (fig_dir / (f.name + ".svg")).string();
-      const std::string png = (fig_dir / (f.name + ".png")).string();
-      write_file_atomically(data, data_text(f));
-      const std::string gp = (fig_dir / (f.name + ".gp")).string();
-      write_file_atomically(gp, script(f, data, "svg size 900,480 dynamic font 'sans,11'", svg) +
-                                    script(f, data, "pngcairo size 1350,720 font 'sans,11'", png));
-      const std::string cmd = "gnuplot " + quote(gp) + " 2>" + quote(gp + ".log");
-      const int status = std::system(cmd.c_str());
-      if (status != 0 || !fs::exists(svg)) {
-        note = fmt::format("figure {} failed: see {}.log", f.name, gp);
+      const std::string data = f.name + ".csv", gp = f.name + ".gp";
+      const fs::path svg = fig_dir / (f.name + ".svg"), png = fig_dir / (f.name + ".png");
+      const fs::path log = fig_dir / (gp + ".log");
+      // gnuplot writes temporary files, renamed into place once it succeeded:
+      // a failure (a full disk) leaves no truncated figure behind.
+      const std::string suffix = fmt::format(".tmp-{}", ::getpid());
+      const fs::path svg_tmp = svg.string() + suffix, png_tmp = png.string() + suffix;
+      write_file_atomically((fig_dir / data).string(), data_text(f));
+      write_file_atomically((fig_dir / gp).string(),
+                            script(f, data, "svg size 900,480 dynamic font 'sans,11'", "svg_output",
+                                   svg.filename().string()) +
+                                script(f, data, "pngcairo size 1350,720 font 'sans,11'",
+                                       "png_output", png.filename().string()));
+      const detail::ProcessStatus run = detail::run_program(
+          {"gnuplot", "-e",
+           fmt::format("svg_output = {}; png_output = {}", quote(svg_tmp.filename().string()),
+                       quote(png_tmp.filename().string())),
+           gp},
+          log.string(), fig_dir.string());
+      std::error_code ec;
+      const bool drew = run.ok() && fs::exists(svg_tmp, ec) && fs::exists(png_tmp, ec);
+      if (drew) fs::rename(svg_tmp, svg, ec);
+      if (drew && !ec) fs::rename(png_tmp, png, ec);
+      fs::remove(svg_tmp, ec);
+      fs::remove(png_tmp, ec);
+      if (fs::exists(log, ec) && fs::file_size(log, ec) == 0) fs::remove(log, ec);
+      if (!drew || !fs::exists(svg, ec) || !fs::exists(png, ec)) {
+        if (!run.error.empty()) {
+          note = fmt::format("figure {} failed: {}", f.name, run.error);
+        } else if (fs::exists(log, ec)) {
+          note = fmt::format("figure {} failed: gnuplot exit status {}, see {}", f.name,
+                             run.exit_code, log.string());
+        } else {
+          note = fmt::format("figure {} failed: gnuplot exit status {}", f.name, run.exit_code);
+        }
         continue;
       }
       figures += fmt::format("<figure id=\"{}\">{}<figcaption>{}</figcaption></figure>\n", f.name,
-                             inline_svg(read_file(svg)), html_escape(f.title));
+                             inline_svg(read_file(svg.string())), html_escape(f.title));
       ++drawn;
     }
   }

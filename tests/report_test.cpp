@@ -4,7 +4,8 @@
 
 #include <cstdlib>
 #include <filesystem>
-#include <regex>
+#include <string>
+#include <vector>
 
 #include "run_cli.hpp"
 #include "test_models.hpp"
@@ -26,21 +27,27 @@ struct Page {
 Page open_page(const std::string& html, const std::string& screenshot) {
   const std::string base =
       ::testing::TempDir() + "/chromium_" + fs::path(screenshot).stem().string();
-  const std::string flags =
-      "--headless --no-sandbox --disable-gpu --disable-quic --no-first-run "
-      "--disable-background-networking --disable-component-update --disable-sync "
-      "--enable-logging=stderr --v=0 --user-data-dir=" +
-      base + "_profile";
+  const std::vector<std::string> flags = {"--headless",
+                                          "--no-sandbox",
+                                          "--disable-gpu",
+                                          "--disable-quic",
+                                          "--no-first-run",
+                                          "--disable-background-networking",
+                                          "--disable-component-update",
+                                          "--disable-sync",
+                                          "--enable-logging=stderr",
+                                          "--v=0",
+                                          "--user-data-dir=" + base + "_profile"};
   const std::string url = "file://" + fs::absolute(html).string();
+  std::vector<std::string> dump = flags, shoot = flags;
+  dump.insert(dump.end(), {"--dump-dom", url});
+  shoot.insert(shoot.end(), {"--window-size=1200,3000", "--screenshot=" + screenshot, url});
+  const testing::CliResult dumped = testing::run_program("/usr/bin/chromium", dump);
   Page page;
-  page.exit_code = std::system(("/usr/bin/chromium " + flags + " --dump-dom " + url + " >" + base +
-                                ".dom 2>" + base + ".log")
-                                   .c_str());
-  page.dom = testing::slurp(base + ".dom");
-  page.log = testing::slurp(base + ".log");
-  std::system(("/usr/bin/chromium " + flags + " --window-size=1200,3000 --screenshot=" +
-               screenshot + " " + url + " >/dev/null 2>&1")
-                  .c_str());
+  page.exit_code = dumped.exit_code;
+  page.dom = dumped.out;
+  page.log = dumped.err;
+  testing::run_program("/usr/bin/chromium", shoot);
   fs::remove_all(base + "_profile");
   return page;
 }
@@ -102,23 +109,19 @@ TEST(Report, WithoutGnuplotTheCommandsSucceedAndSaySo) {
   const std::string dir = ::testing::TempDir() + "/reports_no_gnuplot";
   fs::remove_all(dir);
   // The command run with a PATH where no gnuplot can be found.
-  const std::string env = "env PATH=/nonexistent ";
-  const std::string cli = std::string(HAPTICCAL_CLI);
-  const int status = std::system(
-      (env + cli + " force --actual " + testing::source_path("data/devices/baser-7dof.yaml") +
-       " --nominal " + testing::source_path("data/devices/baser-7dof.yaml") + " --calibrated " +
-       testing::source_path("data/devices/baser-7dof.yaml") + " --out " + dir + " >" + dir +
-       ".out 2>&1")
-          .c_str());
-  EXPECT_EQ(status, 0);
-  const std::string out = testing::slurp(dir + ".out");
+  const std::string device = testing::source_path("data/devices/baser-7dof.yaml");
+  const testing::CliResult r = testing::run_program(
+      "/usr/bin/env",
+      std::vector<std::string>{"PATH=/nonexistent", HAPTICCAL_CLI, "force", "--actual", device,
+                               "--nominal", device, "--calibrated", device, "--out", dir});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  const std::string out = r.out + r.err;
   EXPECT_NE(out.find("figures skipped: gnuplot not found"), std::string::npos) << out;
   const std::string html = testing::slurp(dir + "/report.html");
   EXPECT_NE(html.find("figures skipped"), std::string::npos);
   EXPECT_EQ(count(html, "<figure"), 0);
   EXPECT_TRUE(fs::exists(dir + "/results.json"));
   fs::remove_all(dir);
-  fs::remove(dir + ".out");
 }
 
 }  // namespace

@@ -1,13 +1,22 @@
-// Runs the hapticcal command line and captures its exit code and output.
+// Runs the hapticcal command line (or another program) and captures its exit
+// code and output. No shell is involved: arguments are passed as a vector.
 #pragma once
 
+#include <fcntl.h>
+#include <spawn.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
+
+extern char** environ;
 
 namespace hapticcal::testing {
 
@@ -23,22 +32,84 @@ inline std::string slurp(const std::string& path) {
   return s.str();
 }
 
-// args is appended to the program's path as is (the caller quotes).
-inline CliResult run_program(const std::string& program, const std::string& args) {
+// Splits `args` at blanks (space, tab, newline). As a convenience a '...' or
+// "..." groups characters (blanks included) into one argument and is removed;
+// nothing else is special: no variables, globs, escapes or substitutions.
+inline std::vector<std::string> split_arguments(const std::string& args) {
+  std::vector<std::string> out;
+  std::string current;
+  bool in_word = false;
+  char quote = 0;
+  for (const char c : args) {
+    if (quote) {
+      if (c == quote) {
+        quote = 0;
+      } else {
+        current += c;
+      }
+    } else if (c == '\'' || c == '"') {
+      quote = c;
+      in_word = true;
+    } else if (c == ' ' || c == '\t' || c == '\n') {
+      if (in_word) out.push_back(current);
+      current.clear();
+      in_word = false;
+    } else {
+      current += c;
+      in_word = true;
+    }
+  }
+  if (in_word) out.push_back(current);
+  return out;
+}
+
+// Runs `program` with `args` (program's own name not included) and waits.
+inline CliResult run_program(const std::string& program, const std::vector<std::string>& args) {
   static int counter = 0;
   const std::string base = std::filesystem::temp_directory_path().string() + "/hapticcal_cli_" +
                            std::to_string(::getpid()) + "_" + std::to_string(counter++);
-  const std::string cmd = program + " " + args + " >" + base + ".out 2>" + base + ".err";
-  const int status = std::system(cmd.c_str());
+  const std::string out_path = base + ".out", err_path = base + ".err";
+  std::vector<std::string> argv{program};
+  argv.insert(argv.end(), args.begin(), args.end());
+  std::vector<char*> cargv;
+  for (std::string& a : argv) cargv.push_back(a.data());
+  cargv.push_back(nullptr);
+
   CliResult r;
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out_path.c_str(),
+                                   O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err_path.c_str(),
+                                   O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  pid_t pid = 0;
+  const int spawn_error =
+      posix_spawn(&pid, program.c_str(), &actions, nullptr, cargv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawn_error != 0) {
+    r.err = "cannot run " + program + ": " + std::strerror(spawn_error);
+    return r;
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  r.out = slurp(base + ".out");
-  r.err = slurp(base + ".err");
-  std::filesystem::remove(base + ".out");
-  std::filesystem::remove(base + ".err");
+  r.out = slurp(out_path);
+  r.err = slurp(err_path);
+  std::filesystem::remove(out_path);
+  std::filesystem::remove(err_path);
   return r;
 }
 
+// `args` is split by split_arguments (no shell).
+inline CliResult run_program(const std::string& program, const std::string& args) {
+  return run_program(program, split_arguments(args));
+}
+
+inline CliResult run_cli(const std::vector<std::string>& args) {
+  return run_program(HAPTICCAL_CLI, args);
+}
 inline CliResult run_cli(const std::string& args) { return run_program(HAPTICCAL_CLI, args); }
 
 }  // namespace hapticcal::testing
