@@ -4,7 +4,6 @@
 #include <charconv>
 #include <cmath>
 #include <numbers>
-#include <regex>
 #include <set>
 
 #include "hapticcal/error.hpp"
@@ -62,7 +61,7 @@ class Reader : public detail::YamlReader {
           poly.basis = PolynomialBasis::kMonomial;
         } else if (basis != "chebyshev") {
           fail(node["basis"], join(path, "basis"),
-               fmt::format("'{}' is not a basis (chebyshev or monomial)", basis));
+               fmt::format("'{}' is not a basis (chebyshev or monomial)", printable(basis)));
         }
       }
       if (node["domain"]) {
@@ -87,22 +86,42 @@ class Reader : public detail::YamlReader {
     }
     fail(node["type"], join(path, "type"),
          fmt::format("'{}' is not a transmission (capstan, parallelogram, polynomial, chain)",
-                     type));
+                     printable(type)));
   }
 
  private:
   std::string origin_;
 };
 
+constexpr size_t kMaxLinkName = 64;     // bytes
+constexpr size_t kMaxDeviceName = 200;  // bytes
+
+// An identifier [A-Za-z_][A-Za-z0-9_]* of at most kMaxLinkName characters.
+bool usable_link_name(const std::string& name) {
+  auto letter = [](char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || c == '_'; };
+  if (name.empty() || name.size() > kMaxLinkName || !letter(name[0])) return false;
+  for (const char c : name) {
+    if (!letter(c) && !(c >= '0' && c <= '9')) return false;
+  }
+  return name != "base" && name != "tool";
+}
+
+// Why the device name cannot be used (it reaches reports and saved files), or empty.
+std::string device_name_problem(const std::string& name) {
+  if (name.size() > kMaxDeviceName)
+    return fmt::format("longer than {} bytes ({})", kMaxDeviceName, name.size());
+  const std::string why = text_problem(name);
+  return why.empty() ? why : fmt::format("'{}': {}", printable(name), why);
+}
+
 // Semantic checks shared by the loader and check_device: (key, reason) or empty.
 std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) {
-  static const std::regex kName("[A-Za-z_][A-Za-z0-9_]*");
   const Link& link = model.links[i];
   const std::string key = fmt::format("links[{}]", i);
-  if (!std::regex_match(link.name, kName) || link.name == "base" || link.name == "tool") {
-    return {key + ".name", fmt::format("'{}' is not a usable link name (letters, digits, _; "
-                                       "not 'base' or 'tool')",
-                                       link.name)};
+  if (!usable_link_name(link.name)) {
+    return {key + ".name", fmt::format("'{}' is not a usable link name (letters, digits, _; at "
+                                       "most {} characters; not 'base' or 'tool')",
+                                       printable(link.name), kMaxLinkName)};
   }
   for (int j = 0; j < i; ++j) {
     if (model.links[j].name == link.name)
@@ -190,17 +209,20 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
   r.check_keys(root, "", {"format", "name", "convention", "base", "links", "tool"});
   const std::string format = r.string(r.require(root, "", "format"), "format");
   if (format != kFormat) {
-    r.fail(root["format"], "format", fmt::format("'{}' is not '{}'", format, kFormat));
+    r.fail(root["format"], "format", fmt::format("'{}' is not '{}'", printable(format), kFormat));
   }
   DeviceModel model;
   model.name = r.string(r.require(root, "", "name"), "name");
+  if (const std::string why = device_name_problem(model.name); !why.empty())
+    r.fail(root["name"], "name", why);
   const std::string convention = r.string(r.require(root, "", "convention"), "convention");
   if (convention == "dh") {
     model.convention = Convention::kDh;
   } else if (convention == "mdh") {
     model.convention = Convention::kMdh;
   } else {
-    r.fail(root["convention"], "convention", fmt::format("'{}' is not dh or mdh", convention));
+    r.fail(root["convention"], "convention",
+           fmt::format("'{}' is not dh or mdh", printable(convention)));
   }
 
   const YAML::Node base = r.require(root, "", "base");
@@ -277,6 +299,7 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
 DeviceModel load_device(const std::string& path) { return parse_device(read_file(path), path); }
 
 std::string check_device(const DeviceModel& model) {
+  if (const std::string why = device_name_problem(model.name); !why.empty()) return "name: " + why;
   if (model.links.empty()) return "links: no links";
   if (model.dof() > kMaxDof) return fmt::format("links: at most {} links are supported", kMaxDof);
   for (double v : model.base) {

@@ -3,7 +3,6 @@
 #include <charconv>
 #include <cmath>
 #include <numbers>
-#include <regex>
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/io.hpp"
@@ -39,25 +38,52 @@ std::vector<std::string> split(const std::string& line) {
   return fields;
 }
 
+bool ascii_letter(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
+bool ascii_digit(char c) { return c >= '0' && c <= '9'; }
+
+// A column name: BASE INDEX [UNIT], i.e. [A-Za-z_]+[0-9]*(\[[A-Za-z]+\])?.
+// Scanned by hand: std::regex recurses per character and overflows the stack
+// on a long field.
+bool split_spec(const std::string& spec, std::string& base, std::string& index, std::string& unit) {
+  size_t i = 0;
+  const size_t n = spec.size();
+  while (i < n && (ascii_letter(spec[i]) || spec[i] == '_')) ++i;
+  if (i == 0) return false;
+  const size_t index_begin = i;
+  while (i < n && ascii_digit(spec[i])) ++i;
+  base = spec.substr(0, index_begin);
+  index = spec.substr(index_begin, i - index_begin);
+  unit.clear();
+  if (i == n) return true;
+  if (spec[i] != '[' || spec[n - 1] != ']') return false;
+  const size_t unit_begin = i + 1, unit_end = n - 1;
+  if (unit_begin >= unit_end) return false;
+  for (size_t k = unit_begin; k < unit_end; ++k) {
+    if (!ascii_letter(spec[k])) return false;
+  }
+  unit = spec.substr(unit_begin, unit_end - unit_begin);
+  return true;
+}
+
 Column parse_column(const std::string& spec, const std::string& origin, int line) {
-  static const std::regex kSpec(R"(([A-Za-z_]+)([0-9]*)(\[([A-Za-z]+)\])?)");
-  std::smatch m;
-  if (!std::regex_match(spec, m, kSpec)) {
-    throw InputError(origin, line, spec.empty() ? "(empty)" : spec, "not a column name");
+  std::string base, index, unit;
+  if (!split_spec(spec, base, index, unit)) {
+    std::string why = "not a column name";
+    if (const std::string problem = text_problem(spec); !problem.empty()) why += ": " + problem;
+    throw InputError(origin, line, spec.empty() ? "(empty)" : printable(spec), why);
   }
   Column c;
-  c.name = spec;
-  const std::string base = m[1], index = m[2], unit = m[4];
+  c.name = printable(spec);  // messages quote it
   const bool indexed = base == "q" || base == "ext";
   if (base == "_" && index.empty() && unit.empty()) return c;
   if (indexed != !index.empty()) {
-    throw InputError(origin, line, spec,
+    throw InputError(origin, line, c.name,
                      "unknown column (expected q<i>, ext<i>, distance, x, y, z, t or _)");
   }
   if (indexed) {
-    if (index.size() > 3) throw InputError(origin, line, spec, "joint number too large");
+    if (index.size() > 3) throw InputError(origin, line, c.name, "joint number too large");
     const int i = std::stoi(index);
-    if (i < 1) throw InputError(origin, line, spec, "joint numbers start at 1");
+    if (i < 1) throw InputError(origin, line, c.name, "joint numbers start at 1");
     c.joint = i - 1;
     c.quantity = base == "q" ? Quantity::kJoint : Quantity::kExternal;
   } else if (base == "distance") {
@@ -71,7 +97,7 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
   } else if (base == "t") {
     c.quantity = Quantity::kTime;
   } else {
-    throw InputError(origin, line, spec,
+    throw InputError(origin, line, c.name,
                      "unknown column (expected q<i>, ext<i>, distance, x, y, z, t or _)");
   }
   const bool angle = c.quantity == Quantity::kJoint || c.quantity == Quantity::kExternal;
@@ -98,10 +124,10 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
       return c;
     }
   }
-  throw InputError(origin, line, spec,
+  throw InputError(origin, line, c.name,
                    fmt::format("unit '{}' does not fit (angles: rad, deg; lengths: m, mm, um; "
                                "time: s, ms)",
-                               unit));
+                               printable(unit)));
 }
 
 // Checks the set of columns as a whole; returns the number of joints.
@@ -194,10 +220,12 @@ Log parse_log(const std::string& text, const std::string& origin,
       double v = 0;
       const auto [ptr, ec] = std::from_chars(begin, end, v);
       if (ec != std::errc() || ptr != end || f.empty()) {
-        throw InputError(origin, line_no, columns[k].name, fmt::format("'{}' is not a number", f));
+        throw InputError(origin, line_no, columns[k].name,
+                         fmt::format("'{}' is not a number", printable(f)));
       }
       if (!std::isfinite(v)) {
-        throw InputError(origin, line_no, columns[k].name, fmt::format("'{}' is not finite", f));
+        throw InputError(origin, line_no, columns[k].name,
+                         fmt::format("'{}' is not finite", printable(f)));
       }
       row[k] = v * columns[k].scale;
     }

@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <filesystem>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -134,6 +135,23 @@ Scenario default_scenario(const std::string& device_path) {
   return sc;
 }
 
+namespace {
+
+// Bounds on the numbers of a scenario file: a typo must not ask for terabytes
+// of samples or a deviation that no device has.
+constexpr int kMaxTrials = 100000;
+constexpr int kMaxPoses = 1000000;
+constexpr double kMaxTrajectorySeconds = 1e5;
+constexpr double kMaxRateHz = 1e5;
+constexpr double kMaxTrajectorySamples = 1e7;  // seconds * rate_hz
+constexpr double kMaxCountsPerRev = 1e9;
+constexpr double kMaxSigmaAngle = 1;                     // rad
+constexpr double kMaxSigmaLength = 1;                    // m
+constexpr double kMaxLengthDeviation = 1;                // m
+constexpr double kMaxAngleDeviation = std::numbers::pi;  // rad
+
+}  // namespace
+
 Scenario load_scenario(const std::string& path, const std::string& default_device_path) {
   const std::string text = read_file(path);
   YAML::Node root;
@@ -148,7 +166,8 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
       {"format", "device", "seed", "trials", "poses", "trajectory", "noise", "deviations"});
   const std::string format = r.string(r.require(root, "", "format"), "format");
   if (format != "hapticcal-scenario/1") {
-    r.fail(root["format"], "format", fmt::format("'{}' is not 'hapticcal-scenario/1'", format));
+    r.fail(root["format"], "format",
+           fmt::format("'{}' is not 'hapticcal-scenario/1'", printable(format)));
   }
   std::string device = default_device_path;
   if (root["device"]) {
@@ -165,31 +184,50 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
   };
   if (root["seed"])
     sc.seed = static_cast<std::uint64_t>(positive_int(root["seed"], "seed", 0, 2000000000));
-  if (root["trials"]) sc.trials = positive_int(root["trials"], "trials", 1, 100000);
+  if (root["trials"]) sc.trials = positive_int(root["trials"], "trials", 1, kMaxTrials);
   if (const YAML::Node poses = root["poses"]) {
     r.check_keys(poses, "poses", {"identification", "validation"});
     if (poses["identification"])
       sc.identification_poses =
-          positive_int(poses["identification"], "poses.identification", 1, 10000000);
+          positive_int(poses["identification"], "poses.identification", 1, kMaxPoses);
     if (poses["validation"])
-      sc.validation_poses = positive_int(poses["validation"], "poses.validation", 1, 10000000);
+      sc.validation_poses = positive_int(poses["validation"], "poses.validation", 1, kMaxPoses);
   }
   if (const YAML::Node tr = root["trajectory"]) {
     r.check_keys(tr, "trajectory", {"seconds", "rate_hz"});
-    if (tr["seconds"]) sc.trajectory_seconds = r.number(tr["seconds"], "trajectory.seconds");
-    if (tr["rate_hz"]) sc.trajectory_rate_hz = r.number(tr["rate_hz"], "trajectory.rate_hz");
-    if (!(sc.trajectory_seconds > 0 && sc.trajectory_rate_hz > 0))
-      r.fail(tr, "trajectory", "seconds and rate_hz must be positive");
+    auto bounded = [&](const YAML::Node& node, const std::string& key, double hi,
+                       const char* unit) {
+      const double v = r.number(node, key);
+      if (!(v > 0 && v <= hi))
+        r.fail(node, key, fmt::format("{} is outside (0, {}] {}", v, hi, unit));
+      return v;
+    };
+    if (tr["seconds"])
+      sc.trajectory_seconds =
+          bounded(tr["seconds"], "trajectory.seconds", kMaxTrajectorySeconds, "s");
+    if (tr["rate_hz"])
+      sc.trajectory_rate_hz = bounded(tr["rate_hz"], "trajectory.rate_hz", kMaxRateHz, "Hz");
+    const double samples = sc.trajectory_seconds * sc.trajectory_rate_hz;
+    if (samples > kMaxTrajectorySamples)
+      r.fail(tr, "trajectory",
+             fmt::format("seconds * rate_hz = {} samples, more than the {} allowed", samples,
+                         kMaxTrajectorySamples));
   }
   if (const YAML::Node noise = root["noise"]) {
     r.check_keys(noise, "noise", {"sigma_e", "sigma_m", "motor_counts_per_rev"});
+    // Each noise value: finite (r.number), not negative and at most `hi`.
+    auto level = [&](const YAML::Node& node, const std::string& key, double hi, const char* unit) {
+      const double v = r.number(node, key);
+      if (!(v >= 0 && v <= hi))
+        r.fail(node, key, fmt::format("{} is outside [0, {}] {}", v, hi, unit));
+      return v;
+    };
     if (noise["motor_counts_per_rev"]) {
-      sc.noise.motor_counts_per_rev =
-          r.number(noise["motor_counts_per_rev"], "noise.motor_counts_per_rev");
-      if (!(sc.noise.motor_counts_per_rev >= 0))
-        r.fail(noise, "noise.motor_counts_per_rev", "must not be negative");
+      sc.noise.motor_counts_per_rev = level(
+          noise["motor_counts_per_rev"], "noise.motor_counts_per_rev", kMaxCountsPerRev, "counts");
     }
-    if (noise["sigma_e"]) sc.noise.sigma_ext = r.number(noise["sigma_e"], "noise.sigma_e");
+    if (noise["sigma_e"])
+      sc.noise.sigma_ext = level(noise["sigma_e"], "noise.sigma_e", kMaxSigmaAngle, "rad");
     sc.noise.sigma_distance = paper_sigma_m(sc.noise.sigma_ext);  // "paper", the default
     if (const YAML::Node m = noise["sigma_m"]) {
       if (m.IsScalar() && m.Scalar() == "consistent") {
@@ -197,7 +235,7 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
         sc.noise.sigma_distance = consistent_sigma_m(sc.noise.sigma_ext);
       } else if (!(m.IsScalar() && m.Scalar() == "paper")) {
         sc.sigma_m_formula = "given";
-        sc.noise.sigma_distance = r.number(m, "noise.sigma_m");
+        sc.noise.sigma_distance = level(m, "noise.sigma_m", kMaxSigmaLength, "m");
       }
     }
     if (!(sc.noise.sigma_ext > 0 && sc.noise.sigma_distance > 0))
@@ -209,12 +247,19 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
     const Eigen::VectorXd nominal = sc.nominal.kinematic_parameters();
     const std::vector<ParameterInfo> info = sc.nominal.parameter_info();
     for (const auto& kv : dev) {
-      const std::string name = kv.first.Scalar();
+      const std::string name = kv.first.IsScalar() ? kv.first.Scalar() : "?";
+      const std::string key = "deviations." + printable(name);
       const auto it = std::find_if(info.begin(), info.end(),
                                    [&](const ParameterInfo& p) { return p.name == name; });
-      if (it == info.end())
-        r.fail(kv.first, "deviations." + name, "not a kinematic parameter of the device");
-      truth[it->slot] = nominal[it->slot] + r.number(kv.second, "deviations." + name);
+      if (it == info.end()) r.fail(kv.first, key, "not a kinematic parameter of the device");
+      const double v = r.number(kv.second, key);
+      const bool angle = it->unit == ParameterUnit::kAngle;
+      const double hi = angle ? kMaxAngleDeviation : kMaxLengthDeviation;
+      if (!(std::abs(v) <= hi))
+        r.fail(kv.second, key,
+               fmt::format("|{}| is more than the {} {} a deviation may be", v, hi,
+                           angle ? "rad (pi)" : "m"));
+      truth[it->slot] = nominal[it->slot] + v;
     }
     sc.actual.set_kinematic_parameters(truth);
   }

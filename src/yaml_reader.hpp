@@ -7,9 +7,9 @@
 
 #include <charconv>
 #include <cmath>
-#include <regex>
 #include <set>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "hapticcal/error.hpp"
@@ -18,6 +18,16 @@ namespace hapticcal::detail {
 
 inline std::string join(const std::string& path, const std::string& key) {
   return path.empty() ? key : path + "." + key;
+}
+
+// YAML 1.2's non-finite numbers: [-+]?.(inf|Inf|INF|nan|NaN|NAN).
+inline bool yaml_non_finite(const std::string& text) {
+  std::string_view t = text;
+  if (!t.empty() && (t[0] == '-' || t[0] == '+')) t.remove_prefix(1);
+  for (const char* word : {".inf", ".Inf", ".INF", ".nan", ".NaN", ".NAN"}) {
+    if (t == word) return true;
+  }
+  return false;
 }
 
 // Reads YAML nodes strictly; every failure names the origin, line and key path.
@@ -47,7 +57,8 @@ class YamlReader {
       if (!ok) {
         std::string list;
         for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
-        fail(kv.first, join(path, key), fmt::format("unknown key (expected one of: {})", list));
+        fail(kv.first, join(path, printable(key)),
+             fmt::format("unknown key (expected one of: {})", list));
       }
       if (!seen.insert(key).second) fail(kv.first, join(path, key), "repeated key");
     }
@@ -62,18 +73,17 @@ class YamlReader {
   double number(const YAML::Node& node, const std::string& key) const {
     if (!node.IsScalar() || node.Tag() == "!") fail(node, key, "expected a number");
     const std::string& text = node.Scalar();
-    static const std::regex kYamlNonFinite(R"([-+]?\.(inf|Inf|INF|nan|NaN|NAN))");
-    if (std::regex_match(text, kYamlNonFinite))
-      fail(node, key, fmt::format("'{}' is not finite", text));
+    if (yaml_non_finite(text)) fail(node, key, fmt::format("'{}' is not finite", text));
     const char* begin = text.data();
     const char* end = text.data() + text.size();
     if (begin != end && *begin == '+') ++begin;
     double value = 0;
     const auto [ptr, ec] = std::from_chars(begin, end, value);
     if (ec == std::errc::result_out_of_range)
-      fail(node, key, fmt::format("'{}' is out of range", text));
-    if (ec != std::errc() || ptr != end) fail(node, key, fmt::format("'{}' is not a number", text));
-    if (!std::isfinite(value)) fail(node, key, fmt::format("'{}' is not finite", text));
+      fail(node, key, fmt::format("'{}' is out of range", printable(text)));
+    if (ec != std::errc() || ptr != end)
+      fail(node, key, fmt::format("'{}' is not a number", printable(text)));
+    if (!std::isfinite(value)) fail(node, key, fmt::format("'{}' is not finite", printable(text)));
     return value;
   }
 

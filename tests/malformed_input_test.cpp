@@ -3,8 +3,11 @@
 // The sanitizer build (make test) runs this under AddressSanitizer and UBSan.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "run_cli.hpp"
 #include "test_models.hpp"
@@ -41,9 +44,10 @@ TEST(MalformedInput, EachCaseGivesItsOneLineErrorAndExitCode2) {
     SCOPED_TRACE(c.file);
     const bool model = c.kind == "model";
     (model ? models : logs)++;
-    const std::string args = "evaluate --model " +
-                             (model ? dir + "/" + c.file : dir + "/good-2dof.yaml") + " --log " +
-                             (model ? dir + "/good-2dof.csv" : dir + "/" + c.file) + " " + c.extra;
+    std::vector<std::string> args = {"evaluate", "--model",
+                                     model ? dir + "/" + c.file : dir + "/good-2dof.yaml", "--log",
+                                     model ? dir + "/good-2dof.csv" : dir + "/" + c.file};
+    for (const std::string& a : testing::split_arguments(c.extra)) args.push_back(a);
     const testing::CliResult r = testing::run_cli(args);
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_EQ(r.out, "");
@@ -70,6 +74,132 @@ TEST(MalformedInput, BadArgumentsExitWith2AndHelpWith0) {
   EXPECT_EQ(testing::run_cli("").exit_code, 2);
   EXPECT_EQ(testing::run_cli("--help").exit_code, 0);
   EXPECT_EQ(testing::run_cli("evaluate --help").exit_code, 0);
+}
+
+// The error of a rejected input: exit code 2, nothing on standard output, and
+// one short line on standard error that holds `expected`.
+void expect_one_short_line(const testing::CliResult& r, const std::string& expected) {
+  EXPECT_EQ(r.exit_code, 2) << r.err.substr(0, 300);
+  EXPECT_EQ(r.out, "");
+  ASSERT_FALSE(r.err.empty());
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "not one line: " << r.err.substr(0, 300);
+  EXPECT_LT(r.err.size(), 400u) << "long message: " << r.err.substr(0, 300);
+  EXPECT_NE(r.err.find(expected), std::string::npos)
+      << "expected \"" << expected << "\" in: " << r.err.substr(0, 300);
+}
+
+std::string temp_folder(const std::string& name) {
+  const std::string dir = ::testing::TempDir() + "/malformed_" + name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// A 30,000-character header field or link name overflowed std::regex's
+// recursion (SIGSEGV); now each is one short line and exit code 2.
+TEST(MalformedInput, HugeNamesAndValuesGiveOneShortLine) {
+  const std::string src = testing::source_path("tests/malformed");
+  const std::string good_model = testing::slurp(src + "/good-2dof.yaml");
+  const std::string good_log = testing::slurp(src + "/good-2dof.csv");
+  const std::string dir = temp_folder("huge");
+  const std::string huge(30000, 'a');
+  auto replaced = [](std::string text, const std::string& from, const std::string& to) {
+    const size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return text.replace(at, from.size(), to);
+  };
+  struct Generated {
+    std::string file, text, expected;
+  };
+  const std::string dots = std::string(39, 'a') + "...";
+  const std::vector<Generated> logs = {
+      {"header-letters.csv", replaced(good_log, "q2,", huge + ","),
+       ":1: a" + dots + ": unknown column"},
+      {"header-unit.csv", replaced(good_log, "q2,", "q2[" + huge + "],"),
+       ":1: q2[aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa...: unit 'aaaa"},
+      {"header-punctuation.csv", replaced(good_log, "q2,", std::string(30000, '(') + ","),
+       ":1: ((((((((((((((((((((((((((((((((((((((((...: not a column name"},
+      {"header-digits.csv", replaced(good_log, "q2,", "q" + std::string(30000, '9') + ","),
+       ":1: q" + std::string(39, '9') + "...: joint number too large"},
+      {"field.csv", replaced(good_log, "0.1,0.2,", "0.1," + huge + ","),
+       ":3: q2: 'a" + dots + "' is not a number"},
+  };
+  for (const Generated& g : logs) {
+    SCOPED_TRACE(g.file);
+    std::ofstream(dir + "/" + g.file) << g.text;
+    expect_one_short_line(
+        testing::run_cli(std::vector<std::string>{"evaluate", "--model", src + "/good-2dof.yaml",
+                                                  "--log", dir + "/" + g.file}),
+        g.file + g.expected);
+  }
+  const std::vector<Generated> models = {
+      {"link-name.yaml", replaced(good_model, "  - name: j2", "  - name: " + huge),
+       ":14: links[1].name: 'a" + dots + "' is not a usable link name"},
+      {"device-name.yaml", replaced(good_model, "name: two-link", "name: " + huge),
+       ":2: name: longer than 200 bytes (30000)"},
+      // YAML allows 1024 characters in a simple key; an explicit key (?) has no limit.
+      {"key.yaml", replaced(good_model, "    d: 0\n", "    d: 0\n    ? " + huge + "\n    : 1\n"),
+       ":18: links[1].a" + dots + ": unknown key"},
+      {"value.yaml", replaced(good_model, "    a: 0.15", "    a: " + huge),
+       ":15: links[1].a: 'a" + dots + "' is not a number"},
+  };
+  for (const Generated& g : models) {
+    SCOPED_TRACE(g.file);
+    std::ofstream(dir + "/" + g.file) << g.text;
+    expect_one_short_line(
+        testing::run_cli(std::vector<std::string>{"evaluate", "--model", dir + "/" + g.file,
+                                                  "--log", src + "/good-2dof.csv"}),
+        g.file + g.expected);
+  }
+  // --columns goes through the same scanner.
+  expect_one_short_line(testing::run_cli(std::vector<std::string>{
+                            "evaluate", "--model", src + "/good-2dof.yaml", "--log",
+                            src + "/good-2dof.csv", "--columns", "q1," + huge + ",x,y,z"}),
+                        "--columns: a" + dots + ": unknown column");
+  std::filesystem::remove_all(dir);
+}
+
+// Scenario files (simulate --scenario): the numbers that size the work or set
+// the truth are bounded; each rejection names the file, line, key and limit.
+TEST(MalformedInput, ScenarioNumbersAreBounded) {
+  const std::string dir = temp_folder("scenario");
+  struct Bad {
+    std::string body, expected;
+  };
+  const std::vector<Bad> all = {
+      {"trajectory: {seconds: 1e6}", ":2: trajectory.seconds: 1000000 is outside (0, 100000] s"},
+      {"trajectory: {seconds: 0}", ":2: trajectory.seconds: 0 is outside (0, 100000] s"},
+      {"trajectory: {rate_hz: 2e5}", ":2: trajectory.rate_hz: 200000 is outside (0, 100000] Hz"},
+      {"trajectory: {seconds: 1e5, rate_hz: 1e5}",
+       ":2: trajectory: seconds * rate_hz = 10000000000 samples, more than the 10000000 allowed"},
+      {"trials: 1000000", ":2: trials: expected an integer in [1, 100000]"},
+      {"poses: {identification: 2000000}",
+       ":2: poses.identification: expected an integer in [1, 1000000]"},
+      {"poses: {validation: 1.5}", ":2: poses.validation: expected an integer in [1, 1000000]"},
+      {"noise: {sigma_e: -1e-4}", ":2: noise.sigma_e: -0.0001 is outside [0, 1] rad"},
+      {"noise: {sigma_e: .nan}", ":2: noise.sigma_e: '.nan' is not finite"},
+      {"noise: {sigma_m: 5}", ":2: noise.sigma_m: 5 is outside [0, 1] m"},
+      {"noise: {sigma_m: -.inf}", ":2: noise.sigma_m: '-.inf' is not finite"},
+      {"noise: {motor_counts_per_rev: -4096}",
+       ":2: noise.motor_counts_per_rev: -4096 is outside [0, 1000000000] counts"},
+      {"deviations: {j2.a: 2}", ":2: deviations.j2.a: |2| is more than the 1 m a deviation may be"},
+      {"deviations: {j2.alpha: -4}",
+       ":2: deviations.j2.alpha: |-4| is more than the 3.141592653589793 rad (pi)"},
+      {"deviations: {\"j2\\x07\": 0.1}", ":2: deviations.j2\\x07: not a kinematic parameter"},
+      {"format: \"x\\ny\"", ":1: format: 'x\\x0ay' is not 'hapticcal-scenario/1'"},
+  };
+  for (size_t i = 0; i < all.size(); ++i) {
+    SCOPED_TRACE(all[i].body);
+    const std::string file = dir + "/bad" + std::to_string(i) + ".yaml";
+    const bool has_format = all[i].body.rfind("format", 0) == 0;
+    std::ofstream(file) << (has_format ? "" : "format: hapticcal-scenario/1\n") << all[i].body
+                        << "\n";
+    expect_one_short_line(testing::run_cli(std::vector<std::string>{"simulate", "--scenario", file,
+                                                                    "--out", dir + "/out"}),
+                          "bad" + std::to_string(i) + ".yaml" + all[i].expected);
+    EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -1,13 +1,15 @@
 // Bad input is reported by exception, with where it was found.
 #pragma once
 
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 
 namespace hapticcal {
 
 // A file, log or argument that cannot be used. what() is one line:
-// "FILE:LINE: KEY: message" (the parts that are known).
+// "FILE:LINE: KEY: message" (the parts that are known); any control character
+// in them is written \xNN, so what() never holds a line break.
 class InputError : public std::invalid_argument {
  public:
   InputError(const std::string& file, int line, const std::string& key, const std::string& message);
@@ -24,5 +26,15 @@ class InputError : public std::invalid_argument {
   std::string key_;
   std::string message_;
 };
+
+// `text` as a message may quote it: at most its first `max_chars` characters
+// (then "..."), every control character (C0, DEL, C1), backslash and byte that
+// is not valid UTF-8 written as \xNN. Used wherever an InputError echoes input.
+std::string printable(const std::string& text, std::size_t max_chars = 40);
+
+// Why `text` cannot be a name that reaches output (a device name, a column):
+// empty when it is valid UTF-8 without control characters, else the reason,
+// e.g. "control character \x0a at byte 4" or "invalid UTF-8 at byte 2".
+std::string text_problem(const std::string& text);
 
 }  // namespace hapticcal
