@@ -29,6 +29,12 @@ Evaluation evaluate(const DeviceModel& model, const Log& log) {
     const Eigen::Vector3d p = prepared.forward(q.data()).p;
     if (log.has_distance) ev.distance_error[r] = p.norm() - log.distance[r];
     if (log.has_position) ev.position_error[r] = (p - log.position.row(r).transpose()).norm();
+    const bool finite = (!log.has_distance || std::isfinite(ev.distance_error[r])) &&
+                        (!log.has_position || std::isfinite(ev.position_error[r]));
+    if (!finite) {
+      throw InputError(log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0, "",
+                       "the model's error on this row is not finite: a value is too large");
+    }
   }
   if (log.has_distance) ev.distance = stats(ev.distance_error);
   if (log.has_position) ev.position = stats(ev.position_error);

@@ -135,10 +135,10 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   const fs::path target(path);
   std::error_code ec;
   if (target.has_parent_path()) fs::create_directories(target.parent_path(), ec);
-  if (ec) throw InputError(path, 0, "", "cannot create directory: " + ec.message());
+  if (ec) throw IoError(path + ": cannot create directory: " + ec.message());
   std::string tmp = path + ".tmp-XXXXXX";
   const int fd = mkstemp(tmp.data());
-  if (fd < 0) throw InputError(path, 0, "", fmt::format("cannot write: {}", std::strerror(errno)));
+  if (fd < 0) throw IoError(fmt::format("{}: cannot write: {}", path, std::strerror(errno)));
   size_t done = 0;
   while (done < text.size()) {
     const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
@@ -146,19 +146,21 @@ void write_file_atomically(const std::string& path, const std::string& text) {
       const int err = errno;
       ::close(fd);
       std::remove(tmp.c_str());
-      throw InputError(path, 0, "", fmt::format("cannot write: {}", std::strerror(err)));
+      throw IoError(fmt::format("{}: cannot write: {}", path, std::strerror(err)));
     }
     done += static_cast<size_t>(n);
   }
   ::fchmod(fd, 0644);
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+  int err = ::fsync(fd) == 0 ? 0 : errno;
+  if (::close(fd) != 0 && err == 0) err = errno;
+  if (err != 0) {
     std::remove(tmp.c_str());
-    throw InputError(path, 0, "", "cannot write (sync failed)");
+    throw IoError(fmt::format("{}: cannot write (sync failed): {}", path, std::strerror(err)));
   }
   fs::rename(tmp, target, ec);
   if (ec) {
     std::remove(tmp.c_str());
-    throw InputError(path, 0, "", "cannot write: " + ec.message());
+    throw IoError(path + ": cannot write: " + ec.message());
   }
 }
 

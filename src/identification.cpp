@@ -304,7 +304,7 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
     if (out == 0) continue;
     const double bound = std::max(std::abs(link.lower), std::abs(link.upper));
     const std::string hint =
-        largest * M_PI / 180 <= bound + kSlack
+        largest > 2 * M_PI && largest * M_PI / 180 <= bound + kSlack
             ? fmt::format("; in degrees they would fit: name the column q{}[deg]", j + 1)
             : "";
     const std::string message = fmt::format(
@@ -487,8 +487,14 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       const Eigen::VectorXd qi = q.row(i).transpose();
       prepared_nominal.compensate(qi.data(), nominal_joints[i].data());
     }
-    fit.rms_before = measurement_rms(
-        stack(s, nominal.kinematic_parameters(), nominal_joints, fit.kind, measured).r, fit.kind);
+    const Eigen::VectorXd r0 =
+        stack(s, nominal.kinematic_parameters(), nominal_joints, fit.kind, measured).r;
+    for (Eigen::Index i = 0; i < r0.size(); ++i) {
+      if (std::isfinite(r0[i])) continue;
+      throw InputError(log.origin, poses.line[i / d], "",
+                       "the nominal model's error on this row is not finite: a value is too large");
+    }
+    fit.rms_before = measurement_rms(r0, fit.kind);
     check_reach(s, nominal, nominal_joints, fit.rms_before, options.force, result.notes);
   }
 

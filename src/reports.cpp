@@ -117,10 +117,39 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   const KinematicFit& k = result.kinematics;
   Report report;
   report.title = fmt::format("hapticcal calibrate: {} on {}", nominal.name, log.origin);
+  // The outcome first: a banner no reader can miss, with the notes.
+  const bool usable = result.status == CalibrationStatus::kConverged;
+  std::string banner = fmt::format(
+      "<div class=\"status\" style=\"padding:0.6em 1em;border:2px solid {0};background:{1}\">"
+      "<b>Status: {2}</b> &mdash; {3}{4}",
+      usable ? "#2a7" : "#c22", usable ? "#efe" : "#fee", to_string(result.status),
+      html_escape(result.status_reason),
+      usable ? "" : ". <b>This calibration is not usable: calibrated.yaml was not replaced.</b>");
+  if (!result.notes.empty()) {
+    banner += "<ul>";
+    for (const std::string& note : result.notes) banner += "<li>" + html_escape(note) + "</li>";
+    banner += "</ul>";
+  }
+  report.sections.push_back(banner + "</div>\n");
+  std::string flagged;
+  for (const ParameterEstimate& e : k.parameters) {
+    if (e.large_change) flagged += (flagged.empty() ? "" : ", ") + e.name;
+  }
+  if (!flagged.empty()) {
+    report.sections.push_back(fmt::format(
+        "<p class=\"note\">Large changes from nominal (beyond {} mm or {} mrad): {}. Plausible "
+        "for a base pose measured in an unknown frame; for a link, check the model and the "
+        "log.</p>\n",
+        kLargeChangeLength * 1e3, kLargeChangeAngle * 1e3, html_escape(flagged)));
+  }
+  const std::string repeats =
+      k.rows > k.poses ? fmt::format(" ({} poses, repeats averaged; repeatability {:.4f} mm RMS)",
+                                     k.poses, k.repeatability * 1e3)
+                       : "";
   report.sections.push_back(fmt::format(
-      "<p>{} rows, {} measurements; {} parameters identified; condition number {:.4g}; "
+      "<p>{} rows{}, {} measurements; {} parameters identified; condition number {:.4g}; "
       "observability O1 {:.4g}, O4 {:.4g}; RMS error {:.4f} mm before, {:.4f} mm after.{}</p>\n",
-      k.rows, k.kind == MeasurementKind::kPosition ? "position" : "distance", k.identified,
+      k.rows, repeats, k.kind == MeasurementKind::kPosition ? "position" : "distance", k.identified,
       k.condition_number, k.observability.O1, k.observability.O4, k.rms_before * 1e3,
       k.rms_after * 1e3,
       k.rank_deficient ? " <b>Rank-deficient: see the held parameters.</b>" : ""));
@@ -137,14 +166,21 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   report.sections.push_back(parameter_table(k));
   report.sections.push_back(held_table(k));
 
+  // Long logs are decimated to about kMaxPlotted points a figure, so that the
+  // report stays small (issue 10: 10^6 rows).
+  constexpr int kMaxPlotted = 2000;
+  const size_t pose_stride = std::max<size_t>(1, (result.rows.size() + kMaxPlotted - 1) / kMaxPlotted);
+  std::vector<int> plotted_rows;
+  for (size_t i = 0; i < result.rows.size(); i += pose_stride) plotted_rows.push_back(result.rows[i]);
   for (const TransmissionFit& t : result.transmissions) {
-    transmission_figures(t, nominal.links[t.joint].name, log, result.rows,
+    transmission_figures(t, nominal.links[t.joint].name, log, plotted_rows,
                          result.calibrated.links[t.joint].transmission, nullptr, report.figures);
   }
   const Evaluation before = evaluate(nominal, log), after = evaluate(result.calibrated, log);
   const bool position = k.kind == MeasurementKind::kPosition;
   std::vector<double> sample, eb, ea;
-  for (int r = 0; r < log.rows; ++r) {
+  const int row_stride = std::max(1, (log.rows + kMaxPlotted - 1) / kMaxPlotted);
+  for (int r = 0; r < log.rows; r += row_stride) {
     sample.push_back(r + 1);
     eb.push_back((position ? before.position_error[r] : before.distance_error[r]) * 1e3);
     ea.push_back((position ? after.position_error[r] : after.distance_error[r]) * 1e3);

@@ -18,11 +18,16 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
   const KinematicFit& k = result.kinematics;
   json j;
   j["format"] = "hapticcal-results/1";
+  j["status"] = to_string(result.status);
+  j["status_reason"] = result.status_reason;
+  j["usable"] = result.status == CalibrationStatus::kConverged;
   j["model"] = model_path;
   j["log"] = log_path;
   j["device"] = nominal.name;
   j["measurement"] = k.kind == MeasurementKind::kPosition ? "position" : "distance";
   j["rows_used"] = k.rows;
+  j["poses"] = k.poses;
+  j["repeatability"] = number_or_null(k.repeatability);
   j["samples"] = options.samples;
   j["seed"] = options.seed;
   j["transmission_step"] = options.transmissions;
@@ -48,6 +53,7 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
     if (e.identifiable) {
       p["max_correlation"] = e.max_correlation;
       p["max_correlation_with"] = e.max_correlation_with;
+      p["large_change"] = e.large_change;
     } else {
       p["reason"] = e.reason;
     }

@@ -1,5 +1,7 @@
 // hapticcal command-line tool: argument parsing and printing over the library.
-// Exit codes: 0 success, 1 unexpected failure, 2 bad input (file, log or argument).
+// Exit codes: 0 success; 2 bad input (file, log or argument); 3 the calibration
+// ran but did not converge or is unusable (no calibrated model replaced); 1
+// anything else, I/O errors included, with the system's reason.
 #include <fmt/format.h>
 #include <unistd.h>
 
@@ -16,12 +18,14 @@
 #include "hapticcal/evaluate.hpp"
 #include "hapticcal/identification.hpp"
 #include "hapticcal/io.hpp"
+#include "hapticcal/output_set.hpp"
 #include "hapticcal/report.hpp"
 #include "hapticcal/study.hpp"
 
 namespace {
 
 constexpr int kExitBadInput = 2;
+constexpr int kExitUnusable = 3;
 
 struct EvaluateOptions {
   std::string model, log, columns, reference;
@@ -88,8 +92,8 @@ int run_evaluate(const EvaluateOptions& o) {
 }
 
 struct CalibrateOptions {
-  std::string model, log, columns, out = "hapticcal-out", fix, free;
-  bool no_transmission = false;
+  std::string model, log, columns, out = "hapticcal-out/calibrate", fix, free;
+  bool no_transmission = false, force = false;
   int samples = 0;
   unsigned long long seed = 1;
   double sigma = 0;
@@ -97,15 +101,37 @@ struct CalibrateOptions {
   double tolerance = 1e-6;
 };
 
+// A numeric option's range, with the limits (and a unit) in its error; also
+// refuses nan and inf, which CLI11's Range lets through.
+CLI::Validator within(double lo, double hi, const std::string& unit) {
+  const std::string range = fmt::format("[{}, {}]{}{}", lo, hi, unit.empty() ? "" : " ", unit);
+  return CLI::Validator(
+      [lo, hi, range](std::string& text) -> std::string {
+        double v = 0;
+        try {
+          size_t used = 0;
+          v = std::stod(text, &used);
+          if (used != text.size()) return fmt::format("'{}' is not a number", text);
+        } catch (const std::exception&) {
+          return fmt::format("'{}' is not a number", text);
+        }
+        if (!(v >= lo && v <= hi)) return fmt::format("{} is outside {}", text, range);
+        return {};
+      },
+      "in " + range);
+}
+
 std::vector<std::string> names(const std::string& list) {
   return list.empty() ? std::vector<std::string>{} : hapticcal::split_columns(list);
 }
 
-// Writes DIR/report.html with its figures and says what was written.
-void report(const hapticcal::Report& r, const std::string& dir) {
+// Writes report.html with its figures into `dir` (a staging folder that
+// becomes `shown`) and says what was written.
+void report(const hapticcal::Report& r, const std::string& dir, const std::string& shown) {
   std::string note;
   const int drawn = hapticcal::write_report(r, dir, note);
-  fmt::print("report: {}/report.html ({} figures, SVG and PNG in {}/figures)\n", dir, drawn, dir);
+  fmt::print("report: {}/report.html ({} figures, SVG and PNG in {}/figures)\n", shown, drawn,
+             shown);
   if (!note.empty()) fmt::print("note: {}\n", note);
 }
 
@@ -158,6 +184,10 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
   for (const hapticcal::ParameterEstimate& e : k.parameters) {
     if (!e.identifiable) fmt::print("  {:<12} {}\n", e.name, e.reason);
   }
+  if (k.rows > k.poses) {
+    fmt::print("  {} rows are {} poses (repeats averaged); repeatability {:.4f} mm RMS\n", k.rows,
+               k.poses, k.repeatability * 1e3);
+  }
   fmt::print(
       "  {} parameters identified; condition number {:.4g}; observability O1 {:.4g}, O4 "
       "{:.4g} (angles scaled by {:.3f} m)\n",
@@ -167,13 +197,24 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
              k.converged ? "converged" : "NOT converged", k.iterations);
   fmt::print("  RMS residual: {:.4f} mm before, {:.4f} mm after\n", k.rms_before * 1e3,
              k.rms_after * 1e3);
-  for (const std::string& note : r.notes) fmt::print("note: {}\n", note);
+  for (const hapticcal::ParameterEstimate& e : k.parameters) {
+    if (!e.large_change) continue;
+    fmt::print("warning: {} moved {:.4g} {} from nominal (flagged beyond {} mm / {} mrad)\n",
+               e.name, (e.value - e.nominal) * 1e3,
+               e.unit == hapticcal::ParameterUnit::kAngle ? "mrad" : "mm",
+               hapticcal::kLargeChangeLength * 1e3, hapticcal::kLargeChangeAngle * 1e3);
+  }
+  for (const std::string& note : r.notes) {
+    fmt::print("{}{}\n", note.rfind("warning: ", 0) == 0 ? "" : "note: ", note);
+  }
 }
 
 int run_calibrate(const CalibrateOptions& o) {
   const hapticcal::DeviceModel model = hapticcal::load_device(o.model);
   const hapticcal::Log log = hapticcal::read_log(o.log, names(o.columns));
+  hapticcal::OutputSet out(o.out, "calibrate");
   hapticcal::CalibrationOptions options;
+  options.force = o.force;
   options.transmissions = !o.no_transmission;
   options.samples = o.samples;
   options.seed = o.seed;
@@ -182,13 +223,29 @@ int run_calibrate(const CalibrateOptions& o) {
   options.dependency_tolerance = o.tolerance;
   options.fix = names(o.fix);
   options.free = names(o.free);
-  const hapticcal::CalibrationResult result = hapticcal::calibrate(model, log, options);
+  hapticcal::CalibrationResult result = hapticcal::calibrate(model, log, options);
   print_summary(result, model);
-  hapticcal::save_device(result.calibrated, o.out + "/calibrated.yaml");
+  const bool usable = result.status == hapticcal::CalibrationStatus::kConverged;
+  if (usable) {
+    hapticcal::save_device(result.calibrated, out.dir() + "/calibrated.yaml");
+  } else {
+    result.notes.push_back(out.keep_previous("calibrated.yaml")
+                               ? "calibrated.yaml is the previous run's model: not replaced"
+                               : "no calibrated.yaml written: the calibration is not usable");
+  }
   hapticcal::write_file_atomically(
-      o.out + "/results.json", hapticcal::calibration_json(result, model, o.model, o.log, options));
-  report(hapticcal::calibration_report(result, model, log), o.out);
-  fmt::print("wrote {0}/calibrated.yaml and {0}/results.json (seed {1})\n", o.out, o.seed);
+      out.dir() + "/results.json",
+      hapticcal::calibration_json(result, model, o.model, o.log, options));
+  report(hapticcal::calibration_report(result, model, log), out.dir(), o.out);
+  out.commit();
+  fmt::print("wrote {0}/: {1}results.json, report.html, figures/ (seed {2})\n", o.out,
+             usable ? "calibrated.yaml, " : "", o.seed);
+  if (!usable) {
+    fmt::print("status: {}: {}; calibrated.yaml not replaced\n", to_string(result.status),
+               result.status_reason);
+    return kExitUnusable;
+  }
+  fmt::print("status: {}\n", to_string(result.status));
   return 0;
 }
 
@@ -279,7 +336,8 @@ int run_simulate(const SimulateOptions& o) {
   fmt::print("hapticcal simulate: {} trial(s), seed {}, {} thread(s), device {}\n", sc.trials,
              sc.seed, std::min(threads, sc.trials), sc.device_path);
   const bool bar = sc.trials > 1 && isatty(2);
-  const hapticcal::StudyResult r = hapticcal::run_study(sc, o.out, threads, [&](int k, int n) {
+  hapticcal::OutputSet out(o.out, "simulate");
+  const hapticcal::StudyResult r = hapticcal::run_study(sc, out.dir(), threads, [&](int k, int n) {
     if (!bar) return;
     const int width = 40, filled = width * k / n;
     fmt::print(stderr, "\r[{}{}] {}/{}", std::string(filled, '#'), std::string(width - filled, ' '),
@@ -287,8 +345,9 @@ int run_simulate(const SimulateOptions& o) {
     if (k == n) fmt::print(stderr, "\n");
   });
   print_study(sc, r);
-  hapticcal::write_file_atomically(o.out + "/results.json", hapticcal::study_json(sc, r));
-  report(hapticcal::study_report(sc, r, o.out), o.out);
+  hapticcal::write_file_atomically(out.dir() + "/results.json", hapticcal::study_json(sc, r));
+  report(hapticcal::study_report(sc, r, out.dir()), out.dir(), o.out);
+  out.commit();
   fmt::print(
       "wrote {}/: results.json, nominal.yaml, actual.yaml, calibrated.yaml, "
       "identification.csv, validation.csv, trajectory.csv, fig7/8/10 series\n",
@@ -316,6 +375,7 @@ int run_force_study(ForceOptions o) {
   const hapticcal::DeviceModel actual = hapticcal::load_device(o.actual);
   const hapticcal::DeviceModel nominal = hapticcal::load_device(o.nominal);
   const hapticcal::DeviceModel calibrated = hapticcal::load_device(o.calibrated);
+  hapticcal::OutputSet out(o.out, "force");
   hapticcal::ForceScenario& sc = o.scenario;
   if (!o.posture.empty()) {
     const std::vector<std::string> v = names(o.posture);
@@ -360,8 +420,8 @@ int run_force_study(ForceOptions o) {
       before.transverse_rms, after.transverse_rms, reduction);
   fmt::print("  at the end: Fz {:.4f} N desired, {:.4f} N nominal, {:.4f} N calibrated\n",
              before.desired.back()[2], before.measured.back()[2], after.measured.back()[2]);
-  hapticcal::write_file_atomically(o.out + "/force_nominal.csv", force_csv(before));
-  hapticcal::write_file_atomically(o.out + "/force_calibrated.csv", force_csv(after));
+  hapticcal::write_file_atomically(out.dir() + "/force_nominal.csv", force_csv(before));
+  hapticcal::write_file_atomically(out.dir() + "/force_calibrated.csv", force_csv(after));
   nlohmann::ordered_json j;
   j["format"] = "hapticcal-force/1";
   j["actual"] = o.actual;
@@ -377,8 +437,9 @@ int run_force_study(ForceOptions o) {
   j["transverse_rms_nominal"] = before.transverse_rms;
   j["transverse_rms_calibrated"] = after.transverse_rms;
   j["reduction_pct"] = reduction;
-  hapticcal::write_file_atomically(o.out + "/results.json", j.dump(2) + "\n");
-  report(hapticcal::force_report(before, after, reduction), o.out);
+  hapticcal::write_file_atomically(out.dir() + "/results.json", j.dump(2) + "\n");
+  report(hapticcal::force_report(before, after, reduction), out.dir(), o.out);
+  out.commit();
   fmt::print("wrote {0}/force_nominal.csv, {0}/force_calibrated.csv, {0}/results.json\n", o.out);
   return 0;
 }
@@ -386,6 +447,7 @@ int run_force_study(ForceOptions o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  hapticcal::remove_staging_on_signals();
   CLI::App app{"hapticcal: kinematic calibration of haptic devices and robots with transmissions"};
   app.set_version_flag("--version", "hapticcal 0.1.0");
   app.require_subcommand(1);
@@ -396,11 +458,11 @@ int main(int argc, char** argv) {
   auto* simulate = app.add_subcommand("simulate", "Run the paper's simulation study (main job)");
   simulate->add_option("--scenario", sim.scenario, "Scenario file (YAML)");
   simulate->add_option("--trials", sim.trials, "Monte Carlo trials (default 1)")
-      ->check(CLI::PositiveNumber);
+      ->check(within(1, 100000, ""));
   simulate->add_option("--seed", sim.seed, "Random seed (default 1)")
       ->check(CLI::NonNegativeNumber);
   simulate->add_option("--threads", sim.threads, "Threads (default: all cores)")
-      ->check(CLI::PositiveNumber);
+      ->check(within(1, 256, ""));
   simulate->add_option("--device", sim.device, "Nominal device file (default: the built-in 7-DOF)");
   simulate->add_option("--out", sim.out, "Output directory (default hapticcal-out/simulate)");
 
@@ -410,14 +472,16 @@ int main(int argc, char** argv) {
   calibrate->add_option("--log", cal.log, "Measurement log (CSV)")->required();
   calibrate->add_flag("--no-transmission", cal.no_transmission,
                       "Skip step 1: kinematic-only calibration");
-  calibrate->add_option("--samples", cal.samples, "Use N random rows of the log (0: all)")
-      ->check(CLI::NonNegativeNumber);
+  calibrate
+      ->add_option("--samples", cal.samples,
+                   "Use N random poses of the log (0: all; repeated rows count as one pose)")
+      ->check(within(0, 1e8, ""));
   calibrate->add_option("--seed", cal.seed, "Seed of the row sample");
   calibrate
       ->add_option("--sigma", cal.sigma,
                    "Measurement noise sd [m] for the standard deviations (default: "
                    "estimated from the residuals)")
-      ->check(CLI::PositiveNumber);
+      ->check(within(1e-12, 1, "m"));
   calibrate
       ->add_option("--polynomial-order", cal.polynomial_order,
                    "Order of polynomial transmissions (default: the device file's, else 10)")
@@ -432,7 +496,12 @@ int main(int argc, char** argv) {
                    "A parameter whose scaled Jacobian column lies within this relative "
                    "distance of the span of those before it is held (default 1e-6)")
       ->check(CLI::Range(1e-12, 0.5));
-  calibrate->add_option("--out", cal.out, "Output directory (default hapticcal-out)");
+  calibrate->add_flag("--force", cal.force,
+                      "Calibrate even if the log looks implausible for the model (readings "
+                      "outside the joint limits, nominal error beyond 10 % of the reach)");
+  calibrate->add_option("--out", cal.out,
+                        "Output folder, replaced as a whole when the run succeeds (default "
+                        "hapticcal-out/calibrate)");
 
   EvaluateOptions eval;
   auto* evaluate = app.add_subcommand("evaluate", "RMS and max error of a model on a log");
@@ -455,15 +524,20 @@ int main(int argc, char** argv) {
                    "Controller model after calibration (the actual file: the truth as the model)")
       ->required();
   force->add_option("--out", fo.out, "Output directory (default hapticcal-out/force)");
-  force->add_option("--gain", fo.scenario.gain, "Force-loop gain G (default 0.5)");
+  force->add_option("--gain", fo.scenario.gain, "Force-loop gain G (default 0.5)")
+      ->check(within(-100, 100, ""));
   force->add_option("--noise", fo.scenario.sensor_noise, "Force sensor noise sd [N] (default 0)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(within(0, 1000, "N"));
   force->add_option("--stiffness", fo.scenario.stiffness, "Wall stiffness [N/m] (default 100)")
-      ->check(CLI::PositiveNumber);
-  force->add_option("--travel", fo.scenario.travel,
-                    "Wall travel along the handle's z [m] (default 0.02)");
-  force->add_option("--seconds", fo.scenario.move_seconds, "Time the wall takes (default 2 s)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(within(1e-3, 1e6, "N/m"));
+  force
+      ->add_option("--travel", fo.scenario.travel,
+                   "Wall travel along the handle's z [m] (default 0.02)")
+      ->check(within(-1, 1, "m"));
+  force
+      ->add_option("--seconds", fo.scenario.move_seconds,
+                   "Time the wall takes (default 2 s; at most 600 s at the 1 kHz loop rate)")
+      ->check(within(0, 600, "s"));
   force->add_option("--posture", fo.posture,
                     "Readings q of the fixed handle, comma separated (default: home, j6 = 0.3 rad "
                     "on a 7-joint device)");
@@ -485,6 +559,9 @@ int main(int argc, char** argv) {
   } catch (const hapticcal::InputError& e) {
     fmt::print(stderr, "hapticcal: {}\n", e.what());
     return kExitBadInput;
+  } catch (const hapticcal::IoError& e) {
+    fmt::print(stderr, "hapticcal: {}\n", e.what());
+    return 1;
   } catch (const std::exception& e) {
     fmt::print(stderr, "hapticcal: internal error: {}\n", e.what());
     return 1;

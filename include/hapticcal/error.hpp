@@ -27,6 +27,13 @@ class InputError : public std::invalid_argument {
   std::string message_;
 };
 
+// Reading or writing failed for a reason outside the input (a full disk, a
+// permission, a failed sync): what() is "PATH: what failed: the system's reason".
+class IoError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 // `text` as a message may quote it: at most its first `max_chars` characters
 // (then "..."), every control character (C0, DEL, C1), backslash and byte that
 // is not valid UTF-8 written as \xNN. Used wherever an InputError echoes input.

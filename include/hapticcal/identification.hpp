@@ -19,6 +19,17 @@ namespace hapticcal {
 
 enum class MeasurementKind { kDistance, kPosition };
 
+// The outcome of a calibration, like Ceres's Solver::Summary::termination_type.
+// Only kConverged gives a usable model: the others keep the previous one.
+enum class CalibrationStatus {
+  kConverged,         // LM converged, every value finite, every candidate excited
+  kNotConverged,      // LM stopped at its iteration limit or without progress
+  kNumericalFailure,  // a non-finite residual, parameter or standard deviation
+  kRankDeficient,     // the data leave identifiable parameters unexcited
+};
+// "converged", "not converged", "numerical failure", "rank-deficient".
+const char* to_string(CalibrationStatus status);
+
 // Step 1 for one joint: ext - q = c + dtheta(q).
 struct TransmissionFit {
   int joint = 0;                   // zero-based
@@ -44,7 +55,15 @@ struct ParameterEstimate {
   std::string reason;  // why it is held at nominal, if it is
   double max_correlation = 0;
   std::string max_correlation_with;
+  // The identified value moved more than kLargeChangeLength (metres) or
+  // kLargeChangeAngle (rad) from nominal: plausible for a base pose, suspicious
+  // for a link.
+  bool large_change = false;
 };
+
+// Bounds beyond which a parameter's change is flagged (ParameterEstimate::large_change).
+constexpr double kLargeChangeLength = 0.02;  // m
+constexpr double kLargeChangeAngle = 0.05;   // rad, about 2.9 deg
 
 // Borm & Menq's O1 = (s_1 ... s_L)^(1/L) / sqrt(m), O2 = s_L / s_1 (inverse
 // condition number), O3 = s_L, and Nahvi & Hollerbach's noise amplification
@@ -55,7 +74,12 @@ struct ObservabilityIndices {
 
 struct KinematicFit {
   MeasurementKind kind = MeasurementKind::kDistance;
-  int rows = 0;
+  int rows = 0;   // log rows used
+  int poses = 0;  // distinct poses among them: repeats are averaged into one
+  // RMS scatter of a repeated pose's measurements about their mean [m]
+  // (Euclidean for positions), with rows - poses degrees of freedom; NaN
+  // without repeats.
+  double repeatability = std::numeric_limits<double>::quiet_NaN();
   std::vector<ParameterEstimate> parameters;  // every candidate, in slot order
   int identified = 0;
   Eigen::MatrixXd correlation;  // of the identified parameters, in their order
@@ -70,6 +94,7 @@ struct KinematicFit {
   bool sigma_given = false;     // else the residual estimate
   bool rank_deficient = false;  // the data leave structurally identifiable parameters unexcited
   bool converged = false;
+  bool numerical_failure = false;  // Ceres's FAILURE: a residual or Jacobian not finite
   int iterations = 0;
   std::string termination;  // Ceres's report
 };
@@ -82,20 +107,34 @@ struct CalibrationOptions {
   std::optional<int> polynomial_order;  // overrides the device file's
   std::vector<std::string> fix, free;   // kinematic parameters by dotted name
   double dependency_tolerance = 1e-6;   // relative residual of a column: "dependent"
+  // Plausibility checks that refuse a log (readings outside the joint limits,
+  // a nominal error beyond kImplausibleReachFraction of the reach) only warn.
+  bool force = false;
 };
 
+// A log whose nominal RMS error exceeds this fraction of the device's reach
+// (the largest distance of the tool point from the base over the log's poses)
+// is refused unless forced: it is probably from another device.
+constexpr double kImplausibleReachFraction = 0.1;
+
 struct CalibrationResult {
+  CalibrationStatus status = CalibrationStatus::kConverged;
+  std::string status_reason;  // one sentence: why the status is what it is
   DeviceModel calibrated;
   std::vector<TransmissionFit> transmissions;
   KinematicFit kinematics;
-  std::vector<int> rows;           // log rows used, zero-based
+  std::vector<int> rows;           // log rows used, zero-based: the first row of each pose
+  std::vector<std::vector<int>> poses;  // every row of each pose used
   std::vector<std::string> notes;  // things a user should know (one sentence each)
 };
 
 // The whole procedure. Throws InputError for logs that cannot be used (joint
-// count, no measurements, too few rows, a joint or encoder that never moves);
-// a solver that does not converge or data that do not excite the model are
-// reported in the result, not hidden.
+// count, no measurements, too few poses, a joint or encoder that never moves,
+// and unless options.force, readings outside the joint limits or errors too
+// large for this device); a solver that does not converge or data that do not
+// excite the model are reported in the result's status, not hidden. Rows with
+// the same joint readings are repeats of one pose: they are averaged, so that
+// standard deviations, condition numbers and --samples count poses.
 CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options);
 
@@ -119,6 +158,13 @@ std::optional<int> parallel_axis_partner(const DeviceModel& model, int link);
 // is not zero, or when freed. Throws InputError for unknown names in fix / free.
 std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std::string>& fix,
                                  const std::vector<std::string>& free);
+
+// Rows with bit-identical joint readings, grouped: the poses of a log in order
+// of first appearance, each the list of its rows.
+std::vector<std::vector<int>> repeated_poses(const Log& log);
+// One row per group: the joint readings of its first row, the external
+// encoders and measurements averaged over the group.
+Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups);
 
 // Draws `samples` distinct row indices of `rows` (all if samples <= 0 or >= rows),
 // reproducibly for a seed on every platform; sorted.
