@@ -5,6 +5,8 @@
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <numbers>
 #include <random>
 
@@ -165,12 +167,47 @@ TEST(Transmission, PreparedEvaluationEqualsGeneric) {
   }
 }
 
-TEST(Transmission, ChainComposesItsStages) {
+// The four-bar's interior angle at A, built by geometry: B at the origin,
+// A = (L1, 0), C at L2 from B with angle ABC = pi/2 - x, D where the circles
+// about A (radius L4) and C (radius L3) meet, on the far side of AC from B.
+double four_bar_angle_at_a(const Parallelogram& p, double x) {
+  const Eigen::Vector2d A(p.L1, 0), C(p.L2 * std::sin(x), p.L2 * std::cos(x));
+  const Eigen::Vector2d AC = C - A;
+  const double d = AC.norm();
+  const double along = (p.L4 * p.L4 - p.L3 * p.L3 + d * d) / (2 * d);
+  const double h = std::sqrt(p.L4 * p.L4 - along * along);
+  const Eigen::Vector2d u = AC / d, n(-u.y(), u.x());
+  const Eigen::Vector2d mid = A + along * u;
+  // B (the origin) lies on the side of AC where n . (B - A) has its sign.
+  const Eigen::Vector2d D = mid - (n.dot(-A) > 0 ? h : -h) * n;
+  const Eigen::Vector2d AB = -A, AD = D - A;
+  return std::atan2(std::abs(AB.x() * AD.y() - AB.y() * AD.x()), AB.dot(AD));
+}
+
+// Joint 4 of the paper's device: capstan, then parallelogram. Written out
+// independently of the implementation: the capstan's output x = q + eq. (1)
+// (atan of the drum offsets), which turns the parallelogram's input crank; its
+// output link turns by the change of the interior angle at A (geometry above),
+// so the joint's error is angle_A(x) - angle_A(0) - q. Over +-45 degrees.
+TEST(Transmission, ChainOfCapstanAndParallelogramMatchesItsGeometry) {
   const Transmission chain = joint4_chain();
   const auto& stages = std::get<Chain>(chain.model()).stages;
-  const double q = 0.4;
-  const double x = q + stages[0].error(q);
-  EXPECT_NEAR(chain.error(q), x + stages[1].error(x) - q, 1e-16);
+  const Capstan c = std::get<Capstan>(stages[0].model());
+  const Parallelogram p = std::get<Parallelogram>(stages[1].model());
+  const double R = c.ratio, D = c.drum_distance;
+  auto ecc = [&](double r, double u) { return std::atan(r * std::sin(u) / (D - r * std::cos(u))); };
+  double worst = 0;
+  for (int i = -45; i <= 45; ++i) {
+    const double q = i * kDeg;
+    const double x = q - c.ratio_error / (c.ratio_error + R) * q + ecc(c.r_out, q + c.beta_out) -
+                     ecc(c.r_out, c.beta_out) + ecc(c.r_in, R * q + c.beta_in) -
+                     ecc(c.r_in, c.beta_in);
+    const double expected = four_bar_angle_at_a(p, x) - four_bar_angle_at_a(p, 0) - q;
+    worst = std::max(worst, std::abs(chain.error(q) - expected));
+  }
+  EXPECT_LT(worst, 1e-14);
+  // The parallelogram's part is not negligible (the test sees it): about 1e-3 rad at 45 deg.
+  EXPECT_GT(std::abs(Transmission(p).error(45 * kDeg)), 1e-4);
 }
 
 TEST(Transmission, MonomialViewOfChebyshevFitReproducesIt) {
