@@ -24,29 +24,54 @@ namespace {
 constexpr std::uint64_t kStructuralSeed = 20130601;  // synthetic poses of the structural analysis
 constexpr int kStructuralPoses = 400;
 
+using detail::CompressedMeasurementCost;
 using detail::measurement_rows;
 using detail::MeasurementCost;
 using detail::residuals_per_row;
 using detail::RowMatrix;
 
-// The stacked residuals and identification Jacobian at `params`.
+// The stacked residuals and identification Jacobian at `params`; compressed
+// (detail::compress_rows) for logs whose Jacobian would not fit in memory.
 struct Stack {
-  Eigen::VectorXd r;
-  Eigen::MatrixXd J;  // rows x slots
+  Eigen::VectorXd r;  // every residual; empty when compressed
+  Eigen::MatrixXd J;  // rows x slots; when compressed R (slots x slots): same column geometry
+  double rss = 0;     // sum of the squared residuals
+  Eigen::Index residuals = 0;
 };
 
 Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
             const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
-            const RowMatrix& measured) {
+            const RowMatrix& measured, bool compressed = false) {
   const int d = residuals_per_row(kind);
   const int m = static_cast<int>(joints.size());
+  if (compressed) {
+    detail::CompressedRows z = detail::compress_rows(s, params.data(), joints, kind, measured);
+    return {Eigen::VectorXd(), std::move(z.R), z.rss(), static_cast<Eigen::Index>(m) * d};
+  }
   Stack out{Eigen::VectorXd(m * d), Eigen::MatrixXd(m * d, s.num_slots())};
   const ChainConstants<double> constants = chain_constants(s, params.data());
   for (int i = 0; i < m; ++i) {
     measurement_rows(s, constants, params.data(), joints[i].data(), kind, measured.row(i).data(),
                      out.r.data() + d * i, out.J.middleRows(d * i, d));
   }
+  out.rss = out.r.squaredNorm();
+  out.residuals = out.r.size();
   return out;
+}
+
+// The residuals alone.
+Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& params,
+                             const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
+                             const RowMatrix& measured) {
+  const int d = residuals_per_row(kind);
+  Eigen::VectorXd r(static_cast<Eigen::Index>(joints.size()) * d);
+  Eigen::MatrixXd J(d, s.num_slots());
+  const ChainConstants<double> constants = chain_constants(s, params.data());
+  for (size_t i = 0; i < joints.size(); ++i) {
+    measurement_rows(s, constants, params.data(), joints[i].data(), kind, measured.row(i).data(),
+                     r.data() + d * i, J);
+  }
+  return r;
 }
 
 // The used rows of the log as measured values (distances or positions).
@@ -120,8 +145,8 @@ std::string names_of(const std::vector<int>& slots, const std::map<int, std::str
 
 // RMS of the per-measurement error, as `evaluate` reports it: the distance error,
 // or the Euclidean norm of the position error.
-double measurement_rms(const Eigen::VectorXd& r, MeasurementKind kind) {
-  return std::sqrt(r.squaredNorm() * residuals_per_row(kind) / std::max<Eigen::Index>(r.size(), 1));
+double measurement_rms(double rss, Eigen::Index residuals, MeasurementKind kind) {
+  return std::sqrt(rss * residuals_per_row(kind) / std::max<Eigen::Index>(residuals, 1));
 }
 
 }  // namespace
@@ -308,8 +333,8 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
             ? fmt::format("; in degrees they would fit: name the column q{}[deg]", j + 1)
             : "";
     const std::string message = fmt::format(
-        "{} of {} readings are outside {}'s limits [{:.4g}, {:.4g}] rad (largest |q| {:.4g}){}", out,
-        log.rows, link.name, link.lower, link.upper, largest, hint);
+        "{} of {} readings are outside {}'s limits [{:.4g}, {:.4g}] rad (largest |q| {:.4g}){}",
+        out, log.rows, link.name, link.lower, link.upper, largest, hint);
     if (2 * out > log.rows && !force) {
       throw InputError(log.origin, 0, fmt::format("q{}", j + 1),
                        message + " (--force calibrates anyway)");
@@ -327,7 +352,8 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
   const ChainConstants<double> constants = chain_constants(s, p.data());
   double reach = 0;
   for (const Eigen::VectorXd& q : joints) {
-    reach = std::max(reach, (forward_kinematics(s, constants, q.data()).p - constants.base.p).norm());
+    reach =
+        std::max(reach, (forward_kinematics(s, constants, q.data()).p - constants.base.p).norm());
   }
   if (!(rms_before > kImplausibleReachFraction * reach)) return;
   const std::string message = fmt::format(
@@ -373,7 +399,8 @@ void set_status(CalibrationResult& result, const std::vector<int>& identified) {
   }
   std::string unexcited;
   for (const ParameterEstimate& e : fit.parameters) {
-    if (e.reason.rfind("not excited", 0) == 0) unexcited += (unexcited.empty() ? "" : ", ") + e.name;
+    if (e.reason.rfind("not excited", 0) == 0)
+      unexcited += (unexcited.empty() ? "" : ", ") + e.name;
   }
   if (!finite || fit.numerical_failure) {
     result.status = CalibrationStatus::kNumericalFailure;
@@ -383,9 +410,8 @@ void set_status(CalibrationResult& result, const std::vector<int>& identified) {
                                  "for the model, or a degenerate model)";
   } else if (!identified.empty() && !fit.converged) {
     result.status = CalibrationStatus::kNotConverged;
-    result.status_reason =
-        fmt::format("Levenberg-Marquardt did not converge in {} iterations ({})", fit.iterations,
-                    fit.termination);
+    result.status_reason = fmt::format("Levenberg-Marquardt did not converge in {} iterations ({})",
+                                       fit.iterations, fit.termination);
   } else if (identified.empty()) {
     result.status = CalibrationStatus::kRankDeficient;
     result.status_reason = "no parameter is identifiable from these measurements";
@@ -475,9 +501,10 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   const int d = residuals_per_row(fit.kind);
   if (m * d <= static_cast<int>(candidates.size())) {
     throw InputError(log.origin, 0, "",
-                     fmt::format("too few measurements: {} poses give {} residuals for {} "
+                     fmt::format("too few measurements: {} pose{} give{} {} residual{} for {} "
                                  "candidate parameters",
-                                 m, m * d, candidates.size()));
+                                 m, m == 1 ? "" : "s", m == 1 ? "s" : "", m * d,
+                                 m * d == 1 ? "" : "s", candidates.size()));
   }
   const Eigen::VectorXd p0 = model.kinematic_parameters();
   {
@@ -488,13 +515,23 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       prepared_nominal.compensate(qi.data(), nominal_joints[i].data());
     }
     const Eigen::VectorXd r0 =
-        stack(s, nominal.kinematic_parameters(), nominal_joints, fit.kind, measured).r;
+        residuals_at(s, nominal.kinematic_parameters(), nominal_joints, fit.kind, measured);
     for (Eigen::Index i = 0; i < r0.size(); ++i) {
-      if (std::isfinite(r0[i])) continue;
-      throw InputError(log.origin, poses.line[i / d], "",
+      if (std::isfinite(r0[i] * r0[i])) continue;
+      // The row of the pose with the largest measured value is the culprit.
+      int culprit = result.poses[i / d].front();
+      for (int row : result.poses[i / d]) {
+        const double v = fit.kind == MeasurementKind::kPosition ? log.position.row(row).norm()
+                                                                : std::abs(log.distance[row]);
+        const double worst = fit.kind == MeasurementKind::kPosition
+                                 ? log.position.row(culprit).norm()
+                                 : std::abs(log.distance[culprit]);
+        if (!(v <= worst)) culprit = row;
+      }
+      throw InputError(log.origin, log.line[culprit], "",
                        "the nominal model's error on this row is not finite: a value is too large");
     }
-    fit.rms_before = measurement_rms(r0, fit.kind);
+    fit.rms_before = measurement_rms(r0.squaredNorm(), r0.size(), fit.kind);
     check_reach(s, nominal, nominal_joints, fit.rms_before, options.force, result.notes);
   }
 
@@ -509,7 +546,11 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     }
     qs = model.compensate(reading);
   }
-  Stack data = stack(s, p0, joints, fit.kind, measured);
+  // Beyond options.max_jacobian_bytes the Jacobian is never formed (issue 10:
+  // 10^6 rows): its R factor carries the same column geometry.
+  const bool compressed = static_cast<double>(m) * d * s.num_slots() * sizeof(double) >
+                          static_cast<double>(options.max_jacobian_bytes);
+  Stack data = stack(s, p0, joints, fit.kind, measured, compressed);
   const Stack structural = stack(s, p0, synthetic, fit.kind, RowMatrix::Zero(kStructuralPoses, d));
   // Metres and radians made comparable: angle columns times a length scale, the
   // RMS distance of the tool point from the base origin.
@@ -564,7 +605,13 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
         constant.push_back(k);
     }
     ceres::Problem problem;
-    problem.AddResidualBlock(new MeasurementCost(s, joints, fit.kind, measured), nullptr, p.data());
+    if (compressed) {
+      problem.AddResidualBlock(new CompressedMeasurementCost(s, joints, fit.kind, measured),
+                               nullptr, p.data());
+    } else {
+      problem.AddResidualBlock(new MeasurementCost(s, joints, fit.kind, measured), nullptr,
+                               p.data());
+    }
     if (!constant.empty()) {
       problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
     }
@@ -583,8 +630,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     result.notes.push_back(fit.termination);
   }
   model.set_kinematic_parameters(p);
-  data = stack(s, p, joints, fit.kind, measured);
-  fit.rms_after = measurement_rms(data.r, fit.kind);
+  data = stack(s, p, joints, fit.kind, measured, compressed);
+  fit.rms_after = measurement_rms(data.rss, data.residuals, fit.kind);
 
   // Uncertainty, conditioning and observability of the identified parameters.
   const int k = static_cast<int>(identified.size());
@@ -593,10 +640,12 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     Ji.col(c) = data.J.col(identified[c]);
     Js.col(c) = Ji.col(c) / scale[identified[c]];
   }
-  const int dof_residual = static_cast<int>(data.r.size()) - k;
+  const Eigen::Index dof_residual = data.residuals - k;
   fit.sigma_given = options.sigma.has_value();
   fit.sigma =
-      options.sigma ? *options.sigma : std::sqrt(data.r.squaredNorm() / std::max(dof_residual, 1));
+      options.sigma
+          ? *options.sigma
+          : std::sqrt(data.rss / static_cast<double>(std::max<Eigen::Index>(dof_residual, 1)));
   // From the eigen-decomposition of the small normal matrices J^T J: the
   // covariance sigma^2 (J^T J)^-1, and the singular values of the scaled J.
   Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(k, k);
@@ -613,7 +662,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     fit.condition_number = ss[k - 1] > 0 ? ss[0] / ss[k - 1] : INFINITY;
     double log_sum = 0;
     for (int c = 0; c < k; ++c) log_sum += std::log(ss[c]);
-    fit.observability = {std::exp(log_sum / k) / std::sqrt(static_cast<double>(Js.rows())),
+    fit.observability = {std::exp(log_sum / k) / std::sqrt(static_cast<double>(data.residuals)),
                          ss[k - 1] / ss[0], ss[k - 1], ss[k - 1] * ss[k - 1] / ss[0]};
   }
   fit.correlation.resize(k, k);

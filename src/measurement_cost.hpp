@@ -6,6 +6,9 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Core>
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
 #include <utility>
 #include <vector>
 
@@ -70,6 +73,98 @@ class MeasurementCost : public ceres::CostFunction {
   std::vector<Eigen::VectorXd> joints_;
   MeasurementKind kind_;
   RowMatrix measured_;
+};
+
+// The measurement problem over many poses compressed to n + 1 rows (n slots):
+// with [J r] = Q [R c; 0 e], accumulated block by block of poses (a tall-skinny
+// QR: memory does not grow with the poses), 1/2 |r|^2 = 1/2 |[c; e]|^2,
+// J^T J = R^T R and J^T r = R^T c. So R stands in for J wherever only column
+// geometry matters (the rank test, the covariance, singular values).
+struct CompressedRows {
+  Eigen::MatrixXd R;  // n x n, upper triangular
+  Eigen::VectorXd c;  // n
+  double e = 0;       // the part of r outside the span of J
+  double rss() const { return c.squaredNorm() + e * e; }
+};
+
+inline CompressedRows compress_rows(const ChainStructure& s, const double* params,
+                                    const std::vector<Eigen::VectorXd>& joints,
+                                    MeasurementKind kind, const RowMatrix& measured) {
+  constexpr int kBlockPoses = 256;
+  const int d = residuals_per_row(kind), n = s.num_slots();
+  const ChainConstants<double> constants = chain_constants(s, params);
+  // Rows 0..n: the factor so far; below: the next block's [J r].
+  Eigen::MatrixXd work = Eigen::MatrixXd::Zero(n + 1 + kBlockPoses * d, n + 1);
+  Eigen::MatrixXd J(d, n);
+  Eigen::Vector3d r;
+  const int m = static_cast<int>(joints.size());
+  for (int first = 0; first < m; first += kBlockPoses) {
+    const int count = std::min(kBlockPoses, m - first);
+    for (int i = 0; i < count; ++i) {
+      measurement_rows(s, constants, params, joints[first + i].data(), kind,
+                       measured.row(first + i).data(), r.data(), J);
+      work.block(n + 1 + d * i, 0, d, n) = J;
+      work.block(n + 1 + d * i, n, d, 1) = r.head(d);
+    }
+    const int rows = n + 1 + d * count;
+    Eigen::Ref<Eigen::MatrixXd> block = work.topRows(rows);
+    const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(block);  // in place
+    work.topRows(n + 1) = work.topRows(n + 1).triangularView<Eigen::Upper>();
+    work.middleRows(n + 1, rows - n - 1).setZero();
+  }
+  CompressedRows out;
+  out.R = work.topLeftCorner(n, n);
+  out.c = work.block(0, n, n, 1);
+  out.e = work(n, n);
+  return out;
+}
+
+// MeasurementCost through compress_rows: n + 1 residuals [c; e] with the
+// Jacobian [R; 0]. Levenberg-Marquardt sees the same cost, gradient and
+// Gauss-Newton matrix as with every row, without the rows x n Jacobian.
+// Holds references: the poses and measurements must outlive it.
+class CompressedMeasurementCost : public ceres::CostFunction {
+ public:
+  CompressedMeasurementCost(ChainStructure s, const std::vector<Eigen::VectorXd>& joints,
+                            MeasurementKind kind, const RowMatrix& measured)
+      : s_(s), joints_(joints), kind_(kind), measured_(measured) {
+    set_num_residuals(s.num_slots() + 1);
+    mutable_parameter_block_sizes()->push_back(s.num_slots());
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const int n = s_.num_slots();
+    if (!jacobians || !jacobians[0]) {  // the cost alone: |r| in one residual
+      const int d = residuals_per_row(kind_);
+      const ChainConstants<double> constants = chain_constants(s_, parameters[0]);
+      Eigen::MatrixXd J(d, n);
+      Eigen::Vector3d r;
+      double rss = 0;
+      for (size_t i = 0; i < joints_.size(); ++i) {
+        measurement_rows(s_, constants, parameters[0], joints_[i].data(), kind_,
+                         measured_.row(i).data(), r.data(), J);
+        rss += r.head(d).squaredNorm();
+      }
+      Eigen::Map<Eigen::VectorXd>(residuals, n + 1).setZero();
+      residuals[0] = std::sqrt(rss);
+      return std::isfinite(rss);
+    }
+    const CompressedRows z = compress_rows(s_, parameters[0], joints_, kind_, measured_);
+    Eigen::Map<Eigen::VectorXd> res(residuals, n + 1);
+    res.head(n) = z.c;
+    res[n] = z.e;
+    Eigen::Map<RowMatrix> jac(jacobians[0], n + 1, n);
+    jac.topRows(n) = z.R;
+    jac.row(n).setZero();
+    return res.allFinite() && jac.allFinite();
+  }
+
+ private:
+  ChainStructure s_;
+  const std::vector<Eigen::VectorXd>& joints_;
+  MeasurementKind kind_;
+  const RowMatrix& measured_;
 };
 
 }  // namespace hapticcal::detail

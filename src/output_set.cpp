@@ -6,7 +6,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -17,6 +19,7 @@
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/io.hpp"
+#include "interrupt.hpp"
 
 namespace hapticcal {
 namespace {
@@ -31,6 +34,32 @@ std::mutex& registry_mutex() {
 std::set<std::string>& registry() {
   static std::set<std::string> paths;
   return paths;
+}
+
+std::atomic<bool> aborted{false};
+
+std::mutex& children_mutex() {
+  static std::mutex m;
+  return m;
+}
+std::set<pid_t>& children() {
+  static std::set<pid_t> pids;
+  return pids;
+}
+
+// Removes `path` until it stays removed: a thread may still be finishing a
+// write into it (every new write is refused once `aborted` is set).
+void remove_for_good(const std::string& path) {
+  using namespace std::chrono_literals;
+  for (int round = 0; round < 2; ++round) {
+    for (int attempt = 0; attempt < 200; ++attempt) {
+      std::error_code ec;
+      fs::remove_all(path, ec);
+      if (!fs::exists(path, ec)) break;
+      std::this_thread::sleep_for(5ms);
+    }
+    std::this_thread::sleep_for(20ms);  // a write that passed its check before the signal
+  }
 }
 
 void forget_staging(const std::string& path) {
@@ -56,8 +85,9 @@ OutputSet::OutputSet(const std::string& out, const std::string& command) : targe
   if (ec) throw InputError(fmt::format("--out {}: {}", out, ec.message()));
   const fs::path cwd = fs::current_path(ec);
   if (!target.has_filename() || target == target.root_path() ||
-      (!ec && (cwd == target || fmt::format("{}/", cwd.string()).rfind(
-                                    fmt::format("{}/", target.string()), 0) == 0))) {
+      (!ec &&
+       (cwd == target ||
+        fmt::format("{}/", cwd.string()).rfind(fmt::format("{}/", target.string()), 0) == 0))) {
     throw InputError(fmt::format(
         "--out {}: the working folder or one of its parents cannot be an output folder (it is "
         "replaced as a whole); name a new folder",
@@ -74,7 +104,9 @@ OutputSet::OutputSet(const std::string& out, const std::string& command) : targe
         out, kOutputMarker));
   }
   fs::create_directories(parent, ec);
-  if (ec) throw IoError(fmt::format("--out {}: cannot create {}: {}", out, parent.string(), ec.message()));
+  if (ec)
+    throw IoError(
+        fmt::format("--out {}: cannot create {}: {}", out, parent.string(), ec.message()));
   if (::mkdir(target.c_str(), 0755) == 0) {
     created_ = true;
   } else if (errno != EEXIST) {
@@ -131,8 +163,8 @@ void OutputSet::commit() {
   // After the exchange the staging path holds the old set, which is removed:
   // it stays registered until then.
   if (::renameat2(AT_FDCWD, staging_.c_str(), AT_FDCWD, target_.c_str(), RENAME_EXCHANGE) != 0) {
-    throw IoError(fmt::format("--out {}: cannot put the new outputs in place: {}", target_,
-                              system_reason()));
+    throw IoError(
+        fmt::format("--out {}: cannot put the new outputs in place: {}", target_, system_reason()));
   }
   committed_ = true;
   std::error_code ec;
@@ -151,14 +183,35 @@ void remove_staging_on_signals() {
     int sig = 0;
     if (sigwait(&set, &sig) != 0) return;
     registry_mutex().lock();  // held until exit: no set is committed after this
-    for (const std::string& path : registry()) {
-      std::error_code ec;
-      fs::remove_all(path, ec);
+    aborted = true;           // write_file_atomically refuses from now on
+    {
+      std::lock_guard<std::mutex> lock(children_mutex());
+      for (pid_t pid : children()) ::kill(pid, SIGKILL);
     }
-    const char* message = "hapticcal: interrupted; the output folder is unchanged\n";
+    for (const std::string& path : registry()) remove_for_good(path);
+    const char* message = "hapticcal: interrupted; no partial output was left\n";
     [[maybe_unused]] const ssize_t n = ::write(2, message, std::strlen(message));
     ::_exit(128 + sig);
   }).detach();
 }
 
+void finish_if_interrupted() {
+  while (aborted.load()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+}
+
+namespace detail {
+
+bool output_aborted() { return aborted.load(); }
+
+void track_child(pid_t pid) {
+  std::lock_guard<std::mutex> lock(children_mutex());
+  children().insert(pid);
+}
+
+void untrack_child(pid_t pid) {
+  std::lock_guard<std::mutex> lock(children_mutex());
+  children().erase(pid);
+}
+
+}  // namespace detail
 }  // namespace hapticcal

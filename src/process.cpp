@@ -2,12 +2,15 @@
 
 #include <fcntl.h>
 #include <fmt/format.h>
+#include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
+
+#include "interrupt.hpp"
 
 extern char** environ;
 
@@ -62,13 +65,28 @@ ProcessStatus run_program(const std::vector<std::string>& argv, const std::strin
   args.push_back(nullptr);
   pid_t pid = 0;
   // glibc reports a failed open, chdir or exec in the child as the return value.
-  err = posix_spawnp(&pid, program.c_str(), actions.get(), nullptr, args.data(), environ);
+  // The child starts with no signal blocked (remove_staging_on_signals blocks
+  // them in every thread of ours), so that an interrupt reaches it too.
+  posix_spawnattr_t attr;
+  sigset_t none;
+  sigemptyset(&none);
+  if (posix_spawnattr_init(&attr) != 0) return failed(program, "", ENOMEM);
+  posix_spawnattr_setsigmask(&attr, &none);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK);
+  err = posix_spawnp(&pid, program.c_str(), actions.get(), &attr, args.data(), environ);
+  posix_spawnattr_destroy(&attr);
   if (err != 0) return failed(program, "", err);
+  track_child(pid);
 
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) return failed(program, "waiting: ", errno);
+    if (errno != EINTR) {
+      const int wait_err = errno;
+      untrack_child(pid);
+      return failed(program, "waiting: ", wait_err);
+    }
   }
+  untrack_child(pid);
   ProcessStatus s;
   if (WIFEXITED(status)) {
     s.exit_code = WEXITSTATUS(status);

@@ -169,9 +169,11 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   // Long logs are decimated to about kMaxPlotted points a figure, so that the
   // report stays small (issue 10: 10^6 rows).
   constexpr int kMaxPlotted = 2000;
-  const size_t pose_stride = std::max<size_t>(1, (result.rows.size() + kMaxPlotted - 1) / kMaxPlotted);
+  const size_t pose_stride =
+      std::max<size_t>(1, (result.rows.size() + kMaxPlotted - 1) / kMaxPlotted);
   std::vector<int> plotted_rows;
-  for (size_t i = 0; i < result.rows.size(); i += pose_stride) plotted_rows.push_back(result.rows[i]);
+  for (size_t i = 0; i < result.rows.size(); i += pose_stride)
+    plotted_rows.push_back(result.rows[i]);
   for (const TransmissionFit& t : result.transmissions) {
     transmission_figures(t, nominal.links[t.joint].name, log, plotted_rows,
                          result.calibrated.links[t.joint].transmission, nullptr, report.figures);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -40,6 +41,7 @@ std::vector<double> drive_ratios(const DeviceModel& model) {
 }  // namespace
 
 DeviceModel paper_actual_device(const DeviceModel& nominal) {
+  assert(nominal.dof() >= 4 && "default_scenario refuses devices of fewer than 4 joints");
   DeviceModel m = nominal;
   constexpr double mrad = 1e-3, mm = 1e-3, deg = std::numbers::pi / 180;
   // Table 3: alpha_1..7 [mrad], a_1..7 [mm], d_1..7 [mm], theta_1..7 [mrad].

@@ -131,6 +131,13 @@ Scenario default_scenario(const std::string& device_path) {
   Scenario sc;
   sc.device_path = device_path;
   sc.nominal = load_device(device_path);
+  // Table 2 drives joints 1-4 (capstans, then the joint-4 linkage).
+  if (sc.nominal.dof() < 4) {
+    throw InputError(device_path, 0, "links",
+                     fmt::format("the paper's study needs at least 4 joints (Table 2 drives "
+                                 "joints 1-4); the device has {}",
+                                 sc.nominal.dof()));
+  }
   sc.actual = paper_actual_device(sc.nominal);
   return sc;
 }

@@ -551,20 +551,25 @@ int main(int argc, char** argv) {
     return kExitBadInput;
   }
 
+  int code = 1;
   try {
-    if (*evaluate) return run_evaluate(eval);
-    if (*simulate) return run_simulate(sim);
-    if (*calibrate) return run_calibrate(cal);
-    if (*force) return run_force_study(fo);
+    if (*evaluate) code = run_evaluate(eval);
+    if (*simulate) code = run_simulate(sim);
+    if (*calibrate) code = run_calibrate(cal);
+    if (*force) code = run_force_study(fo);
   } catch (const hapticcal::InputError& e) {
+    hapticcal::finish_if_interrupted();
     fmt::print(stderr, "hapticcal: {}\n", e.what());
-    return kExitBadInput;
+    code = kExitBadInput;
   } catch (const hapticcal::IoError& e) {
+    hapticcal::finish_if_interrupted();
     fmt::print(stderr, "hapticcal: {}\n", e.what());
-    return 1;
+    code = 1;
   } catch (const std::exception& e) {
+    hapticcal::finish_if_interrupted();
     fmt::print(stderr, "hapticcal: internal error: {}\n", e.what());
-    return 1;
+    code = 1;
   }
-  return 1;
+  hapticcal::finish_if_interrupted();
+  return code;
 }

@@ -110,6 +110,10 @@ struct CalibrationOptions {
   // Plausibility checks that refuse a log (readings outside the joint limits,
   // a nominal error beyond kImplausibleReachFraction of the reach) only warn.
   bool force = false;
+  // The rows x parameters identification Jacobian is held in memory up to this
+  // size; beyond, step 2 works on its R factor, accumulated pose block by pose
+  // block (the same fit to rounding, memory independent of the log's length).
+  std::size_t max_jacobian_bytes = std::size_t{256} << 20;
 };
 
 // A log whose nominal RMS error exceeds this fraction of the device's reach
@@ -123,9 +127,9 @@ struct CalibrationResult {
   DeviceModel calibrated;
   std::vector<TransmissionFit> transmissions;
   KinematicFit kinematics;
-  std::vector<int> rows;           // log rows used, zero-based: the first row of each pose
+  std::vector<int> rows;                // log rows used, zero-based: the first row of each pose
   std::vector<std::vector<int>> poses;  // every row of each pose used
-  std::vector<std::string> notes;  // things a user should know (one sentence each)
+  std::vector<std::string> notes;       // things a user should know (one sentence each)
 };
 
 // The whole procedure. Throws InputError for logs that cannot be used (joint

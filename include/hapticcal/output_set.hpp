@@ -49,5 +49,8 @@ class OutputSet {
 // every staging folder of an uncommitted OutputSet and exits with 128 + signal.
 // Call once at the start of main, before any other thread exists.
 void remove_staging_on_signals();
+// If that thread is handling a signal, waits for it to end the process (so
+// that main neither returns nor reports the errors the interrupt caused).
+void finish_if_interrupted();
 
 }  // namespace hapticcal

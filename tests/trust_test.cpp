@@ -1,0 +1,477 @@
+// Issue 10: a failed or implausible calibration never looks like a success,
+// repeated poses count once, and a command's outputs appear as one set or not
+// at all (interrupts, concurrent runs, bad --out).
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "hapticcal/io.hpp"
+#include "test_models.hpp"
+
+extern char** environ;
+
+namespace hapticcal {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// A running hapticcal process (argument vector, no shell), output to files.
+struct Child {
+  pid_t pid = -1;
+  std::string out_path, err_path;
+
+  Child(const std::vector<std::string>& args, const fs::path& scratch) {
+    static int counter = 0;
+    out_path = (scratch / fmt_name("out", counter)).string();
+    err_path = (scratch / fmt_name("err", counter++)).string();
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                     0644);
+    posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                     0644);
+    std::vector<std::string> argv{HAPTICCAL_CLI};
+    argv.insert(argv.end(), args.begin(), args.end());
+    std::vector<char*> raw;
+    for (std::string& a : argv) raw.push_back(a.data());
+    raw.push_back(nullptr);
+    const int err = posix_spawn(&pid, HAPTICCAL_CLI, &actions, nullptr, raw.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    EXPECT_EQ(err, 0);
+  }
+
+  static std::string fmt_name(const char* kind, int k) {
+    return std::string("child_") + kind + "_" + std::to_string(k) + ".txt";
+  }
+
+  // Exit code, or 128 + signal; the child's peak memory in `usage`.
+  int wait(struct rusage* usage = nullptr) {
+    int status = 0;
+    struct rusage own {};
+    while (::wait4(pid, &status, 0, usage ? usage : &own) < 0) {
+      if (errno != EINTR) return -1;
+    }
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+  std::string out() const { return slurp(out_path); }
+  std::string err() const { return slurp(err_path); }
+};
+
+struct CliRun {
+  int code;
+  std::string out, err;
+};
+
+class Trust : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    scratch_ = fs::temp_directory_path() /
+               ("hapticcal_trust_" + std::to_string(::getpid()) + "_" +
+                ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(scratch_);
+    fs::create_directories(scratch_);
+  }
+  void TearDown() override { fs::remove_all(scratch_); }
+
+  CliRun run(const std::vector<std::string>& args) {
+    Child c(args, scratch_);
+    const int code = c.wait();
+    return {code, c.out(), c.err()};
+  }
+
+  fs::path scratch_;
+};
+
+// The staging folders a run may leave beside its --out.
+std::vector<std::string> leftovers(const fs::path& dir) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.find(".tmp-") != std::string::npos) out.push_back(name);
+  }
+  return out;
+}
+
+std::string fmt_double(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+// The README's memory statement for calibrate: peak below 200 MB + this many
+// KB per log row (a 10^6-row position log: under 1 GB).
+constexpr double kPeakKbPerRow = 0.8;
+
+const std::string kMeca = testing::source_path("examples/meca500/meca500.yaml");
+const std::string kMecaLog =
+    testing::source_path("examples/meca500/cal-norm_dist_data_0deg_160cube.csv");
+
+// The Meca500 log with its lines filtered (header kept) and the header edited.
+std::string meca_log_variant(const fs::path& path, int keep_every, const std::string& from,
+                             const std::string& to) {
+  std::istringstream in(slurp(kMecaLog));
+  std::string line, text;
+  int data = 0;
+  bool header = true;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    if (header) {
+      const size_t at = line.find(from);
+      if (!from.empty() && at != std::string::npos) line.replace(at, from.size(), to);
+      text += line + "\n";
+      header = false;
+      continue;
+    }
+    if (data++ % keep_every == 0) text += line + "\n";
+  }
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+TEST_F(Trust, ReadingsOutsideTheLimitsAreRefusedWithTheLikelyUnit) {
+  const std::string log = meca_log_variant(scratch_ / "unitless.csv", 1, "q1[deg]", "q1");
+  const CliRun r =
+      run({"calibrate", "--model", kMeca, "--log", log, "--out", (scratch_ / "out").string()});
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
+  EXPECT_NE(r.err.find("unitless.csv: q1:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("name the column q1[deg]"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(scratch_ / "out")) << "a refused run leaves no output folder";
+}
+
+TEST_F(Trust, ForcedUnitlessLogExits3AndKeepsThePreviousModel) {
+  const fs::path out = scratch_ / "out";
+  const CliRun good =
+      run({"calibrate", "--model", kMeca, "--log", kMecaLog, "--out", out.string()});
+  ASSERT_EQ(good.code, 0) << good.err;
+  EXPECT_NE(good.out.rfind("status: converged\n"), std::string::npos) << good.out;
+  const std::string model_before = slurp(out / "calibrated.yaml");
+  ASSERT_FALSE(model_before.empty());
+
+  const std::string log = meca_log_variant(scratch_ / "unitless.csv", 1, "q1[deg]", "q1");
+  const CliRun bad =
+      run({"calibrate", "--model", kMeca, "--log", log, "--out", out.string(), "--force"});
+  EXPECT_EQ(bad.code, 3) << bad.out << bad.err;
+  // The terminal's last line says so.
+  const std::string last = bad.out.substr(bad.out.rfind('\n', bad.out.size() - 2) + 1);
+  EXPECT_EQ(last.rfind("status: not converged", 0), 0u) << last;
+  EXPECT_EQ(slurp(out / "calibrated.yaml"), model_before) << "the good model was replaced";
+  const auto j = nlohmann::json::parse(slurp(out / "results.json"));
+  EXPECT_EQ(j["status"], "not converged");
+  EXPECT_EQ(j["usable"], false);
+  EXPECT_NE(j["status_reason"].get<std::string>().find("did not converge"), std::string::npos);
+  EXPECT_EQ(j["log"], log);
+  const std::string report = slurp(out / "report.html");
+  EXPECT_NE(report.find("Status: not converged"), std::string::npos);
+  EXPECT_NE(report.find("calibrated.yaml was not replaced"), std::string::npos);
+}
+
+TEST_F(Trust, LogOfAnotherDeviceIsRefused) {
+  // The PHANToM's limits already refuse the Meca500's readings ...
+  const CliRun phantom =
+      run({"calibrate", "--model", testing::source_path("data/devices/phantom-premium-1.5.yaml"),
+           "--log", kMecaLog, "--out", (scratch_ / "a").string()});
+  EXPECT_EQ(phantom.code, 2) << phantom.out;
+  EXPECT_NE(phantom.err.find("outside j5's limits"), std::string::npos) << phantom.err;
+  // ... and a model that admits the readings but is another arm (j2 300 mm
+  // longer) fails the reach test: its nominal error is far beyond 10 % of the reach.
+  DeviceModel other = testing::meca500();
+  other.links[1].a += 0.3;
+  const fs::path model = scratch_ / "other.yaml";
+  save_device(other, model.string());
+  const CliRun r = run({"calibrate", "--model", model.string(), "--log", kMecaLog, "--out",
+                        (scratch_ / "b").string()});
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.err.find("is this log from this device (meca500)?"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(scratch_ / "b"));
+  // --force turns both into warnings; the change of j2.a is then flagged.
+  const CliRun forced = run({"calibrate", "--model", model.string(), "--log", kMecaLog, "--out",
+                             (scratch_ / "b").string(), "--force"});
+  EXPECT_NE(forced.out.find("warning: the nominal model's RMS error"), std::string::npos);
+  const auto j = nlohmann::json::parse(slurp(scratch_ / "b/results.json"));
+  EXPECT_EQ(j["parameters"]["j2.a"]["large_change"], true);
+  EXPECT_EQ(j["parameters"]["j3.a"]["large_change"].is_boolean(), true);
+}
+
+TEST_F(Trust, RepeatedPosesCountOnce) {
+  // The Meca500 logs hold every pose 3 times: the sd must be that of one row a pose.
+  const CliRun all =
+      run({"calibrate", "--model", kMeca, "--log", kMecaLog, "--out", (scratch_ / "all").string()});
+  ASSERT_EQ(all.code, 0) << all.err;
+  const std::string single = meca_log_variant(scratch_ / "single.csv", 3, "", "");
+  const CliRun one =
+      run({"calibrate", "--model", kMeca, "--log", single, "--out", (scratch_ / "one").string()});
+  ASSERT_EQ(one.code, 0) << one.err;
+  const auto ja = nlohmann::json::parse(slurp(scratch_ / "all/results.json"));
+  const auto jo = nlohmann::json::parse(slurp(scratch_ / "one/results.json"));
+  EXPECT_EQ(ja["rows_used"], 210);
+  EXPECT_EQ(ja["poses"], 70);
+  EXPECT_EQ(jo["poses"], 70);
+  for (const char* name : {"j3.beta", "j2.a", "j1.theta", "tool.x"}) {
+    const double sd_all = ja["parameters"][name]["sd"], sd_one = jo["parameters"][name]["sd"];
+    EXPECT_NEAR(sd_all / sd_one, 1.0, 0.10) << name;
+  }
+  EXPECT_NEAR(ja["condition_number"].get<double>() / jo["condition_number"].get<double>(), 1.0,
+              0.01);
+  // The repeatability, recomputed here from the raw rows (mm in the file).
+  const Log log = read_log(kMecaLog);
+  double sum = 0;
+  int dof = 0;
+  for (int r = 0; r + 2 < log.rows; r += 3) {
+    const Eigen::Vector3d mean =
+        (log.position.row(r) + log.position.row(r + 1) + log.position.row(r + 2)).transpose() / 3;
+    for (int k = 0; k < 3; ++k) sum += (log.position.row(r + k).transpose() - mean).squaredNorm();
+    dof += 2;
+  }
+  EXPECT_NEAR(ja["repeatability"].get<double>(), std::sqrt(sum / dof), 1e-12);
+  EXPECT_TRUE(jo["repeatability"].is_null());
+  // --samples counts poses.
+  const CliRun sampled = run({"calibrate", "--model", kMeca, "--log", kMecaLog, "--samples", "40",
+                              "--out", (scratch_ / "s").string()});
+  ASSERT_EQ(sampled.code, 0) << sampled.err;
+  const auto js = nlohmann::json::parse(slurp(scratch_ / "s/results.json"));
+  EXPECT_EQ(js["poses"], 40);
+  EXPECT_EQ(js["rows_used"], 120);
+}
+
+TEST_F(Trust, NonFiniteErrorsAreBadInput) {
+  std::string text = slurp(kMecaLog);
+  // The 5th data row's x becomes 1e308: finite, but its error overflows.
+  std::istringstream in(text);
+  std::string line, edited;
+  int n = 0;
+  while (std::getline(in, line)) {
+    if (n++ == 5) {
+      const size_t a = line.find(',', 0);
+      size_t at = a;
+      for (int k = 0; k < 5; ++k) at = line.find(',', at + 1);
+      const size_t end = line.find(',', at + 1);
+      line = line.substr(0, at + 1) + "1e308" + line.substr(end);
+    }
+    edited += line + "\n";
+  }
+  std::ofstream(scratch_ / "huge.csv") << edited;
+  const std::string log = (scratch_ / "huge.csv").string();
+  const CliRun e = run({"evaluate", "--model", kMeca, "--log", log, "--json"});
+  EXPECT_EQ(e.code, 2) << e.out;
+  EXPECT_NE(e.err.find("huge.csv:6:"), std::string::npos) << e.err;
+  const CliRun c =
+      run({"calibrate", "--model", kMeca, "--log", log, "--out", (scratch_ / "o").string()});
+  EXPECT_EQ(c.code, 2) << c.out;
+  EXPECT_NE(c.err.find("huge.csv:6:"), std::string::npos) << c.err;
+}
+
+TEST_F(Trust, PaperStudyRefusesADeviceTooSmallForIt) {
+  // Found by fuzz_scenario: Table 2's four drives written past a 2-joint device.
+  const CliRun r =
+      run({"simulate", "--device", testing::source_path("tests/malformed/good-2dof.yaml"), "--out",
+           (scratch_ / "o").string()});
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("good-2dof.yaml: links: the paper's study needs at least 4 joints"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(scratch_ / "o"));
+}
+
+TEST_F(Trust, OutputFolderIsCheckedBeforeAnyWork) {
+  const std::vector<std::string> base{"calibrate", "--model", kMeca, "--log", kMecaLog, "--out"};
+  auto with_out = [&](const std::string& out) {
+    std::vector<std::string> a = base;
+    a.push_back(out);
+    return run(a);
+  };
+  const CliRun empty = with_out("");
+  EXPECT_EQ(empty.code, 2);
+  EXPECT_NE(empty.err.find("--out: an empty path"), std::string::npos) << empty.err;
+  EXPECT_EQ(empty.out, "") << "no work before the check";
+  EXPECT_EQ(with_out(".").code, 2);
+  EXPECT_EQ(with_out("/").code, 2);
+  // A folder of someone else's files is never replaced.
+  fs::create_directories(scratch_ / "mine");
+  std::ofstream(scratch_ / "mine/thesis.tex") << "precious";
+  const CliRun foreign = with_out((scratch_ / "mine").string());
+  EXPECT_EQ(foreign.code, 2);
+  EXPECT_NE(foreign.err.find("holds files hapticcal did not write"), std::string::npos);
+  EXPECT_EQ(slurp(scratch_ / "mine/thesis.tex"), "precious");
+  // A file in the way, and an unwritable parent: I/O errors, exit 1, with the reason.
+  std::ofstream(scratch_ / "file") << "x";
+  const CliRun under_file = with_out((scratch_ / "file/out").string());
+  EXPECT_EQ(under_file.code, 1) << under_file.err;
+  EXPECT_EQ(under_file.out, "");
+  if (::geteuid() != 0) {  // root writes anywhere
+    fs::create_directories(scratch_ / "ro");
+    fs::permissions(scratch_ / "ro", fs::perms::owner_read | fs::perms::owner_exec);
+    const CliRun ro = with_out((scratch_ / "ro/out").string());
+    EXPECT_EQ(ro.code, 1);
+    EXPECT_NE(ro.err.find("Permission denied"), std::string::npos) << ro.err;
+    fs::permissions(scratch_ / "ro", fs::perms::owner_all);
+  }
+}
+
+// Each file of `dir` that names a run's identity, read whole.
+std::map<std::string, std::string> identity(const fs::path& dir,
+                                            const std::vector<std::string>& files) {
+  std::map<std::string, std::string> out;
+  for (const std::string& f : files) out[f] = fs::exists(dir / f) ? slurp(dir / f) : "(missing)";
+  return out;
+}
+
+// Runs `args + --out out` twice into reference folders (two variants), then
+// `trials` times into one folder that holds variant A, interrupting variant B
+// at a random time: afterwards the folder holds all of A or all of B.
+void expect_interrupts_leave_whole_sets(
+    const fs::path& scratch, const std::vector<std::string>& a, const std::vector<std::string>& b,
+    const std::vector<std::string>& files, int trials, std::mt19937_64& rng,
+    const std::function<CliRun(const std::vector<std::string>&)>& run) {
+  auto with_out = [](std::vector<std::string> args, const fs::path& out) {
+    args.push_back("--out");
+    args.push_back(out.string());
+    return args;
+  };
+  const auto start = std::chrono::steady_clock::now();
+  ASSERT_EQ(run(with_out(a, scratch / "ref_a")).code, 0);
+  const auto mid = std::chrono::steady_clock::now();
+  ASSERT_EQ(run(with_out(b, scratch / "ref_b")).code, 0);
+  const double seconds_b =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - mid).count();
+  (void)start;
+  const auto ref_a = identity(scratch / "ref_a", files), ref_b = identity(scratch / "ref_b", files);
+  ASSERT_NE(ref_a, ref_b);
+  int old_kept = 0, new_complete = 0;
+  for (int k = 0; k < trials; ++k) {
+    const fs::path out = scratch / "out";
+    fs::remove_all(out);
+    fs::copy(scratch / "ref_a", out, fs::copy_options::recursive);
+    Child child(with_out(b, out), scratch);
+    const double delay = std::uniform_real_distribution<double>(0, 1.2 * seconds_b)(rng);
+    std::this_thread::sleep_for(std::chrono::duration<double>(delay));
+    ::kill(child.pid, SIGINT);
+    const int code = child.wait();
+    SCOPED_TRACE("trial " + std::to_string(k) + ", SIGINT after " + std::to_string(delay) +
+                 " s, exit " + std::to_string(code));
+    const auto now = identity(out, files);
+    EXPECT_TRUE(now == ref_a || now == ref_b) << "a mixed or partial set";
+    EXPECT_TRUE(code == 130 || code == 0) << child.err();
+    (now == ref_a ? old_kept : new_complete)++;
+    EXPECT_EQ(leftovers(scratch), std::vector<std::string>{});
+  }
+  std::cout << "interrupted runs: old set kept " << old_kept << ", new set complete "
+            << new_complete << "\n";
+  EXPECT_GT(old_kept, 0) << "no interrupt hit the run: the test proved nothing";
+}
+
+TEST_F(Trust, InterruptedCalibrationLeavesTheOldSetOrTheNewOne) {
+  std::mt19937_64 rng(10);
+  const std::vector<std::string> common{"calibrate", "--model", kMeca, "--log", kMecaLog};
+  std::vector<std::string> a = common, b = common;
+  a.insert(a.end(), {"--samples", "50", "--seed", "1"});
+  b.insert(b.end(), {"--samples", "60", "--seed", "2"});
+  expect_interrupts_leave_whole_sets(
+      scratch_, a, b, {"calibrated.yaml", "results.json", ".hapticcal-output"}, 20, rng,
+      [this](const std::vector<std::string>& args) { return run(args); });
+}
+
+TEST_F(Trust, InterruptedSimulationLeavesTheOldSetOrTheNewOne) {
+  std::mt19937_64 rng(11);
+  const std::vector<std::string> a{"simulate", "--trials", "1", "--threads", "1", "--seed", "1"};
+  const std::vector<std::string> b{"simulate", "--trials", "1", "--threads", "1", "--seed", "2"};
+  expect_interrupts_leave_whole_sets(
+      scratch_, a, b,
+      {"calibrated.yaml", "results.json", "identification.csv", "trajectory.csv", "actual.yaml"},
+      20, rng, [this](const std::vector<std::string>& args) { return run(args); });
+}
+
+TEST_F(Trust, ConcurrentRunsIntoOneFolderNeverMix) {
+  const std::vector<std::string> common{"calibrate", "--model", kMeca, "--log", kMecaLog};
+  auto variant = [&](const char* samples, const fs::path& out) {
+    std::vector<std::string> v = common;
+    v.insert(v.end(), {"--samples", samples, "--out", out.string()});
+    return v;
+  };
+  ASSERT_EQ(run(variant("50", scratch_ / "ref_a")).code, 0);
+  ASSERT_EQ(run(variant("60", scratch_ / "ref_b")).code, 0);
+  const std::vector<std::string> files{"calibrated.yaml", "results.json"};
+  const auto ref_a = identity(scratch_ / "ref_a", files);
+  const auto ref_b = identity(scratch_ / "ref_b", files);
+  int refused = 0;
+  for (int k = 0; k < 20; ++k) {
+    const fs::path out = scratch_ / "out";
+    Child one(variant("50", out), scratch_), two(variant("60", out), scratch_);
+    const int c1 = one.wait(), c2 = two.wait();
+    SCOPED_TRACE("pair " + std::to_string(k));
+    EXPECT_TRUE(c1 == 0 || c1 == 1) << one.err();
+    EXPECT_TRUE(c2 == 0 || c2 == 1) << two.err();
+    EXPECT_TRUE(c1 == 0 || c2 == 0);
+    for (Child* c : {&one, &two}) {
+      const std::string err = c->err();
+      if (!err.empty()) {
+        EXPECT_NE(err.find("another hapticcal run is writing into this folder"), std::string::npos)
+            << err;
+        ++refused;
+      }
+    }
+    const auto now = identity(out, files);
+    EXPECT_TRUE(now == ref_a || now == ref_b) << "a mixed set";
+    EXPECT_TRUE(leftovers(scratch_).empty());
+  }
+  std::cout << "concurrent pairs: " << refused << " of 20 second runs refused by the lock\n";
+}
+
+TEST_F(Trust, LongLogsGiveSmallReportsAndLinearMemory) {
+  // 20,000 distinct poses (the Meca500 poses, readings jittered by < 1e-6 rad).
+  const Log base = read_log(kMecaLog);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> jitter(-1e-6, 1e-6);
+  std::string csv = "q1,q2,q3,q4,q5,q6,x,y,z\n";
+  const int rows = 20000;
+  for (int r = 0; r < rows; ++r) {
+    const int s = r % base.rows;
+    for (int j = 0; j < 6; ++j) csv += fmt_double(base.q(s, j) + jitter(rng)) + ",";
+    csv += fmt_double(base.position(s, 0)) + "," + fmt_double(base.position(s, 1)) + "," +
+           fmt_double(base.position(s, 2)) + "\n";
+  }
+  std::ofstream(scratch_ / "long.csv") << csv;
+  Child child({"calibrate", "--model", kMeca, "--log", (scratch_ / "long.csv").string(), "--out",
+               (scratch_ / "o").string()},
+              scratch_);
+  struct rusage usage {};
+  ASSERT_EQ(child.wait(&usage), 0) << child.err();
+  const double peak_mb = usage.ru_maxrss / 1024.0;
+  std::cout << "20,000-row calibrate: peak " << peak_mb << " MB, report "
+            << fs::file_size(scratch_ / "o/report.html") / 1024 << " KB\n";
+  EXPECT_LT(fs::file_size(scratch_ / "o/report.html"), 1u << 20);
+  // Figures are decimated to about 2000 points.
+  std::ifstream fig(scratch_ / "o/figures/errors_per_sample.csv");
+  int lines = 0;
+  for (std::string l; std::getline(fig, l);) ++lines;
+  EXPECT_GT(lines, 1000);
+  EXPECT_LE(lines, 2001);
+  EXPECT_LT(peak_mb, 200 + rows * 1e-3 * kPeakKbPerRow) << "the stated memory constant";
+}
+
+}  // namespace
+}  // namespace hapticcal
