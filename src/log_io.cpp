@@ -1,5 +1,6 @@
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <numbers>
@@ -177,6 +178,9 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
 
 std::vector<std::string> split_columns(const std::string& list) { return split(list); }
 
+// More columns than any log of a chain needs (q, ext per joint, measurements).
+constexpr size_t kMaxColumns = 1000;
+
 Log parse_log(const std::string& text, const std::string& origin,
               const std::vector<std::string>& column_names) {
   std::vector<Column> columns;
@@ -199,16 +203,23 @@ Log parse_log(const std::string& text, const std::string& origin,
     pos = eol + 1;
     ++line_no;
     if (line.empty() || line[0] == '#') continue;
+    // Fields are counted before they are split: a line of commas costs no memory.
+    const size_t field_count = static_cast<size_t>(std::count(line.begin(), line.end(), ',')) + 1;
+    if (columns.empty() && field_count > kMaxColumns) {
+      throw InputError(
+          origin, line_no, "",
+          fmt::format("{} columns in the header: a log has at most {}", field_count, kMaxColumns));
+    }
+    if (!columns.empty() && field_count != columns.size()) {
+      throw InputError(
+          origin, line_no, "",
+          fmt::format("{} fields, expected {} ({})", field_count, columns.size(),
+                      column_names.empty() ? "one per header column" : "one per --columns entry"));
+    }
     const std::vector<std::string> fields = split(line);
     if (columns.empty()) {
       set_columns(fields, origin, line_no);
       continue;
-    }
-    if (fields.size() != columns.size()) {
-      throw InputError(
-          origin, line_no, "",
-          fmt::format("{} fields, expected {} ({})", fields.size(), columns.size(),
-                      column_names.empty() ? "one per header column" : "one per --columns entry"));
     }
     std::vector<double> row(columns.size(), 0.0);
     for (size_t k = 0; k < fields.size(); ++k) {

@@ -7,6 +7,7 @@
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/io.hpp"
+#include "run_cli.hpp"
 #include "test_models.hpp"
 
 namespace hapticcal {
@@ -97,8 +98,9 @@ TEST(DeviceIo, ShippedMeca500FileIsWhatTheConverterMakesFromTheRealData) {
   if (!std::filesystem::exists(source)) GTEST_SKIP() << "no " << source;
   const std::string out = ::testing::TempDir() + "/meca500_convert";
   std::filesystem::remove_all(out);
-  const std::string cmd = std::string(HAPTICCAL_CONVERT_MECA500) + " " + source + " " + out;
-  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const testing::CliResult r =
+      testing::run_program(HAPTICCAL_CONVERT_MECA500, std::vector<std::string>{source, out});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(read_file(out + "/meca500.yaml"),
             read_file(testing::source_path("examples/meca500/meca500.yaml")));
   for (const auto& e : std::filesystem::directory_iterator(out)) {

@@ -285,6 +285,24 @@ TEST_F(Trust, NonFiniteErrorsAreBadInput) {
   EXPECT_NE(c.err.find("huge.csv:6:"), std::string::npos) << c.err;
 }
 
+TEST_F(Trust, LinesOfCommasAreRefusedWithoutTheirMemory) {
+  // 20 MB of commas in a data row, then in a header: the field count is read
+  // before the fields are split (it took 1.1 GB).
+  const std::string commas(20'000'000, ',');
+  std::ofstream(scratch_ / "row.csv") << "q1,q2,x,y,z\n" << commas << "\n";
+  std::ofstream(scratch_ / "header.csv") << commas << "\n";
+  const std::string model = testing::source_path("tests/malformed/good-2dof.yaml");
+  for (const char* file : {"row.csv", "header.csv"}) {
+    SCOPED_TRACE(file);
+    Child c({"evaluate", "--model", model, "--log", (scratch_ / file).string()}, scratch_);
+    struct rusage usage {};
+    EXPECT_EQ(c.wait(&usage), 2);
+    EXPECT_NE(c.err().find(std::string(file) + ":"), std::string::npos) << c.err();
+    EXPECT_NE(c.err().find("20000001"), std::string::npos) << c.err();
+    EXPECT_LT(usage.ru_maxrss / 1024.0, 200) << "MB for a 20 MB file";
+  }
+}
+
 TEST_F(Trust, PaperStudyRefusesADeviceTooSmallForIt) {
   // Found by fuzz_scenario: Table 2's four drives written past a 2-joint device.
   const CliRun r =

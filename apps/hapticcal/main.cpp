@@ -111,11 +111,15 @@ CLI::Validator within(double lo, double hi, const std::string& unit) {
         try {
           size_t used = 0;
           v = std::stod(text, &used);
-          if (used != text.size()) return fmt::format("'{}' is not a number", text);
+          if (used != text.size()) {
+            return fmt::format("'{}' is not a number", hapticcal::printable(text));
+          }
         } catch (const std::exception&) {
-          return fmt::format("'{}' is not a number", text);
+          return fmt::format("'{}' is not a number", hapticcal::printable(text));
         }
-        if (!(v >= lo && v <= hi)) return fmt::format("{} is outside {}", text, range);
+        if (!(v >= lo && v <= hi)) {
+          return fmt::format("{} is outside {}", hapticcal::printable(text), range);
+        }
         return {};
       },
       "in " + range);
