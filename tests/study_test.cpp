@@ -50,6 +50,44 @@ TEST(Study, SameSeedGivesTheSameResultsByteForByteWhateverTheThreadCount) {
   for (const std::string& d : {a, b, c}) std::filesystem::remove_all(d);
 }
 
+// Every number of `actual` equals `expected`'s to a relative 1e-9 (keys,
+// strings and nulls exactly).
+void expect_same_json(const nlohmann::json& expected, const nlohmann::json& actual,
+                      const std::string& path) {
+  if (expected.is_number() && actual.is_number()) {
+    const double e = expected.get<double>(), a = actual.get<double>();
+    EXPECT_NEAR(a, e, 1e-9 * std::max(1.0, std::abs(e))) << path;
+    return;
+  }
+  ASSERT_EQ(expected.type(), actual.type()) << path;
+  if (expected.is_object()) {
+    ASSERT_EQ(expected.size(), actual.size()) << path;
+    for (auto it = expected.begin(); it != expected.end(); ++it) {
+      ASSERT_TRUE(actual.contains(it.key())) << path << "." << it.key();
+      expect_same_json(it.value(), actual[it.key()], path + "." + it.key());
+    }
+  } else if (expected.is_array()) {
+    ASSERT_EQ(expected.size(), actual.size()) << path;
+    for (size_t i = 0; i < expected.size(); ++i)
+      expect_same_json(expected[i], actual[i], path + "[" + std::to_string(i) + "]");
+  } else {
+    EXPECT_EQ(expected, actual) << path;
+  }
+}
+
+// `make run`'s results.json as the release before issue 10 wrote it (commit
+// 43b6bb0, its device path removed): the trust changes must not move them.
+TEST(Study, MainJobResultsAreUnchangedFromThePreviousRelease) {
+  const std::string out = ::testing::TempDir() + "/study_main_job";
+  std::filesystem::remove_all(out);
+  ASSERT_EQ(testing::run_cli("simulate --out " + out).exit_code, 0);
+  nlohmann::json now = nlohmann::json::parse(read_file(out + "/results.json"));
+  now.erase("device");
+  expect_same_json(nlohmann::json::parse(read_file(
+                       testing::source_path("tests/reference/simulate_seed1_results.json"))),
+                   now, "results");
+}
+
 TEST(Study, PipelineWritesWhatARealExperimentWouldAndScoresAgainstTheTruth) {
   const std::string out = ::testing::TempDir() + "/study_files";
   std::filesystem::remove_all(out);
