@@ -455,6 +455,9 @@ int main(int argc, char** argv) {
   CLI::App app{"hapticcal: kinematic calibration of haptic devices and robots with transmissions"};
   app.set_version_flag("--version", "hapticcal 0.1.0");
   app.require_subcommand(1);
+  app.footer(
+      "Exit codes: 0 success; 2 bad input; 3 calibration not usable (the previous "
+      "calibrated.yaml is kept); 1 anything else (I/O errors with the system's reason).");
 
   SimulateOptions sim;
   sim.device = builtin_device();
