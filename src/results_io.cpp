@@ -82,7 +82,8 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
   j["parameters"] = params;
   j["transmissions"] = transmissions;
   j["notes"] = result.notes;
-  return j.dump(2) + "\n";
+  // Paths are bytes on Linux: invalid UTF-8 is replaced, never a throw.
+  return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 }  // namespace hapticcal

@@ -527,7 +527,7 @@ std::string study_json(const Scenario& sc, const StudyResult& r) {
     }
     j["monte_carlo"] = mc;
   }
-  return j.dump(2) + "\n";
+  return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 }  // namespace hapticcal

@@ -20,8 +20,10 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
+#include "hapticcal/error.hpp"
 #include "hapticcal/io.hpp"
 #include "test_models.hpp"
 
@@ -300,6 +302,51 @@ TEST_F(Trust, LinesOfCommasAreRefusedWithoutTheirMemory) {
     EXPECT_NE(c.err().find(std::string(file) + ":"), std::string::npos) << c.err();
     EXPECT_NE(c.err().find("20000001"), std::string::npos) << c.err();
     EXPECT_LT(usage.ru_maxrss / 1024.0, 200) << "MB for a 20 MB file";
+  }
+}
+
+TEST_F(Trust, NumericOptionsAreRangeChecked) {
+  const std::string device = testing::source_path("data/devices/baser-7dof.yaml");
+  const std::vector<std::string> force{"force",     "--actual", device,
+                                       "--nominal", device,     "--calibrated",
+                                       device,      "--out",    (scratch_ / "f").string()};
+  auto with = [&](std::vector<std::string> args, const std::string& option,
+                  const std::string& value) {
+    args.push_back(option);
+    args.push_back(value);
+    return run(args);
+  };
+  // Each once crashed or printed nan with exit 0.
+  for (const auto& [option, value, limit] :
+       std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"--seconds", "3000000", "[0, 600] s"},
+           {"--travel", "1e308", "[-1, 1] m"},
+           {"--travel", "nan", "[-1, 1] m"},
+           {"--gain", "inf", "[-100, 100]"},
+           {"--stiffness", "-5", "[0.001, 1000000] N/m"}}) {
+    SCOPED_TRACE(option + " " + value);
+    const CliRun r = with(force, option, value);
+    EXPECT_EQ(r.code, 2);
+    EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
+    EXPECT_NE(r.err.find(option), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(limit), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(scratch_ / "f"));
+  const CliRun trials =
+      run({"simulate", "--trials", "1000000000", "--out", (scratch_ / "s").string()});
+  EXPECT_EQ(trials.code, 2);
+  EXPECT_NE(trials.err.find("[1, 100000]"), std::string::npos) << trials.err;
+}
+
+TEST_F(Trust, WriteFailuresAreIoErrorsNotBadInput) {
+  // Exit 1 with the system's reason, not 2 ("bad input").
+  EXPECT_THROW(write_file_atomically("/proc/hapticcal-cannot-write-here", "x"), IoError);
+  try {
+    write_file_atomically("/proc/hapticcal-cannot-write-here", "x");
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("/proc/hapticcal-cannot-write-here: cannot write: "),
+              std::string::npos)
+        << e.what();
   }
 }
 

@@ -65,7 +65,7 @@ int run_evaluate(const EvaluateOptions& o) {
         j["improvement_position_pct"] = improvement(ev.position, ref->position);
       }
     }
-    fmt::print("{}\n", j.dump());
+    fmt::print("{}\n", j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
     return 0;
   }
   fmt::print("model: {} ({}, {} joints)\n", o.model, model.name, model.dof());
@@ -441,7 +441,9 @@ int run_force_study(ForceOptions o) {
   j["transverse_rms_nominal"] = before.transverse_rms;
   j["transverse_rms_calibrated"] = after.transverse_rms;
   j["reduction_pct"] = reduction;
-  hapticcal::write_file_atomically(out.dir() + "/results.json", j.dump(2) + "\n");
+  hapticcal::write_file_atomically(
+      out.dir() + "/results.json",
+      j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   report(hapticcal::force_report(before, after, reduction), out.dir(), o.out);
   out.commit();
   fmt::print("wrote {0}/force_nominal.csv, {0}/force_calibrated.csv, {0}/results.json\n", o.out);
