@@ -179,6 +179,52 @@ TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForDistancesAndPositi
 // the mean reported sd of Re, r_out, beta_out, r_in, beta_in and c is within 15 %
 // of the RMS error about the truth. With 500 trials the RMSE itself is known to
 // about 1 / sqrt(1000) = 3 % (3000 trials give ratios of 0.98-1.02).
+// The compressed cost's Jacobian R is not the derivative of its residuals [c; e]
+// (Q moves with the parameters): what LM uses from it must be the full cost's.
+// R^T R = J^T J, R^T c = J^T r and |[c; e]|^2 = |r|^2, J and r from MeasurementCost
+// (checked against central differences above), over several 256-pose blocks.
+TEST(CostJacobian, CompressedMeasurementCostGivesTheFullGaussNewtonSystem) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (const auto& [label, file_model] : devices()) {
+    for (const MeasurementKind kind : {MeasurementKind::kDistance, MeasurementKind::kPosition}) {
+      SCOPED_TRACE(label + (kind == MeasurementKind::kDistance ? " distance" : " position"));
+      const int d = detail::residuals_per_row(kind);
+      const DeviceModel model = perturbed(file_model, rng);
+      const ChainStructure s = model.structure();
+      const Eigen::VectorXd params = model.kinematic_parameters();
+      const int poses = 700, n = s.num_slots();
+      std::vector<Eigen::VectorXd> joints;
+      detail::RowMatrix measured(poses, d);
+      for (int i = 0; i < poses; ++i) {
+        joints.push_back(random_readings(model, rng));
+        const Eigen::Vector3d p = forward_kinematics(s, params.data(), joints[i].data()).p;
+        for (int k = 0; k < d; ++k) {
+          measured(i, k) =
+              (kind == MeasurementKind::kPosition ? p[k] : p.norm()) + 1e-3 * unit(rng);
+        }
+      }
+      const Evaluation full =
+          evaluate_cost(detail::MeasurementCost(s, joints, kind, measured), params);
+      const detail::CompressedMeasurementCost compressed(s, joints, kind, measured);
+      ASSERT_EQ(compressed.num_residuals(), n + 1);
+      Eigen::VectorXd z(n + 1), z_cost(n + 1);
+      detail::RowMatrix Z(n + 1, n);
+      const double* x[] = {params.data()};
+      double* jac[] = {Z.data()};
+      ASSERT_TRUE(compressed.Evaluate(x, z.data(), jac));
+      ASSERT_TRUE(compressed.Evaluate(x, z_cost.data(), nullptr));
+      const Eigen::MatrixXd JtJ = full.J.transpose() * full.J;
+      const Eigen::VectorXd Jtr = full.J.transpose() * full.r;
+      EXPECT_LT((Z.transpose() * Z - JtJ).norm(), 1e-12 * JtJ.norm());
+      EXPECT_LT((Z.transpose() * z - Jtr).norm(), 1e-12 * (JtJ.norm() * full.r.norm()));
+      EXPECT_NEAR(z.squaredNorm(), full.r.squaredNorm(), 1e-12 * full.r.squaredNorm());
+      EXPECT_NEAR(z_cost.squaredNorm(), full.r.squaredNorm(), 1e-12 * full.r.squaredNorm());
+      EXPECT_TRUE(Z.row(n).isZero());
+    }
+  }
+}
+
 TEST(CostJacobian, CapstanReportedSdMatchesMonteCarloRmseWithin15Percent) {
   const DeviceModel actual = paper_actual_device(testing::builtin("baser-7dof"));
   constexpr int kTrials = 500, kSamples = 200;
