@@ -86,6 +86,10 @@ std::vector<std::vector<double>> read_csv_columns(const std::string& path) {
   return cols;
 }
 
+// Long logs and runs are decimated to about this many points a figure, so that
+// a report stays small (issue 10: 10^6 rows gave a 208 MB report).
+constexpr int kMaxPlotted = 2000;
+
 std::string parameter_table(const KinematicFit& k) {
   std::vector<std::vector<std::string>> rows;
   for (const ParameterEstimate& e : k.parameters) {
@@ -166,9 +170,6 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   report.sections.push_back(parameter_table(k));
   report.sections.push_back(held_table(k));
 
-  // Long logs are decimated to about kMaxPlotted points a figure, so that the
-  // report stays small (issue 10: 10^6 rows).
-  constexpr int kMaxPlotted = 2000;
   const size_t pose_stride =
       std::max<size_t>(1, (result.rows.size() + kMaxPlotted - 1) / kMaxPlotted);
   std::vector<int> plotted_rows;
@@ -352,7 +353,8 @@ Report force_report(const ForceRun& nominal, const ForceRun& calibrated, double 
   for (const auto& [run, label] :
        {std::pair{&nominal, "nominal"}, std::pair{&calibrated, "calibrated"}}) {
     std::vector<double> t, fdz, fx, fy, fz;
-    for (size_t k = 0; k < run->t.size(); k += 5) {
+    const size_t stride = std::max<size_t>(5, (run->t.size() + kMaxPlotted - 1) / kMaxPlotted);
+    for (size_t k = 0; k < run->t.size(); k += stride) {
       t.push_back(run->t[k]);
       fdz.push_back(run->desired[k][2]);
       fx.push_back(run->measured[k][0]);
