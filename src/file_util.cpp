@@ -135,7 +135,8 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   namespace fs = std::filesystem;
   const fs::path target(path);
   std::error_code ec;
-  if (detail::output_aborted()) throw IoError(path + ": not written: interrupted");
+  const detail::WriteGuard guard;
+  if (guard.aborted()) throw IoError(path + ": not written: interrupted");
   if (target.has_parent_path()) fs::create_directories(target.parent_path(), ec);
   if (ec) throw IoError(path + ": cannot create directory: " + ec.message());
   std::string tmp = path + ".tmp-XXXXXX";

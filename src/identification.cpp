@@ -193,7 +193,7 @@ std::vector<std::vector<int>> repeated_poses(const Log& log) {
   std::string key(sizeof(double) * static_cast<size_t>(log.dof()), '\0');
   for (int r = 0; r < log.rows; ++r) {
     for (int j = 0; j < log.dof(); ++j) {
-      const double v = log.q(r, j);
+      const double v = log.q(r, j) + 0.0;  // -0.0 and 0.0 are one reading
       std::memcpy(key.data() + sizeof(double) * j, &v, sizeof(double));
     }
     const auto [it, added] = index.try_emplace(key, static_cast<int>(groups.size()));

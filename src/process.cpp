@@ -73,10 +73,13 @@ ProcessStatus run_program(const std::vector<std::string>& argv, const std::strin
   if (posix_spawnattr_init(&attr) != 0) return failed(program, "", ENOMEM);
   posix_spawnattr_setsigmask(&attr, &none);
   posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK);
-  err = posix_spawnp(&pid, program.c_str(), actions.get(), &attr, args.data(), environ);
+  pid = spawn_tracked([&]() -> pid_t {
+    pid_t child = -1;
+    err = posix_spawnp(&child, program.c_str(), actions.get(), &attr, args.data(), environ);
+    return err == 0 ? child : -1;
+  });
   posix_spawnattr_destroy(&attr);
-  if (err != 0) return failed(program, "", err);
-  track_child(pid);
+  if (pid < 0) return failed(program, "", err != 0 ? err : EINTR);
 
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0) {

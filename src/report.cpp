@@ -147,7 +147,6 @@ int write_report(const Report& report, const std::string& dir, std::string& note
     note = "figures skipped: gnuplot not found (install Debian's gnuplot-nox)";
   } else if (!report.figures.empty()) {
     const fs::path fig_dir = fs::path(dir) / "figures";
-    fs::create_directories(fig_dir);
     for (const FigureSpec& f : report.figures) {
       const std::string data = f.name + ".csv", gp = f.name + ".gp";
       const fs::path svg = fig_dir / (f.name + ".svg"), png = fig_dir / (f.name + ".png");

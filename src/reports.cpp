@@ -128,7 +128,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
       "<b>Status: {2}</b> &mdash; {3}{4}",
       usable ? "#2a7" : "#c22", usable ? "#efe" : "#fee", to_string(result.status),
       html_escape(result.status_reason),
-      usable ? "" : ". <b>This calibration is not usable: calibrated.yaml was not replaced.</b>");
+      usable ? "" : ". <b>This calibration is not usable: no new calibrated.yaml was written.</b>");
   if (!result.notes.empty()) {
     banner += "<ul>";
     for (const std::string& note : result.notes) banner += "<li>" + html_escape(note) + "</li>";

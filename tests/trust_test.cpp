@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "hapticcal/error.hpp"
+#include "hapticcal/identification.hpp"
 #include "hapticcal/io.hpp"
 #include "test_models.hpp"
 
@@ -181,6 +182,7 @@ TEST_F(Trust, ForcedUnitlessLogExits3AndKeepsThePreviousModel) {
   // The terminal's last line says so.
   const std::string last = bad.out.substr(bad.out.rfind('\n', bad.out.size() - 2) + 1);
   EXPECT_EQ(last.rfind("status: not converged", 0), 0u) << last;
+  EXPECT_NE(last.find("the previous calibrated.yaml is kept"), std::string::npos) << last;
   EXPECT_EQ(slurp(out / "calibrated.yaml"), model_before) << "the good model was replaced";
   const auto j = nlohmann::json::parse(slurp(out / "results.json"));
   EXPECT_EQ(j["status"], "not converged");
@@ -189,7 +191,7 @@ TEST_F(Trust, ForcedUnitlessLogExits3AndKeepsThePreviousModel) {
   EXPECT_EQ(j["log"], log);
   const std::string report = slurp(out / "report.html");
   EXPECT_NE(report.find("Status: not converged"), std::string::npos);
-  EXPECT_NE(report.find("calibrated.yaml was not replaced"), std::string::npos);
+  EXPECT_NE(report.find("no new calibrated.yaml was written"), std::string::npos);
 }
 
 TEST_F(Trust, LogOfAnotherDeviceIsRefused) {
@@ -395,6 +397,117 @@ TEST_F(Trust, OutputFolderIsCheckedBeforeAnyWork) {
     EXPECT_NE(ro.err.find("Permission denied"), std::string::npos) << ro.err;
     fs::permissions(scratch_ / "ro", fs::perms::owner_all);
   }
+}
+
+TEST_F(Trust, ARerunReplacesOnlyWhatItsLastRunWrote) {
+  const std::vector<std::string> cal{"calibrate", "--model", kMeca, "--log", kMecaLog, "--out"};
+  auto into = [&](const fs::path& out) {
+    std::vector<std::string> a = cal;
+    a.push_back(out.string());
+    return run(a);
+  };
+  // A results.json is no licence: a folder without the marker is refused.
+  fs::create_directories(scratch_ / "proj/src");
+  std::ofstream(scratch_ / "proj/results.json") << "{}";
+  std::ofstream(scratch_ / "proj/src/thesis.tex") << "precious";
+  EXPECT_EQ(into(scratch_ / "proj").code, 2);
+  EXPECT_EQ(slurp(scratch_ / "proj/src/thesis.tex"), "precious");
+  // A set with a file added by hand, or another set nested in it, is refused too.
+  ASSERT_EQ(into(scratch_ / "set").code, 0);
+  const std::string marker = slurp(scratch_ / "set/.hapticcal-output");
+  EXPECT_EQ(marker.rfind("hapticcal calibrate\n", 0), 0u) << marker;
+  EXPECT_NE(marker.find("\ncalibrated.yaml\n"), std::string::npos) << marker;
+  std::ofstream(scratch_ / "set/notes.txt") << "mine";
+  const CliRun added = into(scratch_ / "set");
+  EXPECT_EQ(added.code, 2);
+  EXPECT_NE(added.err.find("holds 'notes.txt', which its last run did not write"),
+            std::string::npos)
+      << added.err;
+  fs::remove(scratch_ / "set/notes.txt");
+  ASSERT_EQ(run({"simulate", "--trials", "1", "--out", (scratch_ / "set/sim").string()}).code, 0);
+  EXPECT_EQ(into(scratch_ / "set").code, 2);
+  EXPECT_TRUE(fs::exists(scratch_ / "set/sim/results.json"));
+  // A trailing slash names the folder; a symbolic link is followed, and stays.
+  fs::remove_all(scratch_ / "set/sim");
+  EXPECT_EQ(into(fs::path((scratch_ / "set").string() + "/")).code, 0);
+  fs::create_directory_symlink(scratch_ / "set", scratch_ / "link");
+  const std::string before = slurp(scratch_ / "set/results.json");
+  ASSERT_EQ(run({"calibrate", "--model", kMeca, "--log", kMecaLog, "--samples", "30", "--out",
+                 (scratch_ / "link").string()})
+                .code,
+            0);
+  EXPECT_TRUE(fs::is_symlink(scratch_ / "link"));
+  EXPECT_NE(slurp(scratch_ / "set/results.json"), before) << "the linked folder was not replaced";
+  EXPECT_EQ(nlohmann::json::parse(slurp(scratch_ / "link/results.json"))["poses"], 30);
+}
+
+TEST_F(Trust, KilledRunsLeaveNothingTheNextRunKeeps) {
+  const fs::path out = scratch_ / "fresh";
+  // SIGTERM early into a new folder: no folder at all afterwards.
+  Child early({"simulate", "--trials", "1", "--out", out.string()}, scratch_);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ::kill(early.pid, SIGTERM);
+  EXPECT_EQ(early.wait(), 143);
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_EQ(leftovers(scratch_), std::vector<std::string>{});
+  // SIGKILL cannot be handled: its staging folder stays until the next run
+  // into that folder sweeps it.
+  Child killed({"simulate", "--trials", "1", "--out", out.string()}, scratch_);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  ::kill(killed.pid, SIGKILL);
+  killed.wait();
+  EXPECT_FALSE(leftovers(scratch_).empty()) << "killed before it made its staging folder";
+  ASSERT_EQ(run({"calibrate", "--model", kMeca, "--log", kMecaLog, "--out", out.string()}).code, 0);
+  EXPECT_EQ(leftovers(scratch_), std::vector<std::string>{});
+  // A closed pipe on stdout: an error, not a death that leaves the staging folder.
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  ::close(fds[0]);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, fds[1], 1);
+  std::vector<std::string> argv{HAPTICCAL_CLI, "calibrate", "--model", kMeca,
+                                "--log",       kMecaLog,    "--out",   (scratch_ / "p").string()};
+  std::vector<char*> raw;
+  for (std::string& a : argv) raw.push_back(a.data());
+  raw.push_back(nullptr);
+  pid_t pid = -1;
+  ASSERT_EQ(posix_spawn(&pid, HAPTICCAL_CLI, &actions, nullptr, raw.data(), environ), 0);
+  posix_spawn_file_actions_destroy(&actions);
+  ::close(fds[1]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status)) << "killed by signal " << WTERMSIG(status);
+  EXPECT_EQ(leftovers(scratch_), std::vector<std::string>{});
+}
+
+TEST_F(Trust, AFailedRunKeepsOnlyAModelOfTheSameDevice) {
+  // A simulate set holds the 7-DOF's calibrated.yaml: a failed Meca500
+  // calibration into it must not present that as its previous model.
+  const fs::path out = scratch_ / "o";
+  ASSERT_EQ(run({"simulate", "--trials", "1", "--out", out.string()}).code, 0);
+  const std::string log = meca_log_variant(scratch_ / "unitless.csv", 1, "q1[deg]", "q1");
+  const CliRun bad =
+      run({"calibrate", "--model", kMeca, "--log", log, "--out", out.string(), "--force"});
+  EXPECT_EQ(bad.code, 3);
+  EXPECT_FALSE(fs::exists(out / "calibrated.yaml"));
+  EXPECT_NE(bad.out.find("no calibrated.yaml written"), std::string::npos) << bad.out;
+}
+
+TEST_F(Trust, NegativeZeroReadingsAreTheSamePose) {
+  std::string text = slurp(kMecaLog);
+  // The first pose's three rows: q1 = 0, -0, -0 (a logger printing -0.000).
+  std::istringstream in(text);
+  std::string line, edited;
+  int n = 0;
+  while (std::getline(in, line)) {
+    if (n >= 1 && n <= 3) line = (n == 1 ? "0" : "-0.000") + line.substr(line.find(','));
+    edited += line + "\n";
+    ++n;
+  }
+  std::ofstream(scratch_ / "zero.csv") << edited;
+  const Log log = read_log((scratch_ / "zero.csv").string());
+  EXPECT_EQ(repeated_poses(log).size(), 70u);
 }
 
 // Each file of `dir` that names a run's identity, read whole.

@@ -6,11 +6,13 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <system_error>
 #include <thread>
 
 #include "hapticcal/control.hpp"
@@ -104,7 +106,12 @@ struct CalibrateOptions {
 // A numeric option's range, with the limits (and a unit) in its error; also
 // refuses nan and inf, which CLI11's Range lets through.
 CLI::Validator within(double lo, double hi, const std::string& unit) {
-  const std::string range = fmt::format("[{}, {}]{}{}", lo, hi, unit.empty() ? "" : " ", unit);
+  auto number = [](double v) {
+    return v == std::floor(v) && std::abs(v) < 1e15 ? fmt::format("{}", static_cast<long long>(v))
+                                                    : fmt::format("{}", v);
+  };
+  const std::string range =
+      fmt::format("[{}, {}]{}{}", number(lo), number(hi), unit.empty() ? "" : " ", unit);
   return CLI::Validator(
       [lo, hi, range](std::string& text) -> std::string {
         double v = 0;
@@ -213,6 +220,18 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
   }
 }
 
+// The previous run's calibrated.yaml, carried into a failed run's set only if
+// that run calibrated the same device.
+bool keep_previous_model(const hapticcal::OutputSet& out, const std::string& device) {
+  if (out.previous_command() != "calibrate") return false;
+  try {
+    if (hapticcal::load_device(out.target() + "/calibrated.yaml").name != device) return false;
+  } catch (const hapticcal::InputError&) {
+    return false;
+  }
+  return out.keep_previous("calibrated.yaml");
+}
+
 int run_calibrate(const CalibrateOptions& o) {
   const hapticcal::DeviceModel model = hapticcal::load_device(o.model);
   const hapticcal::Log log = hapticcal::read_log(o.log, names(o.columns));
@@ -228,15 +247,16 @@ int run_calibrate(const CalibrateOptions& o) {
   options.fix = names(o.fix);
   options.free = names(o.free);
   hapticcal::CalibrationResult result = hapticcal::calibrate(model, log, options);
-  print_summary(result, model);
   const bool usable = result.status == hapticcal::CalibrationStatus::kConverged;
+  bool kept = false;
   if (usable) {
     hapticcal::save_device(result.calibrated, out.dir() + "/calibrated.yaml");
   } else {
-    result.notes.push_back(out.keep_previous("calibrated.yaml")
-                               ? "calibrated.yaml is the previous run's model: not replaced"
-                               : "no calibrated.yaml written: the calibration is not usable");
+    kept = keep_previous_model(out, model.name);
+    result.notes.push_back(kept ? "calibrated.yaml is the previous run's model: not replaced"
+                                : "no calibrated.yaml written: the calibration is not usable");
   }
+  print_summary(result, model);
   hapticcal::write_file_atomically(
       out.dir() + "/results.json",
       hapticcal::calibration_json(result, model, o.model, o.log, options));
@@ -245,8 +265,8 @@ int run_calibrate(const CalibrateOptions& o) {
   fmt::print("wrote {0}/: {1}results.json, report.html, figures/ (seed {2})\n", o.out,
              usable ? "calibrated.yaml, " : "", o.seed);
   if (!usable) {
-    fmt::print("status: {}: {}; calibrated.yaml not replaced\n", to_string(result.status),
-               result.status_reason);
+    fmt::print("status: {}: {}; {}\n", to_string(result.status), result.status_reason,
+               kept ? "the previous calibrated.yaml is kept" : "no calibrated.yaml written");
     return kExitUnusable;
   }
   fmt::print("status: {}\n", to_string(result.status));
@@ -571,6 +591,10 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "hapticcal: {}\n", e.what());
     code = kExitBadInput;
   } catch (const hapticcal::IoError& e) {
+    hapticcal::finish_if_interrupted();
+    fmt::print(stderr, "hapticcal: {}\n", e.what());
+    code = 1;
+  } catch (const std::system_error& e) {  // a write to stdout failed (a closed pipe)
     hapticcal::finish_if_interrupted();
     fmt::print(stderr, "hapticcal: {}\n", e.what());
     code = 1;

@@ -4,19 +4,22 @@
 // never a mix; an interrupted, failed or refused run leaves the old set as it was.
 #pragma once
 
+#include <filesystem>
 #include <string>
 
 namespace hapticcal {
 
-// The name of the marker file every set holds (the command that wrote it). A
-// folder is replaced only if it is empty, holds this marker or a results.json:
-// a rerun never deletes a folder of someone else's files.
+// The name of the marker file every set holds: the command that wrote it, then
+// every entry of the set. A folder is replaced only if it is empty or holds
+// this marker and nothing it does not list: a rerun never deletes files it did
+// not write.
 inline constexpr const char* kOutputMarker = ".hapticcal-output";
 
 class OutputSet {
  public:
   // Checks --out before any work: refuses an empty path, a file, the working
-  // folder or one of its ancestors, and a folder of foreign files (InputError);
+  // folder or one of its ancestors, a mount point and a folder holding files
+  // no run wrote (InputError); a symbolic link is followed;
   // creates --out if missing and locks it, refusing a second run into the same
   // folder while this one holds it, and creates the staging folder (IoError
   // when either fails, with the system's reason). `command` goes into the marker.
@@ -28,20 +31,29 @@ class OutputSet {
 
   // The staging folder: write every output here.
   const std::string& dir() const { return staging_; }
-  // --out as given.
+  // --out, symbolic links resolved: the folder that is replaced.
   const std::string& target() const { return target_; }
+  // The command that wrote the set now in --out ("calibrate"...), or empty.
+  std::string previous_command() const;
   // Copies `name` from the current --out into the staging folder if it is there
   // (a previous good model kept beside a failed run's results). Whether it was.
   bool keep_previous(const std::string& name) const;
-  // Puts the staging folder in --out's place (atomic exchange), then removes
-  // the old set. IoError if the exchange fails; the old set is then unchanged.
+  // Writes the marker, puts the staging folder in --out's place (an atomic
+  // exchange where the file system has one) and removes the old set. IoError
+  // if that fails; the old set is then unchanged.
   void commit();
 
  private:
-  std::string target_, staging_;
-  int lock_fd_ = -1;
+  // The constructor's second half (the lock, the staging folder), and its undo.
+  void acquire(const std::filesystem::path& parent, const std::string& stem);
+  void release();
+
+  std::string shown_, command_;
+  std::string target_, staging_;  // resolved paths
+  int lock_fd_ = -1, staging_fd_ = -1;
   bool committed_ = false;
-  bool created_ = false;  // --out did not exist before this run
+  bool created_ = false;   // --out was empty (or missing) when this run locked it
+  bool exchange_ = false;  // the file system exchanges folders atomically
 };
 
 // Blocks SIGINT, SIGTERM and SIGHUP in the calling thread (and the threads it
