@@ -343,10 +343,33 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
   }
 }
 
-// A nominal error beyond kImplausibleReachFraction of the reach says the log is
-// not from this device (or not in its frame): an InputError unless forced.
+// The measurement error left once only the base pose is fitted (LM over the
+// base slots): a base known only roughly is no sign of a wrong log.
+double rms_with_base_fitted(const ChainStructure& s, Eigen::VectorXd p,
+                            const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
+                            const RowMatrix& measured, bool compressed) {
+  std::vector<int> constant;
+  for (int k = kBaseSlots; k < s.num_slots(); ++k) constant.push_back(k);
+  ceres::Problem problem;
+  if (compressed) {
+    problem.AddResidualBlock(new CompressedMeasurementCost(s, joints, kind, measured), nullptr,
+                             p.data());
+  } else {
+    problem.AddResidualBlock(new MeasurementCost(s, joints, kind, measured), nullptr, p.data());
+  }
+  problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
+  ceres::Solver::Summary summary;
+  ceres::Solve(detail::levenberg_marquardt(50), &problem, &summary);
+  const Stack at = stack(s, p, joints, kind, measured, compressed);
+  return measurement_rms(at.rss, at.residuals, kind);
+}
+
+// A nominal error beyond kImplausibleErrorFraction of the reach, even with the
+// base pose fitted, says the log is not from this device: an InputError unless
+// forced.
 void check_reach(const ChainStructure& s, const DeviceModel& nominal,
-                 const std::vector<Eigen::VectorXd>& joints, double rms_before, bool force,
+                 const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
+                 const RowMatrix& measured, bool compressed, double rms_before, bool force,
                  std::vector<std::string>& notes) {
   const Eigen::VectorXd p = nominal.kinematic_parameters();
   const ChainConstants<double> constants = chain_constants(s, p.data());
@@ -355,11 +378,20 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
     reach =
         std::max(reach, (forward_kinematics(s, constants, q.data()).p - constants.base.p).norm());
   }
-  if (!(rms_before > kImplausibleReachFraction * reach)) return;
+  const double limit = kImplausibleErrorFraction * reach;
+  if (!(rms_before > limit)) return;
+  const double rms_base = rms_with_base_fitted(s, p, joints, kind, measured, compressed);
+  if (rms_base <= limit) {
+    notes.push_back(fmt::format(
+        "the nominal model's RMS error is {:.1f} mm, {:.1f} mm with its base pose fitted "
+        "(below {:.0f} % of the reach: plausible for this device)",
+        rms_before * 1e3, rms_base * 1e3, kImplausibleErrorFraction * 100));
+    return;
+  }
   const std::string message = fmt::format(
-      "the nominal model's RMS error, {:.1f} mm, is more than {:.0f} % of the device's reach "
-      "({:.1f} mm): is this log from this device ({})?",
-      rms_before * 1e3, kImplausibleReachFraction * 100, reach * 1e3, nominal.name);
+      "the nominal model's RMS error, {:.1f} mm ({:.1f} mm with its base pose fitted), is more "
+      "than {:.0f} % of the device's reach ({:.1f} mm): is this log from this device ({})?",
+      rms_before * 1e3, rms_base * 1e3, kImplausibleErrorFraction * 100, reach * 1e3, nominal.name);
   if (!force) throw InputError(message + " (--force calibrates anyway)");
   notes.push_back("warning: " + message);
 }
@@ -397,10 +429,17 @@ void set_status(CalibrationResult& result, const std::vector<int>& identified) {
   for (const ParameterEstimate& e : fit.parameters) {
     finite = finite && (!e.identifiable || std::isfinite(e.sd));
   }
-  std::string unexcited;
+  std::string unexcited, transmissions_failed;
   for (const ParameterEstimate& e : fit.parameters) {
     if (e.reason.rfind("not excited", 0) == 0)
       unexcited += (unexcited.empty() ? "" : ", ") + e.name;
+  }
+  for (const TransmissionFit& t : result.transmissions) {
+    finite = finite && t.value.allFinite() && std::isfinite(t.offset) && std::isfinite(t.rms_after);
+    if (!t.converged) {
+      transmissions_failed +=
+          (transmissions_failed.empty() ? "" : ", ") + result.calibrated.links[t.joint].name;
+    }
   }
   if (!finite || fit.numerical_failure) {
     result.status = CalibrationStatus::kNumericalFailure;
@@ -408,6 +447,10 @@ void set_status(CalibrationResult& result, const std::vector<int>& identified) {
                                ? "the solver failed: " + fit.termination
                                : "the fit produced non-finite values (a measurement too large "
                                  "for the model, or a degenerate model)";
+  } else if (!transmissions_failed.empty()) {
+    result.status = CalibrationStatus::kNotConverged;
+    result.status_reason =
+        "the transmission fit (step 1) did not converge for " + transmissions_failed;
   } else if (!identified.empty() && !fit.converged) {
     result.status = CalibrationStatus::kNotConverged;
     result.status_reason = fmt::format("Levenberg-Marquardt did not converge in {} iterations ({})",
@@ -417,7 +460,9 @@ void set_status(CalibrationResult& result, const std::vector<int>& identified) {
     result.status_reason = "no parameter is identifiable from these measurements";
   } else if (fit.rank_deficient) {
     result.status = CalibrationStatus::kRankDeficient;
-    result.status_reason = "these measurements do not excite " + unexcited;
+    result.status_reason = "these measurements do not excite " + unexcited +
+                           " (measure poses that move them, or hold them with --fix to calibrate "
+                           "the rest)";
   } else {
     result.status = CalibrationStatus::kConverged;
     result.status_reason = fmt::format("converged in {} iterations", fit.iterations);
@@ -507,6 +552,10 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                                  m * d == 1 ? "" : "s", candidates.size()));
   }
   const Eigen::VectorXd p0 = model.kinematic_parameters();
+  // Beyond options.max_jacobian_bytes the Jacobian is never formed (issue 10:
+  // 10^6 rows): its R factor carries the same column geometry.
+  const bool compressed = static_cast<double>(m) * d * s.num_slots() * sizeof(double) >
+                          static_cast<double>(options.max_jacobian_bytes);
   {
     const PreparedModel prepared_nominal(nominal);
     std::vector<Eigen::VectorXd> nominal_joints(m, Eigen::VectorXd(model.dof()));
@@ -532,7 +581,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                        "the nominal model's error on this row is not finite: a value is too large");
     }
     fit.rms_before = measurement_rms(r0.squaredNorm(), r0.size(), fit.kind);
-    check_reach(s, nominal, nominal_joints, fit.rms_before, options.force, result.notes);
+    check_reach(s, nominal, nominal_joints, fit.kind, measured, compressed, fit.rms_before,
+                options.force, result.notes);
   }
 
   // Identifiability: on synthetic poses over the joint limits (structural) and on the data.
@@ -546,10 +596,6 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     }
     qs = model.compensate(reading);
   }
-  // Beyond options.max_jacobian_bytes the Jacobian is never formed (issue 10:
-  // 10^6 rows): its R factor carries the same column geometry.
-  const bool compressed = static_cast<double>(m) * d * s.num_slots() * sizeof(double) >
-                          static_cast<double>(options.max_jacobian_bytes);
   Stack data = stack(s, p0, joints, fit.kind, measured, compressed);
   const Stack structural = stack(s, p0, synthetic, fit.kind, RowMatrix::Zero(kStructuralPoses, d));
   // Metres and radians made comparable: angle columns times a length scale, the

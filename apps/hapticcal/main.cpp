@@ -525,9 +525,11 @@ int main(int argc, char** argv) {
                    "A parameter whose scaled Jacobian column lies within this relative "
                    "distance of the span of those before it is held (default 1e-6)")
       ->check(CLI::Range(1e-12, 0.5));
-  calibrate->add_flag("--force", cal.force,
-                      "Calibrate even if the log looks implausible for the model (readings "
-                      "outside the joint limits, nominal error beyond 10 % of the reach)");
+  calibrate->add_flag(
+      "--force", cal.force,
+      "Calibrate even if the log looks implausible for the model (readings "
+      "outside the joint limits, nominal error beyond 5 % of the reach with the base "
+      "fitted)");
   calibrate->add_option("--out", cal.out,
                         "Output folder, replaced as a whole when the run succeeds (default "
                         "hapticcal-out/calibrate)");
