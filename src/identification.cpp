@@ -32,20 +32,23 @@ using detail::RowMatrix;
 
 // The stacked residuals and identification Jacobian at `params`; compressed
 // (detail::compress_rows) for logs whose Jacobian would not fit in memory.
+// Every residual row is weighted by its pose's detail::weigh weight, the
+// square root of its repeat count (none: all 1).
 struct Stack {
-  Eigen::VectorXd r;  // every residual; empty when compressed
+  Eigen::VectorXd r;  // every (weighted) residual; empty when compressed
   Eigen::MatrixXd J;  // rows x slots; when compressed R (slots x slots): same column geometry
-  double rss = 0;     // sum of the squared residuals
-  Eigen::Index residuals = 0;
+  double rss = 0;     // sum of the squared weighted residuals
+  Eigen::Index residuals = 0;  // rows of the fit: poses x residuals a pose
 };
 
 Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
             const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
-            const RowMatrix& measured, bool compressed = false) {
+            const RowMatrix& measured, const Eigen::VectorXd& weights, bool compressed = false) {
   const int d = residuals_per_row(kind);
   const int m = static_cast<int>(joints.size());
   if (compressed) {
-    detail::CompressedRows z = detail::compress_rows(s, params.data(), joints, kind, measured);
+    detail::CompressedRows z =
+        detail::compress_rows(s, params.data(), joints, kind, measured, weights);
     return {Eigen::VectorXd(), std::move(z.R), z.rss(), static_cast<Eigen::Index>(m) * d};
   }
   Stack out{Eigen::VectorXd(m * d), Eigen::MatrixXd(m * d, s.num_slots())};
@@ -53,16 +56,17 @@ Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
   for (int i = 0; i < m; ++i) {
     measurement_rows(s, constants, params.data(), joints[i].data(), kind, measured.row(i).data(),
                      out.r.data() + d * i, out.J.middleRows(d * i, d));
+    detail::weigh(weights, i, out.r.data() + d * i, out.J.middleRows(d * i, d));
   }
   out.rss = out.r.squaredNorm();
   out.residuals = out.r.size();
   return out;
 }
 
-// The residuals alone.
+// The residuals alone, weighted.
 Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& params,
                              const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
-                             const RowMatrix& measured) {
+                             const RowMatrix& measured, const Eigen::VectorXd& weights) {
   const int d = residuals_per_row(kind);
   Eigen::VectorXd r(static_cast<Eigen::Index>(joints.size()) * d);
   Eigen::MatrixXd J(d, s.num_slots());
@@ -70,6 +74,7 @@ Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& par
   for (size_t i = 0; i < joints.size(); ++i) {
     measurement_rows(s, constants, params.data(), joints[i].data(), kind, measured.row(i).data(),
                      r.data() + d * i, J);
+    detail::weigh(weights, i, r.data() + d * i, J);
   }
   return r;
 }
@@ -145,9 +150,8 @@ std::string names_of(const std::vector<int>& slots, const std::map<int, std::str
 
 // RMS of the per-measurement error, as `evaluate` reports it: the distance error,
 // or the Euclidean norm of the position error.
-double measurement_rms(double rss, Eigen::Index residuals, MeasurementKind kind) {
-  return std::sqrt(rss * residuals_per_row(kind) / std::max<Eigen::Index>(residuals, 1));
-}
+// `rows` the log rows behind the residuals (their weights' sum of squares).
+double measurement_rms(double rss, double rows) { return std::sqrt(rss / std::max(rows, 1.0)); }
 
 }  // namespace
 
@@ -347,21 +351,22 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
 // base slots): a base known only roughly is no sign of a wrong log.
 double rms_with_base_fitted(const ChainStructure& s, Eigen::VectorXd p,
                             const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
-                            const RowMatrix& measured, bool compressed) {
+                            const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
+                            bool compressed) {
   std::vector<int> constant;
   for (int k = kBaseSlots; k < s.num_slots(); ++k) constant.push_back(k);
   ceres::Problem problem;
   if (compressed) {
-    problem.AddResidualBlock(new CompressedMeasurementCost(s, joints, kind, measured), nullptr,
-                             p.data());
+    problem.AddResidualBlock(new CompressedMeasurementCost(s, joints, kind, measured, weights),
+                             nullptr, p.data());
   } else {
-    problem.AddResidualBlock(new MeasurementCost(s, joints, kind, measured), nullptr, p.data());
+    problem.AddResidualBlock(new MeasurementCost(s, joints, kind, measured, weights), nullptr,
+                             p.data());
   }
   problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
   ceres::Solver::Summary summary;
   ceres::Solve(detail::levenberg_marquardt(50), &problem, &summary);
-  const Stack at = stack(s, p, joints, kind, measured, compressed);
-  return measurement_rms(at.rss, at.residuals, kind);
+  return measurement_rms(stack(s, p, joints, kind, measured, weights, compressed).rss, rows);
 }
 
 // A nominal error beyond kImplausibleErrorFraction of the reach, even with the
@@ -369,8 +374,8 @@ double rms_with_base_fitted(const ChainStructure& s, Eigen::VectorXd p,
 // forced.
 void check_reach(const ChainStructure& s, const DeviceModel& nominal,
                  const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
-                 const RowMatrix& measured, bool compressed, double rms_before, bool force,
-                 std::vector<std::string>& notes) {
+                 const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
+                 bool compressed, double rms_before, bool force, std::vector<std::string>& notes) {
   const Eigen::VectorXd p = nominal.kinematic_parameters();
   const ChainConstants<double> constants = chain_constants(s, p.data());
   double reach = 0;
@@ -380,7 +385,8 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
   }
   const double limit = kImplausibleErrorFraction * reach;
   if (!(rms_before > limit)) return;
-  const double rms_base = rms_with_base_fitted(s, p, joints, kind, measured, compressed);
+  const double rms_base =
+      rms_with_base_fitted(s, p, joints, kind, measured, weights, rows, compressed);
   if (rms_base <= limit) {
     notes.push_back(fmt::format(
         "the nominal model's RMS error is {:.1f} mm, {:.1f} mm with its base pose fitted "
@@ -542,6 +548,13 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     prepared.compensate(qi.data(), joints[i].data());
   }
   const RowMatrix measured = measured_values(poses, pose_index, fit.kind);
+  // An average of k repeats has 1/k of one reading's variance: its rows weigh
+  // sqrt(k) (none when no pose repeats, and then no arithmetic changes).
+  Eigen::VectorXd weights;
+  if (fit.rows > m) {
+    weights.resize(m);
+    for (int i = 0; i < m; ++i) weights[i] = std::sqrt(static_cast<double>(result.poses[i].size()));
+  }
   const std::vector<int> candidates = candidate_slots(model, options.fix, options.free);
   const int d = residuals_per_row(fit.kind);
   if (m * d <= static_cast<int>(candidates.size())) {
@@ -563,8 +576,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       const Eigen::VectorXd qi = q.row(i).transpose();
       prepared_nominal.compensate(qi.data(), nominal_joints[i].data());
     }
-    const Eigen::VectorXd r0 =
-        residuals_at(s, nominal.kinematic_parameters(), nominal_joints, fit.kind, measured);
+    const Eigen::VectorXd r0 = residuals_at(s, nominal.kinematic_parameters(), nominal_joints,
+                                            fit.kind, measured, weights);
     for (Eigen::Index i = 0; i < r0.size(); ++i) {
       if (std::isfinite(r0[i] * r0[i])) continue;
       // The row of the pose with the largest measured value is the culprit.
@@ -580,9 +593,9 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       throw InputError(log.origin, log.line[culprit], "",
                        "the nominal model's error on this row is not finite: a value is too large");
     }
-    fit.rms_before = measurement_rms(r0.squaredNorm(), r0.size(), fit.kind);
-    check_reach(s, nominal, nominal_joints, fit.kind, measured, compressed, fit.rms_before,
-                options.force, result.notes);
+    fit.rms_before = measurement_rms(r0.squaredNorm(), fit.rows);
+    check_reach(s, nominal, nominal_joints, fit.kind, measured, weights, fit.rows, compressed,
+                fit.rms_before, options.force, result.notes);
   }
 
   // Identifiability: on synthetic poses over the joint limits (structural) and on the data.
@@ -596,8 +609,9 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     }
     qs = model.compensate(reading);
   }
-  Stack data = stack(s, p0, joints, fit.kind, measured, compressed);
-  const Stack structural = stack(s, p0, synthetic, fit.kind, RowMatrix::Zero(kStructuralPoses, d));
+  Stack data = stack(s, p0, joints, fit.kind, measured, weights, compressed);
+  const Stack structural =
+      stack(s, p0, synthetic, fit.kind, RowMatrix::Zero(kStructuralPoses, d), Eigen::VectorXd());
   // Metres and radians made comparable: angle columns times a length scale, the
   // RMS distance of the tool point from the base origin.
   const ChainConstants<double> constants0 = chain_constants(s, p0.data());
@@ -652,10 +666,10 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     }
     ceres::Problem problem;
     if (compressed) {
-      problem.AddResidualBlock(new CompressedMeasurementCost(s, joints, fit.kind, measured),
-                               nullptr, p.data());
+      problem.AddResidualBlock(
+          new CompressedMeasurementCost(s, joints, fit.kind, measured, weights), nullptr, p.data());
     } else {
-      problem.AddResidualBlock(new MeasurementCost(s, joints, fit.kind, measured), nullptr,
+      problem.AddResidualBlock(new MeasurementCost(s, joints, fit.kind, measured, weights), nullptr,
                                p.data());
     }
     if (!constant.empty()) {
@@ -676,8 +690,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     result.notes.push_back(fit.termination);
   }
   model.set_kinematic_parameters(p);
-  data = stack(s, p, joints, fit.kind, measured, compressed);
-  fit.rms_after = measurement_rms(data.rss, data.residuals, fit.kind);
+  data = stack(s, p, joints, fit.kind, measured, weights, compressed);
+  fit.rms_after = measurement_rms(data.rss, fit.rows);
 
   // Uncertainty, conditioning and observability of the identified parameters.
   const int k = static_cast<int>(identified.size());
@@ -708,7 +722,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     fit.condition_number = ss[k - 1] > 0 ? ss[0] / ss[k - 1] : INFINITY;
     double log_sum = 0;
     for (int c = 0; c < k; ++c) log_sum += std::log(ss[c]);
-    fit.observability = {std::exp(log_sum / k) / std::sqrt(static_cast<double>(data.residuals)),
+    fit.observability = {std::exp(log_sum / k) / std::sqrt(static_cast<double>(fit.rows) * d),
                          ss[k - 1] / ss[0], ss[k - 1], ss[k - 1] * ss[k - 1] / ss[0]};
   }
   fit.correlation.resize(k, k);

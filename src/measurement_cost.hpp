@@ -41,13 +41,27 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
   }
 }
 
+// A pose's rows times its weight (the square root of its repeat count: an
+// average of k readings has 1/k of one's variance); no weights: all 1.
+inline void weigh(const Eigen::VectorXd& weights, size_t pose, double* residual,
+                  Eigen::Ref<Eigen::MatrixXd> J) {
+  if (weights.size() == 0) return;
+  const double w = weights[static_cast<Eigen::Index>(pose)];
+  for (Eigen::Index k = 0; k < J.rows(); ++k) residual[k] *= w;
+  J *= w;
+}
+
 // Ceres cost over a set of poses: residuals_per_row(kind) rows per pose,
-// parameters all slots of `s`.
+// parameters all slots of `s`, each pose's rows weighted (weigh).
 class MeasurementCost : public ceres::CostFunction {
  public:
   MeasurementCost(ChainStructure s, std::vector<Eigen::VectorXd> joints, MeasurementKind kind,
-                  RowMatrix measured)
-      : s_(s), joints_(std::move(joints)), kind_(kind), measured_(std::move(measured)) {
+                  RowMatrix measured, Eigen::VectorXd weights = {})
+      : s_(s),
+        joints_(std::move(joints)),
+        kind_(kind),
+        measured_(std::move(measured)),
+        weights_(std::move(weights)) {
     set_num_residuals(static_cast<int>(joints_.size()) * residuals_per_row(kind));
     mutable_parameter_block_sizes()->push_back(s.num_slots());
   }
@@ -61,6 +75,7 @@ class MeasurementCost : public ceres::CostFunction {
     for (size_t i = 0; i < joints_.size(); ++i) {
       measurement_rows(s_, constants, parameters[0], joints_[i].data(), kind_,
                        measured_.row(i).data(), residuals + d * i, J);
+      weigh(weights_, i, residuals + d * i, J);
       if (jacobians && jacobians[0]) {
         Eigen::Map<RowMatrix>(jacobians[0] + static_cast<size_t>(d) * i * n, d, n) = J;
       }
@@ -73,6 +88,7 @@ class MeasurementCost : public ceres::CostFunction {
   std::vector<Eigen::VectorXd> joints_;
   MeasurementKind kind_;
   RowMatrix measured_;
+  Eigen::VectorXd weights_;
 };
 
 // The measurement problem over many poses compressed to n + 1 rows (n slots):
@@ -89,7 +105,8 @@ struct CompressedRows {
 
 inline CompressedRows compress_rows(const ChainStructure& s, const double* params,
                                     const std::vector<Eigen::VectorXd>& joints,
-                                    MeasurementKind kind, const RowMatrix& measured) {
+                                    MeasurementKind kind, const RowMatrix& measured,
+                                    const Eigen::VectorXd& weights) {
   constexpr int kBlockPoses = 256;
   const int d = residuals_per_row(kind), n = s.num_slots();
   const ChainConstants<double> constants = chain_constants(s, params);
@@ -103,6 +120,7 @@ inline CompressedRows compress_rows(const ChainStructure& s, const double* param
     for (int i = 0; i < count; ++i) {
       measurement_rows(s, constants, params, joints[first + i].data(), kind,
                        measured.row(first + i).data(), r.data(), J);
+      weigh(weights, first + i, r.data(), J);
       work.block(n + 1 + d * i, 0, d, n) = J;
       work.block(n + 1 + d * i, n, d, 1) = r.head(d);
     }
@@ -126,8 +144,9 @@ inline CompressedRows compress_rows(const ChainStructure& s, const double* param
 class CompressedMeasurementCost : public ceres::CostFunction {
  public:
   CompressedMeasurementCost(ChainStructure s, const std::vector<Eigen::VectorXd>& joints,
-                            MeasurementKind kind, const RowMatrix& measured)
-      : s_(s), joints_(joints), kind_(kind), measured_(measured) {
+                            MeasurementKind kind, const RowMatrix& measured,
+                            const Eigen::VectorXd& weights)
+      : s_(s), joints_(joints), kind_(kind), measured_(measured), weights_(weights) {
     set_num_residuals(s.num_slots() + 1);
     mutable_parameter_block_sizes()->push_back(s.num_slots());
   }
@@ -144,13 +163,14 @@ class CompressedMeasurementCost : public ceres::CostFunction {
       for (size_t i = 0; i < joints_.size(); ++i) {
         measurement_rows(s_, constants, parameters[0], joints_[i].data(), kind_,
                          measured_.row(i).data(), r.data(), J);
+        weigh(weights_, i, r.data(), J);
         rss += r.head(d).squaredNorm();
       }
       Eigen::Map<Eigen::VectorXd>(residuals, n + 1).setZero();
       residuals[0] = std::sqrt(rss);
       return std::isfinite(rss);
     }
-    const CompressedRows z = compress_rows(s_, parameters[0], joints_, kind_, measured_);
+    const CompressedRows z = compress_rows(s_, parameters[0], joints_, kind_, measured_, weights_);
     Eigen::Map<Eigen::VectorXd> res(residuals, n + 1);
     res.head(n) = z.c;
     res[n] = z.e;
@@ -165,6 +185,7 @@ class CompressedMeasurementCost : public ceres::CostFunction {
   const std::vector<Eigen::VectorXd>& joints_;
   MeasurementKind kind_;
   const RowMatrix& measured_;
+  const Eigen::VectorXd& weights_;
 };
 
 }  // namespace hapticcal::detail

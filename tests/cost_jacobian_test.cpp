@@ -151,7 +151,10 @@ TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForDistancesAndPositi
             measured(i, 0) = p.norm() + 1e-3 * unit(rng);
           }
         }
-        const detail::MeasurementCost cost(s, joints, kind, measured);
+        // Weighted rows (repeated poses) on odd trials.
+        Eigen::VectorXd weights;
+        if (trial % 2 == 1) weights = Eigen::VectorXd::LinSpaced(poses, 1.0, 2.0);
+        const detail::MeasurementCost cost(s, joints, kind, measured, weights);
         ASSERT_EQ(cost.num_residuals(), poses * d);
         std::vector<std::string> names(s.num_slots());
         for (int k = 0; k < s.num_slots(); ++k) names[k] = "slot " + std::to_string(k);
@@ -160,7 +163,8 @@ TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForDistancesAndPositi
             cost, params, Eigen::VectorXd::Constant(params.size(), 1e-6), names);
         EXPECT_LT(c.max_error, 1e-7) << c.worst;
         // The residuals are predicted - measured.
-        const Evaluation e = evaluate_cost(cost, params);
+        const Evaluation e =
+            evaluate_cost(detail::MeasurementCost(s, joints, kind, measured), params);
         const Eigen::Vector3d p0 = forward_kinematics(s, params.data(), joints[0].data()).p;
         if (kind == MeasurementKind::kPosition) {
           EXPECT_LT((e.r.head<3>() - (p0 - measured.row(0).transpose())).norm(), 1e-15);
@@ -204,9 +208,12 @@ TEST(CostJacobian, CompressedMeasurementCostGivesTheFullGaussNewtonSystem) {
               (kind == MeasurementKind::kPosition ? p[k] : p.norm()) + 1e-3 * unit(rng);
         }
       }
+      // Repeat counts 1-4: rows weighted by their square roots.
+      Eigen::VectorXd weights(poses);
+      for (int i = 0; i < poses; ++i) weights[i] = std::sqrt(1.0 + (i % 4));
       const Evaluation full =
-          evaluate_cost(detail::MeasurementCost(s, joints, kind, measured), params);
-      const detail::CompressedMeasurementCost compressed(s, joints, kind, measured);
+          evaluate_cost(detail::MeasurementCost(s, joints, kind, measured, weights), params);
+      const detail::CompressedMeasurementCost compressed(s, joints, kind, measured, weights);
       ASSERT_EQ(compressed.num_residuals(), n + 1);
       Eigen::VectorXd z(n + 1), z_cost(n + 1);
       detail::RowMatrix Z(n + 1, n);

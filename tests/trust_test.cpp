@@ -269,6 +269,19 @@ TEST_F(Trust, RepeatedPosesCountOnce) {
   }
   EXPECT_NEAR(ja["repeatability"].get<double>(), std::sqrt(sum / dof), 1e-12);
   EXPECT_TRUE(jo["repeatability"].is_null());
+  // With a given per-reading sigma, a mean of 3 repeats is sqrt(3) better known.
+  const CliRun given_all = run({"calibrate", "--model", kMeca, "--log", kMecaLog, "--sigma", "1e-5",
+                                "--out", (scratch_ / "ga").string()});
+  const CliRun given_one = run({"calibrate", "--model", kMeca, "--log", single, "--sigma", "1e-5",
+                                "--out", (scratch_ / "go").string()});
+  ASSERT_EQ(given_all.code, 0);
+  ASSERT_EQ(given_one.code, 0);
+  const auto ga = nlohmann::json::parse(slurp(scratch_ / "ga/results.json"));
+  const auto go = nlohmann::json::parse(slurp(scratch_ / "go/results.json"));
+  for (const char* name : {"j3.beta", "j2.a", "tool.x"}) {
+    const double all = ga["parameters"][name]["sd"], one = go["parameters"][name]["sd"];
+    EXPECT_NEAR(all / one, 1 / std::sqrt(3.0), 0.02) << name;
+  }
   // --samples counts poses.
   const CliRun sampled = run({"calibrate", "--model", kMeca, "--log", kMecaLog, "--samples", "40",
                               "--out", (scratch_ / "s").string()});
