@@ -29,6 +29,8 @@ struct ScratchDir {
     const fs::path source(HAPTICCAL_SOURCE_DIR);
     for (const auto& e : fs::directory_iterator(source / "data/devices"))
       fs::copy_file(e.path(), dir / e.path().filename());
+    // A device too small for the paper's study (once a heap overflow, fuzz/findings).
+    fs::copy_file(source / "tests/malformed/good-2dof.yaml", dir / "good-2dof.yaml");
   }
   ~ScratchDir() {
     std::error_code ec;

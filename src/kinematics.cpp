@@ -66,10 +66,14 @@ Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const
     x[used] = q[i] + transmissions_[i].error(q[i]) + links_[i].theta_offset;
     slot[i] = used++;
   }
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // x[0, used) is written above
+#endif
   sincos_batch(x.data(), s.data(), c.data(), used);
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
+#endif
   for (int j = 0; j < m / 2; ++j) {
     transmissions_[capstan_joints_[j]].capstan_tangents(s[2 * j], c[2 * j], s[2 * j + 1],
                                                         c[2 * j + 1], t[2 * j], t[2 * j + 1]);
