@@ -137,13 +137,14 @@ std::vector<std::string> names(const std::string& list) {
 }
 
 // Writes report.html with its figures into `dir` (a staging folder that
-// becomes `shown`) and says what was written.
-void report(const hapticcal::Report& r, const std::string& dir, const std::string& shown) {
+// becomes `shown`); returns what to print once the set is in place.
+std::string report(const hapticcal::Report& r, const std::string& dir, const std::string& shown) {
   std::string note;
   const int drawn = hapticcal::write_report(r, dir, note);
-  fmt::print("report: {}/report.html ({} figures, SVG and PNG in {}/figures)\n", shown, drawn,
-             shown);
-  if (!note.empty()) fmt::print("note: {}\n", note);
+  std::string said = fmt::format("report: {}/report.html ({} figures, SVG and PNG in {}/figures)\n",
+                                 shown, drawn, shown);
+  if (!note.empty()) said += fmt::format("note: {}\n", note);
+  return said;
 }
 
 // Values as the paper's Tables 2-5 print them: mm, mrad, deg.
@@ -260,8 +261,10 @@ int run_calibrate(const CalibrateOptions& o) {
   hapticcal::write_file_atomically(
       out.dir() + "/results.json",
       hapticcal::calibration_json(result, model, o.model, o.log, options));
-  report(hapticcal::calibration_report(result, model, log), out.dir(), o.out);
+  const std::string reported =
+      report(hapticcal::calibration_report(result, model, log), out.dir(), o.out);
   out.commit();
+  fmt::print("{}", reported);
   fmt::print("wrote {0}/: {1}results.json, report.html, figures/ (seed {2})\n", o.out,
              usable ? "calibrated.yaml, " : "", o.seed);
   if (!usable) {
@@ -370,8 +373,9 @@ int run_simulate(const SimulateOptions& o) {
   });
   print_study(sc, r);
   hapticcal::write_file_atomically(out.dir() + "/results.json", hapticcal::study_json(sc, r));
-  report(hapticcal::study_report(sc, r, out.dir()), out.dir(), o.out);
+  const std::string reported = report(hapticcal::study_report(sc, r, out.dir()), out.dir(), o.out);
   out.commit();
+  fmt::print("{}", reported);
   fmt::print(
       "wrote {}/: results.json, nominal.yaml, actual.yaml, calibrated.yaml, "
       "identification.csv, validation.csv, trajectory.csv, fig7/8/10 series\n",
@@ -464,8 +468,10 @@ int run_force_study(ForceOptions o) {
   hapticcal::write_file_atomically(
       out.dir() + "/results.json",
       j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
-  report(hapticcal::force_report(before, after, reduction), out.dir(), o.out);
+  const std::string reported =
+      report(hapticcal::force_report(before, after, reduction), out.dir(), o.out);
   out.commit();
+  fmt::print("{}", reported);
   fmt::print("wrote {0}/force_nominal.csv, {0}/force_calibrated.csv, {0}/results.json\n", o.out);
   return 0;
 }
