@@ -4,8 +4,8 @@
 // are copied beside it so that a relative `device:` can name them (or
 // scenario.yaml itself). The default device is the built-in 7-DOF.
 // (A device of fewer than 4 joints is left out until paper_actual_device stops
-// writing past its links: fuzz/findings/README.md.) Bad input must end in hapticcal::InputError; any other
-// exception, a crash, a sanitizer report or a hang is a finding.
+// writing past its links: fuzz/findings/README.md.) Bad input must end in hapticcal::InputError;
+// any other exception, a crash, a sanitizer report or a hang is a finding.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -43,7 +43,8 @@ struct ScratchDir {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const ScratchDir scratch;
   static const std::string path = (scratch.dir / "scenario.yaml").string();
-  static const std::string builtin = std::string(HAPTICCAL_SOURCE_DIR) + "/data/devices/baser-7dof.yaml";
+  static const std::string builtin =
+      std::string(HAPTICCAL_SOURCE_DIR) + "/data/devices/baser-7dof.yaml";
   {
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
     out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
