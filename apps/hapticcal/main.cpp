@@ -12,7 +12,6 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
-#include <system_error>
 #include <thread>
 
 #include "hapticcal/control.hpp"
@@ -602,7 +601,8 @@ int main(int argc, char** argv) {
     hapticcal::finish_if_interrupted();
     fmt::print(stderr, "hapticcal: {}\n", e.what());
     code = 1;
-  } catch (const std::system_error& e) {  // a write to stdout failed (a closed pipe)
+  } catch (const std::runtime_error& e) {  // the system's: a write to stdout failed (a closed
+                                           // pipe), a file system error
     hapticcal::finish_if_interrupted();
     fmt::print(stderr, "hapticcal: {}\n", e.what());
     code = 1;
