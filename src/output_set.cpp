@@ -100,9 +100,11 @@ void sweep_stale_staging(const fs::path& parent, const std::string& stem) {
   }
 }
 
-// Whether this file system exchanges two folders atomically (not NFS, FAT...).
-bool exchange_supported(const fs::path& parent, const std::string& stem) {
-  std::string a = (parent / (stem + "XXXXXX")).string(), b = a;
+// Whether this file system exchanges two folders atomically (not NFS, FAT...):
+// tried on two folders made in `dir` (the staging folder, so that a signal
+// leaves neither behind).
+bool exchange_supported(const fs::path& dir) {
+  std::string a = (dir / "probe-XXXXXX").string(), b = a;
   if (::mkdtemp(a.data()) == nullptr) return false;
   if (::mkdtemp(b.data()) == nullptr) {
     ::rmdir(a.c_str());
@@ -198,7 +200,6 @@ void OutputSet::acquire(const std::filesystem::path& parent, const std::string& 
     if (created_) r.created.insert(target_);
   }
   sweep_stale_staging(parent, stem);
-  exchange_ = exchange_supported(parent, stem);
   std::string staging = (parent / (stem + "XXXXXX")).string();
   {
     // Registered as it is made, so that a signal never leaves it behind.
@@ -211,6 +212,7 @@ void OutputSet::acquire(const std::filesystem::path& parent, const std::string& 
   }
   staging_ = staging;
   ::chmod(staging_.c_str(), 0755);  // mkdtemp's 0700 would become --out's mode
+  exchange_ = exchange_supported(staging_);
   staging_fd_ = ::open(staging_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (staging_fd_ >= 0) ::flock(staging_fd_, LOCK_EX | LOCK_NB);  // "in use": not stale
 }
