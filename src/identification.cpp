@@ -63,6 +63,15 @@ Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
   return out;
 }
 
+// The cost LM minimises over these poses: every row, or its compressed form.
+ceres::CostFunction* measurement_cost(const ChainStructure& s,
+                                      const std::vector<Eigen::VectorXd>& joints,
+                                      MeasurementKind kind, const RowMatrix& measured,
+                                      const Eigen::VectorXd& weights, bool compressed) {
+  if (compressed) return new CompressedMeasurementCost(s, joints, kind, measured, weights);
+  return new MeasurementCost(s, joints, kind, measured, weights);
+}
+
 // The residuals alone, weighted.
 Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& params,
                              const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
@@ -356,13 +365,8 @@ double rms_with_base_fitted(const ChainStructure& s, Eigen::VectorXd p,
   std::vector<int> constant;
   for (int k = kBaseSlots; k < s.num_slots(); ++k) constant.push_back(k);
   ceres::Problem problem;
-  if (compressed) {
-    problem.AddResidualBlock(new CompressedMeasurementCost(s, joints, kind, measured, weights),
-                             nullptr, p.data());
-  } else {
-    problem.AddResidualBlock(new MeasurementCost(s, joints, kind, measured, weights), nullptr,
-                             p.data());
-  }
+  problem.AddResidualBlock(measurement_cost(s, joints, kind, measured, weights, compressed),
+                           nullptr, p.data());
   problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
   ceres::Solver::Summary summary;
   ceres::Solve(detail::levenberg_marquardt(50), &problem, &summary);
@@ -402,25 +406,19 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
   notes.push_back("warning: " + message);
 }
 
-// RMS scatter of repeated measurements about their pose's mean (Euclidean for
-// positions), with rows - poses degrees of freedom; NaN without repeats.
-double repeatability(const Log& log, const std::vector<std::vector<int>>& poses,
+// RMS scatter of repeated measurements about their pose's mean (`means`, the
+// average_repeats of `log` over `poses`; Euclidean for positions), with
+// rows - poses degrees of freedom; NaN without repeats.
+double repeatability(const Log& log, const std::vector<std::vector<int>>& poses, const Log& means,
                      MeasurementKind kind) {
   double sum = 0;
   int dof = 0;
-  for (const std::vector<int>& rows : poses) {
-    if (rows.size() < 2) continue;
-    dof += static_cast<int>(rows.size()) - 1;
-    if (kind == MeasurementKind::kPosition) {
-      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-      for (int r : rows) mean += log.position.row(r).transpose();
-      mean /= static_cast<double>(rows.size());
-      for (int r : rows) sum += (log.position.row(r).transpose() - mean).squaredNorm();
-    } else {
-      double mean = 0;
-      for (int r : rows) mean += log.distance[r];
-      mean /= static_cast<double>(rows.size());
-      for (int r : rows) sum += (log.distance[r] - mean) * (log.distance[r] - mean);
+  for (size_t g = 0; g < poses.size(); ++g) {
+    dof += static_cast<int>(poses[g].size()) - 1;
+    for (int r : poses[g]) {
+      sum += kind == MeasurementKind::kPosition
+                 ? (log.position.row(r) - means.position.row(g)).squaredNorm()
+                 : std::pow(log.distance[r] - means.distance[g], 2);
     }
   }
   return dof > 0 ? std::sqrt(sum / dof) : std::numeric_limits<double>::quiet_NaN();
@@ -432,11 +430,9 @@ void set_status(CalibrationResult& result, const std::vector<int>& identified) {
   const KinematicFit& fit = result.kinematics;
   bool finite = std::isfinite(fit.rms_after) && std::isfinite(fit.rms_before) &&
                 result.calibrated.kinematic_parameters().allFinite();
-  for (const ParameterEstimate& e : fit.parameters) {
-    finite = finite && (!e.identifiable || std::isfinite(e.sd));
-  }
   std::string unexcited, transmissions_failed;
   for (const ParameterEstimate& e : fit.parameters) {
+    finite = finite && (!e.identifiable || std::isfinite(e.sd));
     if (e.reason.rfind("not excited", 0) == 0)
       unexcited += (unexcited.empty() ? "" : ", ") + e.name;
   }
@@ -502,7 +498,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   fit.poses = m;
   fit.rows = 0;
   for (const std::vector<int>& rows : result.poses) fit.rows += static_cast<int>(rows.size());
-  fit.repeatability = repeatability(log, result.poses, fit.kind);
+  fit.repeatability = repeatability(log, result.poses, poses, fit.kind);
   if (log.has_position && log.has_distance) {
     result.notes.push_back("the log has positions and distances: positions are used");
   }
@@ -581,15 +577,13 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     for (Eigen::Index i = 0; i < r0.size(); ++i) {
       if (std::isfinite(r0[i] * r0[i])) continue;
       // The row of the pose with the largest measured value is the culprit.
-      int culprit = result.poses[i / d].front();
-      for (int row : result.poses[i / d]) {
-        const double v = fit.kind == MeasurementKind::kPosition ? log.position.row(row).norm()
-                                                                : std::abs(log.distance[row]);
-        const double worst = fit.kind == MeasurementKind::kPosition
-                                 ? log.position.row(culprit).norm()
-                                 : std::abs(log.distance[culprit]);
-        if (!(v <= worst)) culprit = row;
-      }
+      auto size = [&](int row) {
+        return fit.kind == MeasurementKind::kPosition ? log.position.row(row).norm()
+                                                      : std::abs(log.distance[row]);
+      };
+      const std::vector<int>& rows = result.poses[i / d];
+      const int culprit = *std::max_element(rows.begin(), rows.end(),
+                                            [&](int a, int b) { return size(a) < size(b); });
       throw InputError(log.origin, log.line[culprit], "",
                        "the nominal model's error on this row is not finite: a value is too large");
     }
@@ -665,13 +659,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
         constant.push_back(k);
     }
     ceres::Problem problem;
-    if (compressed) {
-      problem.AddResidualBlock(
-          new CompressedMeasurementCost(s, joints, fit.kind, measured, weights), nullptr, p.data());
-    } else {
-      problem.AddResidualBlock(new MeasurementCost(s, joints, fit.kind, measured, weights), nullptr,
-                               p.data());
-    }
+    problem.AddResidualBlock(measurement_cost(s, joints, fit.kind, measured, weights, compressed),
+                             nullptr, p.data());
     if (!constant.empty()) {
       problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
     }

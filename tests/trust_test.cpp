@@ -155,6 +155,26 @@ std::string meca_log_variant(const fs::path& path, int keep_every, const std::st
   return path.string();
 }
 
+// The Meca500 log with `edit(n, line)` applied to each line (n from 0, the header).
+std::string edited_meca_log(const fs::path& path,
+                            const std::function<void(int, std::string&)>& edit) {
+  std::istringstream in(slurp(kMecaLog));
+  std::string line, text;
+  for (int n = 0; std::getline(in, line); ++n) {
+    edit(n, line);
+    text += line + "\n";
+  }
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+// `line` with its comma-separated field `index` (from 0) replaced by `value`.
+void replace_field(std::string& line, int index, const std::string& value) {
+  size_t begin = 0;
+  for (int k = 0; k < index; ++k) begin = line.find(',', begin) + 1;
+  line.replace(begin, line.find(',', begin) - begin, value);
+}
+
 TEST_F(Trust, ReadingsOutsideTheLimitsAreRefusedWithTheLikelyUnit) {
   const std::string log = meca_log_variant(scratch_ / "unitless.csv", 1, "q1[deg]", "q1");
   const CliRun r =
@@ -292,23 +312,10 @@ TEST_F(Trust, RepeatedPosesCountOnce) {
 }
 
 TEST_F(Trust, NonFiniteErrorsAreBadInput) {
-  std::string text = slurp(kMecaLog);
-  // The 5th data row's x becomes 1e308: finite, but its error overflows.
-  std::istringstream in(text);
-  std::string line, edited;
-  int n = 0;
-  while (std::getline(in, line)) {
-    if (n++ == 5) {
-      const size_t a = line.find(',', 0);
-      size_t at = a;
-      for (int k = 0; k < 5; ++k) at = line.find(',', at + 1);
-      const size_t end = line.find(',', at + 1);
-      line = line.substr(0, at + 1) + "1e308" + line.substr(end);
-    }
-    edited += line + "\n";
-  }
-  std::ofstream(scratch_ / "huge.csv") << edited;
-  const std::string log = (scratch_ / "huge.csv").string();
+  // Line 6 (the 5th data row): x (field 6) becomes 1e308, finite, but its error overflows.
+  const std::string log = edited_meca_log(scratch_ / "huge.csv", [](int n, std::string& line) {
+    if (n == 5) replace_field(line, 6, "1e308");
+  });
   const CliRun e = run({"evaluate", "--model", kMeca, "--log", log, "--json"});
   EXPECT_EQ(e.code, 2) << e.out;
   EXPECT_NE(e.err.find("huge.csv:6:"), std::string::npos) << e.err;
@@ -524,18 +531,11 @@ TEST_F(Trust, AFailedRunKeepsOnlyAModelOfTheSameDevice) {
 }
 
 TEST_F(Trust, NegativeZeroReadingsAreTheSamePose) {
-  std::string text = slurp(kMecaLog);
   // The first pose's three rows: q1 = 0, -0, -0 (a logger printing -0.000).
-  std::istringstream in(text);
-  std::string line, edited;
-  int n = 0;
-  while (std::getline(in, line)) {
-    if (n >= 1 && n <= 3) line = (n == 1 ? "0" : "-0.000") + line.substr(line.find(','));
-    edited += line + "\n";
-    ++n;
-  }
-  std::ofstream(scratch_ / "zero.csv") << edited;
-  const Log log = read_log((scratch_ / "zero.csv").string());
+  const Log log = read_log(edited_meca_log(scratch_ / "zero.csv", [](int n, std::string& line) {
+    if (n >= 1 && n <= 3) replace_field(line, 0, n == 1 ? "0" : "-0.000");
+  }));
+  ASSERT_TRUE(log.q(0, 0) == 0 && !std::signbit(log.q(0, 0)) && std::signbit(log.q(1, 0)));
   EXPECT_EQ(repeated_poses(log).size(), 70u);
 }
 
