@@ -14,7 +14,11 @@
 namespace hapticcal {
 namespace {
 
+// Version 1: one convention (dh, mdh) for every link, revolute joints. Version 2
+// adds per-link geometry (dh, mdh, urdf origin + axis) and joint types; a model
+// that version 1 can hold is written as version 1.
 constexpr const char* kFormat = "hapticcal-device/1";
+constexpr const char* kFormat2 = "hapticcal-device/2";
 
 using detail::join;
 
@@ -127,8 +131,20 @@ std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) 
     if (model.links[j].name == link.name)
       return {key + ".name", fmt::format("'{}' repeats links[{}]", link.name, j)};
   }
-  for (double v : {link.a, link.alpha, link.d, link.theta, link.beta, link.lower, link.upper}) {
+  for (double v :
+       {link.a, link.alpha, link.d, link.theta, link.beta, link.lower, link.upper, link.offset}) {
     if (!std::isfinite(v)) return {key, "non-finite value"};
+  }
+  for (double v : link.origin) {
+    if (!std::isfinite(v)) return {key + ".origin", "non-finite value"};
+  }
+  if (link.geometry == Geometry::kOrigin) {
+    if (!link.axis.allFinite() || std::abs(link.axis.norm() - 1) > 1e-9) {
+      return {key + ".axis", "must be a unit vector"};
+    }
+  } else if (link.offset != 0 || link.origin != std::array<double, 6>{} ||
+             link.axis != Eigen::Vector3d::UnitZ()) {
+    return {key, "origin, axis and offset belong to urdf geometry"};
   }
   if (!(link.lower < link.upper)) {
     return {key + ".limits",
@@ -208,22 +224,24 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
   if (!root || root.IsNull()) throw InputError(origin, 0, "", "empty device file");
   r.check_keys(root, "", {"format", "name", "convention", "base", "links", "tool"});
   const std::string format = r.string(r.require(root, "", "format"), "format");
-  if (format != kFormat) {
-    r.fail(root["format"], "format", fmt::format("'{}' is not '{}'", printable(format), kFormat));
+  if (format != kFormat && format != kFormat2) {
+    r.fail(root["format"], "format",
+           fmt::format("'{}' is not '{}' or '{}'", printable(format), kFormat, kFormat2));
   }
+  const bool v2 = format == kFormat2;
   DeviceModel model;
   model.name = r.string(r.require(root, "", "name"), "name");
   if (const std::string why = device_name_problem(model.name); !why.empty())
     r.fail(root["name"], "name", why);
-  const std::string convention = r.string(r.require(root, "", "convention"), "convention");
-  if (convention == "dh") {
-    model.convention = Convention::kDh;
-  } else if (convention == "mdh") {
-    model.convention = Convention::kMdh;
-  } else {
-    r.fail(root["convention"], "convention",
-           fmt::format("'{}' is not dh or mdh", printable(convention)));
-  }
+  auto geometry_of = [&](const YAML::Node& node, const std::string& key) {
+    const std::string text = r.string(node, key);
+    if (text == "dh") return Geometry::kDh;
+    if (text == "mdh") return Geometry::kMdh;
+    if (v2 && text == "urdf") return Geometry::kOrigin;
+    r.fail(node, key,
+           fmt::format("'{}' is not {}", printable(text), v2 ? "dh, mdh or urdf" : "dh or mdh"));
+  };
+  const Geometry convention = geometry_of(r.require(root, "", "convention"), "convention");
 
   const YAML::Node base = r.require(root, "", "base");
   r.check_keys(base, "base", {"dh", "pose"});
@@ -258,15 +276,51 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
   for (size_t i = 0; i < links.size(); ++i) {
     const YAML::Node node = links[i];
     const std::string path = fmt::format("links[{}]", i);
-    r.check_keys(node, path,
-                 {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
     Link link;
+    link.geometry = convention;
+    if (v2 && node.IsMap() && node["geometry"]) {
+      link.geometry = geometry_of(node["geometry"], join(path, "geometry"));
+    }
+    if (link.geometry == Geometry::kOrigin) {
+      r.check_keys(
+          node, path,
+          {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission"});
+    } else if (v2) {
+      r.check_keys(node, path,
+                   {"name", "geometry", "type", "a", "alpha", "d", "theta", "beta", "limits",
+                    "transmission"});
+    } else {
+      r.check_keys(node, path,
+                   {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
+    }
     link.name = r.string(r.require(node, path, "name"), join(path, "name"));
-    link.a = r.number(node, path, "a");
-    link.alpha = r.number(node, path, "alpha");
-    link.d = r.number(node, path, "d");
-    link.theta = r.number(node, path, "theta");
-    if (node["beta"]) link.beta = r.number(node["beta"], join(path, "beta"));
+    if (node["type"]) {
+      const std::string type = r.string(node["type"], join(path, "type"));
+      if (type == "revolute") {
+        link.type = JointType::kRevolute;
+      } else if (type == "continuous") {
+        link.type = JointType::kContinuous;
+      } else if (type == "prismatic") {
+        link.type = JointType::kPrismatic;
+      } else {
+        r.fail(node["type"], join(path, "type"),
+               fmt::format("'{}' is not revolute, continuous or prismatic", printable(type)));
+      }
+    }
+    if (link.geometry == Geometry::kOrigin) {
+      read_pose(r.require(node, path, "origin"), join(path, "origin"), link.origin);
+      const auto axis = r.numbers(r.require(node, path, "axis"), join(path, "axis"), 3);
+      link.axis = Eigen::Vector3d(axis[0], axis[1], axis[2]);
+      if (!(link.axis.norm() > 0)) r.fail(node["axis"], join(path, "axis"), "zero axis");
+      link.axis.normalize();
+      if (node["offset"]) link.offset = r.number(node["offset"], join(path, "offset"));
+    } else {
+      link.a = r.number(node, path, "a");
+      link.alpha = r.number(node, path, "alpha");
+      link.d = r.number(node, path, "d");
+      link.theta = r.number(node, path, "theta");
+      if (node["beta"]) link.beta = r.number(node["beta"], join(path, "beta"));
+    }
     const auto limits = r.numbers(r.require(node, path, "limits"), join(path, "limits"), 2);
     link.lower = limits[0];
     link.upper = limits[1];
@@ -320,9 +374,18 @@ std::string check_device(const DeviceModel& model) {
 
 std::string device_to_yaml(const DeviceModel& model) {
   std::string out;
-  out += fmt::format("format: {}\n", kFormat);
+  // Version 1 holds a model whose links are all revolute with one DH or MDH geometry.
+  const Geometry first = model.links.empty() ? Geometry::kDh : model.links[0].geometry;
+  bool uniform = first != Geometry::kOrigin;
+  for (const Link& l : model.links) {
+    uniform = uniform && l.geometry == first && l.type == JointType::kRevolute;
+  }
+  auto geometry_name = [](Geometry g) {
+    return g == Geometry::kDh ? "dh" : g == Geometry::kMdh ? "mdh" : "urdf";
+  };
+  out += fmt::format("format: {}\n", uniform ? kFormat : kFormat2);
   out += fmt::format("name: {}\n", quoted(model.name));
-  out += fmt::format("convention: {}\n", model.convention == Convention::kDh ? "dh" : "mdh");
+  out += fmt::format("convention: {}\n", geometry_name(first));
   const auto& b = model.base;
   if (model.base_kind == BaseKind::kDh) {
     out += fmt::format("base:\n  dh: {{a: {}, alpha: {}, d: {}, theta: {}}}\n", num(b[0]),
@@ -334,9 +397,24 @@ std::string device_to_yaml(const DeviceModel& model) {
   out += "links:\n";
   for (const Link& l : model.links) {
     out += fmt::format("  - name: {}\n", quoted(l.name));
-    out += fmt::format("    a: {}\n    alpha: {}\n    d: {}\n    theta: {}\n", num(l.a),
-                       num(l.alpha), num(l.d), num(l.theta));
-    out += fmt::format("    beta: {}\n", num(l.beta));
+    if (!uniform) {
+      out += fmt::format("    geometry: {}\n", geometry_name(l.geometry));
+      out += fmt::format("    type: {}\n", l.type == JointType::kRevolute     ? "revolute"
+                                           : l.type == JointType::kContinuous ? "continuous"
+                                                                              : "prismatic");
+    }
+    if (l.geometry == Geometry::kOrigin) {
+      const auto& o = l.origin;
+      out += fmt::format("    origin: {{xyz: [{}, {}, {}], rpy: [{}, {}, {}]}}\n", num(o[0]),
+                         num(o[1]), num(o[2]), num(o[3]), num(o[4]), num(o[5]));
+      out +=
+          fmt::format("    axis: [{}, {}, {}]\n", num(l.axis[0]), num(l.axis[1]), num(l.axis[2]));
+      out += fmt::format("    offset: {}\n", num(l.offset));
+    } else {
+      out += fmt::format("    a: {}\n    alpha: {}\n    d: {}\n    theta: {}\n", num(l.a),
+                         num(l.alpha), num(l.d), num(l.theta));
+      out += fmt::format("    beta: {}\n", num(l.beta));
+    }
     out += fmt::format("    limits: [{}, {}]\n", num(l.lower), num(l.upper));
     if (!l.transmission.is_none()) {
       out += fmt::format("    transmission: {}\n", transmission_text(l.transmission));

@@ -251,9 +251,16 @@ namespace {
 // DH: A_i twists joint i's axis into joint i+1's; MDH: joint i-1's into joint i's.
 // None for the last DH link and the first MDH link (the tool or base pose).
 std::optional<int> twist_partner(const DeviceModel& model, int link) {
-  const int partner = model.convention == Convention::kDh ? link + 1 : link - 1;
+  const Geometry g = model.links[link].geometry;
+  if (g == Geometry::kOrigin) return std::nullopt;
+  const int partner = g == Geometry::kDh ? link + 1 : link - 1;
   if (partner < 0 || partner >= model.dof()) return std::nullopt;
   return partner;
+}
+
+bool is_beta(const DeviceModel& model, const ParameterInfo& p) {
+  return p.joint >= 0 && p.joint < model.dof() &&
+         model.links[p.joint].geometry != Geometry::kOrigin && p.element == kLinkBeta;
 }
 
 // Why a beta is not a candidate.
@@ -262,7 +269,7 @@ std::string beta_left_out_reason(const DeviceModel& model, int link) {
   const auto partner = twist_partner(model, link);
   if (!partner) {
     return fmt::format("not a candidate: no joint {} {} (free it by name)",
-                       model.convention == Convention::kDh ? "after" : "before", name);
+                       model.links[link].geometry == Geometry::kDh ? "after" : "before", name);
   }
   const auto [first, second] = std::minmax(link, *partner);
   return fmt::format(
@@ -298,26 +305,23 @@ std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std
   std::vector<bool> fixed(model.structure().num_slots(), false), freed(fixed.size(), false);
   for (const std::string& name : fix) fixed[lookup(name, "--fix")] = true;
   for (const std::string& name : free) freed[lookup(name, "--free")] = true;
-  const ChainStructure s = model.structure();
   std::vector<int> order;
-  auto take = [&](int slot) {
-    if (fixed[slot]) return;
-    const bool beta =
-        slot >= kBaseSlots && slot < s.tool_slot() && (slot - kBaseSlots) % kLinkSlots == kLinkBeta;
-    if (beta && !freed[slot]) {
-      const int link = (slot - kBaseSlots) / kLinkSlots;
-      if (!parallel_axis_partner(model, link) && model.links[link].beta == 0) return;
+  auto take = [&](const ParameterInfo& p) {
+    if (fixed[p.slot]) return;
+    if (is_beta(model, p) && !freed[p.slot]) {
+      if (!parallel_axis_partner(model, p.joint) && model.links[p.joint].beta == 0) return;
     }
-    order.push_back(slot);
+    order.push_back(p.slot);
   };
+  const int dof = model.dof();
   for (const ParameterInfo& p : info) {
-    if (p.slot >= kBaseSlots && p.slot < s.tool_slot()) take(p.slot);
+    if (p.joint >= 0 && p.joint < dof) take(p);
   }
   for (const ParameterInfo& p : info) {
-    if (p.slot >= s.tool_slot()) take(p.slot);
+    if (p.joint == dof) take(p);
   }
   for (const ParameterInfo& p : info) {
-    if (p.slot < kBaseSlots) take(p.slot);
+    if (p.joint < 0) take(p);
   }
   return order;
 }
@@ -363,7 +367,7 @@ double rms_with_base_fitted(const ChainStructure& s, Eigen::VectorXd p,
                             const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
                             bool compressed) {
   std::vector<int> constant;
-  for (int k = kBaseSlots; k < s.num_slots(); ++k) constant.push_back(k);
+  for (int k = s.base_slots(); k < s.num_slots(); ++k) constant.push_back(k);
   ceres::Problem problem;
   problem.AddResidualBlock(measurement_cost(s, joints, kind, measured, weights, compressed),
                            nullptr, p.data());
@@ -748,7 +752,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     } else if (std::find(options.fix.begin(), options.fix.end(), pi.name) != options.fix.end()) {
       e.reason = "fixed by the user";
     } else {  // a beta that candidate_slots left out
-      e.reason = beta_left_out_reason(nominal, (pi.slot - kBaseSlots) / kLinkSlots);
+      e.reason = beta_left_out_reason(nominal, pi.joint);
     }
     fit.parameters.push_back(e);
   }

@@ -29,13 +29,18 @@ PreparedModel::PreparedModel(const DeviceModel& model) : structure_(model.struct
   const Eigen::VectorXd params = model.kinematic_parameters();
   base_ = base_frame(structure_, params.data());
   tool_ = tool_frame(structure_, params.data());
+  bool all_dh = true, all_mdh = true;
   for (int i = 0; i < structure_.dof; ++i) {
-    LinkConstants<double> k = link_constants(params.data() + structure_.link_slot(i));
-    k.apply_beta = model.links[i].beta != 0.0;
+    const JointStructure& j = structure_.joints[i];
+    LinkConstants<double> k = link_constants(j, params.data() + structure_.link_slot(i));
+    k.apply_beta = j.geometry != Geometry::kOrigin && model.links[i].beta != 0.0;
     links_.push_back(k);
     transmissions_.emplace_back(model.links[i].transmission);
-    if (transmissions_.back().is_capstan()) capstan_joints_.push_back(i);
+    if (transmissions_.back().is_capstan() && !j.prismatic()) capstan_joints_.push_back(i);
+    all_dh = all_dh && j.geometry == Geometry::kDh && !j.prismatic();
+    all_mdh = all_mdh && j.geometry == Geometry::kMdh && !j.prismatic();
   }
+  path_ = all_dh ? Path::kDh : all_mdh ? Path::kMdh : Path::kGeneric;
 }
 
 void PreparedModel::compensate(const double* q, double* joint) const {
@@ -63,7 +68,8 @@ Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const
       ++j;
       continue;
     }
-    x[used] = q[i] + transmissions_[i].error(q[i]) + links_[i].theta_offset;
+    if (structure_.joints[i].prismatic()) continue;
+    x[used] = q[i] + transmissions_[i].error(q[i]) + links_[i].offset;
     slot[i] = used++;
   }
 #if defined(__GNUC__) && !defined(__clang__)
@@ -80,15 +86,22 @@ Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const
   }
   atan_batch(t.data(), at.data(), m);
 
-  std::array<double, kMaxDof> cos_theta, sin_theta;
+  std::array<double, kMaxDof> cos_theta, sin_theta, length;
   for (int i = 0; i < n; ++i) {
-    cos_theta[i] = c[slot[i]];
-    sin_theta[i] = s[slot[i]];
+    if (structure_.joints[i].prismatic()) {
+      cos_theta[i] = links_[i].cos_theta;
+      sin_theta[i] = links_[i].sin_theta;
+      length[i] = q[i] + transmissions_[i].error(q[i]) + links_[i].offset;
+    } else {
+      cos_theta[i] = c[slot[i]];
+      sin_theta[i] = s[slot[i]];
+      length[i] = links_[i].d;
+    }
   }
   for (int j = 0; j < m / 2; ++j) {
     const int i = capstan_joints_[j];
     const double turn =
-        transmissions_[i].capstan_error(q[i], at[2 * j], at[2 * j + 1]) + links_[i].theta_offset;
+        transmissions_[i].capstan_error(q[i], at[2 * j], at[2 * j + 1]) + links_[i].offset;
     double st, ct;
     if (std::abs(turn) <= 0.1) {
       small_angle_sincos(turn, st, ct);
@@ -100,14 +113,21 @@ Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const
     }
   }
 
+  frames[0] = base_;
+  if (path_ == Path::kGeneric) {
+    for (int i = 0; i < n; ++i) {
+      compose_link(structure_.joints[i], frames[i], links_[i], cos_theta[i], sin_theta[i],
+                   length[i], frames[i + 1]);
+    }
+    return frames[n] * tool_;
+  }
   // compose_link's column operations on a running frame held in registers
   // (columns ex, ey, ez and origin o); frames[] is only written.
-  frames[0] = base_;
   V3 ex{base_.R(0, 0), base_.R(1, 0), base_.R(2, 0)};
   V3 ey{base_.R(0, 1), base_.R(1, 1), base_.R(2, 1)};
   V3 ez{base_.R(0, 2), base_.R(1, 2), base_.R(2, 2)};
   V3 o{base_.p[0], base_.p[1], base_.p[2]};
-  const bool dh = structure_.convention == Convention::kDh;
+  const bool dh = path_ == Path::kDh;
   for (int i = 0; i < n; ++i) {
     const LinkConstants<double>& k = links_[i];
     const double ct = cos_theta[i], st = sin_theta[i];
@@ -159,8 +179,12 @@ Frame<double> PreparedModel::forward_jacobian(const double* q, JacobianFrame exp
   // instead of 2986 instructions per FK + Jacobian call (callgrind, 7-DOF) on
   // the controller's hot path. Both are checked against KDL.
   const int n = structure_.dof;
+  if (path_ == Path::kGeneric) {
+    geometric_jacobian(structure_, frames.data(), T_meas_tool, expressed_in, J);
+    return T_meas_tool;
+  }
   J.resize(6, n);
-  const int shift = structure_.convention == Convention::kDh ? 0 : 1;
+  const int shift = path_ == Path::kDh ? 0 : 1;
   const Eigen::Matrix3d Rt = T_meas_tool.R.transpose();
   const bool in_tool = expressed_in == JacobianFrame::kTool;
   const double pe[3] = {T_meas_tool.p[0], T_meas_tool.p[1], T_meas_tool.p[2]};

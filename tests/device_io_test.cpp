@@ -17,7 +17,6 @@ bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; 
 
 void expect_bit_identical(const DeviceModel& a, const DeviceModel& b) {
   EXPECT_EQ(a.name, b.name);
-  EXPECT_EQ(a.convention, b.convention);
   EXPECT_EQ(a.base_kind, b.base_kind);
   const Eigen::VectorXd pa = a.kinematic_parameters(), pb = b.kinematic_parameters();
   ASSERT_EQ(pa.size(), pb.size());
@@ -26,6 +25,9 @@ void expect_bit_identical(const DeviceModel& a, const DeviceModel& b) {
   for (int i = 0; i < a.dof(); ++i) {
     const Link &la = a.links[i], &lb = b.links[i];
     EXPECT_EQ(la.name, lb.name);
+    EXPECT_EQ(la.geometry, lb.geometry);
+    EXPECT_EQ(la.type, lb.type);
+    for (int k = 0; k < 3; ++k) EXPECT_TRUE(same_bits(la.axis[k], lb.axis[k]));
     EXPECT_TRUE(same_bits(la.lower, lb.lower) && same_bits(la.upper, lb.upper));
     EXPECT_EQ(la.transmission.type_name(), lb.transmission.type_name());
     const Eigen::VectorXd ta = la.transmission.parameters(), tb = lb.transmission.parameters();

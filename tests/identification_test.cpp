@@ -292,7 +292,7 @@ TEST(Identification, FixAndFreeChangeTheCandidates) {
   EXPECT_EQ(std::find(fewer.begin(), fewer.end(), s.link_slot(1) + kLinkA), fewer.end());
   // Links come before the tool, the tool before the base.
   EXPECT_EQ(all.front(), s.link_slot(0) + kLinkA);
-  EXPECT_LT(all.back(), kBaseSlots);
+  EXPECT_LT(all.back(), s.base_slots());
 }
 
 // Hayati's beta where a joint axis is parallel to its neighbour, from the

@@ -44,7 +44,6 @@ int main(int argc, char** argv) {
   try {
     hapticcal::DeviceModel model;
     model.name = "meca500";
-    model.convention = hapticcal::Convention::kMdh;
     model.base_kind = hapticcal::BaseKind::kPose;
     const Eigen::Matrix4d T_base = read_matrix(source / "T_base.txt");
     const Eigen::Vector3d base_rpy = hapticcal::matrix_rpy(T_base.topLeftCorner<3, 3>());
@@ -63,6 +62,7 @@ int main(int argc, char** argv) {
     for (int i = 0; i < 6; ++i) {
       hapticcal::Link link;
       link.name = fmt::format("j{}", i + 1);
+      link.geometry = hapticcal::Geometry::kMdh;
       link.alpha = table.q(i, 0);
       link.a = table.q(i, 1) / 1000;
       link.theta = table.q(i, 2);

@@ -121,7 +121,7 @@ int main(int argc, char** argv) {
     check_log_fits(cal, nominal);
     check_log_fits(val, nominal);
     if (!cal.has_position || !val.has_position || nominal.dof() != 6 ||
-        nominal.convention != Convention::kMdh) {
+        nominal.links[0].geometry != Geometry::kMdh) {
       throw InputError("joint_error_models needs a 6-joint MDH model and x, y, z logs");
     }
     const CalibrationResult calibrated = calibrate(nominal, cal, {});

@@ -24,7 +24,7 @@ inline KDL::Chain kdl_chain(const DeviceModel& m) {
                               : kdl_pose(m.base);
   chain.addSegment(KDL::Segment("base", KDL::Joint(KDL::Joint::None), base));
   for (const Link& l : m.links) {
-    if (m.convention == Convention::kDh) {
+    if (l.geometry == Geometry::kDh) {
       // Rz(q) * Rz(theta) Tz(d) Tx(a) Rx(alpha) * Ry(beta)
       chain.addSegment(KDL::Segment(
           l.name, KDL::Joint(KDL::Joint::RotZ),
