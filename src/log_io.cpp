@@ -1,9 +1,12 @@
 #include <fmt/format.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <numbers>
+#include <string_view>
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/io.hpp"
@@ -11,7 +14,50 @@
 namespace hapticcal {
 namespace {
 
-enum class Quantity { kSkip, kJoint, kExternal, kDistance, kX, kY, kZ, kTime };
+// The quaternion components and the rotation-vector components each in order (w, x, y, z and
+// x, y, z): their offset from kQw and kRx is their index.
+enum class Quantity {
+  kSkip,
+  kJoint,
+  kExternal,
+  kDistance,
+  kX,
+  kY,
+  kZ,
+  kTime,
+  kQw,
+  kQx,
+  kQy,
+  kQz,
+  kRx,
+  kRy,
+  kRz
+};
+constexpr int kQuantities = static_cast<int>(Quantity::kRz) + 1;
+
+bool is_quaternion(Quantity q) { return q >= Quantity::kQw && q <= Quantity::kQz; }
+bool is_rotation_vector(Quantity q) { return q >= Quantity::kRx && q <= Quantity::kRz; }
+
+// A quaternion whose norm is within this of 1 is unit as far as a double can tell and is kept
+// bit for bit; normalising any other (q / |q|) lands within 1.5 eps of norm 1, so a log that
+// log_to_csv wrote reads back to the same numbers.
+constexpr double kUnitToPrecision = 4 * std::numeric_limits<double>::epsilon();
+// Further from norm 1 than this, the numbers are not a unit quaternion (a wrong column, a
+// component order other than w, x, y, z) rather than one rounded when it was written.
+constexpr double kUnitTolerance = 1e-3;
+
+constexpr std::string_view kQuaternionLetters = "wxyz", kRotationVectorLetters = "xyz";
+
+// The index of `base` among prefix + letters[0], prefix + letters[1], ..., or -1.
+int component_index(const std::string& base, char prefix, std::string_view letters) {
+  if (base.size() != 2 || base[0] != prefix) return -1;
+  const size_t k = letters.find(base[1]);
+  return k == std::string_view::npos ? -1 : static_cast<int>(k);
+}
+
+constexpr const char* kExpectedColumns =
+    "unknown column (expected q<i>, ext<i>, distance, x, y, z, qw, qx, qy, qz, rx, ry, rz, t or "
+    "_)";
 
 struct Column {
   std::string name;  // as written, for messages
@@ -78,8 +124,7 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
   const bool indexed = base == "q" || base == "ext";
   if (base == "_" && index.empty() && unit.empty()) return c;
   if (indexed != !index.empty()) {
-    throw InputError(origin, line, c.name,
-                     "unknown column (expected q<i>, ext<i>, distance, x, y, z, t or _)");
+    throw InputError(origin, line, c.name, kExpectedColumns);
   }
   if (indexed) {
     if (index.size() > 3) throw InputError(origin, line, c.name, "joint number too large");
@@ -97,13 +142,21 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
     c.quantity = Quantity::kZ;
   } else if (base == "t") {
     c.quantity = Quantity::kTime;
+  } else if (const int k = component_index(base, 'q', kQuaternionLetters); k >= 0) {
+    c.quantity = static_cast<Quantity>(static_cast<int>(Quantity::kQw) + k);
+  } else if (const int k = component_index(base, 'r', kRotationVectorLetters); k >= 0) {
+    c.quantity = static_cast<Quantity>(static_cast<int>(Quantity::kRx) + k);
   } else {
-    throw InputError(origin, line, c.name,
-                     "unknown column (expected q<i>, ext<i>, distance, x, y, z, t or _)");
+    throw InputError(origin, line, c.name, kExpectedColumns);
   }
-  const bool angle = c.quantity == Quantity::kJoint || c.quantity == Quantity::kExternal;
+  const bool angle = c.quantity == Quantity::kJoint || c.quantity == Quantity::kExternal ||
+                     is_rotation_vector(c.quantity);
   const bool time = c.quantity == Quantity::kTime;
   if (unit.empty()) return c;
+  if (is_quaternion(c.quantity)) {
+    throw InputError(origin, line, c.name,
+                     fmt::format("unit '{}': a quaternion component has no unit", printable(unit)));
+  }
   if (angle && unit == "rad") return c;
   if (angle && unit == "deg") {
     c.scale = std::numbers::pi / 180;
@@ -126,15 +179,53 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
     }
   }
   throw InputError(origin, line, c.name,
-                   fmt::format("unit '{}' does not fit (angles: rad, deg; lengths: m, mm, um; "
-                               "time: s, ms)",
+                   fmt::format("unit '{}' does not fit (angles, rx..rz: rad, deg; lengths: m, "
+                               "mm, um; time: s, ms)",
                                printable(unit)));
+}
+
+// An orientation is one complete set, qw, qx, qy, qz or rx, ry, rz, beside the position x, y, z.
+// count: the columns of each quantity.
+void check_orientation_columns(const std::vector<Column>& columns, const std::vector<int>& count,
+                               const std::string& origin, int line) {
+  auto counted = [&](Quantity first, int n) {
+    int sum = 0;
+    for (int k = 0; k < n; ++k) sum += count[static_cast<int>(first) + k];
+    return sum;
+  };
+  const int quaternion = counted(Quantity::kQw, 4), rotation_vector = counted(Quantity::kRx, 3);
+  if (quaternion == 0 && rotation_vector == 0) return;
+  if (quaternion != 0 && rotation_vector != 0) {
+    // Named: the first column of whichever set starts later.
+    const Column* first_q = nullptr;
+    const Column* first_r = nullptr;
+    for (const Column& c : columns) {
+      if (!first_q && is_quaternion(c.quantity)) first_q = &c;
+      if (!first_r && is_rotation_vector(c.quantity)) first_r = &c;
+    }
+    throw InputError(origin, line, (first_q < first_r ? first_r : first_q)->name,
+                     "an orientation is either qw, qx, qy, qz or rx, ry, rz, not both");
+  }
+  const bool is_q = quaternion != 0;
+  const Quantity first = is_q ? Quantity::kQw : Quantity::kRx;
+  const std::string_view letters = is_q ? kQuaternionLetters : kRotationVectorLetters;
+  for (size_t k = 0; k < letters.size(); ++k) {
+    if (count[static_cast<int>(first) + k] == 0) {
+      throw InputError(origin, line, std::string{is_q ? 'q' : 'r', letters[k]},
+                       is_q ? "missing: quaternions need all of qw, qx, qy, qz"
+                            : "missing: rotation vectors need all of rx, ry, rz");
+    }
+  }
+  if (count[static_cast<int>(Quantity::kX)] == 0) {
+    throw InputError(origin, line, "x",
+                     "missing: an orientation needs the position x, y, z (a pose is both)");
+  }
 }
 
 // Checks the set of columns as a whole; returns the number of joints.
 int check_columns(const std::vector<Column>& columns, const std::string& origin, int line) {
   int dof = 0;
-  std::vector<int> count(8, 0);
+  std::vector<int> count(kQuantities, 0);
   std::vector<std::string> seen;
   for (const Column& c : columns) {
     if (c.quantity == Quantity::kSkip) continue;
@@ -171,7 +262,33 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
                                                                        : "z";
     throw InputError(origin, line, missing, "missing: positions need all of x, y, z");
   }
+  check_orientation_columns(columns, count, origin, line);
   return dof;
+}
+
+// q (w, x, y, z) as a unit quaternion: normalised if its norm is within kUnitTolerance of 1
+// (kept as it is within kUnitToPrecision), else an InputError.
+Eigen::RowVector4d unit_quaternion(const Eigen::RowVector4d& q, const std::string& origin,
+                                   int line) {
+  const double norm = q.norm();
+  if (!(std::abs(norm - 1) <= kUnitTolerance)) {
+    throw InputError(origin, line, "qw..qz",
+                     fmt::format("not a unit quaternion: norm {} differs from 1 by more than {}",
+                                 norm, kUnitTolerance));
+  }
+  return std::abs(norm - 1) <= kUnitToPrecision ? q : Eigen::RowVector4d(q / norm);
+}
+
+// The rotation vector (rx, ry, rz) [rad] = angle * axis as a quaternion (w, x, y, z).
+Eigen::RowVector4d rotation_vector_to_quaternion(const Eigen::Vector3d& rotation,
+                                                 const std::string& origin, int line) {
+  const double angle = rotation.stableNorm();
+  if (!std::isfinite(angle)) {
+    throw InputError(origin, line, "rx..rz", "the rotation vector is too long to measure");
+  }
+  if (angle == 0) return {1, 0, 0, 0};
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(angle, rotation / angle));
+  return {q.w(), q.x(), q.y(), q.z()};
 }
 
 }  // namespace
@@ -268,12 +385,16 @@ Log parse_log(const std::string& text, const std::string& origin,
         log.has_ext[c.joint] = true;
         break;
       default:
+        log.has_orientation =
+            log.has_orientation || is_quaternion(c.quantity) || is_rotation_vector(c.quantity);
         break;
     }
   }
   if (log.has_distance) log.distance.setZero(log.rows);
   if (log.has_position) log.position.setZero(log.rows, 3);
   if (log.has_time) log.t.setZero(log.rows);
+  // The rotation vectors, if given, in the first three columns until converted below.
+  if (log.has_orientation) log.orientation.setZero(log.rows, 4);
   for (int r = 0; r < log.rows; ++r) {
     for (size_t k = 0; k < columns.size(); ++k) {
       const Column& c = columns[k];
@@ -300,9 +421,32 @@ Log parse_log(const std::string& text, const std::string& origin,
         case Quantity::kTime:
           log.t[r] = v;
           break;
+        case Quantity::kQw:
+        case Quantity::kQx:
+        case Quantity::kQy:
+        case Quantity::kQz:
+          log.orientation(r, static_cast<int>(c.quantity) - static_cast<int>(Quantity::kQw)) = v;
+          break;
+        case Quantity::kRx:
+        case Quantity::kRy:
+        case Quantity::kRz:
+          log.orientation(r, static_cast<int>(c.quantity) - static_cast<int>(Quantity::kRx)) = v;
+          break;
         case Quantity::kSkip:
           break;
       }
+    }
+  }
+  if (log.has_orientation) {
+    const bool rotation_vectors = std::any_of(columns.begin(), columns.end(), [](const Column& c) {
+      return is_rotation_vector(c.quantity);
+    });
+    for (int r = 0; r < log.rows; ++r) {
+      if (rotation_vectors) {
+        const Eigen::Vector3d rotation = log.orientation.row(r).head<3>();
+        log.orientation.row(r) = rotation_vector_to_quaternion(rotation, origin, log.line[r]);
+      }
+      log.orientation.row(r) = unit_quaternion(log.orientation.row(r), origin, log.line[r]);
     }
   }
   if (log.has_distance) {
@@ -337,6 +481,7 @@ std::string log_to_csv(const Log& log) {
   }
   if (log.has_distance) header.push_back("distance");
   if (log.has_position) header.insert(header.end(), {"x", "y", "z"});
+  if (log.has_orientation) header.insert(header.end(), {"qw", "qx", "qy", "qz"});
   for (size_t k = 0; k < header.size(); ++k) out += (k ? "," : "") + header[k];
   out += '\n';
   fmt::memory_buffer row;
@@ -353,6 +498,9 @@ std::string log_to_csv(const Log& log) {
     if (log.has_distance) put(log.distance[r]);
     if (log.has_position) {
       for (int k = 0; k < 3; ++k) put(log.position(r, k));
+    }
+    if (log.has_orientation) {
+      for (int k = 0; k < 4; ++k) put(log.orientation(r, k));
     }
     out.append(row.data(), row.size());
     out += '\n';

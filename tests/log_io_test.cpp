@@ -1,12 +1,16 @@
 // CSV logs: headers, units, --columns, comments.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <numbers>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/io.hpp"
@@ -181,6 +185,212 @@ TEST(LogIo, UnitsScaleRoundTrippedValues) {
     EXPECT_DOUBLE_EQ(scaled.position(r, 0), log.position(r, 0) * 1e-6);
     EXPECT_DOUBLE_EQ(scaled.position(r, 1), log.position(r, 1) * 1e-3);
     EXPECT_EQ(scaled.position(r, 2), log.position(r, 2));
+  }
+}
+
+// Bit for bit (distinguishes -0 from 0).
+bool same_bits(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  if (a.rows() != b.rows() || a.cols() != b.cols()) return false;
+  for (Eigen::Index i = 0; i < a.size(); ++i) {
+    if (std::bit_cast<std::uint64_t>(a.data()[i]) != std::bit_cast<std::uint64_t>(b.data()[i]))
+      return false;
+  }
+  return true;
+}
+
+// The message of the InputError that parse_log throws ("" if none).
+std::string log_error(const std::string& text, const std::vector<std::string>& columns = {}) {
+  try {
+    parse_log(text, "pose.csv", columns);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// qw, qx, qy, qz: a unit quaternion is kept bit for bit, one whose norm is within 1e-3 of 1 is
+// normalised (same direction), the sign is the log's.
+TEST(LogIo, ReadsQuaternionColumnsAndNormalisesThem) {
+  const Log log = parse_log(
+      "q1, x[mm], y, z, qw, qx, qy, qz\n"
+      "0, 1, 2, 3, 1, 0, 0, -0\n"
+      "0, 1, 2, 3, 0.5, -0.5, 0.5, -0.5\n"
+      "0, 1, 2, 3, 0.6, 0, 0.8004, 0\n"
+      "0, 1, 2, 3, -0.9995, 0, 0, 0\n",
+      "pose.csv");
+  ASSERT_TRUE(log.has_orientation);
+  ASSERT_TRUE(log.has_position);
+  ASSERT_EQ(log.orientation.rows(), 4);
+  ASSERT_EQ(log.orientation.cols(), 4);
+  EXPECT_EQ(log.position(0, 0), 1e-3);
+  EXPECT_TRUE(same_bits(log.orientation.row(0), Eigen::RowVector4d(1, 0, 0, -0.0)));
+  EXPECT_TRUE(same_bits(log.orientation.row(1), Eigen::RowVector4d(0.5, -0.5, 0.5, -0.5)));
+  const Eigen::RowVector4d off(0.6, 0, 0.8004, 0);
+  EXPECT_NEAR(log.orientation.row(2).norm(), 1, 1e-15);
+  EXPECT_LT((log.orientation.row(2) - off / off.norm()).norm(), 1e-15);
+  EXPECT_TRUE(same_bits(log.orientation.row(3), Eigen::RowVector4d(-1, 0, 0, 0)));
+  // Without orientation columns there is no orientation.
+  EXPECT_FALSE(parse_log("q1,x,y,z\n0,1,2,3\n", "plain.csv").has_orientation);
+}
+
+// R of a rotation vector r = angle * axis by Rodrigues' formula, I + sin(a) K + (1 - cos(a)) K^2
+// with K = [axis]x: independent of Eigen's AngleAxis and Quaternion.
+Eigen::Matrix3d rodrigues(const Eigen::Vector3d& r) {
+  const double angle = r.norm();
+  if (angle == 0) return Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d u = r / angle;
+  Eigen::Matrix3d K;
+  K << 0, -u.z(), u.y(), u.z(), 0, -u.x(), -u.y(), u.x(), 0;
+  return Eigen::Matrix3d::Identity() + std::sin(angle) * K + (1 - std::cos(angle)) * K * K;
+}
+
+// rx, ry, rz in [rad] and [deg]: the unit quaternion of the same rotation (Rodrigues), w >= 0 for
+// angles up to pi; the zero vector is the identity.
+TEST(LogIo, RotationVectorColumnsBecomeUnitQuaternionsOfTheSameRotation) {
+  std::mt19937_64 rng(19);
+  std::normal_distribution<double> n;
+  std::string rad = "q1,x,y,z,rx,ry[rad],rz\n", deg = "q1,x,y,z,rx[deg],ry[deg],rz[deg]\n";
+  std::vector<Eigen::Vector3d> vectors = {Eigen::Vector3d::Zero(), Eigen::Vector3d(1e-9, 0, 0),
+                                          Eigen::Vector3d(0, 0, std::numbers::pi),
+                                          Eigen::Vector3d(4, -3, 2)};
+  for (int k = 0; k < 50; ++k) vectors.emplace_back(n(rng), n(rng), n(rng));
+  for (const Eigen::Vector3d& r : vectors) {
+    rad += fmt::format("0,0,0,0,{},{},{}\n", r.x(), r.y(), r.z());
+    const Eigen::Vector3d r_deg = r * 180 / std::numbers::pi;
+    deg += fmt::format("0,0,0,0,{},{},{}\n", r_deg.x(), r_deg.y(), r_deg.z());
+  }
+  const Log from_rad = parse_log(rad, "rad.csv"), from_deg = parse_log(deg, "deg.csv");
+  ASSERT_TRUE(from_rad.has_orientation);
+  for (size_t i = 0; i < vectors.size(); ++i) {
+    SCOPED_TRACE(i);
+    const Eigen::RowVector4d q = from_rad.orientation.row(i);
+    EXPECT_NEAR(q.norm(), 1, 4 * std::numeric_limits<double>::epsilon());
+    const Eigen::Quaterniond quaternion(q[0], q[1], q[2], q[3]);
+    EXPECT_LT((quaternion.toRotationMatrix() - rodrigues(vectors[i])).norm(), 1e-14);
+    if (vectors[i].norm() <= std::numbers::pi) {
+      EXPECT_GE(q[0], 0);
+    }
+    EXPECT_LT((from_deg.orientation.row(i) - q).norm(), 1e-14);
+  }
+  EXPECT_TRUE(same_bits(from_rad.orientation.row(0), Eigen::RowVector4d(1, 0, 0, 0)));
+}
+
+// Header errors name the file, line 1 and the field, like an unknown column.
+TEST(LogIo, IncompleteOrConflictingOrientationColumnsAreHeaderErrors) {
+  const std::string row = "\n0,0,0,0,1,0,0,0\n";
+  struct Bad {
+    std::string header, key, message;
+  };
+  const std::vector<Bad> all = {
+      {"q1,x,y,z,qw,qx,qy", "qz", "missing: quaternions need all of qw, qx, qy, qz"},
+      {"q1,x,y,z,qx,qy,qz", "qw", "missing: quaternions need all of qw, qx, qy, qz"},
+      {"q1,x,y,z,rx,ry", "rz", "missing: rotation vectors need all of rx, ry, rz"},
+      {"q1,x,y,z,ry,rz", "rx", "missing: rotation vectors need all of rx, ry, rz"},
+      {"q1,x,y,z,qw,qx,qy,qz,rx,ry,rz", "rx",
+       "an orientation is either qw, qx, qy, qz or rx, ry, rz, not both"},
+      {"q1,x,y,z,ry,qw,qx,qy,qz,rx,rz", "qw",
+       "an orientation is either qw, qx, qy, qz or rx, ry, rz, not both"},
+      {"q1,x,y,z,qw,qx,qy,qz,qx", "qx", "column appears twice"},
+      {"q1,x,y,z,rx,ry,rz[deg],rz", "rz", "column appears twice"},
+      {"q1,x,y,z,qw[rad],qx,qy,qz", "qw[rad]", "unit 'rad': a quaternion component has no unit"},
+      {"q1,x,y,z,qw,qx,qy,qz[m]", "qz[m]", "unit 'm': a quaternion component has no unit"},
+      {"q1,x,y,z,rx[mm],ry,rz", "rx[mm]", "unit 'mm' does not fit"},
+      {"q1,distance,qw,qx,qy,qz", "x",
+       "missing: an orientation needs the position x, y, z (a pose is both)"},
+      {"q1,rx,ry,rz", "x", "missing: an orientation needs the position x, y, z (a pose is both)"},
+      {"q1,x,y,z,qv", "qv", "unknown column"},
+      {"q1,x,y,z,q_w", "q_w", "unknown column"},
+      {"q1,x,y,z,rw", "rw", "unknown column"},
+  };
+  for (const Bad& b : all) {
+    SCOPED_TRACE(b.header);
+    try {
+      parse_log(b.header + row, "pose.csv");
+      ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), "pose.csv");
+      EXPECT_EQ(e.line(), 1);
+      EXPECT_EQ(e.key(), b.key);
+      EXPECT_EQ(e.message().substr(0, b.message.size()), b.message) << e.what();
+      EXPECT_EQ(std::string(e.what()).rfind("pose.csv:1: " + b.key + ": ", 0), 0u) << e.what();
+    }
+  }
+  // The same rules for a --columns list.
+  EXPECT_EQ(log_error("0,0,0,0,1,0,0\n", split_columns("q1,x,y,z,qw,qx,qy")),
+            "--columns: qz: missing: quaternions need all of qw, qx, qy, qz");
+}
+
+// A quaternion further than 1e-3 from norm 1 is an error naming the file, its line and the
+// columns; within 1e-3 it is accepted.
+TEST(LogIo, NonUnitQuaternionRowIsAnError) {
+  const std::string header = "q1,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n";
+  try {
+    parse_log(header + "# a comment\n0,0,0,0,0.6,0.8,0,0.065\n", "pose.csv");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 4);
+    EXPECT_EQ(e.key(), "qw..qz");
+    EXPECT_EQ(std::string(e.what()).rfind("pose.csv:4: qw..qz: not a unit quaternion: norm ", 0),
+              0u)
+        << e.what();
+  }
+  EXPECT_NE(log_error(header + "0,0,0,0,0,0,0,0\n").find(":3: qw..qz: not a unit quaternion"),
+            std::string::npos);
+  EXPECT_NE(log_error(header + "0,0,0,0,1e200,1e200,0,0\n").find(":3: qw..qz: not a unit"),
+            std::string::npos);
+  EXPECT_NE(log_error(header + "0,0,0,0,0.9989,0,0,0\n").find(":3: qw..qz: not a unit"),
+            std::string::npos);
+  EXPECT_EQ(log_error(header + "0,0,0,0,0.9991,0,0,0\n"), "");
+  EXPECT_EQ(log_error(header + "0,0,0,0,0,0,0,1.0009\n"), "");
+  EXPECT_EQ(log_error(header + "0,0,0,0,nan,0,0,0\n"), "pose.csv:3: qw: 'nan' is not finite");
+  EXPECT_EQ(log_error("q1,x,y,z,rx,ry,rz\n0,0,0,0,1.5e308,1.5e308,1.5e308\n"),
+            "pose.csv:2: rx..rz: the rotation vector is too long to measure");
+}
+
+// log_to_csv writes orientation as qw, qx, qy, qz and parse_log reads every number back bit for
+// bit: random unit quaternions (normalised in double, so off unit by rounding), exact ones with
+// -0, and the quaternions read from rotation vectors and from off-unit columns. A log read from
+// any text writes CSV that reads back to the same CSV (what the fuzz targets check).
+TEST(LogIo, OrientationRoundTripsBitForBit) {
+  std::mt19937_64 rng(20);
+  std::normal_distribution<double> n;
+  std::uniform_real_distribution<double> off(-1e-3, 1e-3);
+  const int rows = 2000;
+  Log log;
+  log.origin = "written";
+  log.rows = rows;
+  log.has_position = log.has_orientation = true;
+  log.has_ext = {false};
+  log.q.setZero(rows, 1);
+  log.ext.setZero(rows, 1);
+  log.position.resize(rows, 3);
+  log.orientation.resize(rows, 4);
+  for (int r = 0; r < rows; ++r) {
+    log.position.row(r) = Eigen::RowVector3d(n(rng), n(rng), n(rng));
+    const Eigen::RowVector4d q(n(rng), n(rng), n(rng), n(rng));
+    log.orientation.row(r) = q / q.norm();
+  }
+  log.orientation.row(0) << -0.0, 1, 0, -0.0;
+  log.orientation.row(1) << 0.5, 0.5, -0.5, 0.5;
+  const std::string csv = log_to_csv(log);
+  EXPECT_EQ(csv.substr(0, csv.find('\n')), "q1,x,y,z,qw,qx,qy,qz");
+  const Log back = parse_log(csv, "round-trip.csv");
+  ASSERT_TRUE(back.has_orientation);
+  EXPECT_TRUE(same_bits(back.orientation, log.orientation));
+  EXPECT_TRUE(same_bits(back.position, log.position));
+
+  // Quaternions off unit by up to 1e-3, and rotation vectors: parse -> write -> parse -> write
+  // gives the same text both times.
+  std::string quaternions = "q1,x,y,z,qw,qx,qy,qz\n", rotations = "q1,x,y,z,rx,ry,rz[deg]\n";
+  for (int r = 0; r < rows; ++r) {
+    const Eigen::Vector4d q = Eigen::Vector4d(n(rng), n(rng), n(rng), n(rng)).normalized();
+    const Eigen::Vector4d q_off = q * (1 + off(rng));
+    quaternions += fmt::format("0,0,0,0,{},{},{},{}\n", q_off[0], q_off[1], q_off[2], q_off[3]);
+    rotations += fmt::format("0,0,0,0,{},{},{}\n", 3 * n(rng), 3 * n(rng), 200 * n(rng));
+  }
+  for (const std::string& text : {quaternions, rotations}) {
+    const std::string once = log_to_csv(parse_log(text, "text.csv"));
+    EXPECT_EQ(log_to_csv(parse_log(once, "once.csv")), once);
   }
 }
 

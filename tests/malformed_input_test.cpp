@@ -68,6 +68,17 @@ TEST(MalformedInput, GoodFilesOfTheSuitePass) {
   EXPECT_EQ(r.exit_code, 0) << r.err;
 }
 
+// Poses: orientation columns as a quaternion or a rotation vector beside x, y, z.
+TEST(MalformedInput, GoodPoseLogsOfTheSuitePass) {
+  const std::string dir = testing::source_path("tests/malformed");
+  for (const char* log : {"good-2dof-quaternion.csv", "good-2dof-rotation-vector.csv"}) {
+    SCOPED_TRACE(log);
+    const auto r = testing::run_cli(std::vector<std::string>{
+        "evaluate", "--model", dir + "/good-2dof.yaml", "--log", dir + "/" + log});
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+  }
+}
+
 TEST(MalformedInput, BadArgumentsExitWith2AndHelpWith0) {
   EXPECT_EQ(testing::run_cli("evaluate --model").exit_code, 2);
   EXPECT_EQ(testing::run_cli("no-such-command").exit_code, 2);

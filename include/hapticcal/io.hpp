@@ -31,7 +31,11 @@ struct Log {
   Eigen::VectorXd distance;   // [m], if has_distance
   Eigen::MatrixXd position;   // rows x 3 [m], if has_position
   Eigen::VectorXd t;          // [s], if has_time
+  // rows x 4 unit quaternions (w, x, y, z) of the tool in the measurement frame, if
+  // has_orientation (which needs has_position: a pose is position and orientation).
+  Eigen::MatrixXd orientation;
   bool has_distance = false, has_position = false, has_time = false;
+  bool has_orientation = false;
   std::vector<int> line;  // source line of each row
   int dof() const { return static_cast<int>(q.cols()); }
 };
@@ -40,6 +44,9 @@ struct Log {
 // with it, `columns` names every column ("_" skips one) and all lines are data.
 // Column names: q<i>, ext<i>, distance, x, y, z, t, each optionally followed by a
 // unit in brackets: [rad] [deg] for angles, [m] [mm] [um] for lengths, [s] [ms].
+// An orientation (beside x, y, z) is either all of qw, qx, qy, qz (no unit; a norm
+// more than 1e-3 from 1 is an error, else it is normalised) or all of rx, ry, rz, a
+// rotation vector (angle * axis, [rad] or [deg]) converted to a unit quaternion.
 Log read_log(const std::string& path, const std::vector<std::string>& columns = {});
 Log parse_log(const std::string& csv_text, const std::string& origin,
               const std::vector<std::string>& columns = {});
@@ -48,7 +55,7 @@ Log parse_log(const std::string& csv_text, const std::string& origin,
 void check_log_fits(const Log& log, const DeviceModel& model);
 
 // CSV text that parse_log reads back to the same numbers (header row; SI units;
-// shortest round-trip number format).
+// shortest round-trip number format; orientation as qw, qx, qy, qz).
 std::string log_to_csv(const Log& log);
 // Splits a --columns argument "q1[deg],q2[deg],x,_" into names.
 std::vector<std::string> split_columns(const std::string& list);
