@@ -15,6 +15,7 @@
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/kinematics.hpp"
+#include "hapticcal/registration.hpp"
 #include "measurement_cost.hpp"
 #include "solver_options.hpp"
 
@@ -27,8 +28,8 @@ constexpr int kStructuralPoses = 400;
 using detail::CompressedMeasurementCost;
 using detail::measurement_rows;
 using detail::MeasurementCost;
-using detail::residuals_per_row;
 using detail::RowMatrix;
+using detail::RowsOf;
 
 // The stacked residuals and identification Jacobian at `params`; compressed
 // (detail::compress_rows) for logs whose Jacobian would not fit in memory.
@@ -42,9 +43,9 @@ struct Stack {
 };
 
 Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
-            const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
+            const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
             const RowMatrix& measured, const Eigen::VectorXd& weights, bool compressed = false) {
-  const int d = residuals_per_row(kind);
+  const int d = kind.dimension();
   const int m = static_cast<int>(joints.size());
   if (compressed) {
     detail::CompressedRows z =
@@ -66,7 +67,7 @@ Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
 // The cost LM minimises over these poses: every row, or its compressed form.
 ceres::CostFunction* measurement_cost(const ChainStructure& s,
                                       const std::vector<Eigen::VectorXd>& joints,
-                                      MeasurementKind kind, const RowMatrix& measured,
+                                      const RowsOf& kind, const RowMatrix& measured,
                                       const Eigen::VectorXd& weights, bool compressed) {
   if (compressed) return new CompressedMeasurementCost(s, joints, kind, measured, weights);
   return new MeasurementCost(s, joints, kind, measured, weights);
@@ -74,9 +75,9 @@ ceres::CostFunction* measurement_cost(const ChainStructure& s,
 
 // The residuals alone, weighted.
 Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& params,
-                             const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
+                             const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
                              const RowMatrix& measured, const Eigen::VectorXd& weights) {
-  const int d = residuals_per_row(kind);
+  const int d = kind.dimension();
   Eigen::VectorXd r(static_cast<Eigen::Index>(joints.size()) * d);
   Eigen::MatrixXd J(d, s.num_slots());
   const ChainConstants<double> constants = chain_constants(s, params.data());
@@ -88,15 +89,35 @@ Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& par
   return r;
 }
 
-// The used rows of the log as measured values (distances or positions).
-RowMatrix measured_values(const Log& log, const std::vector<int>& rows, MeasurementKind kind) {
-  const int d = residuals_per_row(kind);
-  RowMatrix out(rows.size(), d);
+// The used rows of the log as measured values (the family's width a row).
+RowMatrix measured_values(const Log& log, const std::vector<int>& rows, const RowsOf& kind) {
+  RowMatrix out(rows.size(), traits(kind.type).width);
   for (size_t i = 0; i < rows.size(); ++i) {
-    if (kind == MeasurementKind::kPosition) {
-      out.row(i) = log.position.row(rows[i]);
-    } else {
-      out(i, 0) = log.distance[rows[i]];
+    hapticcal::measured_values(kind.type, log, rows[i], out.row(i).data());
+  }
+  return out;
+}
+
+// What the model at `params` predicts for these joint values: measurements
+// without error (for the structural analysis, whose rows need a measured value).
+RowMatrix predicted_values(const ChainStructure& s, const Eigen::VectorXd& params,
+                           const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind) {
+  RowMatrix out(joints.size(), traits(kind.type).width);
+  const ChainConstants<double> constants = chain_constants(s, params.data());
+  for (size_t i = 0; i < joints.size(); ++i) {
+    const Frame<double> tool = forward_kinematics(s, constants, joints[i].data());
+    double* row = out.row(i).data();
+    if (kind.type == MeasurementType::kDistance) {
+      row[0] = tool.p.norm();
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) row[k] = tool.p[k];
+    if (kind.type == MeasurementType::kPose) {
+      const Eigen::Quaterniond q(tool.R);
+      row[3] = q.w();
+      row[4] = q.x();
+      row[5] = q.y();
+      row[6] = q.z();
     }
   }
   return out;
@@ -224,11 +245,13 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
   out.has_distance = log.has_distance;
   out.has_position = log.has_position;
   out.has_time = log.has_time;
+  out.has_orientation = log.has_orientation;
   out.q.resize(out.rows, log.dof());
   out.ext = Eigen::MatrixXd::Zero(out.rows, log.ext.cols());
   if (log.has_distance) out.distance = Eigen::VectorXd::Zero(out.rows);
   if (log.has_position) out.position = Eigen::MatrixXd::Zero(out.rows, 3);
   if (log.has_time) out.t.resize(out.rows);
+  if (log.has_orientation) out.orientation = Eigen::MatrixXd::Zero(out.rows, 4);
   for (int g = 0; g < out.rows; ++g) {
     const std::vector<int>& rows = groups[g];
     const int first = rows.front();
@@ -240,7 +263,13 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
       if (log.ext.cols() > 0) out.ext.row(g) += w * log.ext.row(r);
       if (log.has_distance) out.distance[g] += w * log.distance[r];
       if (log.has_position) out.position.row(g) += w * log.position.row(r);
+      if (log.has_orientation) {  // q and -q are one rotation: align with the first
+        const double sign = log.orientation.row(r).dot(log.orientation.row(first)) < 0 ? -1 : 1;
+        out.orientation.row(g) += sign * w * log.orientation.row(r);
+      }
     }
+    // The normalised mean of nearby unit quaternions: the chordal L2 mean rotation.
+    if (log.has_orientation) out.orientation.row(g).normalize();
   }
   return out;
 }
@@ -363,7 +392,7 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
 // The measurement error left once only the base pose is fitted (LM over the
 // base slots): a base known only roughly is no sign of a wrong log.
 double rms_with_base_fitted(const ChainStructure& s, Eigen::VectorXd p,
-                            const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
+                            const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
                             const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
                             bool compressed) {
   std::vector<int> constant;
@@ -381,7 +410,7 @@ double rms_with_base_fitted(const ChainStructure& s, Eigen::VectorXd p,
 // base pose fitted, says the log is not from this device: an InputError unless
 // forced.
 void check_reach(const ChainStructure& s, const DeviceModel& nominal,
-                 const std::vector<Eigen::VectorXd>& joints, MeasurementKind kind,
+                 const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
                  const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
                  bool compressed, double rms_before, bool force, std::vector<std::string>& notes) {
   const Eigen::VectorXd p = nominal.kinematic_parameters();
@@ -410,17 +439,68 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
   notes.push_back("warning: " + message);
 }
 
+// An unknown measurement frame (a tracker's, a mocap system's): where the base
+// is a free pose and the model's tool points lie far from the measured ones, the
+// base is first registered in closed form (register_points: Horn / Kabsch on
+// the predicted and measured tool points, weighted by the repeat counts), so
+// that Levenberg-Marquardt starts near the solution. Applied when it halves the
+// RMS point error and moves the base beyond the large-change bounds; returns
+// the note saying so, or nothing.
+std::optional<std::string> register_measurement_frame(DeviceModel& model,
+                                                      const std::vector<Eigen::VectorXd>& joints,
+                                                      const RowsOf& kind, const RowMatrix& measured,
+                                                      const Eigen::VectorXd& weights,
+                                                      const std::vector<int>& candidates) {
+  if (kind.type == MeasurementType::kDistance || model.base_kind != BaseKind::kPose) return {};
+  for (int k = 0; k < kPoseSlots; ++k) {  // every base slot free
+    if (std::find(candidates.begin(), candidates.end(), k) == candidates.end()) return {};
+  }
+  const ChainStructure s = model.structure();
+  const Eigen::VectorXd p = model.kinematic_parameters();
+  const ChainConstants<double> constants = chain_constants(s, p.data());
+  const Eigen::Index m = static_cast<Eigen::Index>(joints.size());
+  Eigen::Matrix3Xd a(3, m), b(3, m);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    a.col(i) = forward_kinematics(s, constants, joints[i].data()).p;
+    b.col(i) = measured.row(i).head<3>().transpose();
+  }
+  const Eigen::VectorXd w =
+      weights.size() ? Eigen::VectorXd(weights.cwiseAbs2()) : Eigen::VectorXd();
+  Registration reg;
+  try {
+    reg = register_points(a, b, w);
+  } catch (const InputError&) {
+    return {};  // collinear tool points: no closed form; LM alone
+  }
+  const Eigen::VectorXd e2 = (a - b).colwise().squaredNorm().transpose();
+  const double before = std::sqrt(w.size() ? e2.dot(w) / w.sum() : e2.mean());
+  const Frame<double> B = constants.base;
+  const Frame<double> moved{reg.R * B.R, reg.R * B.p + reg.t};
+  const double shift = (moved.p - B.p).norm();
+  const double turn = Eigen::AngleAxisd(reg.R).angle();
+  if (!(reg.rms < 0.5 * before) || (shift <= kLargeChangeLength && turn <= kLargeChangeAngle)) {
+    return {};
+  }
+  const Eigen::Vector3d rpy = matrix_rpy(moved.R);
+  model.base = {moved.p[0], moved.p[1], moved.p[2], rpy[0], rpy[1], rpy[2]};
+  return fmt::format(
+      "the measurement frame was far from the model's base (RMS point error {:.1f} mm): it was "
+      "registered in closed form first (Horn/Kabsch point-set alignment: base moved by {:.1f} mm "
+      "and {:.2f} deg, RMS {:.2f} mm), then refined by Levenberg-Marquardt",
+      before * 1e3, shift * 1e3, turn * 180 / M_PI, reg.rms * 1e3);
+}
+
 // RMS scatter of repeated measurements about their pose's mean (`means`, the
 // average_repeats of `log` over `poses`; Euclidean for positions), with
 // rows - poses degrees of freedom; NaN without repeats.
 double repeatability(const Log& log, const std::vector<std::vector<int>>& poses, const Log& means,
-                     MeasurementKind kind) {
+                     const RowsOf& kind) {
   double sum = 0;
   int dof = 0;
   for (size_t g = 0; g < poses.size(); ++g) {
     dof += static_cast<int>(poses[g].size()) - 1;
     for (int r : poses[g]) {
-      sum += kind == MeasurementKind::kPosition
+      sum += kind.type != MeasurementType::kDistance
                  ? (log.position.row(r) - means.position.row(g)).squaredNorm()
                  : std::pow(log.distance[r] - means.distance[g], 2);
     }
@@ -498,11 +578,12 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   std::iota(pose_index.begin(), pose_index.end(), 0);
   DeviceModel model = nominal;
   KinematicFit& fit = result.kinematics;
-  fit.kind = log.has_position ? MeasurementKind::kPosition : MeasurementKind::kDistance;
+  fit.type = measurement_type(log);
   fit.poses = m;
   fit.rows = 0;
   for (const std::vector<int>& rows : result.poses) fit.rows += static_cast<int>(rows.size());
-  fit.repeatability = repeatability(log, result.poses, poses, fit.kind);
+  RowsOf kind{fit.type};
+  fit.repeatability = repeatability(log, result.poses, poses, kind);
   if (log.has_position && log.has_distance) {
     result.notes.push_back("the log has positions and distances: positions are used");
   }
@@ -547,7 +628,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     const Eigen::VectorXd qi = q.row(i).transpose();
     prepared.compensate(qi.data(), joints[i].data());
   }
-  const RowMatrix measured = measured_values(poses, pose_index, fit.kind);
+  const RowMatrix measured = measured_values(poses, pose_index, kind);
   // An average of k repeats has 1/k of one reading's variance: its rows weigh
   // sqrt(k) (none when no pose repeats, and then no arithmetic changes).
   Eigen::VectorXd weights;
@@ -556,7 +637,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     for (int i = 0; i < m; ++i) weights[i] = std::sqrt(static_cast<double>(result.poses[i].size()));
   }
   const std::vector<int> candidates = candidate_slots(model, options.fix, options.free);
-  const int d = residuals_per_row(fit.kind);
+  const int d = kind.dimension();
   if (m * d <= static_cast<int>(candidates.size())) {
     throw InputError(log.origin, 0, "",
                      fmt::format("too few measurements: {} pose{} give{} {} residual{} for {} "
@@ -564,7 +645,24 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                                  m, m == 1 ? "" : "s", m == 1 ? "s" : "", m * d,
                                  m * d == 1 ? "" : "s", candidates.size()));
   }
+  if (auto note = register_measurement_frame(model, joints, kind, measured, weights, candidates)) {
+    fit.frame_registered = true;
+    result.notes.push_back(*note);
+  }
   const Eigen::VectorXd p0 = model.kinematic_parameters();
+  // Metres and radians made comparable: angle columns times a length scale, the
+  // RMS distance of the tool point from the base origin; a pose's rotation rows
+  // likewise (an orientation error phi counts as L phi at the tool).
+  {
+    const ChainConstants<double> constants0 = chain_constants(s, p0.data());
+    double sum = 0;
+    for (const Eigen::VectorXd& jq : joints) {
+      sum += (forward_kinematics(s, constants0, jq.data()).p - constants0.base.p).squaredNorm();
+    }
+    fit.length_scale = std::max(std::sqrt(sum / m), 1e-3);
+  }
+  kind.rotation_scale = fit.length_scale;
+  fit.rotation_scale = fit.length_scale;
   // Beyond options.max_jacobian_bytes the Jacobian is never formed (issue 10:
   // 10^6 rows): its R factor carries the same column geometry.
   const bool compressed = static_cast<double>(m) * d * s.num_slots() * sizeof(double) >
@@ -576,14 +674,14 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       const Eigen::VectorXd qi = q.row(i).transpose();
       prepared_nominal.compensate(qi.data(), nominal_joints[i].data());
     }
-    const Eigen::VectorXd r0 = residuals_at(s, nominal.kinematic_parameters(), nominal_joints,
-                                            fit.kind, measured, weights);
+    const Eigen::VectorXd r0 =
+        residuals_at(s, nominal.kinematic_parameters(), nominal_joints, kind, measured, weights);
     for (Eigen::Index i = 0; i < r0.size(); ++i) {
       if (std::isfinite(r0[i] * r0[i])) continue;
       // The row of the pose with the largest measured value is the culprit.
       auto size = [&](int row) {
-        return fit.kind == MeasurementKind::kPosition ? log.position.row(row).norm()
-                                                      : std::abs(log.distance[row]);
+        return kind.type == MeasurementType::kDistance ? std::abs(log.distance[row])
+                                                       : log.position.row(row).norm();
       };
       const std::vector<int>& rows = result.poses[i / d];
       const int culprit = *std::max_element(rows.begin(), rows.end(),
@@ -592,7 +690,9 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                        "the nominal model's error on this row is not finite: a value is too large");
     }
     fit.rms_before = measurement_rms(r0.squaredNorm(), fit.rows);
-    check_reach(s, nominal, nominal_joints, fit.kind, measured, weights, fit.rows, compressed,
+    DeviceModel registered = nominal;  // the nominal in the registered frame, if it was
+    registered.base = model.base;
+    check_reach(s, registered, nominal_joints, kind, measured, weights, fit.rows, compressed,
                 fit.rms_before, options.force, result.notes);
   }
 
@@ -607,17 +707,9 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     }
     qs = model.compensate(reading);
   }
-  Stack data = stack(s, p0, joints, fit.kind, measured, weights, compressed);
+  Stack data = stack(s, p0, joints, kind, measured, weights, compressed);
   const Stack structural =
-      stack(s, p0, synthetic, fit.kind, RowMatrix::Zero(kStructuralPoses, d), Eigen::VectorXd());
-  // Metres and radians made comparable: angle columns times a length scale, the
-  // RMS distance of the tool point from the base origin.
-  const ChainConstants<double> constants0 = chain_constants(s, p0.data());
-  double sum = 0;
-  for (const Eigen::VectorXd& jq : joints) {
-    sum += (forward_kinematics(s, constants0, jq.data()).p - constants0.base.p).squaredNorm();
-  }
-  fit.length_scale = std::max(std::sqrt(sum / m), 1e-3);
+      stack(s, p0, synthetic, kind, predicted_values(s, p0, synthetic, kind), Eigen::VectorXd());
   const std::vector<ParameterInfo> info = model.parameter_info();
   Eigen::VectorXd scale = Eigen::VectorXd::Ones(s.num_slots());
   std::map<int, std::string> name;
@@ -663,7 +755,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
         constant.push_back(k);
     }
     ceres::Problem problem;
-    problem.AddResidualBlock(measurement_cost(s, joints, fit.kind, measured, weights, compressed),
+    problem.AddResidualBlock(measurement_cost(s, joints, kind, measured, weights, compressed),
                              nullptr, p.data());
     if (!constant.empty()) {
       problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
@@ -683,7 +775,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     result.notes.push_back(fit.termination);
   }
   model.set_kinematic_parameters(p);
-  data = stack(s, p, joints, fit.kind, measured, weights, compressed);
+  data = stack(s, p, joints, kind, measured, weights, compressed);
   fit.rms_after = measurement_rms(data.rss, fit.rows);
 
   // Uncertainty, conditioning and observability of the identified parameters.

@@ -1,6 +1,5 @@
-// Internal: the step-2 measurement cost (predicted - measured distance or
-// position) with its analytic Jacobian, in a header so that tests can check the
-// Jacobian against central differences.
+// Internal: the step-2 measurement cost (predicted - measured, measurement.hpp) with its analytic
+// Jacobian, in a header so that tests can check the Jacobian against central differences.
 #pragma once
 
 #include <ceres/ceres.h>
@@ -14,31 +13,26 @@
 
 #include "hapticcal/identification.hpp"
 #include "hapticcal/kinematics.hpp"
+#include "hapticcal/measurement.hpp"
 
 namespace hapticcal::detail {
 
-// Measured values, one row per sample (1 distance or 3 coordinates), contiguous.
+// Measured values, one row per sample (traits(type).width values), contiguous.
 using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-inline int residuals_per_row(MeasurementKind kind) {
-  return kind == MeasurementKind::kPosition ? 3 : 1;
-}
+// The family's rows with a pose's rotation scale (measurement.hpp).
+struct RowsOf {
+  MeasurementType type = MeasurementType::kDistance;
+  double rotation_scale = 1;  // metres per radian of a pose's rotation rows
+  int dimension() const { return traits(type).dimension; }
+};
 
-// Rows: predicted - measured; J: d residuals / d params (all slots).
 inline void measurement_rows(const ChainStructure& s, const ChainConstants<double>& constants,
-                             const double* params, const double* joint, MeasurementKind kind,
+                             const double* params, const double* joint, const RowsOf& kind,
                              const double* measured, double* residual,
                              Eigen::Ref<Eigen::MatrixXd> J) {
-  Eigen::Matrix<double, 3, Eigen::Dynamic> J_p_params;
-  const Eigen::Vector3d p = position_parameter_jacobian(s, constants, params, joint, J_p_params);
-  if (kind == MeasurementKind::kPosition) {
-    for (int k = 0; k < 3; ++k) residual[k] = p[k] - measured[k];
-    J = J_p_params;
-  } else {
-    const double delta = p.norm();
-    residual[0] = delta - measured[0];
-    J = (p / delta).transpose() * J_p_params;
-  }
+  hapticcal::measurement_rows(kind.type, s, constants, params, joint, measured, kind.rotation_scale,
+                              residual, J);
 }
 
 // A pose's rows times its weight (the square root of its repeat count: an
@@ -51,24 +45,24 @@ inline void weigh(const Eigen::VectorXd& weights, size_t pose, double* residual,
   J *= w;
 }
 
-// Ceres cost over a set of poses: residuals_per_row(kind) rows per pose,
+// Ceres cost over a set of poses: kind.dimension() rows per pose,
 // parameters all slots of `s`, each pose's rows weighted (weigh).
 class MeasurementCost : public ceres::CostFunction {
  public:
-  MeasurementCost(ChainStructure s, std::vector<Eigen::VectorXd> joints, MeasurementKind kind,
+  MeasurementCost(ChainStructure s, std::vector<Eigen::VectorXd> joints, RowsOf kind,
                   RowMatrix measured, Eigen::VectorXd weights = {})
       : s_(s),
         joints_(std::move(joints)),
         kind_(kind),
         measured_(std::move(measured)),
         weights_(std::move(weights)) {
-    set_num_residuals(static_cast<int>(joints_.size()) * residuals_per_row(kind));
+    set_num_residuals(static_cast<int>(joints_.size()) * kind.dimension());
     mutable_parameter_block_sizes()->push_back(s.num_slots());
   }
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
-    const int d = residuals_per_row(kind_);
+    const int d = kind_.dimension();
     const int n = s_.num_slots();
     Eigen::MatrixXd J(d, n);
     const ChainConstants<double> constants = chain_constants(s_, parameters[0]);
@@ -86,7 +80,7 @@ class MeasurementCost : public ceres::CostFunction {
  private:
   ChainStructure s_;
   std::vector<Eigen::VectorXd> joints_;
-  MeasurementKind kind_;
+  RowsOf kind_;
   RowMatrix measured_;
   Eigen::VectorXd weights_;
 };
@@ -104,16 +98,15 @@ struct CompressedRows {
 };
 
 inline CompressedRows compress_rows(const ChainStructure& s, const double* params,
-                                    const std::vector<Eigen::VectorXd>& joints,
-                                    MeasurementKind kind, const RowMatrix& measured,
-                                    const Eigen::VectorXd& weights) {
+                                    const std::vector<Eigen::VectorXd>& joints, RowsOf kind,
+                                    const RowMatrix& measured, const Eigen::VectorXd& weights) {
   constexpr int kBlockPoses = 256;
-  const int d = residuals_per_row(kind), n = s.num_slots();
+  const int d = kind.dimension(), n = s.num_slots();
   const ChainConstants<double> constants = chain_constants(s, params);
   // Rows 0..n: the factor so far; below: the next block's [J r].
   Eigen::MatrixXd work = Eigen::MatrixXd::Zero(n + 1 + kBlockPoses * d, n + 1);
   Eigen::MatrixXd J(d, n);
-  Eigen::Vector3d r;
+  Eigen::Matrix<double, 6, 1> r;
   const int m = static_cast<int>(joints.size());
   for (int first = 0; first < m; first += kBlockPoses) {
     const int count = std::min(kBlockPoses, m - first);
@@ -144,8 +137,7 @@ inline CompressedRows compress_rows(const ChainStructure& s, const double* param
 class CompressedMeasurementCost : public ceres::CostFunction {
  public:
   CompressedMeasurementCost(ChainStructure s, const std::vector<Eigen::VectorXd>& joints,
-                            MeasurementKind kind, const RowMatrix& measured,
-                            const Eigen::VectorXd& weights)
+                            RowsOf kind, const RowMatrix& measured, const Eigen::VectorXd& weights)
       : s_(s), joints_(joints), kind_(kind), measured_(measured), weights_(weights) {
     set_num_residuals(s.num_slots() + 1);
     mutable_parameter_block_sizes()->push_back(s.num_slots());
@@ -155,10 +147,10 @@ class CompressedMeasurementCost : public ceres::CostFunction {
                 double** jacobians) const override {
     const int n = s_.num_slots();
     if (!jacobians || !jacobians[0]) {  // the cost alone: |r| in one residual
-      const int d = residuals_per_row(kind_);
+      const int d = kind_.dimension();
       const ChainConstants<double> constants = chain_constants(s_, parameters[0]);
       Eigen::MatrixXd J(d, n);
-      Eigen::Vector3d r;
+      Eigen::Matrix<double, 6, 1> r;
       double rss = 0;
       for (size_t i = 0; i < joints_.size(); ++i) {
         measurement_rows(s_, constants, parameters[0], joints_[i].data(), kind_,
@@ -183,7 +175,7 @@ class CompressedMeasurementCost : public ceres::CostFunction {
  private:
   ChainStructure s_;
   const std::vector<Eigen::VectorXd>& joints_;
-  MeasurementKind kind_;
+  RowsOf kind_;
   const RowMatrix& measured_;
   const Eigen::VectorXd& weights_;
 };

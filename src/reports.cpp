@@ -153,9 +153,8 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   report.sections.push_back(fmt::format(
       "<p>{} rows{}, {} measurements; {} parameters identified; condition number {:.4g}; "
       "observability O1 {:.4g}, O4 {:.4g}; RMS error {:.4f} mm before, {:.4f} mm after.{}</p>\n",
-      k.rows, repeats, k.kind == MeasurementKind::kPosition ? "position" : "distance", k.identified,
-      k.condition_number, k.observability.O1, k.observability.O4, k.rms_before * 1e3,
-      k.rms_after * 1e3,
+      k.rows, repeats, traits(k.type).name, k.identified, k.condition_number, k.observability.O1,
+      k.observability.O4, k.rms_before * 1e3, k.rms_after * 1e3,
       k.rank_deficient ? " <b>Rank-deficient: see the held parameters.</b>" : ""));
   std::vector<std::vector<std::string>> tx;
   for (const TransmissionFit& t : result.transmissions) {
@@ -180,7 +179,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
                          result.calibrated.links[t.joint].transmission, nullptr, report.figures);
   }
   const Evaluation before = evaluate(nominal, log), after = evaluate(result.calibrated, log);
-  const bool position = k.kind == MeasurementKind::kPosition;
+  const bool position = k.type != MeasurementType::kDistance;
   std::vector<double> sample, eb, ea;
   const int row_stride = std::max(1, (log.rows + kMaxPlotted - 1) / kMaxPlotted);
   for (int r = 0; r < log.rows; r += row_stride) {

@@ -24,7 +24,9 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
   j["model"] = model_path;
   j["log"] = log_path;
   j["device"] = nominal.name;
-  j["measurement"] = k.kind == MeasurementKind::kPosition ? "position" : "distance";
+  j["measurement"] = traits(k.type).name;
+  if (k.type == MeasurementType::kPose) j["rotation_scale"] = k.rotation_scale;
+  j["frame_registered"] = k.frame_registered;
   j["rows_used"] = k.rows;
   j["poses"] = k.poses;
   j["repeatability"] = number_or_null(k.repeatability);

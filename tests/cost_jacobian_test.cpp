@@ -122,34 +122,52 @@ TEST(CostJacobian, CapstanCostMatchesCentralDifferencesOnEveryDevice) {
   EXPECT_GE(checked, 120);  // 3 capstans on each of the two haptic devices
 }
 
+// A measurement of `type` off the tool frame by up to 1 mm (and 1 mrad).
+template <typename Rng>
+void measure(MeasurementType type, const Frame<double>& tool, Rng& rng, double* out) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  if (type == MeasurementType::kDistance) {  // one value
+    out[0] = tool.p.norm() + 1e-3 * unit(rng);
+    return;
+  }
+  for (int k = 0; k < 3; ++k) out[k] = tool.p[k] + 1e-3 * unit(rng);
+  if (type == MeasurementType::kPose) {
+    const Eigen::Vector3d w(1e-3 * unit(rng), 1e-3 * unit(rng), 1e-3 * unit(rng));
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(w.norm(), w.normalized()) * tool.R);
+    out[3] = q.w();
+    out[4] = q.x();
+    out[5] = q.y();
+    out[6] = q.z();
+  }
+}
+
+constexpr MeasurementType kTypes[] = {MeasurementType::kDistance, MeasurementType::kPosition,
+                                      MeasurementType::kPose};
+
 // Step 2: d (predicted - measured) / d (all parameter slots), distances (paper
-// eq. 5) and positions, on every device at random meaningful parameters (moved
+// eq. 5), positions and poses, on every device at random meaningful parameters (moved
 // by up to 0.05 m or rad from the file's), random readings and measurements
 // off the prediction by up to 1 mm. Steps 1e-6 (m or rad); tolerance 1e-7
 // relative to 1 + |numeric|.
-TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForDistancesAndPositions) {
+TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForEveryMeasurementType) {
   std::mt19937_64 rng(20240611);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   for (const auto& [label, file_model] : devices()) {
-    for (const MeasurementKind kind : {MeasurementKind::kDistance, MeasurementKind::kPosition}) {
-      const int d = detail::residuals_per_row(kind);
+    for (const MeasurementType type : kTypes) {
+      const detail::RowsOf kind{type, 0.3};
+      const int d = kind.dimension();
       for (int trial = 0; trial < 5; ++trial) {
-        SCOPED_TRACE(label + (kind == MeasurementKind::kDistance ? " distance" : " position") +
-                     " trial " + std::to_string(trial));
+        SCOPED_TRACE(label + " " + traits(type).name + " trial " + std::to_string(trial));
         const DeviceModel model = perturbed(file_model, rng);
         const ChainStructure s = model.structure();
         const Eigen::VectorXd params = model.kinematic_parameters();
         const int poses = 20;
         std::vector<Eigen::VectorXd> joints;
-        detail::RowMatrix measured(poses, d);
+        detail::RowMatrix measured(poses, traits(type).width);
         for (int i = 0; i < poses; ++i) {
           joints.push_back(random_readings(model, rng));
-          const Eigen::Vector3d p = forward_kinematics(s, params.data(), joints[i].data()).p;
-          if (kind == MeasurementKind::kPosition) {
-            for (int k = 0; k < 3; ++k) measured(i, k) = p[k] + 1e-3 * unit(rng);
-          } else {
-            measured(i, 0) = p.norm() + 1e-3 * unit(rng);
-          }
+          measure(type, forward_kinematics(s, params.data(), joints[i].data()), rng,
+                  measured.row(i).data());
         }
         // Weighted rows (repeated poses) on odd trials.
         Eigen::VectorXd weights;
@@ -165,11 +183,19 @@ TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForDistancesAndPositi
         // The residuals are predicted - measured.
         const Evaluation e =
             evaluate_cost(detail::MeasurementCost(s, joints, kind, measured), params);
-        const Eigen::Vector3d p0 = forward_kinematics(s, params.data(), joints[0].data()).p;
-        if (kind == MeasurementKind::kPosition) {
-          EXPECT_LT((e.r.head<3>() - (p0 - measured.row(0).transpose())).norm(), 1e-15);
-        } else {
+        const Frame<double> T0 = forward_kinematics(s, params.data(), joints[0].data());
+        const Eigen::Vector3d p0 = T0.p;
+        if (type == MeasurementType::kDistance) {
           EXPECT_NEAR(e.r[0], p0.norm() - measured(0, 0), 1e-15);
+        } else {
+          EXPECT_LT((e.r.head<3>() - (p0 - measured.row(0).head<3>().transpose())).norm(), 1e-15);
+        }
+        if (type ==
+            MeasurementType::kPose) {  // 0.3 m/rad times the turn from measured to predicted
+          const Eigen::Quaterniond qm(measured(0, 3), measured(0, 4), measured(0, 5),
+                                      measured(0, 6));
+          const Eigen::AngleAxisd turn(T0.R * qm.toRotationMatrix().transpose());
+          EXPECT_LT((e.r.segment<3>(3) - 0.3 * turn.angle() * turn.axis()).norm(), 1e-12);
         }
       }
     }
@@ -191,22 +217,19 @@ TEST(CostJacobian, CompressedMeasurementCostGivesTheFullGaussNewtonSystem) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   for (const auto& [label, file_model] : devices()) {
-    for (const MeasurementKind kind : {MeasurementKind::kDistance, MeasurementKind::kPosition}) {
-      SCOPED_TRACE(label + (kind == MeasurementKind::kDistance ? " distance" : " position"));
-      const int d = detail::residuals_per_row(kind);
+    for (const MeasurementType type : kTypes) {
+      SCOPED_TRACE(label + " " + traits(type).name);
+      const detail::RowsOf kind{type, 0.3};
       const DeviceModel model = perturbed(file_model, rng);
       const ChainStructure s = model.structure();
       const Eigen::VectorXd params = model.kinematic_parameters();
       const int poses = 700, n = s.num_slots();
       std::vector<Eigen::VectorXd> joints;
-      detail::RowMatrix measured(poses, d);
+      detail::RowMatrix measured(poses, traits(type).width);
       for (int i = 0; i < poses; ++i) {
         joints.push_back(random_readings(model, rng));
-        const Eigen::Vector3d p = forward_kinematics(s, params.data(), joints[i].data()).p;
-        for (int k = 0; k < d; ++k) {
-          measured(i, k) =
-              (kind == MeasurementKind::kPosition ? p[k] : p.norm()) + 1e-3 * unit(rng);
-        }
+        measure(type, forward_kinematics(s, params.data(), joints[i].data()), rng,
+                measured.row(i).data());
       }
       // Repeat counts 1-4: rows weighted by their square roots.
       Eigen::VectorXd weights(poses);

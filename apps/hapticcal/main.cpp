@@ -185,7 +185,7 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
   }
   const hapticcal::KinematicFit& k = r.kinematics;
   fmt::print("Step 2: kinematic parameters from {} ({} rows) (paper Table 5)\n",
-             k.kind == hapticcal::MeasurementKind::kPosition ? "positions" : "distances", k.rows);
+             hapticcal::traits(k.type).plural, k.rows);
   fmt::print("  {:<12} {:>12} {:>12} {:>10}    {:<9} {:<4}  {}\n", "parameter", "nominal",
              "identified", "deviation", "sd", "unit", "largest correlation");
   for (const hapticcal::ParameterEstimate& e : k.parameters) {

@@ -13,11 +13,10 @@
 #include <vector>
 
 #include "hapticcal/io.hpp"
+#include "hapticcal/measurement.hpp"
 #include "hapticcal/model.hpp"
 
 namespace hapticcal {
-
-enum class MeasurementKind { kDistance, kPosition };
 
 // The outcome of a calibration, like Ceres's Solver::Summary::termination_type.
 // Only kConverged gives a usable model: the others keep the previous one.
@@ -73,7 +72,7 @@ struct ObservabilityIndices {
 };
 
 struct KinematicFit {
-  MeasurementKind kind = MeasurementKind::kDistance;
+  MeasurementType type = MeasurementType::kDistance;
   int rows = 0;   // log rows used
   int poses = 0;  // distinct poses among them: repeats are averaged into one
   // RMS scatter of a repeated pose's measurements about their mean [m]
@@ -87,8 +86,14 @@ struct KinematicFit {
   double condition_number = 0;
   ObservabilityIndices observability;
   double length_scale = 1;  // m: angle columns are scaled by it
-  // RMS measurement error [m] (distance error or Euclidean position error, as
-  // `evaluate` reports it) of the nominal device and of the calibrated one.
+  // m/rad: a pose's rotation error phi counts as rotation_scale * phi (the length scale)
+  double rotation_scale = 1;
+  // The base was first registered to the measurements in closed form (an
+  // unknown measurement frame; see the notes).
+  bool frame_registered = false;
+  // RMS measurement error [m] (distance error, or Euclidean position error of
+  // positions and poses, as `evaluate` reports it) of the nominal device and of
+  // the calibrated one.
   double rms_before = 0, rms_after = 0;
   double sigma = 0;             // used for the standard deviations [m]
   bool sigma_given = false;     // else the residual estimate
