@@ -8,7 +8,6 @@
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -19,6 +18,7 @@
 #include "hapticcal/evaluate.hpp"
 #include "hapticcal/identification.hpp"
 #include "hapticcal/io.hpp"
+#include "hapticcal/model_source.hpp"
 #include "hapticcal/output_set.hpp"
 #include "hapticcal/report.hpp"
 #include "hapticcal/study.hpp"
@@ -275,18 +275,6 @@ int run_calibrate(const CalibrateOptions& o) {
   return 0;
 }
 
-// The built-in 7-DOF device file: the source tree's in a build, else the one
-// installed beside the executable (PREFIX/share/hapticcal/devices).
-std::string builtin_device() {
-  namespace fs = std::filesystem;
-  if (fs::exists(HAPTICCAL_DEFAULT_DEVICE)) return HAPTICCAL_DEFAULT_DEVICE;
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  const fs::path installed =
-      exe.parent_path().parent_path() / "share/hapticcal/devices/baser-7dof.yaml";
-  return !ec && fs::exists(installed) ? installed.string() : std::string(HAPTICCAL_DEFAULT_DEVICE);
-}
-
 struct SimulateOptions {
   std::string scenario, out = "hapticcal-out/simulate", device;
   int trials = 0, threads = 0;
@@ -487,7 +475,7 @@ int main(int argc, char** argv) {
       "calibrated.yaml is kept); 1 anything else (I/O errors with the system's reason).");
 
   SimulateOptions sim;
-  sim.device = builtin_device();
+  sim.device = hapticcal::builtin_device_path();
   std::string out;
   auto* simulate = app.add_subcommand("simulate", "Run the paper's simulation study (main job)");
   simulate->add_option("--scenario", sim.scenario, "Scenario file (YAML)");
