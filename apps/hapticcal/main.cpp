@@ -22,24 +22,53 @@
 #include "hapticcal/output_set.hpp"
 #include "hapticcal/report.hpp"
 #include "hapticcal/study.hpp"
+#include "hapticcal/urdf.hpp"
 
 namespace {
 
 constexpr int kExitBadInput = 2;
 constexpr int kExitUnusable = 3;
 
+// --tip and --root of a command that takes several model files: they apply to
+// each URDF among them; given without any URDF they are a usage error.
+struct ChainOptions {
+  std::string tip, root;
+
+  void check_used(const std::vector<std::string>& paths) const {
+    if (tip.empty() && root.empty()) return;
+    for (const std::string& p : paths) {
+      if (hapticcal::is_urdf_path(p)) return;
+    }
+    throw hapticcal::InputError(fmt::format("{}: applies to URDF models (.urdf); none is given",
+                                            tip.empty() ? "--root" : "--tip"));
+  }
+  hapticcal::DeviceModel load(const std::string& path) const {
+    return hapticcal::is_urdf_path(path) ? hapticcal::load_model(path, tip, root)
+                                         : hapticcal::load_model(path);
+  }
+};
+
+void add_chain_options(CLI::App* command, ChainOptions& chain) {
+  command->add_option("--tip", chain.tip,
+                      "Tip link of a URDF model's chain (needed unless the URDF has one leaf)");
+  command->add_option("--root", chain.root,
+                      "Root link of a URDF model's chain (default: the URDF's root link)");
+}
+
 struct EvaluateOptions {
   std::string model, log, columns, reference;
+  ChainOptions chain;
   bool json = false;
 };
 
 int run_evaluate(const EvaluateOptions& o) {
-  const hapticcal::DeviceModel model = hapticcal::load_device(o.model);
+  o.chain.check_used({o.model, o.reference});
+  const hapticcal::DeviceModel model = o.chain.load(o.model);
   const hapticcal::Log log = hapticcal::read_log(
       o.log, o.columns.empty() ? std::vector<std::string>{} : hapticcal::split_columns(o.columns));
   const hapticcal::Evaluation ev = hapticcal::evaluate(model, log);
   std::optional<hapticcal::Evaluation> ref;
-  if (!o.reference.empty()) ref = hapticcal::evaluate(hapticcal::load_device(o.reference), log);
+  if (!o.reference.empty()) ref = hapticcal::evaluate(o.chain.load(o.reference), log);
   // Paper eq. (9): the model's RMS against the reference's on the same log.
   auto improvement = [&](const std::optional<hapticcal::ErrorStats>& mine,
                          const std::optional<hapticcal::ErrorStats>& theirs) {
@@ -94,6 +123,7 @@ int run_evaluate(const EvaluateOptions& o) {
 
 struct CalibrateOptions {
   std::string model, log, columns, out = "hapticcal-out/calibrate", fix, free;
+  ChainOptions chain;
   bool no_transmission = false, force = false;
   int samples = 0;
   unsigned long long seed = 1;
@@ -220,20 +250,26 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
   }
 }
 
-// The previous run's calibrated.yaml, carried into a failed run's set only if
-// that run calibrated the same device.
-bool keep_previous_model(const hapticcal::OutputSet& out, const std::string& device) {
+// The previous run's calibrated.yaml (and calibrated.urdf of a URDF model),
+// carried into a failed run's set only if that run calibrated the same device.
+bool keep_previous_model(const hapticcal::OutputSet& out, const std::string& device, bool urdf) {
   if (out.previous_command() != "calibrate") return false;
   try {
     if (hapticcal::load_device(out.target() + "/calibrated.yaml").name != device) return false;
   } catch (const hapticcal::InputError&) {
     return false;
   }
+  if (urdf) out.keep_previous("calibrated.urdf");
   return out.keep_previous("calibrated.yaml");
 }
 
 int run_calibrate(const CalibrateOptions& o) {
-  const hapticcal::DeviceModel model = hapticcal::load_device(o.model);
+  // A URDF is read once: its text is also the base of calibrated.urdf.
+  const bool urdf = hapticcal::is_urdf_path(o.model);
+  const std::string urdf_text = urdf ? hapticcal::read_file(o.model) : std::string();
+  const hapticcal::DeviceModel model =
+      urdf ? hapticcal::parse_urdf(urdf_text, o.model, o.chain.tip, o.chain.root)
+           : hapticcal::load_model(o.model, o.chain.tip, o.chain.root);
   const hapticcal::Log log = hapticcal::read_log(o.log, names(o.columns));
   hapticcal::OutputSet out(o.out, "calibrate");
   hapticcal::CalibrationOptions options;
@@ -251,8 +287,14 @@ int run_calibrate(const CalibrateOptions& o) {
   bool kept = false;
   if (usable) {
     hapticcal::save_device(result.calibrated, out.dir() + "/calibrated.yaml");
+    if (urdf) {
+      hapticcal::write_file_atomically(
+          out.dir() + "/calibrated.urdf",
+          hapticcal::calibrated_urdf(urdf_text, o.model, o.chain.tip, o.chain.root,
+                                     result.calibrated, &result.notes));
+    }
   } else {
-    kept = keep_previous_model(out, model.name);
+    kept = keep_previous_model(out, model.name, urdf);
     result.notes.push_back(kept ? "calibrated.yaml is the previous run's model: not replaced"
                                 : "no calibrated.yaml written: the calibration is not usable");
   }
@@ -264,8 +306,8 @@ int run_calibrate(const CalibrateOptions& o) {
       report(hapticcal::calibration_report(result, model, log), out.dir(), o.out);
   out.commit();
   fmt::print("{}", reported);
-  fmt::print("wrote {0}/: {1}results.json, report.html, figures/ (seed {2})\n", o.out,
-             usable ? "calibrated.yaml, " : "", o.seed);
+  fmt::print("wrote {0}/: {1}{2}results.json, report.html, figures/ (seed {3})\n", o.out,
+             usable ? "calibrated.yaml, " : "", usable && urdf ? "calibrated.urdf, " : "", o.seed);
   if (!usable) {
     fmt::print("status: {}: {}; {}\n", to_string(result.status), result.status_reason,
                kept ? "the previous calibrated.yaml is kept" : "no calibrated.yaml written");
@@ -342,6 +384,11 @@ void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r)
 }
 
 int run_simulate(const SimulateOptions& o) {
+  if (hapticcal::is_urdf_path(o.device)) {
+    throw hapticcal::InputError(o.device, 0, "--device",
+                                "simulate takes a device file (YAML): convert the URDF first "
+                                "(hapticcal convert ROBOT.urdf DEVICE.yaml --tip LINK)");
+  }
   hapticcal::Scenario sc = o.scenario.empty() ? hapticcal::default_scenario(o.device)
                                               : hapticcal::load_scenario(o.scenario, o.device);
   if (o.trials > 0) sc.trials = o.trials;
@@ -372,6 +419,7 @@ int run_simulate(const SimulateOptions& o) {
 
 struct ForceOptions {
   std::string actual, nominal, calibrated, out = "hapticcal-out/force", posture;
+  ChainOptions chain;
   hapticcal::ForceScenario scenario;
 };
 
@@ -387,9 +435,10 @@ std::string force_csv(const hapticcal::ForceRun& run) {
 }
 
 int run_force_study(ForceOptions o) {
-  const hapticcal::DeviceModel actual = hapticcal::load_device(o.actual);
-  const hapticcal::DeviceModel nominal = hapticcal::load_device(o.nominal);
-  const hapticcal::DeviceModel calibrated = hapticcal::load_device(o.calibrated);
+  o.chain.check_used({o.actual, o.nominal, o.calibrated});
+  const hapticcal::DeviceModel actual = o.chain.load(o.actual);
+  const hapticcal::DeviceModel nominal = o.chain.load(o.nominal);
+  const hapticcal::DeviceModel calibrated = o.chain.load(o.calibrated);
   hapticcal::OutputSet out(o.out, "force");
   hapticcal::ForceScenario& sc = o.scenario;
   if (!o.posture.empty()) {
@@ -463,6 +512,56 @@ int run_force_study(ForceOptions o) {
   return 0;
 }
 
+struct ConvertOptions {
+  std::string in, out;
+  ChainOptions chain;
+};
+
+// Device file -> URDF or URDF -> device file, by the file names' extensions.
+int run_convert(const ConvertOptions& o) {
+  for (const std::string* path : {&o.in, &o.out}) {
+    if (!hapticcal::is_urdf_path(*path) && !hapticcal::is_yaml_path(*path)) {
+      fmt::print(stderr,
+                 "hapticcal: convert: '{}' is neither a device file (.yaml, .yml) nor a URDF "
+                 "(.urdf)\n",
+                 hapticcal::printable(*path, 200));
+      return kExitBadInput;
+    }
+  }
+  const bool to_urdf = hapticcal::is_urdf_path(o.out);
+  if (hapticcal::is_urdf_path(o.in) == to_urdf) {
+    fmt::print(stderr, "hapticcal: convert: {} and {} are both {}: nothing to convert\n",
+               hapticcal::printable(o.in, 200), hapticcal::printable(o.out, 200),
+               to_urdf ? "URDF" : "device files");
+    return kExitBadInput;
+  }
+  const hapticcal::DeviceModel model = hapticcal::load_model(o.in, o.chain.tip, o.chain.root);
+  if (to_urdf) {
+    std::string with_transmission;
+    for (const hapticcal::Link& l : model.links) {
+      if (!l.transmission.is_none())
+        with_transmission += (with_transmission.empty() ? "" : ", ") + l.name;
+    }
+    hapticcal::write_file_atomically(o.out, hapticcal::device_to_urdf(model));
+    if (!with_transmission.empty()) {
+      fmt::print(stderr,
+                 "hapticcal: warning: URDF cannot express transmissions: those of {} are only "
+                 "XML comments in {}\n",
+                 with_transmission, o.out);
+    }
+    fmt::print("wrote {} ({}, {} joints; its chain is hapticcal_measurement -> tool)\n", o.out,
+               model.name, model.dof());
+  } else {
+    hapticcal::save_device(model, o.out);
+    fmt::print("wrote {} ({}, {} joints: {})\n", o.out, model.name, model.dof(), [&] {
+      std::string names;
+      for (const hapticcal::Link& l : model.links) names += (names.empty() ? "" : " ") + l.name;
+      return names;
+    }());
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -490,7 +589,12 @@ int main(int argc, char** argv) {
 
   CalibrateOptions cal;
   auto* calibrate = app.add_subcommand("calibrate", "Two-step identification from a log");
-  calibrate->add_option("--model", cal.model, "Device file (YAML): the nominal model")->required();
+  calibrate
+      ->add_option("--model", cal.model,
+                   "The nominal model: a device file (YAML) or a URDF (.urdf, with --tip; then "
+                   "calibrated.urdf is written too)")
+      ->required();
+  add_chain_options(calibrate, cal.chain);
   calibrate->add_option("--log", cal.log, "Measurement log (CSV)")->required();
   calibrate->add_flag("--no-transmission", cal.no_transmission,
                       "Skip step 1: kinematic-only calibration");
@@ -529,7 +633,8 @@ int main(int argc, char** argv) {
 
   EvaluateOptions eval;
   auto* evaluate = app.add_subcommand("evaluate", "RMS and max error of a model on a log");
-  evaluate->add_option("--model", eval.model, "Device file (YAML)")->required();
+  evaluate->add_option("--model", eval.model, "Device file (YAML) or URDF (.urdf)")->required();
+  add_chain_options(evaluate, eval.chain);
   evaluate->add_option("--log", eval.log, "Measurement log (CSV)")->required();
   evaluate->add_flag("--json", eval.json, "Print one JSON object (metres)");
   evaluate->add_option("--reference", eval.reference,
@@ -566,6 +671,14 @@ int main(int argc, char** argv) {
                     "Readings q of the fixed handle, comma separated (default: home, j6 = 0.3 rad "
                     "on a 7-joint device)");
   force->add_option("--seed", fo.scenario.seed, "Seed of the sensor noise");
+  add_chain_options(force, fo.chain);
+
+  ConvertOptions conv;
+  auto* convert = app.add_subcommand(
+      "convert", "Convert a device file (.yaml, .yml) to URDF (.urdf) or a URDF to a device file");
+  convert->add_option("IN", conv.in, "Model to read")->required();
+  convert->add_option("OUT", conv.out, "File to write (replaced atomically)")->required();
+  add_chain_options(convert, conv.chain);
 
   try {
     app.parse(argc, argv);
@@ -581,6 +694,7 @@ int main(int argc, char** argv) {
     if (*simulate) code = run_simulate(sim);
     if (*calibrate) code = run_calibrate(cal);
     if (*force) code = run_force_study(fo);
+    if (*convert) code = run_convert(conv);
   } catch (const hapticcal::InputError& e) {
     hapticcal::finish_if_interrupted();
     fmt::print(stderr, "hapticcal: {}\n", e.what());
