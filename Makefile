@@ -8,11 +8,11 @@ FUZZ_SECONDS ?= 60
 JOBS ?= 2
 DEB_PACKAGES := cmake g++ make pkg-config libeigen3-dev libceres-dev libyaml-cpp-dev \
   nlohmann-json3-dev libcli11-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev \
-  liborocos-kdl-dev gnuplot-nox
+  liborocos-kdl-dev liburdfdom-dev gnuplot-nox
 # Debian's clang and its compiler-rt (libclang_rt.fuzzer, ASan, UBSan) for `make fuzz`.
 FUZZ_PACKAGES := clang libclang-rt-dev
 SANITIZE_TARGETS := hapticcal_cli convert_meca500 malformed_input_test device_io_test \
-  log_io_test transmission_test
+  log_io_test transmission_test urdf_test
 
 .PHONY: all deps configure build run test bench fuzz clean
 
