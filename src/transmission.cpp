@@ -1,6 +1,6 @@
 #include "hapticcal/transmission.hpp"
 
-#include <ceres/jet.h>
+#include <unsupported/Eigen/AutoDiff>
 #include <fmt/format.h>
 
 #include <array>
@@ -52,10 +52,12 @@ double parallelogram_derivative(const Parallelogram& P, double q) {
 }
 
 void parallelogram_jacobian(const Parallelogram& P, double q, double* J) {
-  using Jet = ceres::Jet<double, 4>;
-  const std::array<Jet, 4> L = {Jet(P.L1, 0), Jet(P.L2, 1), Jet(P.L3, 2), Jet(P.L4, 3)};
-  const Jet e = parallelogram_error(L.data(), Jet(q));
-  for (int k = 0; k < 4; ++k) J[k] = e.v[k];
+  // Forward-mode derivatives (Eigen's AutoDiffScalar: the core library needs no Ceres).
+  using Dual = Eigen::AutoDiffScalar<Eigen::Vector4d>;
+  const std::array<Dual, 4> L = {Dual(P.L1, 4, 0), Dual(P.L2, 4, 1), Dual(P.L3, 4, 2),
+                                 Dual(P.L4, 4, 3)};
+  const Dual e = parallelogram_error(L.data(), Dual(q));
+  for (int k = 0; k < 4; ++k) J[k] = e.derivatives()[k];
 }
 
 // Chebyshev (or monomial) basis values P_k(q) and their derivatives, k = 0..n.
