@@ -1,5 +1,6 @@
 #include "hapticcal/derivative_check.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 
 #include "hapticcal/kinematics.hpp"
@@ -33,35 +34,85 @@ DerivativeCheck check_parameter_jacobian(const Transmission& t, double q, double
   return result;
 }
 
+namespace {
+
+// The rotation vector w of R: R = exp([w]x), |w| <= pi.
+Eigen::Vector3d rotation_log(const Eigen::Matrix3d& R) {
+  const Eigen::AngleAxisd aa(R);
+  return aa.angle() * aa.axis();
+}
+
+// Central differences, 7 x num_slots: the tool position (rows 0-2), the rotation
+// log of R(params) R(params0)^T (rows 3-5) and the distance |p| (row 6).
+Eigen::MatrixXd numeric_pose_derivatives(const DeviceModel& model, const Eigen::VectorXd& joint,
+                                         double step) {
+  const ChainStructure s = model.structure();
+  const Eigen::VectorXd params = model.kinematic_parameters();
+  const Eigen::Matrix3d R0 = forward_kinematics(s, params.data(), joint.data()).R;
+  return central_difference(
+      [&](const Eigen::VectorXd& p) {
+        const Frame<double> T = forward_kinematics(s, p.data(), joint.data());
+        Eigen::Matrix<double, 7, 1> out;
+        out << T.p, rotation_log(T.R * R0.transpose()), T.p.norm();
+        return out;
+      },
+      params, Eigen::VectorXd::Constant(params.size(), step));
+}
+
+// The largest |analytic - numeric| over the rows of every meaningful slot, the
+// slot named with `what` appended; columns of slots without meaning must be zero.
+DerivativeCheck compare(const DeviceModel& model, const Eigen::MatrixXd& analytic,
+                        const Eigen::MatrixXd& numeric, const std::string& what) {
+  DerivativeCheck result;
+  std::vector<bool> meaningful(analytic.cols(), false);
+  for (const ParameterInfo& info : model.parameter_info()) {
+    meaningful[info.slot] = true;
+    const double e = (analytic.col(info.slot) - numeric.col(info.slot)).cwiseAbs().maxCoeff();
+    if (e > result.max_error) result = {e, info.name + what};
+  }
+  for (int k = 0; k < analytic.cols(); ++k) {
+    if (!meaningful[k] && analytic.col(k).norm() > result.max_error) {
+      result = {analytic.col(k).norm(), "slot " + std::to_string(k) + what};
+    }
+  }
+  return result;
+}
+
+DerivativeCheck worse(const DerivativeCheck& a, const DerivativeCheck& b) {
+  return b.max_error > a.max_error ? b : a;
+}
+
+DerivativeCheck compare_pose(const DeviceModel& model,
+                             const Eigen::Matrix<double, 6, Eigen::Dynamic>& J_pose_params,
+                             const Eigen::MatrixXd& numeric) {
+  return worse(
+      compare(model, J_pose_params.topRows<3>(), numeric.topRows(3), ""),
+      compare(model, J_pose_params.bottomRows<3>(), numeric.middleRows(3, 3), " (rotation)"));
+}
+
+}  // namespace
+
+DerivativeCheck check_pose_parameter_jacobian(
+    const DeviceModel& model, const Eigen::VectorXd& joint,
+    const Eigen::Matrix<double, 6, Eigen::Dynamic>& J_pose_params, double step) {
+  return compare_pose(model, J_pose_params, numeric_pose_derivatives(model, joint, step));
+}
+
 DerivativeCheck check_kinematic_derivatives(const DeviceModel& model, const Eigen::VectorXd& joint,
                                             double step) {
   const ChainStructure s = model.structure();
   const Eigen::VectorXd params = model.kinematic_parameters();
+  Eigen::Matrix<double, 6, Eigen::Dynamic> J_pose_params;
   Eigen::Matrix<double, 3, Eigen::Dynamic> J_p_params;
   Eigen::Matrix<double, 1, Eigen::Dynamic> J_delta_params;
+  pose_parameter_jacobian<6>(s, chain_constants(s, params.data()), params.data(), joint.data(),
+                             J_pose_params);
   position_parameter_jacobian(s, params.data(), joint.data(), J_p_params);
   distance_parameter_jacobian(s, params.data(), joint.data(), J_delta_params);
-  const Eigen::MatrixXd numeric = central_difference(
-      [&](const Eigen::VectorXd& p) {
-        const Eigen::Vector3d tool = forward_kinematics(s, p.data(), joint.data()).p;
-        return Eigen::Vector4d(tool[0], tool[1], tool[2], tool.norm()).eval();
-      },
-      params, Eigen::VectorXd::Constant(params.size(), step));
-  DerivativeCheck result;
-  std::vector<bool> meaningful(s.num_slots(), false);
-  for (const ParameterInfo& info : model.parameter_info()) {
-    meaningful[info.slot] = true;
-    const double e = std::max(
-        (J_p_params.col(info.slot) - numeric.col(info.slot).head<3>()).cwiseAbs().maxCoeff(),
-        std::abs(J_delta_params[info.slot] - numeric(3, info.slot)));
-    if (e > result.max_error) result = {e, info.name};
-  }
-  for (int k = 0; k < s.num_slots(); ++k) {  // slots without meaning must stay out
-    if (!meaningful[k] && J_p_params.col(k).norm() > result.max_error) {
-      result = {J_p_params.col(k).norm(), "slot " + std::to_string(k)};
-    }
-  }
-  return result;
+  const Eigen::MatrixXd numeric = numeric_pose_derivatives(model, joint, step);
+  return worse(worse(compare_pose(model, J_pose_params, numeric),
+                     compare(model, J_p_params, numeric.topRows(3), " (3 rows)")),
+               compare(model, J_delta_params, numeric.bottomRows(1), " (distance)"));
 }
 
 }  // namespace hapticcal

@@ -39,8 +39,17 @@ DerivativeCheck check_reading_derivative(const Transmission& t, double q, double
 // to 1 + |numeric|.
 DerivativeCheck check_parameter_jacobian(const Transmission& t, double q,
                                          double relative_step = 1e-6);
-// d p / d params and d |p| / d params (paper eq. 5) of every meaningful
-// kinematic parameter at the joint angles `joint` (q + dtheta(q)); absolute.
+// A given d (p, w) / d params (6 x num_slots: tool position, then the tool's
+// small rotation w in the measurement frame, R(params + dp) ~ (I + [w]x) R)
+// against central differences of forward_kinematics at the joint angles `joint`
+// (q + dtheta(q)); w's differences are those of log(R(params +- h) R(params)^T).
+// Absolute; a rotation row's slot is named with " (rotation)" appended.
+DerivativeCheck check_pose_parameter_jacobian(
+    const DeviceModel& model, const Eigen::VectorXd& joint,
+    const Eigen::Matrix<double, 6, Eigen::Dynamic>& J_pose_params, double step = 1e-6);
+// The analytic d (p, w) / d params (pose_parameter_jacobian<6>), d p / d params
+// (<3>, " (3 rows)") and d |p| / d params (paper eq. 5, " (distance)") of every
+// meaningful kinematic parameter at the joint angles `joint`; absolute.
 DerivativeCheck check_kinematic_derivatives(const DeviceModel& model, const Eigen::VectorXd& joint,
                                             double step = 1e-6);
 
