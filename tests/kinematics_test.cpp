@@ -19,9 +19,15 @@ namespace {
 using testing::builtin;
 using testing::kdl_chain;
 using testing::meca500;
+using testing::mixed_chain;
+using testing::panda_like;
 using testing::perturbed;
 using testing::random_readings;
+using testing::with_random_axes;
 
+// Every device below goes through every test: the DH and MDH ones take the
+// prepared register paths, the origin-geometry and mixed ones the generic path.
+//
 // The simulated "actual" 7-DOF: joint 4 a capstan followed by a parallelogram
 // (SPEC section 3), and a large offset on a capstan joint (the prepared path's
 // fallback from turning sin/cos of q by a small angle).
@@ -42,7 +48,13 @@ std::vector<std::pair<std::string, DeviceModel>> devices() {
           {"meca500 (mdh)", meca500()},
           {"baser-7dof perturbed", perturbed(builtin("baser-7dof"), rng)},
           {"phantom perturbed", perturbed(builtin("phantom-premium-1.5"), rng)},
-          {"meca500 perturbed", perturbed(meca500(), rng)}};
+          {"meca500 perturbed", perturbed(meca500(), rng)},
+          {"panda-like (origin)", panda_like()},
+          {"panda-like perturbed, random axes",
+           with_random_axes(perturbed(panda_like(), rng, 0.02), rng)},
+          {"mixed (DH base)", mixed_chain(BaseKind::kDh)},
+          {"mixed (pose base)", mixed_chain(BaseKind::kPose)},
+          {"mixed perturbed", perturbed(mixed_chain(BaseKind::kDh), rng)}};
 }
 
 // Gives the built-in devices non-trivial transmissions so that compensation is
@@ -93,14 +105,16 @@ TEST(Kinematics, ForwardKinematicsAndJacobianMatchKdlOn1000Configurations) {
       Jacobian6<double> J, Jt;
       const Frame<double> fast =
           prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, J);
-      prepared.forward_jacobian(q.data(), JacobianFrame::kTool, Jt);
-      Jacobian6<double> Jg;
+      const Frame<double> fast_t = prepared.forward_jacobian(q.data(), JacobianFrame::kTool, Jt);
+      const Frame<double> fast_fk = prepared.forward(q.data());
+      Jacobian6<double> Jg, Jgt;
       geometric_jacobian(s, frames.data(), generic, JacobianFrame::kMeasurement, Jg);
+      geometric_jacobian(s, frames.data(), generic, JacobianFrame::kTool, Jgt);
 
-      worst_p = std::max({worst_p, (generic.p - ref.p).cwiseAbs().maxCoeff(),
-                          (fast.p - ref.p).cwiseAbs().maxCoeff()});
-      worst_R = std::max({worst_R, (generic.R - ref.R).cwiseAbs().maxCoeff(),
-                          (fast.R - ref.R).cwiseAbs().maxCoeff()});
+      for (const Frame<double>* f : {&generic, &fast, &fast_t, &fast_fk}) {
+        worst_p = std::max(worst_p, (f->p - ref.p).cwiseAbs().maxCoeff());
+        worst_R = std::max(worst_R, (f->R - ref.R).cwiseAbs().maxCoeff());
+      }
       // KDL: reference point at the end effector, expressed in the base (here
       // measurement) frame; changeBase(R^T) expresses it in the tool frame.
       Jacobian6<double> Jref(6, model.dof()), Jtref(6, model.dof());
@@ -114,7 +128,8 @@ TEST(Kinematics, ForwardKinematicsAndJacobianMatchKdlOn1000Configurations) {
       }
       worst_J =
           std::max({worst_J, (J - Jref).cwiseAbs().maxCoeff(), (Jg - Jref).cwiseAbs().maxCoeff()});
-      worst_Jt = std::max(worst_Jt, (Jt - Jtref).cwiseAbs().maxCoeff());
+      worst_Jt = std::max(
+          {worst_Jt, (Jt - Jtref).cwiseAbs().maxCoeff(), (Jgt - Jtref).cwiseAbs().maxCoeff()});
     }
     EXPECT_LT(worst_p, 1e-12);
     EXPECT_LT(worst_R, 1e-12);
@@ -154,9 +169,12 @@ TEST(Kinematics, GeometricJacobianMatchesCentralDifferences) {
   }
 }
 
-// Analytic d p / d params and d |p| / d params against central differences
-// (hapticcal::check_kinematic_derivatives: step 1e-6, tolerance 1e-8 in m per m or
-// per rad); slots without meaning must have zero columns.
+// Analytic d (p, w) / d params (pose_parameter_jacobian<6>: position and tool
+// rotation rows), d p / d params (<3>) and d |p| / d params against central
+// differences of forward_kinematics, the rotation rows through the rotation log
+// of R(p + h) R(p)^T (hapticcal::check_kinematic_derivatives: step 1e-6,
+// tolerance 1e-8 absolute in m or rad per m or per rad, for entries of order 1);
+// slots without meaning must have zero columns.
 TEST(Kinematics, ParameterDerivativesMatchCentralDifferences) {
   for (const auto& [label, model] : devices()) {
     SCOPED_TRACE(label);
@@ -270,6 +288,151 @@ TEST(Kinematics, PaperDeviceHomePostureIsTheDrawnOne) {
     T = T * A;
   }
   EXPECT_LT((p - T.p).norm(), 1e-15);
+}
+
+// The checker behind ParameterDerivativesMatchCentralDifferences finds a wrong
+// entry in a rotation row and in a position row, and names its slot.
+TEST(Kinematics, PoseParameterJacobianCheckFindsAWrongEntry) {
+  const DeviceModel model = mixed_chain(BaseKind::kDh);
+  const ChainStructure s = model.structure();
+  const Eigen::VectorXd params = model.kinematic_parameters();
+  std::mt19937_64 rng(8);
+  const Eigen::VectorXd joint = random_readings(model, rng);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> J;
+  pose_parameter_jacobian<6>(s, chain_constants(s, params.data()), params.data(), joint.data(), J);
+  EXPECT_LT(check_pose_parameter_jacobian(model, joint, J).max_error, 1e-8);
+  const int roll = s.link_slot(2) + kOriginRoll;  // j3.roll
+  Eigen::Matrix<double, 6, Eigen::Dynamic> wrong = J;
+  wrong(4, roll) += 1e-6;
+  DerivativeCheck check = check_pose_parameter_jacobian(model, joint, wrong);
+  EXPECT_NEAR(check.max_error, 1e-6, 1e-8);
+  EXPECT_EQ(check.worst, "j3.roll (rotation)");
+  wrong = J;
+  wrong(1, s.link_slot(3) + kLinkBeta) -= 1e-6;
+  check = check_pose_parameter_jacobian(model, joint, wrong);
+  EXPECT_NEAR(check.max_error, 1e-6, 1e-8);
+  EXPECT_EQ(check.worst, "j4.beta");
+}
+
+// The Panda's published zero posture (franka_description): the flange 0.088 m
+// ahead of the base axis and 0.333 + 0.316 + 0.384 - 0.107 m up, its z axis
+// pointing down; the tool 0.1034 m further down.
+TEST(Kinematics, PandaLikeZeroPostureIsThePublishedOne) {
+  const DeviceModel model = panda_like();
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(model.dof());
+  const Eigen::Vector3d p_meas(0.088, 0, 0.333 + 0.316 + 0.384 - 0.107 - 0.1034);
+  const Eigen::Matrix3d R_meas = Eigen::Vector3d(1, -1, -1).asDiagonal();
+  const Frame<double> generic =
+      forward_kinematics(model.structure(), model.kinematic_parameters().data(), q.data());
+  const Frame<double> prepared = PreparedModel(model).forward(q.data());
+  for (const Frame<double>& T : {generic, prepared}) {
+    EXPECT_LT((T.p - p_meas).norm(), 1e-15);
+    EXPECT_LT((T.R - R_meas).cwiseAbs().maxCoeff(), 1e-15);
+  }
+}
+
+// A prismatic joint's Jacobian column: its unit axis in the linear rows, zero
+// in the angular rows; moving the joint by t moves the tool by t along that
+// axis without turning it (generic and prepared paths, both frames).
+TEST(Kinematics, PrismaticJointColumnIsTheAxisAndDoesNotTurn) {
+  for (BaseKind base : {BaseKind::kDh, BaseKind::kPose}) {
+    std::mt19937_64 rng(9);
+    const DeviceModel model = perturbed(mixed_chain(base), rng);
+    const ChainStructure s = model.structure();
+    const Eigen::VectorXd params = model.kinematic_parameters();
+    const PreparedModel prepared(model);
+    int prismatic = 0;
+    for (int trial = 0; trial < 20; ++trial) {
+      const Eigen::VectorXd q = random_readings(model, rng);
+      const Eigen::VectorXd joint = model.compensate(q);
+      std::array<Frame<double>, kMaxDof + 1> frames;
+      const Frame<double> T = forward_kinematics(s, params.data(), joint.data(), frames.data());
+      Jacobian6<double> Jg, Jgt, Jp, Jpt;
+      geometric_jacobian(s, frames.data(), T, JacobianFrame::kMeasurement, Jg);
+      geometric_jacobian(s, frames.data(), T, JacobianFrame::kTool, Jgt);
+      prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, Jp);
+      prepared.forward_jacobian(q.data(), JacobianFrame::kTool, Jpt);
+      for (int i = 0; i < model.dof(); ++i) {
+        if (!model.links[i].prismatic()) continue;
+        ++prismatic;
+        constexpr double t = 0.1;
+        Eigen::VectorXd moved = joint;
+        moved[i] += t;
+        const Frame<double> Tm = forward_kinematics(s, params.data(), moved.data());
+        const Eigen::Vector3d axis = (Tm.p - T.p) / t;
+        EXPECT_NEAR(axis.norm(), 1.0, 1e-13);
+        EXPECT_LT((Tm.R - T.R).cwiseAbs().maxCoeff(), 1e-15);
+        for (const Jacobian6<double>* J : {&Jg, &Jp}) {
+          EXPECT_LT((J->col(i).head<3>() - axis).cwiseAbs().maxCoeff(), 1e-13);
+          EXPECT_EQ(J->col(i).tail<3>().cwiseAbs().maxCoeff(), 0.0);
+        }
+        for (const Jacobian6<double>* J : {&Jgt, &Jpt}) {
+          EXPECT_LT((J->col(i).head<3>() - T.R.transpose() * axis).cwiseAbs().maxCoeff(), 1e-13);
+          EXPECT_EQ(J->col(i).tail<3>().cwiseAbs().maxCoeff(), 0.0);
+        }
+      }
+    }
+    EXPECT_EQ(prismatic, 20 * 3);  // the MDH, DH and origin prismatic joints
+  }
+}
+
+// The origin + axis description of a DH or MDH prismatic link (KDL's roll,
+// pitch, yaw of its constant rotation; the joint offset carrying d):
+//   DH:  Rz(theta) T(a, 0, d + q) Rx(alpha) Ry(beta)
+//        = T(a cos theta, a sin theta, 0) R * T(R^T z (d + q)),  R = Rz Rx Ry
+//   MDH: Rx(alpha) Tx(a) Ry(beta) Rz(theta) Tz(d + q)
+//        = Tx(a) R * Tz(d + q),  R = Rx Ry Rz
+Link as_origin_link(const Link& l) {
+  const KDL::Rotation Rz = KDL::Rotation::RotZ(l.theta), Rx = KDL::Rotation::RotX(l.alpha),
+                      Ry = KDL::Rotation::RotY(l.beta);
+  const KDL::Rotation R = l.geometry == Geometry::kDh ? Rz * Rx * Ry : Rx * Ry * Rz;
+  Link o = l;
+  o.geometry = Geometry::kOrigin;
+  o.origin = l.geometry == Geometry::kDh
+                 ? std::array<double, 6>{l.a * std::cos(l.theta), l.a * std::sin(l.theta), 0}
+                 : std::array<double, 6>{l.a, 0, 0};
+  R.GetRPY(o.origin[3], o.origin[4], o.origin[5]);
+  const KDL::Vector z(0, 0, 1);
+  const KDL::Vector u = l.geometry == Geometry::kDh ? R.Inverse(z) : z;
+  o.axis = Eigen::Vector3d(u.x(), u.y(), u.z());
+  o.offset = l.d;
+  o.a = o.alpha = o.d = o.theta = o.beta = 0;
+  return o;
+}
+
+TEST(Kinematics, DhMdhAndOriginDescriptionsOfAPrismaticJointAgree) {
+  std::mt19937_64 rng(10);
+  const DeviceModel model = perturbed(mixed_chain(BaseKind::kPose), rng);
+  DeviceModel converted = model;
+  int count = 0;
+  for (Link& l : converted.links) {
+    if (l.prismatic() && l.geometry != Geometry::kOrigin) {
+      l = as_origin_link(l);
+      ++count;
+    }
+  }
+  ASSERT_EQ(count, 2);
+  const ChainStructure s = model.structure(), sc = converted.structure();
+  const Eigen::VectorXd params = model.kinematic_parameters();
+  const Eigen::VectorXd params_c = converted.kinematic_parameters();
+  const PreparedModel prepared(model), prepared_c(converted);
+  for (int trial = 0; trial < 100; ++trial) {
+    const Eigen::VectorXd q = random_readings(model, rng);
+    const Eigen::VectorXd joint = model.compensate(q);
+    std::array<Frame<double>, kMaxDof + 1> frames, frames_c;
+    const Frame<double> T = forward_kinematics(s, params.data(), joint.data(), frames.data());
+    const Frame<double> Tc = forward_kinematics(sc, params_c.data(), joint.data(), frames_c.data());
+    EXPECT_LT((T.p - Tc.p).cwiseAbs().maxCoeff(), 1e-14);
+    EXPECT_LT((T.R - Tc.R).cwiseAbs().maxCoeff(), 1e-14);
+    Jacobian6<double> J, Jc;
+    geometric_jacobian(s, frames.data(), T, JacobianFrame::kMeasurement, J);
+    geometric_jacobian(sc, frames_c.data(), Tc, JacobianFrame::kMeasurement, Jc);
+    EXPECT_LT((J - Jc).cwiseAbs().maxCoeff(), 1e-14);
+    const Frame<double> Tp = prepared_c.forward_jacobian(q.data(), JacobianFrame::kMeasurement, Jc);
+    prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, J);
+    EXPECT_LT((T.p - Tp.p).cwiseAbs().maxCoeff(), 1e-14);
+    EXPECT_LT((J - Jc).cwiseAbs().maxCoeff(), 1e-14);
+  }
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 // Builds an orocos KDL chain equal to a device model's kinematics (without
 // transmissions: KDL takes the joint angles q + dtheta(q)). KDL is the
-// independent reference of the kinematics tests and benchmarks.
+// independent reference of the kinematics tests and benchmarks: every geometry
+// (DH, MDH, URDF origin + axis) and joint type (revolute, continuous, prismatic)
+// is built from KDL's own frames and joints, not from hapticcal's.
 #pragma once
 
 #include <kdl/chain.hpp>
@@ -17,27 +19,46 @@ inline KDL::Frame kdl_pose(const std::array<double, 6>& v) {
   return KDL::Frame(KDL::Rotation::RPY(v[3], v[4], v[5]), KDL::Vector(v[0], v[1], v[2]));
 }
 
+// A KDL segment turns or slides by its joint first, then applies its tip
+// frame: pose(q) * f_tip.
+inline KDL::Joint kdl_z_joint(const Link& l) {
+  return KDL::Joint(l.name, l.prismatic() ? KDL::Joint::TransZ : KDL::Joint::RotZ);
+}
+
+inline void add_link(KDL::Chain& chain, const Link& l) {
+  const KDL::Frame beta(KDL::Rotation::RotY(l.beta));
+  if (l.geometry == Geometry::kDh) {
+    // Revolute: Rz(q) * Rz(theta) Tz(d) Tx(a) Rx(alpha) * Ry(beta).
+    // Prismatic: Tz(q) * the same, = Rz(theta) Tz(d + q) Tx(a) Rx(alpha) Ry(beta).
+    chain.addSegment(
+        KDL::Segment(l.name, kdl_z_joint(l), KDL::Frame::DH(l.a, l.alpha, l.d, l.theta) * beta));
+  } else if (l.geometry == Geometry::kMdh) {
+    // Rx(alpha) Tx(a) Ry(beta), then Rz(q) or Tz(q) * Rz(theta) Tz(d).
+    chain.addSegment(KDL::Segment(l.name + "_fixed", KDL::Joint(KDL::Joint::None),
+                                  KDL::Frame::DH_Craig1989(l.a, l.alpha, 0, 0) * beta));
+    chain.addSegment(
+        KDL::Segment(l.name, kdl_z_joint(l), KDL::Frame::DH_Craig1989(0, 0, l.d, l.theta)));
+  } else {
+    // URDF: the fixed origin frame and the offset's motion, then a joint about /
+    // along the axis through the origin. (A KDL joint's own offset would cancel:
+    // KDL::Segment stores joint.pose(0)^-1 * f_tip, the tip at the joint's zero.)
+    const KDL::Vector axis(l.axis[0], l.axis[1], l.axis[2]);
+    const KDL::Frame offset = l.prismatic() ? KDL::Frame(axis * l.offset)
+                                            : KDL::Frame(KDL::Rotation::Rot2(axis, l.offset));
+    chain.addSegment(KDL::Segment(l.name + "_origin", KDL::Joint(KDL::Joint::None),
+                                  kdl_pose(l.origin) * offset));
+    const KDL::Joint::JointType type = l.prismatic() ? KDL::Joint::TransAxis : KDL::Joint::RotAxis;
+    chain.addSegment(KDL::Segment(l.name, KDL::Joint(l.name, KDL::Vector::Zero(), axis, type)));
+  }
+}
+
 inline KDL::Chain kdl_chain(const DeviceModel& m) {
   KDL::Chain chain;
   const KDL::Frame base = m.base_kind == BaseKind::kDh
                               ? KDL::Frame::DH(m.base[0], m.base[1], m.base[2], m.base[3])
                               : kdl_pose(m.base);
   chain.addSegment(KDL::Segment("base", KDL::Joint(KDL::Joint::None), base));
-  for (const Link& l : m.links) {
-    if (l.geometry == Geometry::kDh) {
-      // Rz(q) * Rz(theta) Tz(d) Tx(a) Rx(alpha) * Ry(beta)
-      chain.addSegment(KDL::Segment(
-          l.name, KDL::Joint(KDL::Joint::RotZ),
-          KDL::Frame::DH(l.a, l.alpha, l.d, l.theta) * KDL::Frame(KDL::Rotation::RotY(l.beta))));
-    } else {
-      // Rx(alpha) Tx(a) Ry(beta), then Rz(q) * Rz(theta) Tz(d)
-      chain.addSegment(KDL::Segment(
-          l.name + "_fixed", KDL::Joint(KDL::Joint::None),
-          KDL::Frame::DH_Craig1989(l.a, l.alpha, 0, 0) * KDL::Frame(KDL::Rotation::RotY(l.beta))));
-      chain.addSegment(KDL::Segment(l.name, KDL::Joint(KDL::Joint::RotZ),
-                                    KDL::Frame::DH_Craig1989(0, 0, l.d, l.theta)));
-    }
-  }
+  for (const Link& l : m.links) add_link(chain, l);
   chain.addSegment(KDL::Segment("tool", KDL::Joint(KDL::Joint::None), kdl_pose(m.tool)));
   return chain;
 }

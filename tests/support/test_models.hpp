@@ -1,6 +1,7 @@
 // Device models for tests: the shipped files and randomly perturbed variants.
 #pragma once
 
+#include <numbers>
 #include <random>
 #include <string>
 
@@ -32,6 +33,145 @@ inline DeviceModel perturbed(DeviceModel m, std::mt19937_64& rng, double scale =
   Eigen::VectorXd p = m.kinematic_parameters();
   for (const ParameterInfo& info : m.parameter_info()) p[info.slot] += u(rng);
   m.set_kinematic_parameters(p);
+  return m;
+}
+
+// A 7-DOF chain in URDF origin + axis geometry with the Franka Emika Panda's
+// published joint origins (franka_description, panda_arm.xacro: xyz / rpy) and
+// joint limits, every axis z, no base pose, and the tool 0.2104 m along the
+// flange's z (flange 0.107 + hand 0.1034). No transmissions.
+inline DeviceModel panda_like() {
+  constexpr double h = std::numbers::pi / 2;
+  struct Joint {
+    std::array<double, 6> origin;
+    double lower, upper;
+  };
+  const Joint joints[] = {
+      {{0, 0, 0.333, 0, 0, 0}, -2.8973, 2.8973},        {{0, 0, 0, -h, 0, 0}, -1.7628, 1.7628},
+      {{0, -0.316, 0, h, 0, 0}, -2.8973, 2.8973},       {{0.0825, 0, 0, h, 0, 0}, -3.0718, -0.0698},
+      {{-0.0825, 0.384, 0, -h, 0, 0}, -2.8973, 2.8973}, {{0, 0, 0, h, 0, 0}, -0.0175, 3.7525},
+      {{0.088, 0, 0, h, 0, 0}, -2.8973, 2.8973}};
+  DeviceModel m;
+  m.name = "panda-like";
+  m.base_kind = BaseKind::kPose;
+  for (int i = 0; i < 7; ++i) {
+    Link l;
+    l.name = "panda_joint" + std::to_string(i + 1);
+    l.geometry = Geometry::kOrigin;
+    l.type = JointType::kRevolute;
+    l.origin = joints[i].origin;
+    l.lower = joints[i].lower;
+    l.upper = joints[i].upper;
+    m.links.push_back(l);
+  }
+  m.tool = {0, 0, 0.2104, 0, 0, 0};
+  return m;
+}
+
+// A random unit vector (uniform on the sphere).
+inline Eigen::Vector3d random_axis(std::mt19937_64& rng) {
+  std::normal_distribution<double> n;
+  Eigen::Vector3d u(n(rng), n(rng), n(rng));
+  return u.normalized();
+}
+
+// Every other origin-geometry joint (the 2nd, 4th, ...) turned about or sliding
+// along a random unit axis instead of z.
+inline DeviceModel with_random_axes(DeviceModel m, std::mt19937_64& rng) {
+  for (int i = 1; i < m.dof(); i += 2) {
+    if (m.links[i].geometry == Geometry::kOrigin) m.links[i].axis = random_axis(rng);
+  }
+  return m;
+}
+
+// One chain with every geometry and joint type: DH, MDH and origin links;
+// revolute, continuous and prismatic joints (DH, MDH and origin prismatic);
+// non-zero betas, non-z axes, a capstan on a DH, an MDH and an origin revolute
+// joint (the origin one with a large offset) and polynomials on two prismatic
+// joints. The base is a DH transform or a pose.
+inline DeviceModel mixed_chain(BaseKind base_kind) {
+  struct Spec {
+    Geometry geometry;
+    JointType type;
+    double a, alpha, d, theta, beta;
+    std::array<double, 6> origin;
+    Eigen::Vector3d axis;
+    double offset;
+  };
+  using G = Geometry;
+  using J = JointType;
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  const Spec specs[] = {
+      {G::kDh, J::kRevolute, 0.05, -1.4, 0.12, 0.3, 0.01, {}, z, 0},
+      {G::kMdh, J::kPrismatic, 0.02, 1.2, 0.1, -0.4, -0.02, {}, z, 0},
+      {G::kOrigin,
+       J::kContinuous,
+       0,
+       0,
+       0,
+       0,
+       0,
+       {0.03, -0.05, 0.2, 0.4, -0.3, 1.1},
+       Eigen::Vector3d(0.3, -0.5, 0.8).normalized(),
+       0.2},
+      {G::kDh, J::kPrismatic, -0.04, 0.7, 0.08, 0.9, 0.015, {}, z, 0},
+      {G::kOrigin,
+       J::kPrismatic,
+       0,
+       0,
+       0,
+       0,
+       0,
+       {-0.02, 0.1, 0.05, -1.2, 0.5, -0.2},
+       Eigen::Vector3d(-0.6, 0.2, 0.4).normalized(),
+       0.03},
+      {G::kMdh, J::kRevolute, 0.15, -0.8, 0.04, 1.3, 0.02, {}, z, 0},
+      {G::kOrigin, J::kRevolute, 0, 0, 0, 0, 0, {0.1, 0, 0.02, 1.5, 0, 0.1}, z, 1.0},
+      {G::kDh, J::kContinuous, 0.0, 0.5, 0.06, -0.2, -0.01, {}, z, 0},
+      {G::kMdh, J::kRevolute, 0.03, 1.1, -0.05, 0.2, 0.005, {}, z, 0},
+  };
+  DeviceModel m;
+  m.name = "mixed";
+  m.base_kind = base_kind;
+  m.base = base_kind == BaseKind::kDh ? std::array<double, 6>{0.2, -0.6, 0.15, 0.4, 0, 0}
+                                      : std::array<double, 6>{0.1, -0.2, 0.3, 0.2, -0.4, 0.7};
+  for (size_t i = 0; i < std::size(specs); ++i) {
+    const Spec& sp = specs[i];
+    Link l;
+    l.name = "j" + std::to_string(i + 1);
+    l.geometry = sp.geometry;
+    l.type = sp.type;
+    l.a = sp.a;
+    l.alpha = sp.alpha;
+    l.d = sp.d;
+    l.theta = sp.theta;
+    l.beta = sp.beta;
+    l.origin = sp.origin;
+    l.axis = sp.axis;
+    l.offset = sp.offset;
+    if (l.prismatic()) {
+      l.lower = -0.1;
+      l.upper = 0.2;
+    } else if (l.type == JointType::kContinuous) {
+      l.lower = -2 * std::numbers::pi;
+      l.upper = 2 * std::numbers::pi;
+    } else {
+      l.lower = -2.5;
+      l.upper = 2.5;
+    }
+    m.links.push_back(l);
+  }
+  m.links[0].transmission = Transmission(Capstan{8, 0.04, 0, 0.01, 0.1e-3, -0.7, 0.05e-3, 1.3});
+  m.links[5].transmission = Transmission(Capstan{12, 0.05, 0, -0.02, 0.2e-3, 2.1, 0.02e-3, -0.4});
+  m.links[6].transmission = Transmission(Capstan{10, 0.05, 0, 0.015, 0.1e-3, 0.3, 0.04e-3, 2.2});
+  for (int i : {1, 4}) {
+    const Polynomial p{PolynomialBasis::kChebyshev,
+                       m.links[i].lower,
+                       m.links[i].upper,
+                       {0, 1e-3, -5e-4, 2e-4, 1e-4}};
+    m.links[i].transmission = Transmission(p);
+  }
+  m.tool = {0.01, -0.02, 0.08, 0.3, -0.2, 0.5};
   return m;
 }
 
