@@ -62,8 +62,9 @@ constexpr const char* kExpectedColumns =
 struct Column {
   std::string name;  // as written, for messages
   Quantity quantity = Quantity::kSkip;
-  int joint = 0;     // zero-based, for q and ext
-  double scale = 1;  // to SI
+  int joint = 0;                          // zero-based, for q and ext
+  double scale = 1;                       // to SI
+  ReadingUnit unit = ReadingUnit::kNone;  // of a q column: as written
 };
 
 std::string trim(const std::string& s) {
@@ -157,9 +158,20 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
     throw InputError(origin, line, c.name,
                      fmt::format("unit '{}': a quaternion component has no unit", printable(unit)));
   }
-  if (angle && unit == "rad") return c;
+  const bool reading = c.quantity == Quantity::kJoint || c.quantity == Quantity::kExternal;
+  if (angle && unit == "rad") {
+    c.unit = ReadingUnit::kAngle;
+    return c;
+  }
   if (angle && unit == "deg") {
     c.scale = std::numbers::pi / 180;
+    c.unit = ReadingUnit::kAngle;
+    return c;
+  }
+  // A prismatic joint's readings are lengths (check_log_fits matches them to the joints).
+  if (reading && (unit == "m" || unit == "mm" || unit == "um")) {
+    c.scale = unit == "m" ? 1 : unit == "mm" ? 1e-3 : 1e-6;
+    c.unit = ReadingUnit::kLength;
     return c;
   }
   if (time && unit == "s") return c;
@@ -178,10 +190,11 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
       return c;
     }
   }
-  throw InputError(origin, line, c.name,
-                   fmt::format("unit '{}' does not fit (angles, rx..rz: rad, deg; lengths: m, "
-                               "mm, um; time: s, ms)",
-                               printable(unit)));
+  throw InputError(
+      origin, line, c.name,
+      fmt::format("unit '{}' does not fit (angles, rx..rz: rad, deg; lengths, readings of "
+                  "prismatic joints: m, mm, um; time: s, ms)",
+                  printable(unit)));
 }
 
 // An orientation is one complete set, qw, qx, qy, qz or rx, ry, rz, beside the position x, y, z.
@@ -370,6 +383,8 @@ Log parse_log(const std::string& text, const std::string& origin,
   log.q.setZero(log.rows, dof);
   log.ext.setZero(log.rows, dof);
   log.has_ext.assign(dof, false);
+  log.q_unit.assign(dof, ReadingUnit::kNone);
+  log.q_column.assign(dof, "");
   for (const Column& c : columns) {
     switch (c.quantity) {
       case Quantity::kDistance:
@@ -383,6 +398,10 @@ Log parse_log(const std::string& text, const std::string& origin,
         break;
       case Quantity::kExternal:
         log.has_ext[c.joint] = true;
+        break;
+      case Quantity::kJoint:
+        log.q_unit[c.joint] = c.unit;
+        log.q_column[c.joint] = c.name;
         break;
       default:
         log.has_orientation =
@@ -468,6 +487,16 @@ void check_log_fits(const Log& log, const DeviceModel& model) {
   if (!log.has_distance && !log.has_position) {
     throw InputError(log.origin, 0, "",
                      "no measurements: the log has neither a distance nor x, y, z columns");
+  }
+  // Readings with a unit: angles for turning joints, lengths for prismatic ones.
+  for (int j = 0; j < static_cast<int>(log.q_unit.size()) && j < model.dof(); ++j) {
+    const bool prismatic = model.links[j].prismatic();
+    const ReadingUnit u = log.q_unit[j];
+    if (u == ReadingUnit::kNone || (u == ReadingUnit::kLength) == prismatic) continue;
+    throw InputError(log.origin, 1, log.q_column[j],
+                     fmt::format("{} is {}: its readings are {}", model.links[j].name,
+                                 prismatic ? "prismatic" : "a turning joint",
+                                 prismatic ? "lengths (m, mm, um)" : "angles (rad, deg)"));
   }
 }
 

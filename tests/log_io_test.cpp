@@ -394,5 +394,38 @@ TEST(LogIo, OrientationRoundTripsBitForBit) {
   }
 }
 
+// A prismatic joint's readings are lengths: q2[mm] is read in metres, and
+// check_log_fits refuses an angle unit on a prismatic joint and a length unit on
+// a turning one, naming the column (issue 11).
+TEST(LogIo, PrismaticReadingsAreLengthsMatchedToTheModel) {
+  DeviceModel m;
+  m.name = "slider";
+  for (int i = 0; i < 2; ++i) {
+    Link l;
+    l.name = i == 0 ? "turn" : "slide";
+    l.type = i == 0 ? JointType::kRevolute : JointType::kPrismatic;
+    l.lower = -1;
+    l.upper = 1;
+    m.links.push_back(l);
+  }
+  const Log good = parse_log("q1[deg],q2[mm],x,y,z\n90,250,0,0,0\n", "good.csv");
+  EXPECT_NEAR(good.q(0, 0), M_PI / 2, 1e-15);
+  EXPECT_DOUBLE_EQ(good.q(0, 1), 0.25);
+  EXPECT_NO_THROW(check_log_fits(good, m));
+  EXPECT_NO_THROW(check_log_fits(parse_log("q1,q2,x,y,z\n0,0.2,0,0,0\n", "si.csv"), m));
+  const auto message = [&](const std::string& text) {
+    try {
+      check_log_fits(parse_log(text, "bad.csv"), m);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message("q1,q2[deg],x,y,z\n0,1,0,0,0\n"),
+            "bad.csv:1: q2[deg]: slide is prismatic: its readings are lengths (m, mm, um)");
+  EXPECT_EQ(message("q1[m],q2,x,y,z\n0,1,0,0,0\n"),
+            "bad.csv:1: q1[m]: turn is a turning joint: its readings are angles (rad, deg)");
+}
+
 }  // namespace
 }  // namespace hapticcal

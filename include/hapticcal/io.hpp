@@ -21,11 +21,17 @@ void save_device(const DeviceModel& model, const std::string& path);
 // Empty if the model is usable, else "key: reason" (e.g. "links[3].limits: lower >= upper").
 std::string check_device(const DeviceModel& model);
 
+// The unit a joint-reading column was given in: none (SI), an angle or a length
+// (a prismatic joint's; check_log_fits matches it to the model's joint types).
+enum class ReadingUnit { kNone, kAngle, kLength };
+
 // A measurement log: one row per sample, SI units (converted from the column units).
 struct Log {
   std::string origin;
   int rows = 0;
-  Eigen::MatrixXd q;          // rows x dof, joint readings [rad]
+  Eigen::MatrixXd q;                  // rows x dof, joint readings [rad; m for prismatic joints]
+  std::vector<ReadingUnit> q_unit;    // per joint, as the header gave it
+  std::vector<std::string> q_column;  // per joint, the header's name (for messages)
   Eigen::MatrixXd ext;        // rows x dof, external encoders [rad]; columns without one are 0
   std::vector<bool> has_ext;  // per joint
   Eigen::VectorXd distance;   // [m], if has_distance
