@@ -793,23 +793,10 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
           : std::sqrt(data.rss / static_cast<double>(std::max<Eigen::Index>(dof_residual, 1)));
   // From the eigen-decomposition of the small normal matrices J^T J: the
   // covariance sigma^2 (J^T J)^-1, and the singular values of the scaled J.
-  Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(k, k);
-  if (k > 0) {
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> normal(Ji.transpose() * Ji);
-    Eigen::VectorXd inverse = normal.eigenvalues();
-    for (int c = 0; c < k; ++c) inverse[c] = inverse[c] > 0 ? 1 / inverse[c] : INFINITY;
-    covariance = fit.sigma * fit.sigma * normal.eigenvectors() * inverse.asDiagonal() *
-                 normal.eigenvectors().transpose();
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> scaled_normal(Js.transpose() * Js,
-                                                                 Eigen::EigenvaluesOnly);
-    Eigen::VectorXd ss =
-        scaled_normal.eigenvalues().cwiseMax(0).cwiseSqrt().reverse();  // descending
-    fit.condition_number = ss[k - 1] > 0 ? ss[0] / ss[k - 1] : INFINITY;
-    double log_sum = 0;
-    for (int c = 0; c < k; ++c) log_sum += std::log(ss[c]);
-    fit.observability = {std::exp(log_sum / k) / std::sqrt(static_cast<double>(fit.rows) * d),
-                         ss[k - 1] / ss[0], ss[k - 1], ss[k - 1] * ss[k - 1] / ss[0]};
-  }
+  const Eigen::MatrixXd covariance = parameter_covariance(Ji, fit.sigma);
+  const Conditioning scaled_conditioning = conditioning(Js, static_cast<double>(fit.rows) * d);
+  fit.condition_number = scaled_conditioning.condition_number;
+  fit.observability = scaled_conditioning.observability;
   fit.correlation.resize(k, k);
   for (int a = 0; a < k; ++a) {
     fit.identified_names.push_back(name[identified[a]]);

@@ -14,6 +14,7 @@
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/evaluate.hpp"
+#include "hapticcal/information.hpp"
 #include "hapticcal/kinematics.hpp"
 #include "yaml_reader.hpp"
 
@@ -65,32 +66,32 @@ std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
     distance_parameter_jacobian(s, p.data(), joint.data(), row);
     for (int c = 0; c < k; ++c) Jk(r, c) = row[identified[c]->slot];
   }
-  const double se2 = sc.noise.sigma_ext * sc.noise.sigma_ext;
-  const double sm2 = sc.noise.sigma_distance * sc.noise.sigma_distance;
-  const Eigen::MatrixXd Nk = Jk.transpose() * Jk;
-  const Eigen::MatrixXd Nk_inverse = Nk.ldlt().solve(Eigen::MatrixXd::Identity(k, k));
-  Eigen::MatrixXd kinematic = sm2 * Nk_inverse;
+  std::vector<StepOneSensitivity> step_one;
   for (const TransmissionFit& t : full.transmissions) {
     // The step-1 model as fitted (its basis for a polynomial), at the truth's readings.
     const Transmission& model = full.calibrated.links[t.joint].transmission;
     const int np = model.num_parameters();
-    Eigen::MatrixXd Je(m, np + 1);  // d (c + error) / d [params, c]
+    StepOneSensitivity st;
+    st.names.assign(t.names.begin(), t.names.begin() + np);
+    st.encoder.resize(m, np + 1);  // d (c + error) / d [params, c]
     Eigen::VectorXd d(np);
     for (int r = 0; r < m; ++r) {
       model.parameter_jacobian(ident.q(r, t.joint), d.data());
-      Je.row(r).head(np) = d.transpose();
-      Je(r, np) = 1.0;
+      st.encoder.row(r).head(np) = d.transpose();
+      st.encoder(r, np) = 1.0;
     }
-    const Eigen::MatrixXd step1 =
-        se2 * (Je.transpose() * Je).ldlt().solve(Eigen::MatrixXd::Identity(np + 1, np + 1));
-    for (int c = 0; c < np; ++c) out[t.names[c]] = step1(c, c);
     // Into step 2: J_t = d delta / d theta_j * d error_j / d params.
-    Eigen::MatrixXd Jt(m, np);
-    for (int r = 0; r < m; ++r) Jt.row(r) = dDelta_dTheta(r, t.joint) * Je.row(r).head(np);
-    const Eigen::MatrixXd G = -Nk_inverse * (Jk.transpose() * Jt);
-    kinematic += G * step1.topLeftCorner(np, np) * G.transpose();
+    st.measurement.resize(m, np);
+    for (int r = 0; r < m; ++r) {
+      st.measurement.row(r) = dDelta_dTheta(r, t.joint) * st.encoder.row(r).head(np);
+    }
+    step_one.push_back(std::move(st));
   }
-  for (int c = 0; c < k; ++c) out[identified[c]->name] = kinematic(c, c);
+  std::vector<std::string> names;
+  for (const ParameterEstimate* e : identified) names.push_back(e->name);
+  const TwoStepBound bound =
+      two_step_crlb(Jk, names, sc.noise.sigma_distance, step_one, sc.noise.sigma_ext);
+  for (size_t c = 0; c < bound.names.size(); ++c) out[bound.names[c]] = bound.variance[c];
   return out;
 }
 

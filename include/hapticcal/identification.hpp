@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "hapticcal/information.hpp"
 #include "hapticcal/io.hpp"
 #include "hapticcal/measurement.hpp"
 #include "hapticcal/model.hpp"
@@ -63,13 +64,6 @@ struct ParameterEstimate {
 // Bounds beyond which a parameter's change is flagged (ParameterEstimate::large_change).
 constexpr double kLargeChangeLength = 0.02;  // m
 constexpr double kLargeChangeAngle = 0.05;   // rad, about 2.9 deg
-
-// Borm & Menq's O1 = (s_1 ... s_L)^(1/L) / sqrt(m), O2 = s_L / s_1 (inverse
-// condition number), O3 = s_L, and Nahvi & Hollerbach's noise amplification
-// index O4 = s_L^2 / s_1, of the scaled identification Jacobian.
-struct ObservabilityIndices {
-  double O1 = 0, O2 = 0, O3 = 0, O4 = 0;
-};
 
 struct KinematicFit {
   MeasurementType type = MeasurementType::kDistance;
