@@ -2,6 +2,7 @@
 // calibrated 7-DOF model (transmissions included) against orocos KDL's
 // ChainFkSolverPos_recursive + ChainJntToJacSolver on the same chain. KDL has no
 // transmissions, so it is handed the compensated joint angles: it does less work.
+// The same for a Panda-like 7-DOF in URDF origin + axis geometry.
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <kdl/chainjnttojacsolver.hpp>
 #include <numbers>
@@ -28,6 +29,19 @@ DeviceModel calibrated_7dof() {
   return m;
 }
 
+// The Panda-like chain in URDF origin + axis geometry (PreparedModel's generic
+// path) with the same transmissions: the capstans, and joint 4's polynomial on
+// the Panda's joint-4 range.
+DeviceModel calibrated_panda_like() {
+  DeviceModel m = testing::panda_like();
+  const DeviceModel calibrated = calibrated_7dof();
+  for (int i = 0; i < m.dof(); ++i) m.links[i].transmission = calibrated.links[i].transmission;
+  Polynomial& p = std::get<Polynomial>(m.links[3].transmission.model());
+  p.lower = m.links[3].lower;
+  p.upper = m.links[3].upper;
+  return m;
+}
+
 std::vector<Eigen::VectorXd> configurations(const DeviceModel& m) {
   std::mt19937_64 rng(1);
   std::vector<Eigen::VectorXd> qs;
@@ -35,8 +49,7 @@ std::vector<Eigen::VectorXd> configurations(const DeviceModel& m) {
   return qs;
 }
 
-void BM_FkJacobian_Hapticcal(benchmark::State& state) {
-  const DeviceModel model = calibrated_7dof();
+void fk_jacobian_hapticcal(benchmark::State& state, const DeviceModel& model) {
   const PreparedModel prepared(model);
   const auto qs = configurations(model);
   Jacobian6<double> J(6, model.dof());
@@ -50,8 +63,7 @@ void BM_FkJacobian_Hapticcal(benchmark::State& state) {
   }
 }
 
-void BM_FkJacobian_KDL(benchmark::State& state) {
-  const DeviceModel model = calibrated_7dof();
+void fk_jacobian_kdl(benchmark::State& state, const DeviceModel& model) {
   const KDL::Chain chain = testing::kdl_chain(model);
   KDL::ChainFkSolverPos_recursive fk(chain);
   KDL::ChainJntToJacSolver jac(chain);
@@ -75,12 +87,28 @@ void BM_FkJacobian_KDL(benchmark::State& state) {
   }
 }
 
+void BM_FkJacobian_Hapticcal(benchmark::State& state) {
+  fk_jacobian_hapticcal(state, calibrated_7dof());
+}
+void BM_FkJacobian_KDL(benchmark::State& state) { fk_jacobian_kdl(state, calibrated_7dof()); }
+void BM_FkJacobian_PandaLike_Hapticcal(benchmark::State& state) {
+  fk_jacobian_hapticcal(state, calibrated_panda_like());
+}
+void BM_FkJacobian_PandaLike_KDL(benchmark::State& state) {
+  fk_jacobian_kdl(state, calibrated_panda_like());
+}
+
 BENCHMARK(BM_FkJacobian_Hapticcal);
 BENCHMARK(BM_FkJacobian_KDL);
+BENCHMARK(BM_FkJacobian_PandaLike_Hapticcal);
+BENCHMARK(BM_FkJacobian_PandaLike_KDL);
 
 }  // namespace
 
 int main(int argc, char** argv) {
   return hapticcal::bench::ratio_main(
-      argc, argv, hapticcal::bench::Pairs{{"BM_FkJacobian_Hapticcal", "BM_FkJacobian_KDL"}});
+      argc, argv,
+      hapticcal::bench::Pairs{
+          {"BM_FkJacobian_Hapticcal", "BM_FkJacobian_KDL"},
+          {"BM_FkJacobian_PandaLike_Hapticcal", "BM_FkJacobian_PandaLike_KDL"}});
 }
