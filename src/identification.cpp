@@ -446,11 +446,11 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
 // that Levenberg-Marquardt starts near the solution. Applied when it halves the
 // RMS point error and moves the base beyond the large-change bounds; returns
 // the note saying so, or nothing.
-std::optional<std::string> register_measurement_frame(DeviceModel& model,
-                                                      const std::vector<Eigen::VectorXd>& joints,
-                                                      const RowsOf& kind, const RowMatrix& measured,
-                                                      const Eigen::VectorXd& weights,
-                                                      const std::vector<int>& candidates) {
+std::optional<std::string> register_frame(DeviceModel& model,
+                                          const std::vector<Eigen::VectorXd>& joints,
+                                          const RowsOf& kind, const RowMatrix& measured,
+                                          const Eigen::VectorXd& weights,
+                                          const std::vector<int>& candidates) {
   if (kind.type == MeasurementType::kDistance || model.base_kind != BaseKind::kPose) return {};
   for (int k = 0; k < kPoseSlots; ++k) {  // every base slot free
     if (std::find(candidates.begin(), candidates.end(), k) == candidates.end()) return {};
@@ -557,6 +557,210 @@ void set_status(CalibrationResult& result, const std::vector<int>& identified) {
 
 }  // namespace
 
+namespace {
+
+// The length scale of the problem's current model and poses.
+void set_scales(KinematicProblem& problem) {
+  const ChainStructure s = problem.model.structure();
+  const Eigen::VectorXd p = problem.model.kinematic_parameters();
+  // Metres and radians made comparable: angle columns times a length scale, the
+  // RMS distance of the tool point from the base origin; a pose's rotation rows
+  // likewise (an orientation error phi counts as L phi at the tool).
+  const ChainConstants<double> constants = chain_constants(s, p.data());
+  double sum = 0;
+  for (const Eigen::VectorXd& jq : problem.joints) {
+    sum += (forward_kinematics(s, constants, jq.data()).p - constants.base.p).squaredNorm();
+  }
+  problem.length_scale =
+      std::max(std::sqrt(sum / std::max<double>(problem.joints.size(), 1)), 1e-3);
+  problem.rotation_scale = problem.length_scale;
+}
+
+}  // namespace
+
+std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& poses,
+                                               const CalibrationOptions& options,
+                                               std::vector<std::string>& notes) {
+  std::vector<TransmissionFit> fits;
+  bool any_ext = false;
+  for (int j = 0; j < model.dof(); ++j) any_ext = any_ext || poses.has_ext[j];
+  if (!options.transmissions) {
+    notes.push_back(
+        "--no-transmission: transmissions kept as in the device file (kinematic-only calibration)");
+    return fits;
+  }
+  for (int j = 0; j < model.dof(); ++j) {
+    if (!poses.has_ext[j]) continue;
+    TransmissionFit tf;
+    const bool declared = !model.links[j].transmission.is_none();
+    Transmission fitted =
+        fit_transmission(model, j, poses.q.col(j), poses.ext.col(j), options.polynomial_order, tf);
+    if (!declared) {
+      notes.push_back(fmt::format(
+          "{} has no transmission in the model: a polynomial of order {} was fitted to ext{}",
+          model.links[j].name, tf.value.size(), j + 1));
+    }
+    if (!tf.converged) {
+      notes.push_back(fmt::format("{}: the transmission fit did not converge: {}",
+                                  model.links[j].name, tf.message));
+    }
+    if (auto* c = std::get_if<Capstan>(&fitted.model())) c->offset = tf.offset;
+    model.links[j].transmission = fitted;
+    fits.push_back(tf);
+  }
+  if (!any_ext) notes.push_back("no ext<i> columns: step 1 (transmissions) skipped");
+  return fits;
+}
+
+KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
+                                   const std::vector<int>& repeats,
+                                   const CalibrationOptions& options) {
+  check_log_fits(poses, model);
+  KinematicProblem problem;
+  problem.model = model;
+  problem.type = measurement_type(poses);
+  const int m = poses.rows;
+  const PreparedModel prepared(model);
+  problem.joints.assign(m, Eigen::VectorXd(model.dof()));
+  for (int i = 0; i < m; ++i) {
+    const Eigen::VectorXd qi = poses.q.row(i).transpose();
+    prepared.compensate(qi.data(), problem.joints[i].data());
+  }
+  std::vector<int> pose_index(m);
+  std::iota(pose_index.begin(), pose_index.end(), 0);
+  problem.measured = measured_values(poses, pose_index, RowsOf{problem.type});
+  problem.rows = m;
+  if (!repeats.empty()) {
+    problem.rows = std::accumulate(repeats.begin(), repeats.end(), 0);
+    // An average of k repeats has 1/k of one reading's variance: its rows weigh
+    // sqrt(k) (none when no pose repeats, and then no arithmetic changes).
+    if (problem.rows > m) {
+      problem.weights.resize(m);
+      for (int i = 0; i < m; ++i) problem.weights[i] = std::sqrt(static_cast<double>(repeats[i]));
+    }
+  }
+  const int d = traits(problem.type).dimension;
+  // Beyond options.max_jacobian_bytes the Jacobian is never formed (issue 10:
+  // 10^6 rows): its R factor carries the same column geometry.
+  problem.compressed = static_cast<double>(m) * d * model.structure().num_slots() * sizeof(double) >
+                       static_cast<double>(options.max_jacobian_bytes);
+  set_scales(problem);
+  return problem;
+}
+
+bool register_measurement_frame(KinematicProblem& problem, const std::vector<int>& candidates,
+                                std::vector<std::string>& notes) {
+  auto note = register_frame(problem.model, problem.joints, RowsOf{problem.type}, problem.measured,
+                             problem.weights, candidates);
+  if (!note) return false;
+  notes.push_back(*note);
+  set_scales(problem);
+  return true;
+}
+
+IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
+                                                const std::vector<int>& candidates,
+                                                double tolerance) {
+  const DeviceModel& model = problem.model;
+  const ChainStructure s = model.structure();
+  const Eigen::VectorXd p0 = model.kinematic_parameters();
+  const RowsOf kind{problem.type, problem.rotation_scale};
+  // On synthetic poses over the joint limits (structural) and on the data.
+  std::mt19937_64 rng(kStructuralSeed);
+  std::vector<Eigen::VectorXd> synthetic(kStructuralPoses);
+  for (Eigen::VectorXd& qs : synthetic) {
+    Eigen::VectorXd reading(model.dof());
+    for (int j = 0; j < model.dof(); ++j) {
+      reading[j] =
+          std::uniform_real_distribution<double>(model.links[j].lower, model.links[j].upper)(rng);
+    }
+    qs = model.compensate(reading);
+  }
+  const Stack data =
+      stack(s, p0, problem.joints, kind, problem.measured, problem.weights, problem.compressed);
+  const Stack structural =
+      stack(s, p0, synthetic, kind, predicted_values(s, p0, synthetic, kind), Eigen::VectorXd());
+  IdentifiabilityAnalysis out;
+  out.scale = Eigen::VectorXd::Ones(s.num_slots());
+  std::map<int, std::string> name;
+  for (const ParameterInfo& pi : model.parameter_info()) {
+    name[pi.slot] = pi.name;
+    if (pi.unit == ParameterUnit::kAngle) out.scale[pi.slot] = problem.length_scale;
+  }
+  // An angle phi enters as L phi (metres at the tool): its column is divided by L.
+  auto scaled = [&](const Eigen::MatrixXd& J) {
+    return Eigen::MatrixXd(J * out.scale.cwiseInverse().asDiagonal());
+  };
+  const auto structural_verdict = rank_test(scaled(structural.J), candidates, tolerance);
+  const auto data_verdict = rank_test(scaled(data.J), candidates, tolerance);
+  for (int slot : candidates) {
+    const Verdict& sv = structural_verdict.at(slot);
+    const Verdict& dv = data_verdict.at(slot);
+    if (dv.kind == Verdict::kIdentified) {
+      out.identified.push_back(slot);
+    } else if (sv.kind == Verdict::kNoEffect) {
+      out.reason[slot] = "no effect on the measurements";
+    } else if (sv.kind == Verdict::kDependent) {
+      out.reason[slot] = "dependent: its effect is that of " + names_of(sv.on, name);
+    } else {
+      out.rank_deficient = true;
+      out.reason[slot] = dv.kind == Verdict::kNoEffect
+                             ? "not excited by these measurements (no effect on them)"
+                             : "not excited by these measurements (here its effect is that of " +
+                                   names_of(dv.on, name) + ")";
+    }
+  }
+  return out;
+}
+
+const char* to_string(SolveTermination termination) {
+  switch (termination) {
+    case SolveTermination::kConverged:
+      return "converged";
+    case SolveTermination::kNoConvergence:
+      return "no convergence";
+    case SolveTermination::kFailure:
+      return "failure";
+    case SolveTermination::kNothingToSolve:
+      return "nothing to solve";
+  }
+  return "?";
+}
+
+KinematicSolution solve_kinematics(const KinematicProblem& problem,
+                                   const std::vector<int>& identified, int max_iterations) {
+  const ChainStructure s = problem.model.structure();
+  KinematicSolution out;
+  out.parameters = problem.model.kinematic_parameters();
+  if (identified.empty()) {
+    out.termination = SolveTermination::kNothingToSolve;
+    out.message = "no parameter is identifiable from these measurements";
+    return out;
+  }
+  std::vector<int> constant;
+  for (int k = 0; k < s.num_slots(); ++k) {
+    if (std::find(identified.begin(), identified.end(), k) == identified.end())
+      constant.push_back(k);
+  }
+  ceres::Problem lm;
+  lm.AddResidualBlock(
+      measurement_cost(s, problem.joints, RowsOf{problem.type, problem.rotation_scale},
+                       problem.measured, problem.weights, problem.compressed),
+      nullptr, out.parameters.data());
+  if (!constant.empty()) {
+    lm.SetManifold(out.parameters.data(), new ceres::SubsetManifold(s.num_slots(), constant));
+  }
+  ceres::Solver::Summary summary;
+  ceres::Solve(detail::levenberg_marquardt(max_iterations), &lm, &summary);
+  out.termination = summary.termination_type == ceres::CONVERGENCE ? SolveTermination::kConverged
+                    : summary.termination_type == ceres::FAILURE   ? SolveTermination::kFailure
+                                                                 : SolveTermination::kNoConvergence;
+  // Ceres lists iteration 0 (the start) too.
+  out.iterations = std::max(static_cast<int>(summary.iterations.size()) - 1, 0);
+  out.message = summary.message;
+  return out;
+}
+
 CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options) {
   check_log_fits(log, nominal);
@@ -568,76 +772,31 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   check_joint_limits(log, nominal, options.force, result.notes);
   // Repeats of a pose are averaged: one pose, one row of the fit.
   const std::vector<std::vector<int>> all_poses = repeated_poses(log);
+  std::vector<int> repeats;
   for (int g : sample_rows(static_cast<int>(all_poses.size()), options.samples, options.seed)) {
     result.poses.push_back(all_poses[g]);
     result.rows.push_back(all_poses[g].front());
+    repeats.push_back(static_cast<int>(all_poses[g].size()));
   }
   const Log poses = average_repeats(log, result.poses);
   const int m = poses.rows;
-  std::vector<int> pose_index(m);
-  std::iota(pose_index.begin(), pose_index.end(), 0);
-  DeviceModel model = nominal;
   KinematicFit& fit = result.kinematics;
   fit.type = measurement_type(log);
   fit.poses = m;
-  fit.rows = 0;
-  for (const std::vector<int>& rows : result.poses) fit.rows += static_cast<int>(rows.size());
-  RowsOf kind{fit.type};
-  fit.repeatability = repeatability(log, result.poses, poses, kind);
+  fit.rows = std::accumulate(repeats.begin(), repeats.end(), 0);
+  fit.repeatability = repeatability(log, result.poses, poses, RowsOf{fit.type});
   if (log.has_position && log.has_distance) {
     result.notes.push_back("the log has positions and distances: positions are used");
   }
 
   // Step 1: transmissions from the external encoders.
-  Eigen::MatrixXd q(m, model.dof());
-  for (int i = 0; i < m; ++i) q.row(i) = poses.q.row(i);
-  bool any_ext = false;
-  for (int j = 0; j < model.dof(); ++j) any_ext = any_ext || log.has_ext[j];
-  if (options.transmissions) {
-    for (int j = 0; j < model.dof(); ++j) {
-      if (!log.has_ext[j]) continue;
-      Eigen::VectorXd ext(m);
-      for (int i = 0; i < m; ++i) ext[i] = poses.ext(i, j);
-      TransmissionFit tf;
-      const bool declared = !model.links[j].transmission.is_none();
-      Transmission fitted = fit_transmission(model, j, q.col(j), ext, options.polynomial_order, tf);
-      if (!declared) {
-        result.notes.push_back(fmt::format(
-            "{} has no transmission in the model: a polynomial of order {} was fitted to ext{}",
-            model.links[j].name, tf.value.size(), j + 1));
-      }
-      if (!tf.converged) {
-        result.notes.push_back(fmt::format("{}: the transmission fit did not converge: {}",
-                                           model.links[j].name, tf.message));
-      }
-      if (auto* c = std::get_if<Capstan>(&fitted.model())) c->offset = tf.offset;
-      model.links[j].transmission = fitted;
-      result.transmissions.push_back(tf);
-    }
-    if (!any_ext) result.notes.push_back("no ext<i> columns: step 1 (transmissions) skipped");
-  } else {
-    result.notes.push_back(
-        "--no-transmission: transmissions kept as in the device file (kinematic-only calibration)");
-  }
+  DeviceModel model = nominal;
+  result.transmissions = fit_transmissions(model, poses, options, result.notes);
 
   // Step 2: kinematic parameters from the compensated readings.
-  const ChainStructure s = model.structure();
-  const PreparedModel prepared(model);
-  std::vector<Eigen::VectorXd> joints(m, Eigen::VectorXd(model.dof()));
-  for (int i = 0; i < m; ++i) {
-    const Eigen::VectorXd qi = q.row(i).transpose();
-    prepared.compensate(qi.data(), joints[i].data());
-  }
-  const RowMatrix measured = measured_values(poses, pose_index, kind);
-  // An average of k repeats has 1/k of one reading's variance: its rows weigh
-  // sqrt(k) (none when no pose repeats, and then no arithmetic changes).
-  Eigen::VectorXd weights;
-  if (fit.rows > m) {
-    weights.resize(m);
-    for (int i = 0; i < m; ++i) weights[i] = std::sqrt(static_cast<double>(result.poses[i].size()));
-  }
+  KinematicProblem problem = kinematic_problem(model, poses, repeats, options);
   const std::vector<int> candidates = candidate_slots(model, options.fix, options.free);
-  const int d = kind.dimension();
+  const int d = traits(fit.type).dimension;
   if (m * d <= static_cast<int>(candidates.size())) {
     throw InputError(log.origin, 0, "",
                      fmt::format("too few measurements: {} pose{} give{} {} residual{} for {} "
@@ -645,33 +804,19 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                                  m, m == 1 ? "" : "s", m == 1 ? "s" : "", m * d,
                                  m * d == 1 ? "" : "s", candidates.size()));
   }
-  if (auto note = register_measurement_frame(model, joints, kind, measured, weights, candidates)) {
-    fit.frame_registered = true;
-    result.notes.push_back(*note);
-  }
-  const Eigen::VectorXd p0 = model.kinematic_parameters();
-  // Metres and radians made comparable: angle columns times a length scale, the
-  // RMS distance of the tool point from the base origin; a pose's rotation rows
-  // likewise (an orientation error phi counts as L phi at the tool).
-  {
-    const ChainConstants<double> constants0 = chain_constants(s, p0.data());
-    double sum = 0;
-    for (const Eigen::VectorXd& jq : joints) {
-      sum += (forward_kinematics(s, constants0, jq.data()).p - constants0.base.p).squaredNorm();
-    }
-    fit.length_scale = std::max(std::sqrt(sum / m), 1e-3);
-  }
-  kind.rotation_scale = fit.length_scale;
-  fit.rotation_scale = fit.length_scale;
-  // Beyond options.max_jacobian_bytes the Jacobian is never formed (issue 10:
-  // 10^6 rows): its R factor carries the same column geometry.
-  const bool compressed = static_cast<double>(m) * d * s.num_slots() * sizeof(double) >
-                          static_cast<double>(options.max_jacobian_bytes);
+  fit.frame_registered = register_measurement_frame(problem, candidates, result.notes);
+  fit.length_scale = problem.length_scale;
+  fit.rotation_scale = problem.rotation_scale;
+  const ChainStructure s = model.structure();
+  const RowsOf kind{problem.type, problem.rotation_scale};
+  const RowMatrix& measured = problem.measured;
+  const Eigen::VectorXd& weights = problem.weights;
+  const bool compressed = problem.compressed;
   {
     const PreparedModel prepared_nominal(nominal);
     std::vector<Eigen::VectorXd> nominal_joints(m, Eigen::VectorXd(model.dof()));
     for (int i = 0; i < m; ++i) {
-      const Eigen::VectorXd qi = q.row(i).transpose();
+      const Eigen::VectorXd qi = poses.q.row(i).transpose();
       prepared_nominal.compensate(qi.data(), nominal_joints[i].data());
     }
     const Eigen::VectorXd r0 =
@@ -691,92 +836,37 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     }
     fit.rms_before = measurement_rms(r0.squaredNorm(), fit.rows);
     DeviceModel registered = nominal;  // the nominal in the registered frame, if it was
-    registered.base = model.base;
+    registered.base = problem.model.base;
     check_reach(s, registered, nominal_joints, kind, measured, weights, fit.rows, compressed,
                 fit.rms_before, options.force, result.notes);
   }
 
-  // Identifiability: on synthetic poses over the joint limits (structural) and on the data.
-  std::mt19937_64 rng(kStructuralSeed);
-  std::vector<Eigen::VectorXd> synthetic(kStructuralPoses);
-  for (Eigen::VectorXd& qs : synthetic) {
-    Eigen::VectorXd reading(model.dof());
-    for (int j = 0; j < model.dof(); ++j) {
-      reading[j] =
-          std::uniform_real_distribution<double>(model.links[j].lower, model.links[j].upper)(rng);
-    }
-    qs = model.compensate(reading);
-  }
-  Stack data = stack(s, p0, joints, kind, measured, weights, compressed);
-  const Stack structural =
-      stack(s, p0, synthetic, kind, predicted_values(s, p0, synthetic, kind), Eigen::VectorXd());
-  const std::vector<ParameterInfo> info = model.parameter_info();
-  Eigen::VectorXd scale = Eigen::VectorXd::Ones(s.num_slots());
-  std::map<int, std::string> name;
-  for (const ParameterInfo& p : info) {
-    name[p.slot] = p.name;
-    if (p.unit == ParameterUnit::kAngle) scale[p.slot] = fit.length_scale;
-  }
-  // An angle phi enters as L phi (metres at the tool): its column is divided by L.
-  auto scaled = [&](const Eigen::MatrixXd& J) {
-    return Eigen::MatrixXd(J * scale.cwiseInverse().asDiagonal());
-  };
-  const auto structural_verdict =
-      rank_test(scaled(structural.J), candidates, options.dependency_tolerance);
-  const auto data_verdict = rank_test(scaled(data.J), candidates, options.dependency_tolerance);
-
-  std::vector<int> identified;
-  std::map<int, std::string> reason;
-  for (int slot : candidates) {
-    const Verdict& sv = structural_verdict.at(slot);
-    const Verdict& dv = data_verdict.at(slot);
-    if (dv.kind == Verdict::kIdentified) {
-      identified.push_back(slot);
-    } else if (sv.kind == Verdict::kNoEffect) {
-      reason[slot] = "no effect on the measurements";
-    } else if (sv.kind == Verdict::kDependent) {
-      reason[slot] = "dependent: its effect is that of " + names_of(sv.on, name);
-    } else {
-      fit.rank_deficient = true;
-      reason[slot] = dv.kind == Verdict::kNoEffect
-                         ? "not excited by these measurements (no effect on them)"
-                         : "not excited by these measurements (here its effect is that of " +
-                               names_of(dv.on, name) + ")";
-    }
-  }
+  // Identifiability, then Levenberg-Marquardt over the identified parameters.
+  const IdentifiabilityAnalysis analysis =
+      analyze_identifiability(problem, candidates, options.dependency_tolerance);
+  const std::vector<int>& identified = analysis.identified;
+  const std::map<int, std::string>& reason = analysis.reason;
+  const Eigen::VectorXd& scale = analysis.scale;
+  fit.rank_deficient = analysis.rank_deficient;
   fit.identified = static_cast<int>(identified.size());
-
-  // Levenberg-Marquardt over the identified parameters (Ceres, analytic derivatives).
-  Eigen::VectorXd p = p0;
-  if (!identified.empty()) {
-    std::vector<int> constant;
-    for (int k = 0; k < s.num_slots(); ++k) {
-      if (std::find(identified.begin(), identified.end(), k) == identified.end())
-        constant.push_back(k);
-    }
-    ceres::Problem problem;
-    problem.AddResidualBlock(measurement_cost(s, joints, kind, measured, weights, compressed),
-                             nullptr, p.data());
-    if (!constant.empty()) {
-      problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
-    }
-    ceres::Solver::Summary summary;
-    ceres::Solve(detail::levenberg_marquardt(100), &problem, &summary);
-    fit.converged = summary.termination_type == ceres::CONVERGENCE;
-    fit.numerical_failure = summary.termination_type == ceres::FAILURE;
-    // Ceres lists iteration 0 (the start) too.
-    fit.iterations = std::max(static_cast<int>(summary.iterations.size()) - 1, 0);
-    fit.termination = summary.message;
-    if (!fit.converged) {
-      result.notes.push_back("step 2 did not converge: " + summary.message);
-    }
-  } else {
-    fit.termination = "no parameter is identifiable from these measurements";
+  const KinematicSolution solution = solve_kinematics(problem, identified);
+  fit.converged = solution.termination == SolveTermination::kConverged;
+  fit.numerical_failure = solution.termination == SolveTermination::kFailure;
+  fit.iterations = solution.iterations;
+  fit.termination = solution.message;
+  if (solution.termination == SolveTermination::kNothingToSolve) {
     result.notes.push_back(fit.termination);
+  } else if (!fit.converged) {
+    result.notes.push_back("step 2 did not converge: " + solution.message);
   }
+  const Eigen::VectorXd& p = solution.parameters;
+  model = problem.model;
   model.set_kinematic_parameters(p);
-  data = stack(s, p, joints, kind, measured, weights, compressed);
+  const Stack data = stack(s, p, problem.joints, kind, measured, weights, compressed);
   fit.rms_after = measurement_rms(data.rss, fit.rows);
+  const std::vector<ParameterInfo> info = model.parameter_info();
+  std::map<int, std::string> name;
+  for (const ParameterInfo& pi : info) name[pi.slot] = pi.name;
 
   // Uncertainty, conditioning and observability of the identified parameters.
   const int k = static_cast<int>(identified.size());
@@ -827,7 +917,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
         }
       }
     } else if (reason.count(pi.slot)) {
-      e.reason = reason[pi.slot];
+      e.reason = reason.at(pi.slot);
     } else if (std::find(options.fix.begin(), options.fix.end(), pi.name) != options.fix.end()) {
       e.reason = "fixed by the user";
     } else {  // a beta that candidate_slots left out

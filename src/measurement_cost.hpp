@@ -18,7 +18,7 @@
 namespace hapticcal::detail {
 
 // Measured values, one row per sample (traits(type).width values), contiguous.
-using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using RowMatrix = MeasuredValues;
 
 // The family's rows with a pose's rotation scale (measurement.hpp).
 struct RowsOf {
@@ -156,7 +156,7 @@ class CompressedMeasurementCost : public ceres::CostFunction {
         measurement_rows(s_, constants, parameters[0], joints_[i].data(), kind_,
                          measured_.row(i).data(), r.data(), J);
         weigh(weights_, i, r.data(), J);
-        rss += r.head(d).squaredNorm();
+        for (int k = 0; k < d; ++k) rss += r[k] * r[k];
       }
       Eigen::Map<Eigen::VectorXd>(residuals, n + 1).setZero();
       residuals[0] = std::sqrt(rss);

@@ -526,5 +526,37 @@ TEST(Identification, Meca500ThroughItsUrdfValidatesLikeTheMdhModel) {
   }
 }
 
+// The public stages, called one by one, are calibrate: the same identified
+// slots and parameters on the Meca500 (issue 11). An empty selection solves
+// nothing and says so.
+TEST(Identification, StagesCalledOneByOneReproduceCalibrate) {
+  const DeviceModel nominal = testing::meca500();
+  const Log log =
+      read_log(testing::source_path("examples/meca500/cal-norm_dist_data_0deg_160cube.csv"));
+  const CalibrationResult whole = calibrate(nominal, log, {});
+
+  const std::vector<std::vector<int>> groups = repeated_poses(log);
+  std::vector<int> repeats;
+  for (const auto& g : groups) repeats.push_back(static_cast<int>(g.size()));
+  const Log poses = average_repeats(log, groups);
+  DeviceModel model = nominal;
+  std::vector<std::string> notes;
+  EXPECT_TRUE(fit_transmissions(model, poses, {}, notes).empty());  // no ext<i> columns
+  KinematicProblem problem = kinematic_problem(model, poses, repeats, {});
+  EXPECT_EQ(problem.type, MeasurementType::kPosition);
+  EXPECT_EQ(problem.rows, log.rows);
+  const std::vector<int> candidates = candidate_slots(model, {}, {});
+  EXPECT_FALSE(register_measurement_frame(problem, candidates, notes));  // T_base.txt is close
+  const IdentifiabilityAnalysis analysis = analyze_identifiability(problem, candidates);
+  EXPECT_EQ(static_cast<int>(analysis.identified.size()), whole.kinematics.identified);
+  const KinematicSolution solution = solve_kinematics(problem, analysis.identified);
+  EXPECT_EQ(solution.termination, SolveTermination::kConverged) << solution.message;
+  EXPECT_LT((solution.parameters - whole.calibrated.kinematic_parameters()).cwiseAbs().maxCoeff(),
+            1e-12);
+  const KinematicSolution none = solve_kinematics(problem, {});
+  EXPECT_EQ(none.termination, SolveTermination::kNothingToSolve);
+  EXPECT_EQ(none.parameters, model.kinematic_parameters());
+}
+
 }  // namespace
 }  // namespace hapticcal

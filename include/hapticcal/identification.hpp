@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -132,6 +133,70 @@ struct CalibrationResult {
   std::vector<std::vector<int>> poses;  // every row of each pose used
   std::vector<std::string> notes;       // things a user should know (one sentence each)
 };
+
+// The stages of calibrate, callable one by one.
+
+// Step 1 for every joint with an external encoder in `poses` (one row a pose):
+// fits its transmission and installs it in `model` (capstans with their c).
+// Notes say what a user should know (a polynomial fitted where the model had
+// none, a fit that did not converge, step 1 skipped).
+std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& poses,
+                                               const CalibrationOptions& options,
+                                               std::vector<std::string>& notes);
+
+// Step 2's data: the poses' compensated joint values and measured values (the
+// family's width a pose, measurement.hpp), weighted by their repeat counts.
+struct KinematicProblem {
+  DeviceModel model;  // the start: nominal geometry, step-1 transmissions
+  MeasurementType type = MeasurementType::kDistance;
+  std::vector<Eigen::VectorXd> joints;  // q + dtheta(q), one a pose
+  MeasuredValues measured;              // one row a pose
+  Eigen::VectorXd weights;              // sqrt(repeats) a pose; empty: all 1
+  int rows = 0;                         // log rows behind the poses
+  double length_scale = 1;              // m: RMS distance of the tool from the base origin
+  double rotation_scale = 1;            // m/rad of a pose's rotation rows: the length scale
+  bool compressed = false;              // the Jacobian too large: work on its R factor
+};
+// From the poses (a log, one row a pose) and each pose's repeat count (empty:
+// one each).
+KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
+                                   const std::vector<int>& repeats,
+                                   const CalibrationOptions& options);
+
+// An unknown measurement frame: when the base is a free pose (every base slot
+// among the candidates) and the model's tool points lie far from the measured
+// positions, registers the base in closed form (Horn / Kabsch on predicted and
+// measured points) and says so in the notes. False if it was not needed or not
+// possible (distances, a DH base, collinear points).
+bool register_measurement_frame(KinematicProblem& problem, const std::vector<int>& candidates,
+                                std::vector<std::string>& notes);
+
+// Which candidates (slots, in priority order: candidate_slots) the problem can
+// identify: a greedy rank test of the column-scaled Jacobian on these poses and
+// on synthetic poses over the joint limits; the others with a reason.
+struct IdentifiabilityAnalysis {
+  std::vector<int> identified;        // slots, in priority order
+  std::map<int, std::string> reason;  // held candidates: why
+  bool rank_deficient = false;        // identifiable in general but not excited by these poses
+  Eigen::VectorXd scale;              // per slot: angle columns' length scale, else 1
+};
+IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
+                                                const std::vector<int>& candidates,
+                                                double tolerance = 1e-6);
+
+// How Levenberg-Marquardt ended (like Ceres's TerminationType).
+enum class SolveTermination { kConverged, kNoConvergence, kFailure, kNothingToSolve };
+const char* to_string(SolveTermination termination);
+struct KinematicSolution {
+  Eigen::VectorXd parameters;  // every slot; the unidentified ones at the start's values
+  SolveTermination termination = SolveTermination::kNothingToSolve;
+  int iterations = 0;
+  std::string message;  // Ceres's
+};
+// Levenberg-Marquardt (Ceres, analytic derivatives) over the identified slots
+// from the problem's model.
+KinematicSolution solve_kinematics(const KinematicProblem& problem,
+                                   const std::vector<int>& identified, int max_iterations = 100);
 
 // The whole procedure. Throws InputError for logs that cannot be used (joint
 // count, no measurements, too few poses, a joint or encoder that never moves,

@@ -24,6 +24,9 @@ namespace hapticcal {
 
 enum class MeasurementType { kDistance, kPosition, kPose };
 
+// Measured values, one row a sample (traits(type).width values), contiguous.
+using MeasuredValues = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
 struct MeasurementTraits {
   const char* name;    // "distance", "position", "pose"
   const char* plural;  // "distances", ...
