@@ -6,6 +6,7 @@
 
 #include "hapticcal/error.hpp"
 #include "hapticcal/kinematics.hpp"
+#include "hapticcal/measurement.hpp"
 
 namespace hapticcal {
 namespace {
@@ -23,10 +24,18 @@ Evaluation evaluate(const DeviceModel& model, const Log& log) {
   ev.n = log.rows;
   if (log.has_distance) ev.distance_error.resize(log.rows);
   if (log.has_position) ev.position_error.resize(log.rows);
+  if (log.has_orientation) ev.orientation_error.resize(log.rows);
   Eigen::VectorXd q(model.dof());
   for (int r = 0; r < log.rows; ++r) {
     q = log.q.row(r).transpose();
-    const Eigen::Vector3d p = prepared.forward(q.data()).p;
+    const Frame<double> tool = prepared.forward(q.data());
+    const Eigen::Vector3d& p = tool.p;
+    if (log.has_orientation) {
+      const Eigen::Quaterniond measured(log.orientation(r, 0), log.orientation(r, 1),
+                                        log.orientation(r, 2), log.orientation(r, 3));
+      ev.orientation_error[r] =
+          rotation_log(Eigen::Matrix3d(tool.R * measured.toRotationMatrix().transpose())).norm();
+    }
     if (log.has_distance) ev.distance_error[r] = p.norm() - log.distance[r];
     if (log.has_position) ev.position_error[r] = (p - log.position.row(r).transpose()).norm();
     const bool finite = (!log.has_distance || std::isfinite(ev.distance_error[r])) &&
@@ -38,6 +47,7 @@ Evaluation evaluate(const DeviceModel& model, const Log& log) {
   }
   if (log.has_distance) ev.distance = stats(ev.distance_error);
   if (log.has_position) ev.position = stats(ev.position_error);
+  if (log.has_orientation) ev.orientation = stats(ev.orientation_error);
   return ev;
 }
 

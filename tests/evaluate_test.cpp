@@ -10,6 +10,7 @@
 #include <fstream>
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <sstream>
 
 #include "hapticcal/kinematics.hpp"
@@ -153,6 +154,42 @@ TEST(Evaluate, ImprovementFollowsPaperEquation9) {
   EXPECT_NEAR(rms_improvement_pct(0.034, 1.0), 96.6, 1e-12);
   EXPECT_NEAR(rms_improvement_pct(0.5531, 1.0), 44.69, 1e-12);
   EXPECT_NEAR(rms_improvement_pct(2.0, 1.0), -100.0, 1e-12);  // worse: negative, not hidden
+}
+
+// Pose logs: the orientation error is the angle between predicted and measured
+// tool rotations. A tool turned by 0.01 rad about its own z axis (no position
+// change for a tool point on that axis) shows 0.01 rad on every row.
+TEST(Evaluate, PoseLogsReportTheOrientationError) {
+  DeviceModel truth = testing::meca500();
+  truth.tool = {0, 0, 0.05, 0, 0, 0};
+  std::mt19937_64 rng(4);
+  const PreparedModel actual(truth);
+  Log log;
+  log.origin = "poses";
+  log.rows = 20;
+  log.q.resize(log.rows, truth.dof());
+  log.has_ext.assign(truth.dof(), false);
+  log.ext = Eigen::MatrixXd::Zero(log.rows, truth.dof());
+  log.position.resize(log.rows, 3);
+  log.orientation.resize(log.rows, 4);
+  log.has_position = log.has_orientation = true;
+  for (int r = 0; r < log.rows; ++r) {
+    const Eigen::VectorXd q = testing::random_readings(truth, rng);
+    log.q.row(r) = q.transpose();
+    log.line.push_back(r + 2);
+    const Frame<double> T = actual.forward(q.data());
+    log.position.row(r) = T.p.transpose();
+    const Eigen::Quaterniond quat(T.R);
+    log.orientation.row(r) << quat.w(), quat.x(), quat.y(), quat.z();
+  }
+  EXPECT_LT(evaluate(truth, log).orientation->max, 1e-12);
+  DeviceModel turned = truth;
+  turned.tool[5] = 0.01;
+  const Evaluation e = evaluate(turned, log);
+  ASSERT_TRUE(e.orientation && e.position);
+  EXPECT_NEAR(e.orientation->rms, 0.01, 1e-12);
+  EXPECT_NEAR(e.orientation->max, 0.01, 1e-12);
+  EXPECT_LT(e.position->max, 1e-12);
 }
 
 }  // namespace

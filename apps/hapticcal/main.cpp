@@ -81,6 +81,10 @@ int run_evaluate(const EvaluateOptions& o) {
       j["rms_distance"] = ev.distance->rms;
       j["max_distance"] = ev.distance->max;
     }
+    if (ev.orientation) {
+      j["rms_orientation"] = ev.orientation->rms;
+      j["max_orientation"] = ev.orientation->max;
+    }
     if (ev.position) {
       j["rms_position"] = ev.position->rms;
       j["max_position"] = ev.position->max;
@@ -103,6 +107,10 @@ int run_evaluate(const EvaluateOptions& o) {
   if (ev.distance) {
     fmt::print("distance error: RMS {:.4f} mm, max {:.4f} mm\n", ev.distance->rms * 1e3,
                ev.distance->max * 1e3);
+  }
+  if (ev.orientation) {
+    fmt::print("orientation error: RMS {:.4f} mrad, max {:.4f} mrad\n", ev.orientation->rms * 1e3,
+               ev.orientation->max * 1e3);
   }
   if (ev.position) {
     fmt::print("position error: RMS {:.4f} mm, max {:.4f} mm\n", ev.position->rms * 1e3,

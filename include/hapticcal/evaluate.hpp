@@ -1,5 +1,5 @@
-// Model accuracy on a log: predicted distance (paper eq. 5) and/or position
-// against the measured ones.
+// Model accuracy on a log: predicted distance (paper eq. 5), position and
+// orientation against the measured ones.
 #pragma once
 
 #include <Eigen/Core>
@@ -19,8 +19,11 @@ struct Evaluation {
   int n = 0;
   std::optional<ErrorStats> distance;  // predicted - measured distance [m]
   std::optional<ErrorStats> position;  // |p_predicted - p_measured| [m]
-  Eigen::VectorXd distance_error;      // per row, signed
-  Eigen::VectorXd position_error;      // per row, Euclidean norm
+  // Pose logs: the angle of R_predicted R_measured^T [rad]
+  std::optional<ErrorStats> orientation;
+  Eigen::VectorXd distance_error;     // per row, signed
+  Eigen::VectorXd position_error;     // per row, Euclidean norm
+  Eigen::VectorXd orientation_error;  // per row, the angle
 };
 
 // Throws InputError if the log does not fit the model (check_log_fits).
