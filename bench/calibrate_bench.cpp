@@ -6,9 +6,9 @@
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <kdl/chainjnttojacsolver.hpp>
 
-#include "hapticcal/identification.hpp"
-#include "hapticcal/simulation.hpp"
-#include "hapticcal/study.hpp"
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/study/simulation.hpp"
+#include "hapticcal/study/study.hpp"
 #include "kdl_chain.hpp"
 #include "ratio_main.hpp"
 #include "test_models.hpp"

@@ -8,8 +8,8 @@
 #include <numbers>
 #include <random>
 
-#include "hapticcal/kinematics.hpp"
-#include "hapticcal/simulation.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/study/simulation.hpp"
 #include "kdl_chain.hpp"
 #include "ratio_main.hpp"
 #include "test_models.hpp"

@@ -17,11 +17,11 @@
 #include <set>
 #include <string_view>
 
-#include "hapticcal/error.hpp"
-#include "hapticcal/frame.hpp"
-#include "hapticcal/io.hpp"
-#include "hapticcal/kinematics.hpp"
-#include "hapticcal/urdf.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/io/urdf.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model/frame.hpp"
 
 namespace hapticcal {
 namespace {
@@ -480,9 +480,11 @@ std::array<double, 6> joint_origin(const urdf::Joint& joint, const Document& doc
 std::vector<std::string> leaves_below(const urdf::Link& link) {
   std::vector<std::string> out;
   std::vector<const urdf::Link*> open{&link};
+  std::set<const urdf::Link*> seen;  // urdfdom accepts a loop of joints below the root
   while (!open.empty()) {
     const urdf::Link* l = open.back();
     open.pop_back();
+    if (!seen.insert(l).second) continue;
     if (l->child_links.empty()) out.push_back(l->name);
     for (auto it = l->child_links.rbegin(); it != l->child_links.rend(); ++it) {
       open.push_back(it->get());
@@ -524,7 +526,14 @@ std::vector<urdf::JointConstSharedPtr> chain_joints(const urdf::ModelInterface& 
                      fmt::format("link '{}' is not in the URDF", printable(chain.tip, 80)));
   }
   std::vector<urdf::JointConstSharedPtr> joints;
+  std::set<std::string> passed;
   while (link != root) {
+    if (!passed.insert(link->name).second) {  // urdfdom accepts a loop of joints
+      throw InputError(origin, chain.doc.link_line(link->name), "tip",
+                       fmt::format("link '{}' is its own ancestor: the joints above '{}' form a "
+                                   "loop, not a tree",
+                                   printable(link->name, 80), printable(chain.tip, 80)));
+    }
     if (!link->parent_joint) {
       throw InputError(origin, chain.doc.link_line(chain.tip), "tip",
                        fmt::format("link '{}' is not below the root link '{}'",

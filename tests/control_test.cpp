@@ -1,6 +1,6 @@
 // Force study: closed forms, the truth as the controller's model, the default
 // simulated device, and refused gains.
-#include "hapticcal/control.hpp"
+#include "hapticcal/study/control.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,9 +10,9 @@
 #include <kdl/chainjnttojacsolver.hpp>
 #include <random>
 
-#include "hapticcal/error.hpp"
-#include "hapticcal/simulation.hpp"
-#include "hapticcal/study.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/study/simulation.hpp"
+#include "hapticcal/study/study.hpp"
 #include "kdl_chain.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"

@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "hapticcal/kinematics.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
 namespace {

@@ -11,11 +11,11 @@
 #include <numbers>
 #include <random>
 
-#include "capstan_cost.hpp"
-#include "hapticcal/derivative_check.hpp"
-#include "hapticcal/identification.hpp"
-#include "hapticcal/simulation.hpp"
-#include "measurement_cost.hpp"
+#include "hapticcal/identification/derivative_check.hpp"
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/study/simulation.hpp"
+#include "identification/capstan_cost.hpp"
+#include "identification/measurement_cost.hpp"
 #include "test_models.hpp"
 
 namespace hapticcal {

@@ -5,8 +5,8 @@
 #include <filesystem>
 #include <random>
 
-#include "hapticcal/error.hpp"
-#include "hapticcal/io.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
 

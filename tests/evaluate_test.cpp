@@ -1,6 +1,6 @@
 // `hapticcal evaluate` on real data (Meca500 laser tracker) and on synthetic
 // distance logs, checked against independent computations.
-#include "hapticcal/evaluate.hpp"
+#include "hapticcal/study/evaluate.hpp"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -13,7 +13,7 @@
 #include <random>
 #include <sstream>
 
-#include "hapticcal/kinematics.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
 #include "kdl_chain.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"

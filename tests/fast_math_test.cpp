@@ -1,5 +1,5 @@
 // The batched elementary functions of the prepared path against libm.
-#include "hapticcal/fast_math.hpp"
+#include "kinematics/fast_math.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Two-step identification: the paper's simulated study, the real Meca500 data,
 // and degenerate input.
-#include "hapticcal/identification.hpp"
+#include "hapticcal/identification/identification.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,10 +10,10 @@
 #include <set>
 #include <sstream>
 
-#include "hapticcal/error.hpp"
-#include "hapticcal/evaluate.hpp"
-#include "hapticcal/simulation.hpp"
-#include "hapticcal/urdf.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/urdf.hpp"
+#include "hapticcal/study/evaluate.hpp"
+#include "hapticcal/study/simulation.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
 

@@ -1,7 +1,7 @@
 // The information module against independent computations: singular values by
 // Eigen's JacobiSVD, the covariance by a direct inverse, and the two-step bound
 // by simulating the linear two-step estimator it describes.
-#include "hapticcal/information.hpp"
+#include "hapticcal/identification/information.hpp"
 
 #include <gtest/gtest.h>
 

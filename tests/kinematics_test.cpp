@@ -1,6 +1,6 @@
 // Forward kinematics, geometric Jacobian and parameter derivatives against
 // orocos KDL, central differences and ceres::Jet.
-#include "hapticcal/kinematics.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
 
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
@@ -9,7 +9,7 @@
 #include <kdl/chainjnttojacsolver.hpp>
 #include <random>
 
-#include "hapticcal/derivative_check.hpp"
+#include "hapticcal/identification/derivative_check.hpp"
 #include "kdl_chain.hpp"
 #include "test_models.hpp"
 

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "hapticcal/error.hpp"
-#include "hapticcal/io.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
 
 namespace hapticcal {
 namespace {

@@ -1,7 +1,7 @@
 // No shell anywhere (issue 10): programs run from an argument vector, so the
 // characters of a path are never interpreted. Output folders whose names hold
 // shell syntax are created as named and nothing in their names runs.
-#include "../src/process.hpp"
+#include "report/process.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>

@@ -1,7 +1,7 @@
 // Closed-form point-set registration: exact recovery, optimality against Eigen's
 // Umeyama, a Gauss-Newton step and perturbed transforms, reflections, weights
 // and the inputs that do not determine a transform.
-#include "hapticcal/registration.hpp"
+#include "hapticcal/identification/registration.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include <random>
 #include <string>
 
-#include "hapticcal/error.hpp"
+#include "hapticcal/io/error.hpp"
 
 namespace hapticcal {
 namespace {

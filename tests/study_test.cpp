@@ -1,6 +1,6 @@
 // The simulation study: reproducibility, the honest pipeline's files, scenario
 // files, and the Monte Carlo efficiency against the Cramer-Rao bound.
-#include "hapticcal/study.hpp"
+#include "hapticcal/study/study.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
-#include "hapticcal/error.hpp"
+#include "hapticcal/io/error.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
 

@@ -1,6 +1,6 @@
 // Transmission models: closed forms, home reference, and every derivative
 // against central differences.
-#include "hapticcal/transmission.hpp"
+#include "hapticcal/model/transmission.hpp"
 
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
@@ -10,7 +10,7 @@
 #include <numbers>
 #include <random>
 
-#include "hapticcal/derivative_check.hpp"
+#include "hapticcal/identification/derivative_check.hpp"
 
 namespace hapticcal {
 namespace {

@@ -23,9 +23,9 @@
 #include <tuple>
 #include <vector>
 
-#include "hapticcal/error.hpp"
-#include "hapticcal/identification.hpp"
-#include "hapticcal/io.hpp"
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
 #include "test_models.hpp"
 
 extern char** environ;

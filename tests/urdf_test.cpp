@@ -2,7 +2,7 @@
 // chains built by an independent walk of urdfdom's tree; device files through
 // URDF and back; calibrated URDFs read back to the calibrated kinematics with the
 // rest of the document kept; malformed input; the command line.
-#include "hapticcal/urdf.hpp"
+#include "hapticcal/io/urdf.hpp"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -17,10 +17,10 @@
 #include <random>
 #include <sstream>
 
-#include "hapticcal/error.hpp"
-#include "hapticcal/io.hpp"
-#include "hapticcal/kinematics.hpp"
-#include "hapticcal/model_source.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
 #include "kdl_chain.hpp"
 #include "kdl_urdf.hpp"
 #include "run_cli.hpp"

@@ -13,16 +13,16 @@
 #include <string>
 #include <thread>
 
-#include "hapticcal/control.hpp"
-#include "hapticcal/error.hpp"
-#include "hapticcal/evaluate.hpp"
-#include "hapticcal/identification.hpp"
-#include "hapticcal/io.hpp"
-#include "hapticcal/model_source.hpp"
-#include "hapticcal/output_set.hpp"
-#include "hapticcal/report.hpp"
-#include "hapticcal/study.hpp"
-#include "hapticcal/urdf.hpp"
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/io/output_set.hpp"
+#include "hapticcal/io/urdf.hpp"
+#include "hapticcal/report/report.hpp"
+#include "hapticcal/study/control.hpp"
+#include "hapticcal/study/evaluate.hpp"
+#include "hapticcal/study/study.hpp"
 
 namespace {
 

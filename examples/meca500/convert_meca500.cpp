@@ -11,9 +11,9 @@
 #include <numbers>
 #include <sstream>
 
-#include "hapticcal/error.hpp"
-#include "hapticcal/frame.hpp"
-#include "hapticcal/io.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/model/frame.hpp"
 
 namespace {
 

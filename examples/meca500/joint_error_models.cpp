@@ -15,10 +15,10 @@
 
 #include <iostream>
 
-#include "hapticcal/error.hpp"
-#include "hapticcal/evaluate.hpp"
-#include "hapticcal/identification.hpp"
-#include "hapticcal/kinematics.hpp"
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/study/evaluate.hpp"
 
 namespace {
 

@@ -9,8 +9,8 @@
 #include <kdl/frames.hpp>
 #include <kdl/jacobian.hpp>
 
-#include "hapticcal/frame.hpp"
-#include "hapticcal/model.hpp"
+#include "hapticcal/model/frame.hpp"
+#include "hapticcal/model/model.hpp"
 
 namespace hapticcal::testing {
 

@@ -5,8 +5,8 @@
 #include <random>
 #include <string>
 
-#include "hapticcal/io.hpp"
-#include "hapticcal/model.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/model/model.hpp"
 
 #ifndef HAPTICCAL_SOURCE_DIR
 #error "HAPTICCAL_SOURCE_DIR must be defined"

@@ -1,0 +1,254 @@
+// Two-step identification (paper Fig. 6, SPEC section 2): transmission models
+// from external encoders, then the kinematic parameters from distance (paper
+// eq. 5, 7) or position measurements by Levenberg-Marquardt (Ceres), after an
+// identifiability analysis that holds parameters without effect or with a
+// dependent effect at nominal and says why.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hapticcal/identification/information.hpp"
+#include "hapticcal/identification/measurement.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/model/model.hpp"
+
+namespace hapticcal {
+
+// The outcome of a calibration, like Ceres's Solver::Summary::termination_type.
+// Only kConverged gives a usable model: the others keep the previous one.
+enum class CalibrationStatus {
+  kConverged,         // LM converged, every value finite, every candidate excited
+  kNotConverged,      // LM stopped at its iteration limit or without progress
+  kNumericalFailure,  // a non-finite residual, parameter or standard deviation
+  kRankDeficient,     // the data leave identifiable parameters unexcited
+};
+// "converged", "not converged", "numerical failure", "rank-deficient".
+const char* to_string(CalibrationStatus status);
+
+// Step 1 for one joint: ext - q = c + dtheta(q).
+struct TransmissionFit {
+  int joint = 0;                   // zero-based
+  std::string type;                // "capstan" or "polynomial"
+  int n = 0;                       // samples
+  std::vector<std::string> names;  // dotted: "j1.r_out", "j4.c3"
+  Eigen::VectorXd nominal, value, sd;
+  double offset = 0, offset_sd = 0;  // c, the external encoder's zero (nuisance)
+  double rms_before = 0;             // RMS of ext - q - c: the error left by an ideal model
+  double rms_after = 0;              // RMS of the fit residual
+  bool converged = true;
+  std::string message;
+  std::vector<double> monomial;  // polynomial: k_0..k_n in q (derived view)
+};
+
+struct ParameterEstimate {
+  std::string name;
+  int slot = 0;
+  ParameterUnit unit = ParameterUnit::kLength;
+  double nominal = 0, value = 0;
+  double sd = std::numeric_limits<double>::quiet_NaN();
+  bool identifiable = false;
+  std::string reason;  // why it is held at nominal, if it is
+  double max_correlation = 0;
+  std::string max_correlation_with;
+  // The identified value moved more than kLargeChangeLength (metres) or
+  // kLargeChangeAngle (rad) from nominal: plausible for a base pose, suspicious
+  // for a link.
+  bool large_change = false;
+};
+
+// Bounds beyond which a parameter's change is flagged (ParameterEstimate::large_change).
+constexpr double kLargeChangeLength = 0.02;  // m
+constexpr double kLargeChangeAngle = 0.05;   // rad, about 2.9 deg
+
+struct KinematicFit {
+  MeasurementType type = MeasurementType::kDistance;
+  int rows = 0;   // log rows used
+  int poses = 0;  // distinct poses among them: repeats are averaged into one
+  // RMS scatter of a repeated pose's measurements about their mean [m]
+  // (Euclidean for positions), with rows - poses degrees of freedom; NaN
+  // without repeats.
+  double repeatability = std::numeric_limits<double>::quiet_NaN();
+  std::vector<ParameterEstimate> parameters;  // every candidate, in slot order
+  int identified = 0;
+  Eigen::MatrixXd correlation;  // of the identified parameters, in their order
+  std::vector<std::string> identified_names;
+  double condition_number = 0;
+  ObservabilityIndices observability;
+  double length_scale = 1;  // m: angle columns are scaled by it
+  // m/rad: a pose's rotation error phi counts as rotation_scale * phi (the length scale)
+  double rotation_scale = 1;
+  // The base was first registered to the measurements in closed form (an
+  // unknown measurement frame; see the notes).
+  bool frame_registered = false;
+  // RMS measurement error [m] (distance error, or Euclidean position error of
+  // positions and poses, as `evaluate` reports it) of the nominal device and of
+  // the calibrated one.
+  double rms_before = 0, rms_after = 0;
+  double sigma = 0;             // used for the standard deviations [m]
+  bool sigma_given = false;     // else the residual estimate
+  bool rank_deficient = false;  // the data leave structurally identifiable parameters unexcited
+  bool converged = false;
+  bool numerical_failure = false;  // Ceres's FAILURE: a residual or Jacobian not finite
+  int iterations = 0;
+  std::string termination;  // Ceres's report
+};
+
+struct CalibrationOptions {
+  bool transmissions = true;            // false: the paper's kinematic-only calibration
+  int samples = 0;                      // 0: every row
+  std::uint64_t seed = 1;               // for samples
+  std::optional<double> sigma;          // measurement noise sd [m]
+  std::optional<int> polynomial_order;  // overrides the device file's
+  std::vector<std::string> fix, free;   // kinematic parameters by dotted name
+  double dependency_tolerance = 1e-6;   // relative residual of a column: "dependent"
+  // Plausibility checks that refuse a log (readings outside the joint limits,
+  // a nominal error beyond kImplausibleErrorFraction of the reach) only warn.
+  bool force = false;
+  // The rows x parameters identification Jacobian is held in memory up to this
+  // size; beyond, step 2 works on its R factor, accumulated pose block by pose
+  // block (the same fit to rounding, memory independent of the log's length).
+  std::size_t max_jacobian_bytes = std::size_t{256} << 20;
+};
+
+// A log whose nominal RMS error exceeds this fraction of the device's reach
+// (the largest distance of the tool point from the base over the log's poses),
+// even after the base pose alone is fitted, is refused unless forced: it is
+// probably from another device. A Meca500 log: 0.8 mm of 324 mm (0.25 %); the
+// paper study's: see README.
+constexpr double kImplausibleErrorFraction = 0.05;
+
+struct CalibrationResult {
+  CalibrationStatus status = CalibrationStatus::kConverged;
+  std::string status_reason;  // one sentence: why the status is what it is
+  DeviceModel calibrated;
+  std::vector<TransmissionFit> transmissions;
+  KinematicFit kinematics;
+  std::vector<int> rows;                // log rows used, zero-based: the first row of each pose
+  std::vector<std::vector<int>> poses;  // every row of each pose used
+  std::vector<std::string> notes;       // things a user should know (one sentence each)
+};
+
+// The stages of calibrate, callable one by one.
+
+// Step 1 for every joint with an external encoder in `poses` (one row a pose):
+// fits its transmission and installs it in `model` (capstans with their c).
+// Notes say what a user should know (a polynomial fitted where the model had
+// none, a fit that did not converge, step 1 skipped).
+std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& poses,
+                                               const CalibrationOptions& options,
+                                               std::vector<std::string>& notes);
+
+// Step 2's data: the poses' compensated joint values and measured values (the
+// family's width a pose, measurement.hpp), weighted by their repeat counts.
+struct KinematicProblem {
+  DeviceModel model;  // the start: nominal geometry, step-1 transmissions
+  MeasurementType type = MeasurementType::kDistance;
+  std::vector<Eigen::VectorXd> joints;  // q + dtheta(q), one a pose
+  MeasuredValues measured;              // one row a pose
+  Eigen::VectorXd weights;              // sqrt(repeats) a pose; empty: all 1
+  int rows = 0;                         // log rows behind the poses
+  double length_scale = 1;              // m: RMS distance of the tool from the base origin
+  double rotation_scale = 1;            // m/rad of a pose's rotation rows: the length scale
+  bool compressed = false;              // the Jacobian too large: work on its R factor
+};
+// From the poses (a log, one row a pose) and each pose's repeat count (empty:
+// one each).
+KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
+                                   const std::vector<int>& repeats,
+                                   const CalibrationOptions& options);
+
+// An unknown measurement frame: when the base is a free pose (every base slot
+// among the candidates) and the model's tool points lie far from the measured
+// positions, registers the base in closed form (Horn / Kabsch on predicted and
+// measured points) and says so in the notes. False if it was not needed or not
+// possible (distances, a DH base, collinear points).
+bool register_measurement_frame(KinematicProblem& problem, const std::vector<int>& candidates,
+                                std::vector<std::string>& notes);
+
+// Which candidates (slots, in priority order: candidate_slots) the problem can
+// identify: a greedy rank test of the column-scaled Jacobian on these poses and
+// on synthetic poses over the joint limits; the others with a reason.
+struct IdentifiabilityAnalysis {
+  std::vector<int> identified;        // slots, in priority order
+  std::map<int, std::string> reason;  // held candidates: why
+  bool rank_deficient = false;        // identifiable in general but not excited by these poses
+  Eigen::VectorXd scale;              // per slot: angle columns' length scale, else 1
+};
+IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
+                                                const std::vector<int>& candidates,
+                                                double tolerance = 1e-6);
+
+// How Levenberg-Marquardt ended (like Ceres's TerminationType).
+enum class SolveTermination { kConverged, kNoConvergence, kFailure, kNothingToSolve };
+const char* to_string(SolveTermination termination);
+struct KinematicSolution {
+  Eigen::VectorXd parameters;  // every slot; the unidentified ones at the start's values
+  SolveTermination termination = SolveTermination::kNothingToSolve;
+  int iterations = 0;
+  std::string message;  // Ceres's
+};
+// Levenberg-Marquardt (Ceres, analytic derivatives) over the identified slots
+// from the problem's model.
+KinematicSolution solve_kinematics(const KinematicProblem& problem,
+                                   const std::vector<int>& identified, int max_iterations = 100);
+
+// The whole procedure. Throws InputError for logs that cannot be used (joint
+// count, no measurements, too few poses, a joint or encoder that never moves,
+// and unless options.force, readings outside the joint limits or errors too
+// large for this device); a solver that does not converge or data that do not
+// excite the model are reported in the result's status, not hidden. Rows with
+// the same joint readings are repeats of one pose: they are averaged, so that
+// standard deviations, condition numbers and --samples count poses.
+CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
+                            const CalibrationOptions& options);
+
+// Step 1 for one joint from its readings and external encoder. `order` overrides
+// the polynomial order. Returns the fitted transmission (without c).
+Transmission fit_transmission(const DeviceModel& model, int joint, const Eigen::VectorXd& q,
+                              const Eigen::VectorXd& ext, std::optional<int> order,
+                              TransmissionFit& fit);
+
+// Hayati's beta is what a joint axis parallel to its neighbour needs (paper,
+// after eq. 3: "used for the sequential parallel joints"): there the four DH
+// parameters cannot express a small tilt. The neighbouring joint whose axis link
+// `link`'s beta tilts against, if the two are within kParallelAxesDeg of
+// parallel in the model; otherwise none.
+constexpr double kParallelAxesDeg = 5.0;
+std::optional<int> parallel_axis_partner(const DeviceModel& model, int link);
+
+// Candidate kinematic parameters in priority order (links, then tool, then
+// base): a dependent parameter is held in favour of those before it. A beta is a
+// candidate where parallel_axis_partner finds a partner, where the model's beta
+// is not zero, or when freed. Throws InputError for unknown names in fix / free.
+std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std::string>& fix,
+                                 const std::vector<std::string>& free);
+
+// Rows with bit-identical joint readings, grouped: the poses of a log in order
+// of first appearance, each the list of its rows.
+std::vector<std::vector<int>> repeated_poses(const Log& log);
+// One row per group: the joint readings of its first row, the external
+// encoders and measurements averaged over the group.
+Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups);
+
+// Draws `samples` distinct row indices of `rows` (all if samples <= 0 or >= rows),
+// reproducibly for a seed on every platform; sorted.
+std::vector<int> sample_rows(int rows, int samples, std::uint64_t seed);
+
+}  // namespace hapticcal
+
+namespace hapticcal {
+
+// results.json (SPEC section 5): every parameter by dotted name with nominal,
+// value, sd and identifiable (transmission parameters included), the condition
+// number, observability indices and RMS before / after. Metres and radians.
+std::string calibration_json(const CalibrationResult& result, const DeviceModel& nominal,
+                             const std::string& model_path, const std::string& log_path,
+                             const CalibrationOptions& options);
+
+}  // namespace hapticcal

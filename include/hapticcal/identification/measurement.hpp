@@ -1,0 +1,96 @@
+// The measurement family (SPEC sections 1 and 8): what an instrument measures of
+// the tool frame T_meas_tool, as residual rows predicted - measured with an
+// analytic Jacobian w.r.t. the kinematic parameters.
+//   distance (cable encoder, paper eq. 5): |p|, 1 row
+//   position (laser tracker):              p, 3 rows
+//   pose (mocap, tracker with a 6-D probe): p and the rotation R, 6 rows: the
+//     position error and s * log(R R_measured^T), the rotation error as a
+//     rotation vector in the measurement frame times a length s (metres per
+//     radian), so that both parts are lengths.
+// Everything that depends on the kind of measurement (the fit, evaluate, the
+// reports, the Cramer-Rao bound) asks this family instead of switching itself.
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model/frame.hpp"
+
+namespace hapticcal {
+
+enum class MeasurementType { kDistance, kPosition, kPose };
+
+// Measured values, one row a sample (traits(type).width values), contiguous.
+using MeasuredValues = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+struct MeasurementTraits {
+  const char* name;    // "distance", "position", "pose"
+  const char* plural;  // "distances", ...
+  int dimension;       // residual rows a sample
+  int width;           // measured values a sample: 1, 3, 7 (x, y, z, qw, qx, qy, qz)
+};
+const MeasurementTraits& traits(MeasurementType type);
+
+// What a log measures: a pose if it has orientations, else positions, else
+// distances (a log with positions and distances is fitted on its positions).
+MeasurementType measurement_type(const Log& log);
+// The `width` measured values of a log row.
+void measured_values(MeasurementType type, const Log& log, int row, double* out);
+
+// A log's samples of one measurement type with their noise: the unit of the
+// fit. (One group a log today; fixture points and planes add their own unknowns
+// per group.)
+struct MeasurementGroup {
+  MeasurementType type = MeasurementType::kDistance;
+  std::vector<int> rows;  // log rows
+  double sigma = NAN;     // sd of one residual row [m]; NaN: estimated from the fit
+};
+std::vector<MeasurementGroup> measurement_groups(const Log& log);
+
+// The rotation vector of a rotation matrix (templated: double or ceres::Jet).
+template <typename T>
+Vec3<T> rotation_log(const Mat3<T>& R) {
+  using std::atan2;
+  using std::sqrt;
+  const Vec3<T> v(R(2, 1) - R(1, 2), R(0, 2) - R(2, 0), R(1, 0) - R(0, 1));  // 2 sin(a) axis
+  const T s2 = v.squaredNorm();
+  const T c = (R.trace() - T(1)) / T(2);
+  if (s2 < T(1e-24)) return v / T(2);  // a -> 0: a / sin(a) -> 1
+  const T s = sqrt(s2) / T(2);
+  const T a = atan2(s, c);
+  return v * (a / (T(2) * s));
+}
+
+// J_l^-1(phi): how log(exp(w) exp(phi)) changes with a small turn w.
+Eigen::Matrix3d inverse_left_jacobian(const Eigen::Vector3d& phi);
+
+// Residual rows (predicted - measured) of one sample from the predicted tool
+// frame, templated on the scalar.
+template <typename T>
+void measurement_residual(MeasurementType type, const Frame<T>& tool, const double* measured,
+                          double rotation_scale, T* residual) {
+  if (type == MeasurementType::kDistance) {
+    residual[0] = tool.p.norm() - T(measured[0]);
+    return;
+  }
+  for (int k = 0; k < 3; ++k) residual[k] = tool.p[k] - T(measured[k]);
+  if (type == MeasurementType::kPose) {
+    const Eigen::Quaterniond q(measured[3], measured[4], measured[5], measured[6]);
+    const Mat3<T> Rm = q.toRotationMatrix().cast<T>();
+    const Vec3<T> phi = rotation_log(Mat3<T>(tool.R * Rm.transpose()));
+    for (int k = 0; k < 3; ++k) residual[3 + k] = T(rotation_scale) * phi[k];
+  }
+}
+
+// The residual rows of one sample and their analytic Jacobian (dimension x
+// num_slots) w.r.t. the parameters.
+void measurement_rows(MeasurementType type, const ChainStructure& s,
+                      const ChainConstants<double>& constants, const double* params,
+                      const double* joint, const double* measured, double rotation_scale,
+                      double* residual, Eigen::Ref<Eigen::MatrixXd> J);
+
+}  // namespace hapticcal

@@ -1,0 +1,125 @@
+// The device model: a value holding the kinematic parameters, joint limits and
+// transmissions of a serial chain (SPEC sections 1, 5 and 8).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "hapticcal/model/transmission.hpp"
+
+namespace hapticcal {
+
+constexpr int kMaxDof = 32;
+
+// How a joint's constant geometry is given.
+// Standard DH with the Hayati beta (paper eq. 3):
+//   A_i = Rz(theta_i) * T(a_i, 0, d_i) * Rx(alpha_i) * Ry(beta_i)
+// Modified DH (Craig 1989, eq. 3.6), with a Hayati beta about the y axis at the
+// foot of the new joint axis (zero: Craig's transform):
+//   A_i = Rx(alpha_i) * Tx(a_i) * Ry(beta_i) * Rz(theta_i) * Tz(d_i)
+// beta is what a small tilt of a joint axis parallel to its neighbour needs: the
+// four DH parameters cannot express it (Hayati 1983).
+// URDF origin + axis (SPEC section 8):
+//   A_i = Trans(x, y, z) * Rz(yaw) Ry(pitch) Rx(roll) * motion(axis, q_i + offset_i)
+// (over-parametrised: the identifiability analysis holds what is redundant).
+enum class Geometry { kDh, kMdh, kOrigin };
+// A device file's `convention`: the geometry of all its links.
+enum class Convention { kDh, kMdh };
+// revolute and continuous turn about the joint axis (DH, MDH: z) by q; prismatic
+// translate along it by q (DH, MDH: d + q). Fixed joints only as base and tool.
+enum class JointType { kRevolute, kContinuous, kPrismatic };
+// The base transform B: a DH transform without joint (paper's frame "w") or a pose.
+enum class BaseKind { kDh, kPose };
+
+struct Link {
+  std::string name;
+  Geometry geometry = Geometry::kDh;
+  JointType type = JointType::kRevolute;
+  // DH and MDH. theta is the joint offset of a revolute joint (d of a prismatic one).
+  double a = 0.0, alpha = 0.0, d = 0.0;
+  double theta = 0.0;  // rad
+  double beta = 0.0;   // Hayati parameter [rad]
+  // URDF origin: x, y, z, roll, pitch, yaw; the unit joint axis in the joint
+  // frame; the joint offset added to q [rad or m].
+  std::array<double, 6> origin{};
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  double offset = 0.0;
+  double lower = 0.0, upper = 0.0;  // joint limits on q [rad; m for prismatic joints]
+  Transmission transmission;
+
+  bool prismatic() const { return type == JointType::kPrismatic; }
+};
+
+// The flat kinematic parameter vector is a sequence of named blocks:
+//   base: DH a, alpha, d, theta (4) | pose x, y, z, roll, pitch, yaw (6)
+//   each joint: DH/MDH a, alpha, d, theta, beta (5) |
+//               origin x, y, z, roll, pitch, yaw, offset (7)
+//   tool: x, y, z, roll, pitch, yaw (6)
+constexpr int kLinkA = 0, kLinkAlpha = 1, kLinkD = 2, kLinkTheta = 3, kLinkBeta = 4;
+constexpr int kLinkSlots = 5;
+constexpr int kOriginX = 0, kOriginRoll = 3, kOriginPitch = 4, kOriginYaw = 5, kOriginOffset = 6;
+constexpr int kOriginSlots = 7;
+constexpr int kPoseSlots = 6;
+
+// What the kinematics need of a joint besides its parameter values.
+struct JointStructure {
+  Geometry geometry = Geometry::kDh;
+  JointType type = JointType::kRevolute;
+  std::array<double, 3> axis{0, 0, 1};  // kOrigin only
+  int slot = 0;                         // first slot of its block
+  bool prismatic() const { return type == JointType::kPrismatic; }
+};
+
+// What the generic kinematics need besides the parameter values.
+struct ChainStructure {
+  BaseKind base_kind = BaseKind::kPose;
+  int dof = 0;
+  std::array<JointStructure, kMaxDof> joints{};
+  int tool = 0;  // first slot of the tool block
+
+  int base_slots() const { return base_kind == BaseKind::kDh ? 4 : kPoseSlots; }
+  int num_slots() const { return tool + kPoseSlots; }
+  int link_slot(int i) const { return joints[i].slot; }  // i zero-based
+  int tool_slot() const { return tool; }
+};
+
+enum class ParameterUnit { kLength, kAngle };
+
+// One kinematic parameter: its stable dotted name ("base.a", "j3.alpha",
+// "tool.x", "panda_joint2.roll"), its slot in the flat vector, and its place:
+// joint -1 is the base, dof the tool; element is its index in the block.
+struct ParameterInfo {
+  std::string name;
+  int slot = 0;
+  ParameterUnit unit = ParameterUnit::kLength;
+  int joint = 0;
+  int element = 0;
+};
+
+struct DeviceModel {
+  std::string name;
+  BaseKind base_kind = BaseKind::kPose;
+  std::array<double, 6> base{};  // DH: a, alpha, d, theta, 0, 0; pose: x, y, z, roll, pitch, yaw
+  std::vector<Link> links;
+  std::array<double, 6> tool{};  // x, y, z, roll, pitch, yaw
+
+  int dof() const { return static_cast<int>(links.size()); }
+  ChainStructure structure() const;
+
+  // The flat kinematic parameter vector and its inverse.
+  Eigen::VectorXd kinematic_parameters() const;
+  void set_kinematic_parameters(const Eigen::VectorXd& params);
+  // Every slot, in slot order, with its dotted name.
+  std::vector<ParameterInfo> parameter_info() const;
+
+  // Joint values theta_i = q_i + dtheta_i(q_i) + offset_i are formed by the
+  // kinematics; this returns q_i + dtheta_i(q_i), the value without the offset.
+  Eigen::VectorXd compensate(const Eigen::VectorXd& q) const;
+};
+
+// The parameter names of a joint's block, in slot order ("a", ..., "offset").
+const std::vector<std::string>& block_names(Geometry geometry);
+
+}  // namespace hapticcal

@@ -1,0 +1,65 @@
+// Reports: figures drawn by gnuplot (SVG for the page, PNG for papers) and one
+// self-contained report.html per command (the SVGs inline: it opens offline).
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+namespace hapticcal {
+
+struct Series {
+  std::string label;
+  int x = 0, y = 1;             // data columns (zero-based); x = -1: the row number
+  std::string style = "lines";  // gnuplot: lines, points, linespoints, impulses, boxes
+  int error = -1;               // a column of half error bars (style yerrorbars)
+};
+
+struct FigureSpec {
+  std::string name;  // file stem
+  std::string title, xlabel, ylabel;
+  std::vector<std::vector<double>> columns;  // the data, column by column
+  std::vector<std::string> xtics;            // category labels by row (empty: numeric x)
+  std::vector<Series> series;
+  Eigen::MatrixXd matrix;  // if non-empty: a heat map of it (with xtics as labels)
+  std::string extra;       // more gnuplot commands
+};
+
+struct Report {
+  std::string title;
+  std::vector<std::string> sections;  // HTML blocks before the figures
+  std::vector<FigureSpec> figures;
+};
+
+// Writes DIR/figures/<name>.svg and .png with gnuplot and DIR/report.html.
+// Returns the number of figures drawn; if gnuplot is missing the report is written
+// without them and `note` says so.
+int write_report(const Report& report, const std::string& dir, std::string& note);
+
+// HTML helpers: escaped text and a table.
+std::string html_escape(const std::string& text);
+std::string html_table(const std::vector<std::string>& header,
+                       const std::vector<std::vector<std::string>>& rows);
+
+}  // namespace hapticcal
+
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/study/control.hpp"
+#include "hapticcal/study/study.hpp"
+
+namespace hapticcal {
+
+// calibrate: per-transmission fit and residuals, measurement errors before and
+// after per sample, the parameter table with sd, the identifiability list and
+// the correlation heat map.
+Report calibration_report(const CalibrationResult& result, const DeviceModel& nominal,
+                          const Log& log);
+// simulate: Figs 7, 8, 9-like fits, 10, and for Monte Carlo the I % spread and
+// RMSE / CRLB per parameter, with the Table 2 and 3 analogues. Reads the series
+// that run_trial wrote to `out`.
+Report study_report(const Scenario& scenario, const StudyResult& result, const std::string& out);
+// force: the Fig. 12 analogue for the nominal and the calibrated model.
+Report force_report(const ForceRun& nominal, const ForceRun& calibrated, double reduction_pct);
+
+}  // namespace hapticcal

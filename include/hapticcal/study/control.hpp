@@ -1,0 +1,55 @@
+// Closed-loop impedance control with a proportional force loop (paper Fig. 11,
+// SPEC section 4) against a virtual wall, with the handle fixed: what the
+// kinematic model does to the force a haptic device renders.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "hapticcal/model/model.hpp"
+
+namespace hapticcal {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+struct ForceScenario {
+  Eigen::VectorXd posture;  // readings q of the fixed handle (empty: the default)
+  int locked_joint = 2;     // zero-based; -1: none (the 7-DOF's redundant joint 3)
+  double stiffness = 100;   // virtual wall K [N/m]
+  double travel = 0.02;     // how far the wall moves along the handle's z [m]
+  double move_seconds = 2;  // over this time (smooth), then
+  double hold_seconds = 1;  // held
+  double rate_hz = 1000;
+  double gain = 0.5;        // G in F_cmd = F_d + G (F_d - F_sens)
+  double sensor_noise = 0;  // sd of each sensor force [N] (moments: times 0.01 m)
+  std::uint64_t seed = 1;
+};
+
+// The default posture: home, with the wrist bent (j6 = 0.3 rad) for a 7-joint
+// device, because home is a wrist singularity of the built-in model.
+Eigen::VectorXd default_posture(const DeviceModel& model);
+
+struct ForceRun {
+  std::vector<double> t;
+  std::vector<Vector6d> desired, measured;  // [F; M] in the handle frame
+  double transverse_rms = 0;                // RMS of sqrt(Fx^2 + Fy^2) [N]
+};
+
+// The static map from the commanded to the rendered wrench with the handle
+// fixed: W = J_a^-T D_a^-1 D_m J_m^T F_cmd, J in the handle frame with the
+// locked joint removed, D = diag(d theta / d q) of the transmissions. Throws
+// InputError if the posture is singular for either model.
+Eigen::Matrix<double, 6, 6> rendering_map(const DeviceModel& actual, const DeviceModel& controller,
+                                          const ForceScenario& scenario);
+
+// The loop is stable for |G| < 1 / spectral radius of the rendering map.
+double stable_gain_limit(const DeviceModel& actual, const DeviceModel& controller,
+                         const ForceScenario& scenario);
+
+// One run at `rate_hz`: the sensor reads the rendered wrench one sample later.
+ForceRun run_force(const DeviceModel& actual, const DeviceModel& controller,
+                   const ForceScenario& scenario);
+
+}  // namespace hapticcal

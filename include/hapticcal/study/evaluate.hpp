@@ -1,0 +1,37 @@
+// Model accuracy on a log: predicted distance (paper eq. 5), position and
+// orientation against the measured ones.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/model/model.hpp"
+
+namespace hapticcal {
+
+struct ErrorStats {
+  double rms = 0;
+  double max = 0;  // largest absolute error
+};
+
+struct Evaluation {
+  int n = 0;
+  std::optional<ErrorStats> distance;  // predicted - measured distance [m]
+  std::optional<ErrorStats> position;  // |p_predicted - p_measured| [m]
+  // Pose logs: the angle of R_predicted R_measured^T [rad]
+  std::optional<ErrorStats> orientation;
+  Eigen::VectorXd distance_error;     // per row, signed
+  Eigen::VectorXd position_error;     // per row, Euclidean norm
+  Eigen::VectorXd orientation_error;  // per row, the angle
+};
+
+// Throws InputError if the log does not fit the model (check_log_fits).
+Evaluation evaluate(const DeviceModel& model, const Log& log);
+
+// Paper eq. (9), signed: (RMS(e_nc) - RMS(e_c)) / RMS(e_nc) * 100. It equals the
+// paper's |RMS(e_c) - RMS(e_nc)| / |RMS(e_nc)| * 100 whenever calibration helps,
+// and is negative when the "calibrated" model is worse, which eq. (9) would hide.
+double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated);
+
+}  // namespace hapticcal

@@ -1,0 +1,55 @@
+// The paper's simulated device and synthetic measurement logs (SPEC section 3).
+#pragma once
+
+#include <cstdint>
+
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/model/model.hpp"
+
+namespace hapticcal {
+
+// Measurement noise of the paper's simulation: external encoders of 20000 ppr,
+// sigma_e = 2 pi / 20000 / 3 rad; the cable encoder sigma_m = 2 pi 0.015 sigma_e
+// (the paper's formula) or 0.015 sigma_e (the dimensionally consistent one).
+constexpr double kPaperSigmaE = 2 * 3.14159265358979323846 / 20000 / 3;
+constexpr double paper_sigma_m(double sigma_e) {
+  return 2 * 3.14159265358979323846 * 0.015 * sigma_e;
+}
+constexpr double consistent_sigma_m(double sigma_e) { return 0.015 * sigma_e; }
+constexpr double kPaperSigmaMPaper = paper_sigma_m(kPaperSigmaE);
+constexpr double kPaperSigmaMConsistent = consistent_sigma_m(kPaperSigmaE);
+
+// The "actual" device of the paper's study from the built-in nominal one: Table 3
+// deviations (mm, mrad), Table 2 capstans on joints 1-3 (radii read in mm), and
+// joint 4 a capstan (Table 2's fourth drum) followed by a parallelogram with
+// L1 = L3 = 0.05 m, L2 = L4 = 0.21 m and dL1 = -0.5 mm, dL2 = -0.7 mm.
+DeviceModel paper_actual_device(const DeviceModel& nominal);
+
+struct SimulationNoise {
+  double sigma_ext = kPaperSigmaE;            // external encoders [rad]
+  double sigma_distance = kPaperSigmaMPaper;  // cable encoder [m]
+  double sigma_position = 0;                  // tracker [m]
+  // Motor-encoder counts per motor turn (0: readings not quantised). The reading
+  // q is the motor count times 2 pi / (counts * R), R the joint's capstan ratio
+  // (1 without one); the truth follows the unquantised angle.
+  double motor_counts_per_rev = 0;
+};
+
+// The reading a motor encoder of `counts` per turn gives for joint angle q
+// through a drive of ratio R (no quantisation for counts <= 0).
+double quantized_reading(double q, double ratio, double counts);
+
+// A log of `poses` readings drawn uniformly within the joint limits, with
+// ext<i> = q_i + dtheta_i(q_i) + c_i + noise for the joints with a transmission
+// (c_i = encoder zeros: 1, 2, 3 ... mrad), and the distance and/or position of
+// the actual device's tool point with noise. Reproducible for a seed.
+Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& noise,
+                 std::uint64_t seed, bool distance = true, bool position = false);
+
+// The experiment analogue of paper Fig. 10: a continuous random motion of
+// `seconds` sampled at `rate_hz`, at rest at home at both ends, each joint a sum
+// of slow sinusoids within its limits; columns t, q, distance (with noise).
+Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_hz,
+                        const SimulationNoise& noise, std::uint64_t seed);
+
+}  // namespace hapticcal

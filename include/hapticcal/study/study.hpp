@@ -1,0 +1,114 @@
+// The paper's simulation study (SPEC section 3; paper Tables 2-3, Figs 7, 8, 10)
+// as a pipeline: synthetic logs in the format of a real experiment, the same
+// `calibrate` procedure on them, and scoring against the truth; Monte Carlo over
+// trials with Cramer-Rao bounds.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/model/model.hpp"
+#include "hapticcal/study/simulation.hpp"
+
+namespace hapticcal {
+
+struct Scenario {
+  std::string device_path;  // the nominal device file
+  DeviceModel nominal;
+  DeviceModel actual;  // the truth
+  int identification_poses = 200;
+  int validation_poses = 200;
+  double trajectory_seconds = 100;
+  double trajectory_rate_hz = 1000;
+  SimulationNoise noise;
+  std::string sigma_m_formula = "paper";  // "paper", "consistent" or "given"
+  std::uint64_t seed = 1;
+  int trials = 1;
+};
+
+// SPEC section 3 on the built-in device file at `device_path`.
+Scenario default_scenario(const std::string& device_path);
+// A scenario file (YAML, `format: hapticcal-scenario/1`); every key optional:
+//   device: PATH (relative to the file)     seed: N     trials: N
+//   poses: {identification: N, validation: N}
+//   trajectory: {seconds: S, rate_hz: F}
+//   noise: {sigma_e: RAD, sigma_m: paper | consistent | METRES, motor_counts_per_rev: N}
+//   deviations: {DOTTED_NAME: VALUE, ...}   replaces Table 3's deviation of a kinematic
+//                                           parameter (SI, added to nominal)
+// Unknown keys are errors naming the file, line and key.
+Scenario load_scenario(const std::string& path, const std::string& default_device_path);
+
+// One trial's figures (metres, radians).
+struct TrialResult {
+  std::uint64_t seed = 0;
+  CalibrationResult full, kinematic_only;
+  // Validation poses (Fig. 8): RMS errors of the nominal and calibrated models
+  // against the truth (per pose in fig8_validation.csv).
+  double position_rms_before = 0, position_rms_after = 0;
+  double orientation_rms_before = 0, orientation_rms_after = 0;
+  double distance_rms_before = 0, distance_rms_after = 0;
+  // Trajectory (Fig. 10): distance error RMS of the nominal, fully and kinematically calibrated
+  // models.
+  double trajectory_rms_before = 0, trajectory_rms_full = 0, trajectory_rms_kinematic = 0;
+  // Cramer-Rao variances at the truth for this trial's poses, by dotted name.
+  std::map<std::string, double> crlb_variance;
+};
+
+// One trial with its seed. If `out` is not empty the logs (identification.csv,
+// validation.csv, trajectory.csv), nominal.yaml, actual.yaml and calibrated.yaml
+// are written there and calibration reads the logs back from the files.
+TrialResult run_trial(const Scenario& scenario, std::uint64_t seed, const std::string& out);
+
+// Paper eq. (8): (1 - |assigned - identified| / |assigned - nominal|) * 100.
+double improvement_pct(double assigned, double nominal, double identified);
+
+// One row of a trial's Table 2 (capstan) or Table 3 (kinematic) analogue.
+struct StudyRow {
+  std::string name;
+  bool capstan = false;
+  double assigned = 0, nominal = 0, identified = 0, improvement_pct = 0;
+  std::string held;  // why a kinematic parameter whose truth deviates was not identified
+  // The paper's units: Table 2 prints Re, r in mm, beta in deg; Table 3 deviations in mm, mrad.
+  double paper_scale = 1;
+  std::string paper_unit;
+};
+
+// The rows in table order: every identified capstan parameter, then every
+// kinematic parameter that was identified or whose truth deviates from nominal.
+std::vector<StudyRow> study_rows(const Scenario& scenario, const CalibrationResult& full);
+
+// Seed of trial k of a study: a SplitMix64 step from the study seed, so that the
+// trials are the same whatever the number of threads.
+std::uint64_t trial_seed(std::uint64_t study_seed, int trial);
+
+// Per dotted name, over the trials: assigned value, mean identified value, mean
+// I % (paper eq. 8), RMSE, CRLB sd and efficiency RMSE / CRLB.
+struct MonteCarloStats {
+  double assigned = 0, nominal = 0, mean = 0, mean_improvement_pct = 0, rmse = 0, crlb_sd = 0,
+         efficiency = 0;
+  double improvement_p05 = 0, improvement_p95 = 0;  // 5th and 95th percentiles of I %
+  int trials = 0;
+};
+
+struct StudyResult {
+  TrialResult first;  // trial 0, whose files are written
+  std::map<std::string, MonteCarloStats> monte_carlo;
+  int trials = 0, threads = 1;
+};
+
+// Runs the trials on `threads` threads; progress(k, n) is called as trials finish.
+StudyResult run_study(const Scenario& scenario, const std::string& out, int threads,
+                      const std::function<void(int, int)>& progress = {});
+
+// The paper's I % for a dotted name (Tables 2 and 3), if it gives one.
+std::optional<double> paper_improvement_pct(const std::string& name);
+
+// results.json of a study.
+std::string study_json(const Scenario& scenario, const StudyResult& result);
+
+}  // namespace hapticcal

@@ -1,0 +1,938 @@
+// Step 2 of the paper's procedure and the whole calibration.
+#include "hapticcal/identification/identification.hpp"
+
+#include <ceres/ceres.h>
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <numeric>
+#include <random>
+#include <unordered_map>
+
+#include "hapticcal/identification/registration.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "identification/measurement_cost.hpp"
+#include "identification/solver_options.hpp"
+
+namespace hapticcal {
+namespace {
+
+constexpr std::uint64_t kStructuralSeed = 20130601;  // synthetic poses of the structural analysis
+constexpr int kStructuralPoses = 400;
+
+using detail::CompressedMeasurementCost;
+using detail::measurement_rows;
+using detail::MeasurementCost;
+using detail::RowMatrix;
+using detail::RowsOf;
+
+// The stacked residuals and identification Jacobian at `params`; compressed
+// (detail::compress_rows) for logs whose Jacobian would not fit in memory.
+// Every residual row is weighted by its pose's detail::weigh weight, the
+// square root of its repeat count (none: all 1).
+struct Stack {
+  Eigen::VectorXd r;  // every (weighted) residual; empty when compressed
+  Eigen::MatrixXd J;  // rows x slots; when compressed R (slots x slots): same column geometry
+  double rss = 0;     // sum of the squared weighted residuals
+  Eigen::Index residuals = 0;  // rows of the fit: poses x residuals a pose
+};
+
+Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
+            const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
+            const RowMatrix& measured, const Eigen::VectorXd& weights, bool compressed = false) {
+  const int d = kind.dimension();
+  const int m = static_cast<int>(joints.size());
+  if (compressed) {
+    detail::CompressedRows z =
+        detail::compress_rows(s, params.data(), joints, kind, measured, weights);
+    return {Eigen::VectorXd(), std::move(z.R), z.rss(), static_cast<Eigen::Index>(m) * d};
+  }
+  Stack out{Eigen::VectorXd(m * d), Eigen::MatrixXd(m * d, s.num_slots())};
+  const ChainConstants<double> constants = chain_constants(s, params.data());
+  for (int i = 0; i < m; ++i) {
+    measurement_rows(s, constants, params.data(), joints[i].data(), kind, measured.row(i).data(),
+                     out.r.data() + d * i, out.J.middleRows(d * i, d));
+    detail::weigh(weights, i, out.r.data() + d * i, out.J.middleRows(d * i, d));
+  }
+  out.rss = out.r.squaredNorm();
+  out.residuals = out.r.size();
+  return out;
+}
+
+// The cost LM minimises over these poses: every row, or its compressed form.
+ceres::CostFunction* measurement_cost(const ChainStructure& s,
+                                      const std::vector<Eigen::VectorXd>& joints,
+                                      const RowsOf& kind, const RowMatrix& measured,
+                                      const Eigen::VectorXd& weights, bool compressed) {
+  if (compressed) return new CompressedMeasurementCost(s, joints, kind, measured, weights);
+  return new MeasurementCost(s, joints, kind, measured, weights);
+}
+
+// The residuals alone, weighted.
+Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& params,
+                             const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
+                             const RowMatrix& measured, const Eigen::VectorXd& weights) {
+  const int d = kind.dimension();
+  Eigen::VectorXd r(static_cast<Eigen::Index>(joints.size()) * d);
+  Eigen::MatrixXd J(d, s.num_slots());
+  const ChainConstants<double> constants = chain_constants(s, params.data());
+  for (size_t i = 0; i < joints.size(); ++i) {
+    measurement_rows(s, constants, params.data(), joints[i].data(), kind, measured.row(i).data(),
+                     r.data() + d * i, J);
+    detail::weigh(weights, i, r.data() + d * i, J);
+  }
+  return r;
+}
+
+// The used rows of the log as measured values (the family's width a row).
+RowMatrix measured_values(const Log& log, const std::vector<int>& rows, const RowsOf& kind) {
+  RowMatrix out(rows.size(), traits(kind.type).width);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    hapticcal::measured_values(kind.type, log, rows[i], out.row(i).data());
+  }
+  return out;
+}
+
+// What the model at `params` predicts for these joint values: measurements
+// without error (for the structural analysis, whose rows need a measured value).
+RowMatrix predicted_values(const ChainStructure& s, const Eigen::VectorXd& params,
+                           const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind) {
+  RowMatrix out(joints.size(), traits(kind.type).width);
+  const ChainConstants<double> constants = chain_constants(s, params.data());
+  for (size_t i = 0; i < joints.size(); ++i) {
+    const Frame<double> tool = forward_kinematics(s, constants, joints[i].data());
+    double* row = out.row(i).data();
+    if (kind.type == MeasurementType::kDistance) {
+      row[0] = tool.p.norm();
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) row[k] = tool.p[k];
+    if (kind.type == MeasurementType::kPose) {
+      const Eigen::Quaterniond q(tool.R);
+      row[3] = q.w();
+      row[4] = q.x();
+      row[5] = q.y();
+      row[6] = q.z();
+    }
+  }
+  return out;
+}
+
+// One candidate's fate in the greedy rank test.
+struct Verdict {
+  enum Kind { kIdentified, kNoEffect, kDependent } kind = kIdentified;
+  std::vector<int> on;  // slots it depends on
+};
+
+// Greedy rank test in priority order on scale-free (unit) columns: a column
+// with no effect, or whose part outside the span of the columns accepted before
+// it is below `tolerance` of its norm, is held.
+std::map<int, Verdict> rank_test(const Eigen::MatrixXd& J, const std::vector<int>& order,
+                                 double tolerance) {
+  std::map<int, Verdict> out;
+  double largest = 0;
+  for (int slot : order) largest = std::max(largest, J.col(slot).norm());
+  std::vector<Eigen::VectorXd> basis;
+  std::vector<int> accepted;
+  for (int slot : order) {
+    const double norm = J.col(slot).norm();
+    if (!(norm > 1e-10 * largest) || largest == 0) {
+      out[slot] = {Verdict::kNoEffect, {}};
+      continue;
+    }
+    Eigen::VectorXd v = J.col(slot) / norm;
+    for (int pass = 0; pass < 2; ++pass) {  // Gram-Schmidt twice: orthogonal to rounding
+      for (const Eigen::VectorXd& b : basis) v -= b.dot(v) * b;
+    }
+    const double rest = v.norm();
+    if (rest < tolerance) {
+      // Which accepted parameters reproduce its effect.
+      Eigen::MatrixXd A(J.rows(), accepted.size());
+      for (size_t k = 0; k < accepted.size(); ++k) A.col(k) = J.col(accepted[k]).normalized();
+      const Eigen::VectorXd x = A.colPivHouseholderQr().solve(J.col(slot) / norm);
+      std::vector<std::pair<double, int>> weights;
+      for (size_t k = 0; k < accepted.size(); ++k) weights.push_back({std::abs(x[k]), accepted[k]});
+      std::sort(weights.rbegin(), weights.rend());
+      Verdict verdict{Verdict::kDependent, {}};
+      for (size_t k = 0; k < weights.size() && k < 3; ++k) {
+        if (weights[k].first > 0.1 * weights[0].first) verdict.on.push_back(weights[k].second);
+      }
+      out[slot] = verdict;
+      continue;
+    }
+    basis.push_back(v / rest);
+    accepted.push_back(slot);
+    out[slot] = {Verdict::kIdentified, {}};
+  }
+  return out;
+}
+
+std::string names_of(const std::vector<int>& slots, const std::map<int, std::string>& name) {
+  std::string out;
+  for (int s : slots) out += (out.empty() ? "" : ", ") + name.at(s);
+  return out;
+}
+
+// RMS of the per-measurement error, as `evaluate` reports it: the distance error,
+// or the Euclidean norm of the position error.
+// `rows` the log rows behind the residuals (their weights' sum of squares).
+double measurement_rms(double rss, double rows) { return std::sqrt(rss / std::max(rows, 1.0)); }
+
+}  // namespace
+
+std::vector<int> sample_rows(int rows, int samples, std::uint64_t seed) {
+  std::vector<int> all(rows);
+  for (int i = 0; i < rows; ++i) all[i] = i;
+  if (samples <= 0 || samples >= rows) return all;
+  // Partial Fisher-Yates with a bounded draw by rejection: the same rows for a
+  // seed on every platform (std::uniform_int_distribution is not specified).
+  std::mt19937_64 rng(seed);
+  for (int i = 0; i < samples; ++i) {
+    const std::uint64_t span = static_cast<std::uint64_t>(rows - i);
+    const std::uint64_t limit = UINT64_MAX - UINT64_MAX % span;
+    std::uint64_t draw;
+    do {
+      draw = rng();
+    } while (draw >= limit);
+    std::swap(all[i], all[i + static_cast<int>(draw % span)]);
+  }
+  all.resize(samples);
+  std::sort(all.begin(), all.end());
+  return all;
+}
+
+const char* to_string(CalibrationStatus status) {
+  switch (status) {
+    case CalibrationStatus::kConverged:
+      return "converged";
+    case CalibrationStatus::kNotConverged:
+      return "not converged";
+    case CalibrationStatus::kNumericalFailure:
+      return "numerical failure";
+    case CalibrationStatus::kRankDeficient:
+      return "rank-deficient";
+  }
+  return "unknown";
+}
+
+std::vector<std::vector<int>> repeated_poses(const Log& log) {
+  std::vector<std::vector<int>> groups;
+  std::unordered_map<std::string, int> index;
+  index.reserve(static_cast<size_t>(log.rows));
+  std::string key(sizeof(double) * static_cast<size_t>(log.dof()), '\0');
+  for (int r = 0; r < log.rows; ++r) {
+    for (int j = 0; j < log.dof(); ++j) {
+      const double v = log.q(r, j) + 0.0;  // -0.0 and 0.0 are one reading
+      std::memcpy(key.data() + sizeof(double) * j, &v, sizeof(double));
+    }
+    const auto [it, added] = index.try_emplace(key, static_cast<int>(groups.size()));
+    if (added) groups.emplace_back();
+    groups[it->second].push_back(r);
+  }
+  return groups;
+}
+
+Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups) {
+  Log out;
+  out.origin = log.origin;
+  out.rows = static_cast<int>(groups.size());
+  out.has_ext = log.has_ext;
+  out.has_distance = log.has_distance;
+  out.has_position = log.has_position;
+  out.has_time = log.has_time;
+  out.has_orientation = log.has_orientation;
+  out.q.resize(out.rows, log.dof());
+  out.ext = Eigen::MatrixXd::Zero(out.rows, log.ext.cols());
+  if (log.has_distance) out.distance = Eigen::VectorXd::Zero(out.rows);
+  if (log.has_position) out.position = Eigen::MatrixXd::Zero(out.rows, 3);
+  if (log.has_time) out.t.resize(out.rows);
+  if (log.has_orientation) out.orientation = Eigen::MatrixXd::Zero(out.rows, 4);
+  for (int g = 0; g < out.rows; ++g) {
+    const std::vector<int>& rows = groups[g];
+    const int first = rows.front();
+    out.q.row(g) = log.q.row(first);
+    out.line.push_back(first < static_cast<int>(log.line.size()) ? log.line[first] : 0);
+    if (log.has_time) out.t[g] = log.t[first];
+    const double w = 1.0 / static_cast<double>(rows.size());
+    for (int r : rows) {
+      if (log.ext.cols() > 0) out.ext.row(g) += w * log.ext.row(r);
+      if (log.has_distance) out.distance[g] += w * log.distance[r];
+      if (log.has_position) out.position.row(g) += w * log.position.row(r);
+      if (log.has_orientation) {  // q and -q are one rotation: align with the first
+        const double sign = log.orientation.row(r).dot(log.orientation.row(first)) < 0 ? -1 : 1;
+        out.orientation.row(g) += sign * w * log.orientation.row(r);
+      }
+    }
+    // The normalised mean of nearby unit quaternions: the chordal L2 mean rotation.
+    if (log.has_orientation) out.orientation.row(g).normalize();
+  }
+  return out;
+}
+
+namespace {
+
+// The other joint whose axis link `link`'s twist alpha turns into (or from):
+// DH: A_i twists joint i's axis into joint i+1's; MDH: joint i-1's into joint i's.
+// None for the last DH link and the first MDH link (the tool or base pose).
+std::optional<int> twist_partner(const DeviceModel& model, int link) {
+  const Geometry g = model.links[link].geometry;
+  if (g == Geometry::kOrigin) return std::nullopt;
+  const int partner = g == Geometry::kDh ? link + 1 : link - 1;
+  if (partner < 0 || partner >= model.dof()) return std::nullopt;
+  return partner;
+}
+
+bool is_beta(const DeviceModel& model, const ParameterInfo& p) {
+  return p.joint >= 0 && p.joint < model.dof() &&
+         model.links[p.joint].geometry != Geometry::kOrigin && p.element == kLinkBeta;
+}
+
+// Why a beta is not a candidate.
+std::string beta_left_out_reason(const DeviceModel& model, int link) {
+  const std::string& name = model.links[link].name;
+  const auto partner = twist_partner(model, link);
+  if (!partner) {
+    return fmt::format("not a candidate: no joint {} {} (free it by name)",
+                       model.links[link].geometry == Geometry::kDh ? "after" : "before", name);
+  }
+  const auto [first, second] = std::minmax(link, *partner);
+  return fmt::format(
+      "not a candidate: the axes of {} and {} are not within {} deg of parallel (free it by "
+      "name)",
+      model.links[first].name, model.links[second].name, kParallelAxesDeg);
+}
+
+}  // namespace
+
+std::optional<int> parallel_axis_partner(const DeviceModel& model, int link) {
+  const auto partner = twist_partner(model, link);
+  if (!partner) return std::nullopt;
+  if (std::abs(std::sin(model.links[link].alpha)) > std::sin(kParallelAxesDeg * M_PI / 180)) {
+    return std::nullopt;
+  }
+  return partner;
+}
+
+std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std::string>& fix,
+                                 const std::vector<std::string>& free) {
+  const std::vector<ParameterInfo> info = model.parameter_info();
+  std::map<std::string, int> slot_of;
+  for (const ParameterInfo& p : info) slot_of[p.name] = p.slot;
+  auto lookup = [&](const std::string& name, const char* option) {
+    const auto it = slot_of.find(name);
+    if (it == slot_of.end()) {
+      throw InputError(fmt::format("{}: '{}' is not a kinematic parameter of model '{}'", option,
+                                   name, model.name));
+    }
+    return it->second;
+  };
+  std::vector<bool> fixed(model.structure().num_slots(), false), freed(fixed.size(), false);
+  for (const std::string& name : fix) fixed[lookup(name, "--fix")] = true;
+  for (const std::string& name : free) freed[lookup(name, "--free")] = true;
+  std::vector<int> order;
+  auto take = [&](const ParameterInfo& p) {
+    if (fixed[p.slot]) return;
+    if (is_beta(model, p) && !freed[p.slot]) {
+      if (!parallel_axis_partner(model, p.joint) && model.links[p.joint].beta == 0) return;
+    }
+    order.push_back(p.slot);
+  };
+  const int dof = model.dof();
+  for (const ParameterInfo& p : info) {
+    if (p.joint >= 0 && p.joint < dof) take(p);
+  }
+  for (const ParameterInfo& p : info) {
+    if (p.joint == dof) take(p);
+  }
+  for (const ParameterInfo& p : info) {
+    if (p.joint < 0) take(p);
+  }
+  return order;
+}
+
+namespace {
+
+// Readings outside the model's joint limits: an InputError when most of a
+// joint's readings are out (a unit missing from the header, or another
+// device), unless forced; a warning otherwise.
+void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
+                        std::vector<std::string>& notes) {
+  constexpr double kSlack = 1e-9;  // rad or m: rounding in the log
+  for (int j = 0; j < model.dof(); ++j) {
+    const Link& link = model.links[j];
+    int out = 0;
+    double largest = 0;
+    for (int r = 0; r < log.rows; ++r) {
+      const double q = log.q(r, j);
+      if (q < link.lower - kSlack || q > link.upper + kSlack) ++out;
+      largest = std::max(largest, std::abs(q));
+    }
+    if (out == 0) continue;
+    const double bound = std::max(std::abs(link.lower), std::abs(link.upper));
+    const std::string hint =
+        largest > 2 * M_PI && largest * M_PI / 180 <= bound + kSlack
+            ? fmt::format("; in degrees they would fit: name the column q{}[deg]", j + 1)
+            : "";
+    const std::string message = fmt::format(
+        "{} of {} readings are outside {}'s limits [{:.4g}, {:.4g}] rad (largest |q| {:.4g}){}",
+        out, log.rows, link.name, link.lower, link.upper, largest, hint);
+    if (2 * out > log.rows && !force) {
+      throw InputError(log.origin, 0, fmt::format("q{}", j + 1),
+                       message + " (--force calibrates anyway)");
+    }
+    notes.push_back(fmt::format("warning: q{}: {}", j + 1, message));
+  }
+}
+
+// The measurement error left once only the base pose is fitted (LM over the
+// base slots): a base known only roughly is no sign of a wrong log.
+double rms_with_base_fitted(const ChainStructure& s, Eigen::VectorXd p,
+                            const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
+                            const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
+                            bool compressed) {
+  std::vector<int> constant;
+  for (int k = s.base_slots(); k < s.num_slots(); ++k) constant.push_back(k);
+  ceres::Problem problem;
+  problem.AddResidualBlock(measurement_cost(s, joints, kind, measured, weights, compressed),
+                           nullptr, p.data());
+  problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
+  ceres::Solver::Summary summary;
+  ceres::Solve(detail::levenberg_marquardt(50), &problem, &summary);
+  return measurement_rms(stack(s, p, joints, kind, measured, weights, compressed).rss, rows);
+}
+
+// A nominal error beyond kImplausibleErrorFraction of the reach, even with the
+// base pose fitted, says the log is not from this device: an InputError unless
+// forced.
+void check_reach(const ChainStructure& s, const DeviceModel& nominal,
+                 const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
+                 const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
+                 bool compressed, double rms_before, bool force, std::vector<std::string>& notes) {
+  const Eigen::VectorXd p = nominal.kinematic_parameters();
+  const ChainConstants<double> constants = chain_constants(s, p.data());
+  double reach = 0;
+  for (const Eigen::VectorXd& q : joints) {
+    reach =
+        std::max(reach, (forward_kinematics(s, constants, q.data()).p - constants.base.p).norm());
+  }
+  const double limit = kImplausibleErrorFraction * reach;
+  if (!(rms_before > limit)) return;
+  const double rms_base =
+      rms_with_base_fitted(s, p, joints, kind, measured, weights, rows, compressed);
+  if (rms_base <= limit) {
+    notes.push_back(fmt::format(
+        "the nominal model's RMS error is {:.1f} mm, {:.1f} mm with its base pose fitted "
+        "(below {:.0f} % of the reach: plausible for this device)",
+        rms_before * 1e3, rms_base * 1e3, kImplausibleErrorFraction * 100));
+    return;
+  }
+  const std::string message = fmt::format(
+      "the nominal model's RMS error, {:.1f} mm ({:.1f} mm with its base pose fitted), is more "
+      "than {:.0f} % of the device's reach ({:.1f} mm): is this log from this device ({})?",
+      rms_before * 1e3, rms_base * 1e3, kImplausibleErrorFraction * 100, reach * 1e3, nominal.name);
+  if (!force) throw InputError(message + " (--force calibrates anyway)");
+  notes.push_back("warning: " + message);
+}
+
+// An unknown measurement frame (a tracker's, a mocap system's): where the base
+// is a free pose and the model's tool points lie far from the measured ones, the
+// base is first registered in closed form (register_points: Horn / Kabsch on
+// the predicted and measured tool points, weighted by the repeat counts), so
+// that Levenberg-Marquardt starts near the solution. Applied when it halves the
+// RMS point error and moves the base beyond the large-change bounds; returns
+// the note saying so, or nothing.
+std::optional<std::string> register_frame(DeviceModel& model,
+                                          const std::vector<Eigen::VectorXd>& joints,
+                                          const RowsOf& kind, const RowMatrix& measured,
+                                          const Eigen::VectorXd& weights,
+                                          const std::vector<int>& candidates) {
+  if (kind.type == MeasurementType::kDistance || model.base_kind != BaseKind::kPose) return {};
+  for (int k = 0; k < kPoseSlots; ++k) {  // every base slot free
+    if (std::find(candidates.begin(), candidates.end(), k) == candidates.end()) return {};
+  }
+  const ChainStructure s = model.structure();
+  const Eigen::VectorXd p = model.kinematic_parameters();
+  const ChainConstants<double> constants = chain_constants(s, p.data());
+  const Eigen::Index m = static_cast<Eigen::Index>(joints.size());
+  Eigen::Matrix3Xd a(3, m), b(3, m);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    a.col(i) = forward_kinematics(s, constants, joints[i].data()).p;
+    b.col(i) = measured.row(i).head<3>().transpose();
+  }
+  const Eigen::VectorXd w =
+      weights.size() ? Eigen::VectorXd(weights.cwiseAbs2()) : Eigen::VectorXd();
+  Registration reg;
+  try {
+    reg = register_points(a, b, w);
+  } catch (const InputError&) {
+    return {};  // collinear tool points: no closed form; LM alone
+  }
+  const Eigen::VectorXd e2 = (a - b).colwise().squaredNorm().transpose();
+  const double before = std::sqrt(w.size() ? e2.dot(w) / w.sum() : e2.mean());
+  const Frame<double> B = constants.base;
+  const Frame<double> moved{reg.R * B.R, reg.R * B.p + reg.t};
+  const double shift = (moved.p - B.p).norm();
+  const double turn = Eigen::AngleAxisd(reg.R).angle();
+  if (!(reg.rms < 0.5 * before) || (shift <= kLargeChangeLength && turn <= kLargeChangeAngle)) {
+    return {};
+  }
+  const Eigen::Vector3d rpy = matrix_rpy(moved.R);
+  model.base = {moved.p[0], moved.p[1], moved.p[2], rpy[0], rpy[1], rpy[2]};
+  return fmt::format(
+      "the measurement frame was far from the model's base (RMS point error {:.1f} mm): it was "
+      "registered in closed form first (Horn/Kabsch point-set alignment: base moved by {:.1f} mm "
+      "and {:.2f} deg, RMS {:.2f} mm), then refined by Levenberg-Marquardt",
+      before * 1e3, shift * 1e3, turn * 180 / M_PI, reg.rms * 1e3);
+}
+
+// RMS scatter of repeated measurements about their pose's mean (`means`, the
+// average_repeats of `log` over `poses`; Euclidean for positions), with
+// rows - poses degrees of freedom; NaN without repeats.
+double repeatability(const Log& log, const std::vector<std::vector<int>>& poses, const Log& means,
+                     const RowsOf& kind) {
+  double sum = 0;
+  int dof = 0;
+  for (size_t g = 0; g < poses.size(); ++g) {
+    dof += static_cast<int>(poses[g].size()) - 1;
+    for (int r : poses[g]) {
+      sum += kind.type != MeasurementType::kDistance
+                 ? (log.position.row(r) - means.position.row(g)).squaredNorm()
+                 : std::pow(log.distance[r] - means.distance[g], 2);
+    }
+  }
+  return dof > 0 ? std::sqrt(sum / dof) : std::numeric_limits<double>::quiet_NaN();
+}
+
+// The outcome: a numerical failure, then no convergence, then parameters the
+// data do not excite; else converged.
+void set_status(CalibrationResult& result, const std::vector<int>& identified) {
+  const KinematicFit& fit = result.kinematics;
+  bool finite = std::isfinite(fit.rms_after) && std::isfinite(fit.rms_before) &&
+                result.calibrated.kinematic_parameters().allFinite();
+  std::string unexcited, transmissions_failed;
+  for (const ParameterEstimate& e : fit.parameters) {
+    finite = finite && (!e.identifiable || std::isfinite(e.sd));
+    if (e.reason.rfind("not excited", 0) == 0)
+      unexcited += (unexcited.empty() ? "" : ", ") + e.name;
+  }
+  for (const TransmissionFit& t : result.transmissions) {
+    finite = finite && t.value.allFinite() && std::isfinite(t.offset) && std::isfinite(t.rms_after);
+    if (!t.converged) {
+      transmissions_failed +=
+          (transmissions_failed.empty() ? "" : ", ") + result.calibrated.links[t.joint].name;
+    }
+  }
+  if (!finite || fit.numerical_failure) {
+    result.status = CalibrationStatus::kNumericalFailure;
+    result.status_reason = fit.numerical_failure
+                               ? "the solver failed: " + fit.termination
+                               : "the fit produced non-finite values (a measurement too large "
+                                 "for the model, or a degenerate model)";
+  } else if (!transmissions_failed.empty()) {
+    result.status = CalibrationStatus::kNotConverged;
+    result.status_reason =
+        "the transmission fit (step 1) did not converge for " + transmissions_failed;
+  } else if (!identified.empty() && !fit.converged) {
+    result.status = CalibrationStatus::kNotConverged;
+    result.status_reason = fmt::format("Levenberg-Marquardt did not converge in {} iterations ({})",
+                                       fit.iterations, fit.termination);
+  } else if (identified.empty()) {
+    result.status = CalibrationStatus::kRankDeficient;
+    result.status_reason = "no parameter is identifiable from these measurements";
+  } else if (fit.rank_deficient) {
+    result.status = CalibrationStatus::kRankDeficient;
+    result.status_reason = "these measurements do not excite " + unexcited +
+                           " (measure poses that move them, or hold them with --fix to calibrate "
+                           "the rest)";
+  } else {
+    result.status = CalibrationStatus::kConverged;
+    result.status_reason = fmt::format("converged in {} iterations", fit.iterations);
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// The length scale of the problem's current model and poses.
+void set_scales(KinematicProblem& problem) {
+  const ChainStructure s = problem.model.structure();
+  const Eigen::VectorXd p = problem.model.kinematic_parameters();
+  // Metres and radians made comparable: angle columns times a length scale, the
+  // RMS distance of the tool point from the base origin; a pose's rotation rows
+  // likewise (an orientation error phi counts as L phi at the tool).
+  const ChainConstants<double> constants = chain_constants(s, p.data());
+  double sum = 0;
+  for (const Eigen::VectorXd& jq : problem.joints) {
+    sum += (forward_kinematics(s, constants, jq.data()).p - constants.base.p).squaredNorm();
+  }
+  problem.length_scale =
+      std::max(std::sqrt(sum / std::max<double>(problem.joints.size(), 1)), 1e-3);
+  problem.rotation_scale = problem.length_scale;
+}
+
+}  // namespace
+
+std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& poses,
+                                               const CalibrationOptions& options,
+                                               std::vector<std::string>& notes) {
+  std::vector<TransmissionFit> fits;
+  bool any_ext = false;
+  for (int j = 0; j < model.dof(); ++j) any_ext = any_ext || poses.has_ext[j];
+  if (!options.transmissions) {
+    notes.push_back(
+        "--no-transmission: transmissions kept as in the device file (kinematic-only calibration)");
+    return fits;
+  }
+  for (int j = 0; j < model.dof(); ++j) {
+    if (!poses.has_ext[j]) continue;
+    TransmissionFit tf;
+    const bool declared = !model.links[j].transmission.is_none();
+    Transmission fitted =
+        fit_transmission(model, j, poses.q.col(j), poses.ext.col(j), options.polynomial_order, tf);
+    if (!declared) {
+      notes.push_back(fmt::format(
+          "{} has no transmission in the model: a polynomial of order {} was fitted to ext{}",
+          model.links[j].name, tf.value.size(), j + 1));
+    }
+    if (!tf.converged) {
+      notes.push_back(fmt::format("{}: the transmission fit did not converge: {}",
+                                  model.links[j].name, tf.message));
+    }
+    if (auto* c = std::get_if<Capstan>(&fitted.model())) c->offset = tf.offset;
+    model.links[j].transmission = fitted;
+    fits.push_back(tf);
+  }
+  if (!any_ext) notes.push_back("no ext<i> columns: step 1 (transmissions) skipped");
+  return fits;
+}
+
+KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
+                                   const std::vector<int>& repeats,
+                                   const CalibrationOptions& options) {
+  check_log_fits(poses, model);
+  KinematicProblem problem;
+  problem.model = model;
+  problem.type = measurement_type(poses);
+  const int m = poses.rows;
+  const PreparedModel prepared(model);
+  problem.joints.assign(m, Eigen::VectorXd(model.dof()));
+  for (int i = 0; i < m; ++i) {
+    const Eigen::VectorXd qi = poses.q.row(i).transpose();
+    prepared.compensate(qi.data(), problem.joints[i].data());
+  }
+  std::vector<int> pose_index(m);
+  std::iota(pose_index.begin(), pose_index.end(), 0);
+  problem.measured = measured_values(poses, pose_index, RowsOf{problem.type});
+  problem.rows = m;
+  if (!repeats.empty()) {
+    problem.rows = std::accumulate(repeats.begin(), repeats.end(), 0);
+    // An average of k repeats has 1/k of one reading's variance: its rows weigh
+    // sqrt(k) (none when no pose repeats, and then no arithmetic changes).
+    if (problem.rows > m) {
+      problem.weights.resize(m);
+      for (int i = 0; i < m; ++i) problem.weights[i] = std::sqrt(static_cast<double>(repeats[i]));
+    }
+  }
+  const int d = traits(problem.type).dimension;
+  // Beyond options.max_jacobian_bytes the Jacobian is never formed (issue 10:
+  // 10^6 rows): its R factor carries the same column geometry.
+  problem.compressed = static_cast<double>(m) * d * model.structure().num_slots() * sizeof(double) >
+                       static_cast<double>(options.max_jacobian_bytes);
+  set_scales(problem);
+  return problem;
+}
+
+bool register_measurement_frame(KinematicProblem& problem, const std::vector<int>& candidates,
+                                std::vector<std::string>& notes) {
+  auto note = register_frame(problem.model, problem.joints, RowsOf{problem.type}, problem.measured,
+                             problem.weights, candidates);
+  if (!note) return false;
+  notes.push_back(*note);
+  set_scales(problem);
+  return true;
+}
+
+IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
+                                                const std::vector<int>& candidates,
+                                                double tolerance) {
+  const DeviceModel& model = problem.model;
+  const ChainStructure s = model.structure();
+  const Eigen::VectorXd p0 = model.kinematic_parameters();
+  const RowsOf kind{problem.type, problem.rotation_scale};
+  // On synthetic poses over the joint limits (structural) and on the data.
+  std::mt19937_64 rng(kStructuralSeed);
+  std::vector<Eigen::VectorXd> synthetic(kStructuralPoses);
+  for (Eigen::VectorXd& qs : synthetic) {
+    Eigen::VectorXd reading(model.dof());
+    for (int j = 0; j < model.dof(); ++j) {
+      reading[j] =
+          std::uniform_real_distribution<double>(model.links[j].lower, model.links[j].upper)(rng);
+    }
+    qs = model.compensate(reading);
+  }
+  const Stack data =
+      stack(s, p0, problem.joints, kind, problem.measured, problem.weights, problem.compressed);
+  const Stack structural =
+      stack(s, p0, synthetic, kind, predicted_values(s, p0, synthetic, kind), Eigen::VectorXd());
+  IdentifiabilityAnalysis out;
+  out.scale = Eigen::VectorXd::Ones(s.num_slots());
+  std::map<int, std::string> name;
+  for (const ParameterInfo& pi : model.parameter_info()) {
+    name[pi.slot] = pi.name;
+    if (pi.unit == ParameterUnit::kAngle) out.scale[pi.slot] = problem.length_scale;
+  }
+  // An angle phi enters as L phi (metres at the tool): its column is divided by L.
+  auto scaled = [&](const Eigen::MatrixXd& J) {
+    return Eigen::MatrixXd(J * out.scale.cwiseInverse().asDiagonal());
+  };
+  const auto structural_verdict = rank_test(scaled(structural.J), candidates, tolerance);
+  const auto data_verdict = rank_test(scaled(data.J), candidates, tolerance);
+  for (int slot : candidates) {
+    const Verdict& sv = structural_verdict.at(slot);
+    const Verdict& dv = data_verdict.at(slot);
+    if (dv.kind == Verdict::kIdentified) {
+      out.identified.push_back(slot);
+    } else if (sv.kind == Verdict::kNoEffect) {
+      out.reason[slot] = "no effect on the measurements";
+    } else if (sv.kind == Verdict::kDependent) {
+      out.reason[slot] = "dependent: its effect is that of " + names_of(sv.on, name);
+    } else {
+      out.rank_deficient = true;
+      out.reason[slot] = dv.kind == Verdict::kNoEffect
+                             ? "not excited by these measurements (no effect on them)"
+                             : "not excited by these measurements (here its effect is that of " +
+                                   names_of(dv.on, name) + ")";
+    }
+  }
+  return out;
+}
+
+const char* to_string(SolveTermination termination) {
+  switch (termination) {
+    case SolveTermination::kConverged:
+      return "converged";
+    case SolveTermination::kNoConvergence:
+      return "no convergence";
+    case SolveTermination::kFailure:
+      return "failure";
+    case SolveTermination::kNothingToSolve:
+      return "nothing to solve";
+  }
+  return "?";
+}
+
+KinematicSolution solve_kinematics(const KinematicProblem& problem,
+                                   const std::vector<int>& identified, int max_iterations) {
+  const ChainStructure s = problem.model.structure();
+  KinematicSolution out;
+  out.parameters = problem.model.kinematic_parameters();
+  if (identified.empty()) {
+    out.termination = SolveTermination::kNothingToSolve;
+    out.message = "no parameter is identifiable from these measurements";
+    return out;
+  }
+  std::vector<int> constant;
+  for (int k = 0; k < s.num_slots(); ++k) {
+    if (std::find(identified.begin(), identified.end(), k) == identified.end())
+      constant.push_back(k);
+  }
+  ceres::Problem lm;
+  lm.AddResidualBlock(
+      measurement_cost(s, problem.joints, RowsOf{problem.type, problem.rotation_scale},
+                       problem.measured, problem.weights, problem.compressed),
+      nullptr, out.parameters.data());
+  if (!constant.empty()) {
+    lm.SetManifold(out.parameters.data(), new ceres::SubsetManifold(s.num_slots(), constant));
+  }
+  ceres::Solver::Summary summary;
+  ceres::Solve(detail::levenberg_marquardt(max_iterations), &lm, &summary);
+  out.termination = summary.termination_type == ceres::CONVERGENCE ? SolveTermination::kConverged
+                    : summary.termination_type == ceres::FAILURE   ? SolveTermination::kFailure
+                                                                 : SolveTermination::kNoConvergence;
+  // Ceres lists iteration 0 (the start) too.
+  out.iterations = std::max(static_cast<int>(summary.iterations.size()) - 1, 0);
+  out.message = summary.message;
+  return out;
+}
+
+CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
+                            const CalibrationOptions& options) {
+  check_log_fits(log, nominal);
+  if (options.samples < 0) throw InputError("--samples must not be negative");
+  if (options.sigma && !(*options.sigma > 0 && std::isfinite(*options.sigma))) {
+    throw InputError("--sigma must be a positive number of metres");
+  }
+  CalibrationResult result;
+  check_joint_limits(log, nominal, options.force, result.notes);
+  // Repeats of a pose are averaged: one pose, one row of the fit.
+  const std::vector<std::vector<int>> all_poses = repeated_poses(log);
+  std::vector<int> repeats;
+  for (int g : sample_rows(static_cast<int>(all_poses.size()), options.samples, options.seed)) {
+    result.poses.push_back(all_poses[g]);
+    result.rows.push_back(all_poses[g].front());
+    repeats.push_back(static_cast<int>(all_poses[g].size()));
+  }
+  const Log poses = average_repeats(log, result.poses);
+  const int m = poses.rows;
+  KinematicFit& fit = result.kinematics;
+  fit.type = measurement_type(log);
+  fit.poses = m;
+  fit.rows = std::accumulate(repeats.begin(), repeats.end(), 0);
+  fit.repeatability = repeatability(log, result.poses, poses, RowsOf{fit.type});
+  if (log.has_position && log.has_distance) {
+    result.notes.push_back("the log has positions and distances: positions are used");
+  }
+
+  // Step 1: transmissions from the external encoders.
+  DeviceModel model = nominal;
+  result.transmissions = fit_transmissions(model, poses, options, result.notes);
+
+  // Step 2: kinematic parameters from the compensated readings.
+  KinematicProblem problem = kinematic_problem(model, poses, repeats, options);
+  const std::vector<int> candidates = candidate_slots(model, options.fix, options.free);
+  const int d = traits(fit.type).dimension;
+  if (m * d <= static_cast<int>(candidates.size())) {
+    throw InputError(log.origin, 0, "",
+                     fmt::format("too few measurements: {} pose{} give{} {} residual{} for {} "
+                                 "candidate parameters",
+                                 m, m == 1 ? "" : "s", m == 1 ? "s" : "", m * d,
+                                 m * d == 1 ? "" : "s", candidates.size()));
+  }
+  fit.frame_registered = register_measurement_frame(problem, candidates, result.notes);
+  fit.length_scale = problem.length_scale;
+  fit.rotation_scale = problem.rotation_scale;
+  const ChainStructure s = model.structure();
+  const RowsOf kind{problem.type, problem.rotation_scale};
+  const RowMatrix& measured = problem.measured;
+  const Eigen::VectorXd& weights = problem.weights;
+  const bool compressed = problem.compressed;
+  {
+    const PreparedModel prepared_nominal(nominal);
+    std::vector<Eigen::VectorXd> nominal_joints(m, Eigen::VectorXd(model.dof()));
+    for (int i = 0; i < m; ++i) {
+      const Eigen::VectorXd qi = poses.q.row(i).transpose();
+      prepared_nominal.compensate(qi.data(), nominal_joints[i].data());
+    }
+    const Eigen::VectorXd r0 =
+        residuals_at(s, nominal.kinematic_parameters(), nominal_joints, kind, measured, weights);
+    for (Eigen::Index i = 0; i < r0.size(); ++i) {
+      if (std::isfinite(r0[i] * r0[i])) continue;
+      // The row of the pose with the largest measured value is the culprit.
+      auto size = [&](int row) {
+        return kind.type == MeasurementType::kDistance ? std::abs(log.distance[row])
+                                                       : log.position.row(row).norm();
+      };
+      const std::vector<int>& rows = result.poses[i / d];
+      const int culprit = *std::max_element(rows.begin(), rows.end(),
+                                            [&](int a, int b) { return size(a) < size(b); });
+      throw InputError(log.origin, log.line[culprit], "",
+                       "the nominal model's error on this row is not finite: a value is too large");
+    }
+    fit.rms_before = measurement_rms(r0.squaredNorm(), fit.rows);
+    DeviceModel registered = nominal;  // the nominal in the registered frame, if it was
+    registered.base = problem.model.base;
+    check_reach(s, registered, nominal_joints, kind, measured, weights, fit.rows, compressed,
+                fit.rms_before, options.force, result.notes);
+  }
+
+  // Identifiability, then Levenberg-Marquardt over the identified parameters.
+  const IdentifiabilityAnalysis analysis =
+      analyze_identifiability(problem, candidates, options.dependency_tolerance);
+  const std::vector<int>& identified = analysis.identified;
+  const std::map<int, std::string>& reason = analysis.reason;
+  const Eigen::VectorXd& scale = analysis.scale;
+  fit.rank_deficient = analysis.rank_deficient;
+  fit.identified = static_cast<int>(identified.size());
+  const KinematicSolution solution = solve_kinematics(problem, identified);
+  fit.converged = solution.termination == SolveTermination::kConverged;
+  fit.numerical_failure = solution.termination == SolveTermination::kFailure;
+  fit.iterations = solution.iterations;
+  fit.termination = solution.message;
+  if (solution.termination == SolveTermination::kNothingToSolve) {
+    result.notes.push_back(fit.termination);
+  } else if (!fit.converged) {
+    result.notes.push_back("step 2 did not converge: " + solution.message);
+  }
+  const Eigen::VectorXd& p = solution.parameters;
+  model = problem.model;
+  model.set_kinematic_parameters(p);
+  const Stack data = stack(s, p, problem.joints, kind, measured, weights, compressed);
+  fit.rms_after = measurement_rms(data.rss, fit.rows);
+  const std::vector<ParameterInfo> info = model.parameter_info();
+  std::map<int, std::string> name;
+  for (const ParameterInfo& pi : info) name[pi.slot] = pi.name;
+
+  // Uncertainty, conditioning and observability of the identified parameters.
+  const int k = static_cast<int>(identified.size());
+  Eigen::MatrixXd Ji(data.J.rows(), k), Js(data.J.rows(), k);
+  for (int c = 0; c < k; ++c) {
+    Ji.col(c) = data.J.col(identified[c]);
+    Js.col(c) = Ji.col(c) / scale[identified[c]];
+  }
+  const Eigen::Index dof_residual = data.residuals - k;
+  fit.sigma_given = options.sigma.has_value();
+  fit.sigma =
+      options.sigma
+          ? *options.sigma
+          : std::sqrt(data.rss / static_cast<double>(std::max<Eigen::Index>(dof_residual, 1)));
+  // From the eigen-decomposition of the small normal matrices J^T J: the
+  // covariance sigma^2 (J^T J)^-1, and the singular values of the scaled J.
+  const Eigen::MatrixXd covariance = parameter_covariance(Ji, fit.sigma);
+  const Conditioning scaled_conditioning = conditioning(Js, static_cast<double>(fit.rows) * d);
+  fit.condition_number = scaled_conditioning.condition_number;
+  fit.observability = scaled_conditioning.observability;
+  fit.correlation.resize(k, k);
+  for (int a = 0; a < k; ++a) {
+    fit.identified_names.push_back(name[identified[a]]);
+    for (int b = 0; b < k; ++b) {
+      fit.correlation(a, b) = covariance(a, b) / std::sqrt(covariance(a, a) * covariance(b, b));
+    }
+  }
+  for (const ParameterInfo& pi : info) {
+    ParameterEstimate e;
+    e.name = pi.name;
+    e.slot = pi.slot;
+    e.unit = pi.unit;
+    e.nominal = nominal.kinematic_parameters()[pi.slot];
+    e.value = p[pi.slot];
+    const auto it = std::find(identified.begin(), identified.end(), pi.slot);
+    if (it != identified.end()) {
+      const int c = static_cast<int>(it - identified.begin());
+      e.identifiable = true;
+      e.sd = std::sqrt(covariance(c, c));
+      e.large_change = std::abs(e.value - e.nominal) >
+                       (e.unit == ParameterUnit::kAngle ? kLargeChangeAngle : kLargeChangeLength);
+      for (int o = 0; o < k; ++o) {
+        if (o == c) continue;
+        const double rho = covariance(c, o) / std::sqrt(covariance(c, c) * covariance(o, o));
+        if (std::abs(rho) > std::abs(e.max_correlation)) {
+          e.max_correlation = rho;
+          e.max_correlation_with = name[identified[o]];
+        }
+      }
+    } else if (reason.count(pi.slot)) {
+      e.reason = reason.at(pi.slot);
+    } else if (std::find(options.fix.begin(), options.fix.end(), pi.name) != options.fix.end()) {
+      e.reason = "fixed by the user";
+    } else {  // a beta that candidate_slots left out
+      e.reason = beta_left_out_reason(nominal, pi.joint);
+    }
+    fit.parameters.push_back(e);
+  }
+  if (fit.rank_deficient) {
+    result.notes.push_back(
+        "rank-deficient: these measurements do not excite every parameter the model can "
+        "identify; see the parameters marked 'not excited'");
+  }
+  result.calibrated = model;
+  set_status(result, identified);
+  return result;
+}
+
+}  // namespace hapticcal

@@ -1,0 +1,183 @@
+// Internal: the step-2 measurement cost (predicted - measured, measurement.hpp) with its analytic
+// Jacobian, in a header so that tests can check the Jacobian against central differences.
+#pragma once
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Core>
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+#include <utility>
+#include <vector>
+
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/measurement.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+
+namespace hapticcal::detail {
+
+// Measured values, one row per sample (traits(type).width values), contiguous.
+using RowMatrix = MeasuredValues;
+
+// The family's rows with a pose's rotation scale (measurement.hpp).
+struct RowsOf {
+  MeasurementType type = MeasurementType::kDistance;
+  double rotation_scale = 1;  // metres per radian of a pose's rotation rows
+  int dimension() const { return traits(type).dimension; }
+};
+
+inline void measurement_rows(const ChainStructure& s, const ChainConstants<double>& constants,
+                             const double* params, const double* joint, const RowsOf& kind,
+                             const double* measured, double* residual,
+                             Eigen::Ref<Eigen::MatrixXd> J) {
+  hapticcal::measurement_rows(kind.type, s, constants, params, joint, measured, kind.rotation_scale,
+                              residual, J);
+}
+
+// A pose's rows times its weight (the square root of its repeat count: an
+// average of k readings has 1/k of one's variance); no weights: all 1.
+inline void weigh(const Eigen::VectorXd& weights, size_t pose, double* residual,
+                  Eigen::Ref<Eigen::MatrixXd> J) {
+  if (weights.size() == 0) return;
+  const double w = weights[static_cast<Eigen::Index>(pose)];
+  for (Eigen::Index k = 0; k < J.rows(); ++k) residual[k] *= w;
+  J *= w;
+}
+
+// Ceres cost over a set of poses: kind.dimension() rows per pose,
+// parameters all slots of `s`, each pose's rows weighted (weigh).
+class MeasurementCost : public ceres::CostFunction {
+ public:
+  MeasurementCost(ChainStructure s, std::vector<Eigen::VectorXd> joints, RowsOf kind,
+                  RowMatrix measured, Eigen::VectorXd weights = {})
+      : s_(s),
+        joints_(std::move(joints)),
+        kind_(kind),
+        measured_(std::move(measured)),
+        weights_(std::move(weights)) {
+    set_num_residuals(static_cast<int>(joints_.size()) * kind.dimension());
+    mutable_parameter_block_sizes()->push_back(s.num_slots());
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const int d = kind_.dimension();
+    const int n = s_.num_slots();
+    Eigen::MatrixXd J(d, n);
+    const ChainConstants<double> constants = chain_constants(s_, parameters[0]);
+    for (size_t i = 0; i < joints_.size(); ++i) {
+      measurement_rows(s_, constants, parameters[0], joints_[i].data(), kind_,
+                       measured_.row(i).data(), residuals + d * i, J);
+      weigh(weights_, i, residuals + d * i, J);
+      if (jacobians && jacobians[0]) {
+        Eigen::Map<RowMatrix>(jacobians[0] + static_cast<size_t>(d) * i * n, d, n) = J;
+      }
+    }
+    return true;
+  }
+
+ private:
+  ChainStructure s_;
+  std::vector<Eigen::VectorXd> joints_;
+  RowsOf kind_;
+  RowMatrix measured_;
+  Eigen::VectorXd weights_;
+};
+
+// The measurement problem over many poses compressed to n + 1 rows (n slots):
+// with [J r] = Q [R c; 0 e], accumulated block by block of poses (a tall-skinny
+// QR: memory does not grow with the poses), 1/2 |r|^2 = 1/2 |[c; e]|^2,
+// J^T J = R^T R and J^T r = R^T c. So R stands in for J wherever only column
+// geometry matters (the rank test, the covariance, singular values).
+struct CompressedRows {
+  Eigen::MatrixXd R;  // n x n, upper triangular
+  Eigen::VectorXd c;  // n
+  double e = 0;       // the part of r outside the span of J
+  double rss() const { return c.squaredNorm() + e * e; }
+};
+
+inline CompressedRows compress_rows(const ChainStructure& s, const double* params,
+                                    const std::vector<Eigen::VectorXd>& joints, RowsOf kind,
+                                    const RowMatrix& measured, const Eigen::VectorXd& weights) {
+  constexpr int kBlockPoses = 256;
+  const int d = kind.dimension(), n = s.num_slots();
+  const ChainConstants<double> constants = chain_constants(s, params);
+  // Rows 0..n: the factor so far; below: the next block's [J r].
+  Eigen::MatrixXd work = Eigen::MatrixXd::Zero(n + 1 + kBlockPoses * d, n + 1);
+  Eigen::MatrixXd J(d, n);
+  Eigen::Matrix<double, 6, 1> r;
+  const int m = static_cast<int>(joints.size());
+  for (int first = 0; first < m; first += kBlockPoses) {
+    const int count = std::min(kBlockPoses, m - first);
+    for (int i = 0; i < count; ++i) {
+      measurement_rows(s, constants, params, joints[first + i].data(), kind,
+                       measured.row(first + i).data(), r.data(), J);
+      weigh(weights, first + i, r.data(), J);
+      work.block(n + 1 + d * i, 0, d, n) = J;
+      work.block(n + 1 + d * i, n, d, 1) = r.head(d);
+    }
+    const int rows = n + 1 + d * count;
+    Eigen::Ref<Eigen::MatrixXd> block = work.topRows(rows);
+    const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(block);  // in place
+    work.topRows(n + 1) = work.topRows(n + 1).triangularView<Eigen::Upper>();
+    work.middleRows(n + 1, rows - n - 1).setZero();
+  }
+  CompressedRows out;
+  out.R = work.topLeftCorner(n, n);
+  out.c = work.block(0, n, n, 1);
+  out.e = work(n, n);
+  return out;
+}
+
+// MeasurementCost through compress_rows: n + 1 residuals [c; e] with the
+// Jacobian [R; 0]. Levenberg-Marquardt sees the same cost, gradient and
+// Gauss-Newton matrix as with every row, without the rows x n Jacobian.
+// Holds references: the poses and measurements must outlive it.
+class CompressedMeasurementCost : public ceres::CostFunction {
+ public:
+  CompressedMeasurementCost(ChainStructure s, const std::vector<Eigen::VectorXd>& joints,
+                            RowsOf kind, const RowMatrix& measured, const Eigen::VectorXd& weights)
+      : s_(s), joints_(joints), kind_(kind), measured_(measured), weights_(weights) {
+    set_num_residuals(s.num_slots() + 1);
+    mutable_parameter_block_sizes()->push_back(s.num_slots());
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const int n = s_.num_slots();
+    if (!jacobians || !jacobians[0]) {  // the cost alone: |r| in one residual
+      const int d = kind_.dimension();
+      const ChainConstants<double> constants = chain_constants(s_, parameters[0]);
+      Eigen::MatrixXd J(d, n);
+      Eigen::Matrix<double, 6, 1> r;
+      double rss = 0;
+      for (size_t i = 0; i < joints_.size(); ++i) {
+        measurement_rows(s_, constants, parameters[0], joints_[i].data(), kind_,
+                         measured_.row(i).data(), r.data(), J);
+        weigh(weights_, i, r.data(), J);
+        for (int k = 0; k < d; ++k) rss += r[k] * r[k];
+      }
+      Eigen::Map<Eigen::VectorXd>(residuals, n + 1).setZero();
+      residuals[0] = std::sqrt(rss);
+      return std::isfinite(rss);
+    }
+    const CompressedRows z = compress_rows(s_, parameters[0], joints_, kind_, measured_, weights_);
+    Eigen::Map<Eigen::VectorXd> res(residuals, n + 1);
+    res.head(n) = z.c;
+    res[n] = z.e;
+    Eigen::Map<RowMatrix> jac(jacobians[0], n + 1, n);
+    jac.topRows(n) = z.R;
+    jac.row(n).setZero();
+    return res.allFinite() && jac.allFinite();
+  }
+
+ private:
+  ChainStructure s_;
+  const std::vector<Eigen::VectorXd>& joints_;
+  RowsOf kind_;
+  const RowMatrix& measured_;
+  const Eigen::VectorXd& weights_;
+};
+
+}  // namespace hapticcal::detail

@@ -1,0 +1,435 @@
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <charconv>
+#include <cmath>
+#include <numbers>
+#include <set>
+
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "io/yaml_reader.hpp"
+
+namespace hapticcal {
+namespace {
+
+// Version 1: one convention (dh, mdh) for every link, revolute joints. Version 2
+// adds per-link geometry (dh, mdh, urdf origin + axis) and joint types; a model
+// that version 1 can hold is written as version 1.
+constexpr const char* kFormat = "hapticcal-device/1";
+constexpr const char* kFormat2 = "hapticcal-device/2";
+
+using detail::join;
+
+class Reader : public detail::YamlReader {
+ public:
+  using YamlReader::YamlReader;
+
+  Transmission transmission(const YAML::Node& node, const std::string& path, double lower,
+                            double upper) const {
+    expect_map(node, path);
+    const std::string type = string(require(node, path, "type"), join(path, "type"));
+    if (type == "capstan") {
+      check_keys(node, path,
+                 {"type", "ratio", "drum_distance", "offset", "ratio_error", "r_out", "beta_out",
+                  "r_in", "beta_in"});
+      Capstan c;
+      c.ratio = number(node, path, "ratio");
+      c.drum_distance = number(node, path, "drum_distance");
+      // The error terms default to the ideal drive (zero).
+      auto optional = [&](const char* key, double& field) {
+        if (node[key]) field = number(node[key], join(path, key));
+      };
+      optional("offset", c.offset);
+      optional("ratio_error", c.ratio_error);
+      optional("r_out", c.r_out);
+      optional("beta_out", c.beta_out);
+      optional("r_in", c.r_in);
+      optional("beta_in", c.beta_in);
+      return Transmission(c);
+    }
+    if (type == "parallelogram") {
+      check_keys(node, path, {"type", "L1", "L2", "L3", "L4"});
+      return Transmission(Parallelogram{number(node, path, "L1"), number(node, path, "L2"),
+                                        number(node, path, "L3"), number(node, path, "L4")});
+    }
+    if (type == "polynomial") {
+      check_keys(node, path, {"type", "basis", "domain", "coefficients"});
+      Polynomial poly;
+      poly.lower = lower;
+      poly.upper = upper;
+      if (node["basis"]) {
+        const std::string basis = string(node["basis"], join(path, "basis"));
+        if (basis == "monomial") {
+          poly.basis = PolynomialBasis::kMonomial;
+        } else if (basis != "chebyshev") {
+          fail(node["basis"], join(path, "basis"),
+               fmt::format("'{}' is not a basis (chebyshev or monomial)", printable(basis)));
+        }
+      }
+      if (node["domain"]) {
+        const auto d = numbers(node["domain"], join(path, "domain"), 2);
+        poly.lower = d[0];
+        poly.upper = d[1];
+      }
+      poly.coefficients =
+          numbers(require(node, path, "coefficients"), join(path, "coefficients"), -1);
+      return Transmission(poly);
+    }
+    if (type == "chain") {
+      check_keys(node, path, {"type", "stages"});
+      const YAML::Node stages = require(node, path, "stages");
+      if (!stages.IsSequence()) fail(stages, join(path, "stages"), "expected a list");
+      Chain chain;
+      for (size_t k = 0; k < stages.size(); ++k) {
+        chain.stages.push_back(
+            transmission(stages[k], fmt::format("{}.stages[{}]", path, k), lower, upper));
+      }
+      return Transmission(chain);
+    }
+    fail(node["type"], join(path, "type"),
+         fmt::format("'{}' is not a transmission (capstan, parallelogram, polynomial, chain)",
+                     printable(type)));
+  }
+
+ private:
+  std::string origin_;
+};
+
+constexpr size_t kMaxLinkName = 64;     // bytes
+constexpr size_t kMaxDeviceName = 200;  // bytes
+
+// An identifier [A-Za-z_][A-Za-z0-9_]* of at most kMaxLinkName characters.
+bool usable_link_name(const std::string& name) {
+  auto letter = [](char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || c == '_'; };
+  if (name.empty() || name.size() > kMaxLinkName || !letter(name[0])) return false;
+  for (const char c : name) {
+    if (!letter(c) && !(c >= '0' && c <= '9')) return false;
+  }
+  return name != "base" && name != "tool";
+}
+
+// Why the device name cannot be used (it reaches reports and saved files), or empty.
+std::string device_name_problem(const std::string& name) {
+  if (name.size() > kMaxDeviceName)
+    return fmt::format("longer than {} bytes ({})", kMaxDeviceName, name.size());
+  const std::string why = text_problem(name);
+  return why.empty() ? why : fmt::format("'{}': {}", printable(name), why);
+}
+
+// Semantic checks shared by the loader and check_device: (key, reason) or empty.
+std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) {
+  const Link& link = model.links[i];
+  const std::string key = fmt::format("links[{}]", i);
+  if (!usable_link_name(link.name)) {
+    return {key + ".name", fmt::format("'{}' is not a usable link name (letters, digits, _; at "
+                                       "most {} characters; not 'base' or 'tool')",
+                                       printable(link.name), kMaxLinkName)};
+  }
+  for (int j = 0; j < i; ++j) {
+    if (model.links[j].name == link.name)
+      return {key + ".name", fmt::format("'{}' repeats links[{}]", link.name, j)};
+  }
+  for (double v :
+       {link.a, link.alpha, link.d, link.theta, link.beta, link.lower, link.upper, link.offset}) {
+    if (!std::isfinite(v)) return {key, "non-finite value"};
+  }
+  for (double v : link.origin) {
+    if (!std::isfinite(v)) return {key + ".origin", "non-finite value"};
+  }
+  if (link.geometry == Geometry::kOrigin) {
+    if (!link.axis.allFinite() || std::abs(link.axis.norm() - 1) > 1e-9) {
+      return {key + ".axis", "must be a unit vector"};
+    }
+  } else if (link.offset != 0 || link.origin != std::array<double, 6>{} ||
+             link.axis != Eigen::Vector3d::UnitZ()) {
+    return {key, "origin, axis and offset belong to urdf geometry"};
+  }
+  if (!(link.lower < link.upper)) {
+    return {key + ".limits",
+            fmt::format("lower {} must be below upper {}", link.lower, link.upper)};
+  }
+  const std::string why = link.transmission.check(link.lower, link.upper);
+  if (!why.empty()) return {key + ".transmission", why};
+  for (double v : link.transmission.parameters()) {
+    if (!std::isfinite(v)) return {key + ".transmission", "non-finite value"};
+  }
+  return {};
+}
+
+std::string num(double v) { return fmt::format("{}", v); }
+
+std::string quoted(const std::string& s) {
+  std::string out = "\"";
+  for (const char ch : s) {
+    if (ch == '"' || ch == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (static_cast<unsigned char>(ch) < 0x20) {
+      out += fmt::format("\\x{:02x}", static_cast<unsigned char>(ch));
+    } else {
+      out += ch;
+    }
+  }
+  return out + "\"";
+}
+
+std::string numbers_text(const std::vector<double>& values) {
+  std::string out = "[";
+  for (size_t i = 0; i < values.size(); ++i) out += (i ? ", " : "") + num(values[i]);
+  return out + "]";
+}
+
+std::string transmission_text(const Transmission& t) {
+  struct Visitor {
+    std::string operator()(const std::monostate&) const { return {}; }
+    std::string operator()(const Capstan& c) const {
+      return fmt::format(
+          "{{type: capstan, ratio: {}, drum_distance: {}, offset: {}, ratio_error: {}, r_out: {}, "
+          "beta_out: {}, r_in: {}, beta_in: {}}}",
+          num(c.ratio), num(c.drum_distance), num(c.offset), num(c.ratio_error), num(c.r_out),
+          num(c.beta_out), num(c.r_in), num(c.beta_in));
+    }
+    std::string operator()(const Parallelogram& P) const {
+      return fmt::format("{{type: parallelogram, L1: {}, L2: {}, L3: {}, L4: {}}}", num(P.L1),
+                         num(P.L2), num(P.L3), num(P.L4));
+    }
+    std::string operator()(const Polynomial& p) const {
+      return fmt::format("{{type: polynomial, basis: {}, domain: [{}, {}], coefficients: {}}}",
+                         p.basis == PolynomialBasis::kChebyshev ? "chebyshev" : "monomial",
+                         num(p.lower), num(p.upper), numbers_text(p.coefficients));
+    }
+    std::string operator()(const Chain& chain) const {
+      std::string out = "{type: chain, stages: [";
+      for (size_t k = 0; k < chain.stages.size(); ++k) {
+        out += (k ? ", " : "") + transmission_text(chain.stages[k]);
+      }
+      return out + "]}";
+    }
+  };
+  return std::visit(Visitor{}, t.model());
+}
+
+}  // namespace
+
+DeviceModel parse_device(const std::string& text, const std::string& origin) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(origin, e.mark.is_null() ? 0 : e.mark.line + 1, "", "YAML: " + e.msg);
+  }
+  const Reader r(origin);
+  if (!root || root.IsNull()) throw InputError(origin, 0, "", "empty device file");
+  r.check_keys(root, "", {"format", "name", "convention", "base", "links", "tool"});
+  const std::string format = r.string(r.require(root, "", "format"), "format");
+  if (format != kFormat && format != kFormat2) {
+    r.fail(root["format"], "format",
+           fmt::format("'{}' is not '{}' or '{}'", printable(format), kFormat, kFormat2));
+  }
+  const bool v2 = format == kFormat2;
+  DeviceModel model;
+  model.name = r.string(r.require(root, "", "name"), "name");
+  if (const std::string why = device_name_problem(model.name); !why.empty())
+    r.fail(root["name"], "name", why);
+  auto geometry_of = [&](const YAML::Node& node, const std::string& key) {
+    const std::string text = r.string(node, key);
+    if (text == "dh") return Geometry::kDh;
+    if (text == "mdh") return Geometry::kMdh;
+    if (v2 && text == "urdf") return Geometry::kOrigin;
+    r.fail(node, key,
+           fmt::format("'{}' is not {}", printable(text), v2 ? "dh, mdh or urdf" : "dh or mdh"));
+  };
+  const Geometry convention = geometry_of(r.require(root, "", "convention"), "convention");
+
+  const YAML::Node base = r.require(root, "", "base");
+  r.check_keys(base, "base", {"dh", "pose"});
+  if (base.size() != 1) r.fail(base, "base", "give exactly one of dh or pose");
+  auto read_pose = [&](const YAML::Node& node, const std::string& path,
+                       std::array<double, 6>& out) {
+    r.check_keys(node, path, {"xyz", "rpy"});
+    const auto xyz = r.numbers(r.require(node, path, "xyz"), join(path, "xyz"), 3);
+    const auto rpy = r.numbers(r.require(node, path, "rpy"), join(path, "rpy"), 3);
+    out = {xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2]};
+  };
+  if (base["dh"]) {
+    model.base_kind = BaseKind::kDh;
+    const YAML::Node dh = base["dh"];
+    r.check_keys(dh, "base.dh", {"a", "alpha", "d", "theta"});
+    model.base = {r.number(dh, "base.dh", "a"),
+                  r.number(dh, "base.dh", "alpha"),
+                  r.number(dh, "base.dh", "d"),
+                  r.number(dh, "base.dh", "theta"),
+                  0.0,
+                  0.0};
+  } else {
+    model.base_kind = BaseKind::kPose;
+    read_pose(base["pose"], "base.pose", model.base);
+  }
+
+  const YAML::Node links = r.require(root, "", "links");
+  if (!links.IsSequence() || links.size() == 0) r.fail(links, "links", "expected a non-empty list");
+  if (links.size() > static_cast<size_t>(kMaxDof)) {
+    r.fail(links, "links", fmt::format("at most {} links are supported", kMaxDof));
+  }
+  for (size_t i = 0; i < links.size(); ++i) {
+    const YAML::Node node = links[i];
+    const std::string path = fmt::format("links[{}]", i);
+    Link link;
+    link.geometry = convention;
+    if (v2 && node.IsMap() && node["geometry"]) {
+      link.geometry = geometry_of(node["geometry"], join(path, "geometry"));
+    }
+    if (link.geometry == Geometry::kOrigin) {
+      r.check_keys(
+          node, path,
+          {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission"});
+    } else if (v2) {
+      r.check_keys(node, path,
+                   {"name", "geometry", "type", "a", "alpha", "d", "theta", "beta", "limits",
+                    "transmission"});
+    } else {
+      r.check_keys(node, path,
+                   {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
+    }
+    link.name = r.string(r.require(node, path, "name"), join(path, "name"));
+    if (node["type"]) {
+      const std::string type = r.string(node["type"], join(path, "type"));
+      if (type == "revolute") {
+        link.type = JointType::kRevolute;
+      } else if (type == "continuous") {
+        link.type = JointType::kContinuous;
+      } else if (type == "prismatic") {
+        link.type = JointType::kPrismatic;
+      } else {
+        r.fail(node["type"], join(path, "type"),
+               fmt::format("'{}' is not revolute, continuous or prismatic", printable(type)));
+      }
+    }
+    if (link.geometry == Geometry::kOrigin) {
+      read_pose(r.require(node, path, "origin"), join(path, "origin"), link.origin);
+      const auto axis = r.numbers(r.require(node, path, "axis"), join(path, "axis"), 3);
+      link.axis = Eigen::Vector3d(axis[0], axis[1], axis[2]);
+      if (!(link.axis.norm() > 0)) r.fail(node["axis"], join(path, "axis"), "zero axis");
+      link.axis.normalize();
+      if (node["offset"]) link.offset = r.number(node["offset"], join(path, "offset"));
+    } else {
+      link.a = r.number(node, path, "a");
+      link.alpha = r.number(node, path, "alpha");
+      link.d = r.number(node, path, "d");
+      link.theta = r.number(node, path, "theta");
+      if (node["beta"]) link.beta = r.number(node["beta"], join(path, "beta"));
+    }
+    const auto limits = r.numbers(r.require(node, path, "limits"), join(path, "limits"), 2);
+    link.lower = limits[0];
+    link.upper = limits[1];
+    if (!(link.lower < link.upper)) {
+      r.fail(node["limits"], join(path, "limits"),
+             fmt::format("lower {} must be below upper {}", link.lower, link.upper));
+    }
+    if (node["transmission"]) {
+      link.transmission =
+          r.transmission(node["transmission"], join(path, "transmission"), link.lower, link.upper);
+    }
+    model.links.push_back(std::move(link));
+    const auto [key, why] = check_link(model, static_cast<int>(i));
+    if (!why.empty()) {
+      const YAML::Node at = key.ends_with(".transmission") ? node["transmission"]
+                            : key.ends_with(".name")       ? node["name"]
+                                                           : node;
+      r.fail(at, key, why);
+    }
+  }
+
+  if (root["tool"]) {
+    const YAML::Node tool = root["tool"];
+    r.check_keys(tool, "tool", {"pose"});
+    read_pose(r.require(tool, "tool", "pose"), "tool.pose", model.tool);
+  }
+  return model;
+}
+
+DeviceModel load_device(const std::string& path) { return parse_device(read_file(path), path); }
+
+std::string check_device(const DeviceModel& model) {
+  if (const std::string why = device_name_problem(model.name); !why.empty()) return "name: " + why;
+  if (model.links.empty()) return "links: no links";
+  if (model.dof() > kMaxDof) return fmt::format("links: at most {} links are supported", kMaxDof);
+  for (double v : model.base) {
+    if (!std::isfinite(v)) return "base: non-finite value";
+  }
+  if (model.base_kind == BaseKind::kDh && (model.base[4] != 0 || model.base[5] != 0)) {
+    return "base: unused DH slots must be zero";
+  }
+  for (double v : model.tool) {
+    if (!std::isfinite(v)) return "tool: non-finite value";
+  }
+  for (int i = 0; i < model.dof(); ++i) {
+    const auto [key, why] = check_link(model, i);
+    if (!why.empty()) return key + ": " + why;
+  }
+  return {};
+}
+
+std::string device_to_yaml(const DeviceModel& model) {
+  std::string out;
+  // Version 1 holds a model whose links are all revolute with one DH or MDH geometry.
+  const Geometry first = model.links.empty() ? Geometry::kDh : model.links[0].geometry;
+  bool uniform = first != Geometry::kOrigin;
+  for (const Link& l : model.links) {
+    uniform = uniform && l.geometry == first && l.type == JointType::kRevolute;
+  }
+  auto geometry_name = [](Geometry g) {
+    return g == Geometry::kDh ? "dh" : g == Geometry::kMdh ? "mdh" : "urdf";
+  };
+  out += fmt::format("format: {}\n", uniform ? kFormat : kFormat2);
+  out += fmt::format("name: {}\n", quoted(model.name));
+  out += fmt::format("convention: {}\n", geometry_name(first));
+  const auto& b = model.base;
+  if (model.base_kind == BaseKind::kDh) {
+    out += fmt::format("base:\n  dh: {{a: {}, alpha: {}, d: {}, theta: {}}}\n", num(b[0]),
+                       num(b[1]), num(b[2]), num(b[3]));
+  } else {
+    out += fmt::format("base:\n  pose: {{xyz: [{}, {}, {}], rpy: [{}, {}, {}]}}\n", num(b[0]),
+                       num(b[1]), num(b[2]), num(b[3]), num(b[4]), num(b[5]));
+  }
+  out += "links:\n";
+  for (const Link& l : model.links) {
+    out += fmt::format("  - name: {}\n", quoted(l.name));
+    if (!uniform) {
+      out += fmt::format("    geometry: {}\n", geometry_name(l.geometry));
+      out += fmt::format("    type: {}\n", l.type == JointType::kRevolute     ? "revolute"
+                                           : l.type == JointType::kContinuous ? "continuous"
+                                                                              : "prismatic");
+    }
+    if (l.geometry == Geometry::kOrigin) {
+      const auto& o = l.origin;
+      out += fmt::format("    origin: {{xyz: [{}, {}, {}], rpy: [{}, {}, {}]}}\n", num(o[0]),
+                         num(o[1]), num(o[2]), num(o[3]), num(o[4]), num(o[5]));
+      out +=
+          fmt::format("    axis: [{}, {}, {}]\n", num(l.axis[0]), num(l.axis[1]), num(l.axis[2]));
+      out += fmt::format("    offset: {}\n", num(l.offset));
+    } else {
+      out += fmt::format("    a: {}\n    alpha: {}\n    d: {}\n    theta: {}\n", num(l.a),
+                         num(l.alpha), num(l.d), num(l.theta));
+      out += fmt::format("    beta: {}\n", num(l.beta));
+    }
+    out += fmt::format("    limits: [{}, {}]\n", num(l.lower), num(l.upper));
+    if (!l.transmission.is_none()) {
+      out += fmt::format("    transmission: {}\n", transmission_text(l.transmission));
+    }
+  }
+  const auto& t = model.tool;
+  out += fmt::format("tool:\n  pose: {{xyz: [{}, {}, {}], rpy: [{}, {}, {}]}}\n", num(t[0]),
+                     num(t[1]), num(t[2]), num(t[3]), num(t[4]), num(t[5]));
+  return out;
+}
+
+void save_device(const DeviceModel& model, const std::string& path) {
+  const std::string why = check_device(model);
+  if (!why.empty()) throw InputError(path, 0, "", "refusing to write an unusable model: " + why);
+  write_file_atomically(path, device_to_yaml(model));
+}
+
+}  // namespace hapticcal

@@ -1,0 +1,170 @@
+#include <fmt/format.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
+#include "io/interrupt.hpp"
+
+namespace hapticcal {
+namespace {
+
+std::string hex(unsigned char byte) { return fmt::format("\\x{:02x}", byte); }
+
+// what() stays one line: C0 control characters and DEL become \xNN.
+std::string one_line(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    const auto b = static_cast<unsigned char>(c);
+    if (b < 0x20 || b == 0x7f) {
+      out += hex(b);
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+std::string compose(const std::string& file, int line, const std::string& key,
+                    const std::string& message) {
+  std::string where = file;
+  if (line > 0) where += fmt::format(":{}", line);
+  if (!key.empty()) where += (where.empty() ? "" : ": ") + key;
+  return one_line(where.empty() ? message : where + ": " + message);
+}
+
+// The length of the UTF-8 sequence at text[i] when it is the shortest encoding
+// of a Unicode scalar value (RFC 3629), else 0; its code point in `cp`.
+std::size_t utf8_sequence(const std::string& text, std::size_t i, char32_t& cp) {
+  const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(text[k]); };
+  const unsigned char b0 = byte(i);
+  if (b0 < 0x80) {
+    cp = b0;
+    return 1;
+  }
+  std::size_t n = 0;
+  char32_t min = 0;
+  if ((b0 & 0xe0) == 0xc0) {
+    n = 2, cp = b0 & 0x1f, min = 0x80;
+  } else if ((b0 & 0xf0) == 0xe0) {
+    n = 3, cp = b0 & 0x0f, min = 0x800;
+  } else if ((b0 & 0xf8) == 0xf0) {
+    n = 4, cp = b0 & 0x07, min = 0x10000;
+  } else {
+    return 0;
+  }
+  if (i + n > text.size()) return 0;
+  for (std::size_t k = 1; k < n; ++k) {
+    if ((byte(i + k) & 0xc0) != 0x80) return 0;
+    cp = (cp << 6) | (byte(i + k) & 0x3f);
+  }
+  if (cp < min || cp > 0x10ffff || (cp >= 0xd800 && cp <= 0xdfff)) return 0;
+  return n;
+}
+
+bool is_control(char32_t cp) { return cp < 0x20 || (cp >= 0x7f && cp <= 0x9f); }
+
+}  // namespace
+
+std::string printable(const std::string& text, std::size_t max_chars) {
+  std::string out;
+  std::size_t i = 0, chars = 0;
+  while (i < text.size() && chars < max_chars) {
+    char32_t cp = 0;
+    const std::size_t n = utf8_sequence(text, i, cp);
+    if (n == 0 || is_control(cp) || cp == '\\') {
+      for (std::size_t k = 0; k < std::max<std::size_t>(n, 1); ++k)
+        out += hex(static_cast<unsigned char>(text[i + k]));
+      i += std::max<std::size_t>(n, 1);
+    } else {
+      out.append(text, i, n);
+      i += n;
+    }
+    ++chars;
+  }
+  if (i < text.size()) out += "...";
+  return out;
+}
+
+std::string text_problem(const std::string& text) {
+  for (std::size_t i = 0; i < text.size();) {
+    char32_t cp = 0;
+    const std::size_t n = utf8_sequence(text, i, cp);
+    if (n == 0) return fmt::format("invalid UTF-8 at byte {}", i + 1);
+    if (is_control(cp)) {
+      std::string bytes;
+      for (std::size_t k = 0; k < n; ++k) bytes += hex(static_cast<unsigned char>(text[i + k]));
+      return fmt::format("control character {} at byte {}", bytes, i + 1);
+    }
+    i += n;
+  }
+  return {};
+}
+
+InputError::InputError(const std::string& file, int line, const std::string& key,
+                       const std::string& message)
+    : std::invalid_argument(compose(file, line, key, message)),
+      file_(file),
+      line_(line),
+      key_(key),
+      message_(message) {}
+
+InputError::InputError(const std::string& message)
+    : std::invalid_argument(one_line(message)), message_(message) {}
+
+std::string read_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw InputError(path, 0, "", "is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, 0, "", fmt::format("cannot open: {}", std::strerror(errno)));
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+void write_file_atomically(const std::string& path, const std::string& text) {
+  namespace fs = std::filesystem;
+  const fs::path target(path);
+  std::error_code ec;
+  const detail::WriteGuard guard;
+  if (guard.aborted()) throw IoError(path + ": not written: interrupted");
+  if (target.has_parent_path()) fs::create_directories(target.parent_path(), ec);
+  if (ec) throw IoError(path + ": cannot create directory: " + ec.message());
+  std::string tmp = path + ".tmp-XXXXXX";
+  const int fd = mkstemp(tmp.data());
+  if (fd < 0) throw IoError(fmt::format("{}: cannot write: {}", path, std::strerror(errno)));
+  size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0) {
+      const int err = errno;
+      ::close(fd);
+      std::remove(tmp.c_str());
+      throw IoError(fmt::format("{}: cannot write: {}", path, std::strerror(err)));
+    }
+    done += static_cast<size_t>(n);
+  }
+  ::fchmod(fd, 0644);
+  int err = ::fsync(fd) == 0 ? 0 : errno;
+  if (::close(fd) != 0 && err == 0) err = errno;
+  if (err != 0) {
+    std::remove(tmp.c_str());
+    throw IoError(fmt::format("{}: cannot write (sync failed): {}", path, std::strerror(err)));
+  }
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    std::remove(tmp.c_str());
+    throw IoError(path + ": cannot write: " + ec.message());
+  }
+}
+
+}  // namespace hapticcal

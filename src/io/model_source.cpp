@@ -1,0 +1,53 @@
+#include "hapticcal/io/model_source.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/io/urdf.hpp"
+
+#ifndef HAPTICCAL_DEFAULT_DEVICE
+#error "HAPTICCAL_DEFAULT_DEVICE must be defined"
+#endif
+
+namespace hapticcal {
+namespace {
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext;
+}
+
+}  // namespace
+
+bool is_urdf_path(const std::string& path) { return lower_extension(path) == ".urdf"; }
+
+bool is_yaml_path(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  return ext == ".yaml" || ext == ".yml";
+}
+
+DeviceModel load_model(const std::string& path, const std::string& tip, const std::string& root) {
+  if (is_urdf_path(path)) return load_urdf(path, tip, root);
+  if (!tip.empty() || !root.empty()) {
+    throw InputError(path, 0, tip.empty() ? "--root" : "--tip",
+                     "a tip or root link applies to a URDF model (.urdf), not to a device file");
+  }
+  return load_device(path);
+}
+
+std::string builtin_device_path() {
+  namespace fs = std::filesystem;
+  if (fs::exists(HAPTICCAL_DEFAULT_DEVICE)) return HAPTICCAL_DEFAULT_DEVICE;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  const fs::path installed =
+      exe.parent_path().parent_path() / "share/hapticcal/devices/baser-7dof.yaml";
+  return !ec && fs::exists(installed) ? installed.string() : std::string(HAPTICCAL_DEFAULT_DEVICE);
+}
+
+}  // namespace hapticcal

@@ -1,0 +1,91 @@
+#include <nlohmann/json.hpp>
+
+#include "hapticcal/identification/identification.hpp"
+
+namespace hapticcal {
+namespace {
+
+nlohmann::ordered_json number_or_null(double v) {
+  return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr);
+}
+
+}  // namespace
+
+std::string calibration_json(const CalibrationResult& result, const DeviceModel& nominal,
+                             const std::string& model_path, const std::string& log_path,
+                             const CalibrationOptions& options) {
+  using json = nlohmann::ordered_json;
+  const KinematicFit& k = result.kinematics;
+  json j;
+  j["format"] = "hapticcal-results/1";
+  j["status"] = to_string(result.status);
+  j["status_reason"] = result.status_reason;
+  j["usable"] = result.status == CalibrationStatus::kConverged;
+  j["model"] = model_path;
+  j["log"] = log_path;
+  j["device"] = nominal.name;
+  j["measurement"] = traits(k.type).name;
+  if (k.type == MeasurementType::kPose) j["rotation_scale"] = k.rotation_scale;
+  j["frame_registered"] = k.frame_registered;
+  j["rows_used"] = k.rows;
+  j["poses"] = k.poses;
+  j["repeatability"] = number_or_null(k.repeatability);
+  j["samples"] = options.samples;
+  j["seed"] = options.seed;
+  j["transmission_step"] = options.transmissions;
+  j["sigma"] = {{"value", k.sigma}, {"source", k.sigma_given ? "given" : "residual"}};
+  j["rms_before"] = k.rms_before;
+  j["rms_after"] = k.rms_after;
+  j["condition_number"] = number_or_null(k.condition_number);
+  j["observability"] = {{"O1", k.observability.O1},
+                        {"O2", k.observability.O2},
+                        {"O3", k.observability.O3},
+                        {"O4", k.observability.O4}};
+  j["length_scale"] = k.length_scale;
+  j["identified"] = k.identified;
+  j["rank_deficient"] = k.rank_deficient;
+  j["solver"] = {
+      {"converged", k.converged}, {"iterations", k.iterations}, {"message", k.termination}};
+  json params = json::object();
+  for (const ParameterEstimate& e : k.parameters) {
+    json p{{"nominal", e.nominal},
+           {"value", e.value},
+           {"sd", e.identifiable ? number_or_null(e.sd) : json(nullptr)},
+           {"identifiable", e.identifiable}};
+    if (e.identifiable) {
+      p["max_correlation"] = e.max_correlation;
+      p["max_correlation_with"] = e.max_correlation_with;
+      p["large_change"] = e.large_change;
+    } else {
+      p["reason"] = e.reason;
+    }
+    params[e.name] = p;
+  }
+  json transmissions = json::array();
+  for (const TransmissionFit& t : result.transmissions) {
+    const std::string link = nominal.links[t.joint].name;
+    for (size_t i = 0; i < t.names.size(); ++i) {
+      params[t.names[i]] = {{"nominal", t.nominal[i]},
+                            {"value", t.value[i]},
+                            {"sd", number_or_null(t.sd[i])},
+                            {"identifiable", true}};
+    }
+    json tj{{"joint", link},
+            {"type", t.type},
+            {"n", t.n},
+            {"rms_before", t.rms_before},
+            {"rms_after", t.rms_after},
+            {"offset", {{"value", t.offset}, {"sd", number_or_null(t.offset_sd)}}},
+            {"converged", t.converged},
+            {"message", t.message}};
+    if (!t.monomial.empty()) tj["monomial_coefficients"] = t.monomial;
+    transmissions.push_back(tj);
+  }
+  j["parameters"] = params;
+  j["transmissions"] = transmissions;
+  j["notes"] = result.notes;
+  // Paths are bytes on Linux: invalid UTF-8 is replaced, never a throw.
+  return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
+
+}  // namespace hapticcal

@@ -1,0 +1,124 @@
+#include "hapticcal/model/model.hpp"
+
+#include <cassert>
+
+namespace hapticcal {
+namespace {
+
+int block_size(const Link& l) {
+  return l.geometry == Geometry::kOrigin ? kOriginSlots : kLinkSlots;
+}
+
+const char* const kPoseNames[] = {"x", "y", "z", "roll", "pitch", "yaw"};
+const char* const kBaseDhNames[] = {"a", "alpha", "d", "theta"};
+
+}  // namespace
+
+const std::vector<std::string>& block_names(Geometry geometry) {
+  static const std::vector<std::string> dh = {"a", "alpha", "d", "theta", "beta"};
+  static const std::vector<std::string> origin = {"x", "y", "z", "roll", "pitch", "yaw", "offset"};
+  return geometry == Geometry::kOrigin ? origin : dh;
+}
+
+ChainStructure DeviceModel::structure() const {
+  assert(dof() <= kMaxDof);
+  ChainStructure s;
+  s.base_kind = base_kind;
+  s.dof = dof();
+  int slot = s.base_slots();
+  for (int i = 0; i < dof(); ++i) {
+    const Link& l = links[i];
+    JointStructure& j = s.joints[i];
+    j.geometry = l.geometry;
+    j.type = l.type;
+    j.axis = {l.axis[0], l.axis[1], l.axis[2]};
+    j.slot = slot;
+    slot += block_size(l);
+  }
+  s.tool = slot;
+  return s;
+}
+
+Eigen::VectorXd DeviceModel::kinematic_parameters() const {
+  const ChainStructure s = structure();
+  Eigen::VectorXd p(s.num_slots());
+  for (int k = 0; k < s.base_slots(); ++k) p[k] = base[k];
+  for (int i = 0; i < dof(); ++i) {
+    const Link& l = links[i];
+    const int o = s.link_slot(i);
+    if (l.geometry == Geometry::kOrigin) {
+      for (int k = 0; k < 6; ++k) p[o + k] = l.origin[k];
+      p[o + kOriginOffset] = l.offset;
+    } else {
+      p.segment<kLinkSlots>(o) << l.a, l.alpha, l.d, l.theta, l.beta;
+    }
+  }
+  for (int k = 0; k < kPoseSlots; ++k) p[s.tool_slot() + k] = tool[k];
+  return p;
+}
+
+void DeviceModel::set_kinematic_parameters(const Eigen::VectorXd& p) {
+  const ChainStructure s = structure();
+  assert(p.size() == s.num_slots());
+  for (int k = 0; k < s.base_slots(); ++k) base[k] = p[k];
+  for (int i = 0; i < dof(); ++i) {
+    Link& l = links[i];
+    const int o = s.link_slot(i);
+    if (l.geometry == Geometry::kOrigin) {
+      for (int k = 0; k < 6; ++k) l.origin[k] = p[o + k];
+      l.offset = p[o + kOriginOffset];
+    } else {
+      l.a = p[o + kLinkA];
+      l.alpha = p[o + kLinkAlpha];
+      l.d = p[o + kLinkD];
+      l.theta = p[o + kLinkTheta];
+      l.beta = p[o + kLinkBeta];
+    }
+  }
+  for (int k = 0; k < kPoseSlots; ++k) tool[k] = p[s.tool_slot() + k];
+}
+
+std::vector<ParameterInfo> DeviceModel::parameter_info() const {
+  using U = ParameterUnit;
+  const ChainStructure s = structure();
+  std::vector<ParameterInfo> info;
+  if (base_kind == BaseKind::kDh) {
+    for (int k = 0; k < 4; ++k) {
+      info.push_back(
+          {std::string("base.") + kBaseDhNames[k], k, k % 2 ? U::kAngle : U::kLength, -1, k});
+    }
+  } else {
+    for (int k = 0; k < 6; ++k) {
+      info.push_back(
+          {std::string("base.") + kPoseNames[k], k, k < 3 ? U::kLength : U::kAngle, -1, k});
+    }
+  }
+  for (int i = 0; i < dof(); ++i) {
+    const Link& l = links[i];
+    const int o = s.link_slot(i);
+    const std::vector<std::string>& names = block_names(l.geometry);
+    for (int k = 0; k < static_cast<int>(names.size()); ++k) {
+      U unit;
+      if (l.geometry == Geometry::kOrigin) {
+        unit = k < 3 || (k == kOriginOffset && l.prismatic()) ? U::kLength : U::kAngle;
+      } else {
+        unit = k == kLinkA || k == kLinkD ? U::kLength : U::kAngle;
+      }
+      info.push_back({l.name + "." + names[k], o + k, unit, i, k});
+    }
+  }
+  for (int k = 0; k < 6; ++k) {
+    info.push_back({std::string("tool.") + kPoseNames[k], s.tool_slot() + k,
+                    k < 3 ? U::kLength : U::kAngle, dof(), k});
+  }
+  return info;
+}
+
+Eigen::VectorXd DeviceModel::compensate(const Eigen::VectorXd& q) const {
+  assert(q.size() == dof());
+  Eigen::VectorXd joint(dof());
+  for (int i = 0; i < dof(); ++i) joint[i] = q[i] + links[i].transmission.error(q[i]);
+  return joint;
+}
+
+}  // namespace hapticcal

@@ -1,0 +1,210 @@
+#include "hapticcal/report/report.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+
+#include "hapticcal/io/io.hpp"
+#include "report/process.hpp"
+
+namespace hapticcal {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool gnuplot_available() {
+  const char* path = std::getenv("PATH");
+  if (!path) return false;
+  std::string p = path;
+  size_t start = 0;
+  while (start <= p.size()) {
+    const size_t end = p.find(':', start);
+    const std::string dir =
+        p.substr(start, end == std::string::npos ? std::string::npos : end - start);
+    if (!dir.empty() && fs::exists(fs::path(dir) / "gnuplot")) return true;
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  return false;
+}
+
+std::string quote(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) out += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+  return out + "\"";
+}
+
+// The gnuplot commands of one figure for a terminal. `data` names the data file
+// relative to the figures folder (gnuplot runs there). The output file is the
+// variable `output_var`, defaulting to `output`: write_report sets it to a
+// temporary name, a user running the script gets the final one.
+std::string script(const FigureSpec& f, const std::string& data, const std::string& terminal,
+                   const std::string& output_var, const std::string& output) {
+  std::string s = fmt::format(
+      "set terminal {}\nset termoption noenhanced\nif (!exists(\"{}\")) {} = {}\nset output {}\n",
+      terminal, output_var, output_var, quote(output), output_var);
+  s += fmt::format("set title {} noenhanced\nset xlabel {} noenhanced\nset ylabel {} noenhanced\n",
+                   quote(f.title), quote(f.xlabel), quote(f.ylabel));
+  s += "set grid\nset key outside right top noenhanced\nset datafile separator ','\n";
+  s += "set offsets graph 0, graph 0, graph 0.05, graph 0.05\n";
+  s += f.extra + "\n";
+  if (f.matrix.size() > 0) {
+    s += "set view map\nset palette defined (-1 'blue', 0 'white', 1 'red')\nset cbrange [-1:1]\n";
+    s += fmt::format("set xrange [-0.5:{}]\nset yrange [-0.5:{}]\n", f.matrix.cols() - 0.5,
+                     f.matrix.rows() - 0.5);
+    std::string tics;
+    for (size_t i = 0; i < f.xtics.size(); ++i)
+      tics += fmt::format("{}{} {}", i ? ", " : "", quote(f.xtics[i]), i);
+    if (!tics.empty())
+      s += fmt::format("set xtics ({}) rotate by 90 right\nset ytics ({})\n", tics, tics);
+    s += fmt::format("plot {} matrix with image title {}\n", quote(data),
+                     quote(f.series.empty() ? "correlation" : f.series[0].label));
+    return s;
+  }
+  if (!f.xtics.empty()) s += "set xtics rotate by 90 right\n";
+  std::string plots;
+  for (const Series& ser : f.series) {
+    std::string x =
+        ser.x < 0 ? "0" : fmt::format("{}", ser.x + 2);  // +1 label column, +1 one-based
+    std::string usage = fmt::format("{}:{}", x, ser.y + 2);
+    if (ser.error >= 0) usage += fmt::format(":{}", ser.error + 2);
+    if (!f.xtics.empty()) usage += ":xtic(1)";
+    plots += fmt::format("{}{} using {} with {} title {}", plots.empty() ? "" : ", ", quote(data),
+                         usage, ser.error >= 0 ? "yerrorbars" : ser.style, quote(ser.label));
+  }
+  s += "plot " + plots + "\n";
+  return s;
+}
+
+std::string data_text(const FigureSpec& f) {
+  std::string out;
+  if (f.matrix.size() > 0) {
+    for (int r = 0; r < f.matrix.rows(); ++r) {
+      for (int c = 0; c < f.matrix.cols(); ++c)
+        out += fmt::format("{}{}", c ? "," : "", f.matrix(r, c));
+      out += "\n";
+    }
+    return out;
+  }
+  const size_t rows = f.columns.empty() ? 0 : f.columns[0].size();
+  for (size_t r = 0; r < rows; ++r) {
+    out += f.xtics.empty() ? "-" : f.xtics[r];
+    for (const auto& col : f.columns) out += fmt::format(",{}", col[r]);
+    out += "\n";
+  }
+  return out;
+}
+
+std::string inline_svg(const std::string& svg) {
+  const size_t start = svg.find("<svg");
+  return start == std::string::npos ? std::string() : svg.substr(start);
+}
+
+}  // namespace
+
+std::string html_escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string html_table(const std::vector<std::string>& header,
+                       const std::vector<std::vector<std::string>>& rows) {
+  std::string out = "<table><thead><tr>";
+  for (const std::string& h : header) out += "<th>" + html_escape(h) + "</th>";
+  out += "</tr></thead><tbody>\n";
+  for (const auto& row : rows) {
+    out += "<tr>";
+    for (const std::string& cell : row) out += "<td>" + html_escape(cell) + "</td>";
+    out += "</tr>\n";
+  }
+  return out + "</tbody></table>\n";
+}
+
+int write_report(const Report& report, const std::string& dir, std::string& note) {
+  std::string figures;
+  int drawn = 0;
+  if (!report.figures.empty() && !gnuplot_available()) {
+    note = "figures skipped: gnuplot not found (install Debian's gnuplot-nox)";
+  } else if (!report.figures.empty()) {
+    const fs::path fig_dir = fs::path(dir) / "figures";
+    for (const FigureSpec& f : report.figures) {
+      const std::string data = f.name + ".csv", gp = f.name + ".gp";
+      const fs::path svg = fig_dir / (f.name + ".svg"), png = fig_dir / (f.name + ".png");
+      const fs::path log = fig_dir / (gp + ".log");
+      // gnuplot writes temporary files, renamed into place once it succeeded:
+      // a failure (a full disk) leaves no truncated figure behind.
+      const std::string suffix = fmt::format(".tmp-{}", ::getpid());
+      const fs::path svg_tmp = svg.string() + suffix, png_tmp = png.string() + suffix;
+      write_file_atomically((fig_dir / data).string(), data_text(f));
+      write_file_atomically((fig_dir / gp).string(),
+                            script(f, data, "svg size 900,480 dynamic font 'sans,11'", "svg_output",
+                                   svg.filename().string()) +
+                                script(f, data, "pngcairo size 1350,720 font 'sans,11'",
+                                       "png_output", png.filename().string()));
+      const detail::ProcessStatus run = detail::run_program(
+          {"gnuplot", "-e",
+           fmt::format("svg_output = {}; png_output = {}", quote(svg_tmp.filename().string()),
+                       quote(png_tmp.filename().string())),
+           gp},
+          log.string(), fig_dir.string());
+      std::error_code ec;
+      const bool drew = run.ok() && fs::exists(svg_tmp, ec) && fs::exists(png_tmp, ec);
+      if (drew) fs::rename(svg_tmp, svg, ec);
+      if (drew && !ec) fs::rename(png_tmp, png, ec);
+      fs::remove(svg_tmp, ec);
+      fs::remove(png_tmp, ec);
+      if (fs::exists(log, ec) && fs::file_size(log, ec) == 0) fs::remove(log, ec);
+      if (!drew || !fs::exists(svg, ec) || !fs::exists(png, ec)) {
+        if (!run.error.empty()) {
+          note = fmt::format("figure {} failed: {}", f.name, run.error);
+        } else if (fs::exists(log, ec)) {
+          note = fmt::format("figure {} failed: gnuplot exit status {}, see {}", f.name,
+                             run.exit_code, log.string());
+        } else {
+          note = fmt::format("figure {} failed: gnuplot exit status {}", f.name, run.exit_code);
+        }
+        continue;
+      }
+      figures += fmt::format("<figure id=\"{}\">{}<figcaption>{}</figcaption></figure>\n", f.name,
+                             inline_svg(read_file(svg.string())), html_escape(f.title));
+      ++drawn;
+    }
+  }
+  std::string html = "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>" +
+                     html_escape(report.title) +
+                     "</title>\n<style>\n"
+                     "body{font-family:sans-serif;margin:2em;max-width:1000px;color:#222}\n"
+                     "table{border-collapse:collapse;margin:1em 0;font-size:90%}\n"
+                     "td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}\n"
+                     "th{background:#eee}td:first-child{text-align:left}\n"
+                     "figure{margin:1.5em 0}figure svg{max-width:100%;height:auto}\n"
+                     "figcaption{font-style:italic}.note{color:#a40}\n</style></head><body>\n";
+  html += "<h1>" + html_escape(report.title) + "</h1>\n";
+  if (!note.empty()) html += "<p class=\"note\">" + html_escape(note) + "</p>\n";
+  for (const std::string& section : report.sections) html += section;
+  html += figures + "</body></html>\n";
+  write_file_atomically((fs::path(dir) / "report.html").string(), html);
+  return drawn;
+}
+
+}  // namespace hapticcal

@@ -1,0 +1,376 @@
+// The reports of calibrate, simulate and force.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <numeric>
+
+#include "hapticcal/report/report.hpp"
+#include "hapticcal/study/evaluate.hpp"
+
+namespace hapticcal {
+namespace {
+
+std::string f4(double v) { return fmt::format("{:.4f}", v); }
+
+FigureSpec figure(std::string name, std::string title, std::string xlabel, std::string ylabel,
+                  std::vector<std::vector<double>> columns = {}) {
+  FigureSpec f;
+  f.name = std::move(name);
+  f.title = std::move(title);
+  f.xlabel = std::move(xlabel);
+  f.ylabel = std::move(ylabel);
+  f.columns = std::move(columns);
+  return f;
+}
+
+// Rows sorted by x, so that model curves draw as lines.
+std::vector<int> order_by(const std::vector<double>& x) {
+  std::vector<int> idx(x.size());
+  std::iota(idx.begin(), idx.end(), 0);
+  std::sort(idx.begin(), idx.end(), [&](int a, int b) { return x[a] < x[b]; });
+  return idx;
+}
+
+// Transmission fit (Fig. 9-like) and its residuals for one joint, in mrad against deg.
+void transmission_figures(const TransmissionFit& t, const std::string& link, const Log& log,
+                          const std::vector<int>& rows, const Transmission& fitted,
+                          const Transmission* truth, std::vector<FigureSpec>& figures) {
+  std::vector<double> q, measured, model, real, residual;
+  for (int r : rows) q.push_back(log.q(r, t.joint));
+  for (int i : order_by(q)) {
+    const int r = rows[i];
+    const double qi = log.q(r, t.joint);
+    const double m = log.ext(r, t.joint) - qi - t.offset;
+    measured.push_back(m * 1e3);
+    model.push_back(fitted.error(qi) * 1e3);
+    residual.push_back((m - fitted.error(qi)) * 1e3);
+    if (truth) real.push_back(truth->error(qi) * 1e3);
+  }
+  std::sort(q.begin(), q.end());
+  for (double& v : q) v *= 180 / M_PI;
+  FigureSpec fit =
+      figure("transmission_" + link,
+             fmt::format("{} transmission error: measured and identified {} model", link, t.type),
+             "reading q [deg]", "dtheta [mrad]", {q, measured, model});
+  fit.series = {{"measured (ext - q - c)", 0, 1, "points"}, {"identified", 0, 2, "lines"}};
+  if (truth) {
+    fit.columns.push_back(real);
+    fit.series.push_back({"truth", 0, 3, "lines"});
+  }
+  figures.push_back(fit);
+  FigureSpec res = figure("transmission_" + link + "_residual",
+                          fmt::format("{} transmission fit residual", link), "reading q [deg]",
+                          "residual [mrad]", {q, residual});
+  res.series = {{"measured - identified", 0, 1, "points"}};
+  figures.push_back(res);
+}
+
+std::vector<std::vector<double>> read_csv_columns(const std::string& path) {
+  std::vector<std::vector<double>> cols;
+  const std::string text = read_file(path);
+  size_t pos = text.find('\n') + 1;  // header
+  while (pos < text.size()) {
+    const size_t eol = text.find('\n', pos);
+    const std::string line = text.substr(pos, eol - pos);
+    pos = eol == std::string::npos ? text.size() : eol + 1;
+    if (line.empty()) continue;
+    size_t start = 0;
+    for (int c = 0;; ++c) {
+      const size_t comma = line.find(',', start);
+      if (static_cast<int>(cols.size()) <= c) cols.emplace_back();
+      cols[c].push_back(std::stod(line.substr(start, comma - start)));
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+  }
+  return cols;
+}
+
+// Long logs and runs are decimated to about this many points a figure, so that
+// a report stays small (issue 10: 10^6 rows gave a 208 MB report).
+constexpr int kMaxPlotted = 2000;
+
+std::string parameter_table(const KinematicFit& k) {
+  std::vector<std::vector<std::string>> rows;
+  for (const ParameterEstimate& e : k.parameters) {
+    if (!e.identifiable) continue;
+    const bool angle = e.unit == ParameterUnit::kAngle;
+    rows.push_back({e.name, f4(e.nominal * 1e3), f4(e.value * 1e3), f4((e.value - e.nominal) * 1e3),
+                    f4(e.sd * 1e3), angle ? "mrad" : "mm", fmt::format("{:.3f}", e.max_correlation),
+                    e.max_correlation_with});
+  }
+  return "<h2>Identified kinematic parameters</h2>\n" +
+         html_table({"parameter", "nominal", "identified", "deviation", "sd", "unit",
+                     "largest correlation", "with"},
+                    rows);
+}
+
+std::string held_table(const KinematicFit& k) {
+  std::vector<std::vector<std::string>> rows;
+  for (const ParameterEstimate& e : k.parameters) {
+    if (!e.identifiable) rows.push_back({e.name, e.reason});
+  }
+  return "<h2>Held at nominal (identifiability analysis)</h2>\n" +
+         html_table({"parameter", "why"}, rows);
+}
+
+}  // namespace
+
+Report calibration_report(const CalibrationResult& result, const DeviceModel& nominal,
+                          const Log& log) {
+  const KinematicFit& k = result.kinematics;
+  Report report;
+  report.title = fmt::format("hapticcal calibrate: {} on {}", nominal.name, log.origin);
+  // The outcome first: a banner no reader can miss, with the notes.
+  const bool usable = result.status == CalibrationStatus::kConverged;
+  std::string banner = fmt::format(
+      "<div class=\"status\" style=\"padding:0.6em 1em;border:2px solid {0};background:{1}\">"
+      "<b>Status: {2}</b> &mdash; {3}{4}",
+      usable ? "#2a7" : "#c22", usable ? "#efe" : "#fee", to_string(result.status),
+      html_escape(result.status_reason),
+      usable ? "" : ". <b>This calibration is not usable: no new calibrated.yaml was written.</b>");
+  if (!result.notes.empty()) {
+    banner += "<ul>";
+    for (const std::string& note : result.notes) banner += "<li>" + html_escape(note) + "</li>";
+    banner += "</ul>";
+  }
+  report.sections.push_back(banner + "</div>\n");
+  std::string flagged;
+  for (const ParameterEstimate& e : k.parameters) {
+    if (e.large_change) flagged += (flagged.empty() ? "" : ", ") + e.name;
+  }
+  if (!flagged.empty()) {
+    report.sections.push_back(fmt::format(
+        "<p class=\"note\">Large changes from nominal (beyond {} mm or {} mrad): {}. Plausible "
+        "for a base pose measured in an unknown frame; for a link, check the model and the "
+        "log.</p>\n",
+        kLargeChangeLength * 1e3, kLargeChangeAngle * 1e3, html_escape(flagged)));
+  }
+  const std::string repeats =
+      k.rows > k.poses ? fmt::format(" ({} poses, repeats averaged; repeatability {:.4f} mm RMS)",
+                                     k.poses, k.repeatability * 1e3)
+                       : "";
+  report.sections.push_back(fmt::format(
+      "<p>{} rows{}, {} measurements; {} parameters identified; condition number {:.4g}; "
+      "observability O1 {:.4g}, O4 {:.4g}; RMS error {:.4f} mm before, {:.4f} mm after.{}</p>\n",
+      k.rows, repeats, traits(k.type).name, k.identified, k.condition_number, k.observability.O1,
+      k.observability.O4, k.rms_before * 1e3, k.rms_after * 1e3,
+      k.rank_deficient ? " <b>Rank-deficient: see the held parameters.</b>" : ""));
+  std::vector<std::vector<std::string>> tx;
+  for (const TransmissionFit& t : result.transmissions) {
+    for (size_t i = 0; i < t.names.size(); ++i) {
+      tx.push_back({t.names[i], fmt::format("{:.6g}", t.value[i]), fmt::format("{:.3g}", t.sd[i])});
+    }
+  }
+  if (!tx.empty()) {
+    report.sections.push_back("<h2>Transmissions (step 1, SI units)</h2>\n" +
+                              html_table({"parameter", "identified", "sd"}, tx));
+  }
+  report.sections.push_back(parameter_table(k));
+  report.sections.push_back(held_table(k));
+
+  const size_t pose_stride =
+      std::max<size_t>(1, (result.rows.size() + kMaxPlotted - 1) / kMaxPlotted);
+  std::vector<int> plotted_rows;
+  for (size_t i = 0; i < result.rows.size(); i += pose_stride)
+    plotted_rows.push_back(result.rows[i]);
+  for (const TransmissionFit& t : result.transmissions) {
+    transmission_figures(t, nominal.links[t.joint].name, log, plotted_rows,
+                         result.calibrated.links[t.joint].transmission, nullptr, report.figures);
+  }
+  const Evaluation before = evaluate(nominal, log), after = evaluate(result.calibrated, log);
+  const bool position = k.type != MeasurementType::kDistance;
+  std::vector<double> sample, eb, ea;
+  const int row_stride = std::max(1, (log.rows + kMaxPlotted - 1) / kMaxPlotted);
+  for (int r = 0; r < log.rows; r += row_stride) {
+    sample.push_back(r + 1);
+    eb.push_back((position ? before.position_error[r] : before.distance_error[r]) * 1e3);
+    ea.push_back((position ? after.position_error[r] : after.distance_error[r]) * 1e3);
+  }
+  FigureSpec residuals = figure(
+      "errors_per_sample",
+      position ? "Position error per sample, before and after calibration"
+               : "Distance error per sample, before and after calibration",
+      "sample", position ? "|p_model - p_measured| [mm]" : "delta_model - delta_measured [mm]",
+      {sample, eb, ea});
+  residuals.series = {{"nominal model", 0, 1, "points"}, {"calibrated model", 0, 2, "points"}};
+  report.figures.push_back(residuals);
+  if (k.correlation.size() > 0) {
+    FigureSpec heat =
+        figure("correlation", "Correlation of the identified parameters", "parameter", "parameter");
+    heat.matrix = k.correlation;
+    heat.xtics = k.identified_names;
+    heat.series = {{"correlation coefficient"}};
+    report.figures.push_back(heat);
+  }
+  return report;
+}
+
+Report study_report(const Scenario& sc, const StudyResult& r, const std::string& out) {
+  const TrialResult& t = r.first;
+  Report report;
+  report.title = fmt::format("hapticcal simulate: the paper's study on {}", sc.nominal.name);
+  report.sections.push_back(fmt::format(
+      "<p>{} trial(s), seed {}; {} identification and {} validation poses; sigma_e {:.4g} rad, "
+      "sigma_m {:.4g} m ({}).</p>\n<p>Trajectory (Fig. 10, eq. 9): distance RMS {:.4f} mm nominal, "
+      "{:.4f} mm full calibration ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %); the paper "
+      "measured 96.6 % and 44.7 %.</p>\n",
+      r.trials, sc.seed, sc.identification_poses, sc.validation_poses, sc.noise.sigma_ext,
+      sc.noise.sigma_distance, sc.sigma_m_formula, t.trajectory_rms_before * 1e3,
+      t.trajectory_rms_full * 1e3,
+      rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
+      t.trajectory_rms_kinematic * 1e3,
+      rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before)));
+  // Tables 2 and 3 analogues (identified parameters; capstans in SI units).
+  std::vector<std::vector<std::string>> t2, t3;
+  auto paper = [](const std::string& name) {
+    const auto p = paper_improvement_pct(name);
+    return p ? fmt::format("{:.2f}", *p) : std::string("-");
+  };
+  auto mc = [&](const std::string& name, bool efficiency) {
+    const auto it = r.monte_carlo.find(name);
+    if (r.trials < 2 || it == r.monte_carlo.end()) return std::string("-");
+    return fmt::format("{:.3f}",
+                       efficiency ? it->second.efficiency : it->second.mean_improvement_pct);
+  };
+  for (const StudyRow& row : study_rows(sc, t.full)) {
+    if (!row.held.empty()) continue;
+    const std::string ip = fmt::format("{:.2f}", row.improvement_pct);
+    if (row.capstan) {
+      t2.push_back({row.name, fmt::format("{:.6g}", row.assigned),
+                    fmt::format("{:.6g}", row.identified), ip, paper(row.name), mc(row.name, false),
+                    mc(row.name, true)});
+    } else {
+      t3.push_back({row.name, f4((row.assigned - row.nominal) * 1e3),
+                    f4((row.identified - row.nominal) * 1e3), ip, paper(row.name),
+                    mc(row.name, false), mc(row.name, true)});
+    }
+  }
+  const std::vector<std::string> header = {"parameter", "assigned", "identified", "I %",
+                                           "paper I %", "mean I %", "RMSE / CRLB"};
+  report.sections.push_back("<h2>Table 2 analogue: capstan drives (SI units)</h2>\n" +
+                            html_table(header, t2));
+  report.sections.push_back("<h2>Table 3 analogue: kinematic deviations (mm, mrad)</h2>\n" +
+                            html_table(header, t3));
+  report.sections.push_back(held_table(t.full.kinematics));
+
+  // Fig. 7: the parallelogram joint's error.
+  const Log ident = read_log(out + "/identification.csv");
+  for (const TransmissionFit& f : t.full.transmissions) {
+    if (f.type != "polynomial") continue;
+    const std::string link = sc.nominal.links[f.joint].name;
+    const auto c = read_csv_columns(out + "/fig7_" + link + ".csv");
+    std::vector<int> idx = order_by(c[0]);
+    std::vector<double> q, m, id, tr;
+    for (int i : idx) {
+      q.push_back(c[0][i] * 180 / M_PI);
+      m.push_back(c[1][i] * 1e3);
+      id.push_back(c[2][i] * 1e3);
+      tr.push_back(c[3][i] * 1e3);
+    }
+    FigureSpec fig7 =
+        figure("fig7_" + link,
+               fmt::format("Fig. 7: {} (capstan + parallelogram) transmission error", link),
+               "reading q [deg]", "dtheta [mrad]", {q, m, id, tr});
+    fig7.series = {{"measurements", 0, 1, "points"},
+                   {"identified polynomial", 0, 2, "lines"},
+                   {"truth", 0, 3, "lines"}};
+    report.figures.push_back(fig7);
+  }
+  // Fig. 8: validation errors per pose.
+  const auto v = read_csv_columns(out + "/fig8_validation.csv");
+  auto scaled = [](std::vector<double> x) {
+    for (double& e : x) e *= 1e3;
+    return x;
+  };
+  FigureSpec fig8p = figure("fig8_position", "Fig. 8: position error per validation pose", "pose",
+                            "position error [mm]", {v[0], scaled(v[1]), scaled(v[2])});
+  fig8p.series = {{"before calibration", 0, 1, "impulses"},
+                  {"after calibration", 0, 2, "impulses"}};
+  FigureSpec fig8o = figure("fig8_orientation", "Fig. 8: orientation error per validation pose",
+                            "pose", "orientation error [mrad]", {v[0], scaled(v[3]), scaled(v[4])});
+  fig8o.series = fig8p.series;
+  report.figures.push_back(fig8p);
+  report.figures.push_back(fig8o);
+  // Fig. 9-like: every joint's transmission fit.
+  for (const TransmissionFit& f : t.full.transmissions) {
+    std::vector<int> rows(ident.rows);
+    std::iota(rows.begin(), rows.end(), 0);
+    transmission_figures(f, sc.nominal.links[f.joint].name, ident, rows,
+                         t.full.calibrated.links[f.joint].transmission,
+                         &sc.actual.links[f.joint].transmission, report.figures);
+    report.figures.pop_back();  // the residual panels belong to calibrate's report
+  }
+  // Fig. 10: the trajectory.
+  const auto tr = read_csv_columns(out + "/fig10_trajectory.csv");
+  FigureSpec fig10 =
+      figure("fig10_trajectory", "Fig. 10: distance error over the trajectory", "time [s]",
+             "distance error [mm]", {tr[0], scaled(tr[2]), scaled(tr[3]), scaled(tr[4])});
+  fig10.series = {{"nominal", 0, 1, "lines"},
+                  {"full calibration", 0, 2, "lines"},
+                  {"kinematic-only calibration", 0, 3, "lines"}};
+  report.figures.push_back(fig10);
+  // Monte Carlo.
+  if (r.trials > 1) {
+    std::vector<std::string> names;
+    std::vector<double> mean, half, efficiency, lo, hi;
+    for (const auto& [name, m] : r.monte_carlo) {
+      names.push_back(name);
+      mean.push_back((m.improvement_p05 + m.improvement_p95) / 2);
+      half.push_back((m.improvement_p95 - m.improvement_p05) / 2);
+      efficiency.push_back(m.efficiency);
+      lo.push_back(0.9);
+      hi.push_back(1.1);
+    }
+    FigureSpec spread =
+        figure("monte_carlo_improvement",
+               fmt::format("I % over {} trials: 5th to 95th percentile per parameter", r.trials),
+               "parameter", "I % (paper eq. 8)", {mean, half});
+    spread.xtics = names;
+    spread.series = {{"5-95 % of trials", -1, 0, "yerrorbars", 1}};
+    spread.extra = "set bmargin 9";
+    FigureSpec eff =
+        figure("monte_carlo_efficiency", fmt::format("RMSE / CRLB over {} trials", r.trials),
+               "parameter", "RMSE / CRLB", {efficiency, lo, hi});
+    eff.xtics = names;
+    eff.series = {
+        {"RMSE / CRLB", -1, 0, "points"}, {"0.9", -1, 1, "lines"}, {"1.1", -1, 2, "lines"}};
+    eff.extra = "set bmargin 9";
+    report.figures.push_back(spread);
+    report.figures.push_back(eff);
+  }
+  return report;
+}
+
+Report force_report(const ForceRun& nominal, const ForceRun& calibrated, double reduction_pct) {
+  Report report;
+  report.title = "hapticcal force: virtual wall with closed-loop impedance control";
+  report.sections.push_back(fmt::format(
+      "<p>Transverse force (|Fx, Fy|) RMS: {:.4f} N with the nominal model, {:.4f} N with the "
+      "calibrated one ({:.1f} % less).</p>\n",
+      nominal.transverse_rms, calibrated.transverse_rms, reduction_pct));
+  for (const auto& [run, label] :
+       {std::pair{&nominal, "nominal"}, std::pair{&calibrated, "calibrated"}}) {
+    std::vector<double> t, fdz, fx, fy, fz;
+    const size_t stride = std::max<size_t>(5, (run->t.size() + kMaxPlotted - 1) / kMaxPlotted);
+    for (size_t k = 0; k < run->t.size(); k += stride) {
+      t.push_back(run->t[k]);
+      fdz.push_back(run->desired[k][2]);
+      fx.push_back(run->measured[k][0]);
+      fy.push_back(run->measured[k][1]);
+      fz.push_back(run->measured[k][2]);
+    }
+    FigureSpec f =
+        figure(fmt::format("fig12_{}", label),
+               fmt::format("Fig. 12: virtual wall, {} model (m: measured, d: desired)", label),
+               "time [s]", "force in the handle frame [N]", {t, fdz, fz, fx, fy});
+    f.series = {{"Fz d", 0, 1, "lines"},
+                {"Fz m", 0, 2, "lines"},
+                {"Fx m", 0, 3, "lines"},
+                {"Fy m", 0, 4, "lines"}};
+    report.figures.push_back(f);
+  }
+  return report;
+}
+
+}  // namespace hapticcal

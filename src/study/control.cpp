@@ -1,0 +1,114 @@
+#include "hapticcal/study/control.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <random>
+
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+
+namespace hapticcal {
+namespace {
+
+// J^T (handle frame, locked joint removed) times diag(d theta / d q) for the
+// model at readings q: maps a handle wrench to joint-side motor torques.
+struct Statics {
+  Eigen::Matrix<double, 6, 6> J;  // 6 x 6 geometric Jacobian, handle frame
+  Eigen::Matrix<double, 6, 1> D;  // d theta / d q of the kept joints
+};
+
+Statics statics(const DeviceModel& model, const ForceScenario& sc, const char* which) {
+  const PreparedModel prepared(model);
+  Jacobian6<double> J;
+  prepared.forward_jacobian(sc.posture.data(), JacobianFrame::kTool, J);
+  const int kept = model.dof() - (sc.locked_joint >= 0 ? 1 : 0);
+  if (kept != 6) {
+    throw InputError(
+        fmt::format("{}: {} joints remain with joint {} locked; the force study needs 6", which,
+                    kept, sc.locked_joint + 1));
+  }
+  Statics s;
+  for (int i = 0, c = 0; i < model.dof(); ++i) {
+    if (i == sc.locked_joint) continue;
+    s.J.col(c) = J.col(i);
+    s.D[c] = 1 + model.links[i].transmission.derivative(sc.posture[i]);
+    ++c;
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(s.J);
+  const double ratio = svd.singularValues()[5] / svd.singularValues()[0];
+  // Below 1e-2 a joint-torque error reaches the wrench amplified over 100 times.
+  if (!(ratio > 1e-2)) {
+    throw InputError(
+        fmt::format("{}: the posture is (nearly) singular (smallest / largest singular "
+                    "value of the 6 x 6 Jacobian {:.2g}, below 0.01): choose another "
+                    "--posture",
+                    which, ratio));
+  }
+  return s;
+}
+
+}  // namespace
+
+Eigen::VectorXd default_posture(const DeviceModel& model) {
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(model.dof());
+  if (model.dof() == 7) q[5] = 0.3;
+  return q;
+}
+
+Eigen::Matrix<double, 6, 6> rendering_map(const DeviceModel& actual, const DeviceModel& controller,
+                                          const ForceScenario& scenario) {
+  ForceScenario sc = scenario;
+  if (sc.posture.size() == 0) sc.posture = default_posture(actual);
+  if (sc.posture.size() != actual.dof() || controller.dof() != actual.dof()) {
+    throw InputError(fmt::format("the posture has {} readings, the devices {} and {} joints",
+                                 sc.posture.size(), actual.dof(), controller.dof()));
+  }
+  const Statics a = statics(actual, sc, "actual device"),
+                m = statics(controller, sc, "controller model");
+  // tau_theta,actual = D_a^-1 D_m J_m^T F = J_a^T W.
+  const Eigen::Matrix<double, 6, 1> scale = m.D.cwiseQuotient(a.D);
+  const Eigen::Matrix<double, 6, 6> torques = scale.asDiagonal() * m.J.transpose();
+  return a.J.transpose().partialPivLu().solve(torques);
+}
+
+double stable_gain_limit(const DeviceModel& actual, const DeviceModel& controller,
+                         const ForceScenario& scenario) {
+  const Eigen::Matrix<double, 6, 6> A = rendering_map(actual, controller, scenario);
+  return 1 / Eigen::EigenSolver<Eigen::Matrix<double, 6, 6>>(A, false)
+                 .eigenvalues()
+                 .cwiseAbs()
+                 .maxCoeff();
+}
+
+ForceRun run_force(const DeviceModel& actual, const DeviceModel& controller,
+                   const ForceScenario& sc) {
+  const Eigen::Matrix<double, 6, 6> A = rendering_map(actual, controller, sc);
+  std::mt19937_64 rng(sc.seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  ForceRun run;
+  const int steps = static_cast<int>((sc.move_seconds + sc.hold_seconds) * sc.rate_hz);
+  Vector6d rendered = Vector6d::Zero();  // W at the previous sample
+  double transverse2 = 0;
+  for (int k = 0; k < steps; ++k) {
+    const double t = k / sc.rate_hz;
+    const double u = sc.move_seconds > 0 ? std::min(t / sc.move_seconds, 1.0) : 1.0;
+    const double depth = sc.travel * u * u * (3 - 2 * u);  // smooth wall motion
+    Vector6d desired = Vector6d::Zero();
+    desired[2] = sc.stiffness * depth;  // along the handle's z axis
+    Vector6d sensed = rendered;         // one sample late
+    if (sc.sensor_noise > 0) {
+      for (int c = 0; c < 6; ++c) sensed[c] += sc.sensor_noise * (c < 3 ? 1.0 : 0.01) * gauss(rng);
+    }
+    const Vector6d command = desired + sc.gain * (desired - sensed);
+    rendered = A * command;
+    run.t.push_back(t);
+    run.desired.push_back(desired);
+    run.measured.push_back(sensed);
+    transverse2 += sensed[0] * sensed[0] + sensed[1] * sensed[1];
+  }
+  run.transverse_rms = std::sqrt(transverse2 / std::max(steps, 1));
+  return run;
+}
+
+}  // namespace hapticcal

@@ -1,0 +1,183 @@
+#include "hapticcal/study/simulation.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "hapticcal/kinematics/kinematics.hpp"
+
+namespace hapticcal {
+
+double quantized_reading(double q, double ratio, double counts) {
+  if (counts <= 0) return q;
+  const double step = 2 * std::numbers::pi / (counts * ratio);
+  return std::round(q / step) * step;
+}
+
+namespace {
+
+// Each joint's motor-to-joint ratio: its capstan's, 1 without one.
+std::vector<double> drive_ratios(const DeviceModel& model) {
+  std::vector<double> ratios(model.dof(), 1.0);
+  for (int j = 0; j < model.dof(); ++j) {
+    const auto& m = model.links[j].transmission.model();
+    if (const auto* c = std::get_if<Capstan>(&m)) {
+      ratios[j] = c->ratio;
+    } else if (const auto* chain = std::get_if<Chain>(&m)) {
+      for (const Transmission& stage : chain->stages) {
+        if (const auto* c = std::get_if<Capstan>(&stage.model())) {
+          ratios[j] = c->ratio;
+          break;
+        }
+      }
+    }
+  }
+  return ratios;
+}
+
+}  // namespace
+
+DeviceModel paper_actual_device(const DeviceModel& nominal) {
+  assert(nominal.dof() >= 4 && "default_scenario refuses devices of fewer than 4 joints");
+  DeviceModel m = nominal;
+  constexpr double mrad = 1e-3, mm = 1e-3, deg = std::numbers::pi / 180;
+  // Table 3: alpha_1..7 [mrad], a_1..7 [mm], d_1..7 [mm], theta_1..7 [mrad].
+  const double d_alpha[] = {-1.5, 1.3, -1.4, 1.2, -1.1, -1.6, 1.7};
+  const double d_a[] = {-1.1, 1.6, -1.2, 1.4, -1.5, 1.4, -1.3};
+  const double d_d[] = {1.2, -1.5, 1.3, -1.3, 1.4, -1.2, 1.0};
+  const double d_theta[] = {1.0, 1.7, -1.3, 1.0, -1.2, -1.0, 1.1};
+  m.base[0] += 1.9 * mm;    // a0
+  m.base[1] += 1.5 * mrad;  // alpha0
+  for (int i = 0; i < 7 && i < m.dof(); ++i) {
+    m.links[i].alpha += d_alpha[i] * mrad;
+    m.links[i].a += d_a[i] * mm;
+    m.links[i].d += d_d[i] * mm;
+    m.links[i].theta += d_theta[i] * mrad;
+  }
+  // Table 2: Re, ro [mm], ri [mm], bo [deg], bi [deg] for drums 1-4.
+  const double Re[] = {-0.025, -0.020, 0.015, 0.02};
+  const double ro[] = {0.200, 0.250, 0.200, 0.1};
+  const double ri[] = {0.005, 0.0025, 0.004, 0.002};
+  const double bo[] = {-105, -10, 150, -40};
+  const double bi[] = {-15, 140, -100, -120};
+  auto capstan = [&](int k) {
+    Capstan c;
+    c.ratio = 10;
+    c.drum_distance = 0.005;
+    c.ratio_error = Re[k];
+    c.r_out = ro[k] * mm;
+    c.r_in = ri[k] * mm;
+    c.beta_out = bo[k] * deg;
+    c.beta_in = bi[k] * deg;
+    return c;
+  };
+  for (int k = 0; k < 3; ++k) m.links[k].transmission = Transmission(capstan(k));
+  m.links[3].transmission = Transmission(
+      Chain{{Transmission(capstan(3)),
+             Transmission(Parallelogram{0.05 - 0.5 * mm, 0.21 - 0.7 * mm, 0.05, 0.21})}});
+  return m;
+}
+
+Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& noise,
+                 std::uint64_t seed, bool distance, bool position) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  const int n = actual.dof();
+  const PreparedModel prepared(actual);
+  const std::vector<double> ratio = drive_ratios(actual);
+  Log log;
+  log.origin = "simulated";
+  log.rows = poses;
+  log.q.resize(poses, n);
+  log.ext.setZero(poses, n);
+  log.has_ext.resize(n);
+  for (int j = 0; j < n; ++j) log.has_ext[j] = !actual.links[j].transmission.is_none();
+  log.has_distance = distance;
+  log.has_position = position;
+  if (distance) log.distance.resize(poses);
+  if (position) log.position.resize(poses, 3);
+  for (int r = 0; r < poses; ++r) {
+    log.line.push_back(r + 2);
+    for (int j = 0; j < n; ++j) {
+      const Link& l = actual.links[j];
+      log.q(r, j) = std::uniform_real_distribution<double>(l.lower, l.upper)(rng);
+    }
+    for (int j = 0; j < n; ++j) {
+      if (!log.has_ext[j]) continue;
+      const double q = log.q(r, j);
+      log.ext(r, j) =
+          q + actual.links[j].transmission.error(q) + 1e-3 * (j + 1) + noise.sigma_ext * gauss(rng);
+    }
+    const Eigen::VectorXd q = log.q.row(r).transpose();
+    const Eigen::Vector3d p = prepared.forward(q.data()).p;
+    for (int j = 0; j < n; ++j) {
+      log.q(r, j) = quantized_reading(q[j], ratio[j], noise.motor_counts_per_rev);
+    }
+    if (distance) log.distance[r] = p.norm() + noise.sigma_distance * gauss(rng);
+    if (position) {
+      for (int k = 0; k < 3; ++k) log.position(r, k) = p[k] + noise.sigma_position * gauss(rng);
+    }
+  }
+  return log;
+}
+
+Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_hz,
+                        const SimulationNoise& noise, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int n = actual.dof();
+  constexpr int kHarmonics = 4;
+  std::vector<std::array<double, kHarmonics>> freq(n), phase(n), amp(n);
+  for (int j = 0; j < n; ++j) {
+    double total = 0;
+    for (int k = 0; k < kHarmonics; ++k) {
+      freq[j][k] = 0.02 + 0.25 * unit(rng);  // Hz: slow, hand-guided motion
+      phase[j][k] = 2 * std::numbers::pi * unit(rng);
+      amp[j][k] = 0.2 + unit(rng);
+      total += amp[j][k];
+    }
+    for (double& a : amp[j]) a /= total;  // |sum| <= 1
+  }
+  const int rows = static_cast<int>(seconds * rate_hz);
+  const double rest = std::min(5.0, seconds / 10);  // at home, then a smooth start and stop
+  Log log;
+  log.origin = "simulated trajectory";
+  log.rows = rows;
+  log.q.resize(rows, n);
+  log.ext.setZero(rows, n);
+  log.has_ext.assign(n, false);
+  log.has_distance = log.has_time = true;
+  log.distance.resize(rows);
+  log.t.resize(rows);
+  const PreparedModel prepared(actual);
+  const std::vector<double> ratio = drive_ratios(actual);
+  Eigen::VectorXd q(n);
+  for (int r = 0; r < rows; ++r) {
+    const double t = r / rate_hz;
+    const double u = std::clamp((std::min(t, seconds - t) - rest) / rest, 0.0, 1.0);
+    const double envelope = u * u * (3 - 2 * u);
+    for (int j = 0; j < n; ++j) {
+      const Link& l = actual.links[j];
+      const double half = 0.45 * std::min(-l.lower, l.upper);  // home (0) stays the centre
+      double v = 0;
+      for (int k = 0; k < kHarmonics; ++k) {
+        v += amp[j][k] * (std::sin(2 * std::numbers::pi * freq[j][k] * t + phase[j][k]) -
+                          std::sin(phase[j][k]));
+      }
+      q[j] = std::clamp(envelope * half * v, l.lower, l.upper);
+    }
+    log.t[r] = t;
+    log.distance[r] = prepared.forward(q.data()).p.norm() + noise.sigma_distance * gauss(rng);
+    for (int j = 0; j < n; ++j)
+      q[j] = quantized_reading(q[j], ratio[j], noise.motor_counts_per_rev);
+    log.q.row(r) = q.transpose();
+    log.line.push_back(r + 2);
+  }
+  return log;
+}
+
+}  // namespace hapticcal

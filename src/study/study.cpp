@@ -1,0 +1,534 @@
+#include "hapticcal/study/study.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <thread>
+
+#include "hapticcal/identification/information.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/study/evaluate.hpp"
+#include "io/yaml_reader.hpp"
+
+namespace hapticcal {
+namespace {
+
+double rms(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x * x;
+  return v.empty() ? 0 : std::sqrt(s / v.size());
+}
+
+// Distance errors of a model on a log with distances.
+double distance_rms(const DeviceModel& model, const Log& log) {
+  return evaluate(model, log).distance->rms;
+}
+
+Eigen::VectorXd readings(const Log& log, int r) { return log.q.row(r).transpose(); }
+
+// Cramer-Rao variances at the truth for the two-step procedure. Step 1: each
+// fitted transmission's parameters (and c) from its external encoder, Fisher
+// information J^T J / sigma_e^2. Step 2: the kinematic parameters from the
+// distances, J_k^T J_k / sigma_m^2, plus the step-1 bounds carried in through the
+// compensated angles: d kin = G d trans with G = -(J_k^T J_k)^-1 J_k^T J_t, J_t
+// the distances' sensitivity to the transmission parameters.
+std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
+                                   const CalibrationResult& full) {
+  std::map<std::string, double> out;
+  const DeviceModel& actual = sc.actual;
+  const ChainStructure s = actual.structure();
+  const Eigen::VectorXd p = actual.kinematic_parameters();
+  const PreparedModel prepared(actual);
+  std::vector<const ParameterEstimate*> identified;
+  for (const ParameterEstimate& e : full.kinematics.parameters) {
+    if (e.identifiable) identified.push_back(&e);
+  }
+  const int k = static_cast<int>(identified.size());
+  const int m = ident.rows;
+  Eigen::MatrixXd Jk(m, k), dDelta_dTheta(m, actual.dof());
+  Eigen::VectorXd joint(actual.dof());
+  Eigen::Matrix<double, 1, Eigen::Dynamic> row;
+  Jacobian6<double> Jg;
+  for (int r = 0; r < m; ++r) {
+    const Eigen::VectorXd q = readings(ident, r);
+    prepared.compensate(q.data(), joint.data());
+    const Eigen::Vector3d tip =
+        prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, Jg).p;
+    dDelta_dTheta.row(r) = tip.normalized().transpose() * Jg.topRows<3>();
+    distance_parameter_jacobian(s, p.data(), joint.data(), row);
+    for (int c = 0; c < k; ++c) Jk(r, c) = row[identified[c]->slot];
+  }
+  std::vector<StepOneSensitivity> step_one;
+  for (const TransmissionFit& t : full.transmissions) {
+    // The step-1 model as fitted (its basis for a polynomial), at the truth's readings.
+    const Transmission& model = full.calibrated.links[t.joint].transmission;
+    const int np = model.num_parameters();
+    StepOneSensitivity st;
+    st.names.assign(t.names.begin(), t.names.begin() + np);
+    st.encoder.resize(m, np + 1);  // d (c + error) / d [params, c]
+    Eigen::VectorXd d(np);
+    for (int r = 0; r < m; ++r) {
+      model.parameter_jacobian(ident.q(r, t.joint), d.data());
+      st.encoder.row(r).head(np) = d.transpose();
+      st.encoder(r, np) = 1.0;
+    }
+    // Into step 2: J_t = d delta / d theta_j * d error_j / d params.
+    st.measurement.resize(m, np);
+    for (int r = 0; r < m; ++r) {
+      st.measurement.row(r) = dDelta_dTheta(r, t.joint) * st.encoder.row(r).head(np);
+    }
+    step_one.push_back(std::move(st));
+  }
+  std::vector<std::string> names;
+  for (const ParameterEstimate* e : identified) names.push_back(e->name);
+  const TwoStepBound bound =
+      two_step_crlb(Jk, names, sc.noise.sigma_distance, step_one, sc.noise.sigma_ext);
+  for (size_t c = 0; c < bound.names.size(); ++c) out[bound.names[c]] = bound.variance[c];
+  return out;
+}
+
+double rotation_angle(const Eigen::Matrix3d& R) { return Eigen::AngleAxisd(R).angle(); }
+
+}  // namespace
+
+double improvement_pct(double assigned, double nominal, double identified) {
+  return (1 - std::abs(assigned - identified) / std::abs(assigned - nominal)) * 100;
+}
+
+std::vector<StudyRow> study_rows(const Scenario& sc, const CalibrationResult& full) {
+  std::vector<StudyRow> rows;
+  for (const TransmissionFit& t : full.transmissions) {
+    const Transmission& truth = sc.actual.links[t.joint].transmission;
+    if (t.type != "capstan" || !std::holds_alternative<Capstan>(truth.model())) continue;
+    const Eigen::VectorXd tv = truth.parameters();
+    const double scale[] = {1, 1e3, 180 / std::numbers::pi, 1e3, 180 / std::numbers::pi};
+    const char* unit[] = {"", "mm", "deg", "mm", "deg"};
+    for (int c = 0; c < 5; ++c) {
+      rows.push_back({t.names[c], true, tv[c], t.nominal[c], t.value[c],
+                      improvement_pct(tv[c], t.nominal[c], t.value[c]), "", scale[c], unit[c]});
+    }
+  }
+  const Eigen::VectorXd truth = sc.actual.kinematic_parameters();
+  for (const ParameterEstimate& e : full.kinematics.parameters) {
+    const double assigned = truth[e.slot];
+    if (!e.identifiable && assigned == e.nominal) continue;
+    rows.push_back({e.name, false, assigned, e.nominal, e.value,
+                    e.identifiable ? improvement_pct(assigned, e.nominal, e.value) : 0.0,
+                    e.identifiable ? "" : e.reason, 1e3,
+                    e.unit == ParameterUnit::kAngle ? "mrad" : "mm"});
+  }
+  return rows;
+}
+
+Scenario default_scenario(const std::string& device_path) {
+  Scenario sc;
+  sc.device_path = device_path;
+  sc.nominal = load_device(device_path);
+  // Table 2 drives joints 1-4 (capstans, then the joint-4 linkage).
+  if (sc.nominal.dof() < 4) {
+    throw InputError(device_path, 0, "links",
+                     fmt::format("the paper's study needs at least 4 joints (Table 2 drives "
+                                 "joints 1-4); the device has {}",
+                                 sc.nominal.dof()));
+  }
+  sc.actual = paper_actual_device(sc.nominal);
+  return sc;
+}
+
+namespace {
+
+// Bounds on the numbers of a scenario file: a typo must not ask for terabytes
+// of samples or a deviation that no device has.
+constexpr int kMaxTrials = 100000;
+constexpr int kMaxPoses = 1000000;
+constexpr double kMaxTrajectorySeconds = 1e5;
+constexpr double kMaxRateHz = 1e5;
+constexpr double kMaxTrajectorySamples = 1e7;  // seconds * rate_hz
+constexpr double kMaxCountsPerRev = 1e9;
+constexpr double kMaxSigmaAngle = 1;                     // rad
+constexpr double kMaxSigmaLength = 1;                    // m
+constexpr double kMaxLengthDeviation = 1;                // m
+constexpr double kMaxAngleDeviation = std::numbers::pi;  // rad
+
+}  // namespace
+
+Scenario load_scenario(const std::string& path, const std::string& default_device_path) {
+  const std::string text = read_file(path);
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(path, e.mark.is_null() ? 0 : e.mark.line + 1, "", "YAML: " + e.msg);
+  }
+  const detail::YamlReader r(path);
+  r.check_keys(
+      root, "",
+      {"format", "device", "seed", "trials", "poses", "trajectory", "noise", "deviations"});
+  const std::string format = r.string(r.require(root, "", "format"), "format");
+  if (format != "hapticcal-scenario/1") {
+    r.fail(root["format"], "format",
+           fmt::format("'{}' is not 'hapticcal-scenario/1'", printable(format)));
+  }
+  std::string device = default_device_path;
+  if (root["device"]) {
+    device = r.string(root["device"], "device");
+    const std::filesystem::path p(device);
+    if (p.is_relative()) device = (std::filesystem::path(path).parent_path() / p).string();
+  }
+  Scenario sc = default_scenario(device);
+  auto positive_int = [&](const YAML::Node& node, const std::string& key, int lo, int hi) {
+    const double v = r.number(node, key);
+    if (v != std::floor(v) || v < lo || v > hi)
+      r.fail(node, key, fmt::format("expected an integer in [{}, {}]", lo, hi));
+    return static_cast<int>(v);
+  };
+  if (root["seed"])
+    sc.seed = static_cast<std::uint64_t>(positive_int(root["seed"], "seed", 0, 2000000000));
+  if (root["trials"]) sc.trials = positive_int(root["trials"], "trials", 1, kMaxTrials);
+  if (const YAML::Node poses = root["poses"]) {
+    r.check_keys(poses, "poses", {"identification", "validation"});
+    if (poses["identification"])
+      sc.identification_poses =
+          positive_int(poses["identification"], "poses.identification", 1, kMaxPoses);
+    if (poses["validation"])
+      sc.validation_poses = positive_int(poses["validation"], "poses.validation", 1, kMaxPoses);
+  }
+  if (const YAML::Node tr = root["trajectory"]) {
+    r.check_keys(tr, "trajectory", {"seconds", "rate_hz"});
+    auto bounded = [&](const YAML::Node& node, const std::string& key, double hi,
+                       const char* unit) {
+      const double v = r.number(node, key);
+      if (!(v > 0 && v <= hi))
+        r.fail(node, key, fmt::format("{} is outside (0, {}] {}", v, hi, unit));
+      return v;
+    };
+    if (tr["seconds"])
+      sc.trajectory_seconds =
+          bounded(tr["seconds"], "trajectory.seconds", kMaxTrajectorySeconds, "s");
+    if (tr["rate_hz"])
+      sc.trajectory_rate_hz = bounded(tr["rate_hz"], "trajectory.rate_hz", kMaxRateHz, "Hz");
+    const double samples = sc.trajectory_seconds * sc.trajectory_rate_hz;
+    if (samples > kMaxTrajectorySamples)
+      r.fail(tr, "trajectory",
+             fmt::format("seconds * rate_hz = {} samples, more than the {} allowed", samples,
+                         kMaxTrajectorySamples));
+  }
+  if (const YAML::Node noise = root["noise"]) {
+    r.check_keys(noise, "noise", {"sigma_e", "sigma_m", "motor_counts_per_rev"});
+    // Each noise value: finite (r.number), not negative and at most `hi`.
+    auto level = [&](const YAML::Node& node, const std::string& key, double hi, const char* unit) {
+      const double v = r.number(node, key);
+      if (!(v >= 0 && v <= hi))
+        r.fail(node, key, fmt::format("{} is outside [0, {}] {}", v, hi, unit));
+      return v;
+    };
+    if (noise["motor_counts_per_rev"]) {
+      sc.noise.motor_counts_per_rev = level(
+          noise["motor_counts_per_rev"], "noise.motor_counts_per_rev", kMaxCountsPerRev, "counts");
+    }
+    if (noise["sigma_e"])
+      sc.noise.sigma_ext = level(noise["sigma_e"], "noise.sigma_e", kMaxSigmaAngle, "rad");
+    sc.noise.sigma_distance = paper_sigma_m(sc.noise.sigma_ext);  // "paper", the default
+    if (const YAML::Node m = noise["sigma_m"]) {
+      if (m.IsScalar() && m.Scalar() == "consistent") {
+        sc.sigma_m_formula = "consistent";
+        sc.noise.sigma_distance = consistent_sigma_m(sc.noise.sigma_ext);
+      } else if (!(m.IsScalar() && m.Scalar() == "paper")) {
+        sc.sigma_m_formula = "given";
+        sc.noise.sigma_distance = level(m, "noise.sigma_m", kMaxSigmaLength, "m");
+      }
+    }
+    if (!(sc.noise.sigma_ext > 0 && sc.noise.sigma_distance > 0))
+      r.fail(noise, "noise", "noise levels must be positive");
+  }
+  if (const YAML::Node dev = root["deviations"]) {
+    r.expect_map(dev, "deviations");
+    Eigen::VectorXd truth = sc.actual.kinematic_parameters();
+    const Eigen::VectorXd nominal = sc.nominal.kinematic_parameters();
+    const std::vector<ParameterInfo> info = sc.nominal.parameter_info();
+    for (const auto& kv : dev) {
+      const std::string name = kv.first.IsScalar() ? kv.first.Scalar() : "?";
+      const std::string key = "deviations." + printable(name);
+      const auto it = std::find_if(info.begin(), info.end(),
+                                   [&](const ParameterInfo& p) { return p.name == name; });
+      if (it == info.end()) r.fail(kv.first, key, "not a kinematic parameter of the device");
+      const double v = r.number(kv.second, key);
+      const bool angle = it->unit == ParameterUnit::kAngle;
+      const double hi = angle ? kMaxAngleDeviation : kMaxLengthDeviation;
+      if (!(std::abs(v) <= hi))
+        r.fail(kv.second, key,
+               fmt::format("|{}| is more than the {} {} a deviation may be", v, hi,
+                           angle ? "rad (pi)" : "m"));
+      truth[it->slot] = nominal[it->slot] + v;
+    }
+    sc.actual.set_kinematic_parameters(truth);
+  }
+  return sc;
+}
+
+std::uint64_t trial_seed(std::uint64_t study_seed, int trial) {
+  std::uint64_t z = study_seed + 0x9E3779B97F4A7C15ull * static_cast<std::uint64_t>(trial + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string& out) {
+  TrialResult t;
+  t.seed = seed;
+  Log ident = simulate_log(sc.actual, sc.identification_poses, sc.noise, trial_seed(seed, 0));
+  SimulationNoise exact = sc.noise;
+  exact.sigma_position = 0;  // a perfect tracker: validation scores against the truth
+  Log val = simulate_log(sc.actual, sc.validation_poses, exact, trial_seed(seed, 1), true, true);
+  const bool files = !out.empty();
+  if (files) {
+    // The honest pipeline: what calibration sees comes from the files a real
+    // experiment would produce.
+    save_device(sc.nominal, out + "/nominal.yaml");
+    save_device(sc.actual, out + "/actual.yaml");
+    write_file_atomically(out + "/identification.csv", log_to_csv(ident));
+    write_file_atomically(out + "/validation.csv", log_to_csv(val));
+    ident = read_log(out + "/identification.csv");
+    val = read_log(out + "/validation.csv");
+  }
+  t.full = calibrate(sc.nominal, ident, CalibrationOptions{});
+  CalibrationOptions kin;
+  kin.transmissions = false;
+  t.kinematic_only = calibrate(sc.nominal, ident, kin);
+
+  // Fig. 8: validation poses against the truth.
+  const PreparedModel truth(sc.actual), before(sc.nominal), after(t.full.calibrated);
+  std::vector<double> position_before, position_after, orientation_before, orientation_after;
+  for (int r = 0; r < val.rows; ++r) {
+    const Eigen::VectorXd q = readings(val, r);
+    const Frame<double> Ta = truth.forward(q.data()), Tb = before.forward(q.data()),
+                        Tc = after.forward(q.data());
+    position_before.push_back((Tb.p - Ta.p).norm());
+    position_after.push_back((Tc.p - Ta.p).norm());
+    orientation_before.push_back(rotation_angle(Ta.R.transpose() * Tb.R));
+    orientation_after.push_back(rotation_angle(Ta.R.transpose() * Tc.R));
+  }
+  t.position_rms_before = rms(position_before);
+  t.position_rms_after = rms(position_after);
+  t.orientation_rms_before = rms(orientation_before);
+  t.orientation_rms_after = rms(orientation_after);
+  t.distance_rms_before = distance_rms(sc.nominal, val);
+  t.distance_rms_after = distance_rms(t.full.calibrated, val);
+  t.crlb_variance = crlb(sc, ident, t.full);
+  if (!files) return t;
+
+  // Fig. 10: the continuous motion, and the series for the figures.
+  Log traj = simulate_trajectory(sc.actual, sc.trajectory_seconds, sc.trajectory_rate_hz, sc.noise,
+                                 trial_seed(seed, 2));
+  write_file_atomically(out + "/trajectory.csv", log_to_csv(traj));
+  traj = read_log(out + "/trajectory.csv");
+  const Evaluation eb = evaluate(sc.nominal, traj), ef = evaluate(t.full.calibrated, traj),
+                   ek = evaluate(t.kinematic_only.calibrated, traj);
+  t.trajectory_rms_before = eb.distance->rms;
+  t.trajectory_rms_full = ef.distance->rms;
+  t.trajectory_rms_kinematic = ek.distance->rms;
+  save_device(t.full.calibrated, out + "/calibrated.yaml");
+  save_device(t.kinematic_only.calibrated, out + "/calibrated-kinematic-only.yaml");
+
+  std::string fig10 = "t,distance,error_nominal,error_full,error_kinematic_only\n";
+  const int step = std::max(1, static_cast<int>(sc.trajectory_rate_hz / 100));  // 100 Hz
+  for (int r = 0; r < traj.rows; r += step) {
+    fig10 += fmt::format("{},{},{},{},{}\n", traj.t[r], traj.distance[r], eb.distance_error[r],
+                         ef.distance_error[r], ek.distance_error[r]);
+  }
+  write_file_atomically(out + "/fig10_trajectory.csv", fig10);
+  std::string fig8 = "pose,position_before,position_after,orientation_before,orientation_after\n";
+  for (size_t r = 0; r < position_before.size(); ++r) {
+    fig8 += fmt::format("{},{},{},{},{}\n", r + 1, position_before[r], position_after[r],
+                        orientation_before[r], orientation_after[r]);
+  }
+  write_file_atomically(out + "/fig8_validation.csv", fig8);
+  // Fig. 7: joint 4's transmission error: measured (ext - q - c), identified, true.
+  for (const TransmissionFit& f : t.full.transmissions) {
+    if (f.type != "polynomial") continue;
+    const Transmission& fitted = t.full.calibrated.links[f.joint].transmission;
+    const Transmission& real = sc.actual.links[f.joint].transmission;
+    std::string fig7 = "q,measured,identified,truth\n";
+    for (int r = 0; r < ident.rows; ++r) {
+      const double q = ident.q(r, f.joint);
+      fig7 += fmt::format("{},{},{},{}\n", q, ident.ext(r, f.joint) - q - f.offset, fitted.error(q),
+                          real.error(q));
+    }
+    write_file_atomically(out + fmt::format("/fig7_{}.csv", t.full.calibrated.links[f.joint].name),
+                          fig7);
+  }
+  return t;
+}
+
+StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
+                      const std::function<void(int, int)>& progress) {
+  const int n = sc.trials;
+  std::vector<TrialResult> trials(n);
+  std::atomic<int> next{0}, done{0};
+  std::mutex report;
+  std::exception_ptr failure;
+  auto worker = [&] {
+    for (int k = next++; k < n; k = next++) {
+      try {
+        trials[k] = run_trial(sc, trial_seed(sc.seed, k), k == 0 ? out : "");
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(report);
+        if (!failure) failure = std::current_exception();
+      }
+      const int finished = ++done;
+      if (progress) {
+        const std::lock_guard<std::mutex> lock(report);
+        progress(finished, n);
+      }
+    }
+  };
+  threads = std::max(1, std::min(threads, n));
+  std::vector<std::thread> pool;
+  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
+  worker();
+  for (std::thread& th : pool) th.join();
+  if (failure) std::rethrow_exception(failure);
+
+  StudyResult result;
+  result.trials = n;
+  result.threads = threads;
+  // Statistics in trial order, so the thread count cannot change them.
+  std::map<std::string, std::vector<double>> identified, improvement_pct, variance;
+  std::map<std::string, StudyRow> reference;
+  for (const TrialResult& t : trials) {
+    for (const StudyRow& row : study_rows(sc, t.full)) {
+      if (!row.held.empty()) continue;
+      identified[row.name].push_back(row.identified);
+      improvement_pct[row.name].push_back(row.improvement_pct);
+      reference[row.name] = row;
+      const auto v = t.crlb_variance.find(row.name);
+      if (v != t.crlb_variance.end()) variance[row.name].push_back(v->second);
+    }
+  }
+  for (const auto& [name, values] : identified) {
+    MonteCarloStats m;
+    m.trials = static_cast<int>(values.size());
+    m.assigned = reference[name].assigned;
+    m.nominal = reference[name].nominal;
+    double sum = 0, sq = 0, ip = 0;
+    for (size_t k = 0; k < values.size(); ++k) {
+      sum += values[k];
+      sq += (values[k] - m.assigned) * (values[k] - m.assigned);
+      ip += improvement_pct[name][k];
+    }
+    m.mean = sum / values.size();
+    m.rmse = std::sqrt(sq / values.size());
+    m.mean_improvement_pct = ip / values.size();
+    std::vector<double> sorted = improvement_pct[name];
+    std::sort(sorted.begin(), sorted.end());
+    m.improvement_p05 = sorted[static_cast<size_t>(0.05 * (sorted.size() - 1))];
+    m.improvement_p95 = sorted[static_cast<size_t>(0.95 * (sorted.size() - 1))];
+    double var = 0;
+    for (double v : variance[name]) var += v;
+    m.crlb_sd = variance[name].empty() ? 0 : std::sqrt(var / variance[name].size());
+    m.efficiency = m.crlb_sd > 0 ? m.rmse / m.crlb_sd : 0;
+    result.monte_carlo[name] = m;
+  }
+  result.first = std::move(trials[0]);
+  return result;
+}
+
+std::optional<double> paper_improvement_pct(const std::string& name) {
+  // Baser & Konukseven (2013), Table 3 (kinematic) and Table 2 (capstans 1-3).
+  static const std::map<std::string, double> kPaper = {
+      {"j1.alpha", 98.47},       {"j2.alpha", 99.30},       {"j3.alpha", 99.73},
+      {"j4.alpha", 81.35},       {"j5.alpha", 80.01},       {"j6.alpha", 96.60},
+      {"base.a", 99.99},         {"j1.a", 98.97},           {"j2.a", 99.47},
+      {"j3.a", 99.99},           {"j4.a", 99.44},           {"j5.a", 99.99},
+      {"j6.a", 99.86},           {"j7.a", 99.99},           {"j1.d", 99.44},
+      {"j2.d", 99.71},           {"j3.d", 99.37},           {"j4.d", 97.64},
+      {"j5.d", 99.55},           {"j6.d", 99.99},           {"j7.d", 99.92},
+      {"j1.theta", 99.44},       {"j2.theta", 96.69},       {"j3.theta", 91.29},
+      {"j4.theta", 97.24},       {"j5.theta", 96.22},       {"j6.theta", 90.66},
+      {"j7.theta", 76.45},       {"j1.ratio_error", 99.72}, {"j2.ratio_error", 98.54},
+      {"j3.ratio_error", 92.89}, {"j1.r_out", 99.76},       {"j2.r_out", 99.28},
+      {"j3.r_out", 95.02},       {"j1.r_in", 99.36},        {"j2.r_in", 99.12},
+      {"j3.r_in", 99.75},        {"j1.beta_out", 99.74},    {"j2.beta_out", 99.22},
+      {"j3.beta_out", 99.20},    {"j1.beta_in", 97.24},     {"j2.beta_in", 99.99},
+      {"j3.beta_in", 99.14}};
+  const auto it = kPaper.find(name);
+  if (it == kPaper.end()) return std::nullopt;
+  return it->second;
+}
+
+std::string study_json(const Scenario& sc, const StudyResult& r) {
+  using json = nlohmann::ordered_json;
+  const TrialResult& t = r.first;
+  json j;
+  j["format"] = "hapticcal-study/1";
+  j["device"] = sc.device_path;
+  j["seed"] = sc.seed;
+  j["trials"] = r.trials;
+  j["noise"] = {{"sigma_e", sc.noise.sigma_ext},
+                {"sigma_m", sc.noise.sigma_distance},
+                {"sigma_m_formula", sc.sigma_m_formula},
+                {"motor_counts_per_rev", sc.noise.motor_counts_per_rev}};
+  j["poses"] = {{"identification", sc.identification_poses}, {"validation", sc.validation_poses}};
+  json params = json::object();
+  std::map<std::string, StudyRow> by_name;  // results.json lists them alphabetically
+  for (const StudyRow& row : study_rows(sc, t.full)) {
+    if (row.held.empty()) by_name[row.name] = row;
+  }
+  for (const auto& [name, row] : by_name) {
+    const auto paper = paper_improvement_pct(name);
+    const auto mc = r.monte_carlo.find(name);
+    params[name] = {
+        {"assigned", row.assigned},
+        {"nominal", row.nominal},
+        {"identified", row.identified},
+        {"improvement_pct", row.improvement_pct},
+        {"paper_improvement_pct", paper ? json(*paper) : json(nullptr)},
+        {"crlb_sd", mc != r.monte_carlo.end() ? json(mc->second.crlb_sd) : json(nullptr)}};
+  }
+  j["parameters"] = params;
+  j["held"] = json::object();
+  for (const ParameterEstimate& e : t.full.kinematics.parameters) {
+    if (!e.identifiable) j["held"][e.name] = e.reason;
+  }
+  j["validation"] = {{"position_rms_before", t.position_rms_before},
+                     {"position_rms_after", t.position_rms_after},
+                     {"orientation_rms_before", t.orientation_rms_before},
+                     {"orientation_rms_after", t.orientation_rms_after},
+                     {"distance_rms_before", t.distance_rms_before},
+                     {"distance_rms_after", t.distance_rms_after}};
+  j["trajectory"] = {
+      {"rms_before", t.trajectory_rms_before},
+      {"rms_full", t.trajectory_rms_full},
+      {"rms_kinematic_only", t.trajectory_rms_kinematic},
+      {"improvement_full_pct", rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before)},
+      {"improvement_kinematic_only_pct",
+       rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before)},
+      {"paper_improvement_full_pct", 96.6},
+      {"paper_improvement_kinematic_only_pct", 44.7}};
+  if (r.trials > 1) {
+    json mc = json::object();
+    for (const auto& [name, m] : r.monte_carlo) {
+      mc[name] = {{"assigned", m.assigned},
+                  {"mean", m.mean},
+                  {"mean_improvement_pct", m.mean_improvement_pct},
+                  {"rmse", m.rmse},
+                  {"crlb_sd", m.crlb_sd},
+                  {"efficiency", m.efficiency},
+                  {"improvement_p05", m.improvement_p05},
+                  {"improvement_p95", m.improvement_p95},
+                  {"trials", m.trials}};
+    }
+    j["monte_carlo"] = mc;
+  }
+  return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
+
+}  // namespace hapticcal
