@@ -10,7 +10,7 @@ build="$(cd "$1" && pwd)"
 seconds="$2"
 shift 2
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(fuzz_device fuzz_log fuzz_log_columns fuzz_scenario)
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_device fuzz_log fuzz_log_columns fuzz_scenario fuzz_urdf)
 
 seeds() {
   case "$1" in
@@ -25,6 +25,8 @@ seeds() {
       find "$src/examples" -name '*.csv' ;;
     fuzz_scenario)
       ls "$src"/fuzz/seeds/scenario/* ;;
+    fuzz_urdf)
+      ls "$src"/tests/data/urdf/*.urdf "$src"/fuzz/seeds/urdf/*.urdf ;;
   esac
 }
 dict() {
@@ -32,6 +34,7 @@ dict() {
     fuzz_device) echo device ;;
     fuzz_log | fuzz_log_columns) echo log ;;
     fuzz_scenario) echo scenario ;;
+    fuzz_urdf) echo urdf ;;
   esac
 }
 
