@@ -383,12 +383,13 @@ void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r)
       t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
   fmt::print(
       "Trajectory ({:.0f} s at {:.0f} Hz, Fig. 10): distance RMS {:.4f} mm nominal, {:.4f} mm "
-      "full ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %); paper: 96.6 % and 44.7 %\n",
+      "full ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %); paper: {:.1f} % and {:.1f} %\n",
       sc.trajectory_seconds, sc.trajectory_rate_hz, t.trajectory_rms_before * 1e3,
       t.trajectory_rms_full * 1e3,
       hapticcal::rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
       t.trajectory_rms_kinematic * 1e3,
-      hapticcal::rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before));
+      hapticcal::rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before),
+      hapticcal::kPaperImprovementFullPct, hapticcal::kPaperImprovementKinematicOnlyPct);
 }
 
 int run_simulate(const SimulateOptions& o) {

@@ -50,12 +50,6 @@ Statics statics(const DeviceModel& model, const ForceScenario& sc, const char* w
 
 }  // namespace
 
-Eigen::VectorXd default_posture(const DeviceModel& model) {
-  Eigen::VectorXd q = Eigen::VectorXd::Zero(model.dof());
-  if (model.dof() == 7) q[5] = 0.3;
-  return q;
-}
-
 Eigen::Matrix<double, 6, 6> rendering_map(const DeviceModel& actual, const DeviceModel& controller,
                                           const ForceScenario& scenario) {
   ForceScenario sc = scenario;

@@ -40,47 +40,6 @@ std::vector<double> drive_ratios(const DeviceModel& model) {
 
 }  // namespace
 
-DeviceModel paper_actual_device(const DeviceModel& nominal) {
-  assert(nominal.dof() >= 4 && "default_scenario refuses devices of fewer than 4 joints");
-  DeviceModel m = nominal;
-  constexpr double mrad = 1e-3, mm = 1e-3, deg = std::numbers::pi / 180;
-  // Table 3: alpha_1..7 [mrad], a_1..7 [mm], d_1..7 [mm], theta_1..7 [mrad].
-  const double d_alpha[] = {-1.5, 1.3, -1.4, 1.2, -1.1, -1.6, 1.7};
-  const double d_a[] = {-1.1, 1.6, -1.2, 1.4, -1.5, 1.4, -1.3};
-  const double d_d[] = {1.2, -1.5, 1.3, -1.3, 1.4, -1.2, 1.0};
-  const double d_theta[] = {1.0, 1.7, -1.3, 1.0, -1.2, -1.0, 1.1};
-  m.base[0] += 1.9 * mm;    // a0
-  m.base[1] += 1.5 * mrad;  // alpha0
-  for (int i = 0; i < 7 && i < m.dof(); ++i) {
-    m.links[i].alpha += d_alpha[i] * mrad;
-    m.links[i].a += d_a[i] * mm;
-    m.links[i].d += d_d[i] * mm;
-    m.links[i].theta += d_theta[i] * mrad;
-  }
-  // Table 2: Re, ro [mm], ri [mm], bo [deg], bi [deg] for drums 1-4.
-  const double Re[] = {-0.025, -0.020, 0.015, 0.02};
-  const double ro[] = {0.200, 0.250, 0.200, 0.1};
-  const double ri[] = {0.005, 0.0025, 0.004, 0.002};
-  const double bo[] = {-105, -10, 150, -40};
-  const double bi[] = {-15, 140, -100, -120};
-  auto capstan = [&](int k) {
-    Capstan c;
-    c.ratio = 10;
-    c.drum_distance = 0.005;
-    c.ratio_error = Re[k];
-    c.r_out = ro[k] * mm;
-    c.r_in = ri[k] * mm;
-    c.beta_out = bo[k] * deg;
-    c.beta_in = bi[k] * deg;
-    return c;
-  };
-  for (int k = 0; k < 3; ++k) m.links[k].transmission = Transmission(capstan(k));
-  m.links[3].transmission = Transmission(
-      Chain{{Transmission(capstan(3)),
-             Transmission(Parallelogram{0.05 - 0.5 * mm, 0.21 - 0.7 * mm, 0.05, 0.21})}});
-  return m;
-}
-
 Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& noise,
                  std::uint64_t seed, bool distance, bool position) {
   std::mt19937_64 rng(seed);

@@ -441,29 +441,6 @@ StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
   return result;
 }
 
-std::optional<double> paper_improvement_pct(const std::string& name) {
-  // Baser & Konukseven (2013), Table 3 (kinematic) and Table 2 (capstans 1-3).
-  static const std::map<std::string, double> kPaper = {
-      {"j1.alpha", 98.47},       {"j2.alpha", 99.30},       {"j3.alpha", 99.73},
-      {"j4.alpha", 81.35},       {"j5.alpha", 80.01},       {"j6.alpha", 96.60},
-      {"base.a", 99.99},         {"j1.a", 98.97},           {"j2.a", 99.47},
-      {"j3.a", 99.99},           {"j4.a", 99.44},           {"j5.a", 99.99},
-      {"j6.a", 99.86},           {"j7.a", 99.99},           {"j1.d", 99.44},
-      {"j2.d", 99.71},           {"j3.d", 99.37},           {"j4.d", 97.64},
-      {"j5.d", 99.55},           {"j6.d", 99.99},           {"j7.d", 99.92},
-      {"j1.theta", 99.44},       {"j2.theta", 96.69},       {"j3.theta", 91.29},
-      {"j4.theta", 97.24},       {"j5.theta", 96.22},       {"j6.theta", 90.66},
-      {"j7.theta", 76.45},       {"j1.ratio_error", 99.72}, {"j2.ratio_error", 98.54},
-      {"j3.ratio_error", 92.89}, {"j1.r_out", 99.76},       {"j2.r_out", 99.28},
-      {"j3.r_out", 95.02},       {"j1.r_in", 99.36},        {"j2.r_in", 99.12},
-      {"j3.r_in", 99.75},        {"j1.beta_out", 99.74},    {"j2.beta_out", 99.22},
-      {"j3.beta_out", 99.20},    {"j1.beta_in", 97.24},     {"j2.beta_in", 99.99},
-      {"j3.beta_in", 99.14}};
-  const auto it = kPaper.find(name);
-  if (it == kPaper.end()) return std::nullopt;
-  return it->second;
-}
-
 std::string study_json(const Scenario& sc, const StudyResult& r) {
   using json = nlohmann::ordered_json;
   const TrialResult& t = r.first;
@@ -511,8 +488,8 @@ std::string study_json(const Scenario& sc, const StudyResult& r) {
       {"improvement_full_pct", rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before)},
       {"improvement_kinematic_only_pct",
        rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before)},
-      {"paper_improvement_full_pct", 96.6},
-      {"paper_improvement_kinematic_only_pct", 44.7}};
+      {"paper_improvement_full_pct", kPaperImprovementFullPct},
+      {"paper_improvement_kinematic_only_pct", kPaperImprovementKinematicOnlyPct}};
   if (r.trials > 1) {
     json mc = json::object();
     for (const auto& [name, m] : r.monte_carlo) {

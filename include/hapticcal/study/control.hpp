@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "hapticcal/model/model.hpp"
+#include "hapticcal/study/paper.hpp"
 
 namespace hapticcal {
 
@@ -26,10 +27,6 @@ struct ForceScenario {
   double sensor_noise = 0;  // sd of each sensor force [N] (moments: times 0.01 m)
   std::uint64_t seed = 1;
 };
-
-// The default posture: home, with the wrist bent (j6 = 0.3 rad) for a 7-joint
-// device, because home is a wrist singularity of the built-in model.
-Eigen::VectorXd default_posture(const DeviceModel& model);
 
 struct ForceRun {
   std::vector<double> t;

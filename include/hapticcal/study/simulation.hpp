@@ -5,25 +5,9 @@
 
 #include "hapticcal/io/io.hpp"
 #include "hapticcal/model/model.hpp"
+#include "hapticcal/study/paper.hpp"
 
 namespace hapticcal {
-
-// Measurement noise of the paper's simulation: external encoders of 20000 ppr,
-// sigma_e = 2 pi / 20000 / 3 rad; the cable encoder sigma_m = 2 pi 0.015 sigma_e
-// (the paper's formula) or 0.015 sigma_e (the dimensionally consistent one).
-constexpr double kPaperSigmaE = 2 * 3.14159265358979323846 / 20000 / 3;
-constexpr double paper_sigma_m(double sigma_e) {
-  return 2 * 3.14159265358979323846 * 0.015 * sigma_e;
-}
-constexpr double consistent_sigma_m(double sigma_e) { return 0.015 * sigma_e; }
-constexpr double kPaperSigmaMPaper = paper_sigma_m(kPaperSigmaE);
-constexpr double kPaperSigmaMConsistent = consistent_sigma_m(kPaperSigmaE);
-
-// The "actual" device of the paper's study from the built-in nominal one: Table 3
-// deviations (mm, mrad), Table 2 capstans on joints 1-3 (radii read in mm), and
-// joint 4 a capstan (Table 2's fourth drum) followed by a parallelogram with
-// L1 = L3 = 0.05 m, L2 = L4 = 0.21 m and dL1 = -0.5 mm, dL2 = -0.7 mm.
-DeviceModel paper_actual_device(const DeviceModel& nominal);
 
 struct SimulationNoise {
   double sigma_ext = kPaperSigmaE;            // external encoders [rad]

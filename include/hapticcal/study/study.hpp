@@ -13,6 +13,7 @@
 
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/model/model.hpp"
+#include "hapticcal/study/paper.hpp"
 #include "hapticcal/study/simulation.hpp"
 
 namespace hapticcal {
@@ -104,9 +105,6 @@ struct StudyResult {
 // Runs the trials on `threads` threads; progress(k, n) is called as trials finish.
 StudyResult run_study(const Scenario& scenario, const std::string& out, int threads,
                       const std::function<void(int, int)>& progress = {});
-
-// The paper's I % for a dotted name (Tables 2 and 3), if it gives one.
-std::optional<double> paper_improvement_pct(const std::string& name);
 
 // results.json of a study.
 std::string study_json(const Scenario& scenario, const StudyResult& result);
