@@ -66,14 +66,12 @@ int run_evaluate(const EvaluateOptions& o) {
   const hapticcal::DeviceModel model = o.chain.load(o.model);
   const hapticcal::Log log = hapticcal::read_log(
       o.log, o.columns.empty() ? std::vector<std::string>{} : hapticcal::split_columns(o.columns));
-  const hapticcal::Evaluation ev = hapticcal::evaluate(model, log);
-  std::optional<hapticcal::Evaluation> ref;
-  if (!o.reference.empty()) ref = hapticcal::evaluate(o.chain.load(o.reference), log);
-  // Paper eq. (9): the model's RMS against the reference's on the same log.
-  auto improvement = [&](const std::optional<hapticcal::ErrorStats>& mine,
-                         const std::optional<hapticcal::ErrorStats>& theirs) {
-    return hapticcal::rms_improvement_pct(mine->rms, theirs->rms);
-  };
+  std::optional<hapticcal::EvaluationComparison> cmp;
+  if (!o.reference.empty())
+    cmp = hapticcal::compare_to_reference(model, o.chain.load(o.reference), log);
+  const hapticcal::Evaluation ev = cmp ? cmp->model : hapticcal::evaluate(model, log);
+  const std::optional<hapticcal::Evaluation> ref =
+      cmp ? std::optional<hapticcal::Evaluation>(cmp->reference) : std::nullopt;
   if (o.json) {
     nlohmann::ordered_json j;
     j["n"] = ev.n;
@@ -92,11 +90,11 @@ int run_evaluate(const EvaluateOptions& o) {
     if (ref) {
       if (ev.distance) {
         j["reference_rms_distance"] = ref->distance->rms;
-        j["improvement_distance_pct"] = improvement(ev.distance, ref->distance);
+        j["improvement_distance_pct"] = *cmp->improvement_distance_pct;
       }
       if (ev.position) {
         j["reference_rms_position"] = ref->position->rms;
-        j["improvement_position_pct"] = improvement(ev.position, ref->position);
+        j["improvement_position_pct"] = *cmp->improvement_position_pct;
       }
     }
     fmt::print("{}\n", j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
@@ -119,12 +117,12 @@ int run_evaluate(const EvaluateOptions& o) {
   if (ref && ev.distance) {
     fmt::print("against {}: distance RMS {:.4f} mm -> {:.4f} mm, improvement {:.1f} % (eq. 9)\n",
                o.reference, ref->distance->rms * 1e3, ev.distance->rms * 1e3,
-               improvement(ev.distance, ref->distance));
+               *cmp->improvement_distance_pct);
   }
   if (ref && ev.position) {
     fmt::print("against {}: position RMS {:.4f} mm -> {:.4f} mm, improvement {:.1f} % (eq. 9)\n",
                o.reference, ref->position->rms * 1e3, ev.position->rms * 1e3,
-               improvement(ev.position, ref->position));
+               *cmp->improvement_position_pct);
   }
   return 0;
 }
@@ -460,21 +458,19 @@ int run_force_study(ForceOptions o) {
         throw hapticcal::InputError(fmt::format("--posture: '{}' is not a number", v[i]));
       }
     }
-  } else {
-    sc.posture = hapticcal::default_posture(actual);
   }
-  const double limit = std::min(hapticcal::stable_gain_limit(actual, nominal, sc),
-                                hapticcal::stable_gain_limit(actual, calibrated, sc));
+  const double limit = hapticcal::force_study_gain_limit(actual, nominal, calibrated, sc);
   if (!(std::abs(sc.gain) < limit)) {
     throw hapticcal::InputError(fmt::format(
         "--gain {} is outside the stable range: |G| < {:.4f} for these models (1 / spectral radius "
         "of the rendering map)",
         sc.gain, limit));
   }
-  const hapticcal::ForceRun before = hapticcal::run_force(actual, nominal, sc);
-  const hapticcal::ForceRun after = hapticcal::run_force(actual, calibrated, sc);
-  const double reduction =
-      hapticcal::rms_improvement_pct(after.transverse_rms, before.transverse_rms);
+  const hapticcal::ForceStudy study = hapticcal::run_force_study(actual, nominal, calibrated, sc);
+  sc = study.scenario;
+  const hapticcal::ForceRun& before = study.nominal;
+  const hapticcal::ForceRun& after = study.calibrated;
+  const double reduction = study.reduction_pct;
   std::string posture;
   for (int i = 0; i < sc.posture.size(); ++i)
     posture += fmt::format("{}{}", i ? "," : "", sc.posture[i]);

@@ -3,10 +3,13 @@
 #include <fmt/format.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
 #include <random>
 
 #include "hapticcal/io/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/study/evaluate.hpp"
 
 namespace hapticcal {
 namespace {
@@ -103,6 +106,33 @@ ForceRun run_force(const DeviceModel& actual, const DeviceModel& controller,
   }
   run.transverse_rms = std::sqrt(transverse2 / std::max(steps, 1));
   return run;
+}
+
+double force_study_gain_limit(const DeviceModel& actual, const DeviceModel& nominal,
+                              const DeviceModel& calibrated, const ForceScenario& scenario) {
+  return std::min(stable_gain_limit(actual, nominal, scenario),
+                  stable_gain_limit(actual, calibrated, scenario));
+}
+
+ForceStudy run_force_study(const DeviceModel& actual, const DeviceModel& nominal,
+                           const DeviceModel& calibrated, const ForceScenario& scenario) {
+  ForceStudy study;
+  study.scenario = scenario;
+  ForceScenario& sc = study.scenario;
+  study.default_posture = sc.posture.size() == 0;
+  if (study.default_posture) sc.posture = default_posture(actual);
+  study.stable_gain_limit = force_study_gain_limit(actual, nominal, calibrated, sc);
+  if (!(std::abs(sc.gain) < study.stable_gain_limit)) {
+    throw InputError(fmt::format(
+        "gain G = {} is outside the stable range: |G| < {:.4f} for these models (1 / spectral "
+        "radius of the rendering map)",
+        sc.gain, study.stable_gain_limit));
+  }
+  study.nominal = run_force(actual, nominal, sc);
+  study.calibrated = run_force(actual, calibrated, sc);
+  study.reduction_pct =
+      rms_improvement_pct(study.calibrated.transverse_rms, study.nominal.transverse_rms);
+  return study;
 }
 
 }  // namespace hapticcal

@@ -55,4 +55,18 @@ double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated) {
   return (rms_uncalibrated - rms_calibrated) / std::abs(rms_uncalibrated) * 100.0;
 }
 
+EvaluationComparison compare_to_reference(const DeviceModel& model, const DeviceModel& reference,
+                                          const Log& log) {
+  EvaluationComparison c{evaluate(model, log), evaluate(reference, log), {}, {}};
+  if (c.model.distance && c.reference.distance) {
+    c.improvement_distance_pct =
+        rms_improvement_pct(c.model.distance->rms, c.reference.distance->rms);
+  }
+  if (c.model.position && c.reference.position) {
+    c.improvement_position_pct =
+        rms_improvement_pct(c.model.position->rms, c.reference.position->rms);
+  }
+  return c;
+}
+
 }  // namespace hapticcal

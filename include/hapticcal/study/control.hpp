@@ -49,4 +49,23 @@ double stable_gain_limit(const DeviceModel& actual, const DeviceModel& controlle
 ForceRun run_force(const DeviceModel& actual, const DeviceModel& controller,
                    const ForceScenario& scenario);
 
+// The force study's stable range: |G| < the smaller of stable_gain_limit for the
+// nominal and the calibrated controller model (an empty posture: the default).
+double force_study_gain_limit(const DeviceModel& actual, const DeviceModel& nominal,
+                              const DeviceModel& calibrated, const ForceScenario& scenario);
+
+// The actual device rendered by the nominal and by the calibrated model.
+struct ForceStudy {
+  ForceScenario scenario;        // as run: an empty posture replaced by the default
+  bool default_posture = false;  // the posture was default_posture(actual)
+  double stable_gain_limit = 0;  // force_study_gain_limit
+  ForceRun nominal, calibrated;
+  double reduction_pct = 0;  // eq. (9) on the transverse force RMS
+};
+
+// Throws InputError if |gain| is outside the stable range or the posture is
+// singular or of the wrong size.
+ForceStudy run_force_study(const DeviceModel& actual, const DeviceModel& nominal,
+                           const DeviceModel& calibrated, const ForceScenario& scenario);
+
 }  // namespace hapticcal

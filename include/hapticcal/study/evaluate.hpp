@@ -34,4 +34,16 @@ Evaluation evaluate(const DeviceModel& model, const Log& log);
 // and is negative when the "calibrated" model is worse, which eq. (9) would hide.
 double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated);
 
+// A model against a reference model on the same log (evaluate --reference):
+// both evaluations and eq. (9)'s improvement of each error the log measures.
+struct EvaluationComparison {
+  Evaluation model, reference;
+  std::optional<double> improvement_distance_pct;  // set when the log has distances
+  std::optional<double> improvement_position_pct;  // set when it has positions
+};
+
+// Throws InputError if the log does not fit either model.
+EvaluationComparison compare_to_reference(const DeviceModel& model, const DeviceModel& reference,
+                                          const Log& log);
+
 }  // namespace hapticcal
