@@ -7,8 +7,8 @@
 #include <cstdlib>
 #include <string>
 
-#include "hapticcal/error.hpp"
-#include "hapticcal/io.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <string>
 
-#include "hapticcal/error.hpp"
-#include "hapticcal/io.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
 #include "round_trip.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

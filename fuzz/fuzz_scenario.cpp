@@ -13,8 +13,8 @@
 #include <fstream>
 #include <string>
 
-#include "hapticcal/error.hpp"
-#include "hapticcal/study.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/study/study.hpp"
 
 namespace {
 
