@@ -528,6 +528,10 @@ TEST(Urdf, MalformedInputGivesOneLineErrors) {
                      {"loop.urdf:1:", "tip", "own ancestor", "loop"});
   expect_input_error([&] { parse_urdf(loop, "loop.urdf", "b"); }, {"loop.urdf", "loop"});
   expect_input_error([&] { parse_urdf(loop, "loop.urdf", ""); }, {"loop.urdf", "0 leaf links"});
+  // A text that ends in a cut UTF-8 sequence: tinyxml read past its end
+  // (stack-buffer-overflow; found by fuzz_urdf).
+  expect_input_error([&] { parse_urdf("<origin xyz=\"<\xc8", "cut.urdf", "b"); },
+                     {"cut.urdf", "XML"});
   // A tip or root with a device file.
   expect_input_error([&] { load_model(source_path("data/devices/baser-7dof.yaml"), "tool"); },
                      {"baser-7dof.yaml", "--tip"});

@@ -286,8 +286,11 @@ void check_xml(const std::string& text, const std::string& origin) {
     const int line = static_cast<int>(std::count(text.begin(), text.begin() + nul, '\n')) + 1;
     throw InputError(origin, line, "", fmt::format("NUL byte at byte {}", nul));
   }
+  // tinyxml 2.6 steps over a UTF-8 sequence by its lead byte, past the end of a
+  // text that ends in a cut one: NUL bytes after the text stop it there.
+  const std::string padded = text + std::string(4, '\0');
   TiXmlDocument xml;
-  xml.Parse(text.c_str(), nullptr, TIXML_ENCODING_UTF8);
+  xml.Parse(padded.c_str(), nullptr, TIXML_ENCODING_UTF8);
   if (xml.Error()) {
     throw InputError(origin, std::max(0, xml.ErrorRow()), "",
                      fmt::format("XML: {}", printable(xml.ErrorDesc(), 120)));
