@@ -414,7 +414,7 @@ int run_simulate(const SimulateOptions& o) {
   });
   print_study(sc, r);
   hapticcal::write_file_atomically(out.dir() + "/results.json", hapticcal::study_json(sc, r));
-  const std::string reported = report(hapticcal::study_report(sc, r, out.dir()), out.dir(), o.out);
+  const std::string reported = report(hapticcal::study_report(sc, r), out.dir(), o.out);
   out.commit();
   fmt::print("{}", reported);
   fmt::print(

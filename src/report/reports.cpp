@@ -65,27 +65,6 @@ void transmission_figures(const TransmissionFit& t, const std::string& link, con
   figures.push_back(res);
 }
 
-std::vector<std::vector<double>> read_csv_columns(const std::string& path) {
-  std::vector<std::vector<double>> cols;
-  const std::string text = read_file(path);
-  size_t pos = text.find('\n') + 1;  // header
-  while (pos < text.size()) {
-    const size_t eol = text.find('\n', pos);
-    const std::string line = text.substr(pos, eol - pos);
-    pos = eol == std::string::npos ? text.size() : eol + 1;
-    if (line.empty()) continue;
-    size_t start = 0;
-    for (int c = 0;; ++c) {
-      const size_t comma = line.find(',', start);
-      if (static_cast<int>(cols.size()) <= c) cols.emplace_back();
-      cols[c].push_back(std::stod(line.substr(start, comma - start)));
-      if (comma == std::string::npos) break;
-      start = comma + 1;
-    }
-  }
-  return cols;
-}
-
 // Long logs and runs are decimated to about this many points a figure, so that
 // a report stays small (issue 10: 10^6 rows gave a 208 MB report).
 constexpr int kMaxPlotted = 2000;
@@ -206,7 +185,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   return report;
 }
 
-Report study_report(const Scenario& sc, const StudyResult& r, const std::string& out) {
+Report study_report(const Scenario& sc, const StudyResult& r) {
   const TrialResult& t = r.first;
   Report report;
   report.title = fmt::format("hapticcal simulate: the paper's study on {}", sc.nominal.name);
@@ -256,11 +235,11 @@ Report study_report(const Scenario& sc, const StudyResult& r, const std::string&
   report.sections.push_back(held_table(t.full.kinematics));
 
   // Fig. 7: the parallelogram joint's error.
-  const Log ident = read_log(out + "/identification.csv");
+  const Log& ident = t.figures.identification;
   for (const TransmissionFit& f : t.full.transmissions) {
     if (f.type != "polynomial") continue;
     const std::string link = sc.nominal.links[f.joint].name;
-    const auto c = read_csv_columns(out + "/fig7_" + link + ".csv");
+    const auto& c = t.figures.fig7.at(link);
     std::vector<int> idx = order_by(c[0]);
     std::vector<double> q, m, id, tr;
     for (int i : idx) {
@@ -279,7 +258,7 @@ Report study_report(const Scenario& sc, const StudyResult& r, const std::string&
     report.figures.push_back(fig7);
   }
   // Fig. 8: validation errors per pose.
-  const auto v = read_csv_columns(out + "/fig8_validation.csv");
+  const auto& v = t.figures.fig8;
   auto scaled = [](std::vector<double> x) {
     for (double& e : x) e *= 1e3;
     return x;
@@ -303,7 +282,7 @@ Report study_report(const Scenario& sc, const StudyResult& r, const std::string&
     report.figures.pop_back();  // the residual panels belong to calibrate's report
   }
   // Fig. 10: the trajectory.
-  const auto tr = read_csv_columns(out + "/fig10_trajectory.csv");
+  const auto& tr = t.figures.fig10;
   FigureSpec fig10 =
       figure("fig10_trajectory", "Fig. 10: distance error over the trajectory", "time [s]",
              "distance error [mm]", {tr[0], scaled(tr[2]), scaled(tr[3]), scaled(tr[4])});

@@ -338,17 +338,24 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
   save_device(t.full.calibrated, out + "/calibrated.yaml");
   save_device(t.kinematic_only.calibrated, out + "/calibrated-kinematic-only.yaml");
 
+  t.figures.identification = ident;
   std::string fig10 = "t,distance,error_nominal,error_full,error_kinematic_only\n";
+  t.figures.fig10.assign(5, {});
   const int step = std::max(1, static_cast<int>(sc.trajectory_rate_hz / 100));  // 100 Hz
   for (int r = 0; r < traj.rows; r += step) {
-    fig10 += fmt::format("{},{},{},{},{}\n", traj.t[r], traj.distance[r], eb.distance_error[r],
-                         ef.distance_error[r], ek.distance_error[r]);
+    const double row[] = {traj.t[r], traj.distance[r], eb.distance_error[r], ef.distance_error[r],
+                          ek.distance_error[r]};
+    fig10 += fmt::format("{},{},{},{},{}\n", row[0], row[1], row[2], row[3], row[4]);
+    for (int c = 0; c < 5; ++c) t.figures.fig10[c].push_back(row[c]);
   }
   write_file_atomically(out + "/fig10_trajectory.csv", fig10);
   std::string fig8 = "pose,position_before,position_after,orientation_before,orientation_after\n";
+  t.figures.fig8.assign(5, {});
   for (size_t r = 0; r < position_before.size(); ++r) {
-    fig8 += fmt::format("{},{},{},{},{}\n", r + 1, position_before[r], position_after[r],
-                        orientation_before[r], orientation_after[r]);
+    const double row[] = {static_cast<double>(r + 1), position_before[r], position_after[r],
+                          orientation_before[r], orientation_after[r]};
+    fig8 += fmt::format("{},{},{},{},{}\n", r + 1, row[1], row[2], row[3], row[4]);
+    for (int c = 0; c < 5; ++c) t.figures.fig8[c].push_back(row[c]);
   }
   write_file_atomically(out + "/fig8_validation.csv", fig8);
   // Fig. 7: joint 4's transmission error: measured (ext - q - c), identified, true.
@@ -357,10 +364,14 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
     const Transmission& fitted = t.full.calibrated.links[f.joint].transmission;
     const Transmission& real = sc.actual.links[f.joint].transmission;
     std::string fig7 = "q,measured,identified,truth\n";
+    auto& series = t.figures.fig7[t.full.calibrated.links[f.joint].name];
+    series.assign(4, {});
     for (int r = 0; r < ident.rows; ++r) {
       const double q = ident.q(r, f.joint);
-      fig7 += fmt::format("{},{},{},{}\n", q, ident.ext(r, f.joint) - q - f.offset, fitted.error(q),
-                          real.error(q));
+      const double row[] = {q, ident.ext(r, f.joint) - q - f.offset, fitted.error(q),
+                            real.error(q)};
+      fig7 += fmt::format("{},{},{},{}\n", row[0], row[1], row[2], row[3]);
+      for (int c = 0; c < 4; ++c) series[c].push_back(row[c]);
     }
     write_file_atomically(out + fmt::format("/fig7_{}.csv", t.full.calibrated.links[f.joint].name),
                           fig7);

@@ -56,9 +56,9 @@ namespace hapticcal {
 Report calibration_report(const CalibrationResult& result, const DeviceModel& nominal,
                           const Log& log);
 // simulate: Figs 7, 8, 9-like fits, 10, and for Monte Carlo the I % spread and
-// RMSE / CRLB per parameter, with the Table 2 and 3 analogues. Reads the series
-// that run_trial wrote to `out`.
-Report study_report(const Scenario& scenario, const StudyResult& result, const std::string& out);
+// RMSE / CRLB per parameter, with the Table 2 and 3 analogues, from the series
+// the first trial keeps in memory (TrialResult::figures).
+Report study_report(const Scenario& scenario, const StudyResult& result);
 // force: the Fig. 12 analogue for the nominal and the calibrated model.
 Report force_report(const ForceRun& nominal, const ForceRun& calibrated, double reduction_pct);
 

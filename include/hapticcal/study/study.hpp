@@ -58,6 +58,16 @@ struct TrialResult {
   double trajectory_rms_before = 0, trajectory_rms_full = 0, trajectory_rms_kinematic = 0;
   // Cramer-Rao variances at the truth for this trial's poses, by dotted name.
   std::map<std::string, double> crlb_variance;
+  // The series of the figures, for the report, in memory (the same numbers as
+  // the trial's CSV files); filled when the trial writes its files.
+  struct Figures {
+    Log identification;  // as calibrated (read back from its file)
+    std::vector<std::vector<double>>
+        fig8;  // pose, position before, after, orientation before, after
+    std::vector<std::vector<double>> fig10;  // t, distance, error nominal, full, kinematic-only
+    std::map<std::string, std::vector<std::vector<double>>> fig7;  // by link: q, measured,
+                                                                   // identified, truth
+  } figures;
 };
 
 // One trial with its seed. If `out` is not empty the logs (identification.csv,
