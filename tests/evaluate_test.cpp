@@ -163,25 +163,7 @@ TEST(Evaluate, PoseLogsReportTheOrientationError) {
   DeviceModel truth = testing::meca500();
   truth.tool = {0, 0, 0.05, 0, 0, 0};
   std::mt19937_64 rng(4);
-  const PreparedModel actual(truth);
-  Log log;
-  log.origin = "poses";
-  log.rows = 20;
-  log.q.resize(log.rows, truth.dof());
-  log.has_ext.assign(truth.dof(), false);
-  log.ext = Eigen::MatrixXd::Zero(log.rows, truth.dof());
-  log.position.resize(log.rows, 3);
-  log.orientation.resize(log.rows, 4);
-  log.has_position = log.has_orientation = true;
-  for (int r = 0; r < log.rows; ++r) {
-    const Eigen::VectorXd q = testing::random_readings(truth, rng);
-    log.q.row(r) = q.transpose();
-    log.line.push_back(r + 2);
-    const Frame<double> T = actual.forward(q.data());
-    log.position.row(r) = T.p.transpose();
-    const Eigen::Quaterniond quat(T.R);
-    log.orientation.row(r) << quat.w(), quat.x(), quat.y(), quat.z();
-  }
+  const Log log = testing::pose_log(truth, 20, rng);
   EXPECT_LT(evaluate(truth, log).orientation->max, 1e-12);
   DeviceModel turned = truth;
   turned.tool[5] = 0.01;

@@ -450,24 +450,7 @@ TEST(Identification, PoseMeasurementsIdentifyToolRotationsThatPositionsCannot) {
   truth.base[3] += 0.01;
   truth.base[5] -= 0.02;
   const PreparedModel actual(truth);
-  Log log;
-  log.origin = "simulated";
-  log.rows = 300;
-  log.q.resize(log.rows, truth.dof());
-  log.ext = Eigen::MatrixXd::Zero(log.rows, truth.dof());
-  log.has_ext.assign(truth.dof(), false);
-  log.position.resize(log.rows, 3);
-  log.orientation.resize(log.rows, 4);
-  log.has_position = log.has_orientation = true;
-  for (int r = 0; r < log.rows; ++r) {
-    const Eigen::VectorXd q = testing::random_readings(truth, rng);
-    log.q.row(r) = q.transpose();
-    log.line.push_back(r + 2);
-    const Frame<double> tool = actual.forward(q.data());
-    log.position.row(r) = tool.p.transpose();
-    const Eigen::Quaterniond quat(tool.R);
-    log.orientation.row(r) << quat.w(), quat.x(), quat.y(), quat.z();
-  }
+  const Log log = testing::pose_log(truth, 300, rng);
   const CalibrationResult pose = calibrate(nominal, log, {});
   ASSERT_EQ(pose.status, CalibrationStatus::kConverged) << pose.status_reason;
   EXPECT_EQ(pose.kinematics.type, MeasurementType::kPose);

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "hapticcal/io/io.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model/model.hpp"
 
 #ifndef HAPTICCAL_SOURCE_DIR
@@ -181,6 +182,31 @@ inline Eigen::VectorXd random_readings(const DeviceModel& m, std::mt19937_64& rn
     q[i] = std::uniform_real_distribution<double>(m.links[i].lower, m.links[i].upper)(rng);
   }
   return q;
+}
+
+// A 6-D pose log (x, y, z and a unit quaternion, exact) of `truth` at `rows`
+// random readings within its limits.
+inline Log pose_log(const DeviceModel& truth, int rows, std::mt19937_64& rng) {
+  const PreparedModel actual(truth);
+  Log log;
+  log.origin = "simulated poses";
+  log.rows = rows;
+  log.q.resize(rows, truth.dof());
+  log.ext = Eigen::MatrixXd::Zero(rows, truth.dof());
+  log.has_ext.assign(truth.dof(), false);
+  log.position.resize(rows, 3);
+  log.orientation.resize(rows, 4);
+  log.has_position = log.has_orientation = true;
+  for (int r = 0; r < rows; ++r) {
+    const Eigen::VectorXd q = random_readings(truth, rng);
+    log.q.row(r) = q.transpose();
+    log.line.push_back(r + 2);
+    const Frame<double> tool = actual.forward(q.data());
+    log.position.row(r) = tool.p.transpose();
+    const Eigen::Quaterniond quat(tool.R);
+    log.orientation.row(r) << quat.w(), quat.x(), quat.y(), quat.z();
+  }
+  return log;
 }
 
 }  // namespace hapticcal::testing
