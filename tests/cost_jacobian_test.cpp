@@ -295,5 +295,25 @@ TEST(CostJacobian, CapstanReportedSdMatchesMonteCarloRmseWithin15Percent) {
   }
 }
 
+// rotation_log against Eigen's AngleAxis, near 0, in between and near pi (where
+// sin(a) carries no axis): the angle and the axis, for random axes.
+TEST(CostJacobian, RotationLogMatchesAngleAxisUpToPi) {
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> n(0, 1);
+  for (const double angle : {0.0, 1e-9, 1e-3, 1.0, 3.0, M_PI - 1e-5, M_PI - 1e-9, M_PI}) {
+    for (int trial = 0; trial < 20; ++trial) {
+      const Eigen::Vector3d axis = Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized();
+      const Eigen::Matrix3d R = Eigen::AngleAxisd(angle, axis).toRotationMatrix();
+      const Eigen::Vector3d phi = rotation_log(R);
+      SCOPED_TRACE(angle);
+      EXPECT_NEAR(phi.norm(), angle, 1e-8);
+      // The same rotation (at pi, u and -u are one).
+      EXPECT_LT((Eigen::AngleAxisd(phi.norm(), phi.normalized()).toRotationMatrix() - R).norm() *
+                    (angle > 0),
+                1e-8);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace hapticcal

@@ -425,6 +425,11 @@ TEST(LogIo, PrismaticReadingsAreLengthsMatchedToTheModel) {
             "bad.csv:1: q2[deg]: slide is prismatic: its readings are lengths (m, mm, um)");
   EXPECT_EQ(message("q1[m],q2,x,y,z\n0,1,0,0,0\n"),
             "bad.csv:1: q1[m]: turn is a turning joint: its readings are angles (rad, deg)");
+  // External encoders too.
+  EXPECT_EQ(message("q1,ext1[mm],q2,x,y,z\n0,1,0,0,0,0\n"),
+            "bad.csv:1: ext1[mm]: turn is a turning joint: its readings are angles (rad, deg)");
+  EXPECT_EQ(message("q1,q2,ext2[deg],x,y,z\n0,0,1,0,0,0\n"),
+            "bad.csv:1: ext2[deg]: slide is prismatic: its readings are lengths (m, mm, um)");
 }
 
 }  // namespace

@@ -183,6 +183,17 @@ std::string names_of(const std::vector<int>& slots, const std::map<int, std::str
 // `rows` the log rows behind the residuals (their weights' sum of squares).
 double measurement_rms(double rss, double rows) { return std::sqrt(rss / std::max(rows, 1.0)); }
 
+// The squared residuals that measure a position or distance error: all of them,
+// but of a pose only its position rows (its rotation rows are reported apart).
+double position_rss(const Eigen::VectorXd& r, const RowsOf& kind) {
+  if (kind.type != MeasurementType::kPose) return r.squaredNorm();
+  double sum = 0;
+  for (Eigen::Index i = 0; i < r.size(); ++i) {
+    if (i % 6 < 3) sum += r[i] * r[i];
+  }
+  return sum;
+}
+
 }  // namespace
 
 std::vector<int> sample_rows(int rows, int samples, std::uint64_t seed) {
@@ -374,13 +385,15 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
     }
     if (out == 0) continue;
     const double bound = std::max(std::abs(link.lower), std::abs(link.upper));
-    const std::string hint =
-        largest > 2 * M_PI && largest * M_PI / 180 <= bound + kSlack
-            ? fmt::format("; in degrees they would fit: name the column q{}[deg]", j + 1)
-            : "";
+    std::string hint;
+    if (link.prismatic() && largest * 1e-3 <= bound + kSlack) {
+      hint = fmt::format("; in millimetres they would fit: name the column q{}[mm]", j + 1);
+    } else if (!link.prismatic() && largest > 2 * M_PI && largest * M_PI / 180 <= bound + kSlack) {
+      hint = fmt::format("; in degrees they would fit: name the column q{}[deg]", j + 1);
+    }
     const std::string message = fmt::format(
-        "{} of {} readings are outside {}'s limits [{:.4g}, {:.4g}] rad (largest |q| {:.4g}){}",
-        out, log.rows, link.name, link.lower, link.upper, largest, hint);
+        "{} of {} readings are outside {}'s limits [{:.4g}, {:.4g}] {} (largest |q| {:.4g}){}", out,
+        log.rows, link.name, link.lower, link.upper, link.prismatic() ? "m" : "rad", largest, hint);
     if (2 * out > log.rows && !force) {
       throw InputError(log.origin, 0, fmt::format("q{}", j + 1),
                        message + " (--force calibrates anyway)");
@@ -403,7 +416,8 @@ double rms_with_base_fitted(const ChainStructure& s, Eigen::VectorXd p,
   problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
   ceres::Solver::Summary summary;
   ceres::Solve(detail::levenberg_marquardt(50), &problem, &summary);
-  return measurement_rms(stack(s, p, joints, kind, measured, weights, compressed).rss, rows);
+  return measurement_rms(position_rss(residuals_at(s, p, joints, kind, measured, weights), kind),
+                         rows);
 }
 
 // A nominal error beyond kImplausibleErrorFraction of the reach, even with the
@@ -834,7 +848,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       throw InputError(log.origin, log.line[culprit], "",
                        "the nominal model's error on this row is not finite: a value is too large");
     }
-    fit.rms_before = measurement_rms(r0.squaredNorm(), fit.rows);
+    fit.rms_before = measurement_rms(position_rss(r0, kind), fit.rows);
     DeviceModel registered = nominal;  // the nominal in the registered frame, if it was
     registered.base = problem.model.base;
     check_reach(s, registered, nominal_joints, kind, measured, weights, fit.rows, compressed,
@@ -863,7 +877,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   model = problem.model;
   model.set_kinematic_parameters(p);
   const Stack data = stack(s, p, problem.joints, kind, measured, weights, compressed);
-  fit.rms_after = measurement_rms(data.rss, fit.rows);
+  fit.rms_after = measurement_rms(
+      position_rss(residuals_at(s, p, problem.joints, kind, measured, weights), kind), fit.rows);
   const std::vector<ParameterInfo> info = model.parameter_info();
   std::map<int, std::string> name;
   for (const ParameterInfo& pi : info) name[pi.slot] = pi.name;

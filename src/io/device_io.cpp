@@ -142,6 +142,9 @@ std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) 
     if (!link.axis.allFinite() || std::abs(link.axis.norm() - 1) > 1e-9) {
       return {key + ".axis", "must be a unit vector"};
     }
+    if (link.a != 0 || link.alpha != 0 || link.d != 0 || link.theta != 0 || link.beta != 0) {
+      return {key, "a, alpha, d, theta and beta belong to dh and mdh geometry"};
+    }
   } else if (link.offset != 0 || link.origin != std::array<double, 6>{} ||
              link.axis != Eigen::Vector3d::UnitZ()) {
     return {key, "origin, axis and offset belong to urdf geometry"};

@@ -385,6 +385,8 @@ Log parse_log(const std::string& text, const std::string& origin,
   log.has_ext.assign(dof, false);
   log.q_unit.assign(dof, ReadingUnit::kNone);
   log.q_column.assign(dof, "");
+  log.ext_unit.assign(dof, ReadingUnit::kNone);
+  log.ext_column.assign(dof, "");
   for (const Column& c : columns) {
     switch (c.quantity) {
       case Quantity::kDistance:
@@ -398,6 +400,8 @@ Log parse_log(const std::string& text, const std::string& origin,
         break;
       case Quantity::kExternal:
         log.has_ext[c.joint] = true;
+        log.ext_unit[c.joint] = c.unit;
+        log.ext_column[c.joint] = c.name;
         break;
       case Quantity::kJoint:
         log.q_unit[c.joint] = c.unit;
@@ -489,15 +493,19 @@ void check_log_fits(const Log& log, const DeviceModel& model) {
                      "no measurements: the log has neither a distance nor x, y, z columns");
   }
   // Readings with a unit: angles for turning joints, lengths for prismatic ones.
-  for (int j = 0; j < static_cast<int>(log.q_unit.size()) && j < model.dof(); ++j) {
-    const bool prismatic = model.links[j].prismatic();
-    const ReadingUnit u = log.q_unit[j];
-    if (u == ReadingUnit::kNone || (u == ReadingUnit::kLength) == prismatic) continue;
-    throw InputError(log.origin, 1, log.q_column[j],
-                     fmt::format("{} is {}: its readings are {}", model.links[j].name,
-                                 prismatic ? "prismatic" : "a turning joint",
-                                 prismatic ? "lengths (m, mm, um)" : "angles (rad, deg)"));
-  }
+  auto check = [&](const std::vector<ReadingUnit>& units, const std::vector<std::string>& names) {
+    for (int j = 0; j < static_cast<int>(units.size()) && j < model.dof(); ++j) {
+      const bool prismatic = model.links[j].prismatic();
+      const ReadingUnit u = units[j];
+      if (u == ReadingUnit::kNone || (u == ReadingUnit::kLength) == prismatic) continue;
+      throw InputError(log.origin, 1, names[j],
+                       fmt::format("{} is {}: its readings are {}", model.links[j].name,
+                                   prismatic ? "prismatic" : "a turning joint",
+                                   prismatic ? "lengths (m, mm, um)" : "angles (rad, deg)"));
+    }
+  };
+  check(log.q_unit, log.q_column);
+  check(log.ext_unit, log.ext_column);
 }
 
 std::string log_to_csv(const Log& log) {

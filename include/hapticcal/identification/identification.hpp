@@ -86,9 +86,9 @@ struct KinematicFit {
   // The base was first registered to the measurements in closed form (an
   // unknown measurement frame; see the notes).
   bool frame_registered = false;
-  // RMS measurement error [m] (distance error, or Euclidean position error of
-  // positions and poses, as `evaluate` reports it) of the nominal device and of
-  // the calibrated one.
+  // RMS measurement error [m] of the nominal device and of the calibrated one,
+  // as `evaluate` reports it: the distance error, or the Euclidean position
+  // error (of a pose log too: its orientation error is evaluate's).
   double rms_before = 0, rms_after = 0;
   double sigma = 0;             // used for the standard deviations [m]
   bool sigma_given = false;     // else the residual estimate

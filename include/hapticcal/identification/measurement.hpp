@@ -59,6 +59,18 @@ Vec3<T> rotation_log(const Mat3<T>& R) {
   const Vec3<T> v(R(2, 1) - R(1, 2), R(0, 2) - R(2, 0), R(1, 0) - R(0, 1));  // 2 sin(a) axis
   const T s2 = v.squaredNorm();
   const T c = (R.trace() - T(1)) / T(2);
+  if (s2 < T(1e-12) && c < T(0)) {
+    // a near pi: sin(a) carries no axis; (R + I) / 2 = cos^2(a/2) I + sin^2(a/2) u u^T
+    // does, from its largest diagonal entry, with the sign of v.
+    int k = 0;
+    for (int i = 1; i < 3; ++i) {
+      if (R(i, i) > R(k, k)) k = i;
+    }
+    Vec3<T> u = (R.col(k) + Vec3<T>::Unit(k)) / T(2);
+    u /= u.norm();
+    if (u.dot(v) < T(0)) u = -u;
+    return u * atan2(sqrt(s2) / T(2), c);
+  }
   if (s2 < T(1e-24)) return v / T(2);  // a -> 0: a / sin(a) -> 1
   const T s = sqrt(s2) / T(2);
   const T a = atan2(s, c);

@@ -32,6 +32,8 @@ struct Log {
   Eigen::MatrixXd q;                  // rows x dof, joint readings [rad; m for prismatic joints]
   std::vector<ReadingUnit> q_unit;    // per joint, as the header gave it
   std::vector<std::string> q_column;  // per joint, the header's name (for messages)
+  std::vector<ReadingUnit> ext_unit;  // likewise for the ext<i> columns
+  std::vector<std::string> ext_column;
   Eigen::MatrixXd ext;        // rows x dof, external encoders [rad]; columns without one are 0
   std::vector<bool> has_ext;  // per joint
   Eigen::VectorXd distance;   // [m], if has_distance

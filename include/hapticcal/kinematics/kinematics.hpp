@@ -37,11 +37,11 @@ using Jacobian6 = Eigen::Matrix<T, 6, Eigen::Dynamic>;
 // that a Jet carries its derivative.
 template <typename T>
 struct LinkConstants {
-  T a, d, offset;
-  T cos_alpha, sin_alpha, cos_beta, sin_beta;
-  T cos_theta, sin_theta;  // of a prismatic DH / MDH joint's constant theta
-  Frame<T> origin;         // origin geometry: Trans(xyz) * R(rpy)
-  T cos_yaw, sin_yaw;      // origin geometry
+  T a{0}, d{0}, offset{0};
+  T cos_alpha{1}, sin_alpha{0}, cos_beta{1}, sin_beta{0};
+  T cos_theta{1}, sin_theta{0};            // of a prismatic DH / MDH joint's constant theta
+  Frame<T> origin = Frame<T>::Identity();  // origin geometry: Trans(xyz) * R(rpy)
+  T cos_yaw{1}, sin_yaw{0};                // origin geometry
   bool apply_beta = true;
 };
 
