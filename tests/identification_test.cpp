@@ -88,6 +88,11 @@ const char* kSets[] = {"norm_dist_data_0deg_80cube",    "norm_dist_data_0deg_160
                        "norm_dist_data_n90_80cube",     "norm_dist_data_n90_160cube",
                        "uniform_dist_data_0deg_160cube"};
 
+// The Meca500's calibration ("cal") or validation ("val") log of a set.
+Log meca500_log(const std::string& kind, const char* set) {
+  return read_log(testing::source_path("examples/meca500/" + kind + "-" + set + ".csv"));
+}
+
 // Real laser-tracker data: calibrate on cal-<set>, validate on val-<set>. Issue 3
 // asks for 0.06 mm on every set; the geometric model reaches it on six of the
 // seven and 0.068 mm on 0deg_80cube (unmodelled, non-geometric error: the fit's
@@ -96,10 +101,7 @@ const char* kSets[] = {"norm_dist_data_0deg_80cube",    "norm_dist_data_0deg_160
 TEST(Identification, Meca500ValidationRmsAfterCalibration) {
   const DeviceModel nominal = testing::meca500();
   for (const char* set : kSets) {
-    const Log cal =
-        read_log(testing::source_path(std::string("examples/meca500/cal-") + set + ".csv"));
-    const Log val =
-        read_log(testing::source_path(std::string("examples/meca500/val-") + set + ".csv"));
+    const Log cal = meca500_log("cal", set), val = meca500_log("val", set);
     const CalibrationResult r = calibrate(nominal, cal, {});
     EXPECT_TRUE(r.kinematics.converged) << set;
     EXPECT_FALSE(r.kinematics.rank_deficient) << set;
@@ -415,10 +417,7 @@ TEST(Identification, Meca500WithUnknownTrackerFrameCalibratesLikeWithItsBasePose
   ASSERT_GT(Eigen::Vector3d(known.base[0], known.base[1], known.base[2]).norm(), 0.1);
   for (const char* set : kSets) {
     SCOPED_TRACE(set);
-    const Log cal =
-        read_log(testing::source_path(std::string("examples/meca500/cal-") + set + ".csv"));
-    const Log val =
-        read_log(testing::source_path(std::string("examples/meca500/val-") + set + ".csv"));
+    const Log cal = meca500_log("cal", set), val = meca500_log("val", set);
     const CalibrationResult a = calibrate(known, cal, {});
     const CalibrationResult b = calibrate(unknown, cal, {});
     EXPECT_FALSE(a.kinematics.frame_registered);
@@ -494,10 +493,7 @@ TEST(Identification, Meca500ThroughItsUrdfValidatesLikeTheMdhModel) {
   ASSERT_EQ(urdf.links[0].geometry, Geometry::kOrigin);
   for (const char* set : kSets) {
     SCOPED_TRACE(set);
-    const Log cal =
-        read_log(testing::source_path(std::string("examples/meca500/cal-") + set + ".csv"));
-    const Log val =
-        read_log(testing::source_path(std::string("examples/meca500/val-") + set + ".csv"));
+    const Log cal = meca500_log("cal", set), val = meca500_log("val", set);
     const CalibrationResult a = calibrate(mdh, cal, {});
     const CalibrationResult b = calibrate(urdf, cal, {});
     EXPECT_EQ(b.status, CalibrationStatus::kConverged) << b.status_reason;
