@@ -91,13 +91,8 @@ TEST(Kinematics, ForwardKinematicsAndJacobianMatchKdlOn1000Configurations) {
     for (int trial = 0; trial < 1000; ++trial) {
       const Eigen::VectorXd q = random_readings(model, rng);
       const Eigen::VectorXd joint = model.compensate(q);
-      KDL::JntArray kq(model.dof());
-      for (int i = 0; i < model.dof(); ++i) kq(i) = joint[i];
-      KDL::Frame kf;
-      ASSERT_GE(fk.JntToCart(kq, kf), 0);
-      KDL::Jacobian kj(model.dof());
-      ASSERT_GE(jac_solver.JntToJac(kq, kj), 0);
-      const Frame<double> ref = testing::from_kdl(kf);
+      const testing::KdlSolution kdl = testing::kdl_solve(fk, jac_solver, joint);
+      const Frame<double>& ref = kdl.T;
 
       std::array<Frame<double>, kMaxDof + 1> frames;
       const Frame<double> generic =
@@ -115,17 +110,7 @@ TEST(Kinematics, ForwardKinematicsAndJacobianMatchKdlOn1000Configurations) {
         worst_p = std::max(worst_p, (f->p - ref.p).cwiseAbs().maxCoeff());
         worst_R = std::max(worst_R, (f->R - ref.R).cwiseAbs().maxCoeff());
       }
-      // KDL: reference point at the end effector, expressed in the base (here
-      // measurement) frame; changeBase(R^T) expresses it in the tool frame.
-      Jacobian6<double> Jref(6, model.dof()), Jtref(6, model.dof());
-      KDL::Jacobian kjt(model.dof());
-      KDL::changeBase(kj, kf.M.Inverse(), kjt);
-      for (int r = 0; r < 6; ++r) {
-        for (int c = 0; c < model.dof(); ++c) {
-          Jref(r, c) = kj(r, c);
-          Jtref(r, c) = kjt(r, c);
-        }
-      }
+      const Jacobian6<double>&Jref = kdl.J, &Jtref = kdl.J_tool;
       worst_J =
           std::max({worst_J, (J - Jref).cwiseAbs().maxCoeff(), (Jg - Jref).cwiseAbs().maxCoeff()});
       worst_Jt = std::max(

@@ -187,19 +187,9 @@ TEST(Urdf, ForwardKinematicsAndJacobianMatchKdlOn1000Configurations) {
       // Readings of the source model; the URDF (no transmissions) takes its joint values.
       const Eigen::VectorXd q = random_readings(source, rng);
       const Eigen::VectorXd joint = source.compensate(q);
-      KDL::JntArray kq(model.dof());
-      for (int i = 0; i < model.dof(); ++i) kq(i) = joint[i];
-      KDL::Frame kf;
-      ASSERT_GE(fk.JntToCart(kq, kf), 0);
-      KDL::Jacobian kj(model.dof());
-      ASSERT_GE(jac_solver.JntToJac(kq, kj), 0);
-      const Frame<double> ref = testing::from_kdl(kf);
-      // KDL: reference point at the end of the chain, expressed in its base (here
-      // the measurement) frame: JacobianFrame::kMeasurement.
-      Jacobian6<double> Jref(6, model.dof());
-      for (int r = 0; r < 6; ++r) {
-        for (int col = 0; col < model.dof(); ++col) Jref(r, col) = kj(r, col);
-      }
+      const testing::KdlSolution solved = testing::kdl_solve(fk, jac_solver, joint);
+      const Frame<double>& ref = solved.T;
+      const Jacobian6<double>& Jref = solved.J;
 
       std::array<Frame<double>, kMaxDof + 1> frames;
       const Frame<double> generic =

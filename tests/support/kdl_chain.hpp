@@ -6,9 +6,13 @@
 #pragma once
 
 #include <kdl/chain.hpp>
+#include <kdl/chainfksolverpos_recursive.hpp>
+#include <kdl/chainjnttojacsolver.hpp>
 #include <kdl/frames.hpp>
 #include <kdl/jacobian.hpp>
+#include <stdexcept>
 
+#include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model/frame.hpp"
 #include "hapticcal/model/model.hpp"
 
@@ -68,6 +72,34 @@ inline Frame<double> from_kdl(const KDL::Frame& f) {
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) out.R(r, c) = f.M(r, c);
     out.p[r] = f.p[r];
+  }
+  return out;
+}
+
+// KDL's tool frame and Jacobians at the joint values: the reference point at
+// the chain's end, expressed in its base (here the measurement) frame, and with
+// changeBase(R^T) in the tool frame. Throws if a solver fails.
+struct KdlSolution {
+  Frame<double> T;
+  Jacobian6<double> J, J_tool;  // JacobianFrame::kMeasurement, kTool
+};
+inline KdlSolution kdl_solve(KDL::ChainFkSolverPos_recursive& fk,
+                             KDL::ChainJntToJacSolver& jacobian, const Eigen::VectorXd& joint) {
+  const int n = static_cast<int>(joint.size());
+  KDL::JntArray kq(n);
+  for (int i = 0; i < n; ++i) kq(i) = joint[i];
+  KDL::Frame kf;
+  KDL::Jacobian kj(n), kjt(n);
+  if (fk.JntToCart(kq, kf) < 0 || jacobian.JntToJac(kq, kj) < 0) {
+    throw std::runtime_error("a KDL solver failed");
+  }
+  KDL::changeBase(kj, kf.M.Inverse(), kjt);
+  KdlSolution out{from_kdl(kf), Jacobian6<double>(6, n), Jacobian6<double>(6, n)};
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < n; ++c) {
+      out.J(r, c) = kj(r, c);
+      out.J_tool(r, c) = kjt(r, c);
+    }
   }
   return out;
 }
