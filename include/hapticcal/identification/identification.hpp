@@ -114,6 +114,13 @@ struct CalibrationOptions {
   // size; beyond, step 2 works on its R factor, accumulated pose block by pose
   // block (the same fit to rounding, memory independent of the log's length).
   std::size_t max_jacobian_bytes = std::size_t{256} << 20;
+  // Model selection (on by default): identifiable parameters the data do not
+  // support are held at nominal (see calibrate). true: keep every structurally
+  // identifiable, excited parameter (the behaviour before model selection).
+  bool keep_all = false;
+  // K of the K-fold cross-validated RMS (poses, repeats together, in K folds);
+  // 0: no cross-validation.
+  int folds = 5;
 };
 
 // A log whose nominal RMS error exceeds this fraction of the device's reach
