@@ -259,12 +259,12 @@ TEST_F(Trust, LogOfAnotherDeviceIsRefused) {
 
 TEST_F(Trust, RepeatedPosesCountOnce) {
   // The Meca500 logs hold every pose 3 times: the sd must be that of one row a pose.
-  const CliRun all =
-      run({"calibrate", "--model", kMeca, "--log", kMecaLog, "--out", (scratch_ / "all").string()});
+  const CliRun all = run({"calibrate", "--model", kMeca, "--log", kMecaLog, "--keep-all", "--out",
+                          (scratch_ / "all").string()});
   ASSERT_EQ(all.code, 0) << all.err;
   const std::string single = meca_log_variant(scratch_ / "single.csv", 3, "", "");
-  const CliRun one =
-      run({"calibrate", "--model", kMeca, "--log", single, "--out", (scratch_ / "one").string()});
+  const CliRun one = run({"calibrate", "--model", kMeca, "--log", single, "--keep-all", "--out",
+                          (scratch_ / "one").string()});
   ASSERT_EQ(one.code, 0) << one.err;
   const auto ja = nlohmann::json::parse(slurp(scratch_ / "all/results.json"));
   const auto jo = nlohmann::json::parse(slurp(scratch_ / "one/results.json"));
@@ -291,9 +291,9 @@ TEST_F(Trust, RepeatedPosesCountOnce) {
   EXPECT_TRUE(jo["repeatability"].is_null());
   // With a given per-reading sigma, a mean of 3 repeats is sqrt(3) better known.
   const CliRun given_all = run({"calibrate", "--model", kMeca, "--log", kMecaLog, "--sigma", "1e-5",
-                                "--out", (scratch_ / "ga").string()});
+                                "--keep-all", "--out", (scratch_ / "ga").string()});
   const CliRun given_one = run({"calibrate", "--model", kMeca, "--log", single, "--sigma", "1e-5",
-                                "--out", (scratch_ / "go").string()});
+                                "--keep-all", "--out", (scratch_ / "go").string()});
   ASSERT_EQ(given_all.code, 0);
   ASSERT_EQ(given_one.code, 0);
   const auto ga = nlohmann::json::parse(slurp(scratch_ / "ga/results.json"));

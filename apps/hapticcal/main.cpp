@@ -130,8 +130,8 @@ int run_evaluate(const EvaluateOptions& o) {
 struct CalibrateOptions {
   std::string model, log, columns, out = "hapticcal-out/calibrate", fix, free;
   ChainOptions chain;
-  bool no_transmission = false, force = false;
-  int samples = 0;
+  bool no_transmission = false, force = false, keep_all = false;
+  int samples = 0, folds = 5;
   unsigned long long seed = 1;
   double sigma = 0;
   int polynomial_order = 0;
@@ -242,8 +242,20 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
   fmt::print("  sd from sigma = {:.4g} mm ({}); solver: {} after {} iterations\n", k.sigma * 1e3,
              k.sigma_given ? "given" : "residual estimate",
              k.converged ? "converged" : "NOT converged", k.iterations);
-  fmt::print("  RMS residual: {:.4f} mm before, {:.4f} mm after\n", k.rms_before * 1e3,
+  fmt::print("  RMS residual: {:.4f} mm before, {:.4f} mm after (training)\n", k.rms_before * 1e3,
              k.rms_after * 1e3);
+  if (k.cv_folds > 0 && std::isfinite(k.cv_rms)) {
+    fmt::print("  held-out RMS ({}-fold cross-validation by pose): {:.4f} mm\n", k.cv_folds,
+               k.cv_rms * 1e3);
+  } else if (!k.cv_note.empty()) {
+    fmt::print("  held-out RMS (cross-validation): {}\n", k.cv_note);
+  }
+  if (k.model_selection) {
+    fmt::print(
+        "  model selection: {} of {} identifiable parameters kept (5 % family-wise significance; "
+        "--keep-all keeps them all)\n",
+        k.identified, k.structurally_identified);
+  }
   for (const hapticcal::ParameterEstimate& e : k.parameters) {
     if (!e.large_change) continue;
     fmt::print("warning: {} moved {:.4g} {} from nominal (flagged beyond {} mm / {} mrad)\n",
@@ -286,6 +298,8 @@ int run_calibrate(const CalibrateOptions& o) {
   if (o.sigma > 0) options.sigma = o.sigma;
   if (o.polynomial_order > 0) options.polynomial_order = o.polynomial_order;
   options.dependency_tolerance = o.tolerance;
+  options.keep_all = o.keep_all;
+  options.folds = o.folds;
   options.fix = names(o.fix);
   options.free = names(o.free);
   hapticcal::CalibrationResult result = hapticcal::calibrate(model, log, options);
@@ -621,6 +635,13 @@ int main(int argc, char** argv) {
   calibrate->add_option("--free", cal.free,
                         "Parameters added to the candidates, e.g. j2.beta (a beta is one by "
                         "default only where neighbouring joint axes are parallel)");
+  calibrate->add_flag("--keep-all", cal.keep_all,
+                      "No model selection: fit every identifiable parameter the data excite, "
+                      "even those they do not support");
+  calibrate
+      ->add_option("--folds", cal.folds,
+                   "K of the K-fold cross-validated (held-out) RMS by pose (default 5; 0: none)")
+      ->check(within(0, 1000, ""));
   calibrate->add_option("--columns", cal.columns, "Column names of a log without header");
   calibrate
       ->add_option("--dependency-tolerance", cal.tolerance,

@@ -18,33 +18,14 @@
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "identification/measurement_cost.hpp"
 #include "identification/solver_options.hpp"
+#include "identification/stack.hpp"
 
 namespace hapticcal {
-namespace {
-
-constexpr std::uint64_t kStructuralSeed = 20130601;  // synthetic poses of the structural analysis
-constexpr int kStructuralPoses = 400;
-
-using detail::CompressedMeasurementCost;
-using detail::measurement_rows;
-using detail::MeasurementCost;
-using detail::RowMatrix;
-using detail::RowsOf;
-
-// The stacked residuals and identification Jacobian at `params`; compressed
-// (detail::compress_rows) for logs whose Jacobian would not fit in memory.
-// Every residual row is weighted by its pose's detail::weigh weight, the
-// square root of its repeat count (none: all 1).
-struct Stack {
-  Eigen::VectorXd r;  // every (weighted) residual; empty when compressed
-  Eigen::MatrixXd J;  // rows x slots; when compressed R (slots x slots): same column geometry
-  double rss = 0;     // sum of the squared weighted residuals
-  Eigen::Index residuals = 0;  // rows of the fit: poses x residuals a pose
-};
+namespace detail {
 
 Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
             const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
-            const RowMatrix& measured, const Eigen::VectorXd& weights, bool compressed = false) {
+            const RowMatrix& measured, const Eigen::VectorXd& weights, bool compressed) {
   const int d = kind.dimension();
   const int m = static_cast<int>(joints.size());
   if (compressed) {
@@ -64,16 +45,6 @@ Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
   return out;
 }
 
-// The cost LM minimises over these poses: every row, or its compressed form.
-ceres::CostFunction* measurement_cost(const ChainStructure& s,
-                                      const std::vector<Eigen::VectorXd>& joints,
-                                      const RowsOf& kind, const RowMatrix& measured,
-                                      const Eigen::VectorXd& weights, bool compressed) {
-  if (compressed) return new CompressedMeasurementCost(s, joints, kind, measured, weights);
-  return new MeasurementCost(s, joints, kind, measured, weights);
-}
-
-// The residuals alone, weighted.
 Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& params,
                              const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
                              const RowMatrix& measured, const Eigen::VectorXd& weights) {
@@ -87,6 +58,42 @@ Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& par
     detail::weigh(weights, i, r.data() + d * i, J);
   }
   return r;
+}
+
+double position_rss(const Eigen::VectorXd& r, const RowsOf& kind) {
+  if (kind.type != MeasurementType::kPose) return r.squaredNorm();
+  double sum = 0;
+  for (Eigen::Index i = 0; i < r.size(); ++i) {
+    if (i % 6 < 3) sum += r[i] * r[i];
+  }
+  return sum;
+}
+
+}  // namespace detail
+
+namespace {
+
+constexpr std::uint64_t kStructuralSeed = 20130601;  // synthetic poses of the structural analysis
+constexpr int kStructuralPoses = 400;
+constexpr int kDefaultFolds = 5;  // model selection when cross-validation is off
+
+using detail::CompressedMeasurementCost;
+using detail::measurement_rows;
+using detail::MeasurementCost;
+using detail::position_rss;
+using detail::residuals_at;
+using detail::RowMatrix;
+using detail::RowsOf;
+using detail::Stack;
+using detail::stack;
+
+// The cost LM minimises over these poses: every row, or its compressed form.
+ceres::CostFunction* measurement_cost(const ChainStructure& s,
+                                      const std::vector<Eigen::VectorXd>& joints,
+                                      const RowsOf& kind, const RowMatrix& measured,
+                                      const Eigen::VectorXd& weights, bool compressed) {
+  if (compressed) return new CompressedMeasurementCost(s, joints, kind, measured, weights);
+  return new MeasurementCost(s, joints, kind, measured, weights);
 }
 
 // The used rows of the log as measured values (the family's width a row).
@@ -182,17 +189,6 @@ std::string names_of(const std::vector<int>& slots, const std::map<int, std::str
 // or the Euclidean norm of the position error.
 // `rows` the log rows behind the residuals (their weights' sum of squares).
 double measurement_rms(double rss, double rows) { return std::sqrt(rss / std::max(rows, 1.0)); }
-
-// The squared residuals that measure a position or distance error: all of them,
-// but of a pose only its position rows (its rotation rows are reported apart).
-double position_rss(const Eigen::VectorXd& r, const RowsOf& kind) {
-  if (kind.type != MeasurementType::kPose) return r.squaredNorm();
-  double sum = 0;
-  for (Eigen::Index i = 0; i < r.size(); ++i) {
-    if (i % 6 < 3) sum += r[i] * r[i];
-  }
-  return sum;
-}
 
 }  // namespace
 
@@ -779,6 +775,10 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options) {
   check_log_fits(log, nominal);
   if (options.samples < 0) throw InputError("--samples must not be negative");
+  if (options.folds < 0 || options.folds == 1) {
+    throw InputError(fmt::format("--folds {}: K-fold cross-validation needs K = 0 (none) or K >= 2",
+                                 options.folds));
+  }
   if (options.sigma && !(*options.sigma > 0 && std::isfinite(*options.sigma))) {
     throw InputError("--sigma must be a positive number of metres");
   }
@@ -811,13 +811,17 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   KinematicProblem problem = kinematic_problem(model, poses, repeats, options);
   const std::vector<int> candidates = candidate_slots(model, options.fix, options.free);
   const int d = traits(fit.type).dimension;
-  if (m * d <= static_cast<int>(candidates.size())) {
+  // Too few measurements for the parameters the model can identify at all (the
+  // structural rank, before these poses' own analysis below).
+  const auto too_few = [&](std::size_t parameters, const char* what) {
+    if (m * d > static_cast<int>(parameters)) return;
     throw InputError(log.origin, 0, "",
                      fmt::format("too few measurements: {} pose{} give{} {} residual{} for {} "
-                                 "candidate parameters",
+                                 "{} parameters",
                                  m, m == 1 ? "" : "s", m == 1 ? "s" : "", m * d,
-                                 m * d == 1 ? "" : "s", candidates.size()));
-  }
+                                 m * d == 1 ? "" : "s", parameters, what));
+  };
+  if (m < 2) too_few(candidates.size(), "candidate");
   fit.frame_registered = register_measurement_frame(problem, candidates, result.notes);
   fit.length_scale = problem.length_scale;
   fit.rotation_scale = problem.rotation_scale;
@@ -858,12 +862,53 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   // Identifiability, then Levenberg-Marquardt over the identified parameters.
   const IdentifiabilityAnalysis analysis =
       analyze_identifiability(problem, candidates, options.dependency_tolerance);
-  const std::vector<int>& identified = analysis.identified;
-  const std::map<int, std::string>& reason = analysis.reason;
+  std::vector<int> identified = analysis.identified;
+  std::map<int, std::string> reason = analysis.reason;
   const Eigen::VectorXd& scale = analysis.scale;
   fit.rank_deficient = analysis.rank_deficient;
+  too_few(identified.size() +
+              std::count_if(reason.begin(), reason.end(),
+                            [](const auto& r) { return r.second.rfind("not excited", 0) == 0; }),
+          "identifiable");
+  fit.structurally_identified = static_cast<int>(identified.size());
+  KinematicSolution solution = solve_kinematics(problem, identified);
+  // Model selection: hold what the data do not support, and fit again.
+  std::vector<int> held_by_selection;
+  if (!options.keep_all && solution.termination == SolveTermination::kConverged) {
+    if (compressed) {
+      result.notes.push_back(
+          "model selection skipped: the log is too long for per-pose fits (compressed Jacobian)");
+    } else {
+      const ModelSelection selection =
+          select_model(problem, identified, solution.parameters, options.selection_alpha,
+                       options.folds >= 2 ? options.folds : kDefaultFolds, options.seed);
+      fit.model_selection = true;
+      fit.selection_path = selection.path;
+      for (const auto& [slot, why] : selection.reason) {
+        reason[slot] = why;
+        held_by_selection.push_back(slot);
+      }
+      if (selection.kept.size() < identified.size()) {
+        identified = selection.kept;
+        solution = solve_kinematics(problem, identified);
+        result.notes.push_back(fmt::format(
+            "model selection held {} of the {} identifiable parameters at nominal (not supported "
+            "by these data; --keep-all keeps them): {}",
+            held_by_selection.size(), fit.structurally_identified, names_of(held_by_selection, [&] {
+              std::map<int, std::string> n;
+              for (const ParameterInfo& pi : model.parameter_info()) n[pi.slot] = pi.name;
+              return n;
+            }())));
+      }
+    }
+  }
   fit.identified = static_cast<int>(identified.size());
-  const KinematicSolution solution = solve_kinematics(problem, identified);
+  if (options.folds >= 2 && solution.termination == SolveTermination::kConverged) {
+    const CrossValidation cv = cross_validate(problem, identified, options.folds, options.seed);
+    fit.cv_rms = cv.rms;
+    fit.cv_folds = cv.folds;
+    fit.cv_note = cv.note;
+  }
   fit.converged = solution.termination == SolveTermination::kConverged;
   fit.numerical_failure = solution.termination == SolveTermination::kFailure;
   fit.iterations = solution.iterations;
@@ -933,6 +978,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       }
     } else if (reason.count(pi.slot)) {
       e.reason = reason.at(pi.slot);
+      e.held_by_selection = std::find(held_by_selection.begin(), held_by_selection.end(),
+                                      pi.slot) != held_by_selection.end();
     } else if (std::find(options.fix.begin(), options.fix.end(), pi.name) != options.fix.end()) {
       e.reason = "fixed by the user";
     } else {  // a beta that candidate_slots left out

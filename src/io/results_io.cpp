@@ -36,6 +36,28 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
   j["sigma"] = {{"value", k.sigma}, {"source", k.sigma_given ? "given" : "residual"}};
   j["rms_before"] = k.rms_before;
   j["rms_after"] = k.rms_after;
+  j["cross_validation"] = {{"folds", k.cv_folds},
+                           {"rms", number_or_null(k.cv_rms)},
+                           {"seed", options.seed},
+                           {"note", k.cv_note}};
+  json selection{{"enabled", k.model_selection},
+                 {"rule", k.model_selection ? "backward elimination, 5 % family-wise (Bonferroni) "
+                                              "significance of the change from nominal"
+                                            : "none (--keep-all)"},
+                 {"alpha", options.selection_alpha},
+                 {"identifiable", k.structurally_identified},
+                 {"kept", k.identified}};
+  json path = json::array();
+  for (const SelectionStep& step : k.selection_path) {
+    path.push_back({{"parameters", step.parameters},
+                    {"rms", step.rms},
+                    {"cv_rms", number_or_null(step.cv_rms)},
+                    {"next_held", step.removed},
+                    {"next_t", number_or_null(step.removed_t)},
+                    {"threshold", number_or_null(step.threshold)}});
+  }
+  selection["path"] = path;
+  j["model_selection"] = selection;
   j["condition_number"] = number_or_null(k.condition_number);
   j["observability"] = {{"O1", k.observability.O1},
                         {"O2", k.observability.O2},
@@ -58,6 +80,7 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
       p["large_change"] = e.large_change;
     } else {
       p["reason"] = e.reason;
+      p["held_by_selection"] = e.held_by_selection;
     }
     params[e.name] = p;
   }

@@ -299,8 +299,10 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
     ident = read_log(out + "/identification.csv");
     val = read_log(out + "/validation.csv");
   }
-  t.full = calibrate(sc.nominal, ident, CalibrationOptions{});
-  CalibrationOptions kin;
+  CalibrationOptions options;
+  options.keep_all = !sc.model_selection;
+  t.full = calibrate(sc.nominal, ident, options);
+  CalibrationOptions kin = options;
   kin.transmissions = false;
   t.kinematic_only = calibrate(sc.nominal, ident, kin);
 

@@ -56,6 +56,9 @@ struct ParameterEstimate {
   std::string reason;  // why it is held at nominal, if it is
   double max_correlation = 0;
   std::string max_correlation_with;
+  // Structurally identifiable and excited, but held at nominal by the model
+  // selection (reason says why).
+  bool held_by_selection = false;
   // The identified value moved more than kLargeChangeLength (metres) or
   // kLargeChangeAngle (rad) from nominal: plausible for a base pose, suspicious
   // for a link.
@@ -65,6 +68,19 @@ struct ParameterEstimate {
 // Bounds beyond which a parameter's change is flagged (ParameterEstimate::large_change).
 constexpr double kLargeChangeLength = 0.02;  // m
 constexpr double kLargeChangeAngle = 0.05;   // rad, about 2.9 deg
+
+// One model of the model selection's path (select_model): the parameters in
+// it, its cross-validated RMS, and the parameter removed next.
+struct SelectionStep {
+  int parameters = 0;
+  // K-fold cross-validated RMS [m] of this model, from the linearised fits
+  // (every residual row; infinite where a fold cannot determine the model).
+  double cv_rms = 0;
+  double rms = 0;        // of the linearised fit on every pose (every residual row) [m]
+  std::string removed;   // dotted name of the parameter held next ("" at the end)
+  double removed_t = 0;  // its estimated change from nominal in standard deviations
+  double threshold = 0;  // the t it needed to stay (significance_threshold)
+};
 
 struct KinematicFit {
   MeasurementType type = MeasurementType::kDistance;
@@ -90,6 +106,17 @@ struct KinematicFit {
   // as `evaluate` reports it: the distance error, or the Euclidean position
   // error (of a pose log too: its orientation error is evaluate's).
   double rms_before = 0, rms_after = 0;
+  // K-fold cross-validated RMS [m] (the same measure as rms_after): each fold's
+  // poses (repeats together) predicted by a fit on the other folds; NaN when
+  // not computed (cv_note says why).
+  double cv_rms = std::numeric_limits<double>::quiet_NaN();
+  int cv_folds = 0;
+  std::string cv_note;
+  // Model selection (calibrate's default): the path from every identifiable
+  // parameter down to none, and the parameters before it.
+  bool model_selection = false;
+  int structurally_identified = 0;  // excited, before model selection
+  std::vector<SelectionStep> selection_path;
   double sigma = 0;             // used for the standard deviations [m]
   bool sigma_given = false;     // else the residual estimate
   bool rank_deficient = false;  // the data leave structurally identifiable parameters unexcited
@@ -118,6 +145,7 @@ struct CalibrationOptions {
   // support are held at nominal (see calibrate). true: keep every structurally
   // identifiable, excited parameter (the behaviour before model selection).
   bool keep_all = false;
+  double selection_alpha = 0.05;  // family-wise significance level of the model selection
   // K of the K-fold cross-validated RMS (poses, repeats together, in K folds);
   // 0: no cross-validation.
   int folds = 5;
@@ -190,6 +218,45 @@ struct IdentifiabilityAnalysis {
 IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
                                                 const std::vector<int>& candidates,
                                                 double tolerance = 1e-6);
+
+// Model selection (README "Model selection"): backward elimination over the
+// identified parameters, linearised at the full fit `solution`. At each step
+// the parameter whose estimated change from its start value is the fewest
+// standard deviations (t, the residual's sigma) is the candidate to hold; the
+// elimination stops at the first model whose weakest parameter is significant
+// at the family-wise level alpha (Bonferroni over the k parameters in the
+// model: t >= the normal quantile 1 - alpha / 2k). Every model of the path is
+// scored by K-fold cross-validation of the linearised fit over poses (repeats
+// together), for the record.
+struct ModelSelection {
+  std::vector<int> kept;              // slots, in the order of `identified`
+  std::map<int, std::string> reason;  // the held ones: why
+  std::vector<SelectionStep> path;    // from every identified parameter down to none
+  int chosen = 0;                     // index in path
+};
+ModelSelection select_model(const KinematicProblem& problem, const std::vector<int>& identified,
+                            const Eigen::VectorXd& solution, double alpha, int folds,
+                            std::uint64_t seed);
+// The two-sided Bonferroni threshold of the selection: the standard normal
+// quantile 1 - alpha / (2 parameters).
+double significance_threshold(double alpha, int parameters);
+
+// Fold of each of `poses` poses (0..folds-1, sizes differing by at most one),
+// a reproducible shuffle for a seed on every platform.
+std::vector<int> pose_folds(int poses, int folds, std::uint64_t seed);
+
+// K-fold cross-validated RMS of the fit over `identified` (the measure of
+// KinematicFit::rms_after): each fold's poses predicted by Levenberg-Marquardt
+// from the problem's start on the other folds. NaN with a reason when there are
+// fewer than two poses, the problem is compressed, or a fold's other poses
+// cannot determine the parameters.
+struct CrossValidation {
+  double rms = std::numeric_limits<double>::quiet_NaN();
+  int folds = 0;
+  std::string note;  // why rms is NaN
+};
+CrossValidation cross_validate(const KinematicProblem& problem, const std::vector<int>& identified,
+                               int folds, std::uint64_t seed);
 
 // How Levenberg-Marquardt ended (like Ceres's TerminationType).
 enum class SolveTermination { kConverged, kNoConvergence, kFailure, kNothingToSolve };

@@ -1,0 +1,37 @@
+// Internal: the stacked residuals and identification Jacobian of step 2 at
+// given parameters, for the fit's statistics, the model selection and the
+// cross-validation.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "identification/measurement_cost.hpp"
+
+namespace hapticcal::detail {
+
+// The stacked residuals and identification Jacobian at `params`; compressed
+// (detail::compress_rows) for logs whose Jacobian would not fit in memory.
+// Every residual row is weighted by its pose's detail::weigh weight, the
+// square root of its repeat count (none: all 1).
+struct Stack {
+  Eigen::VectorXd r;  // every (weighted) residual; empty when compressed
+  Eigen::MatrixXd J;  // rows x slots; when compressed R (slots x slots): same column geometry
+  double rss = 0;     // sum of the squared weighted residuals
+  Eigen::Index residuals = 0;  // rows of the fit: poses x residuals a pose
+};
+Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
+            const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
+            const RowMatrix& measured, const Eigen::VectorXd& weights, bool compressed = false);
+
+// The residuals alone, weighted.
+Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& params,
+                             const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
+                             const RowMatrix& measured, const Eigen::VectorXd& weights);
+
+// The squared residuals that measure a position or distance error: all of them,
+// but of a pose only its position rows (its rotation rows are reported apart).
+double position_rss(const Eigen::VectorXd& r, const RowsOf& kind);
+
+}  // namespace hapticcal::detail
