@@ -134,7 +134,9 @@ TEST(Identification, Meca500ValidationRmsAfterCalibration) {
     for (const ParameterEstimate& e : selected.kinematics.parameters) {
       EXPECT_EQ(e.held_by_selection, e.reason.rfind("not supported by these data", 0) == 0)
           << e.name;
-      if (e.held_by_selection) EXPECT_TRUE(find(r.kinematics, e.name).identifiable) << e.name;
+      if (e.held_by_selection) {
+        EXPECT_TRUE(find(r.kinematics, e.name).identifiable) << e.name;
+      }
     }
   }
   // That set's validation poses are not what limits it: calibrated on the 160 mm

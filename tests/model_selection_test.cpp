@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <cstdio>
 #include <numeric>
 #include <random>
@@ -149,8 +150,9 @@ TEST(ModelSelection, HoldsWhatTheTruthLeavesAtNominalAndPredictsTheTruthBetter) 
 }
 
 // The cross-validated RMS is what one gets by hand: for each fold, calibrate on
-// the other folds' poses and evaluate on its own (simulated log, no repeats, so
-// that evaluate's per-row RMS is the fit's measure).
+// the other folds' poses (Levenberg-Marquardt to convergence) and evaluate on
+// its own (simulated log, no repeats, so that evaluate's per-row RMS is the
+// fit's measure). The library's folds are linearised at the whole fit.
 TEST(CrossValidation, EqualsCalibratingOnTheOtherFoldsAndEvaluatingOnEachFold) {
   const DeviceModel nominal = testing::meca500();
   std::mt19937_64 rng(4);
@@ -179,7 +181,8 @@ TEST(CrossValidation, EqualsCalibratingOnTheOtherFoldsAndEvaluatingOnEachFold) {
   const double by_hand = std::sqrt(sum / log.rows);
   std::printf("5-fold cross-validated RMS %.6f mm, by hand %.6f mm; training %.6f mm\n",
               r.kinematics.cv_rms * 1e3, by_hand * 1e3, r.kinematics.rms_after * 1e3);
-  EXPECT_NEAR(r.kinematics.cv_rms / by_hand, 1.0, 1e-6);
+  // Linearised at the fit: the refits to second order in their change.
+  EXPECT_NEAR(r.kinematics.cv_rms / by_hand, 1.0, 1e-4);
   EXPECT_GT(r.kinematics.cv_rms, r.kinematics.rms_after);
 }
 
@@ -228,11 +231,12 @@ TEST(ModelSelection, PaperStudyStillIdentifiesWhatThePaperIdentifies) {
 
 TEST(ModelSelection, CommandLineKeepAllFoldsAndTheirErrors) {
   const std::string out = ::testing::TempDir() + "/hapticcal_selection_cli";
+  std::filesystem::remove_all(out);
   const std::string model = testing::source_path("examples/meca500/meca500.yaml");
   const std::string log =
       testing::source_path("examples/meca500/cal-norm_dist_data_0deg_160cube.csv");
   const testing::CliResult bad =
-      testing::run_cli({"calibrate", "--model", model, "--log", log, "--folds", "1", "--out", out});
+      testing::run_cli({"calibrate", "--model", model, "--log", log, "--folds", "1", "--out", out + "/bad"});
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("--folds 1: K-fold cross-validation needs K = 0 (none) or K >= 2"),
             std::string::npos)
@@ -245,7 +249,8 @@ TEST(ModelSelection, CommandLineKeepAllFoldsAndTheirErrors) {
       << d.out;
   const auto jd = nlohmann::json::parse(testing::slurp(out + "/default/results.json"));
   EXPECT_TRUE(jd["model_selection"]["enabled"].get<bool>());
-  EXPECT_EQ(jd["model_selection"]["path"].size(), 28u);  // 27 parameters down to none
+  // 27 parameters down to the 13 kept, and 3 models more.
+  EXPECT_EQ(jd["model_selection"]["path"].size(), 18u);
   EXPECT_EQ(jd["cross_validation"]["folds"], 5);
   EXPECT_GT(jd["cross_validation"]["rms"].get<double>(), jd["rms_after"].get<double>());
   EXPECT_TRUE(jd["parameters"]["j2.a"]["held_by_selection"].get<bool>());

@@ -79,9 +79,10 @@ TEST(Report, EveryReportLoadsInChromiumWithItsFigures) {
                 .exit_code,
             0);
   // simulate: Figs 7, 8 (2), 9-like (4 joints), 10, Monte Carlo (2); calibrate: 4 joints x
-  // (fit, residual), errors per sample, correlations; force: Fig. 12 for both models.
+  // (fit, residual), errors per sample, correlations, model selection; force: Fig. 12 for
+  // both models.
   const std::vector<std::pair<std::string, int>> expected = {
-      {"simulate", 10}, {"calibrate", 10}, {"force", 2}};
+      {"simulate", 10}, {"calibrate", 11}, {"force", 2}};
   for (const auto& [name, figures] : expected) {
     SCOPED_TRACE(name);
     const std::string shot = shots + "/" + name + ".png";

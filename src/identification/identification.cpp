@@ -872,6 +872,10 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
           "identifiable");
   fit.structurally_identified = static_cast<int>(identified.size());
   KinematicSolution solution = solve_kinematics(problem, identified);
+  // The residuals and Jacobian at the fit, for selection, cross-validation and statistics.
+  Stack data = stack(s, solution.parameters, problem.joints, kind, measured, weights, compressed);
+  std::map<int, std::string> name;
+  for (const ParameterInfo& pi : model.parameter_info()) name[pi.slot] = pi.name;
   // Model selection: hold what the data do not support, and fit again.
   std::vector<int> held_by_selection;
   if (!options.keep_all && solution.termination == SolveTermination::kConverged) {
@@ -879,9 +883,9 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       result.notes.push_back(
           "model selection skipped: the log is too long for per-pose fits (compressed Jacobian)");
     } else {
-      const ModelSelection selection =
-          select_model(problem, identified, solution.parameters, options.selection_alpha,
-                       options.folds >= 2 ? options.folds : kDefaultFolds, options.seed);
+      const ModelSelection selection = detail::select_model(
+          problem, identified, solution.parameters, data, options.selection_alpha,
+          options.folds >= 2 ? options.folds : kDefaultFolds, options.seed);
       fit.model_selection = true;
       fit.selection_path = selection.path;
       for (const auto& [slot, why] : selection.reason) {
@@ -889,22 +893,27 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
         held_by_selection.push_back(slot);
       }
       if (selection.kept.size() < identified.size()) {
+        // From the full fit with the held parameters back at their start: a
+        // few iterations.
         identified = selection.kept;
-        solution = solve_kinematics(problem, identified);
+        KinematicProblem warm = problem;
+        Eigen::VectorXd from = solution.parameters;
+        for (int slot : held_by_selection) from[slot] = problem.model.kinematic_parameters()[slot];
+        warm.model.set_kinematic_parameters(from);
+        solution = solve_kinematics(warm, identified);
+        data = stack(s, solution.parameters, problem.joints, kind, measured, weights);
         result.notes.push_back(fmt::format(
             "model selection held {} of the {} identifiable parameters at nominal (not supported "
             "by these data; --keep-all keeps them): {}",
-            held_by_selection.size(), fit.structurally_identified, names_of(held_by_selection, [&] {
-              std::map<int, std::string> n;
-              for (const ParameterInfo& pi : model.parameter_info()) n[pi.slot] = pi.name;
-              return n;
-            }())));
+            held_by_selection.size(), fit.structurally_identified,
+            names_of(held_by_selection, name)));
       }
     }
   }
   fit.identified = static_cast<int>(identified.size());
   if (options.folds >= 2 && solution.termination == SolveTermination::kConverged) {
-    const CrossValidation cv = cross_validate(problem, identified, options.folds, options.seed);
+    const CrossValidation cv =
+        detail::cross_validate(problem, identified, data, options.folds, options.seed);
     fit.cv_rms = cv.rms;
     fit.cv_folds = cv.folds;
     fit.cv_note = cv.note;
@@ -921,12 +930,9 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   const Eigen::VectorXd& p = solution.parameters;
   model = problem.model;
   model.set_kinematic_parameters(p);
-  const Stack data = stack(s, p, problem.joints, kind, measured, weights, compressed);
   fit.rms_after = measurement_rms(
       position_rss(residuals_at(s, p, problem.joints, kind, measured, weights), kind), fit.rows);
   const std::vector<ParameterInfo> info = model.parameter_info();
-  std::map<int, std::string> name;
-  for (const ParameterInfo& pi : info) name[pi.slot] = pi.name;
 
   // Uncertainty, conditioning and observability of the identified parameters.
   const int k = static_cast<int>(identified.size());

@@ -1,6 +1,9 @@
 // Model selection and cross-validation of step 2 (issue 12): which of the
 // identifiable parameters the data support, and how well the fit predicts poses
-// it has not seen.
+// it has not seen. Both work on the problem linearised at a fit: the normal
+// equations of every fold are formed once, and each model of the selection's
+// path and each fold is then a small solve (a calibration stays within SPEC
+// section 7's 10 ms).
 #include <fmt/format.h>
 
 #include <Eigen/Dense>
@@ -19,10 +22,15 @@
 namespace hapticcal {
 namespace {
 
-using detail::RowMatrix;
 using detail::RowsOf;
 
 constexpr double kInfinite = std::numeric_limits<double>::infinity();
+// A normal matrix whose pivots span more than this ratio is singular: the
+// poses cannot determine the parameters (a QR's 1e-10 on the Jacobian).
+constexpr double kSingularPivotRatio = 1e-20;
+// The selection's path is followed this many models past the one kept (for
+// the record: the cross-validated error rising as supported parameters go).
+constexpr int kRecordedBeyond = 3;
 
 // Metres and radians made comparable as in analyze_identifiability: an angle
 // column divided by the problem's length scale.
@@ -34,49 +42,113 @@ Eigen::VectorXd column_scale(const KinematicProblem& problem) {
   return scale;
 }
 
-// The least-squares solution of A x = b, or nothing if A's columns are
-// (numerically) dependent: then the rows cannot determine the parameters.
-std::optional<Eigen::VectorXd> least_squares(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
-  if (A.cols() == 0) return Eigen::VectorXd();
-  if (A.rows() < A.cols()) return std::nullopt;
-  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
-  qr.setThreshold(1e-10);
-  if (qr.rank() < A.cols()) return std::nullopt;
-  return Eigen::VectorXd(qr.solve(b));
+// The solution of G x = b for a symmetric positive semi-definite G, or nothing
+// if G is numerically singular.
+std::optional<Eigen::VectorXd> solve_normal(const Eigen::MatrixXd& G, const Eigen::VectorXd& b) {
+  if (G.rows() == 0) return Eigen::VectorXd();
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(G);
+  const Eigen::VectorXd D = ldlt.vectorD();
+  if (ldlt.info() != Eigen::Success || !(D.minCoeff() > kSingularPivotRatio * D.maxCoeff())) {
+    return std::nullopt;
+  }
+  return Eigen::VectorXd(ldlt.solve(b));
 }
 
-// Row indices (d rows a pose) of the poses in fold f (`in`) or in the others.
-std::vector<Eigen::Index> fold_rows(const std::vector<int>& fold, int f, bool in, int d) {
-  std::vector<Eigen::Index> rows;
-  for (size_t i = 0; i < fold.size(); ++i) {
-    if ((fold[i] == f) != in) continue;
-    for (int k = 0; k < d; ++k) rows.push_back(static_cast<Eigen::Index>(i) * d + k);
-  }
-  return rows;
+std::vector<Eigen::Index> indices(const std::vector<int>& v) {
+  return std::vector<Eigen::Index>(v.begin(), v.end());
 }
 
-// The poses of fold f (`in`) or of the others, as a problem of their own.
-KinematicProblem fold_problem(const KinematicProblem& problem, const std::vector<int>& fold, int f,
-                              bool in) {
-  KinematicProblem sub = problem;
-  sub.joints.clear();
-  std::vector<int> poses;
-  for (size_t i = 0; i < fold.size(); ++i) {
-    if ((fold[i] == f) == in) poses.push_back(static_cast<int>(i));
+// The identification problem linearised at a fit x: residuals r(x + dx / s) =
+// r + A dx with A the Jacobian's columns of `columns` divided by their scale s,
+// split into folds of poses. A model is a subset S of the columns fitted while
+// the others (H) are moved by a given shift h (scaled units).
+class LinearisedFolds {
+ public:
+  LinearisedFolds(const detail::Stack& at, const std::vector<int>& columns,
+                  const Eigen::VectorXd& scale, const std::vector<int>& fold, int folds,
+                  const RowsOf& kind)
+      : r_(at.r), folds_(folds) {
+    const int d = kind.dimension();
+    A_.resize(at.J.rows(), static_cast<Eigen::Index>(columns.size()));
+    for (size_t c = 0; c < columns.size(); ++c) {
+      A_.col(static_cast<Eigen::Index>(c)) = at.J.col(columns[c]) / scale[columns[c]];
+    }
+    G_ = A_.transpose() * A_;
+    g_ = A_.transpose() * r_;
+    rows_.assign(folds, {});
+    for (size_t i = 0; i < fold.size(); ++i) {
+      for (int k = 0; k < d; ++k) rows_[fold[i]].push_back(static_cast<Eigen::Index>(i) * d + k);
+    }
+    for (int f = 0; f < folds; ++f) {
+      const Eigen::MatrixXd Af = A_(rows_[f], Eigen::all);
+      G_train_.push_back(G_ - Af.transpose() * Af);
+      g_train_.push_back(g_ - Af.transpose() * r_(rows_[f]));
+    }
+    // The rows that measure a position or distance (a pose's rotation rows are
+    // reported apart, as in KinematicFit::rms_after).
+    measures_ = Eigen::VectorXd::Ones(r_.size());
+    if (kind.type == MeasurementType::kPose) {
+      for (Eigen::Index i = 0; i < r_.size(); ++i) measures_[i] = i % 6 < 3 ? 1.0 : 0.0;
+    }
   }
-  sub.measured.resize(static_cast<Eigen::Index>(poses.size()), problem.measured.cols());
-  if (problem.weights.size() > 0) sub.weights.resize(static_cast<Eigen::Index>(poses.size()));
-  sub.rows = 0;
-  for (size_t k = 0; k < poses.size(); ++k) {
-    const int i = poses[k];
-    sub.joints.push_back(problem.joints[i]);
-    sub.measured.row(static_cast<Eigen::Index>(k)) = problem.measured.row(i);
-    const double w = problem.weights.size() > 0 ? problem.weights[i] : 1.0;
-    if (problem.weights.size() > 0) sub.weights[static_cast<Eigen::Index>(k)] = w;
-    sub.rows += static_cast<int>(std::lround(w * w));
+
+  // Cross-validated sums of squares of model S (H shifted by h): every row,
+  // and the measuring rows only. Infinite where a fold's other poses cannot
+  // determine S.
+  std::pair<double, double> cross_validated(const std::vector<int>& S, const std::vector<int>& H,
+                                            const Eigen::VectorXd& h) const {
+    const auto s = indices(S), held = indices(H);
+    double all = 0, measuring = 0;
+    for (int f = 0; f < folds_; ++f) {
+      const Eigen::VectorXd b = g_train_[f](s) + G_train_[f](s, held) * h;
+      const std::optional<Eigen::VectorXd> x = solve_normal(G_train_[f](s, s), -b);
+      if (!x) return {kInfinite, kInfinite};
+      const Eigen::VectorXd e = r_(rows_[f]) + A_(rows_[f], held) * h + A_(rows_[f], s) * *x;
+      all += e.squaredNorm();
+      measuring += e.cwiseProduct(e).dot(measures_(rows_[f]));
+    }
+    return {all, measuring};
   }
-  sub.compressed = false;
-  return sub;
+
+  // The fit of S on every pose (H shifted by h): the step x, its residual sum
+  // of squares, and (G_SS)^-1.
+  struct Fit {
+    Eigen::VectorXd x;
+    double rss = 0;
+    Eigen::MatrixXd inverse;
+  };
+  Fit fit(const std::vector<int>& S, const std::vector<int>& H, const Eigen::VectorXd& h) const {
+    const auto s = indices(S), held = indices(H);
+    const double r_shifted =
+        r_.squaredNorm() + 2 * h.dot(g_(held)) + h.dot(G_(held, held) * h);  // |r + A_H h|^2
+    const Eigen::VectorXd b = g_(s) + G_(s, held) * h;
+    Fit out;
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(G_(s, s));
+    out.inverse = ldlt.solve(Eigen::MatrixXd::Identity(s.size(), s.size()));
+    out.x = -out.inverse * b;
+    out.rss = std::max(r_shifted + b.dot(out.x), 0.0);
+    return out;
+  }
+
+  Eigen::Index rows() const { return r_.size(); }
+
+ private:
+  Eigen::VectorXd r_, g_, measures_;
+  Eigen::MatrixXd A_, G_;
+  int folds_ = 0;
+  std::vector<std::vector<Eigen::Index>> rows_;  // of each fold
+  std::vector<Eigen::MatrixXd> G_train_;         // normal matrix without fold f
+  std::vector<Eigen::VectorXd> g_train_;
+};
+
+// Positions 0..n-1 of `identified`, without those in `held_positions`.
+std::vector<int> complement(int n, const std::vector<int>& held_positions) {
+  std::vector<int> out;
+  for (int i = 0; i < n; ++i) {
+    if (std::find(held_positions.begin(), held_positions.end(), i) == held_positions.end())
+      out.push_back(i);
+  }
+  return out;
 }
 
 }  // namespace
@@ -111,98 +183,89 @@ double significance_threshold(double alpha, int parameters) {
 ModelSelection select_model(const KinematicProblem& problem, const std::vector<int>& identified,
                             const Eigen::VectorXd& solution, double alpha, int folds,
                             std::uint64_t seed) {
-  const ChainStructure s = problem.model.structure();
+  const detail::Stack at = detail::stack(problem.model.structure(), solution, problem.joints,
+                                         RowsOf{problem.type, problem.rotation_scale},
+                                         problem.measured, problem.weights);
+  return detail::select_model(problem, identified, solution, at, alpha, folds, seed);
+}
+
+CrossValidation cross_validate(const KinematicProblem& problem, const std::vector<int>& identified,
+                               const Eigen::VectorXd& solution, int folds, std::uint64_t seed) {
+  if (problem.compressed) return detail::cross_validate(problem, identified, {}, folds, seed);
+  const detail::Stack at = detail::stack(problem.model.structure(), solution, problem.joints,
+                                         RowsOf{problem.type, problem.rotation_scale},
+                                         problem.measured, problem.weights);
+  return detail::cross_validate(problem, identified, at, folds, seed);
+}
+
+namespace detail {
+
+ModelSelection select_model(const KinematicProblem& problem, const std::vector<int>& identified,
+                            const Eigen::VectorXd& solution, const Stack& at, double alpha,
+                            int folds, std::uint64_t seed) {
   const RowsOf kind{problem.type, problem.rotation_scale};
-  const int d = kind.dimension();
   const int m = static_cast<int>(problem.joints.size());
-  const detail::Stack at =
-      detail::stack(s, solution, problem.joints, kind, problem.measured, problem.weights);
+  const int n = static_cast<int>(identified.size());
   const Eigen::VectorXd start = problem.model.kinematic_parameters();
   const Eigen::VectorXd scale = column_scale(problem);
   std::map<int, std::string> name;
   for (const ParameterInfo& pi : problem.model.parameter_info()) name[pi.slot] = pi.name;
-
   const int k_folds = std::clamp(folds, 2, std::max(m, 2));
-  const std::vector<int> fold = pose_folds(m, k_folds, seed);
-  std::vector<std::vector<Eigen::Index>> train(k_folds), test(k_folds);
-  for (int f = 0; f < k_folds; ++f) {
-    train[f] = fold_rows(fold, f, false, d);
-    test[f] = fold_rows(fold, f, true, d);
-  }
+  const LinearisedFolds system(at, identified, scale, pose_folds(m, k_folds, seed), k_folds, kind);
+  // A held parameter goes back to its start value: in scaled units, h.
+  Eigen::VectorXd back(n);
+  for (int c = 0; c < n; ++c)
+    back[c] = scale[identified[c]] * (start[identified[c]] - solution[identified[c]]);
   const double rows = std::max(problem.rows, 1);
 
   ModelSelection out;
-  std::vector<int> model = identified;  // the current model's slots
-  std::vector<int> removed;             // in order of removal
-  while (true) {
-    // Linearised at the full fit: a held parameter is moved back to its start
-    // value, and the model's parameters fitted to what that leaves.
-    Eigen::VectorXd r = at.r;
-    for (int slot : identified) {
-      if (std::find(model.begin(), model.end(), slot) == model.end())
-        r += at.J.col(slot) * (start[slot] - solution[slot]);
-    }
-    const auto k = static_cast<Eigen::Index>(model.size());
-    Eigen::MatrixXd A(at.J.rows(), k);
-    for (Eigen::Index c = 0; c < k; ++c) A.col(c) = at.J.col(model[c]) / scale[model[c]];
-    double cv_rss = 0;
-    for (int f = 0; f < k_folds && std::isfinite(cv_rss); ++f) {
-      const std::optional<Eigen::VectorXd> x = least_squares(A(train[f], Eigen::all), -r(train[f]));
-      if (!x) {
-        cv_rss = kInfinite;
-        break;
-      }
-      cv_rss += (r(test[f]) + A(test[f], Eigen::all) * *x).squaredNorm();
-    }
+  std::vector<int> held;  // positions in `identified`, in order of removal
+  int beyond = -1;        // steps taken past the chosen model (-1: not found yet)
+  while (beyond < kRecordedBeyond) {
+    const std::vector<int> model = complement(n, held);
+    const Eigen::VectorXd h = back(indices(held));
     SelectionStep step;
-    step.parameters = static_cast<int>(k);
-    step.cv_rms = std::sqrt(cv_rss / rows);
-    if (k == 0) {
-      step.rms = std::sqrt(r.squaredNorm() / rows);
+    step.parameters = static_cast<int>(model.size());
+    step.cv_rms = std::sqrt(system.cross_validated(model, held, h).first / rows);
+    const LinearisedFolds::Fit fit = system.fit(model, held, h);
+    step.rms = std::sqrt(fit.rss / rows);
+    if (model.empty()) {
       out.path.push_back(step);
       break;
     }
-    // The fit on every pose; the parameter whose change from its start is the
-    // fewest standard deviations is held next.
-    Eigen::HouseholderQR<Eigen::MatrixXd> qr(A);
-    const Eigen::MatrixXd R = qr.matrixQR().topLeftCorner(k, k).triangularView<Eigen::Upper>();
-    const Eigen::VectorXd x =
-        R.triangularView<Eigen::Upper>().solve((qr.householderQ().transpose() * -r).head(k));
-    const Eigen::MatrixXd R_inverse =
-        R.triangularView<Eigen::Upper>().solve(Eigen::MatrixXd::Identity(k, k));
-    const double sigma = std::sqrt((r + A * x).squaredNorm() /
-                                   static_cast<double>(std::max<Eigen::Index>(at.J.rows() - k, 1)));
-    step.rms = std::sqrt((r + A * x).squaredNorm() / rows);
+    // The parameter whose change from its start is the fewest standard
+    // deviations is the candidate to hold next.
+    const double sigma = std::sqrt(
+        fit.rss / static_cast<double>(std::max<Eigen::Index>(system.rows() - step.parameters, 1)));
     int weakest = 0;
     double weakest_t = kInfinite;
-    for (Eigen::Index c = 0; c < k; ++c) {
-      const int slot = model[c];
-      const double change = scale[slot] * (solution[slot] - start[slot]) + x[c];
-      const double sd = sigma * R_inverse.row(c).norm();
+    for (int c = 0; c < step.parameters; ++c) {
+      const double change = -back[model[c]] + fit.x[c];
+      const double sd = sigma * std::sqrt(std::max(fit.inverse(c, c), 0.0));
       const double t = sd > 0 ? std::abs(change) / sd : kInfinite;
-      if (t < weakest_t || (std::isnan(t) && weakest_t == kInfinite)) {
+      if (t < weakest_t) {
         weakest_t = t;
-        weakest = static_cast<int>(c);
+        weakest = c;
       }
     }
-    step.threshold = significance_threshold(alpha, static_cast<int>(k));
-    step.removed = name.at(model[weakest]);
+    step.threshold = significance_threshold(alpha, step.parameters);
+    step.removed = name.at(identified[model[weakest]]);
     step.removed_t = weakest_t;
     out.path.push_back(step);
-    removed.push_back(model[weakest]);
-    model.erase(model.begin() + weakest);
+    held.push_back(model[weakest]);
+    // The first model whose weakest parameter is significant is the one kept.
+    if (beyond < 0 && weakest_t >= step.threshold) {
+      out.chosen = static_cast<int>(out.path.size()) - 1;
+      beyond = 0;
+    } else if (beyond >= 0) {
+      ++beyond;
+    }
   }
-  // The first model whose weakest parameter is significant.
-  while (out.chosen + 1 < static_cast<int>(out.path.size()) &&
-         out.path[out.chosen].removed_t < out.path[out.chosen].threshold) {
-    ++out.chosen;
-  }
-  const std::vector<int> held(removed.begin(), removed.begin() + out.chosen);
-  for (int slot : identified) {
-    if (std::find(held.begin(), held.end(), slot) == held.end()) out.kept.push_back(slot);
-  }
+  if (beyond < 0) out.chosen = static_cast<int>(out.path.size()) - 1;  // down to none
+  for (int c : complement(n, std::vector<int>(held.begin(), held.begin() + out.chosen)))
+    out.kept.push_back(identified[c]);
   for (int i = 0; i < out.chosen; ++i) {
-    out.reason[removed[i]] = fmt::format(
+    out.reason[identified[held[i]]] = fmt::format(
         "not supported by these data (model selection): its change from nominal, {:.2f} sd, is "
         "below the threshold of {:.2f} sd (5 % family-wise over the {} parameters then fitted)",
         out.path[i].removed_t, out.path[i].threshold, out.path[i].parameters);
@@ -211,7 +274,7 @@ ModelSelection select_model(const KinematicProblem& problem, const std::vector<i
 }
 
 CrossValidation cross_validate(const KinematicProblem& problem, const std::vector<int>& identified,
-                               int folds, std::uint64_t seed) {
+                               const Stack& at, int folds, std::uint64_t seed) {
   CrossValidation out;
   const int m = static_cast<int>(problem.joints.size());
   if (problem.compressed) {
@@ -223,33 +286,21 @@ CrossValidation cross_validate(const KinematicProblem& problem, const std::vecto
     return out;
   }
   out.folds = std::min(folds, m);
-  const ChainStructure s = problem.model.structure();
   const RowsOf kind{problem.type, problem.rotation_scale};
-  const Eigen::VectorXd scale = column_scale(problem);
-  const std::vector<int> fold = pose_folds(m, out.folds, seed);
-  const auto k = static_cast<Eigen::Index>(identified.size());
-  double rss = 0;
-  for (int f = 0; f < out.folds; ++f) {
-    const KinematicProblem train = fold_problem(problem, fold, f, false);
-    const KinematicProblem test = fold_problem(problem, fold, f, true);
-    // The other folds' poses must determine the parameters on their own.
-    const detail::Stack at = detail::stack(s, train.model.kinematic_parameters(), train.joints,
-                                           kind, train.measured, train.weights);
-    Eigen::MatrixXd A(at.J.rows(), k);
-    for (Eigen::Index c = 0; c < k; ++c) A.col(c) = at.J.col(identified[c]) / scale[identified[c]];
-    if (!least_squares(A, Eigen::VectorXd::Zero(A.rows()))) {
-      out.note = fmt::format(
-          "not computable: {} poses (a fold's training set) cannot determine the {} parameters",
-          train.joints.size(), k);
-      return out;
-    }
-    const KinematicSolution fit = solve_kinematics(train, identified);
-    rss += detail::position_rss(
-        detail::residuals_at(s, fit.parameters, test.joints, kind, test.measured, test.weights),
-        kind);
+  const LinearisedFolds system(at, identified, column_scale(problem),
+                               pose_folds(m, out.folds, seed), out.folds, kind);
+  std::vector<int> all(identified.size());
+  std::iota(all.begin(), all.end(), 0);
+  const double rss = system.cross_validated(all, {}, Eigen::VectorXd()).second;
+  if (!std::isfinite(rss)) {
+    out.note = fmt::format(
+        "not computable: a fold's other poses ({} of {}) cannot determine the {} parameters",
+        m - (m + out.folds - 1) / out.folds, m, identified.size());
+    return out;
   }
   out.rms = std::sqrt(rss / std::max(problem.rows, 1));
   return out;
 }
 
+}  // namespace detail
 }  // namespace hapticcal

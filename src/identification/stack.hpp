@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "hapticcal/identification/identification.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "identification/measurement_cost.hpp"
 
@@ -33,5 +34,13 @@ Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& par
 // The squared residuals that measure a position or distance error: all of them,
 // but of a pose only its position rows (its rotation rows are reported apart).
 double position_rss(const Eigen::VectorXd& r, const RowsOf& kind);
+
+// select_model and cross_validate (identification.hpp) at a fit whose stack
+// (not compressed) is `at`.
+ModelSelection select_model(const KinematicProblem& problem, const std::vector<int>& identified,
+                            const Eigen::VectorXd& solution, const Stack& at, double alpha,
+                            int folds, std::uint64_t seed);
+CrossValidation cross_validate(const KinematicProblem& problem, const std::vector<int>& identified,
+                               const Stack& at, int folds, std::uint64_t seed);
 
 }  // namespace hapticcal::detail

@@ -112,8 +112,8 @@ struct KinematicFit {
   double cv_rms = std::numeric_limits<double>::quiet_NaN();
   int cv_folds = 0;
   std::string cv_note;
-  // Model selection (calibrate's default): the path from every identifiable
-  // parameter down to none, and the parameters before it.
+  // Model selection (calibrate's default): its path (select_model), and the
+  // number of parameters before it.
   bool model_selection = false;
   int structurally_identified = 0;  // excited, before model selection
   std::vector<SelectionStep> selection_path;
@@ -231,8 +231,8 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
 struct ModelSelection {
   std::vector<int> kept;              // slots, in the order of `identified`
   std::map<int, std::string> reason;  // the held ones: why
-  std::vector<SelectionStep> path;    // from every identified parameter down to none
-  int chosen = 0;                     // index in path
+  std::vector<SelectionStep> path;  // from every identified parameter to 3 models past the kept one
+  int chosen = 0;                   // index in path
 };
 ModelSelection select_model(const KinematicProblem& problem, const std::vector<int>& identified,
                             const Eigen::VectorXd& solution, double alpha, int folds,
@@ -245,18 +245,19 @@ double significance_threshold(double alpha, int parameters);
 // a reproducible shuffle for a seed on every platform.
 std::vector<int> pose_folds(int poses, int folds, std::uint64_t seed);
 
-// K-fold cross-validated RMS of the fit over `identified` (the measure of
-// KinematicFit::rms_after): each fold's poses predicted by Levenberg-Marquardt
-// from the problem's start on the other folds. NaN with a reason when there are
-// fewer than two poses, the problem is compressed, or a fold's other poses
-// cannot determine the parameters.
+// K-fold cross-validated RMS of the fit `solution` over `identified` (the
+// measure of KinematicFit::rms_after): each fold's poses predicted by the fit on
+// the other folds, linearised at `solution` (one Gauss-Newton step from it,
+// which is the refit to second order in the parameters' change). NaN with a
+// reason when there are fewer than two poses, the problem is compressed, or a
+// fold's other poses cannot determine the parameters.
 struct CrossValidation {
   double rms = std::numeric_limits<double>::quiet_NaN();
   int folds = 0;
   std::string note;  // why rms is NaN
 };
 CrossValidation cross_validate(const KinematicProblem& problem, const std::vector<int>& identified,
-                               int folds, std::uint64_t seed);
+                               const Eigen::VectorXd& solution, int folds, std::uint64_t seed);
 
 // How Levenberg-Marquardt ended (like Ceres's TerminationType).
 enum class SolveTermination { kConverged, kNoConvergence, kFailure, kNothingToSolve };
