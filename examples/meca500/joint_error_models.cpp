@@ -124,7 +124,9 @@ int main(int argc, char** argv) {
         nominal.links[0].geometry != Geometry::kMdh) {
       throw InputError("joint_error_models needs a 6-joint MDH model and x, y, z logs");
     }
-    const CalibrationResult calibrated = calibrate(nominal, cal, {});
+    CalibrationOptions every;  // the geometric model whole: every identifiable parameter
+    every.keep_all = true;
+    const CalibrationResult calibrated = calibrate(nominal, cal, every);
     const ChainStructure s = nominal.structure();
     std::vector<int> held;
     for (const ParameterEstimate& e : calibrated.kinematics.parameters) {
