@@ -150,6 +150,128 @@ TEST(Identification, Meca500ValidationRmsAfterCalibration) {
   EXPECT_LT(across, 0.05e-3);
 }
 
+// examples/meca500/joint_error_models on the set over 0.06 mm, checked against
+// what does not depend on it: its geometric refit (Ceres autodiff from the
+// calibrated model) gives the RMS that hapticcal::evaluate computes for
+// hapticcal::calibrate's model on both logs; each family of joint-angle errors
+// nests the geometric model, so its calibration RMS can only be lower (least
+// squares over more parameters); and the residuals of successive poses are
+// uncorrelated (no drift).
+TEST(Identification, Meca500JointErrorModelsNestTheGeometricFitWhichMatchesEvaluate) {
+  const std::string dir = testing::source_path("examples/meca500/");
+  const testing::CliResult r =
+      testing::run_program(HAPTICCAL_JOINT_ERROR_MODELS,
+                           dir + "meca500.yaml " + dir + "cal-norm_dist_data_0deg_80cube.csv " +
+                               dir + "val-norm_dist_data_0deg_80cube.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::printf("%s", r.out.c_str());
+  std::istringstream lines(r.out);
+  std::string line;
+  std::vector<std::pair<double, double>> rms;  // calibration, validation [mm]
+  while (std::getline(lines, line)) {
+    if (line.find("converged") == std::string::npos) continue;
+    EXPECT_EQ(line.find("NOT CONVERGED"), std::string::npos) << line;
+    std::istringstream fields(line.substr(44));
+    double cal = 0, val = 0;
+    ASSERT_TRUE(fields >> cal >> val) << line;
+    rms.emplace_back(cal, val);
+  }
+  ASSERT_EQ(rms.size(), 7u);
+  // Not drift: successive poses' residuals are uncorrelated (70 poses: sd 0.12).
+  const std::size_t at = r.out.find("(x, y, z):");
+  ASSERT_NE(at, std::string::npos);
+  std::istringstream lag1(r.out.substr(at + 10));
+  for (int k = 0; k < 3; ++k) {
+    double rho = 1;
+    ASSERT_TRUE(lag1 >> rho);
+    EXPECT_LT(std::abs(rho), 0.25);
+  }
+  const Log cal = read_log(dir + "cal-norm_dist_data_0deg_80cube.csv");
+  const Log val = read_log(dir + "val-norm_dist_data_0deg_80cube.csv");
+  CalibrationOptions every;  // the example refits the whole geometric model
+  every.keep_all = true;
+  const DeviceModel calibrated = calibrate(testing::meca500(), cal, every).calibrated;
+  // Printed to 0.0001 mm; the two solvers stop within a few 1e-5 mm.
+  EXPECT_NEAR(rms[0].first, evaluate(calibrated, cal).position->rms * 1e3, 2e-4);
+  EXPECT_NEAR(rms[0].second, evaluate(calibrated, val).position->rms * 1e3, 2e-4);
+  for (std::size_t k = 1; k < rms.size(); ++k) EXPECT_LE(rms[k].first, rms[0].first + 1e-4) << k;
+}
+
+TEST(Identification, DegenerateInputGivesAClearErrorOrARankDeficientResult) {
+  const DeviceModel nominal = testing::builtin("baser-7dof");
+  const DeviceModel actual = paper_actual_device(nominal);
+  const Log good = simulate_log(actual, 200, SimulationNoise{}, 3);
+
+  auto rows = [&](int n) {
+    Log l = good;
+    l.rows = n;
+    l.q.conservativeResize(n, Eigen::NoChange);
+    l.ext.conservativeResize(n, Eigen::NoChange);
+    l.distance.conservativeResize(n);
+    l.line.resize(n);
+    return l;
+  };
+  // Fewer residuals than candidate parameters.
+  EXPECT_THROW(calibrate(nominal, rows(20), {}), InputError);
+
+  // All rows identical: step 1 cannot fit (the readings never move) ...
+  Log same = good;
+  for (int r = 1; r < same.rows; ++r) {
+    same.q.row(r) = same.q.row(0);
+    same.ext.row(r) = same.ext.row(0);
+    same.distance[r] = same.distance[0];
+  }
+  EXPECT_THROW(calibrate(nominal, same, {}), InputError);
+  // ... and without it they are 200 repeats of one pose: too few measurements.
+  CalibrationOptions no_tx;
+  no_tx.transmissions = false;
+  try {
+    calibrate(nominal, same, no_tx);
+    ADD_FAILURE() << "200 repeats of one pose were calibrated";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("too few measurements: 1 pose gives 1 residual"),
+              std::string::npos)
+        << e.what();
+  }
+
+  // A joint that never moves.
+  Log stuck = good;
+  stuck.q.col(4).setConstant(0.1);
+  const CalibrationResult s = calibrate(nominal, stuck, {});
+  EXPECT_TRUE(s.kinematics.rank_deficient);
+  EXPECT_EQ(s.status, CalibrationStatus::kRankDeficient);
+  EXPECT_NE(s.status_reason.find("do not excite"), std::string::npos) << s.status_reason;
+  bool says_why = false;
+  for (const ParameterEstimate& e : s.kinematics.parameters) {
+    says_why = says_why || e.reason.starts_with("not excited by these measurements");
+  }
+  EXPECT_TRUE(says_why);
+  Log stuck_ext = good;
+  stuck_ext.q.col(0).setConstant(0.1);
+  EXPECT_THROW(calibrate(nominal, stuck_ext, {}), InputError);
+
+  // A constant external encoder.
+  Log dead = good;
+  dead.ext.col(1).setConstant(0.3);
+  try {
+    calibrate(nominal, dead, {});
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("ext2: the external encoder never moves"),
+              std::string::npos);
+  }
+
+  // A log for another device.
+  EXPECT_THROW(calibrate(testing::meca500(), good, {}), InputError);
+  // Unknown names to fix.
+  CalibrationOptions bad_fix;
+  bad_fix.fix = {"j9.a"};
+  EXPECT_THROW(calibrate(nominal, good, bad_fix), InputError);
+}
+
+// Long logs never form the rows x parameters Jacobian: LM and the analysis run
+// on its R factor. Forced on two real and simulated problems, the fit, its
+// uncertainty and its verdicts are those of the full Jacobian.
 TEST(Identification, CompressedJacobianGivesTheSameCalibration) {
   const DeviceModel nominal = testing::builtin("baser-7dof");
   const Log paper = simulate_log(paper_actual_device(nominal), 200, SimulationNoise{}, 5);
