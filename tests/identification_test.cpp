@@ -83,15 +83,8 @@ TEST(Identification, KinematicOnlyCalibrationIsWorseThanTheFullOne) {
   EXPECT_LT(kinematic.kinematics.rms_after, kinematic.kinematics.rms_before);
 }
 
-const char* kSets[] = {"norm_dist_data_0deg_80cube",    "norm_dist_data_0deg_160cube",
-                       "norm_dist_data_90deg_80cube",   "norm_dist_data_90deg_160cube",
-                       "norm_dist_data_n90_80cube",     "norm_dist_data_n90_160cube",
-                       "uniform_dist_data_0deg_160cube"};
-
-// The Meca500's calibration ("cal") or validation ("val") log of a set.
-Log meca500_log(const std::string& kind, const char* set) {
-  return read_log(testing::source_path("examples/meca500/" + kind + "-" + set + ".csv"));
-}
+using testing::kMeca500Sets;
+using testing::meca500_log;
 
 // Real laser-tracker data: calibrate on cal-<set>, validate on val-<set>. Issue 3
 // asks for 0.06 mm on every set. Keeping every identifiable parameter
@@ -103,7 +96,7 @@ TEST(Identification, Meca500ValidationRmsAfterCalibration) {
   const DeviceModel nominal = testing::meca500();
   CalibrationOptions all;
   all.keep_all = true;
-  for (const char* set : kSets) {
+  for (const char* set : kMeca500Sets) {
     const Log cal = meca500_log("cal", set), val = meca500_log("val", set);
     const CalibrationResult r = calibrate(nominal, cal, all);
     const CalibrationResult selected = calibrate(nominal, cal, {});
@@ -441,7 +434,7 @@ TEST(Identification, Meca500WithUnknownTrackerFrameCalibratesLikeWithItsBasePose
   DeviceModel unknown = known;
   unknown.base = {};
   ASSERT_GT(Eigen::Vector3d(known.base[0], known.base[1], known.base[2]).norm(), 0.1);
-  for (const char* set : kSets) {
+  for (const char* set : kMeca500Sets) {
     SCOPED_TRACE(set);
     const Log cal = meca500_log("cal", set), val = meca500_log("val", set);
     CalibrationOptions all;  // the same parameters on both sides
@@ -519,7 +512,7 @@ TEST(Identification, Meca500ThroughItsUrdfValidatesLikeTheMdhModel) {
   const DeviceModel mdh = testing::meca500();
   const DeviceModel urdf = parse_urdf(device_to_urdf(mdh), "meca500.urdf", "tool");
   ASSERT_EQ(urdf.links[0].geometry, Geometry::kOrigin);
-  for (const char* set : kSets) {
+  for (const char* set : kMeca500Sets) {
     SCOPED_TRACE(set);
     const Log cal = meca500_log("cal", set), val = meca500_log("val", set);
     CalibrationOptions all;  // both parametrisations whole (their t-values differ)

@@ -4,8 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <filesystem>
 #include <cstdio>
+#include <filesystem>
 #include <numeric>
 #include <random>
 
@@ -20,14 +20,8 @@
 namespace hapticcal {
 namespace {
 
-const char* kSets[] = {"norm_dist_data_0deg_80cube",    "norm_dist_data_0deg_160cube",
-                       "norm_dist_data_90deg_80cube",   "norm_dist_data_90deg_160cube",
-                       "norm_dist_data_n90_80cube",     "norm_dist_data_n90_160cube",
-                       "uniform_dist_data_0deg_160cube"};
-
-Log meca500_log(const std::string& kind, const char* set) {
-  return read_log(testing::source_path("examples/meca500/" + kind + "-" + set + ".csv"));
-}
+using testing::kMeca500Sets;
+using testing::meca500_log;
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -47,7 +41,7 @@ CalibrationOptions keep_all() {
 TEST(ModelSelection, Meca500SevenSetValidationMeanDoesNotGetWorse) {
   const DeviceModel nominal = testing::meca500();
   double sum_default = 0, sum_all = 0;
-  for (const char* set : kSets) {
+  for (const char* set : kMeca500Sets) {
     const Log cal = meca500_log("cal", set), val = meca500_log("val", set);
     const CalibrationResult d = calibrate(nominal, cal, {});
     const CalibrationResult a = calibrate(nominal, cal, keep_all());
@@ -235,8 +229,8 @@ TEST(ModelSelection, CommandLineKeepAllFoldsAndTheirErrors) {
   const std::string model = testing::source_path("examples/meca500/meca500.yaml");
   const std::string log =
       testing::source_path("examples/meca500/cal-norm_dist_data_0deg_160cube.csv");
-  const testing::CliResult bad =
-      testing::run_cli({"calibrate", "--model", model, "--log", log, "--folds", "1", "--out", out + "/bad"});
+  const testing::CliResult bad = testing::run_cli(
+      {"calibrate", "--model", model, "--log", log, "--folds", "1", "--out", out + "/bad"});
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("--folds 1: K-fold cross-validation needs K = 0 (none) or K >= 2"),
             std::string::npos)

@@ -27,6 +27,16 @@ inline DeviceModel builtin(const std::string& name) {
 }
 inline DeviceModel meca500() { return load_device(source_path("examples/meca500/meca500.yaml")); }
 
+// The seven Meca500 laser-tracker sets (examples/meca500/, from ../shared/data/meca500).
+inline constexpr const char* kMeca500Sets[] = {
+    "norm_dist_data_0deg_80cube",    "norm_dist_data_0deg_160cube", "norm_dist_data_90deg_80cube",
+    "norm_dist_data_90deg_160cube",  "norm_dist_data_n90_80cube",   "norm_dist_data_n90_160cube",
+    "uniform_dist_data_0deg_160cube"};
+// A set's calibration ("cal") or validation ("val") log.
+inline Log meca500_log(const std::string& kind, const std::string& set) {
+  return read_log(source_path("examples/meca500/" + kind + "-" + set + ".csv"));
+}
+
 // Every meaningful kinematic parameter moved by up to +-scale (m or rad), so that
 // no term (beta, tool rotation, base DH) is tested only at zero.
 inline DeviceModel perturbed(DeviceModel m, std::mt19937_64& rng, double scale = 0.05) {
