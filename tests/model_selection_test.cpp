@@ -128,7 +128,9 @@ TEST(ModelSelection, HoldsWhatTheTruthLeavesAtNominalAndPredictsTheTruthBetter) 
     ASSERT_EQ(d.status, CalibrationStatus::kConverged);
     int held_unchanged = 0;
     for (const ParameterEstimate& e : d.kinematics.parameters) {
-      if (deviated.count(e.name)) EXPECT_TRUE(e.identifiable) << e.name << " seed " << seed;
+      if (deviated.count(e.name)) {
+        EXPECT_TRUE(e.identifiable) << e.name << " seed " << seed;
+      }
       if (!deviated.count(e.name) && e.held_by_selection) ++held_unchanged;
     }
     EXPECT_GE(held_unchanged, 11) << "seed " << seed;  // of the 21 left at nominal

@@ -255,6 +255,8 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
         "  model selection: {} of {} identifiable parameters kept (5 % family-wise significance; "
         "--keep-all keeps them all)\n",
         k.identified, k.structurally_identified);
+  } else if (!k.selection_note.empty()) {
+    fmt::print("  model selection: {}\n", k.selection_note);
   }
   for (const hapticcal::ParameterEstimate& e : k.parameters) {
     if (!e.large_change) continue;

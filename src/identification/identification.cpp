@@ -551,6 +551,11 @@ void set_status(CalibrationResult& result, const std::vector<int>& identified) {
     result.status = CalibrationStatus::kNotConverged;
     result.status_reason = fmt::format("Levenberg-Marquardt did not converge in {} iterations ({})",
                                        fit.iterations, fit.termination);
+  } else if (identified.empty() && fit.model_selection && fit.structurally_identified > 0) {
+    result.status = CalibrationStatus::kConverged;
+    result.status_reason =
+        "model selection: these data support no change from the model (every identifiable "
+        "parameter held at nominal)";
   } else if (identified.empty()) {
     result.status = CalibrationStatus::kRankDeficient;
     result.status_reason = "no parameter is identifiable from these measurements";
@@ -775,6 +780,10 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options) {
   check_log_fits(log, nominal);
   if (options.samples < 0) throw InputError("--samples must not be negative");
+  if (!(options.selection_alpha > 0 && options.selection_alpha < 1)) {
+    throw InputError(
+        fmt::format("model selection level {} is not in (0, 1)", options.selection_alpha));
+  }
   if (options.folds < 0 || options.folds == 1) {
     throw InputError(fmt::format("--folds {}: K-fold cross-validation needs K = 0 (none) or K >= 2",
                                  options.folds));
@@ -878,35 +887,55 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   for (const ParameterInfo& pi : model.parameter_info()) name[pi.slot] = pi.name;
   // Model selection: hold what the data do not support, and fit again.
   std::vector<int> held_by_selection;
-  if (!options.keep_all && solution.termination == SolveTermination::kConverged) {
-    if (compressed) {
-      result.notes.push_back(
-          "model selection skipped: the log is too long for per-pose fits (compressed Jacobian)");
-    } else {
-      const ModelSelection selection = detail::select_model(
-          problem, identified, solution.parameters, data, options.selection_alpha,
-          options.folds >= 2 ? options.folds : kDefaultFolds, options.seed);
-      fit.model_selection = true;
-      fit.selection_path = selection.path;
-      for (const auto& [slot, why] : selection.reason) {
-        reason[slot] = why;
-        held_by_selection.push_back(slot);
-      }
-      if (selection.kept.size() < identified.size()) {
+  const int selection_folds = options.folds >= 2 ? options.folds : kDefaultFolds;
+  if (options.keep_all) {
+    fit.selection_note = "off (--keep-all)";
+  } else if (solution.termination != SolveTermination::kConverged) {
+    fit.selection_note = "skipped: the fit of every identifiable parameter did not converge";
+  } else if (compressed) {
+    fit.selection_note = "skipped: the log is too long for per-pose fits (compressed Jacobian)";
+    result.notes.push_back("model selection " + fit.selection_note);
+  } else {
+    const ModelSelection selection =
+        detail::select_model(problem, identified, solution.parameters, data,
+                             options.selection_alpha, selection_folds, options.seed);
+    fit.model_selection = true;
+    fit.selection_folds = std::min(selection_folds, m);
+    fit.selection_path = selection.path;
+    if (selection.kept.size() < identified.size()) {
+      std::vector<int> held;
+      for (const auto& [slot, why] : selection.reason) held.push_back(slot);
+      const Eigen::VectorXd start = problem.model.kinematic_parameters();
+      KinematicSolution refit;
+      if (selection.kept.empty()) {
+        // The data support no change from the model: it stays as it is.
+        refit.parameters = start;
+        refit.termination = SolveTermination::kConverged;
+        refit.message = "model selection: no parameter changed";
+      } else {
         // From the full fit with the held parameters back at their start: a
         // few iterations.
-        identified = selection.kept;
         KinematicProblem warm = problem;
         Eigen::VectorXd from = solution.parameters;
-        for (int slot : held_by_selection) from[slot] = problem.model.kinematic_parameters()[slot];
+        for (int slot : held) from[slot] = start[slot];
         warm.model.set_kinematic_parameters(from);
-        solution = solve_kinematics(warm, identified);
+        refit = solve_kinematics(warm, selection.kept);
+      }
+      if (refit.termination == SolveTermination::kConverged) {
+        identified = selection.kept;
+        solution = refit;
+        held_by_selection = held;
+        for (const auto& [slot, why] : selection.reason) reason[slot] = why;
         data = stack(s, solution.parameters, problem.joints, kind, measured, weights);
         result.notes.push_back(fmt::format(
             "model selection held {} of the {} identifiable parameters at nominal (not supported "
             "by these data; --keep-all keeps them): {}",
-            held_by_selection.size(), fit.structurally_identified,
-            names_of(held_by_selection, name)));
+            held.size(), fit.structurally_identified, names_of(held, name)));
+      } else {
+        fit.model_selection = false;
+        fit.selection_note = "its re-fit did not converge (" + refit.message +
+                             "): every identifiable parameter kept";
+        result.notes.push_back("model selection: " + fit.selection_note);
       }
     }
   }
@@ -917,6 +946,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     fit.cv_rms = cv.rms;
     fit.cv_folds = cv.folds;
     fit.cv_note = cv.note;
+  } else if (options.folds >= 2) {
+    fit.cv_note = "not computed: the fit did not converge";
   }
   fit.converged = solution.termination == SolveTermination::kConverged;
   fit.numerical_failure = solution.termination == SolveTermination::kFailure;

@@ -25,9 +25,12 @@ namespace {
 using detail::RowsOf;
 
 constexpr double kInfinite = std::numeric_limits<double>::infinity();
-// A normal matrix whose pivots span more than this ratio is singular: the
-// poses cannot determine the parameters (a QR's 1e-10 on the Jacobian).
-constexpr double kSingularPivotRatio = 1e-20;
+// A normal matrix (equilibrated to a unit diagonal) with a pivot below this is
+// singular: the poses cannot determine the parameters. A fold's normal matrix
+// is the whole one less the fold's rows, so a singular one keeps pivots of
+// rounding size (~1e-16); a Meca500 set's (condition number up to 1500 of the
+// scaled Jacobian) has pivots above 1e-7.
+constexpr double kSingularPivot = 1e-12;
 // The selection's path is followed this many models past the one kept (for
 // the record: the cross-validated error rising as supported parameters go).
 constexpr int kRecordedBeyond = 3;
@@ -46,12 +49,14 @@ Eigen::VectorXd column_scale(const KinematicProblem& problem) {
 // if G is numerically singular.
 std::optional<Eigen::VectorXd> solve_normal(const Eigen::MatrixXd& G, const Eigen::VectorXd& b) {
   if (G.rows() == 0) return Eigen::VectorXd();
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(G);
-  const Eigen::VectorXd D = ldlt.vectorD();
-  if (ldlt.info() != Eigen::Success || !(D.minCoeff() > kSingularPivotRatio * D.maxCoeff())) {
+  const Eigen::VectorXd diagonal = G.diagonal();
+  if (!(diagonal.minCoeff() > 0)) return std::nullopt;
+  const Eigen::VectorXd e = diagonal.cwiseSqrt().cwiseInverse();
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(e.asDiagonal() * G * e.asDiagonal());
+  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > kSingularPivot)) {
     return std::nullopt;
   }
-  return Eigen::VectorXd(ldlt.solve(b));
+  return Eigen::VectorXd(e.asDiagonal() * ldlt.solve(e.asDiagonal() * b));
 }
 
 std::vector<Eigen::Index> indices(const std::vector<int>& v) {
@@ -100,6 +105,9 @@ class LinearisedFolds {
     const auto s = indices(S), held = indices(H);
     double all = 0, measuring = 0;
     for (int f = 0; f < folds_; ++f) {
+      if (r_.size() - static_cast<Eigen::Index>(rows_[f].size()) <
+          static_cast<Eigen::Index>(s.size()))
+        return {kInfinite, kInfinite};  // fewer training rows than parameters
       const Eigen::VectorXd b = g_train_[f](s) + G_train_[f](s, held) * h;
       const std::optional<Eigen::VectorXd> x = solve_normal(G_train_[f](s, s), -b);
       if (!x) return {kInfinite, kInfinite};
@@ -114,7 +122,8 @@ class LinearisedFolds {
   // of squares, and (G_SS)^-1.
   struct Fit {
     Eigen::VectorXd x;
-    double rss = 0;
+    double rss = 0;            // every row
+    double measuring_rss = 0;  // the measuring rows
     Eigen::MatrixXd inverse;
   };
   Fit fit(const std::vector<int>& S, const std::vector<int>& H, const Eigen::VectorXd& h) const {
@@ -127,6 +136,8 @@ class LinearisedFolds {
     out.inverse = ldlt.solve(Eigen::MatrixXd::Identity(s.size(), s.size()));
     out.x = -out.inverse * b;
     out.rss = std::max(r_shifted + b.dot(out.x), 0.0);
+    const Eigen::VectorXd e = r_ + A_(Eigen::all, held) * h + A_(Eigen::all, s) * out.x;
+    out.measuring_rss = e.cwiseProduct(e).dot(measures_);
     return out;
   }
 
@@ -169,33 +180,56 @@ std::vector<int> pose_folds(int poses, int folds, std::uint64_t seed) {
   return fold;
 }
 
-double significance_threshold(double alpha, int parameters) {
-  // Two-sided normal quantile 1 - alpha / (2 k) by bisection on erfc.
-  const double tail = alpha / (2.0 * std::max(parameters, 1));
-  double lo = 0, hi = 40;
-  for (int i = 0; i < 200; ++i) {
-    const double z = 0.5 * (lo + hi);
-    (0.5 * std::erfc(z / std::numbers::sqrt2) > tail ? lo : hi) = z;
+namespace {
+
+// The regularised incomplete beta function I_x(a, b) by its continued fraction
+// (DLMF 8.17.22, evaluated by the modified Lentz method), with the symmetry
+// I_x(a, b) = 1 - I_{1-x}(b, a) where the fraction converges slowly.
+double incomplete_beta(double x, double a, double b) {
+  if (x <= 0) return 0;
+  if (x >= 1) return 1;
+  if (x > (a + 1) / (a + b + 2)) return 1 - incomplete_beta(1 - x, b, a);
+  const double front = std::exp(std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) +
+                                a * std::log(x) + b * std::log1p(-x)) /
+                       a;
+  constexpr double tiny = 1e-300;
+  double c = 1, d = 1 - (a + b) * x / (a + 1);
+  d = 1 / (std::abs(d) < tiny ? tiny : d);
+  double f = d;
+  for (int m = 1; m < 500; ++m) {
+    for (int half = 0; half < 2; ++half) {
+      const double numerator = half == 0
+                                   ? m * (b - m) * x / ((a + 2 * m - 1) * (a + 2 * m))
+                                   : -(a + m) * (a + b + m) * x / ((a + 2 * m) * (a + 2 * m + 1));
+      d = 1 + numerator * d;
+      d = 1 / (std::abs(d) < tiny ? tiny : d);
+      c = 1 + numerator / c;
+      if (std::abs(c) < tiny) c = tiny;
+      f *= c * d;
+      if (half == 1 && std::abs(c * d - 1) < 1e-15) return front * f;
+    }
   }
-  return 0.5 * (lo + hi);
+  return front * f;
 }
 
-ModelSelection select_model(const KinematicProblem& problem, const std::vector<int>& identified,
-                            const Eigen::VectorXd& solution, double alpha, int folds,
-                            std::uint64_t seed) {
-  const detail::Stack at = detail::stack(problem.model.structure(), solution, problem.joints,
-                                         RowsOf{problem.type, problem.rotation_scale},
-                                         problem.measured, problem.weights);
-  return detail::select_model(problem, identified, solution, at, alpha, folds, seed);
+}  // namespace
+
+double student_t_tail(double t, double dof) {
+  // P(|T| > t) = I_{nu / (nu + t^2)}(nu / 2, 1 / 2).
+  return incomplete_beta(dof / (dof + t * t), dof / 2, 0.5);
 }
 
-CrossValidation cross_validate(const KinematicProblem& problem, const std::vector<int>& identified,
-                               const Eigen::VectorXd& solution, int folds, std::uint64_t seed) {
-  if (problem.compressed) return detail::cross_validate(problem, identified, {}, folds, seed);
-  const detail::Stack at = detail::stack(problem.model.structure(), solution, problem.joints,
-                                         RowsOf{problem.type, problem.rotation_scale},
-                                         problem.measured, problem.weights);
-  return detail::cross_validate(problem, identified, at, folds, seed);
+double significance_threshold(double alpha, int parameters, double dof) {
+  if (!(dof >= 1)) return kInfinite;  // no residual freedom: nothing is significant
+  // P(|T| > t) = alpha / k, by bisection on x = nu / (nu + t^2) in (0, 1].
+  const double p = alpha / std::max(parameters, 1);
+  double lo = 0, hi = 1;
+  for (int i = 0; i < 200; ++i) {
+    const double x = 0.5 * (lo + hi);
+    (incomplete_beta(x, dof / 2, 0.5) < p ? lo : hi) = x;
+  }
+  const double x = 0.5 * (lo + hi);
+  return std::sqrt(dof * (1 - x) / x);
 }
 
 namespace detail {
@@ -226,17 +260,17 @@ ModelSelection select_model(const KinematicProblem& problem, const std::vector<i
     const Eigen::VectorXd h = back(indices(held));
     SelectionStep step;
     step.parameters = static_cast<int>(model.size());
-    step.cv_rms = std::sqrt(system.cross_validated(model, held, h).first / rows);
+    step.cv_rms = std::sqrt(system.cross_validated(model, held, h).second / rows);
     const LinearisedFolds::Fit fit = system.fit(model, held, h);
-    step.rms = std::sqrt(fit.rss / rows);
+    step.rms = std::sqrt(fit.measuring_rss / rows);
     if (model.empty()) {
       out.path.push_back(step);
       break;
     }
     // The parameter whose change from its start is the fewest standard
     // deviations is the candidate to hold next.
-    const double sigma = std::sqrt(
-        fit.rss / static_cast<double>(std::max<Eigen::Index>(system.rows() - step.parameters, 1)));
+    const double dof = static_cast<double>(system.rows() - step.parameters);
+    const double sigma = std::sqrt(fit.rss / std::max(dof, 1.0));
     int weakest = 0;
     double weakest_t = kInfinite;
     for (int c = 0; c < step.parameters; ++c) {
@@ -248,7 +282,7 @@ ModelSelection select_model(const KinematicProblem& problem, const std::vector<i
         weakest = c;
       }
     }
-    step.threshold = significance_threshold(alpha, step.parameters);
+    step.threshold = significance_threshold(alpha, step.parameters, dof);
     step.removed = name.at(identified[model[weakest]]);
     step.removed_t = weakest_t;
     out.path.push_back(step);
@@ -267,8 +301,9 @@ ModelSelection select_model(const KinematicProblem& problem, const std::vector<i
   for (int i = 0; i < out.chosen; ++i) {
     out.reason[identified[held[i]]] = fmt::format(
         "not supported by these data (model selection): its change from nominal, {:.2f} sd, is "
-        "below the threshold of {:.2f} sd (5 % family-wise over the {} parameters then fitted)",
-        out.path[i].removed_t, out.path[i].threshold, out.path[i].parameters);
+        "below the threshold of {:.2f} sd ({:g} % family-wise over the {} parameters then "
+        "fitted)",
+        out.path[i].removed_t, out.path[i].threshold, alpha * 100, out.path[i].parameters);
   }
   return out;
 }

@@ -40,13 +40,15 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
                            {"rms", number_or_null(k.cv_rms)},
                            {"seed", options.seed},
                            {"note", k.cv_note}};
-  json selection{{"enabled", k.model_selection},
-                 {"rule", k.model_selection ? "backward elimination, 5 % family-wise (Bonferroni) "
-                                              "significance of the change from nominal"
-                                            : "none (--keep-all)"},
-                 {"alpha", options.selection_alpha},
-                 {"identifiable", k.structurally_identified},
-                 {"kept", k.identified}};
+  json selection{
+      {"enabled", k.model_selection},
+      {"rule", k.model_selection ? "backward elimination while the change from nominal is not "
+                                   "significant (Student t, Bonferroni over the parameters fitted)"
+                                 : k.selection_note},
+      {"alpha", options.selection_alpha},
+      {"folds", k.selection_folds},
+      {"identifiable", k.structurally_identified},
+      {"kept", k.identified}};
   json path = json::array();
   for (const SelectionStep& step : k.selection_path) {
     path.push_back({{"parameters", step.parameters},

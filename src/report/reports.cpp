@@ -114,11 +114,13 @@ void selection_section(const KinematicFit& k, Report& report) {
   report.sections.push_back(
       fmt::format("<h2>Model selection</h2>\n<p>Backward elimination from the {} identifiable "
                   "parameters: the one whose change from nominal is the fewest standard deviations "
-                  "(t) is held next, while t is below the 5 % family-wise (Bonferroni) threshold "
-                  "for the parameters then fitted. {} kept. RMS of the linearised fits, all "
-                  "residual rows [mm]; cross-validated over {} folds of poses (for the record: "
+                  "(t) is held next, while t is below the family-wise (Bonferroni) 5 % threshold "
+                  "of Student's t for the parameters then fitted. {} kept. RMS [mm] of the "
+                  "linearised fits ({}); cross-validated over {} folds of poses (for the record: "
                   "the rule does not use it). <code>--keep-all</code> fits all of them.</p>\n",
-                  k.structurally_identified, k.identified, std::max(k.cv_folds, 2)) +
+                  k.structurally_identified, k.identified,
+                  k.type == MeasurementType::kPose ? "position rows" : "the measurement's error",
+                  k.selection_folds) +
       html_table({"parameters", "training RMS", "cross-validated RMS", "held next", "its t",
                   "threshold", ""},
                  rows));

@@ -115,6 +115,8 @@ struct KinematicFit {
   // Model selection (calibrate's default): its path (select_model), and the
   // number of parameters before it.
   bool model_selection = false;
+  std::string selection_note;       // why it did not run or was undone ("" if it ran)
+  int selection_folds = 0;          // K of the path's cross-validation
   int structurally_identified = 0;  // excited, before model selection
   std::vector<SelectionStep> selection_path;
   double sigma = 0;             // used for the standard deviations [m]
@@ -237,9 +239,12 @@ struct ModelSelection {
 ModelSelection select_model(const KinematicProblem& problem, const std::vector<int>& identified,
                             const Eigen::VectorXd& solution, double alpha, int folds,
                             std::uint64_t seed);
-// The two-sided Bonferroni threshold of the selection: the standard normal
-// quantile 1 - alpha / (2 parameters).
-double significance_threshold(double alpha, int parameters);
+// The two-sided Bonferroni threshold of the selection: the t with
+// P(|T| > t) = alpha / parameters for Student's T with `dof` degrees of
+// freedom (the residual's: rows - parameters); infinite below one.
+double significance_threshold(double alpha, int parameters, double dof);
+// P(|T| > t) for Student's T with `dof` degrees of freedom.
+double student_t_tail(double t, double dof);
 
 // Fold of each of `poses` poses (0..folds-1, sizes differing by at most one),
 // a reproducible shuffle for a seed on every platform.
