@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "hapticcal/identification/information.hpp"
+#include "hapticcal/identification/two_step.hpp"
 #include "hapticcal/io/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/evaluate.hpp"
@@ -42,55 +43,26 @@ Eigen::VectorXd readings(const Log& log, int r) { return log.q.row(r).transpose(
 // the distances' sensitivity to the transmission parameters.
 std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
                                    const CalibrationResult& full) {
-  std::map<std::string, double> out;
-  const DeviceModel& actual = sc.actual;
-  const ChainStructure s = actual.structure();
-  const Eigen::VectorXd p = actual.kinematic_parameters();
-  const PreparedModel prepared(actual);
-  std::vector<const ParameterEstimate*> identified;
-  for (const ParameterEstimate& e : full.kinematics.parameters) {
-    if (e.identifiable) identified.push_back(&e);
-  }
-  const int k = static_cast<int>(identified.size());
-  const int m = ident.rows;
-  Eigen::MatrixXd Jk(m, k), dDelta_dTheta(m, actual.dof());
-  Eigen::VectorXd joint(actual.dof());
-  Eigen::Matrix<double, 1, Eigen::Dynamic> row;
-  Jacobian6<double> Jg;
-  for (int r = 0; r < m; ++r) {
-    const Eigen::VectorXd q = readings(ident, r);
-    prepared.compensate(q.data(), joint.data());
-    const Eigen::Vector3d tip =
-        prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, Jg).p;
-    dDelta_dTheta.row(r) = tip.normalized().transpose() * Jg.topRows<3>();
-    distance_parameter_jacobian(s, p.data(), joint.data(), row);
-    for (int c = 0; c < k; ++c) Jk(r, c) = row[identified[c]->slot];
-  }
-  std::vector<StepOneSensitivity> step_one;
-  for (const TransmissionFit& t : full.transmissions) {
-    // The step-1 model as fitted (its basis for a polynomial), at the truth's readings.
-    const Transmission& model = full.calibrated.links[t.joint].transmission;
-    const int np = model.num_parameters();
-    StepOneSensitivity st;
-    st.names.assign(t.names.begin(), t.names.begin() + np);
-    st.encoder.resize(m, np + 1);  // d (c + error) / d [params, c]
-    Eigen::VectorXd d(np);
-    for (int r = 0; r < m; ++r) {
-      model.parameter_jacobian(ident.q(r, t.joint), d.data());
-      st.encoder.row(r).head(np) = d.transpose();
-      st.encoder(r, np) = 1.0;
-    }
-    // Into step 2: J_t = d delta / d theta_j * d error_j / d params.
-    st.measurement.resize(m, np);
-    for (int r = 0; r < m; ++r) {
-      st.measurement.row(r) = dDelta_dTheta(r, t.joint) * st.encoder.row(r).head(np);
-    }
-    step_one.push_back(std::move(st));
-  }
+  std::vector<int> slots;
   std::vector<std::string> names;
-  for (const ParameterEstimate* e : identified) names.push_back(e->name);
+  for (const ParameterEstimate& e : full.kinematics.parameters) {
+    if (!e.identifiable) continue;
+    slots.push_back(e.slot);
+    names.push_back(e.name);
+  }
+  // The step-1 models as fitted (a polynomial in its basis), at the truth's readings.
+  std::vector<StepOneModel> step_one;
+  for (const TransmissionFit& t : full.transmissions) {
+    const Transmission& model = full.calibrated.links[t.joint].transmission;
+    step_one.push_back(
+        {t.joint, model,
+         std::vector<std::string>(t.names.begin(), t.names.begin() + model.num_parameters())});
+  }
+  const TwoStepJacobians J =
+      two_step_jacobians(sc.actual, MeasurementType::kDistance, 1.0, slots, step_one, ident.q);
   const TwoStepBound bound =
-      two_step_crlb(Jk, names, sc.noise.sigma_distance, step_one, sc.noise.sigma_ext);
+      two_step_crlb(J.kinematic, names, sc.noise.sigma_distance, J.step_one, sc.noise.sigma_ext);
+  std::map<std::string, double> out;
   for (size_t c = 0; c < bound.names.size(); ++c) out[bound.names[c]] = bound.variance[c];
   return out;
 }

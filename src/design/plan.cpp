@@ -1,0 +1,737 @@
+#include "hapticcal/design/plan.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <numeric>
+#include <random>
+
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+
+namespace hapticcal {
+
+const char* to_string(PlanCriterion criterion) {
+  switch (criterion) {
+    case PlanCriterion::kD:
+      return "D";
+    case PlanCriterion::kA:
+      return "A";
+    case PlanCriterion::kI:
+      return "I";
+    case PlanCriterion::kE:
+      return "E";
+  }
+  return "?";
+}
+
+std::optional<PlanCriterion> plan_criterion(const std::string& text) {
+  if (text == "d" || text == "D") return PlanCriterion::kD;
+  if (text == "a" || text == "A") return PlanCriterion::kA;
+  if (text == "i" || text == "I") return PlanCriterion::kI;
+  if (text == "e" || text == "E") return PlanCriterion::kE;
+  return std::nullopt;
+}
+
+std::optional<MeasurementType> measurement_kind(const std::string& text) {
+  for (MeasurementType t :
+       {MeasurementType::kDistance, MeasurementType::kPosition, MeasurementType::kPose}) {
+    if (text == traits(t).name) return t;
+  }
+  return std::nullopt;
+}
+
+bool PlanConstraints::admits(const Eigen::Vector3d& p) const {
+  const double r = p.norm();
+  if (r < min_distance || r > max_distance) return false;
+  if (box) {
+    for (int k = 0; k < 3; ++k) {
+      if (p[k] < (*box)[2 * k] || p[k] > (*box)[2 * k + 1]) return false;
+    }
+  }
+  return true;
+}
+
+namespace {
+
+// SplitMix64: independent streams from one seed.
+std::uint64_t mix(std::uint64_t seed, std::uint64_t stream) {
+  std::uint64_t z = seed + 0x9E3779B97F4A7C15ull * (stream + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+// Capstans with both eccentricities zero get kPlanCapstanEccentricity * D (see plan.hpp).
+void linearisable(Transmission& t) {
+  if (auto* c = std::get_if<Capstan>(&t.model())) {
+    if (c->r_out == 0 && c->r_in == 0) {
+      c->r_out = c->r_in = kPlanCapstanEccentricity * c->drum_distance;
+    }
+  } else if (auto* chain = std::get_if<Chain>(&t.model())) {
+    for (Transmission& stage : chain->stages) linearisable(stage);
+  }
+}
+
+Eigen::MatrixXd tip_rows(const Eigen::MatrixXd& G, int d) {
+  if (d == 1) return G;
+  const Eigen::Index poses = G.cols() / d;
+  Eigen::MatrixXd out(G.rows(), poses * 3);
+  for (Eigen::Index r = 0; r < poses; ++r) out.middleCols(3 * r, 3) = G.middleCols(d * r, 3);
+  return out;
+}
+
+}  // namespace
+
+Eigen::MatrixXd random_readings(const DeviceModel& model, int count, std::uint64_t seed,
+                                const PlanConstraints& constraints, const Eigen::VectorXd& lower,
+                                const Eigen::VectorXd& upper) {
+  const int n = model.dof();
+  std::mt19937_64 rng(seed);
+  const PreparedModel prepared(model);
+  Eigen::MatrixXd out(count, n);
+  Eigen::VectorXd q(n);
+  const long long max_tries = 1000LL * std::max(count, 10);
+  long long tries = 0;
+  for (int r = 0; r < count;) {
+    if (++tries > max_tries) {
+      throw InputError(fmt::format(
+          "--distance-range / --box: only {} of {} random poses within the joint limits put the "
+          "tool point inside the constraints",
+          r, tries - 1));
+    }
+    for (int j = 0; j < n; ++j) {
+      const double lo = lower.size() ? lower[j] : model.links[j].lower;
+      const double hi = upper.size() ? upper[j] : model.links[j].upper;
+      q[j] = std::uniform_real_distribution<double>(lo, hi)(rng);
+    }
+    if (constraints.any() && !constraints.admits(prepared.forward(q.data()).p)) continue;
+    out.row(r++) = q.transpose();
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------
+// The problem.
+
+PlanProblem::PlanProblem(const DeviceModel& model, MeasurementType type, double sigma_m,
+                         double sigma_e, const Eigen::MatrixXd& analysis,
+                         const std::vector<std::string>& fix, const std::vector<std::string>& free)
+    : model_(model), type_(type), d_(traits(type).dimension), sigma_m_(sigma_m), sigma_e_(sigma_e) {
+  for (Link& l : model_.links) linearisable(l.transmission);
+  // The kinematic parameters these candidates can identify.
+  Log log;
+  log.origin = "plan candidates";
+  log.rows = static_cast<int>(analysis.rows());
+  log.q = analysis;
+  log.ext.setZero(log.rows, model_.dof());
+  log.has_ext.assign(model_.dof(), false);
+  for (int r = 0; r < log.rows; ++r) log.line.push_back(r + 2);
+  const MeasuredValues measured = predicted_measurements(model_, type, analysis);
+  if (type == MeasurementType::kDistance) {
+    log.has_distance = true;
+    log.distance = measured.col(0);
+  } else {
+    log.has_position = true;
+    log.position = measured.leftCols(3);
+    if (type == MeasurementType::kPose) {
+      log.has_orientation = true;
+      log.orientation = measured.rightCols(4);
+    }
+  }
+  const KinematicProblem problem = kinematic_problem(model_, log, {}, CalibrationOptions{});
+  length_scale_ = problem.length_scale;
+  rotation_scale_ = problem.rotation_scale;
+  const std::vector<int> candidates = candidate_slots(model_, fix, free);
+  const IdentifiabilityAnalysis ia = analyze_identifiability(problem, candidates);
+  slots_ = ia.identified;
+  const std::vector<ParameterInfo> info = model_.parameter_info();
+  std::map<int, std::string> name;
+  for (const ParameterInfo& p : info) name[p.slot] = p.name;
+  for (const auto& [slot, why] : ia.reason) held_[name[slot]] = why;
+
+  for (int j = 0; j < model_.dof(); ++j) {
+    const Transmission& t = model_.links[j].transmission;
+    if (t.is_none() || t.num_parameters() == 0) continue;
+    StepOneModel s;
+    s.joint = j;
+    s.transmission = t;
+    for (const std::string& p : t.parameter_names())
+      s.names.push_back(model_.links[j].name + "." + p);
+    step_one_offset_.push_back(static_cast<int>(names_.size()));
+    names_.insert(names_.end(), s.names.begin(), s.names.end());
+    names_.push_back(model_.links[j].name + ".encoder_zero");
+    step_one_.push_back(std::move(s));
+  }
+  kinematic_offset_ = static_cast<int>(names_.size());
+  for (int slot : slots_) names_.push_back(name[slot]);
+}
+
+Eigen::MatrixXd PlanProblem::prediction_rows(const Eigen::MatrixXd& readings) const {
+  const TwoStepJacobians J =
+      two_step_jacobians(model_, type_, rotation_scale_, slots_, step_one_, readings);
+  const Eigen::Index rows = J.kinematic.rows();
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(parameters(), rows);
+  G.bottomRows(slots_.size()) = J.kinematic.transpose();
+  for (size_t t = 0; t < step_one_.size(); ++t) {
+    G.middleRows(step_one_offset_[t], J.step_one[t].measurement.cols()) =
+        J.step_one[t].measurement.transpose();
+  }
+  return G;
+}
+
+Eigen::MatrixXd PlanProblem::fisher_rows(const Eigen::MatrixXd& readings) const {
+  const TwoStepJacobians J =
+      two_step_jacobians(model_, type_, rotation_scale_, slots_, step_one_, readings);
+  const Eigen::Index m = readings.rows();
+  const int r = rows_per_pose();
+  Eigen::MatrixXd F = Eigen::MatrixXd::Zero(parameters(), m * r);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    auto block = F.middleCols(i * r, r);
+    block.bottomLeftCorner(slots_.size(), d_) =
+        J.kinematic.middleRows(i * d_, d_).transpose() / sigma_m_;
+    for (size_t t = 0; t < step_one_.size(); ++t) {
+      const StepOneSensitivity& s = J.step_one[t];
+      const Eigen::Index np = s.measurement.cols();
+      block.block(step_one_offset_[t], 0, np, d_) =
+          s.measurement.middleRows(i * d_, d_).transpose() / sigma_m_;
+      block.block(step_one_offset_[t], d_ + t, np + 1, 1) = s.encoder.row(i).transpose() / sigma_e_;
+    }
+  }
+  return F;
+}
+
+Eigen::MatrixXd PlanProblem::covariance(const Eigen::MatrixXd& design) const {
+  const TwoStepJacobians J =
+      two_step_jacobians(model_, type_, rotation_scale_, slots_, step_one_, design);
+  const Eigen::MatrixXd C = two_step_covariance(J.kinematic, sigma_m_, J.step_one, sigma_e_);
+  // C's order: each joint's parameters (no encoder zero), then the kinematic ones.
+  std::vector<int> index;
+  for (size_t t = 0; t < step_one_.size(); ++t) {
+    for (int c = 0; c < step_one_[t].transmission.num_parameters(); ++c)
+      index.push_back(step_one_offset_[t] + c);
+  }
+  for (size_t c = 0; c < slots_.size(); ++c) index.push_back(kinematic_offset_ + c);
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(parameters(), parameters());
+  for (size_t a = 0; a < index.size(); ++a) {
+    for (size_t b = 0; b < index.size(); ++b) out(index[a], index[b]) = C(a, b);
+  }
+  return out;
+}
+
+double PlanProblem::rms_sd_of(const Eigen::MatrixXd& C, const Eigen::MatrixXd& G) const {
+  const Eigen::MatrixXd T = tip_rows(G, d_);
+  const Eigen::Index poses = G.cols() / d_;
+  const double total = (T.transpose() * C).cwiseProduct(T.transpose()).sum();
+  return std::sqrt(std::max(total, 0.0) / static_cast<double>(poses));
+}
+
+double PlanProblem::predicted_rms_sd(const Eigen::MatrixXd& design,
+                                     const Eigen::MatrixXd& validation) const {
+  return rms_sd_of(covariance(design), prediction_rows(validation));
+}
+
+Conditioning PlanProblem::conditioning(const Eigen::MatrixXd& design) const {
+  const TwoStepJacobians J = two_step_jacobians(model_, type_, rotation_scale_, slots_, {}, design);
+  Eigen::MatrixXd Js = J.kinematic;
+  const std::vector<ParameterInfo> info = model_.parameter_info();
+  for (size_t c = 0; c < slots_.size(); ++c) {
+    if (info[slots_[c]].unit == ParameterUnit::kAngle) Js.col(c) /= length_scale_;
+  }
+  return hapticcal::conditioning(Js, static_cast<double>(Js.rows()));
+}
+
+// ---------------------------------------------------------------------------
+// The exchange.
+
+namespace {
+
+// The criterion of an information matrix M (scaled parameters; larger is
+// better) and its change under low-rank updates M + U S U^T, S = diag(+-1),
+// through A = M^-1 (Woodbury).
+class Design {
+ public:
+  Design(PlanCriterion criterion, Eigen::MatrixXd W) : criterion_(criterion), W_(std::move(W)) {}
+
+  void set(const Eigen::MatrixXd& M) {
+    M_ = M;
+    refresh();
+  }
+  void update(const Eigen::MatrixXd& add, const Eigen::MatrixXd& remove) {
+    if (add.size()) M_ += add * add.transpose();
+    if (remove.size()) M_ -= remove * remove.transpose();
+    refresh();
+  }
+  double value() const { return value_; }
+  const Eigen::MatrixXd& M() const { return M_; }
+  const Eigen::MatrixXd& A() const { return A_; }
+  bool trace_type() const {
+    return criterion_ == PlanCriterion::kI || criterion_ == PlanCriterion::kA;
+  }
+  // W * X (W = I for A).
+  Eigen::MatrixXd weighted(const Eigen::MatrixXd& X) const {
+    return criterion_ == PlanCriterion::kA ? X : Eigen::MatrixXd(W_ * X);
+  }
+
+  // The criterion of M + U S U^T, with AU = A U and WAU = W A U given (trace types).
+  double after(const Eigen::MatrixXd& U, const Eigen::VectorXd& sign, const Eigen::MatrixXd& AU,
+               const Eigen::MatrixXd& WAU) const {
+    if (criterion_ == PlanCriterion::kE) {
+      Eigen::MatrixXd M = M_;
+      M.noalias() += U * sign.asDiagonal() * U.transpose();
+      return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M, Eigen::EigenvaluesOnly)
+          .eigenvalues()[0];
+    }
+    const Eigen::MatrixXd X = U.transpose() * AU;
+    const Eigen::Index k = X.rows();
+    // I + S X (S^2 = I): det(M') = det(M) det(I + S X).
+    const Eigen::MatrixXd IX = Eigen::MatrixXd::Identity(k, k) + sign.asDiagonal() * X;
+    const Eigen::PartialPivLU<Eigen::MatrixXd> lu(IX);
+    const double det = lu.determinant();
+    if (!(det > 0)) return -std::numeric_limits<double>::infinity();
+    if (criterion_ == PlanCriterion::kD) return value_ + std::log(det);
+    // (M')^-1 = A - A U (S + X)^-1 U^T A; trace(W (M')^-1) drops by trace((S + X)^-1 Y).
+    const Eigen::MatrixXd Y = AU.transpose() * WAU;
+    const Eigen::MatrixXd SX = Eigen::MatrixXd(sign.asDiagonal()) + X;
+    return value_ + SX.partialPivLu().solve(Y).trace();
+  }
+
+ private:
+  void refresh() {
+    const Eigen::Index p = M_.rows();
+    const Eigen::LLT<Eigen::MatrixXd> llt(M_);
+    A_ = llt.solve(Eigen::MatrixXd::Identity(p, p));
+    switch (criterion_) {
+      case PlanCriterion::kD:
+        value_ = 2 * llt.matrixLLT().diagonal().array().log().sum();
+        break;
+      case PlanCriterion::kA:
+        value_ = -A_.trace();
+        break;
+      case PlanCriterion::kI:
+        value_ = -A_.cwiseProduct(W_).sum();
+        break;
+      case PlanCriterion::kE:
+        value_ = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M_, Eigen::EigenvaluesOnly)
+                     .eigenvalues()[0];
+        break;
+    }
+  }
+
+  PlanCriterion criterion_;
+  Eigen::MatrixXd W_, M_, A_;
+  double value_ = 0;
+};
+
+// Screening gains of adding each block of F (p x r * count) to the design.
+Eigen::VectorXd add_gains(const Design& design, const Eigen::MatrixXd& F, int r,
+                          PlanCriterion criterion) {
+  const Eigen::Index count = F.cols() / r;
+  Eigen::VectorXd gain(count);
+  if (criterion == PlanCriterion::kE) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(design.M());
+    const Eigen::VectorXd v = eig.eigenvectors().col(0);
+    const Eigen::VectorXd proj = F.transpose() * v;
+    for (Eigen::Index c = 0; c < count; ++c) gain[c] = proj.segment(c * r, r).squaredNorm();
+    return gain;
+  }
+  const Eigen::MatrixXd AF = design.A() * F;
+  Eigen::MatrixXd WAF;
+  if (design.trace_type()) WAF = design.weighted(AF);
+  const Eigen::VectorXd plus = Eigen::VectorXd::Ones(r);
+  for (Eigen::Index c = 0; c < count; ++c) {
+    const auto Fc = F.middleCols(c * r, r);
+    const auto AFc = AF.middleCols(c * r, r);
+    const Eigen::MatrixXd S = Eigen::MatrixXd::Identity(r, r) + Fc.transpose() * AFc;
+    const Eigen::LLT<Eigen::MatrixXd> llt(S);
+    if (criterion == PlanCriterion::kD) {
+      gain[c] = 2 * llt.matrixLLT().diagonal().array().log().sum();
+    } else {
+      gain[c] = llt.solve(AFc.transpose() * WAF.middleCols(c * r, r)).trace();
+    }
+  }
+  return gain;
+}
+
+std::vector<int> top(const Eigen::VectorXd& gain, const std::vector<char>& excluded, int k) {
+  std::vector<int> idx;
+  for (Eigen::Index c = 0; c < gain.size(); ++c) {
+    if (!excluded[c] && std::isfinite(gain[c])) idx.push_back(static_cast<int>(c));
+  }
+  k = std::min<int>(k, static_cast<int>(idx.size()));
+  std::partial_sort(idx.begin(), idx.begin() + k, idx.end(),
+                    [&](int a, int b) { return gain[a] > gain[b] || (gain[a] == gain[b] && a < b); });
+  idx.resize(k);
+  return idx;
+}
+
+Eigen::VectorXd signs(int r, bool remove_second) {
+  Eigen::VectorXd s = Eigen::VectorXd::Ones(remove_second ? 2 * r : r);
+  if (remove_second) s.tail(r).setConstant(-1);
+  return s;
+}
+
+// The value of the design with block `add` in place of design block `i`
+// (AU / WAU of the add block computed here, of the design blocks given).
+double swap_value(const Design& design, const Eigen::MatrixXd& add, const Eigen::MatrixXd& A_add,
+                  const Eigen::MatrixXd& WA_add, const Eigen::MatrixXd& out,
+                  const Eigen::MatrixXd& A_out, const Eigen::MatrixXd& WA_out, int r) {
+  Eigen::MatrixXd U(add.rows(), 2 * r), AU(add.rows(), 2 * r), WAU;
+  U << add, out;
+  AU << A_add, A_out;
+  if (design.trace_type()) {
+    WAU.resize(add.rows(), 2 * r);
+    WAU << WA_add, WA_out;
+  }
+  return design.after(U, signs(r, true), AU, WAU);
+}
+
+}  // namespace
+
+Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
+  const auto start = std::chrono::steady_clock::now();
+  const DeviceModel& model = problem.model();
+  const int n = model.dof();
+  const int N = o.poses;
+  const bool user = o.candidates.size() > 0;
+  if (N < 1) throw InputError(fmt::format("--poses {}: must be at least 1", N));
+  if (user && o.candidates.cols() != n)
+    throw InputError(
+        fmt::format("candidates have {} joints, the model {}", o.candidates.cols(), n));
+  const Eigen::MatrixXd candidates =
+      user ? o.candidates : random_readings(model, o.pool, mix(o.seed, 0), o.constraints);
+  const int Nc = static_cast<int>(candidates.rows());
+  if (N > Nc) {
+    throw InputError(fmt::format("--poses {}: more than the {} candidates", N, Nc));
+  }
+  const int p = problem.parameters();
+  const int r = problem.rows_per_pose();
+  auto say = [&](const std::string& s) {
+    if (o.progress) o.progress(s);
+  };
+
+  // The workspace: the joint limits, or the candidates' range of each joint.
+  Eigen::VectorXd lower(n), upper(n);
+  for (int j = 0; j < n; ++j) {
+    lower[j] = user ? candidates.col(j).minCoeff() : model.links[j].lower;
+    upper[j] = user ? candidates.col(j).maxCoeff() : model.links[j].upper;
+  }
+  const PlanConstraints none;
+  const PlanConstraints& within = user ? none : o.constraints;
+
+  // Whitened, scaled Fisher rows of every candidate: each parameter's mean
+  // information per candidate pose becomes 1.
+  Eigen::MatrixXd F = problem.fisher_rows(candidates);
+  const Eigen::VectorXd info = F.rowwise().squaredNorm() / static_cast<double>(Nc);
+  Eigen::VectorXd scale(p);  // divides the rows of F and of the prediction gradients
+  for (int k = 0; k < p; ++k) scale[k] = info[k] > 0 ? std::sqrt(info[k]) : 1.0;
+  F = scale.cwiseInverse().asDiagonal() * F;
+  Eigen::MatrixXd W = Eigen::MatrixXd::Identity(p, p);
+  if (o.criterion == PlanCriterion::kI) {
+    const Eigen::MatrixXd V = random_readings(model, o.validation_poses, mix(o.seed, 1), within,
+                                              lower, upper);
+    const Eigen::MatrixXd G = scale.cwiseInverse().asDiagonal() * problem.prediction_rows(V);
+    W = G * G.transpose() / static_cast<double>(V.rows());
+  }
+  Design design(o.criterion, W);
+  // A ridge of 1e-10 of one mean pose's information keeps M invertible while the
+  // design is being built; it is negligible for any design that identifies the
+  // parameters.
+  const Eigen::MatrixXd ridge = 1e-10 * Eigen::MatrixXd::Identity(p, p);
+  design.set(ridge);
+
+  Plan plan;
+  plan.criterion = o.criterion;
+  plan.seed = o.seed;
+  plan.pool = Nc;
+  std::vector<int> chosen;
+  std::vector<char> in_design(Nc, 0);
+  auto block = [&](int c) { return Eigen::MatrixXd(F.middleCols(c * r, r)); };
+
+  // (1) Greedy start in batches: screen every candidate, then add the best of
+  // a shortlist one at a time with exact gains.
+  while (static_cast<int>(chosen.size()) < N) {
+    const int left = N - static_cast<int>(chosen.size());
+    const int batch = std::min(left, std::max(1, (N + 7) / 8));
+    const Eigen::VectorXd gain = add_gains(design, F, r, o.criterion);
+    std::vector<int> shortlist = top(gain, in_design, 2 * batch + 8);
+    for (int b = 0; b < batch && !shortlist.empty(); ++b) {
+      double best = -std::numeric_limits<double>::infinity();
+      size_t best_k = 0;
+      for (size_t k = 0; k < shortlist.size(); ++k) {
+        const Eigen::MatrixXd U = block(shortlist[k]);
+        const Eigen::MatrixXd AU = design.A() * U;
+        const Eigen::MatrixXd WAU = design.trace_type() ? design.weighted(AU) : Eigen::MatrixXd();
+        const double v = design.after(U, signs(r, false), AU, WAU);
+        if (v > best) {
+          best = v;
+          best_k = k;
+        }
+      }
+      const int c = shortlist[best_k];
+      shortlist.erase(shortlist.begin() + best_k);
+      chosen.push_back(c);
+      in_design[c] = 1;
+      design.update(block(c), Eigen::MatrixXd());
+    }
+  }
+  plan.criterion_greedy = design.value();
+  say(fmt::format("greedy start: criterion {:.6g}", design.value()));
+
+  // (2) Fedorov exchange: a shortlist of candidates by screening gain, each
+  // tried against every design pose with the exact swap value.
+  const int shortlist_size = std::min(Nc - N, 48);
+  for (int sweep = 0; sweep < o.max_sweeps && shortlist_size > 0; ++sweep) {
+    plan.sweeps = sweep + 1;
+    const Eigen::VectorXd gain = add_gains(design, F, r, o.criterion);
+    const std::vector<int> shortlist = top(gain, in_design, shortlist_size);
+    int accepted = 0;
+    Eigen::MatrixXd Fd(p, N * r), AFd, WAFd;
+    auto refresh_design = [&] {
+      for (int i = 0; i < N; ++i) Fd.middleCols(i * r, r) = block(chosen[i]);
+      AFd = design.A() * Fd;
+      if (design.trace_type()) WAFd = design.weighted(AFd);
+    };
+    refresh_design();
+    for (int c : shortlist) {
+      const Eigen::MatrixXd U = block(c);
+      const Eigen::MatrixXd AU = design.A() * U;
+      const Eigen::MatrixXd WAU = design.trace_type() ? design.weighted(AU) : Eigen::MatrixXd();
+      double best = design.value();
+      int best_i = -1;
+      std::vector<int> tried(N);
+      std::iota(tried.begin(), tried.end(), 0);
+      if (o.criterion == PlanCriterion::kE) {
+        // Exact eigenvalues are dear: only the 3 poses whose removal costs least at first order.
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(design.M());
+        const Eigen::VectorXd proj = Fd.transpose() * eig.eigenvectors().col(0);
+        std::sort(tried.begin(), tried.end(), [&](int a, int b) {
+          return proj.segment(a * r, r).squaredNorm() < proj.segment(b * r, r).squaredNorm();
+        });
+        tried.resize(std::min(N, 3));
+      }
+      for (int i : tried) {
+        const double v =
+            swap_value(design, U, AU, WAU, Fd.middleCols(i * r, r), AFd.middleCols(i * r, r),
+                       design.trace_type() ? Eigen::MatrixXd(WAFd.middleCols(i * r, r))
+                                           : Eigen::MatrixXd(),
+                       r);
+        if (v > best + 1e-10 * std::abs(best)) {
+          best = v;
+          best_i = i;
+        }
+      }
+      if (best_i < 0) continue;
+      in_design[chosen[best_i]] = 0;
+      design.update(U, block(chosen[best_i]));
+      chosen[best_i] = c;
+      in_design[c] = 1;
+      ++accepted;
+      ++plan.swaps;
+      refresh_design();
+    }
+    say(fmt::format("exchange sweep {}: {} swaps, criterion {:.6g}", sweep + 1, accepted,
+                    design.value()));
+    if (accepted == 0) break;
+  }
+  plan.criterion_exchange = design.value();
+
+  Eigen::MatrixXd readings(N, n);
+  for (int i = 0; i < N; ++i) readings.row(i) = candidates.row(chosen[i]);
+  plan.candidate = chosen;
+
+  // (3) Continuous refinement of random candidates: each pose in turn moves
+  // along the criterion's gradient (central differences) within the limits.
+  if (!user && o.refine_passes > 0) {
+    const PreparedModel prepared(model);
+    Eigen::MatrixXd Fd(p, N * r);
+    for (int i = 0; i < N; ++i) Fd.middleCols(i * r, r) = block(chosen[i]);
+    std::vector<double> radius(N, 0.05);
+    auto rows_at = [&](const Eigen::VectorXd& q) {
+      return Eigen::MatrixXd(scale.cwiseInverse().asDiagonal() *
+                             problem.fisher_rows(q.transpose()));
+    };
+    auto admissible = [&](const Eigen::VectorXd& q) {
+      return !o.constraints.any() || o.constraints.admits(prepared.forward(q.data()).p);
+    };
+    for (int pass = 0; pass < o.refine_passes; ++pass) {
+      design.set(ridge + Fd * Fd.transpose());  // no drift from the updates
+      const double before = design.value();
+      for (int i = 0; i < N; ++i) {
+        const Eigen::MatrixXd out = Fd.middleCols(i * r, r);
+        const Eigen::MatrixXd A_out = design.A() * out;
+        const Eigen::MatrixXd WA_out =
+            design.trace_type() ? design.weighted(A_out) : Eigen::MatrixXd();
+        auto value = [&](const Eigen::VectorXd& q) {
+          const Eigen::MatrixXd add = rows_at(q);
+          const Eigen::MatrixXd A_add = design.A() * add;
+          const Eigen::MatrixXd WA_add =
+              design.trace_type() ? design.weighted(A_add) : Eigen::MatrixXd();
+          return swap_value(design, add, A_add, WA_add, out, A_out, WA_out, r);
+        };
+        Eigen::VectorXd q = readings.row(i).transpose();
+        const double current = design.value();
+        Eigen::VectorXd grad(n);
+        constexpr double h = 1e-5;
+        for (int j = 0; j < n; ++j) {
+          Eigen::VectorXd a = q, b = q;
+          a[j] = std::min(q[j] + h, model.links[j].upper);
+          b[j] = std::max(q[j] - h, model.links[j].lower);
+          grad[j] = (value(a) - value(b)) / (a[j] - b[j]);
+        }
+        const double g = grad.cwiseAbs().maxCoeff();
+        if (!(g > 0) || !std::isfinite(g)) continue;
+        bool moved = false;
+        for (int attempt = 0; attempt < 3 && !moved; ++attempt) {
+          Eigen::VectorXd trial = q + radius[i] / g * grad;
+          for (int j = 0; j < n; ++j)
+            trial[j] = std::clamp(trial[j], model.links[j].lower, model.links[j].upper);
+          if (admissible(trial)) {
+            const double v = value(trial);
+            if (v > current + 1e-12 * std::abs(current)) {
+              const Eigen::MatrixXd add = rows_at(trial);
+              design.update(add, out);
+              Fd.middleCols(i * r, r) = add;
+              readings.row(i) = trial.transpose();
+              plan.candidate[i] = -1;
+              ++plan.refined_moves;
+              moved = true;
+              radius[i] = std::min(radius[i] * 1.5, 0.5);
+              break;
+            }
+          }
+          radius[i] /= 4;
+        }
+      }
+      design.set(ridge + Fd * Fd.transpose());
+      say(fmt::format("refinement pass {}: criterion {:.6g}", pass + 1, design.value()));
+      if (design.value() - before <= 1e-4 * std::abs(before)) break;
+    }
+  }
+  plan.criterion_refined = design.value();
+
+  // (4) The path.
+  const std::vector<int> order = short_path(readings);
+  plan.path_length_unordered = path_length(readings);
+  plan.readings.resize(N, n);
+  std::vector<int> candidate(N);
+  for (int i = 0; i < N; ++i) {
+    plan.readings.row(i) = readings.row(order[i]);
+    candidate[i] = plan.candidate[order[i]];
+  }
+  plan.candidate = candidate;
+  plan.path_length = path_length(plan.readings);
+
+  // Predicted figures, planned against random designs of the same size.
+  say("evaluating against random designs");
+  const Eigen::MatrixXd E =
+      random_readings(model, o.evaluation_poses, mix(o.seed, 2), within, lower, upper);
+  const Eigen::MatrixXd GE = problem.prediction_rows(E);
+  auto figures = [&](const Eigen::MatrixXd& d) {
+    DesignFigures f;
+    const Eigen::MatrixXd C = problem.covariance(d);
+    f.rms_sd = problem.rms_sd_of(C, GE);
+    f.sd = C.diagonal().cwiseMax(0).cwiseSqrt();
+    f.conditioning = problem.conditioning(d);
+    return f;
+  };
+  plan.planned = figures(plan.readings);
+  std::vector<std::pair<double, Eigen::MatrixXd>> draws;
+  for (int k = 0; k < o.random_draws; ++k) {
+    Eigen::MatrixXd d(N, n);
+    if (user) {
+      std::vector<int> idx(Nc);
+      std::iota(idx.begin(), idx.end(), 0);
+      std::mt19937_64 rng(mix(o.seed, 3 + k));
+      std::shuffle(idx.begin(), idx.end(), rng);
+      for (int i = 0; i < N; ++i) d.row(i) = candidates.row(idx[i]);
+    } else {
+      d = random_readings(model, N, mix(o.seed, 3 + k), o.constraints);
+    }
+    draws.emplace_back(problem.rms_sd_of(problem.covariance(d), GE), d);
+  }
+  if (!draws.empty()) {
+    std::sort(draws.begin(), draws.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& dr : draws) plan.random_rms_sd.push_back(dr.first);
+    const size_t m = draws.size();
+    plan.random_median_rms_sd =
+        m % 2 ? draws[m / 2].first : 0.5 * (draws[m / 2 - 1].first + draws[m / 2].first);
+    plan.random = figures(draws[(m - 1) / 2].second);
+  }
+  plan.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return plan;
+}
+
+// ---------------------------------------------------------------------------
+// Output and path.
+
+std::string plan_to_csv(const Eigen::MatrixXd& readings) {
+  std::string out;
+  for (Eigen::Index j = 0; j < readings.cols(); ++j) out += fmt::format("{}q{}", j ? "," : "", j + 1);
+  out += "\n";
+  for (Eigen::Index r = 0; r < readings.rows(); ++r) {
+    for (Eigen::Index j = 0; j < readings.cols(); ++j)
+      out += fmt::format("{}{:.17g}", j ? "," : "", readings(r, j));
+    out += "\n";
+  }
+  return out;
+}
+
+namespace {
+double step(const Eigen::MatrixXd& q, int a, int b) {
+  return (q.row(a) - q.row(b)).cwiseAbs().maxCoeff();
+}
+}  // namespace
+
+double path_length(const Eigen::MatrixXd& readings) {
+  double sum = 0;
+  for (Eigen::Index i = 1; i < readings.rows(); ++i)
+    sum += step(readings, static_cast<int>(i - 1), static_cast<int>(i));
+  return sum;
+}
+
+std::vector<int> short_path(const Eigen::MatrixXd& q) {
+  const int N = static_cast<int>(q.rows());
+  std::vector<int> order;
+  if (N == 0) return order;
+  std::vector<char> used(N, 0);
+  int at = 0;
+  for (int i = 1; i < N; ++i) {
+    if (q.row(i).cwiseAbs().maxCoeff() < q.row(at).cwiseAbs().maxCoeff()) at = i;
+  }
+  for (int k = 0; k < N; ++k) {
+    order.push_back(at);
+    used[at] = 1;
+    int next = -1;
+    for (int i = 0; i < N; ++i) {
+      if (!used[i] && (next < 0 || step(q, at, i) < step(q, at, next))) next = i;
+    }
+    at = next;
+  }
+  // 2-opt on the open path (the first pose stays first): reverse order[i..j].
+  bool improved = true;
+  for (int round = 0; improved && round < 100; ++round) {
+    improved = false;
+    for (int i = 1; i < N - 1; ++i) {
+      for (int j = i + 1; j < N; ++j) {
+        const double before = step(q, order[i - 1], order[i]) +
+                              (j + 1 < N ? step(q, order[j], order[j + 1]) : 0.0);
+        const double after = step(q, order[i - 1], order[j]) +
+                             (j + 1 < N ? step(q, order[i], order[j + 1]) : 0.0);
+        if (after < before - 1e-12) {
+          std::reverse(order.begin() + i, order.begin() + j + 1);
+          improved = true;
+        }
+      }
+    }
+  }
+  return order;
+}
+
+}  // namespace hapticcal

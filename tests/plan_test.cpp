@@ -1,0 +1,84 @@
+// Experiment design (issue 12): planned poses against random ones of the same
+// count and of twice the count, by the exact two-step Cramer-Rao covariance on
+// an independent validation sample; the path; plan.csv.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <vector>
+
+#include "hapticcal/design/plan.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/study/paper.hpp"
+#include "test_models.hpp"
+
+namespace hapticcal {
+namespace {
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t m = v.size();
+  return m % 2 ? v[m / 2] : 0.5 * (v[m / 2 - 1] + v[m / 2]);
+}
+
+struct Builtin {
+  DeviceModel model = load_device(builtin_device_path());
+  Eigen::MatrixXd analysis = random_readings(model, 300, 11);
+  PlanProblem problem{model, MeasurementType::kDistance, kPaperSigmaMPaper, kPaperSigmaE, analysis};
+  // 2000 validation poses, independent of the plan's own samples.
+  Eigen::MatrixXd validation = random_readings(model, 2000, 777);
+  Eigen::MatrixXd G = problem.prediction_rows(validation);
+
+  double sd(const Eigen::MatrixXd& design) const {
+    return problem.rms_sd_of(problem.covariance(design), G);
+  }
+  double median_random(int poses, int draws = 20) const {
+    std::vector<double> v;
+    for (int k = 0; k < draws; ++k) v.push_back(sd(random_readings(model, poses, 1000 + k)));
+    return median(v);
+  }
+};
+
+TEST(Plan, BuiltinDistanceParametersAreTheIdentifiableSetPlusStepOne) {
+  const Builtin b;
+  EXPECT_EQ(b.problem.kinematic_slots().size(), 28u);  // SPEC section 2: 28 of 32
+  EXPECT_EQ(b.problem.held().size(), 10u);  // 4 of the links and base, 6 of the tool
+  // Capstans 1-3: 5 parameters and c each; joint 4: polynomial order 10 and c.
+  EXPECT_EQ(b.problem.parameters(), 28 + 3 * 6 + 11);
+  EXPECT_EQ(b.problem.rows_per_pose(), 1 + 4);
+}
+
+// Acceptance A: 30 planned poses predict <= 1/4 of the RMS distance sd of 30
+// random ones (median of 20 draws); 100 planned <= 200 random.
+TEST(Plan, ThirtyPlannedPosesPredictAQuarterOfRandomSd) {
+  const Builtin b;
+  PlanOptions o;
+  o.poses = 30;
+  o.seed = 1;
+  const Plan plan = plan_poses(b.problem, o);
+  const double planned = b.sd(plan.readings), random = b.median_random(30);
+  std::printf("30 poses: planned %.3f um, random %.3f um (median of 20), ratio %.3f; %.2f s\n",
+              planned * 1e6, random * 1e6, planned / random, plan.seconds);
+  EXPECT_LE(planned, random / 4);
+  EXPECT_EQ(plan.readings.rows(), 30);
+}
+
+TEST(Plan, HundredPlannedPosesPredictNoWorseThanTwoHundredRandom) {
+  const Builtin b;
+  PlanOptions o;
+  o.poses = 100;
+  o.seed = 1;
+  const Plan plan = plan_poses(b.problem, o);
+  const double planned = b.sd(plan.readings);
+  const double random100 = b.median_random(100), random200 = b.median_random(200);
+  std::printf(
+      "100 poses: planned %.3f um (exchange criterion %.6g, refined %.6g), 100 random %.3f um, "
+      "200 random %.3f um (medians of 20); %.2f s\n",
+      planned * 1e6, plan.criterion_exchange, plan.criterion_refined, random100 * 1e6,
+      random200 * 1e6, plan.seconds);
+  EXPECT_LE(planned, random200);
+}
+
+}  // namespace
+}  // namespace hapticcal
