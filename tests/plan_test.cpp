@@ -1,13 +1,14 @@
 // Experiment design (issue 12): planned poses against random ones of the same
 // count and of twice the count, by the exact two-step Cramer-Rao covariance on
 // an independent validation sample; the path; plan.csv.
+#include "hapticcal/design/plan.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <vector>
 
-#include "hapticcal/design/plan.hpp"
 #include "hapticcal/io/io.hpp"
 #include "hapticcal/io/model_source.hpp"
 #include "hapticcal/study/paper.hpp"
@@ -43,7 +44,7 @@ struct Builtin {
 TEST(Plan, BuiltinDistanceParametersAreTheIdentifiableSetPlusStepOne) {
   const Builtin b;
   EXPECT_EQ(b.problem.kinematic_slots().size(), 28u);  // SPEC section 2: 28 of 32
-  EXPECT_EQ(b.problem.held().size(), 10u);  // 4 of the links and base, 6 of the tool
+  EXPECT_EQ(b.problem.held().size(), 10u);             // 4 of the links and base, 6 of the tool
   // Capstans 1-3: 5 parameters and c each; joint 4: polynomial order 10 and c.
   EXPECT_EQ(b.problem.parameters(), 28 + 3 * 6 + 11);
   EXPECT_EQ(b.problem.rows_per_pose(), 1 + 4);

@@ -363,8 +363,9 @@ std::vector<int> top(const Eigen::VectorXd& gain, const std::vector<char>& exclu
     if (!excluded[c] && std::isfinite(gain[c])) idx.push_back(static_cast<int>(c));
   }
   k = std::min<int>(k, static_cast<int>(idx.size()));
-  std::partial_sort(idx.begin(), idx.begin() + k, idx.end(),
-                    [&](int a, int b) { return gain[a] > gain[b] || (gain[a] == gain[b] && a < b); });
+  std::partial_sort(idx.begin(), idx.begin() + k, idx.end(), [&](int a, int b) {
+    return gain[a] > gain[b] || (gain[a] == gain[b] && a < b);
+  });
   idx.resize(k);
   return idx;
 }
@@ -432,8 +433,8 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
   F = scale.cwiseInverse().asDiagonal() * F;
   Eigen::MatrixXd W = Eigen::MatrixXd::Identity(p, p);
   if (o.criterion == PlanCriterion::kI) {
-    const Eigen::MatrixXd V = random_readings(model, o.validation_poses, mix(o.seed, 1), within,
-                                              lower, upper);
+    const Eigen::MatrixXd V =
+        random_readings(model, o.validation_poses, mix(o.seed, 1), within, lower, upper);
     const Eigen::MatrixXd G = scale.cwiseInverse().asDiagonal() * problem.prediction_rows(V);
     W = G * G.transpose() / static_cast<double>(V.rows());
   }
@@ -456,7 +457,7 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
   // a shortlist one at a time with exact gains.
   while (static_cast<int>(chosen.size()) < N) {
     const int left = N - static_cast<int>(chosen.size());
-    const int batch = std::min(left, std::max(1, (N + 7) / 8));
+    const int batch = std::min(left, std::max(1, (N + 3) / 4));
     const Eigen::VectorXd gain = add_gains(design, F, r, o.criterion);
     std::vector<int> shortlist = top(gain, in_design, 2 * batch + 8);
     for (int b = 0; b < batch && !shortlist.empty(); ++b) {
@@ -515,11 +516,10 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
         tried.resize(std::min(N, 3));
       }
       for (int i : tried) {
-        const double v =
-            swap_value(design, U, AU, WAU, Fd.middleCols(i * r, r), AFd.middleCols(i * r, r),
-                       design.trace_type() ? Eigen::MatrixXd(WAFd.middleCols(i * r, r))
-                                           : Eigen::MatrixXd(),
-                       r);
+        const double v = swap_value(
+            design, U, AU, WAU, Fd.middleCols(i * r, r), AFd.middleCols(i * r, r),
+            design.trace_type() ? Eigen::MatrixXd(WAFd.middleCols(i * r, r)) : Eigen::MatrixXd(),
+            r);
         if (v > best + 1e-10 * std::abs(best)) {
           best = v;
           best_i = i;
@@ -663,8 +663,7 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
         m % 2 ? draws[m / 2].first : 0.5 * (draws[m / 2 - 1].first + draws[m / 2].first);
     plan.random = figures(draws[(m - 1) / 2].second);
   }
-  plan.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  plan.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return plan;
 }
 
@@ -673,7 +672,8 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
 
 std::string plan_to_csv(const Eigen::MatrixXd& readings) {
   std::string out;
-  for (Eigen::Index j = 0; j < readings.cols(); ++j) out += fmt::format("{}q{}", j ? "," : "", j + 1);
+  for (Eigen::Index j = 0; j < readings.cols(); ++j)
+    out += fmt::format("{}q{}", j ? "," : "", j + 1);
   out += "\n";
   for (Eigen::Index r = 0; r < readings.rows(); ++r) {
     for (Eigen::Index j = 0; j < readings.cols(); ++j)
@@ -720,10 +720,10 @@ std::vector<int> short_path(const Eigen::MatrixXd& q) {
     improved = false;
     for (int i = 1; i < N - 1; ++i) {
       for (int j = i + 1; j < N; ++j) {
-        const double before = step(q, order[i - 1], order[i]) +
-                              (j + 1 < N ? step(q, order[j], order[j + 1]) : 0.0);
-        const double after = step(q, order[i - 1], order[j]) +
-                             (j + 1 < N ? step(q, order[i], order[j + 1]) : 0.0);
+        const double before =
+            step(q, order[i - 1], order[i]) + (j + 1 < N ? step(q, order[j], order[j + 1]) : 0.0);
+        const double after =
+            step(q, order[i - 1], order[j]) + (j + 1 < N ? step(q, order[i], order[j + 1]) : 0.0);
         if (after < before - 1e-12) {
           std::reverse(order.begin() + i, order.begin() + j + 1);
           improved = true;

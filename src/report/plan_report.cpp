@@ -31,27 +31,25 @@ Report plan_report(const PlanProblem& problem, const Plan& plan) {
   const Conditioning& b = plan.random.conditioning;
   report.sections.push_back(
       "<h2>Observability of the kinematic parameters</h2>\n" +
-      html_table({"design", "condition number", "O1", "O2", "O3", "O4"},
-                 {{"planned", fmt::format("{:.4g}", a.condition_number),
-                   fmt::format("{:.4g}", a.observability.O1),
-                   fmt::format("{:.4g}", a.observability.O2),
-                   fmt::format("{:.4g}", a.observability.O3),
-                   fmt::format("{:.4g}", a.observability.O4)},
-                  {"random (median draw)", fmt::format("{:.4g}", b.condition_number),
-                   fmt::format("{:.4g}", b.observability.O1),
-                   fmt::format("{:.4g}", b.observability.O2),
-                   fmt::format("{:.4g}", b.observability.O3),
-                   fmt::format("{:.4g}", b.observability.O4)}}));
+      html_table(
+          {"design", "condition number", "O1", "O2", "O3", "O4"},
+          {{"planned", fmt::format("{:.4g}", a.condition_number),
+            fmt::format("{:.4g}", a.observability.O1), fmt::format("{:.4g}", a.observability.O2),
+            fmt::format("{:.4g}", a.observability.O3), fmt::format("{:.4g}", a.observability.O4)},
+           {"random (median draw)", fmt::format("{:.4g}", b.condition_number),
+            fmt::format("{:.4g}", b.observability.O1), fmt::format("{:.4g}", b.observability.O2),
+            fmt::format("{:.4g}", b.observability.O3),
+            fmt::format("{:.4g}", b.observability.O4)}}));
   std::vector<std::vector<std::string>> rows;
   std::vector<double> index, planned, random;
   for (int k = 0; k < problem.parameters(); ++k) {
     const std::string& name = problem.names()[k];
     if (name.ends_with(".encoder_zero")) continue;
-    rows.push_back({html_escape(name), fmt::format("{:.4g}", plan.planned.sd[k]),
-                    fmt::format("{:.4g}", plan.random.sd[k]),
-                    fmt::format("{:.3f}", plan.random.sd[k] > 0
-                                              ? plan.planned.sd[k] / plan.random.sd[k]
-                                              : 0.0)});
+    rows.push_back(
+        {html_escape(name), fmt::format("{:.4g}", plan.planned.sd[k]),
+         fmt::format("{:.4g}", plan.random.sd[k]),
+         fmt::format("{:.3f}",
+                     plan.random.sd[k] > 0 ? plan.planned.sd[k] / plan.random.sd[k] : 0.0)});
     index.push_back(static_cast<double>(index.size()));
     planned.push_back(plan.planned.sd[k]);
     random.push_back(plan.random.sd[k]);

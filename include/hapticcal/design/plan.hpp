@@ -129,8 +129,8 @@ struct PlanOptions {
   PlanCriterion criterion = PlanCriterion::kI;
   std::uint64_t seed = 1;
   PlanConstraints constraints;
-  int refine_passes = 6;       // continuous refinement passes (0: none)
-  int max_sweeps = 40;         // exchange sweeps at most
+  int refine_passes = 20;      // continuous refinement passes at most (0: none)
+  int max_sweeps = 8;          // exchange sweeps at most
   int validation_poses = 500;  // the I criterion's sample of the workspace
   // The report's comparison: predicted figures over `evaluation_poses` (a
   // sample independent of the I criterion's) against `random_draws` random
@@ -141,9 +141,9 @@ struct PlanOptions {
 };
 
 struct DesignFigures {
-  double rms_sd = 0;           // predicted RMS sd of the measured tip quantity [m]
-  Eigen::VectorXd sd;          // per parameter (names())
-  Conditioning conditioning;   // of the kinematic Jacobian
+  double rms_sd = 0;          // predicted RMS sd of the measured tip quantity [m]
+  Eigen::VectorXd sd;         // per parameter (names())
+  Conditioning conditioning;  // of the kinematic Jacobian
 };
 
 struct Plan {
@@ -151,14 +151,14 @@ struct Plan {
   std::vector<int> candidate;  // each pose's candidate (row of options.candidates or the pool)
   PlanCriterion criterion = PlanCriterion::kI;
   std::uint64_t seed = 1;
-  int pool = 0;                // candidates considered
+  int pool = 0;  // candidates considered
   int swaps = 0, sweeps = 0, refined_moves = 0;
   // Criterion (larger is better, scaled parameters) after the greedy start,
   // the exchange and the refinement.
   double criterion_greedy = 0, criterion_exchange = 0, criterion_refined = 0;
   double path_length = 0, path_length_unordered = 0;  // sum of max |dq_j| between poses
   DesignFigures planned;
-  DesignFigures random;  // of the random draw with the median rms_sd
+  DesignFigures random;               // of the random draw with the median rms_sd
   std::vector<double> random_rms_sd;  // every random draw's, sorted
   double random_median_rms_sd = 0;
   double seconds = 0;
