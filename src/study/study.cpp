@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -141,9 +142,9 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
     throw InputError(path, e.mark.is_null() ? 0 : e.mark.line + 1, "", "YAML: " + e.msg);
   }
   const detail::YamlReader r(path);
-  r.check_keys(
-      root, "",
-      {"format", "device", "seed", "trials", "poses", "trajectory", "noise", "deviations"});
+  r.check_keys(root, "",
+               {"format", "device", "seed", "trials", "poses", "trajectory", "noise", "deviations",
+                "calibration"});
   const std::string format = r.string(r.require(root, "", "format"), "format");
   if (format != "hapticcal-scenario/1") {
     r.fail(root["format"], "format",
@@ -167,11 +168,54 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
   if (root["trials"]) sc.trials = positive_int(root["trials"], "trials", 1, kMaxTrials);
   if (const YAML::Node poses = root["poses"]) {
     r.check_keys(poses, "poses", {"identification", "validation"});
-    if (poses["identification"])
-      sc.identification_poses =
-          positive_int(poses["identification"], "poses.identification", 1, kMaxPoses);
+    const YAML::Node id = poses["identification"];
+    auto is_number = [](const std::string& text) {
+      char* end = nullptr;
+      std::strtod(text.c_str(), &end);
+      return !text.empty() && end == text.c_str() + text.size();
+    };
+    if (id && id.IsScalar() && id.Tag() != "!" && !is_number(id.Scalar())) {
+      // A plan: measure at its readings.
+      std::filesystem::path plan(id.Scalar());
+      if (plan.is_relative()) plan = std::filesystem::path(path).parent_path() / plan;
+      Log log;
+      try {
+        log = read_log(plan.string());
+      } catch (const InputError& e) {
+        r.fail(id, "poses.identification", e.what());
+      }
+      if (log.q.cols() != sc.nominal.dof()) {
+        r.fail(id, "poses.identification",
+               fmt::format("{} has {} joint readings a row, the device {} joints", plan.string(),
+                           log.q.cols(), sc.nominal.dof()));
+      }
+      if (log.rows < 1 || log.rows > kMaxPoses)
+        r.fail(id, "poses.identification", fmt::format("{} has no poses", plan.string()));
+      sc.identification_readings = log.q;
+      sc.identification_plan = plan.string();
+      sc.identification_poses = log.rows;
+    } else if (id) {
+      sc.identification_poses = positive_int(id, "poses.identification", 1, kMaxPoses);
+    }
     if (poses["validation"])
       sc.validation_poses = positive_int(poses["validation"], "poses.validation", 1, kMaxPoses);
+  }
+  if (const YAML::Node cal = root["calibration"]) {
+    r.check_keys(cal, "calibration", {"keep_all", "fix"});
+    if (const YAML::Node fix = cal["fix"]) {
+      if (!fix.IsSequence()) r.fail(fix, "calibration.fix", "expected a list of parameter names");
+      for (const YAML::Node& name : fix) sc.fix.push_back(r.string(name, "calibration.fix"));
+      try {
+        candidate_slots(sc.nominal, sc.fix, {});
+      } catch (const InputError& e) {
+        r.fail(fix, "calibration.fix", e.message());
+      }
+    }
+    if (const YAML::Node k = cal["keep_all"]) {
+      if (!k.IsScalar() || (k.Scalar() != "true" && k.Scalar() != "false"))
+        r.fail(k, "calibration.keep_all", "expected true or false");
+      sc.keep_all = k.Scalar() == "true";
+    }
   }
   if (const YAML::Node tr = root["trajectory"]) {
     r.check_keys(tr, "trajectory", {"seconds", "rate_hz"});
@@ -256,7 +300,10 @@ std::uint64_t trial_seed(std::uint64_t study_seed, int trial) {
 TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string& out) {
   TrialResult t;
   t.seed = seed;
-  Log ident = simulate_log(sc.actual, sc.identification_poses, sc.noise, trial_seed(seed, 0));
+  Log ident =
+      sc.identification_readings.size()
+          ? simulate_log_at(sc.actual, sc.identification_readings, sc.noise, trial_seed(seed, 0))
+          : simulate_log(sc.actual, sc.identification_poses, sc.noise, trial_seed(seed, 0));
   SimulationNoise exact = sc.noise;
   exact.sigma_position = 0;  // a perfect tracker: validation scores against the truth
   Log val = simulate_log(sc.actual, sc.validation_poses, exact, trial_seed(seed, 1), true, true);
@@ -271,8 +318,11 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
     ident = read_log(out + "/identification.csv");
     val = read_log(out + "/validation.csv");
   }
-  t.full = calibrate(sc.nominal, ident, CalibrationOptions{});
-  CalibrationOptions kin;
+  CalibrationOptions options;
+  options.keep_all = sc.keep_all;
+  options.fix = sc.fix;
+  t.full = calibrate(sc.nominal, ident, options);
+  CalibrationOptions kin = options;
   kin.transmissions = false;
   t.kinematic_only = calibrate(sc.nominal, ident, kin);
 
@@ -437,6 +487,8 @@ std::string study_json(const Scenario& sc, const StudyResult& r) {
                 {"sigma_m_formula", sc.sigma_m_formula},
                 {"motor_counts_per_rev", sc.noise.motor_counts_per_rev}};
   j["poses"] = {{"identification", sc.identification_poses}, {"validation", sc.validation_poses}};
+  if (!sc.identification_plan.empty()) j["identification_plan"] = sc.identification_plan;
+  if (sc.keep_all) j["keep_all"] = true;
   json params = json::object();
   std::map<std::string, StudyRow> by_name;  // results.json lists them alphabetically
   for (const StudyRow& row : study_rows(sc, t.full)) {

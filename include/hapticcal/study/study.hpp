@@ -23,6 +23,12 @@ struct Scenario {
   DeviceModel nominal;
   DeviceModel actual;  // the truth
   int identification_poses = 200;
+  // Readings to measure at (poses x dof, e.g. a plan.csv) instead of random
+  // ones; identification_poses is then their count.
+  Eigen::MatrixXd identification_readings;
+  std::string identification_plan;  // the file they came from
+  bool keep_all = false;            // CalibrationOptions::keep_all of the trials' calibrations
+  std::vector<std::string> fix;     // CalibrationOptions::fix of the trials' calibrations
   int validation_poses = 200;
   double trajectory_seconds = 100;
   double trajectory_rate_hz = 1000;
@@ -36,7 +42,14 @@ struct Scenario {
 Scenario default_scenario(const std::string& device_path);
 // A scenario file (YAML, `format: hapticcal-scenario/1`); every key optional:
 //   device: PATH (relative to the file)     seed: N     trials: N
-//   poses: {identification: N, validation: N}
+//   poses: {identification: N | PLAN.csv, validation: N}
+//                                           PLAN.csv (relative to the file; q1..qn as
+//                                           `plan` writes it): measure exactly at its
+//                                           readings, noise as usual
+//   calibration: {keep_all: true | false,   CalibrationOptions::keep_all (false)
+//                 fix: [DOTTED_NAME, ...]}  and ::fix (e.g. what a plan reports held,
+//                                           for plans with fewer measurements than
+//                                           calibrate's candidates)
 //   trajectory: {seconds: S, rate_hz: F}
 //   noise: {sigma_e: RAD, sigma_m: paper | consistent | METRES, motor_counts_per_rev: N}
 //   deviations: {DOTTED_NAME: VALUE, ...}   replaces Table 3's deviation of a kinematic
