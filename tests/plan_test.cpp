@@ -74,9 +74,10 @@ TEST(Plan, HundredPlannedPosesPredictNoWorseThanTwoHundredRandom) {
   const double planned = b.sd(plan.readings);
   const double random100 = b.median_random(100), random200 = b.median_random(200);
   std::printf(
-      "100 poses: planned %.3f um (exchange criterion %.6g, refined %.6g), 100 random %.3f um, "
+      "100 poses: planned %.3f um (two-step criterion %.6g after the exchange, %.6g refined), 100 "
+      "random %.3f um, "
       "200 random %.3f um (medians of 20); %.2f s\n",
-      planned * 1e6, plan.criterion_exchange, plan.criterion_refined, random100 * 1e6,
+      planned * 1e6, plan.two_step_exchange, plan.two_step_refined, random100 * 1e6,
       random200 * 1e6, plan.seconds);
   EXPECT_LE(planned, random200);
 }

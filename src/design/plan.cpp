@@ -391,6 +391,80 @@ double swap_value(const Design& design, const Eigen::MatrixXd& add, const Eigen:
   return design.after(U, signs(r, true), AU, WAU);
 }
 
+// The exact information of the two-step estimate (step 1 from the encoders
+// alone, step 2 with step 1's values), from sums over a design's poses:
+//   Lambda = E + L K^-1 L^T,  E = sum of encoder rows e e^T,
+//   L = sum m m_k^T (m a measurement row, m_k its kinematic part), K = sum m_k m_k^T,
+// whose inverse is two_step_covariance (block inversion; the measurements'
+// information on the transmissions beyond what the kinematic fit explains,
+// J_t^T (I - P_k) J_t, is what the joint information M has in addition).
+class TwoStepDesign {
+ public:
+  TwoStepDesign(PlanCriterion criterion, const Eigen::MatrixXd& W, int d, int k, double ridge)
+      : criterion_(criterion), W_(W), d_(d), k_(k), ridge_(ridge) {}
+
+  void set(const Eigen::MatrixXd& Fd, int r) {
+    const Eigen::Index p = Fd.rows();
+    E_.setZero(p, p);
+    L_.setZero(p, k_);
+    for (Eigen::Index i = 0; i < Fd.cols() / r; ++i)
+      accumulate(Fd.middleCols(i * r, r), 1.0, E_, L_);
+    value_ = evaluate(E_, L_);
+  }
+  double value() const { return value_; }
+  // The value with pose block `out` replaced by `add`.
+  double swapped(const Eigen::MatrixXd& add, const Eigen::MatrixXd& out) const {
+    Eigen::MatrixXd E = E_, L = L_;
+    accumulate(out, -1.0, E, L);
+    accumulate(add, 1.0, E, L);
+    return evaluate(E, L);
+  }
+  void swap(const Eigen::MatrixXd& add, const Eigen::MatrixXd& out) {
+    accumulate(out, -1.0, E_, L_);
+    accumulate(add, 1.0, E_, L_);
+    value_ = evaluate(E_, L_);
+  }
+
+ private:
+  void accumulate(const Eigen::MatrixXd& F, double sign, Eigen::MatrixXd& E,
+                  Eigen::MatrixXd& L) const {
+    const auto m = F.leftCols(d_);
+    const auto e = F.rightCols(F.cols() - d_);
+    E.noalias() += sign * e * e.transpose();
+    L.noalias() += sign * m * m.bottomRows(k_).transpose();
+  }
+  double evaluate(const Eigen::MatrixXd& E, const Eigen::MatrixXd& L) const {
+    const Eigen::Index p = E.rows();
+    const Eigen::MatrixXd K = L.bottomRows(k_);
+    const Eigen::LLT<Eigen::MatrixXd> kllt(K);
+    if (kllt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
+    Eigen::MatrixXd Lambda = E;
+    Lambda.noalias() += L * kllt.solve(L.transpose());
+    Lambda.diagonal().array() += ridge_;
+    const Eigen::LLT<Eigen::MatrixXd> llt(Lambda);
+    if (llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
+    switch (criterion_) {
+      case PlanCriterion::kD:
+        return 2 * llt.matrixLLT().diagonal().array().log().sum();
+      case PlanCriterion::kA:
+        return -llt.solve(Eigen::MatrixXd::Identity(p, p)).trace();
+      case PlanCriterion::kI:
+        return -llt.solve(W_).trace();
+      case PlanCriterion::kE:
+        return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Lambda, Eigen::EigenvaluesOnly)
+            .eigenvalues()[0];
+    }
+    return 0;
+  }
+
+  PlanCriterion criterion_;
+  Eigen::MatrixXd W_;
+  int d_, k_;
+  double ridge_;
+  Eigen::MatrixXd E_, L_;
+  double value_ = 0;
+};
+
 }  // namespace
 
 Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
@@ -544,12 +618,17 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
   for (int i = 0; i < N; ++i) readings.row(i) = candidates.row(chosen[i]);
   plan.candidate = chosen;
 
-  // (3) Continuous refinement of random candidates: each pose in turn moves
-  // along the criterion's gradient (central differences) within the limits.
+  // (3) Continuous refinement of random candidates on the exact two-step
+  // criterion: each pose in turn moves along the criterion's gradient (central
+  // differences) within the limits, the step adapted per pose.
+  Eigen::MatrixXd Fd(p, N * r);
+  for (int i = 0; i < N; ++i) Fd.middleCols(i * r, r) = block(chosen[i]);
+  TwoStepDesign exact(o.criterion, W, problem.dimension(),
+                      static_cast<int>(problem.kinematic_slots().size()), 1e-10);
+  exact.set(Fd, r);
+  plan.two_step_exchange = exact.value();
   if (!user && o.refine_passes > 0) {
     const PreparedModel prepared(model);
-    Eigen::MatrixXd Fd(p, N * r);
-    for (int i = 0; i < N; ++i) Fd.middleCols(i * r, r) = block(chosen[i]);
     std::vector<double> radius(N, 0.05);
     auto rows_at = [&](const Eigen::VectorXd& q) {
       return Eigen::MatrixXd(scale.cwiseInverse().asDiagonal() *
@@ -559,22 +638,13 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
       return !o.constraints.any() || o.constraints.admits(prepared.forward(q.data()).p);
     };
     for (int pass = 0; pass < o.refine_passes; ++pass) {
-      design.set(ridge + Fd * Fd.transpose());  // no drift from the updates
-      const double before = design.value();
+      exact.set(Fd, r);  // no drift from the updates
+      const double before = exact.value();
       for (int i = 0; i < N; ++i) {
         const Eigen::MatrixXd out = Fd.middleCols(i * r, r);
-        const Eigen::MatrixXd A_out = design.A() * out;
-        const Eigen::MatrixXd WA_out =
-            design.trace_type() ? design.weighted(A_out) : Eigen::MatrixXd();
-        auto value = [&](const Eigen::VectorXd& q) {
-          const Eigen::MatrixXd add = rows_at(q);
-          const Eigen::MatrixXd A_add = design.A() * add;
-          const Eigen::MatrixXd WA_add =
-              design.trace_type() ? design.weighted(A_add) : Eigen::MatrixXd();
-          return swap_value(design, add, A_add, WA_add, out, A_out, WA_out, r);
-        };
-        Eigen::VectorXd q = readings.row(i).transpose();
-        const double current = design.value();
+        auto value = [&](const Eigen::VectorXd& q) { return exact.swapped(rows_at(q), out); };
+        const Eigen::VectorXd q = readings.row(i).transpose();
+        const double current = exact.value();
         Eigen::VectorXd grad(n);
         constexpr double h = 1e-5;
         for (int j = 0; j < n; ++j) {
@@ -585,21 +655,18 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
         }
         const double g = grad.cwiseAbs().maxCoeff();
         if (!(g > 0) || !std::isfinite(g)) continue;
-        bool moved = false;
-        for (int attempt = 0; attempt < 3 && !moved; ++attempt) {
+        for (int attempt = 0; attempt < 3; ++attempt) {
           Eigen::VectorXd trial = q + radius[i] / g * grad;
           for (int j = 0; j < n; ++j)
             trial[j] = std::clamp(trial[j], model.links[j].lower, model.links[j].upper);
           if (admissible(trial)) {
-            const double v = value(trial);
-            if (v > current + 1e-12 * std::abs(current)) {
-              const Eigen::MatrixXd add = rows_at(trial);
-              design.update(add, out);
+            const Eigen::MatrixXd add = rows_at(trial);
+            if (exact.swapped(add, out) > current + 1e-12 * std::abs(current)) {
+              exact.swap(add, out);
               Fd.middleCols(i * r, r) = add;
               readings.row(i) = trial.transpose();
               plan.candidate[i] = -1;
               ++plan.refined_moves;
-              moved = true;
               radius[i] = std::min(radius[i] * 1.5, 0.5);
               break;
             }
@@ -607,12 +674,12 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
           radius[i] /= 4;
         }
       }
-      design.set(ridge + Fd * Fd.transpose());
-      say(fmt::format("refinement pass {}: criterion {:.6g}", pass + 1, design.value()));
-      if (design.value() - before <= 1e-4 * std::abs(before)) break;
+      exact.set(Fd, r);
+      say(fmt::format("refinement pass {}: two-step criterion {:.6g}", pass + 1, exact.value()));
+      if (exact.value() - before <= 1e-4 * std::abs(before)) break;
     }
   }
-  plan.criterion_refined = design.value();
+  plan.two_step_refined = exact.value();
 
   // (4) The path.
   const std::vector<int> order = short_path(readings);

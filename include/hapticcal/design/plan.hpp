@@ -153,9 +153,11 @@ struct Plan {
   std::uint64_t seed = 1;
   int pool = 0;  // candidates considered
   int swaps = 0, sweeps = 0, refined_moves = 0;
-  // Criterion (larger is better, scaled parameters) after the greedy start,
-  // the exchange and the refinement.
-  double criterion_greedy = 0, criterion_exchange = 0, criterion_refined = 0;
+  // Criterion (larger is better, scaled parameters) of the joint information
+  // after the greedy start and the exchange; of the exact two-step information
+  // after the exchange and after the refinement.
+  double criterion_greedy = 0, criterion_exchange = 0;
+  double two_step_exchange = 0, two_step_refined = 0;
   double path_length = 0, path_length_unordered = 0;  // sum of max |dq_j| between poses
   DesignFigures planned;
   DesignFigures random;               // of the random draw with the median rms_sd
