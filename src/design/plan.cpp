@@ -376,53 +376,112 @@ Eigen::VectorXd signs(int r, bool remove_second) {
   return s;
 }
 
-// The value of the design with block `add` in place of design block `i`
-// (AU / WAU of the add block computed here, of the design blocks given).
-double swap_value(const Design& design, const Eigen::MatrixXd& add, const Eigen::MatrixXd& A_add,
-                  const Eigen::MatrixXd& WA_add, const Eigen::MatrixXd& out,
-                  const Eigen::MatrixXd& A_out, const Eigen::MatrixXd& WA_out, int r) {
-  Eigen::MatrixXd U(add.rows(), 2 * r), AU(add.rows(), 2 * r), WAU;
-  U << add, out;
-  AU << A_add, A_out;
-  if (design.trace_type()) {
-    WAU.resize(add.rows(), 2 * r);
-    WAU << WA_add, WA_out;
-  }
-  return design.after(U, signs(r, true), AU, WAU);
-}
-
 // The exact information of the two-step estimate (step 1 from the encoders
 // alone, step 2 with step 1's values), from sums over a design's poses:
 //   Lambda = E + L K^-1 L^T,  E = sum of encoder rows e e^T,
 //   L = sum m m_k^T (m a measurement row, m_k its kinematic part), K = sum m_k m_k^T,
-// whose inverse is two_step_covariance (block inversion; the measurements'
-// information on the transmissions beyond what the kinematic fit explains,
-// J_t^T (I - P_k) J_t, is what the joint information M has in addition).
-class TwoStepDesign {
+// whose inverse is two_step_covariance (block inversion). Adding (sign +1) or
+// removing (-1) a pose with rows m, e changes it by
+//   sign (m m^T + e e^T) - sign (u - m) S^-1 (u - m)^T,
+//   u = L K^-1 m_k,  S = I + sign m_k^T K^-1 m_k
+// (Sherman-Morrison-Woodbury on K), a signed low-rank update.
+class TwoStepState {
  public:
-  TwoStepDesign(PlanCriterion criterion, const Eigen::MatrixXd& W, int d, int k, double ridge)
-      : criterion_(criterion), W_(W), d_(d), k_(k), ridge_(ridge) {}
+  TwoStepState(PlanCriterion criterion, const Eigen::MatrixXd& W, int d, int k, double ridge)
+      : design_(criterion, W), criterion_(criterion), W_(W), d_(d), k_(k), ridge_(ridge) {}
 
-  void set(const Eigen::MatrixXd& Fd, int r) {
+  // From every pose block of Fd; false if the measurements leave K singular.
+  bool set(const Eigen::MatrixXd& Fd, int r) {
     const Eigen::Index p = Fd.rows();
     E_.setZero(p, p);
     L_.setZero(p, k_);
     for (Eigen::Index i = 0; i < Fd.cols() / r; ++i)
       accumulate(Fd.middleCols(i * r, r), 1.0, E_, L_);
-    value_ = evaluate(E_, L_);
+    return refresh();
   }
-  double value() const { return value_; }
-  // The value with pose block `out` replaced by `add`.
+  bool valid() const { return valid_; }
+  double value() const { return valid_ ? design_.value() : -INFINITY; }
+  const Design& design() const { return design_; }
+
+  // The value with pose block `out` replaced by `add`, from scratch.
   double swapped(const Eigen::MatrixXd& add, const Eigen::MatrixXd& out) const {
     Eigen::MatrixXd E = E_, L = L_;
     accumulate(out, -1.0, E, L);
     accumulate(add, 1.0, E, L);
-    return evaluate(E, L);
+    const Eigen::LLT<Eigen::MatrixXd> kllt(L.bottomRows(k_));
+    if (kllt.info() != Eigen::Success) return -INFINITY;
+    Eigen::MatrixXd Lambda = E;
+    Lambda.noalias() += L * kllt.solve(L.transpose());
+    Lambda.diagonal().array() += ridge_;
+    const Eigen::LLT<Eigen::MatrixXd> llt(Lambda);
+    if (llt.info() != Eigen::Success) return -INFINITY;
+    switch (criterion_) {
+      case PlanCriterion::kD:
+        return 2 * llt.matrixLLT().diagonal().array().log().sum();
+      case PlanCriterion::kA:
+        return -llt.solve(Eigen::MatrixXd::Identity(E.rows(), E.rows())).trace();
+      case PlanCriterion::kI:
+        return -llt.solve(W_).trace();
+      case PlanCriterion::kE:
+        return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Lambda, Eigen::EigenvaluesOnly)
+            .eigenvalues()[0];
+    }
+    return -INFINITY;
   }
   void swap(const Eigen::MatrixXd& add, const Eigen::MatrixXd& out) {
     accumulate(out, -1.0, E_, L_);
     accumulate(add, 1.0, E_, L_);
-    value_ = evaluate(E_, L_);
+    refresh();
+  }
+  // Adds a pose block (without the gradient's terms: for evaluating updates).
+  void add(const Eigen::MatrixXd& F) {
+    accumulate(F, 1.0, E_, L_);
+    refresh(false);
+  }
+
+  // The signed updates of Lambda of adding (sign +1) or removing (-1) each pose
+  // block of F (p x r * count): U is p x (r + d) * count, one sign a column
+  // (all 0 for a removal that would leave K singular).
+  void updates(const Eigen::MatrixXd& F, int r, double sign, Eigen::MatrixXd& U,
+               Eigen::VectorXd& signs) const {
+    const Eigen::Index p = F.rows(), count = F.cols() / r, w = r + d_;
+    U.resize(p, w * count);
+    signs.resize(w * count);
+    Eigen::MatrixXd mk(k_, d_ * count);
+    for (Eigen::Index c = 0; c < count; ++c)
+      mk.middleCols(c * d_, d_) = F.block(p - k_, c * r, k_, d_);
+    const Eigen::MatrixXd u = LK_ * mk;
+    const Eigen::MatrixXd Kmk = K_inverse_ * mk;
+    for (Eigen::Index c = 0; c < count; ++c) {
+      const auto m = F.middleCols(c * r, d_);
+      Eigen::MatrixXd S = Eigen::MatrixXd::Identity(d_, d_);
+      S.noalias() += sign * mk.middleCols(c * d_, d_).transpose() * Kmk.middleCols(c * d_, d_);
+      const Eigen::LLT<Eigen::MatrixXd> llt(S);
+      auto block = U.middleCols(c * w, w);
+      block.leftCols(r) = F.middleCols(c * r, r);
+      signs.segment(c * w, r).setConstant(sign);
+      if (llt.info() != Eigen::Success) {
+        block.setZero();
+        signs.segment(c * w, w).setZero();
+        continue;
+      }
+      const Eigen::MatrixXd diff = u.middleCols(c * d_, d_) - m;
+      block.rightCols(d_) = llt.matrixL().solve(diff.transpose()).transpose();
+      signs.segment(c * w + r, d_).setConstant(-sign);
+    }
+  }
+
+  // The criterion's first-order change when one pose's rows F change by dF:
+  //   tr(Z dLambda), Z = d value / d Lambda, dLambda from dE, dL, dK.
+  double directional(const Eigen::MatrixXd& F, const Eigen::MatrixXd& dF) const {
+    const auto m = F.leftCols(d_), dm = dF.leftCols(d_);
+    const auto e = F.rightCols(F.cols() - d_), de = dF.rightCols(F.cols() - d_);
+    double g = 2 * (e.transpose() * Z_ * de).trace();
+    const Eigen::MatrixXd mk = m.bottomRows(k_), dmk = dm.bottomRows(k_);
+    g += 2 * ((Y_ * mk).transpose() * dm).trace();
+    g += 2 * ((Y_.transpose() * m).transpose() * dmk).trace();
+    g -= 2 * ((X_ * mk).transpose() * dmk).trace();
+    return g;
   }
 
  private:
@@ -433,37 +492,88 @@ class TwoStepDesign {
     E.noalias() += sign * e * e.transpose();
     L.noalias() += sign * m * m.bottomRows(k_).transpose();
   }
-  double evaluate(const Eigen::MatrixXd& E, const Eigen::MatrixXd& L) const {
-    const Eigen::Index p = E.rows();
-    const Eigen::MatrixXd K = L.bottomRows(k_);
+  bool refresh(bool gradient = true) {
+    const Eigen::MatrixXd K = L_.bottomRows(k_);
     const Eigen::LLT<Eigen::MatrixXd> kllt(K);
-    if (kllt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
-    Eigen::MatrixXd Lambda = E;
-    Lambda.noalias() += L * kllt.solve(L.transpose());
+    valid_ = kllt.info() == Eigen::Success;
+    if (!valid_) return false;
+    K_inverse_ = kllt.solve(Eigen::MatrixXd::Identity(k_, k_));
+    LK_ = L_ * K_inverse_;
+    Eigen::MatrixXd Lambda = E_;
+    Lambda.noalias() += LK_ * L_.transpose();
     Lambda.diagonal().array() += ridge_;
-    const Eigen::LLT<Eigen::MatrixXd> llt(Lambda);
-    if (llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
+    design_.set(Lambda);
+    if (!gradient) return valid_ = std::isfinite(design_.value());
+    const Eigen::MatrixXd& A = design_.A();
     switch (criterion_) {
       case PlanCriterion::kD:
-        return 2 * llt.matrixLLT().diagonal().array().log().sum();
+        Z_ = A;
+        break;
       case PlanCriterion::kA:
-        return -llt.solve(Eigen::MatrixXd::Identity(p, p)).trace();
+        Z_ = A * A;
+        break;
       case PlanCriterion::kI:
-        return -llt.solve(W_).trace();
-      case PlanCriterion::kE:
-        return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Lambda, Eigen::EigenvaluesOnly)
-            .eigenvalues()[0];
+        Z_ = A * W_ * A;
+        break;
+      case PlanCriterion::kE: {
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Lambda);
+        Z_ = eig.eigenvectors().col(0) * eig.eigenvectors().col(0).transpose();
+        break;
+      }
     }
-    return 0;
+    Y_ = Z_ * LK_;
+    X_ = LK_.transpose() * Y_;
+    return valid_ = std::isfinite(design_.value());
   }
 
+  Design design_;
   PlanCriterion criterion_;
   Eigen::MatrixXd W_;
   int d_, k_;
   double ridge_;
-  Eigen::MatrixXd E_, L_;
-  double value_ = 0;
+  Eigen::MatrixXd E_, L_, K_inverse_, LK_, Z_, Y_, X_;
+  bool valid_ = false;
 };
+
+// Gains of signed updates of the design (blocks of `width` columns of U, one
+// sign a column): D log det(I + S X), trace types tr((S + X)^-1 Y), X = U^T A U,
+// Y = (A U)^T W (A U); E at first order.
+Eigen::VectorXd signed_gains(const Design& design, const Eigen::MatrixXd& U, int width,
+                             const Eigen::VectorXd& sign, PlanCriterion criterion) {
+  const Eigen::Index count = U.cols() / width;
+  Eigen::VectorXd gain(count);
+  if (criterion == PlanCriterion::kE) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(design.M());
+    const Eigen::VectorXd proj = U.transpose() * eig.eigenvectors().col(0);
+    for (Eigen::Index c = 0; c < count; ++c) {
+      gain[c] = proj.segment(c * width, width).cwiseAbs2().dot(sign.segment(c * width, width));
+    }
+    return gain;
+  }
+  const Eigen::MatrixXd AU = design.A() * U;
+  Eigen::MatrixXd WAU;
+  if (design.trace_type()) WAU = design.weighted(AU);
+  for (Eigen::Index c = 0; c < count; ++c) {
+    const auto Uc = U.middleCols(c * width, width);
+    const auto AUc = AU.middleCols(c * width, width);
+    const Eigen::VectorXd s = sign.segment(c * width, width);
+    if (s.cwiseAbs().sum() == 0) {
+      gain[c] = -INFINITY;
+      continue;
+    }
+    const Eigen::MatrixXd X = Uc.transpose() * AUc;
+    if (criterion == PlanCriterion::kD) {
+      const Eigen::MatrixXd IX = Eigen::MatrixXd::Identity(width, width) + s.asDiagonal() * X;
+      const double det = IX.partialPivLu().determinant();
+      gain[c] = det > 0 ? std::log(det) : -INFINITY;
+    } else {
+      Eigen::MatrixXd SX = X;
+      SX.diagonal() += s;
+      gain[c] = SX.partialPivLu().solve(AUc.transpose() * WAU.middleCols(c * width, width)).trace();
+    }
+  }
+  return gain;
+}
 
 }  // namespace
 
@@ -513,6 +623,7 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
     W = G * G.transpose() / static_cast<double>(V.rows());
   }
   Design design(o.criterion, W);
+  say(fmt::format("{} candidates' information rows ready", Nc));
   // A ridge of 1e-10 of one mean pose's information keeps M invertible while the
   // design is being built; it is negligible for any design that identifies the
   // parameters.
@@ -527,13 +638,31 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
   std::vector<char> in_design(Nc, 0);
   auto block = [&](int c) { return Eigen::MatrixXd(F.middleCols(c * r, r)); };
 
-  // (1) Greedy start in batches: screen every candidate, then add the best of
-  // a shortlist one at a time with exact gains.
+  // Candidates are screened at most kScreened at a time, in a random order.
+  constexpr int kScreened = 3000;
+  std::vector<int> order(Nc);
+  std::iota(order.begin(), order.end(), 0);
+  std::shuffle(order.begin(), order.end(), std::mt19937_64(mix(o.seed, 4)));
+
+  // (1) Greedy start in batches: screen candidates, then add the best of a
+  // shortlist one at a time with exact gains.
+  int scan = 0;
   while (static_cast<int>(chosen.size()) < N) {
     const int left = N - static_cast<int>(chosen.size());
-    const int batch = std::min(left, std::max(1, (N + 3) / 4));
-    const Eigen::VectorXd gain = add_gains(design, F, r, o.criterion);
-    std::vector<int> shortlist = top(gain, in_design, 2 * batch + 8);
+    const int batch = std::min(left, std::max(1, (N + 2) / 3));
+    const int screened = std::min(Nc, std::max(kScreened, N + batch + 8));
+    Eigen::MatrixXd Fs(p, screened * r);
+    std::vector<char> excluded(screened);
+    std::vector<int> index(screened);
+    for (int c = 0; c < screened; ++c) {
+      index[c] = order[(static_cast<size_t>(scan) * screened + c) % Nc];
+      Fs.middleCols(c * r, r) = block(index[c]);
+      excluded[c] = in_design[index[c]];
+    }
+    ++scan;
+    const Eigen::VectorXd gain = add_gains(design, Fs, r, o.criterion);
+    std::vector<int> shortlist = top(gain, excluded, batch + 8);
+    for (int& c : shortlist) c = index[c];
     for (int b = 0; b < batch && !shortlist.empty(); ++b) {
       double best = -std::numeric_limits<double>::infinity();
       size_t best_k = 0;
@@ -557,43 +686,56 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
   plan.criterion_greedy = design.value();
   say(fmt::format("greedy start: criterion {:.6g}", design.value()));
 
-  // (2) Fedorov exchange: a shortlist of candidates by screening gain, each
-  // tried against every design pose with the exact swap value.
-  const int shortlist_size = std::min(Nc - N, 48);
-  for (int sweep = 0; sweep < o.max_sweeps && shortlist_size > 0; ++sweep) {
+  // (2) Fedorov exchange on the exact two-step information: candidates
+  // screened by their gain, the shortlist each tried against every design pose
+  // with the exact value of the swap (add, then remove: two signed updates).
+  const int d = problem.dimension();
+  const int k = static_cast<int>(problem.kinematic_slots().size());
+  const int w = r + d;
+  Eigen::MatrixXd Fd(p, N * r);
+  auto fill_design = [&] {
+    for (int i = 0; i < N; ++i) Fd.middleCols(i * r, r) = block(chosen[i]);
+  };
+  fill_design();
+  TwoStepState exact(o.criterion, W, d, k, 1e-10);
+  exact.set(Fd, r);
+  plan.two_step_greedy = exact.value();
+  const int shortlist_size = std::min(Nc - N, 32);
+  for (int sweep = 0; sweep < o.max_sweeps && shortlist_size > 0 && exact.valid(); ++sweep) {
     plan.sweeps = sweep + 1;
-    const Eigen::VectorXd gain = add_gains(design, F, r, o.criterion);
-    const std::vector<int> shortlist = top(gain, in_design, shortlist_size);
+    // Screened: a rotating share of at most kScreened candidates a sweep.
+    const int screened = std::min(Nc, kScreened);
+    Eigen::MatrixXd Fs(p, screened * r), U;
+    std::vector<char> excluded(screened);
+    std::vector<int> index(screened);
+    for (int c = 0; c < screened; ++c) {
+      index[c] = order[(static_cast<size_t>(scan + sweep) * screened + c) % Nc];
+      Fs.middleCols(c * r, r) = block(index[c]);
+      excluded[c] = in_design[index[c]];
+    }
+    Eigen::VectorXd sign;
+    exact.updates(Fs, r, 1.0, U, sign);
+    const Eigen::VectorXd gain = signed_gains(exact.design(), U, w, sign, o.criterion);
+    std::vector<int> shortlist = top(gain, excluded, shortlist_size);
+    for (int& c : shortlist) c = index[c];
     int accepted = 0;
-    Eigen::MatrixXd Fd(p, N * r), AFd, WAFd;
-    auto refresh_design = [&] {
-      for (int i = 0; i < N; ++i) Fd.middleCols(i * r, r) = block(chosen[i]);
-      AFd = design.A() * Fd;
-      if (design.trace_type()) WAFd = design.weighted(AFd);
-    };
-    refresh_design();
     for (int c : shortlist) {
-      const Eigen::MatrixXd U = block(c);
-      const Eigen::MatrixXd AU = design.A() * U;
-      const Eigen::MatrixXd WAU = design.trace_type() ? design.weighted(AU) : Eigen::MatrixXd();
-      double best = design.value();
+      TwoStepState added = exact;
+      added.add(block(c));
+      if (!added.valid()) continue;
+      Eigen::MatrixXd Ur;
+      Eigen::VectorXd sr;
+      added.updates(Fd, r, -1.0, Ur, sr);
+      const Design& dz = added.design();
+      const Eigen::MatrixXd AU = dz.A() * Ur;
+      const Eigen::MatrixXd WAU = dz.trace_type() ? dz.weighted(AU) : Eigen::MatrixXd();
+      double best = exact.value();
       int best_i = -1;
-      std::vector<int> tried(N);
-      std::iota(tried.begin(), tried.end(), 0);
-      if (o.criterion == PlanCriterion::kE) {
-        // Exact eigenvalues are dear: only the 3 poses whose removal costs least at first order.
-        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(design.M());
-        const Eigen::VectorXd proj = Fd.transpose() * eig.eigenvectors().col(0);
-        std::sort(tried.begin(), tried.end(), [&](int a, int b) {
-          return proj.segment(a * r, r).squaredNorm() < proj.segment(b * r, r).squaredNorm();
-        });
-        tried.resize(std::min(N, 3));
-      }
-      for (int i : tried) {
-        const double v = swap_value(
-            design, U, AU, WAU, Fd.middleCols(i * r, r), AFd.middleCols(i * r, r),
-            design.trace_type() ? Eigen::MatrixXd(WAFd.middleCols(i * r, r)) : Eigen::MatrixXd(),
-            r);
+      for (int i = 0; i < N; ++i) {
+        if (sr.segment(i * w, w).cwiseAbs().sum() == 0) continue;
+        const double v = dz.after(
+            Ur.middleCols(i * w, w), sr.segment(i * w, w), AU.middleCols(i * w, w),
+            dz.trace_type() ? Eigen::MatrixXd(WAU.middleCols(i * w, w)) : Eigen::MatrixXd());
         if (v > best + 1e-10 * std::abs(best)) {
           best = v;
           best_i = i;
@@ -601,66 +743,67 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
       }
       if (best_i < 0) continue;
       in_design[chosen[best_i]] = 0;
-      design.update(U, block(chosen[best_i]));
       chosen[best_i] = c;
       in_design[c] = 1;
+      fill_design();
+      exact.set(Fd, r);  // exact, no drift
       ++accepted;
       ++plan.swaps;
-      refresh_design();
     }
-    say(fmt::format("exchange sweep {}: {} swaps, criterion {:.6g}", sweep + 1, accepted,
-                    design.value()));
+    say(fmt::format("exchange sweep {}: {} swaps, two-step criterion {:.6g}", sweep + 1, accepted,
+                    exact.value()));
     if (accepted == 0) break;
   }
-  plan.criterion_exchange = design.value();
+  plan.two_step_exchange = exact.value();
 
   Eigen::MatrixXd readings(N, n);
   for (int i = 0; i < N; ++i) readings.row(i) = candidates.row(chosen[i]);
   plan.candidate = chosen;
 
-  // (3) Continuous refinement of random candidates on the exact two-step
-  // criterion: each pose in turn moves along the criterion's gradient (central
-  // differences) within the limits, the step adapted per pose.
-  Eigen::MatrixXd Fd(p, N * r);
-  for (int i = 0; i < N; ++i) Fd.middleCols(i * r, r) = block(chosen[i]);
-  TwoStepDesign exact(o.criterion, W, problem.dimension(),
-                      static_cast<int>(problem.kinematic_slots().size()), 1e-10);
-  exact.set(Fd, r);
-  plan.two_step_exchange = exact.value();
-  if (!user && o.refine_passes > 0) {
+  // (3) Continuous refinement of random candidates on the same criterion: each
+  // pose in turn moves along its gradient (the analytic derivative of the
+  // criterion w.r.t. the pose's rows, the rows' derivatives by central
+  // differences) within the limits, with a step adapted per pose.
+  if (!user && o.refine_passes > 0 && exact.valid()) {
     const PreparedModel prepared(model);
     std::vector<double> radius(N, 0.05);
-    auto rows_at = [&](const Eigen::VectorXd& q) {
-      return Eigen::MatrixXd(scale.cwiseInverse().asDiagonal() *
-                             problem.fisher_rows(q.transpose()));
-    };
     auto admissible = [&](const Eigen::VectorXd& q) {
       return !o.constraints.any() || o.constraints.admits(prepared.forward(q.data()).p);
     };
+    constexpr double h = 1e-6;
+    Eigen::MatrixXd probes(2 * n + 1, n);
     for (int pass = 0; pass < o.refine_passes; ++pass) {
       exact.set(Fd, r);  // no drift from the updates
       const double before = exact.value();
       for (int i = 0; i < N; ++i) {
-        const Eigen::MatrixXd out = Fd.middleCols(i * r, r);
-        auto value = [&](const Eigen::VectorXd& q) { return exact.swapped(rows_at(q), out); };
         const Eigen::VectorXd q = readings.row(i).transpose();
-        const double current = exact.value();
-        Eigen::VectorXd grad(n);
-        constexpr double h = 1e-5;
+        for (int j = 0; j <= 2 * n; ++j) probes.row(j) = q.transpose();
+        Eigen::VectorXd step(n);
         for (int j = 0; j < n; ++j) {
-          Eigen::VectorXd a = q, b = q;
-          a[j] = std::min(q[j] + h, model.links[j].upper);
-          b[j] = std::max(q[j] - h, model.links[j].lower);
-          grad[j] = (value(a) - value(b)) / (a[j] - b[j]);
+          probes(2 * j, j) = std::min(q[j] + h, model.links[j].upper);
+          probes(2 * j + 1, j) = std::max(q[j] - h, model.links[j].lower);
+          step[j] = probes(2 * j, j) - probes(2 * j + 1, j);
+        }
+        const Eigen::MatrixXd rows =
+            scale.cwiseInverse().asDiagonal() * problem.fisher_rows(probes);
+        const Eigen::MatrixXd out = Fd.middleCols(i * r, r);
+        Eigen::VectorXd grad(n);
+        for (int j = 0; j < n; ++j) {
+          grad[j] = step[j] > 0 ? exact.directional(out, (rows.middleCols(2 * j * r, r) -
+                                                          rows.middleCols((2 * j + 1) * r, r)) /
+                                                             step[j])
+                                : 0.0;
         }
         const double g = grad.cwiseAbs().maxCoeff();
         if (!(g > 0) || !std::isfinite(g)) continue;
+        const double current = exact.value();
         for (int attempt = 0; attempt < 3; ++attempt) {
           Eigen::VectorXd trial = q + radius[i] / g * grad;
           for (int j = 0; j < n; ++j)
             trial[j] = std::clamp(trial[j], model.links[j].lower, model.links[j].upper);
           if (admissible(trial)) {
-            const Eigen::MatrixXd add = rows_at(trial);
+            const Eigen::MatrixXd add =
+                scale.cwiseInverse().asDiagonal() * problem.fisher_rows(trial.transpose());
             if (exact.swapped(add, out) > current + 1e-12 * std::abs(current)) {
               exact.swap(add, out);
               Fd.middleCols(i * r, r) = add;
@@ -682,13 +825,13 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
   plan.two_step_refined = exact.value();
 
   // (4) The path.
-  const std::vector<int> order = short_path(readings);
+  const std::vector<int> path = short_path(readings);
   plan.path_length_unordered = path_length(readings);
   plan.readings.resize(N, n);
   std::vector<int> candidate(N);
   for (int i = 0; i < N; ++i) {
-    plan.readings.row(i) = readings.row(order[i]);
-    candidate[i] = plan.candidate[order[i]];
+    plan.readings.row(i) = readings.row(path[i]);
+    candidate[i] = plan.candidate[path[i]];
   }
   plan.candidate = candidate;
   plan.path_length = path_length(plan.readings);

@@ -18,7 +18,7 @@ Report plan_report(const PlanProblem& problem, const Plan& plan) {
       "Cramer-Rao covariance): <b>{:.3f} um planned</b>, {:.3f} um for random poses of the same "
       "count (median of {} draws; range {:.3f} - {:.3f} um).</p>\n"
       "<p>Exchange: {} sweeps, {} swaps; refinement moves: {}; criterion of the joint information "
-      "{:.6g} (greedy) -> {:.6g} (exchange); of the two-step information {:.6g} (exchange) -> "
+      "{:.6g} (greedy); of the two-step information {:.6g} (greedy) -> {:.6g} (exchange) -> "
       "{:.6g} (refined). Path: {:.2f} rad of max joint travel (unordered "
       "{:.2f} rad).</p>\n",
       plan.readings.rows(), plan.pool, plan.seed, traits(problem.type()).name,
@@ -26,9 +26,8 @@ Report plan_report(const PlanProblem& problem, const Plan& plan) {
       plan.random_median_rms_sd * 1e6, plan.random_rms_sd.size(),
       plan.random_rms_sd.empty() ? 0.0 : plan.random_rms_sd.front() * 1e6,
       plan.random_rms_sd.empty() ? 0.0 : plan.random_rms_sd.back() * 1e6, plan.sweeps, plan.swaps,
-      plan.refined_moves, plan.criterion_greedy, plan.criterion_exchange, plan.two_step_exchange,
-      plan.two_step_refined,
-      plan.path_length, plan.path_length_unordered));
+      plan.refined_moves, plan.criterion_greedy, plan.two_step_greedy, plan.two_step_exchange,
+      plan.two_step_refined, plan.path_length, plan.path_length_unordered));
   const Conditioning& a = plan.planned.conditioning;
   const Conditioning& b = plan.random.conditioning;
   report.sections.push_back(

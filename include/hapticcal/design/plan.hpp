@@ -13,14 +13,21 @@
 //   D: log det M        A: -trace(M^-1)        E: smallest eigenvalue of M
 //   I: -mean over a validation sample of the workspace of the prediction
 //      variance of the measurement, -trace(M^-1 W), W = mean g g^T
-// by (1) a greedy start in batches, (2) a Fedorov exchange: one design pose
-// swapped for one candidate while the criterion improves, each swap exact
-// (rank-2r Woodbury update), candidates screened by their gain, (3) for random
-// candidates only, a continuous refinement of each pose's readings within the
-// joint limits (projected gradient steps, central differences of the exact
-// criterion), and (4) a path through the poses: nearest neighbour in joint space
-// (max |dq_j|) improved by 2-opt. The figures reported are from the exact
-// two-step covariance (step 1's bound carried into step 2: two_step_covariance).
+// The two-step estimate (step 1 from the encoders alone) has the information
+//   Lambda = E + L K^-1 L^T  (E: encoder rows; L = sum m m_k^T, K = sum m_k m_k^T
+// over measurement rows m, m_k their kinematic part), the inverse of
+// two_step_covariance: less than the joint information M = E + sum m m^T by
+// what the measurements say of the transmissions beyond the kinematic fit.
+// The design maximises the criterion of Lambda by (1) a greedy start in batches
+// on M (additive, cheap), (2) a Fedorov exchange on Lambda: one design pose
+// swapped for one candidate while the criterion improves, each swap's value
+// exact (adding or removing a pose is a signed low-rank update of Lambda,
+// Woodbury), candidates screened by their gain, (3) for random candidates only,
+// a continuous refinement of each pose's readings within the joint limits
+// (gradient steps: the criterion's analytic derivative w.r.t. the pose's rows,
+// the rows' derivatives by central differences), and (4) a path through the
+// poses: nearest neighbour in joint space (max |dq_j|) improved by 2-opt. The
+// figures reported are from the exact two-step covariance.
 //
 // Linearisation: the nominal model. A capstan with zero eccentricities has no
 // first-order effect of its phases; the plan linearises it at eccentricities of
@@ -129,8 +136,8 @@ struct PlanOptions {
   PlanCriterion criterion = PlanCriterion::kI;
   std::uint64_t seed = 1;
   PlanConstraints constraints;
-  int refine_passes = 20;      // continuous refinement passes at most (0: none)
-  int max_sweeps = 8;          // exchange sweeps at most
+  int refine_passes = 8;       // continuous refinement passes at most (0: none)
+  int max_sweeps = 6;          // exchange sweeps at most (each screens <= 3000 candidates)
   int validation_poses = 500;  // the I criterion's sample of the workspace
   // The report's comparison: predicted figures over `evaluation_poses` (a
   // sample independent of the I criterion's) against `random_draws` random
@@ -153,11 +160,11 @@ struct Plan {
   std::uint64_t seed = 1;
   int pool = 0;  // candidates considered
   int swaps = 0, sweeps = 0, refined_moves = 0;
-  // Criterion (larger is better, scaled parameters) of the joint information
-  // after the greedy start and the exchange; of the exact two-step information
-  // after the exchange and after the refinement.
-  double criterion_greedy = 0, criterion_exchange = 0;
-  double two_step_exchange = 0, two_step_refined = 0;
+  // Criterion (larger is better, scaled parameters): of the joint information
+  // (encoders and measurements together) after the greedy start; of the exact
+  // two-step information after the greedy start, the exchange and the refinement.
+  double criterion_greedy = 0;
+  double two_step_greedy = 0, two_step_exchange = 0, two_step_refined = 0;
   double path_length = 0, path_length_unordered = 0;  // sum of max |dq_j| between poses
   DesignFigures planned;
   DesignFigures random;               // of the random draw with the median rms_sd
