@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <vector>
 
@@ -63,6 +64,56 @@ TEST(Plan, ThirtyPlannedPosesPredictAQuarterOfRandomSd) {
               planned * 1e6, random * 1e6, planned / random, plan.seconds);
   EXPECT_LE(planned, random / 4);
   EXPECT_EQ(plan.readings.rows(), 30);
+}
+
+// Every measurement of the family: 3 position rows or 6 pose rows a pose (the
+// rotation rows scaled by the length scale); more parameters identifiable than
+// from distances; the plan predicts less than random poses by its own measure.
+TEST(Plan, PositionAndPosePlansBeatRandomPoses) {
+  const DeviceModel model = load_device(builtin_device_path());
+  const Eigen::MatrixXd analysis = random_readings(model, 300, 11);
+  size_t distance_slots = 0;
+  for (MeasurementType type :
+       {MeasurementType::kDistance, MeasurementType::kPosition, MeasurementType::kPose}) {
+    SCOPED_TRACE(traits(type).name);
+    const PlanProblem problem(model, type, 1e-5, kPaperSigmaE, analysis);
+    EXPECT_EQ(problem.dimension(), traits(type).dimension);
+    if (type == MeasurementType::kDistance) distance_slots = problem.kinematic_slots().size();
+    if (type != MeasurementType::kDistance)
+      EXPECT_GT(problem.kinematic_slots().size(), distance_slots);
+    PlanOptions o;
+    o.poses = 40;
+    o.pool = 2000;
+    o.refine_passes = 2;
+    o.random_draws = 5;
+    const Plan plan = plan_poses(problem, o);
+    std::printf("%s: %zu kinematic parameters, planned %.3f um, random %.3f um\n",
+                traits(type).name, problem.kinematic_slots().size(), plan.planned.rms_sd * 1e6,
+                plan.random_median_rms_sd * 1e6);
+    EXPECT_TRUE(std::isfinite(plan.planned.rms_sd));
+    EXPECT_LT(plan.planned.rms_sd, plan.random_median_rms_sd);
+  }
+}
+
+// The path visits every pose once and is no longer than the unordered one.
+TEST(Plan, ShortPathIsAPermutationAndNotLonger) {
+  const DeviceModel model = load_device(builtin_device_path());
+  const Eigen::MatrixXd q = random_readings(model, 60, 5);
+  std::vector<int> order = short_path(q);
+  Eigen::MatrixXd ordered(q.rows(), q.cols());
+  for (size_t i = 0; i < order.size(); ++i) ordered.row(i) = q.row(order[i]);
+  std::sort(order.begin(), order.end());
+  for (int i = 0; i < 60; ++i) EXPECT_EQ(order[i], i);
+  EXPECT_LT(path_length(ordered), 0.6 * path_length(q));
+}
+
+// plan.csv reads back as a log of the same readings (radians, 17 digits).
+TEST(Plan, PlanCsvReadsBackExactly) {
+  const DeviceModel model = load_device(builtin_device_path());
+  const Eigen::MatrixXd q = random_readings(model, 7, 9);
+  const Log log = parse_log(plan_to_csv(q), "plan.csv");
+  ASSERT_EQ(log.rows, 7);
+  EXPECT_EQ((log.q - q).cwiseAbs().maxCoeff(), 0.0);
 }
 
 // The kinematic fit's share alone, sigma_m^2 (J_k^T J_k)^-1 without step 1's

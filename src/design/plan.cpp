@@ -595,6 +595,12 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
   }
   const int p = problem.parameters();
   const int r = problem.rows_per_pose();
+  const int kinematic = static_cast<int>(problem.kinematic_slots().size());
+  if (N * problem.dimension() <= kinematic) {
+    throw InputError(fmt::format(
+        "--poses {}: {} poses give {} {} residuals for {} identifiable kinematic parameters", N, N,
+        N * problem.dimension(), traits(problem.type()).name, kinematic));
+  }
   auto say = [&](const std::string& s) {
     if (o.progress) o.progress(s);
   };
