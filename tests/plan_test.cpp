@@ -12,6 +12,7 @@
 
 #include "hapticcal/io/io.hpp"
 #include "hapticcal/io/model_source.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/paper.hpp"
 #include "test_models.hpp"
 
@@ -116,6 +117,30 @@ TEST(Plan, PlanCsvReadsBackExactly) {
   EXPECT_EQ((log.q - q).cwiseAbs().maxCoeff(), 0.0);
 }
 
+// Constraints: every planned and refined pose puts the tool point in the
+// distance range and the box.
+TEST(Plan, ConstrainedPlansStayInsideTheDistanceRangeAndTheBox) {
+  const DeviceModel model = load_device(builtin_device_path());
+  PlanOptions o;
+  o.poses = 40;
+  o.pool = 2000;
+  o.refine_passes = 3;
+  o.random_draws = 3;
+  o.constraints.min_distance = 0.35;
+  o.constraints.max_distance = 0.6;
+  o.constraints.box = std::array<double, 6>{-1, 1, -1, 1, -0.2, 1};
+  const PlanProblem problem(model, MeasurementType::kDistance, kPaperSigmaMPaper, kPaperSigmaE,
+                            random_readings(model, 300, 11, o.constraints));
+  const Plan plan = plan_poses(problem, o);
+  EXPECT_GT(plan.refined_moves, 0);
+  const PreparedModel prepared(model);
+  for (Eigen::Index i = 0; i < plan.readings.rows(); ++i) {
+    const Eigen::VectorXd q = plan.readings.row(i).transpose();
+    const Eigen::Vector3d p = prepared.forward(q.data()).p;
+    EXPECT_TRUE(o.constraints.admits(p)) << i << ": " << p.transpose() << " |p| " << p.norm();
+  }
+}
+
 // The kinematic fit's share alone, sigma_m^2 (J_k^T J_k)^-1 without step 1's
 // error (the issue's filer's figures: 100 random 6.3 um, 200 random 4.06 um).
 double measurement_only(const Builtin& b, const Eigen::MatrixXd& design) {
@@ -159,11 +184,14 @@ TEST(Plan, HundredPlannedPosesPredictMuchLessThanHundredRandom) {
 }
 
 // Acceptance A's second half as the issue states it: NOT MET (disabled; run
-// with --gtest_also_run_disabled_tests). With step 1's error included (as
-// the Monte Carlo of plan_monte_carlo_test confirms it is), 100 planned poses
-// predict 7.4 um against 6.15 um for 200 random ones: the encoder fits of the
-// capstans and the 10th-order polynomial of joint 4 have half the samples, and
-// their share of the prediction error falls as 1/N whatever the design.
+// with --gtest_also_run_disabled_tests). With step 1's error included (as the
+// Monte Carlo of plan_monte_carlo_test confirms it must be), 100 planned poses
+// predict 7.4 um (about 7.0 um with 40 exchange sweeps and 60 refinement
+// passes) against 6.15 um for 200 random ones. The encoder fits (capstans, the
+// 10th-order polynomial of joint 4) then have half the samples: the plan cuts
+// step 1's share of the variance by about 1.8 against random poses of the same
+// count, not by the 2 or more needed. The issue's filer's figures (100 random
+// 6.3 um, 200 random 4.06 um) are the kinematic fit's measurement noise alone.
 TEST(Plan, DISABLED_HundredPlannedPosesPredictNoWorseThanTwoHundredRandom) {
   const Builtin b;
   PlanOptions o;
