@@ -18,8 +18,8 @@ using namespace hapticcal;
 void BM_Plan_Default(benchmark::State& state) {
   const DeviceModel nominal = testing::builtin("baser-7dof");
   for (auto _ : state) {
-    const PlanProblem problem(nominal, MeasurementType::kDistance, kPaperSigmaMPaper,
-                              kPaperSigmaE, random_readings(nominal, 300, 1));
+    const PlanProblem problem(nominal, MeasurementType::kDistance, kPaperSigmaMPaper, kPaperSigmaE,
+                              random_readings(nominal, 300, 1));
     PlanOptions o;
     o.poses = 200;
     o.pool = 10000;
