@@ -54,6 +54,7 @@ test: build
 bench: build
 	./$(BUILD)/bench/fk_jacobian_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
 	./$(BUILD)/bench/calibrate_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
+	./$(BUILD)/bench/plan_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 
 # libFuzzer targets of fuzz/ (clang; library under ASan and UBSan), each run
 # for FUZZ_SECONDS on a scratch copy of the seed corpus in $(FUZZ_BUILD)/corpus;

@@ -194,7 +194,7 @@ TEST(CrossValidation, FoldsAreBalancedReproducibleAndDependOnTheSeed) {
       1);
 }
 
-// The paper study keeps the paper's procedure (Scenario::model_selection off);
+// The paper study keeps the paper's procedure (Scenario::keep_all);
 // with the selection on it still identifies the paper's parameters: on the
 // default trial all of them, and over 60 trials every one but j6.theta always
 // (assigned 1 mrad, 3.6 Cramer-Rao sd from 200 distances: below the 3.1 sd
@@ -202,7 +202,7 @@ TEST(CrossValidation, FoldsAreBalancedReproducibleAndDependOnTheSeed) {
 TEST(ModelSelection, PaperStudyStillIdentifiesWhatThePaperIdentifies) {
   Scenario sc = default_scenario(testing::source_path("data/devices/baser-7dof.yaml"));
   const TrialResult paper = run_trial(sc, trial_seed(sc.seed, 0), "");
-  sc.model_selection = true;
+  sc.keep_all = false;
   const TrialResult selected = run_trial(sc, trial_seed(sc.seed, 0), "");
   EXPECT_FALSE(paper.full.kinematics.model_selection);
   EXPECT_TRUE(selected.full.kinematics.model_selection);

@@ -23,6 +23,7 @@
 #include "hapticcal/study/control.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/study.hpp"
+#include "plan_command.hpp"
 
 namespace {
 
@@ -708,6 +709,9 @@ int main(int argc, char** argv) {
   convert->add_option("OUT", conv.out, "File to write (replaced atomically)")->required();
   add_chain_options(convert, conv.chain);
 
+  hapticcal::cli::PlanCommandOptions plan_options;
+  CLI::App* plan = hapticcal::cli::add_plan_command(app, plan_options);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -723,6 +727,7 @@ int main(int argc, char** argv) {
     if (*calibrate) code = run_calibrate(cal);
     if (*force) code = run_force_study(fo);
     if (*convert) code = run_convert(conv);
+    if (*plan) code = hapticcal::cli::run_plan(plan_options);
   } catch (const hapticcal::InputError& e) {
     hapticcal::finish_if_interrupted();
     fmt::print(stderr, "hapticcal: {}\n", e.what());

@@ -33,33 +33,44 @@ Conditioning conditioning(const Eigen::MatrixXd& J, double measurements) {
   return out;
 }
 
+Eigen::MatrixXd two_step_covariance(const Eigen::MatrixXd& Jk, double sigma_m,
+                                    const std::vector<StepOneSensitivity>& step_one,
+                                    double sigma_e) {
+  const Eigen::Index k = Jk.cols();
+  Eigen::Index t = 0;
+  for (const StepOneSensitivity& s : step_one) t += s.encoder.cols() - 1;
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(t + k, t + k);
+  const Eigen::MatrixXd Nk_inverse =
+      (Jk.transpose() * Jk).ldlt().solve(Eigen::MatrixXd::Identity(k, k));
+  C.bottomRightCorner(k, k) = sigma_m * sigma_m * Nk_inverse;
+  Eigen::Index at = 0;
+  for (const StepOneSensitivity& s : step_one) {
+    const Eigen::Index np = s.encoder.cols() - 1;
+    const Eigen::MatrixXd step1 =
+        sigma_e * sigma_e *
+        (s.encoder.transpose() * s.encoder).ldlt().solve(Eigen::MatrixXd::Identity(np + 1, np + 1));
+    const Eigen::MatrixXd C1 = step1.topLeftCorner(np, np);
+    const Eigen::MatrixXd G = -Nk_inverse * (Jk.transpose() * s.measurement);
+    C.block(at, at, np, np) = C1;
+    const Eigen::MatrixXd GC1 = G * C1;
+    C.block(t, at, k, np) = GC1;
+    C.block(at, t, np, k) = GC1.transpose();
+    C.bottomRightCorner(k, k) += GC1 * G.transpose();
+    at += np;
+  }
+  return C;
+}
+
 TwoStepBound two_step_crlb(const Eigen::MatrixXd& Jk,
                            const std::vector<std::string>& kinematic_names, double sigma_m,
                            const std::vector<StepOneSensitivity>& step_one, double sigma_e) {
   TwoStepBound out;
-  const Eigen::Index k = Jk.cols();
-  const Eigen::MatrixXd Nk_inverse =
-      (Jk.transpose() * Jk).ldlt().solve(Eigen::MatrixXd::Identity(k, k));
-  Eigen::MatrixXd kinematic = sigma_m * sigma_m * Nk_inverse;
-  std::vector<double> variance;
   for (const StepOneSensitivity& t : step_one) {
-    const Eigen::Index np = t.encoder.cols() - 1;
-    const Eigen::MatrixXd step1 =
-        sigma_e * sigma_e *
-        (t.encoder.transpose() * t.encoder).ldlt().solve(Eigen::MatrixXd::Identity(np + 1, np + 1));
-    for (Eigen::Index c = 0; c < np; ++c) {
-      out.names.push_back(t.names[c]);
-      variance.push_back(step1(c, c));
-    }
-    const Eigen::MatrixXd G = -Nk_inverse * (Jk.transpose() * t.measurement);
-    kinematic += G * step1.topLeftCorner(np, np) * G.transpose();
+    const size_t np = t.encoder.cols() - 1;
+    out.names.insert(out.names.end(), t.names.begin(), t.names.begin() + np);
   }
-  for (Eigen::Index c = 0; c < k; ++c) {
-    out.names.push_back(kinematic_names[c]);
-    variance.push_back(kinematic(c, c));
-  }
-  out.variance =
-      Eigen::Map<Eigen::VectorXd>(variance.data(), static_cast<Eigen::Index>(variance.size()));
+  out.names.insert(out.names.end(), kinematic_names.begin(), kinematic_names.end());
+  out.variance = two_step_covariance(Jk, sigma_m, step_one, sigma_e).diagonal();
   return out;
 }
 

@@ -40,8 +40,13 @@ std::vector<double> drive_ratios(const DeviceModel& model) {
 
 }  // namespace
 
-Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& noise,
-                 std::uint64_t seed, bool distance, bool position) {
+namespace {
+
+// A log of `poses` rows; each row's readings from `draw(row, rng, q)` (in
+// order, from the same generator as the noise that follows them).
+template <typename Draw>
+Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, std::uint64_t seed,
+            bool distance, bool position, Draw draw) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   const int n = actual.dof();
@@ -60,10 +65,7 @@ Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& no
   if (position) log.position.resize(poses, 3);
   for (int r = 0; r < poses; ++r) {
     log.line.push_back(r + 2);
-    for (int j = 0; j < n; ++j) {
-      const Link& l = actual.links[j];
-      log.q(r, j) = std::uniform_real_distribution<double>(l.lower, l.upper)(rng);
-    }
+    draw(r, rng, log.q);
     for (int j = 0; j < n; ++j) {
       if (!log.has_ext[j]) continue;
       const double q = log.q(r, j);
@@ -81,6 +83,27 @@ Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& no
     }
   }
   return log;
+}
+
+}  // namespace
+
+Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& noise,
+                 std::uint64_t seed, bool distance, bool position) {
+  return measure(actual, poses, noise, seed, distance, position,
+                 [&](int r, std::mt19937_64& rng, Eigen::MatrixXd& q) {
+                   for (int j = 0; j < actual.dof(); ++j) {
+                     const Link& l = actual.links[j];
+                     q(r, j) = std::uniform_real_distribution<double>(l.lower, l.upper)(rng);
+                   }
+                 });
+}
+
+Log simulate_log_at(const DeviceModel& actual, const Eigen::MatrixXd& readings,
+                    const SimulationNoise& noise, std::uint64_t seed, bool distance,
+                    bool position) {
+  assert(readings.cols() == actual.dof());
+  return measure(actual, static_cast<int>(readings.rows()), noise, seed, distance, position,
+                 [&](int r, std::mt19937_64&, Eigen::MatrixXd& q) { q.row(r) = readings.row(r); });
 }
 
 Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_hz,

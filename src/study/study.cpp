@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -13,6 +14,7 @@
 #include <thread>
 
 #include "hapticcal/identification/information.hpp"
+#include "hapticcal/identification/two_step.hpp"
 #include "hapticcal/io/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/evaluate.hpp"
@@ -42,55 +44,26 @@ Eigen::VectorXd readings(const Log& log, int r) { return log.q.row(r).transpose(
 // the distances' sensitivity to the transmission parameters.
 std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
                                    const CalibrationResult& full) {
-  std::map<std::string, double> out;
-  const DeviceModel& actual = sc.actual;
-  const ChainStructure s = actual.structure();
-  const Eigen::VectorXd p = actual.kinematic_parameters();
-  const PreparedModel prepared(actual);
-  std::vector<const ParameterEstimate*> identified;
-  for (const ParameterEstimate& e : full.kinematics.parameters) {
-    if (e.identifiable) identified.push_back(&e);
-  }
-  const int k = static_cast<int>(identified.size());
-  const int m = ident.rows;
-  Eigen::MatrixXd Jk(m, k), dDelta_dTheta(m, actual.dof());
-  Eigen::VectorXd joint(actual.dof());
-  Eigen::Matrix<double, 1, Eigen::Dynamic> row;
-  Jacobian6<double> Jg;
-  for (int r = 0; r < m; ++r) {
-    const Eigen::VectorXd q = readings(ident, r);
-    prepared.compensate(q.data(), joint.data());
-    const Eigen::Vector3d tip =
-        prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, Jg).p;
-    dDelta_dTheta.row(r) = tip.normalized().transpose() * Jg.topRows<3>();
-    distance_parameter_jacobian(s, p.data(), joint.data(), row);
-    for (int c = 0; c < k; ++c) Jk(r, c) = row[identified[c]->slot];
-  }
-  std::vector<StepOneSensitivity> step_one;
-  for (const TransmissionFit& t : full.transmissions) {
-    // The step-1 model as fitted (its basis for a polynomial), at the truth's readings.
-    const Transmission& model = full.calibrated.links[t.joint].transmission;
-    const int np = model.num_parameters();
-    StepOneSensitivity st;
-    st.names.assign(t.names.begin(), t.names.begin() + np);
-    st.encoder.resize(m, np + 1);  // d (c + error) / d [params, c]
-    Eigen::VectorXd d(np);
-    for (int r = 0; r < m; ++r) {
-      model.parameter_jacobian(ident.q(r, t.joint), d.data());
-      st.encoder.row(r).head(np) = d.transpose();
-      st.encoder(r, np) = 1.0;
-    }
-    // Into step 2: J_t = d delta / d theta_j * d error_j / d params.
-    st.measurement.resize(m, np);
-    for (int r = 0; r < m; ++r) {
-      st.measurement.row(r) = dDelta_dTheta(r, t.joint) * st.encoder.row(r).head(np);
-    }
-    step_one.push_back(std::move(st));
-  }
+  std::vector<int> slots;
   std::vector<std::string> names;
-  for (const ParameterEstimate* e : identified) names.push_back(e->name);
+  for (const ParameterEstimate& e : full.kinematics.parameters) {
+    if (!e.identifiable) continue;
+    slots.push_back(e.slot);
+    names.push_back(e.name);
+  }
+  // The step-1 models as fitted (a polynomial in its basis), at the truth's readings.
+  std::vector<StepOneModel> step_one;
+  for (const TransmissionFit& t : full.transmissions) {
+    const Transmission& model = full.calibrated.links[t.joint].transmission;
+    step_one.push_back(
+        {t.joint, model,
+         std::vector<std::string>(t.names.begin(), t.names.begin() + model.num_parameters())});
+  }
+  const TwoStepJacobians J =
+      two_step_jacobians(sc.actual, MeasurementType::kDistance, 1.0, slots, step_one, ident.q);
   const TwoStepBound bound =
-      two_step_crlb(Jk, names, sc.noise.sigma_distance, step_one, sc.noise.sigma_ext);
+      two_step_crlb(J.kinematic, names, sc.noise.sigma_distance, J.step_one, sc.noise.sigma_ext);
+  std::map<std::string, double> out;
   for (size_t c = 0; c < bound.names.size(); ++c) out[bound.names[c]] = bound.variance[c];
   return out;
 }
@@ -169,9 +142,9 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
     throw InputError(path, e.mark.is_null() ? 0 : e.mark.line + 1, "", "YAML: " + e.msg);
   }
   const detail::YamlReader r(path);
-  r.check_keys(
-      root, "",
-      {"format", "device", "seed", "trials", "poses", "trajectory", "noise", "deviations"});
+  r.check_keys(root, "",
+               {"format", "device", "seed", "trials", "poses", "trajectory", "noise", "deviations",
+                "calibration"});
   const std::string format = r.string(r.require(root, "", "format"), "format");
   if (format != "hapticcal-scenario/1") {
     r.fail(root["format"], "format",
@@ -195,11 +168,54 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
   if (root["trials"]) sc.trials = positive_int(root["trials"], "trials", 1, kMaxTrials);
   if (const YAML::Node poses = root["poses"]) {
     r.check_keys(poses, "poses", {"identification", "validation"});
-    if (poses["identification"])
-      sc.identification_poses =
-          positive_int(poses["identification"], "poses.identification", 1, kMaxPoses);
+    const YAML::Node id = poses["identification"];
+    auto is_number = [](const std::string& text) {
+      char* end = nullptr;
+      std::strtod(text.c_str(), &end);
+      return !text.empty() && end == text.c_str() + text.size();
+    };
+    if (id && id.IsScalar() && id.Tag() != "!" && !is_number(id.Scalar())) {
+      // A plan: measure at its readings.
+      std::filesystem::path plan(id.Scalar());
+      if (plan.is_relative()) plan = std::filesystem::path(path).parent_path() / plan;
+      Log log;
+      try {
+        log = read_log(plan.string());
+      } catch (const InputError& e) {
+        r.fail(id, "poses.identification", e.what());
+      }
+      if (log.q.cols() != sc.nominal.dof()) {
+        r.fail(id, "poses.identification",
+               fmt::format("{} has {} joint readings a row, the device {} joints", plan.string(),
+                           log.q.cols(), sc.nominal.dof()));
+      }
+      if (log.rows < 1 || log.rows > kMaxPoses)
+        r.fail(id, "poses.identification", fmt::format("{} has no poses", plan.string()));
+      sc.identification_readings = log.q;
+      sc.identification_plan = plan.string();
+      sc.identification_poses = log.rows;
+    } else if (id) {
+      sc.identification_poses = positive_int(id, "poses.identification", 1, kMaxPoses);
+    }
     if (poses["validation"])
       sc.validation_poses = positive_int(poses["validation"], "poses.validation", 1, kMaxPoses);
+  }
+  if (const YAML::Node cal = root["calibration"]) {
+    r.check_keys(cal, "calibration", {"keep_all", "fix"});
+    if (const YAML::Node fix = cal["fix"]) {
+      if (!fix.IsSequence()) r.fail(fix, "calibration.fix", "expected a list of parameter names");
+      for (const YAML::Node& name : fix) sc.fix.push_back(r.string(name, "calibration.fix"));
+      try {
+        candidate_slots(sc.nominal, sc.fix, {});
+      } catch (const InputError& e) {
+        r.fail(fix, "calibration.fix", e.message());
+      }
+    }
+    if (const YAML::Node k = cal["keep_all"]) {
+      if (!k.IsScalar() || (k.Scalar() != "true" && k.Scalar() != "false"))
+        r.fail(k, "calibration.keep_all", "expected true or false");
+      sc.keep_all = k.Scalar() == "true";
+    }
   }
   if (const YAML::Node tr = root["trajectory"]) {
     r.check_keys(tr, "trajectory", {"seconds", "rate_hz"});
@@ -284,7 +300,10 @@ std::uint64_t trial_seed(std::uint64_t study_seed, int trial) {
 TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string& out) {
   TrialResult t;
   t.seed = seed;
-  Log ident = simulate_log(sc.actual, sc.identification_poses, sc.noise, trial_seed(seed, 0));
+  Log ident =
+      sc.identification_readings.size()
+          ? simulate_log_at(sc.actual, sc.identification_readings, sc.noise, trial_seed(seed, 0))
+          : simulate_log(sc.actual, sc.identification_poses, sc.noise, trial_seed(seed, 0));
   SimulationNoise exact = sc.noise;
   exact.sigma_position = 0;  // a perfect tracker: validation scores against the truth
   Log val = simulate_log(sc.actual, sc.validation_poses, exact, trial_seed(seed, 1), true, true);
@@ -300,7 +319,8 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
     val = read_log(out + "/validation.csv");
   }
   CalibrationOptions options;
-  options.keep_all = !sc.model_selection;
+  options.keep_all = sc.keep_all;
+  options.fix = sc.fix;
   t.full = calibrate(sc.nominal, ident, options);
   CalibrationOptions kin = options;
   kin.transmissions = false;
@@ -467,6 +487,10 @@ std::string study_json(const Scenario& sc, const StudyResult& r) {
                 {"sigma_m_formula", sc.sigma_m_formula},
                 {"motor_counts_per_rev", sc.noise.motor_counts_per_rev}};
   j["poses"] = {{"identification", sc.identification_poses}, {"validation", sc.validation_poses}};
+  if (!sc.identification_plan.empty()) j["identification_plan"] = sc.identification_plan;
+  // Only when not the paper's procedure (the default study's file is unchanged).
+  if (!sc.keep_all || !sc.fix.empty())
+    j["calibration"] = {{"keep_all", sc.keep_all}, {"fix", sc.fix}};
   json params = json::object();
   std::map<std::string, StudyRow> by_name;  // results.json lists them alphabetically
   for (const StudyRow& row : study_rows(sc, t.full)) {

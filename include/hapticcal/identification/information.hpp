@@ -58,4 +58,14 @@ TwoStepBound two_step_crlb(const Eigen::MatrixXd& J_kinematic,
                            double sigma_measurement,
                            const std::vector<StepOneSensitivity>& step_one, double sigma_encoder);
 
+// The full covariance behind two_step_crlb, in the order of its names (each
+// joint's step-1 parameters with c marginalised, then the kinematic ones):
+//   C_1j = sigma_e^2 (J_ej^T J_ej)^-1 (its parameter block; joints independent),
+//   C_k  = sigma_m^2 (J_k^T J_k)^-1 + sum_j G_j C_1j G_j^T,  Cov(k, t_j) = G_j C_1j,
+// so that the variance of any prediction g^T [t; k] of the calibrated model is
+// g^T C g.
+Eigen::MatrixXd two_step_covariance(const Eigen::MatrixXd& J_kinematic, double sigma_measurement,
+                                    const std::vector<StepOneSensitivity>& step_one,
+                                    double sigma_encoder);
+
 }  // namespace hapticcal

@@ -62,4 +62,10 @@ Report study_report(const Scenario& scenario, const StudyResult& result);
 // force: the Fig. 12 analogue for the nominal and the calibrated model.
 Report force_report(const ForceRun& nominal, const ForceRun& calibrated, double reduction_pct);
 
+class PlanProblem;
+struct Plan;
+// plan: the predicted sd per parameter and over the workspace, planned against
+// random poses of the same count, and the observability indices.
+Report plan_report(const PlanProblem& problem, const Plan& plan);
+
 }  // namespace hapticcal

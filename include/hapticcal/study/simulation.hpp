@@ -30,6 +30,12 @@ double quantized_reading(double q, double ratio, double counts);
 Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& noise,
                  std::uint64_t seed, bool distance = true, bool position = false);
 
+// The same at the given readings (poses x dof, e.g. a plan's): noise as above,
+// quantisation included.
+Log simulate_log_at(const DeviceModel& actual, const Eigen::MatrixXd& readings,
+                    const SimulationNoise& noise, std::uint64_t seed, bool distance = true,
+                    bool position = false);
+
 // The experiment analogue of paper Fig. 10: a continuous random motion of
 // `seconds` sampled at `rate_hz`, at rest at home at both ends, each joint a sum
 // of slow sinusoids within its limits; columns t, q, distance (with noise).

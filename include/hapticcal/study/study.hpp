@@ -23,6 +23,16 @@ struct Scenario {
   DeviceModel nominal;
   DeviceModel actual;  // the truth
   int identification_poses = 200;
+  // Readings to measure at (poses x dof, e.g. a plan.csv) instead of random
+  // ones; identification_poses is then their count.
+  Eigen::MatrixXd identification_readings;
+  std::string identification_plan;  // the file they came from
+  // CalibrationOptions::keep_all of the trials' calibrations. The paper's
+  // procedure identifies every identifiable parameter: its study keeps them all
+  // (calibrate's model selection off), so that its Monte Carlo compares with the
+  // full model's Cramer-Rao bound.
+  bool keep_all = true;
+  std::vector<std::string> fix;     // CalibrationOptions::fix of the trials' calibrations
   int validation_poses = 200;
   double trajectory_seconds = 100;
   double trajectory_rate_hz = 1000;
@@ -30,17 +40,21 @@ struct Scenario {
   std::string sigma_m_formula = "paper";  // "paper", "consistent" or "given"
   std::uint64_t seed = 1;
   int trials = 1;
-  // The paper's procedure identifies every identifiable parameter: its study
-  // calibrates with CalibrationOptions::keep_all (calibrate's model selection
-  // off), so that its Monte Carlo compares with the full model's Cramer-Rao bound.
-  bool model_selection = false;
 };
 
 // SPEC section 3 on the built-in device file at `device_path`.
 Scenario default_scenario(const std::string& device_path);
 // A scenario file (YAML, `format: hapticcal-scenario/1`); every key optional:
 //   device: PATH (relative to the file)     seed: N     trials: N
-//   poses: {identification: N, validation: N}
+//   poses: {identification: N | PLAN.csv, validation: N}
+//                                           PLAN.csv (relative to the file; q1..qn as
+//                                           `plan` writes it): measure exactly at its
+//                                           readings, noise as usual
+//   calibration: {keep_all: true | false,   CalibrationOptions::keep_all (true: the
+//                                           paper's procedure; false: model selection)
+//                 fix: [DOTTED_NAME, ...]}  and ::fix (e.g. what a plan reports held,
+//                                           for plans with fewer measurements than
+//                                           calibrate's candidates)
 //   trajectory: {seconds: S, rate_hz: F}
 //   noise: {sigma_e: RAD, sigma_m: paper | consistent | METRES, motor_counts_per_rev: N}
 //   deviations: {DOTTED_NAME: VALUE, ...}   replaces Table 3's deviation of a kinematic

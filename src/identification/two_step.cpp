@@ -1,0 +1,94 @@
+#include "hapticcal/identification/two_step.hpp"
+
+#include <Eigen/Geometry>
+
+#include "hapticcal/kinematics/kinematics.hpp"
+
+namespace hapticcal {
+namespace {
+
+void measured_from_frame(MeasurementType type, const Frame<double>& tool, double* out) {
+  if (type == MeasurementType::kDistance) {
+    out[0] = tool.p.norm();
+    return;
+  }
+  for (int k = 0; k < 3; ++k) out[k] = tool.p[k];
+  if (type == MeasurementType::kPose) {
+    const Eigen::Quaterniond q(tool.R);
+    out[3] = q.w();
+    out[4] = q.x();
+    out[5] = q.y();
+    out[6] = q.z();
+  }
+}
+
+}  // namespace
+
+MeasuredValues predicted_measurements(const DeviceModel& model, MeasurementType type,
+                                      const Eigen::MatrixXd& readings) {
+  const PreparedModel prepared(model);
+  MeasuredValues out(readings.rows(), traits(type).width);
+  Eigen::VectorXd q(model.dof());
+  for (Eigen::Index r = 0; r < readings.rows(); ++r) {
+    q = readings.row(r).transpose();
+    measured_from_frame(type, prepared.forward(q.data()), out.row(r).data());
+  }
+  return out;
+}
+
+TwoStepJacobians two_step_jacobians(const DeviceModel& model, MeasurementType type,
+                                    double rotation_scale, const std::vector<int>& slots,
+                                    const std::vector<StepOneModel>& step_one,
+                                    const Eigen::MatrixXd& readings) {
+  const ChainStructure s = model.structure();
+  const Eigen::VectorXd p = model.kinematic_parameters();
+  const ChainConstants<double> constants = chain_constants(s, p.data());
+  const PreparedModel prepared(model);
+  const int n = model.dof();
+  const int d = traits(type).dimension;
+  const Eigen::Index m = readings.rows();
+  const int k = static_cast<int>(slots.size());
+  TwoStepJacobians out;
+  out.dimension = d;
+  out.kinematic.resize(m * d, k);
+  out.joint.resize(m * d, n);
+  Eigen::VectorXd q(n), joint(n);
+  Eigen::MatrixXd J_all(d, s.num_slots());
+  Jacobian6<double> Jg;
+  double measured[7], residual[6];
+  for (Eigen::Index r = 0; r < m; ++r) {
+    q = readings.row(r).transpose();
+    prepared.compensate(q.data(), joint.data());
+    const Frame<double> tool = prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, Jg);
+    measured_from_frame(type, tool, measured);
+    // At the predicted values: zero residual (a pose's rotation rows then turn by w).
+    measurement_rows(type, s, constants, p.data(), joint.data(), measured, rotation_scale, residual,
+                     J_all);
+    for (int c = 0; c < k; ++c) out.kinematic.block(r * d, c, d, 1) = J_all.col(slots[c]);
+    auto rows = out.joint.block(r * d, 0, d, n);
+    if (type == MeasurementType::kDistance) {
+      rows = tool.p.normalized().transpose() * Jg.topRows<3>();
+    } else {
+      rows.topRows(3) = Jg.topRows<3>();
+      if (type == MeasurementType::kPose) rows.bottomRows(3) = rotation_scale * Jg.bottomRows<3>();
+    }
+  }
+  for (const StepOneModel& t : step_one) {
+    const int np = t.transmission.num_parameters();
+    StepOneSensitivity st;
+    st.names = t.names;
+    st.encoder.resize(m, np + 1);
+    st.measurement.resize(m * d, np);
+    Eigen::VectorXd e(np);
+    for (Eigen::Index r = 0; r < m; ++r) {
+      t.transmission.parameter_jacobian(readings(r, t.joint), e.data());
+      st.encoder.row(r).head(np) = e.transpose();
+      st.encoder(r, np) = 1.0;
+      st.measurement.middleRows(r * d, d) = out.joint.block(r * d, t.joint, d, 1) * e.transpose();
+    }
+    out.step_one.push_back(std::move(st));
+  }
+  return out;
+}
+
+}  // namespace hapticcal

@@ -1,0 +1,79 @@
+// The report of `plan`: predicted uncertainty of the planned poses against
+// random poses of the same count, per parameter and over the workspace.
+#include <fmt/format.h>
+
+#include "hapticcal/design/plan.hpp"
+#include "hapticcal/report/report.hpp"
+
+namespace hapticcal {
+
+Report plan_report(const PlanProblem& problem, const Plan& plan) {
+  Report report;
+  report.title = fmt::format("hapticcal plan: {} poses, {}-optimal", plan.readings.rows(),
+                             to_string(plan.criterion));
+  const char* tip = problem.type() == MeasurementType::kDistance ? "distance" : "position";
+  report.sections.push_back(fmt::format(
+      "<p>{} poses chosen from {} candidates (seed {}), measurement: {} (sd {:.3g} um), "
+      "external encoders sd {:.3g} urad. Predicted RMS {} sd over the workspace (exact two-step "
+      "Cramer-Rao covariance): <b>{:.3f} um planned</b>, {:.3f} um for random poses of the same "
+      "count (median of {} draws; range {:.3f} - {:.3f} um).</p>\n"
+      "<p>Exchange: {} sweeps, {} swaps; refinement moves: {}; criterion of the joint information "
+      "{:.6g} (greedy); of the two-step information {:.6g} (greedy) -> {:.6g} (exchange) -> "
+      "{:.6g} (refined). Path: {:.2f} rad of max joint travel (unordered "
+      "{:.2f} rad).</p>\n",
+      plan.readings.rows(), plan.pool, plan.seed, traits(problem.type()).name,
+      problem.sigma_m() * 1e6, problem.sigma_e() * 1e6, tip, plan.planned.rms_sd * 1e6,
+      plan.random_median_rms_sd * 1e6, plan.random_rms_sd.size(),
+      plan.random_rms_sd.empty() ? 0.0 : plan.random_rms_sd.front() * 1e6,
+      plan.random_rms_sd.empty() ? 0.0 : plan.random_rms_sd.back() * 1e6, plan.sweeps, plan.swaps,
+      plan.refined_moves, plan.criterion_greedy, plan.two_step_greedy, plan.two_step_exchange,
+      plan.two_step_refined, plan.path_length, plan.path_length_unordered));
+  const Conditioning& a = plan.planned.conditioning;
+  const Conditioning& b = plan.random.conditioning;
+  report.sections.push_back(
+      "<h2>Observability of the kinematic parameters</h2>\n" +
+      html_table(
+          {"design", "condition number", "O1", "O2", "O3", "O4"},
+          {{"planned", fmt::format("{:.4g}", a.condition_number),
+            fmt::format("{:.4g}", a.observability.O1), fmt::format("{:.4g}", a.observability.O2),
+            fmt::format("{:.4g}", a.observability.O3), fmt::format("{:.4g}", a.observability.O4)},
+           {"random (median draw)", fmt::format("{:.4g}", b.condition_number),
+            fmt::format("{:.4g}", b.observability.O1), fmt::format("{:.4g}", b.observability.O2),
+            fmt::format("{:.4g}", b.observability.O3),
+            fmt::format("{:.4g}", b.observability.O4)}}));
+  std::vector<std::vector<std::string>> rows;
+  std::vector<double> index, planned, random;
+  for (int k = 0; k < problem.parameters(); ++k) {
+    const std::string& name = problem.names()[k];
+    if (name.ends_with(".encoder_zero")) continue;
+    rows.push_back(
+        {html_escape(name), fmt::format("{:.4g}", plan.planned.sd[k]),
+         fmt::format("{:.4g}", plan.random.sd[k]),
+         fmt::format("{:.3f}",
+                     plan.random.sd[k] > 0 ? plan.planned.sd[k] / plan.random.sd[k] : 0.0)});
+    index.push_back(static_cast<double>(index.size()));
+    planned.push_back(plan.planned.sd[k]);
+    random.push_back(plan.random.sd[k]);
+  }
+  report.sections.push_back(
+      "<h2>Predicted standard deviation per parameter (m, rad or as the model)</h2>\n" +
+      html_table({"parameter", "planned", "random (median draw)", "ratio"}, rows));
+  if (!problem.held().empty()) {
+    std::vector<std::vector<std::string>> held;
+    for (const auto& [name, why] : problem.held()) held.push_back({html_escape(name), why});
+    report.sections.push_back("<h2>Held at nominal</h2>\n" +
+                              html_table({"parameter", "why"}, held));
+  }
+  FigureSpec f;
+  f.name = "plan_sd";
+  f.title = "Predicted sd per parameter: planned vs random poses";
+  f.xlabel = "parameter";
+  f.ylabel = "sd";
+  f.columns = {index, planned, random};
+  f.series = {{"planned", 0, 1, "linespoints"}, {"random", 0, 2, "linespoints"}};
+  f.extra = "set logscale y";
+  report.figures.push_back(f);
+  return report;
+}
+
+}  // namespace hapticcal
