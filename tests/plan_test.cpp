@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <random>
 #include <vector>
 
 #include "hapticcal/io/io.hpp"
@@ -199,6 +200,61 @@ TEST(Plan, DISABLED_HundredPlannedPosesPredictNoWorseThanTwoHundredRandom) {
   o.poses = 100;
   const Plan plan = plan_poses(b.problem, o);
   EXPECT_LE(b.sd(plan.readings), b.median_random(200));
+}
+
+// Why acceptance A's second half is blocked, by a check independent of the
+// planner: the issue's own measure (the kinematic fit's measurement noise
+// alone, the filer's 4.06 um for 200 random poses) on the best approximate
+// design of 100 poses over 6000 candidates rich in joint limits (each joint at
+// its lower or upper limit or uniform, 1/3 each), found by the multiplicative
+// algorithm for I-optimality and certified by the equivalence theorem (max d /
+// value -> 1), stays above 200 random poses; so does a plan optimised for that
+// measure alone (step 1 made exact).
+TEST(Plan, HundredPosesCannotMatchTwoHundredRandomEvenOnTheKinematicFitAlone) {
+  const Builtin b;
+  const int p = b.problem.parameters(), r = b.problem.rows_per_pose();
+  const int k = static_cast<int>(b.problem.kinematic_slots().size());
+  const int n = 6000;
+  Eigen::MatrixXd pool = random_readings(b.model, n, 4242);
+  std::mt19937_64 rng(99);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < b.model.dof(); ++j) {
+      const auto c = rng() % 3;
+      if (c == 0) pool(i, j) = b.model.links[j].lower;
+      if (c == 1) pool(i, j) = b.model.links[j].upper;
+    }
+  }
+  const Eigen::MatrixXd F = b.problem.fisher_rows(pool);
+  Eigen::MatrixXd f(k, n);
+  for (int i = 0; i < n; ++i) f.col(i) = F.block(p - k, i * r, k, 1);
+  const Eigen::MatrixXd Gk = b.G.bottomRows(k);
+  const Eigen::MatrixXd W = Gk * Gk.transpose() / static_cast<double>(Gk.cols());
+  Eigen::VectorXd w = Eigen::VectorXd::Constant(n, 1.0 / n), d(n);
+  double value = 0;
+  for (int it = 0; it < 800; ++it) {
+    const Eigen::MatrixXd M = f * w.asDiagonal() * f.transpose();
+    const Eigen::MatrixXd Minv = M.ldlt().solve(Eigen::MatrixXd::Identity(k, k));
+    const Eigen::MatrixXd B = Minv * W * Minv;
+    value = (W * Minv).trace();  // per pose: N poses give value / N
+    for (int i = 0; i < n; ++i) d[i] = f.col(i).dot(B * f.col(i));
+    w = w.cwiseProduct(d.cwiseSqrt());
+    w /= w.sum();
+  }
+  const double bound = std::sqrt(value / 100), random200 = median_measurement_only(b, 200);
+  const PlanProblem exact_step_one(b.model, MeasurementType::kDistance, kPaperSigmaMPaper, 1e-9,
+                                   b.analysis);
+  PlanOptions o;
+  o.poses = 100;
+  o.random_draws = 1;
+  const double planned = measurement_only(b, plan_poses(exact_step_one, o).readings);
+  std::printf(
+      "kinematic fit alone: optimal approximate design of 100 poses %.3f um (max d / value %.4f), "
+      "a plan for it %.3f um, 200 random %.3f um\n",
+      bound * 1e6, d.maxCoeff() / value, planned * 1e6, random200 * 1e6);
+  EXPECT_LT(d.maxCoeff() / value, 1.01);  // at the optimum: max d = value
+  EXPECT_GT(bound, random200);
+  EXPECT_GT(planned, random200);
+  EXPECT_LT(planned, 1.05 * random200);  // yet within a few per cent of it
 }
 
 }  // namespace
