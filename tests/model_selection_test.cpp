@@ -262,5 +262,84 @@ TEST(ModelSelection, CommandLineKeepAllFoldsAndTheirErrors) {
   EXPECT_EQ(a.out.find("held-out RMS"), std::string::npos);
 }
 
+// A device already calibrated: the truth is the model. The data support no
+// change, the selection holds everything, and that is a converged, usable
+// calibration that leaves the model as it is (with a held-out error), not a
+// "rank-deficient" failure.
+TEST(ModelSelection, DataThatSupportNoChangeGiveAConvergedUnchangedModel) {
+  const DeviceModel nominal = testing::meca500();
+  SimulationNoise noise;
+  noise.sigma_position = 2e-5;
+  int all_held = 0;
+  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    const Log log = simulate_log(nominal, 30, noise, seed, false, true);
+    const CalibrationResult r = calibrate(nominal, log, {});
+    EXPECT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
+    EXPECT_TRUE(std::isfinite(r.kinematics.cv_rms)) << r.kinematics.cv_note;
+    EXPECT_LE(r.kinematics.identified, 3) << "seed " << seed;
+    if (r.kinematics.identified > 0) continue;
+    ++all_held;
+    EXPECT_NE(r.status_reason.find("support no change"), std::string::npos) << r.status_reason;
+    EXPECT_EQ(r.calibrated.kinematic_parameters(), nominal.kinematic_parameters());
+  }
+  EXPECT_GT(all_held, 0);  // seeds 1 and 3 hold all 27
+}
+
+// Student's t quantile (the selection's threshold) against tabulated values
+// (e.g. t_0.975 with 10 degrees of freedom is 2.228, with 3 it is 3.182) and its
+// normal limit.
+TEST(ModelSelection, ThresholdIsStudentsTQuantileWithBonferroni) {
+  EXPECT_NEAR(significance_threshold(0.05, 1, 10), 2.2281, 1e-4);
+  EXPECT_NEAR(significance_threshold(0.05, 1, 3), 3.1824, 1e-4);
+  EXPECT_NEAR(significance_threshold(0.01, 1, 20), 2.8453, 1e-4);
+  EXPECT_NEAR(significance_threshold(0.05, 27, 1e7), 3.11304, 1e-4);  // normal 1 - 0.05 / 54
+  EXPECT_NEAR(student_t_tail(2.2281, 10), 0.05, 1e-5);
+  EXPECT_TRUE(std::isinf(significance_threshold(0.05, 27, 0)));
+  EXPECT_GT(significance_threshold(0.05, 27, 3), 10);  // few residual freedoms: a high bar
+}
+
+// Too few poses in a fold for the parameters: "not computable", never a number
+// from a singular fold (34 distance poses of the paper's device, 28 parameters:
+// 4 folds of 5 train on 27 poses).
+TEST(CrossValidation, FoldsThatCannotDetermineTheParametersAreNotComputable) {
+  const DeviceModel nominal = testing::builtin("baser-7dof");
+  std::mt19937_64 rng(3);
+  const DeviceModel truth = testing::perturbed(nominal, rng, 1e-3);
+  for (const int poses : {30, 32, 34}) {
+    const Log log = simulate_log(truth, poses, SimulationNoise{}, 5);
+    CalibrationOptions options = keep_all();
+    options.transmissions = false;
+    const CalibrationResult r = calibrate(nominal, log, options);
+    ASSERT_EQ(r.kinematics.identified, 28);
+    EXPECT_TRUE(std::isnan(r.kinematics.cv_rms)) << poses << ": " << r.kinematics.cv_rms;
+    EXPECT_NE(r.kinematics.cv_note.find("cannot determine"), std::string::npos) << poses;
+  }
+}
+
+// A 6-D pose log: the held-out RMS, like rms_after, is the position error; the
+// selection's path reports the same measure (its kept model's training RMS is
+// the re-fit's rms_after, its cross-validated RMS the headline's).
+TEST(CrossValidation, PoseLogsReportPositionErrorsAlongTheWholePath) {
+  const DeviceModel nominal = testing::meca500();
+  std::mt19937_64 rng(8);
+  const DeviceModel truth = testing::perturbed(nominal, rng, 1e-3);
+  Log log = testing::pose_log(truth, 40, rng);
+  std::normal_distribution<double> noise(0, 2e-5);
+  for (int i = 0; i < log.rows; ++i) {
+    for (int c = 0; c < 3; ++c) log.position(i, c) += noise(rng);
+  }
+  const CalibrationResult r = calibrate(nominal, log, {});
+  ASSERT_EQ(r.status, CalibrationStatus::kConverged);
+  const KinematicFit& k = r.kinematics;
+  ASSERT_TRUE(k.model_selection);
+  const auto kept =
+      std::find_if(k.selection_path.begin(), k.selection_path.end(),
+                   [&](const SelectionStep& s) { return s.parameters == k.identified; });
+  ASSERT_NE(kept, k.selection_path.end());
+  EXPECT_NEAR(kept->rms / k.rms_after, 1, 1e-4);
+  EXPECT_NEAR(kept->cv_rms / k.cv_rms, 1, 1e-4);
+  EXPECT_GT(k.cv_rms, k.rms_after);
+}
+
 }  // namespace
 }  // namespace hapticcal

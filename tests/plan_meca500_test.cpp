@@ -21,14 +21,8 @@
 namespace hapticcal {
 namespace {
 
-const char* kSets[] = {"norm_dist_data_0deg_80cube",    "norm_dist_data_0deg_160cube",
-                       "norm_dist_data_90deg_80cube",   "norm_dist_data_90deg_160cube",
-                       "norm_dist_data_n90_80cube",     "norm_dist_data_n90_160cube",
-                       "uniform_dist_data_0deg_160cube"};
-
-Log meca500_log(const std::string& kind, const char* set) {
-  return read_log(testing::source_path("examples/meca500/" + kind + "-" + set + ".csv"));
-}
+using testing::kMeca500Sets;
+using testing::meca500_log;
 
 // The rows of the chosen poses (every repeat), in log order.
 Log rows_of(const Log& log, const std::vector<std::vector<int>>& groups,
@@ -63,7 +57,7 @@ TEST(PlanMeca500, TwentyPlannedOfSeventyRecordedPosesAgainstRandomSubsets) {
   std::printf("%-32s %10s %12s %7s %10s %12s %7s\n", "set", "planned", "random(med)", "ratio",
               "pred.plan", "pred.random", "ratio");
   std::vector<double> ratios;
-  for (const char* set : kSets) {
+  for (const char* set : kMeca500Sets) {
     const Log cal = meca500_log("cal", set), val = meca500_log("val", set);
     const std::vector<std::vector<int>> groups = repeated_poses(cal);
     ASSERT_EQ(groups.size(), 70u) << set;
