@@ -56,7 +56,37 @@ void add_chain_options(CLI::App* command, ChainOptions& chain) {
                       "Root link of a URDF model's chain (default: the URDF's root link)");
 }
 
+// --point-distance A:B=METRES (repeatable): a known distance between two fixture points.
+std::vector<hapticcal::PointDistance> point_distances(const std::vector<std::string>& specs) {
+  std::vector<hapticcal::PointDistance> out;
+  for (const std::string& spec : specs) {
+    const size_t colon = spec.find(':'), equals = spec.find('=');
+    hapticcal::PointDistance d;
+    bool ok = colon != std::string::npos && equals != std::string::npos && colon > 0 &&
+              equals > colon + 1 && equals + 1 < spec.size();
+    if (ok) {
+      d.a = spec.substr(0, colon);
+      d.b = spec.substr(colon + 1, equals - colon - 1);
+      size_t used = 0;
+      try {
+        d.metres = std::stod(spec.substr(equals + 1), &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      ok = used == spec.size() - equals - 1 && d.metres > 0 && std::isfinite(d.metres);
+    }
+    if (!ok) {
+      throw hapticcal::InputError(fmt::format(
+          "--point-distance '{}': expected A:B=METRES (two point labels and a positive distance)",
+          hapticcal::printable(spec, 200)));
+    }
+    out.push_back(d);
+  }
+  return out;
+}
+
 struct EvaluateOptions {
+  std::vector<std::string> point_distance;
   std::string model, log, columns, reference;
   ChainOptions chain;
   bool json = false;
@@ -67,10 +97,11 @@ int run_evaluate(const EvaluateOptions& o) {
   const hapticcal::DeviceModel model = o.chain.load(o.model);
   const hapticcal::Log log = hapticcal::read_log(
       o.log, o.columns.empty() ? std::vector<std::string>{} : hapticcal::split_columns(o.columns));
+  const std::vector<hapticcal::PointDistance> known = point_distances(o.point_distance);
   std::optional<hapticcal::EvaluationComparison> cmp;
   if (!o.reference.empty())
-    cmp = hapticcal::compare_to_reference(model, o.chain.load(o.reference), log);
-  const hapticcal::Evaluation ev = cmp ? cmp->model : hapticcal::evaluate(model, log);
+    cmp = hapticcal::compare_to_reference(model, o.chain.load(o.reference), log, known);
+  const hapticcal::Evaluation ev = cmp ? cmp->model : hapticcal::evaluate(model, log, known);
   const std::optional<hapticcal::Evaluation> ref =
       cmp ? std::optional<hapticcal::Evaluation>(cmp->reference) : std::nullopt;
   if (o.json) {
@@ -88,7 +119,27 @@ int run_evaluate(const EvaluateOptions& o) {
       j["rms_position"] = ev.position->rms;
       j["max_position"] = ev.position->max;
     }
+    if (ev.mean_point_deviation) {
+      j["mean_point_deviation"] = *ev.mean_point_deviation;
+      j["rms_point_deviation"] = *ev.rms_point_deviation;
+    }
+    if (ev.max_point_distance_error) j["max_point_distance_error"] = *ev.max_point_distance_error;
+    if (ev.rms_plane_distance) j["rms_plane_distance"] = *ev.rms_plane_distance;
+    if (!ev.labels.empty()) {
+      nlohmann::ordered_json labels = nlohmann::ordered_json::object();
+      for (const auto& l : ev.labels) {
+        labels[l.name] = {{"samples", l.samples},
+                          {"centre", {l.centre.x(), l.centre.y(), l.centre.z()}},
+                          {"mean_deviation", l.mean_deviation},
+                          {"rms_deviation", l.rms_deviation}};
+      }
+      j["labels"] = labels;
+    }
     if (ref) {
+      if (ref->mean_point_deviation) {
+        j["reference_mean_point_deviation"] = *ref->mean_point_deviation;
+      }
+      if (ref->rms_plane_distance) j["reference_rms_plane_distance"] = *ref->rms_plane_distance;
       if (ev.distance) {
         j["reference_rms_distance"] = ref->distance->rms;
         j["improvement_distance_pct"] = *cmp->improvement_distance_pct;
@@ -115,6 +166,25 @@ int run_evaluate(const EvaluateOptions& o) {
     fmt::print("position error: RMS {:.4f} mm, max {:.4f} mm\n", ev.position->rms * 1e3,
                ev.position->max * 1e3);
   }
+  for (const auto& l : ev.labels) {
+    fmt::print("{} '{}' ({} samples): {} {:.4f} mm mean, {:.4f} mm RMS\n",
+               ev.mean_point_deviation ? "point" : "plane", l.name, l.samples,
+               ev.mean_point_deviation ? "spread about its centre" : "distance from its plane",
+               l.mean_deviation * 1e3, l.rms_deviation * 1e3);
+  }
+  if (ev.mean_point_deviation) {
+    fmt::print("point deviation (every sample): mean {:.4f} mm, RMS {:.4f} mm{}\n",
+               *ev.mean_point_deviation * 1e3, *ev.rms_point_deviation * 1e3,
+               ref && ref->mean_point_deviation ? fmt::format(" ({} : mean {:.4f} mm)", o.reference,
+                                                              *ref->mean_point_deviation * 1e3)
+                                                : std::string());
+  }
+  if (ev.max_point_distance_error) {
+    fmt::print("known distances: largest error {:.4f} mm\n", *ev.max_point_distance_error * 1e3);
+  }
+  if (ev.rms_plane_distance) {
+    fmt::print("plane distance: RMS {:.4f} mm\n", *ev.rms_plane_distance * 1e3);
+  }
   if (ref && ev.distance) {
     fmt::print("against {}: distance RMS {:.4f} mm -> {:.4f} mm, improvement {:.1f} % (eq. 9)\n",
                o.reference, ref->distance->rms * 1e3, ev.distance->rms * 1e3,
@@ -129,6 +199,7 @@ int run_evaluate(const EvaluateOptions& o) {
 }
 
 struct CalibrateOptions {
+  std::vector<std::string> point_distance;
   std::string model, log, columns, out = "hapticcal-out/calibrate", fix, free;
   ChainOptions chain;
   bool no_transmission = false, force = false, keep_all = false;
@@ -303,6 +374,7 @@ int run_calibrate(const CalibrateOptions& o) {
   options.dependency_tolerance = o.tolerance;
   options.keep_all = o.keep_all;
   options.folds = o.folds;
+  options.point_distances = point_distances(o.point_distance);
   options.fix = names(o.fix);
   options.free = names(o.free);
   hapticcal::CalibrationResult result = hapticcal::calibrate(model, log, options);
@@ -325,8 +397,8 @@ int run_calibrate(const CalibrateOptions& o) {
   hapticcal::write_file_atomically(
       out.dir() + "/results.json",
       hapticcal::calibration_json(result, model, o.model, o.log, options));
-  const std::string reported =
-      report(hapticcal::calibration_report(result, model, log), out.dir(), o.out);
+  const std::string reported = report(
+      hapticcal::calibration_report(result, model, log, options.point_distances), out.dir(), o.out);
   out.commit();
   fmt::print("{}", reported);
   fmt::print("wrote {0}/: {1}{2}results.json, report.html, figures/ (seed {3})\n", o.out,
@@ -638,6 +710,9 @@ int main(int argc, char** argv) {
   calibrate->add_option("--free", cal.free,
                         "Parameters added to the candidates, e.g. j2.beta (a beta is one by "
                         "default only where neighbouring joint axes are parallel)");
+  calibrate->add_option("--point-distance", cal.point_distance,
+                        "A known distance between two fixture points of the log (column point): "
+                        "A:B=METRES (repeatable)");
   calibrate->add_flag("--keep-all", cal.keep_all,
                       "No model selection: fit every identifiable parameter the data excite, "
                       "even those they do not support");
@@ -666,6 +741,8 @@ int main(int argc, char** argv) {
   add_chain_options(evaluate, eval.chain);
   evaluate->add_option("--log", eval.log, "Measurement log (CSV)")->required();
   evaluate->add_flag("--json", eval.json, "Print one JSON object (metres)");
+  evaluate->add_option("--point-distance", eval.point_distance,
+                       "A known distance between two fixture points: A:B=METRES (repeatable)");
   evaluate->add_option("--reference", eval.reference,
                        "A second device file (e.g. the nominal one): adds the paper's eq. 9 "
                        "improvement of --model over it on the same log");

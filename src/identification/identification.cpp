@@ -26,20 +26,14 @@ namespace detail {
 Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
             const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
             const RowMatrix& measured, const Eigen::VectorXd& weights, bool compressed) {
-  const int d = kind.dimension();
   const int m = static_cast<int>(joints.size());
   if (compressed) {
     detail::CompressedRows z =
         detail::compress_rows(s, params.data(), joints, kind, measured, weights);
-    return {Eigen::VectorXd(), std::move(z.R), z.rss(), static_cast<Eigen::Index>(m) * d};
+    return {Eigen::VectorXd(), std::move(z.R), z.rss(), kind.rows(m)};
   }
-  Stack out{Eigen::VectorXd(m * d), Eigen::MatrixXd(m * d, s.num_slots())};
-  const ChainConstants<double> constants = chain_constants(s, params.data());
-  for (int i = 0; i < m; ++i) {
-    measurement_rows(s, constants, params.data(), joints[i].data(), kind, measured.row(i).data(),
-                     out.r.data() + d * i, out.J.middleRows(d * i, d));
-    detail::weigh(weights, i, out.r.data() + d * i, out.J.middleRows(d * i, d));
-  }
+  Stack out{Eigen::VectorXd(kind.rows(m)), Eigen::MatrixXd()};
+  all_rows(s, params.data(), joints, kind, measured, weights, out.r.data(), &out.J);
   out.rss = out.r.squaredNorm();
   out.residuals = out.r.size();
   return out;
@@ -48,19 +42,17 @@ Stack stack(const ChainStructure& s, const Eigen::VectorXd& params,
 Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& params,
                              const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
                              const RowMatrix& measured, const Eigen::VectorXd& weights) {
-  const int d = kind.dimension();
-  Eigen::VectorXd r(static_cast<Eigen::Index>(joints.size()) * d);
-  Eigen::MatrixXd J(d, s.num_slots());
-  const ChainConstants<double> constants = chain_constants(s, params.data());
-  for (size_t i = 0; i < joints.size(); ++i) {
-    measurement_rows(s, constants, params.data(), joints[i].data(), kind, measured.row(i).data(),
-                     r.data() + d * i, J);
-    detail::weigh(weights, i, r.data() + d * i, J);
-  }
+  Eigen::VectorXd r(kind.rows(static_cast<int>(joints.size())));
+  all_rows(s, params.data(), joints, kind, measured, weights, r.data(), nullptr);
   return r;
 }
 
 double position_rss(const Eigen::VectorXd& r, const RowsOf& kind) {
+  if (kind.labels) {  // the poses' rows, without the known distances'
+    const Eigen::Index pose_rows =
+        static_cast<Eigen::Index>(kind.labels->of_pose.size()) * kind.dimension();
+    return r.head(pose_rows).squaredNorm();
+  }
   if (kind.type != MeasurementType::kPose) return r.squaredNorm();
   double sum = 0;
   for (Eigen::Index i = 0; i < r.size(); ++i) {
@@ -75,7 +67,10 @@ namespace {
 
 constexpr std::uint64_t kStructuralSeed = 20130601;  // synthetic poses of the structural analysis
 constexpr int kStructuralPoses = 400;
-constexpr int kDefaultFolds = 5;  // model selection when cross-validation is off
+constexpr int kDefaultFolds = 5;
+constexpr int kIterations = 100;  // Levenberg-Marquardt's limit
+constexpr int kFixtureIterations =
+    500;  // for fixture points and planes  // model selection when cross-validation is off
 
 using detail::CompressedMeasurementCost;
 using detail::measurement_rows;
@@ -83,6 +78,7 @@ using detail::MeasurementCost;
 using detail::position_rss;
 using detail::residuals_at;
 using detail::RowMatrix;
+using detail::rows_of;
 using detail::RowsOf;
 using detail::Stack;
 using detail::stack;
@@ -110,6 +106,7 @@ RowMatrix measured_values(const Log& log, const std::vector<int>& rows, const Ro
 RowMatrix predicted_values(const ChainStructure& s, const Eigen::VectorXd& params,
                            const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind) {
   RowMatrix out(joints.size(), traits(kind.type).width);
+  if (is_fixture(kind.type)) return RowMatrix::Zero(out.rows(), out.cols());  // nothing measured
   const ChainConstants<double> constants = chain_constants(s, params.data());
   for (size_t i = 0; i < joints.size(); ++i) {
     const Frame<double> tool = forward_kinematics(s, constants, joints[i].data());
@@ -237,7 +234,10 @@ std::vector<std::vector<int>> repeated_poses(const Log& log) {
       const double v = log.q(r, j) + 0.0;  // -0.0 and 0.0 are one reading
       std::memcpy(key.data() + sizeof(double) * j, &v, sizeof(double));
     }
-    const auto [it, added] = index.try_emplace(key, static_cast<int>(groups.size()));
+    // A fixture log's rows are one pose only at one label.
+    const std::string labelled =
+        log.label.empty() ? key : key + '\0' + log.label[static_cast<size_t>(r)];
+    const auto [it, added] = index.try_emplace(labelled, static_cast<int>(groups.size()));
     if (added) groups.emplace_back();
     groups[it->second].push_back(r);
   }
@@ -253,6 +253,8 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
   out.has_position = log.has_position;
   out.has_time = log.has_time;
   out.has_orientation = log.has_orientation;
+  out.has_point = log.has_point;
+  out.has_plane = log.has_plane;
   out.q.resize(out.rows, log.dof());
   out.ext = Eigen::MatrixXd::Zero(out.rows, log.ext.cols());
   if (log.has_distance) out.distance = Eigen::VectorXd::Zero(out.rows);
@@ -263,6 +265,7 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
     const std::vector<int>& rows = groups[g];
     const int first = rows.front();
     out.q.row(g) = log.q.row(first);
+    if (!log.label.empty()) out.label.push_back(log.label[static_cast<size_t>(first)]);
     out.line.push_back(first < static_cast<int>(log.line.size()) ? log.line[first] : 0);
     if (log.has_time) out.t[g] = log.t[first];
     const double w = 1.0 / static_cast<double>(rows.size());
@@ -461,7 +464,10 @@ std::optional<std::string> register_frame(DeviceModel& model,
                                           const RowsOf& kind, const RowMatrix& measured,
                                           const Eigen::VectorXd& weights,
                                           const std::vector<int>& candidates) {
-  if (kind.type == MeasurementType::kDistance || model.base_kind != BaseKind::kPose) return {};
+  if (kind.type == MeasurementType::kDistance || is_fixture(kind.type) ||
+      model.base_kind != BaseKind::kPose) {
+    return {};  // no measured points to register to
+  }
   for (int k = 0; k < kPoseSlots; ++k) {  // every base slot free
     if (std::find(candidates.begin(), candidates.end(), k) == candidates.end()) return {};
   }
@@ -505,6 +511,7 @@ std::optional<std::string> register_frame(DeviceModel& model,
 // rows - poses degrees of freedom; NaN without repeats.
 double repeatability(const Log& log, const std::vector<std::vector<int>>& poses, const Log& means,
                      const RowsOf& kind) {
+  if (is_fixture(kind.type)) return std::numeric_limits<double>::quiet_NaN();  // nothing measured
   double sum = 0;
   int dof = 0;
   for (size_t g = 0; g < poses.size(); ++g) {
@@ -644,6 +651,9 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   std::vector<int> pose_index(m);
   std::iota(pose_index.begin(), pose_index.end(), 0);
   problem.measured = measured_values(poses, pose_index, RowsOf{problem.type});
+  if (is_fixture(problem.type)) {
+    problem.labels = fixture_labels(problem.type, poses, pose_index, options.point_distances);
+  }
   problem.rows = m;
   if (!repeats.empty()) {
     problem.rows = std::accumulate(repeats.begin(), repeats.end(), 0);
@@ -657,15 +667,17 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   const int d = traits(problem.type).dimension;
   // Beyond options.max_jacobian_bytes the Jacobian is never formed (issue 10:
   // 10^6 rows): its R factor carries the same column geometry.
-  problem.compressed = static_cast<double>(m) * d * model.structure().num_slots() * sizeof(double) >
-                       static_cast<double>(options.max_jacobian_bytes);
+  // (A fixture problem's rows couple the poses of a label: never compressed.)
+  problem.compressed = !is_fixture(problem.type) &&
+                       static_cast<double>(m) * d * model.structure().num_slots() * sizeof(double) >
+                           static_cast<double>(options.max_jacobian_bytes);
   set_scales(problem);
   return problem;
 }
 
 bool register_measurement_frame(KinematicProblem& problem, const std::vector<int>& candidates,
                                 std::vector<std::string>& notes) {
-  auto note = register_frame(problem.model, problem.joints, RowsOf{problem.type}, problem.measured,
+  auto note = register_frame(problem.model, problem.joints, rows_of(problem), problem.measured,
                              problem.weights, candidates);
   if (!note) return false;
   notes.push_back(*note);
@@ -679,7 +691,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   const DeviceModel& model = problem.model;
   const ChainStructure s = model.structure();
   const Eigen::VectorXd p0 = model.kinematic_parameters();
-  const RowsOf kind{problem.type, problem.rotation_scale};
+  const RowsOf kind = rows_of(problem);
   // On synthetic poses over the joint limits (structural) and on the data.
   std::mt19937_64 rng(kStructuralSeed);
   std::vector<Eigen::VectorXd> synthetic(kStructuralPoses);
@@ -693,8 +705,18 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   }
   const Stack data =
       stack(s, p0, problem.joints, kind, problem.measured, problem.weights, problem.compressed);
-  const Stack structural =
-      stack(s, p0, synthetic, kind, predicted_values(s, p0, synthetic, kind), Eigen::VectorXd());
+  // A fixture problem's synthetic poses are spread over as many labels as the data's.
+  FixtureLabels synthetic_labels;
+  RowsOf synthetic_kind = kind;
+  if (kind.labels) {
+    synthetic_labels = problem.labels;
+    synthetic_labels.of_pose.resize(synthetic.size());
+    for (size_t i = 0; i < synthetic.size(); ++i)
+      synthetic_labels.of_pose[i] = static_cast<int>(i) % problem.labels.count();
+    synthetic_kind.labels = &synthetic_labels;
+  }
+  const Stack structural = stack(s, p0, synthetic, synthetic_kind,
+                                 predicted_values(s, p0, synthetic, kind), Eigen::VectorXd());
   IdentifiabilityAnalysis out;
   out.scale = Eigen::VectorXd::Ones(s.num_slots());
   std::map<int, std::string> name;
@@ -706,17 +728,60 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   auto scaled = [&](const Eigen::MatrixXd& J) {
     return Eigen::MatrixXd(J * out.scale.cwiseInverse().asDiagonal());
   };
-  const auto structural_verdict = rank_test(scaled(structural.J), candidates, tolerance);
-  const auto data_verdict = rank_test(scaled(data.J), candidates, tolerance);
-  for (int slot : candidates) {
+  // A fixture's unknown points or planes absorb a rigid motion of the whole
+  // robot (the cost does not change: the residuals turn with it). The base pose
+  // is that motion: it goes first in the rank test, so that what duplicates it
+  // is found dependent on it, and is held. Synthetic poses cannot reach a common
+  // point: the data's poses decide alone.
+  std::vector<int> order = candidates;
+  const auto is_base = [&](int slot) { return slot < s.base_slots(); };
+  if (kind.labels) std::stable_partition(order.begin(), order.end(), is_base);
+  Eigen::MatrixXd data_J = scaled(data.J);
+  // Planes, and points without a known distance, cannot see a uniform scale of
+  // the robot either (every length times 1 + e): its effect joins the base's in
+  // front of the rank test, as a pseudo-parameter after the slots.
+  const int scale_column = s.num_slots();
+  if (kind.labels &&
+      (problem.type == MeasurementType::kPlane || problem.labels.distances.empty())) {
+    Eigen::VectorXd lengths = Eigen::VectorXd::Zero(s.num_slots());
+    for (const ParameterInfo& pi : model.parameter_info()) {
+      if (pi.unit == ParameterUnit::kLength) lengths[pi.slot] = p0[pi.slot];
+    }
+    data_J.conservativeResize(Eigen::NoChange, scale_column + 1);
+    data_J.col(scale_column) = data.J * lengths;
+    order.insert(std::find_if_not(order.begin(), order.end(), is_base), scale_column);
+    name[scale_column] = "a uniform scale of every length";
+  }
+  const auto data_verdict = rank_test(data_J, order, tolerance);
+  const auto structural_verdict =
+      kind.labels ? data_verdict : rank_test(scaled(structural.J), order, tolerance);
+  for (int slot : order) {
+    if (slot == scale_column && kind.labels) continue;  // the pseudo-parameter
     const Verdict& sv = structural_verdict.at(slot);
     const Verdict& dv = data_verdict.at(slot);
-    if (dv.kind == Verdict::kIdentified) {
+    if (kind.labels && is_base(slot)) {
+      out.reason[slot] = fmt::format(
+          "no effect on the measurements: the unknown places of the fixture's {} absorb a "
+          "rigid motion of the whole robot",
+          traits(problem.type).plural);
+    } else if (dv.kind == Verdict::kIdentified) {
       out.identified.push_back(slot);
     } else if (sv.kind == Verdict::kNoEffect) {
       out.reason[slot] = "no effect on the measurements";
+      if (kind.labels) {
+        out.reason[slot] += fmt::format(" (the unknown places of the fixture's {} absorb it)",
+                                        traits(problem.type).plural);
+      }
     } else if (sv.kind == Verdict::kDependent) {
       out.reason[slot] = "dependent: its effect is that of " + names_of(sv.on, name);
+      if (kind.labels && std::all_of(sv.on.begin(), sv.on.end(), is_base)) {
+        out.reason[slot] += " (a rigid motion of the whole robot, which the fixture absorbs)";
+      } else if (kind.labels &&
+                 std::find(sv.on.begin(), sv.on.end(), scale_column) != sv.on.end()) {
+        out.reason[slot] += fmt::format(
+            " (the {} cannot see the robot's size: give a known distance between points)",
+            traits(problem.type).plural);
+      }
     } else {
       out.rank_deficient = true;
       out.reason[slot] = dv.kind == Verdict::kNoEffect
@@ -758,10 +823,9 @@ KinematicSolution solve_kinematics(const KinematicProblem& problem,
       constant.push_back(k);
   }
   ceres::Problem lm;
-  lm.AddResidualBlock(
-      measurement_cost(s, problem.joints, RowsOf{problem.type, problem.rotation_scale},
-                       problem.measured, problem.weights, problem.compressed),
-      nullptr, out.parameters.data());
+  lm.AddResidualBlock(measurement_cost(s, problem.joints, rows_of(problem), problem.measured,
+                                       problem.weights, problem.compressed),
+                      nullptr, out.parameters.data());
   if (!constant.empty()) {
     lm.SetManifold(out.parameters.data(), new ceres::SubsetManifold(s.num_slots(), constant));
   }
@@ -835,7 +899,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   fit.length_scale = problem.length_scale;
   fit.rotation_scale = problem.rotation_scale;
   const ChainStructure s = model.structure();
-  const RowsOf kind{problem.type, problem.rotation_scale};
+  const RowsOf kind = rows_of(problem);
   const RowMatrix& measured = problem.measured;
   const Eigen::VectorXd& weights = problem.weights;
   const bool compressed = problem.compressed;
@@ -880,7 +944,10 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             [](const auto& r) { return r.second.rfind("not excited", 0) == 0; }),
           "identifiable");
   fit.structurally_identified = static_cast<int>(identified.size());
-  KinematicSolution solution = solve_kinematics(problem, identified);
+  // A fixture problem's cost is flat along motions its unknown points nearly
+  // absorb: Levenberg-Marquardt needs more steps (the MUKCa Panda: up to 130).
+  const int iterations = is_fixture(problem.type) ? kFixtureIterations : kIterations;
+  KinematicSolution solution = solve_kinematics(problem, identified, iterations);
   // The residuals and Jacobian at the fit, for selection, cross-validation and statistics.
   Stack data = stack(s, solution.parameters, problem.joints, kind, measured, weights, compressed);
   std::map<int, std::string> name;
@@ -919,7 +986,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
         Eigen::VectorXd from = solution.parameters;
         for (int slot : held) from[slot] = start[slot];
         warm.model.set_kinematic_parameters(from);
-        refit = solve_kinematics(warm, selection.kept);
+        refit = solve_kinematics(warm, selection.kept, iterations);
       }
       if (refit.termination == SolveTermination::kConverged) {
         identified = selection.kept;

@@ -1,17 +1,28 @@
 #include "hapticcal/identification/measurement.hpp"
 
+#include <fmt/format.h>
+
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <numeric>
+
+#include "hapticcal/io/error.hpp"
 
 namespace hapticcal {
 
 const MeasurementTraits& traits(MeasurementType type) {
-  static const MeasurementTraits table[] = {
-      {"distance", "distances", 1, 1}, {"position", "positions", 3, 3}, {"pose", "poses", 6, 7}};
+  static const MeasurementTraits table[] = {{"distance", "distances", 1, 1},
+                                            {"position", "positions", 3, 3},
+                                            {"pose", "poses", 6, 7},
+                                            {"point", "fixture points", 3, 3},
+                                            {"plane", "plane contacts", 1, 3}};
   return table[static_cast<int>(type)];
 }
 
 MeasurementType measurement_type(const Log& log) {
+  if (log.has_point) return MeasurementType::kPoint;
+  if (log.has_plane) return MeasurementType::kPlane;
   if (log.has_orientation) return MeasurementType::kPose;
   return log.has_position ? MeasurementType::kPosition : MeasurementType::kDistance;
 }
@@ -27,6 +38,132 @@ void measured_values(MeasurementType type, const Log& log, int row, double* out)
     case MeasurementType::kPosition:
       for (int k = 0; k < 3; ++k) out[k] = log.position(row, k);
       return;
+    case MeasurementType::kPoint:
+    case MeasurementType::kPlane:
+      for (int k = 0; k < 3; ++k) out[k] = 0;  // the raw rows are the tool point itself
+      return;
+  }
+}
+
+FixtureLabels fixture_labels(MeasurementType type, const Log& log, const std::vector<int>& rows,
+                             const std::vector<PointDistance>& distances) {
+  FixtureLabels out;
+  std::vector<int> samples;
+  for (int r : rows) {
+    const std::string& name = log.label.at(static_cast<size_t>(r));
+    const auto it = std::find(out.names.begin(), out.names.end(), name);
+    const int index = static_cast<int>(it - out.names.begin());
+    if (it == out.names.end()) {
+      out.names.push_back(name);
+      samples.push_back(0);
+    }
+    out.of_pose.push_back(index);
+    ++samples[index];
+  }
+  const bool plane = type == MeasurementType::kPlane;
+  for (int k = 0; k < out.count(); ++k) {
+    const int needed = plane ? 3 : 2;
+    if (samples[k] >= needed) continue;
+    throw InputError(log.origin, 0, plane ? "plane" : "point",
+                     fmt::format("{} '{}' has {} sample{} (distinct poses): a {} needs at least {}",
+                                 plane ? "plane" : "point", out.names[k], samples[k],
+                                 samples[k] == 1 ? "" : "s", plane ? "plane" : "point", needed));
+  }
+  for (const PointDistance& d : distances) {
+    if (plane) {
+      throw InputError(log.origin, 0, "--point-distance",
+                       "known distances are between fixture points; this log holds planes");
+    }
+    auto index = [&](const std::string& name) {
+      const auto it = std::find(out.names.begin(), out.names.end(), name);
+      if (it == out.names.end()) {
+        throw InputError(log.origin, 0, "--point-distance",
+                         fmt::format("no point '{}' in the log", name));
+      }
+      return static_cast<int>(it - out.names.begin());
+    };
+    const int a = index(d.a), b = index(d.b);
+    if (a == b) {
+      throw InputError(log.origin, 0, "--point-distance",
+                       fmt::format("'{}' twice: a distance is between two points", d.a));
+    }
+    if (!(d.metres > 0 && std::isfinite(d.metres))) {
+      throw InputError(
+          log.origin, 0, "--point-distance",
+          fmt::format("{}:{}: a distance must be a positive number of metres", d.a, d.b));
+    }
+    out.distances.push_back({a, b, d.metres});
+  }
+  return out;
+}
+
+int fixture_rows(MeasurementType type, const FixtureLabels& labels, int poses) {
+  return poses * traits(type).dimension + static_cast<int>(labels.distances.size());
+}
+
+void fixture_residuals(MeasurementType type, const FixtureLabels& labels, const Eigen::VectorXd& w,
+                       const Eigen::VectorXd& raw, const Eigen::MatrixXd* raw_J, double* residual,
+                       Eigen::MatrixXd* J) {
+  const int m = static_cast<int>(labels.of_pose.size());
+  const int L = labels.count();
+  const Eigen::Index n = raw_J ? raw_J->cols() : 0;
+  auto weight = [&](int i) { return w.size() > 0 ? w[i] : 1.0; };
+  // The labels' weighted mean points (and their Jacobians).
+  std::vector<Eigen::Vector3d> mean(L, Eigen::Vector3d::Zero());
+  std::vector<Eigen::MatrixXd> mean_J(L, Eigen::MatrixXd::Zero(3, n));
+  std::vector<double> total(L, 0.0);
+  std::vector<int> samples(L, 0);
+  for (int i = 0; i < m; ++i) {
+    const int l = labels.of_pose[i];
+    const double wi = weight(i) * weight(i);
+    mean[l] += wi * raw.segment<3>(3 * i);
+    if (raw_J) mean_J[l] += wi * raw_J->middleRows(3 * i, 3);
+    total[l] += wi;
+    ++samples[l];
+  }
+  for (int l = 0; l < L; ++l) {
+    mean[l] /= total[l];
+    if (raw_J) mean_J[l] /= total[l];
+  }
+  const int d = traits(type).dimension;
+  if (J) J->setZero(fixture_rows(type, labels, m), n);
+  if (type == MeasurementType::kPoint) {
+    for (int i = 0; i < m; ++i) {
+      const int l = labels.of_pose[i];
+      const Eigen::Vector3d e = weight(i) * (raw.segment<3>(3 * i) - mean[l]);
+      for (int k = 0; k < 3; ++k) residual[3 * i + k] = e[k];
+      if (J) J->middleRows(3 * i, 3) = weight(i) * (raw_J->middleRows(3 * i, 3) - mean_J[l]);
+    }
+  } else {
+    // Each label's best plane: the normal is the direction its points spread least.
+    std::vector<Eigen::Vector3d> normal(L);
+    std::vector<Eigen::Matrix3d> scatter(L, Eigen::Matrix3d::Zero());
+    for (int i = 0; i < m; ++i) {
+      const int l = labels.of_pose[i];
+      const Eigen::Vector3d e = raw.segment<3>(3 * i) - mean[l];
+      scatter[l] += weight(i) * weight(i) * e * e.transpose();
+    }
+    for (int l = 0; l < L; ++l) {
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(scatter[l]);
+      normal[l] = eig.eigenvectors().col(0);
+    }
+    for (int i = 0; i < m; ++i) {
+      const int l = labels.of_pose[i];
+      residual[i] = weight(i) * normal[l].dot(raw.segment<3>(3 * i) - mean[l]);
+      if (J) {
+        J->row(i) = weight(i) * normal[l].transpose() * (raw_J->middleRows(3 * i, 3) - mean_J[l]);
+      }
+    }
+  }
+  for (size_t k = 0; k < labels.distances.size(); ++k) {
+    const FixtureLabels::Known& known = labels.distances[k];
+    const Eigen::Vector3d v = mean[known.a] - mean[known.b];
+    const double scale = std::sqrt(static_cast<double>(samples[known.a] + samples[known.b]));
+    const int row = m * d + static_cast<int>(k);
+    residual[row] = scale * (v.norm() - known.metres);
+    if (J) {
+      J->row(row) = scale * v.normalized().transpose() * (mean_J[known.a] - mean_J[known.b]);
+    }
   }
 }
 
@@ -65,7 +202,7 @@ void measurement_rows(MeasurementType type, const ChainStructure& s,
   }
   Eigen::Matrix<double, 3, Eigen::Dynamic> J_p;
   const Eigen::Vector3d p = position_parameter_jacobian(s, constants, params, joint, J_p);
-  if (type == MeasurementType::kPosition) {
+  if (type != MeasurementType::kDistance) {  // a position, or a fixture sample's raw rows
     for (int k = 0; k < 3; ++k) residual[k] = p[k] - measured[k];
     J = J_p;
   } else {

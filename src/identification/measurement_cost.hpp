@@ -23,8 +23,13 @@ using RowMatrix = MeasuredValues;
 // The family's rows with a pose's rotation scale (measurement.hpp).
 struct RowsOf {
   MeasurementType type = MeasurementType::kDistance;
-  double rotation_scale = 1;  // metres per radian of a pose's rotation rows
+  double rotation_scale = 1;              // metres per radian of a pose's rotation rows
+  const FixtureLabels* labels = nullptr;  // a fixture problem's (fixture points or planes)
   int dimension() const { return traits(type).dimension; }
+  // Residual rows of `poses` poses: a fixture problem's include its known distances.
+  int rows(int poses) const {
+    return labels ? fixture_rows(type, *labels, poses) : poses * dimension();
+  }
 };
 
 inline void measurement_rows(const ChainStructure& s, const ChainConstants<double>& constants,
@@ -45,6 +50,37 @@ inline void weigh(const Eigen::VectorXd& weights, size_t pose, double* residual,
   J *= w;
 }
 
+// Every residual row of the poses (kind.rows), weighted, and if J its Jacobian
+// (rows x slots): the family's rows pose by pose, or a fixture problem's rows
+// from the poses' tool points (fixture_residuals).
+inline void all_rows(const ChainStructure& s, const double* params,
+                     const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
+                     const RowMatrix& measured, const Eigen::VectorXd& weights, double* residual,
+                     Eigen::MatrixXd* J) {
+  const int m = static_cast<int>(joints.size());
+  const int n = s.num_slots();
+  const ChainConstants<double> constants = chain_constants(s, params);
+  if (kind.labels) {
+    Eigen::VectorXd raw(3 * m);
+    Eigen::MatrixXd raw_J(3 * m, n);
+    for (int i = 0; i < m; ++i) {
+      measurement_rows(s, constants, params, joints[i].data(), kind, measured.row(i).data(),
+                       raw.data() + 3 * i, raw_J.middleRows(3 * i, 3));
+    }
+    fixture_residuals(kind.type, *kind.labels, weights, raw, J ? &raw_J : nullptr, residual, J);
+    return;
+  }
+  const int d = kind.dimension();
+  Eigen::MatrixXd Ji(d, n);
+  if (J) J->resize(static_cast<Eigen::Index>(m) * d, n);
+  for (int i = 0; i < m; ++i) {
+    measurement_rows(s, constants, params, joints[i].data(), kind, measured.row(i).data(),
+                     residual + d * i, Ji);
+    weigh(weights, i, residual + d * i, Ji);
+    if (J) J->middleRows(static_cast<Eigen::Index>(d) * i, d) = Ji;
+  }
+}
+
 // Ceres cost over a set of poses: kind.dimension() rows per pose,
 // parameters all slots of `s`, each pose's rows weighted (weigh).
 class MeasurementCost : public ceres::CostFunction {
@@ -56,7 +92,7 @@ class MeasurementCost : public ceres::CostFunction {
         kind_(kind),
         measured_(std::move(measured)),
         weights_(std::move(weights)) {
-    set_num_residuals(static_cast<int>(joints_.size()) * kind.dimension());
+    set_num_residuals(kind.rows(static_cast<int>(joints_.size())));
     mutable_parameter_block_sizes()->push_back(s.num_slots());
   }
 
@@ -64,6 +100,14 @@ class MeasurementCost : public ceres::CostFunction {
                 double** jacobians) const override {
     const int d = kind_.dimension();
     const int n = s_.num_slots();
+    if (kind_.labels) {  // a fixture problem: rows that couple the poses of a label
+      Eigen::MatrixXd J;
+      const bool jacobian = jacobians && jacobians[0];
+      all_rows(s_, parameters[0], joints_, kind_, measured_, weights_, residuals,
+               jacobian ? &J : nullptr);
+      if (jacobian) Eigen::Map<RowMatrix>(jacobians[0], J.rows(), n) = J;
+      return true;
+    }
     Eigen::MatrixXd J(d, n);
     const ChainConstants<double> constants = chain_constants(s_, parameters[0]);
     for (size_t i = 0; i < joints_.size(); ++i) {

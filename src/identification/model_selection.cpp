@@ -22,6 +22,7 @@
 namespace hapticcal {
 namespace {
 
+using detail::rows_of;
 using detail::RowsOf;
 
 constexpr double kInfinite = std::numeric_limits<double>::infinity();
@@ -237,7 +238,7 @@ namespace detail {
 ModelSelection select_model(const KinematicProblem& problem, const std::vector<int>& identified,
                             const Eigen::VectorXd& solution, const Stack& at, double alpha,
                             int folds, std::uint64_t seed) {
-  const RowsOf kind{problem.type, problem.rotation_scale};
+  const RowsOf kind = rows_of(problem);
   const int m = static_cast<int>(problem.joints.size());
   const int n = static_cast<int>(identified.size());
   const Eigen::VectorXd start = problem.model.kinematic_parameters();
@@ -316,12 +317,18 @@ CrossValidation cross_validate(const KinematicProblem& problem, const std::vecto
     out.note = "not computed: the log is too long for per-pose fits (compressed Jacobian)";
     return out;
   }
+  if (is_fixture(problem.type)) {
+    out.note =
+        "not computed for fixture logs (a held-out pose's point or plane comes from the other "
+        "poses): evaluate the model on a fixture placement left out of the fit instead";
+    return out;
+  }
   if (m < 2 || folds < 2) {
     out.note = m < 2 ? "not computed: fewer than two poses" : "not computed (folds < 2)";
     return out;
   }
   out.folds = std::min(folds, m);
-  const RowsOf kind{problem.type, problem.rotation_scale};
+  const RowsOf kind = rows_of(problem);
   const LinearisedFolds system(at, identified, column_scale(problem),
                                pose_folds(m, out.folds, seed), out.folds, kind);
   std::vector<int> all(identified.size());

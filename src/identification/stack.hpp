@@ -35,6 +35,12 @@ Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& par
 // but of a pose only its position rows (its rotation rows are reported apart).
 double position_rss(const Eigen::VectorXd& r, const RowsOf& kind);
 
+// The rows of a problem: its measurement type, rotation scale and fixture labels.
+inline RowsOf rows_of(const KinematicProblem& problem) {
+  return {problem.type, problem.rotation_scale,
+          is_fixture(problem.type) ? &problem.labels : nullptr};
+}
+
 // select_model and cross_validate (identification.hpp) at a fit whose stack
 // (not compressed) is `at`.
 ModelSelection select_model(const KinematicProblem& problem, const std::vector<int>& identified,

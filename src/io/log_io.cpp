@@ -31,9 +31,11 @@ enum class Quantity {
   kQz,
   kRx,
   kRy,
-  kRz
+  kRz,
+  kPoint,  // a label: the fixture point the tool point is at
+  kPlane   // a label: the plane the tool point touches
 };
-constexpr int kQuantities = static_cast<int>(Quantity::kRz) + 1;
+constexpr int kQuantities = static_cast<int>(Quantity::kPlane) + 1;
 
 bool is_quaternion(Quantity q) { return q >= Quantity::kQw && q <= Quantity::kQz; }
 bool is_rotation_vector(Quantity q) { return q >= Quantity::kRx && q <= Quantity::kRz; }
@@ -56,8 +58,8 @@ int component_index(const std::string& base, char prefix, std::string_view lette
 }
 
 constexpr const char* kExpectedColumns =
-    "unknown column (expected q<i>, ext<i>, distance, x, y, z, qw, qx, qy, qz, rx, ry, rz, t or "
-    "_)";
+    "unknown column (expected q<i>, ext<i>, distance, x, y, z, qw, qx, qy, qz, rx, ry, rz, t, "
+    "point, plane or _)";
 
 struct Column {
   std::string name;  // as written, for messages
@@ -143,6 +145,13 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
     c.quantity = Quantity::kZ;
   } else if (base == "t") {
     c.quantity = Quantity::kTime;
+  } else if (base == "point" || base == "plane") {
+    c.quantity = base == "point" ? Quantity::kPoint : Quantity::kPlane;
+    if (!unit.empty()) {
+      throw InputError(origin, line, c.name,
+                       fmt::format("unit '{}': a {} column holds labels", printable(unit), base));
+    }
+    return c;
   } else if (const int k = component_index(base, 'q', kQuaternionLetters); k >= 0) {
     c.quantity = static_cast<Quantity>(static_cast<int>(Quantity::kQw) + k);
   } else if (const int k = component_index(base, 'r', kRotationVectorLetters); k >= 0) {
@@ -276,6 +285,21 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
     throw InputError(origin, line, missing, "missing: positions need all of x, y, z");
   }
   check_orientation_columns(columns, count, origin, line);
+  const int points = count[static_cast<int>(Quantity::kPoint)];
+  const int planes = count[static_cast<int>(Quantity::kPlane)];
+  if (points + planes > 0) {
+    if (points && planes) {
+      throw InputError(origin, line, "plane",
+                       "a log holds fixture points or plane contacts, not both");
+    }
+    const char* label = points ? "point" : "plane";
+    if (xyz != 0 || count[static_cast<int>(Quantity::kDistance)] != 0) {
+      throw InputError(origin, line, label,
+                       fmt::format("a {} log has no measured x, y, z or distance: the {} label is "
+                                   "the measurement",
+                                   label, label));
+    }
+  }
   return dof;
 }
 
@@ -310,6 +334,8 @@ std::vector<std::string> split_columns(const std::string& list) { return split(l
 
 // More columns than any log of a chain needs (q, ext per joint, measurements).
 constexpr size_t kMaxColumns = 1000;
+// A point or plane label's length at most (a name, not a document).
+constexpr size_t kMaxLabel = 64;
 
 Log parse_log(const std::string& text, const std::string& origin,
               const std::vector<std::string>& column_names) {
@@ -323,6 +349,7 @@ Log parse_log(const std::string& text, const std::string& origin,
   if (!column_names.empty()) set_columns(column_names, "--columns", 0);
 
   std::vector<std::vector<double>> rows;
+  std::vector<std::string> labels;
   std::vector<int> lines;
   size_t pos = 0;
   int line_no = 0;
@@ -352,9 +379,23 @@ Log parse_log(const std::string& text, const std::string& origin,
       continue;
     }
     std::vector<double> row(columns.size(), 0.0);
+    std::string row_label;
     for (size_t k = 0; k < fields.size(); ++k) {
       if (columns[k].quantity == Quantity::kSkip) continue;
       const std::string& f = fields[k];
+      if (columns[k].quantity == Quantity::kPoint || columns[k].quantity == Quantity::kPlane) {
+        if (f.empty()) throw InputError(origin, line_no, columns[k].name, "empty label");
+        if (f.size() > kMaxLabel) {
+          throw InputError(
+              origin, line_no, columns[k].name,
+              fmt::format("a label of {} characters: at most {}", f.size(), kMaxLabel));
+        }
+        if (const std::string problem = text_problem(f); !problem.empty()) {
+          throw InputError(origin, line_no, columns[k].name, "label " + problem);
+        }
+        row_label = f;
+        continue;
+      }
       const char* begin = f.data();
       const char* end = f.data() + f.size();
       if (begin != end && *begin == '+') ++begin;
@@ -371,6 +412,7 @@ Log parse_log(const std::string& text, const std::string& origin,
       row[k] = v * columns[k].scale;
     }
     rows.push_back(std::move(row));
+    labels.push_back(std::move(row_label));
     lines.push_back(line_no);
   }
   if (columns.empty()) throw InputError(origin, 0, "", "empty log: no header and no data");
@@ -397,6 +439,12 @@ Log parse_log(const std::string& text, const std::string& origin,
         break;
       case Quantity::kTime:
         log.has_time = true;
+        break;
+      case Quantity::kPoint:
+        log.has_point = true;
+        break;
+      case Quantity::kPlane:
+        log.has_plane = true;
         break;
       case Quantity::kExternal:
         log.has_ext[c.joint] = true;
@@ -456,10 +504,13 @@ Log parse_log(const std::string& text, const std::string& origin,
           log.orientation(r, static_cast<int>(c.quantity) - static_cast<int>(Quantity::kRx)) = v;
           break;
         case Quantity::kSkip:
+        case Quantity::kPoint:
+        case Quantity::kPlane:
           break;
       }
     }
   }
+  if (log.has_point || log.has_plane) log.label = std::move(labels);
   if (log.has_orientation) {
     const bool rotation_vectors = std::any_of(columns.begin(), columns.end(), [](const Column& c) {
       return is_rotation_vector(c.quantity);
@@ -488,9 +539,10 @@ void check_log_fits(const Log& log, const DeviceModel& model) {
                      fmt::format("the log has {} joint columns but the model '{}' has {} joints",
                                  log.dof(), model.name, model.dof()));
   }
-  if (!log.has_distance && !log.has_position) {
+  if (!log.has_distance && !log.has_position && !log.has_point && !log.has_plane) {
     throw InputError(log.origin, 0, "",
-                     "no measurements: the log has neither a distance nor x, y, z columns");
+                     "no measurements: the log has neither a distance, x, y, z, a point nor a "
+                     "plane column");
   }
   // Readings with a unit: angles for turning joints, lengths for prismatic ones.
   auto check = [&](const std::vector<ReadingUnit>& units, const std::vector<std::string>& names) {
@@ -519,6 +571,7 @@ std::string log_to_csv(const Log& log) {
   if (log.has_distance) header.push_back("distance");
   if (log.has_position) header.insert(header.end(), {"x", "y", "z"});
   if (log.has_orientation) header.insert(header.end(), {"qw", "qx", "qy", "qz"});
+  if (log.has_point || log.has_plane) header.push_back(log.has_point ? "point" : "plane");
   for (size_t k = 0; k < header.size(); ++k) out += (k ? "," : "") + header[k];
   out += '\n';
   fmt::memory_buffer row;
@@ -538,6 +591,9 @@ std::string log_to_csv(const Log& log) {
     }
     if (log.has_orientation) {
       for (int k = 0; k < 4; ++k) put(log.orientation(r, k));
+    }
+    if (log.has_point || log.has_plane) {
+      fmt::format_to(std::back_inserter(row), "{}{}", row.size() ? "," : "", log.label[r]);
     }
     out.append(row.data(), row.size());
     out += '\n';

@@ -137,7 +137,7 @@ void selection_section(const KinematicFit& k, Report& report) {
 }  // namespace
 
 Report calibration_report(const CalibrationResult& result, const DeviceModel& nominal,
-                          const Log& log) {
+                          const Log& log, const std::vector<PointDistance>& point_distances) {
   const KinematicFit& k = result.kinematics;
   Report report;
   report.title = fmt::format("hapticcal calibrate: {} on {}", nominal.name, log.origin);
@@ -203,21 +203,34 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
     transmission_figures(t, nominal.links[t.joint].name, log, plotted_rows,
                          result.calibrated.links[t.joint].transmission, nullptr, report.figures);
   }
-  const Evaluation before = evaluate(nominal, log), after = evaluate(result.calibrated, log);
-  const bool position = k.type != MeasurementType::kDistance;
+  const Evaluation before = evaluate(nominal, log, point_distances),
+                   after = evaluate(result.calibrated, log, point_distances);
+  const bool fixture = is_fixture(k.type);
+  const bool position = k.type != MeasurementType::kDistance && !fixture;
+  const Eigen::VectorXd& error_before = fixture    ? before.fixture_error
+                                        : position ? before.position_error
+                                                   : before.distance_error;
+  const Eigen::VectorXd& error_after = fixture    ? after.fixture_error
+                                       : position ? after.position_error
+                                                  : after.distance_error;
   std::vector<double> sample, eb, ea;
   const int row_stride = std::max(1, (log.rows + kMaxPlotted - 1) / kMaxPlotted);
   for (int r = 0; r < log.rows; r += row_stride) {
     sample.push_back(r + 1);
-    eb.push_back((position ? before.position_error[r] : before.distance_error[r]) * 1e3);
-    ea.push_back((position ? after.position_error[r] : after.distance_error[r]) * 1e3);
+    eb.push_back(error_before[r] * 1e3);
+    ea.push_back(error_after[r] * 1e3);
   }
-  FigureSpec residuals = figure(
-      "errors_per_sample",
-      position ? "Position error per sample, before and after calibration"
-               : "Distance error per sample, before and after calibration",
-      "sample", position ? "|p_model - p_measured| [mm]" : "delta_model - delta_measured [mm]",
-      {sample, eb, ea});
+  const char* title = k.type == MeasurementType::kPoint
+                          ? "Distance of each sample's tool point from its fixture point's centre"
+                      : k.type == MeasurementType::kPlane
+                          ? "Distance of each sample's tool point from its plane"
+                      : position ? "Position error per sample, before and after calibration"
+                                 : "Distance error per sample, before and after calibration";
+  const char* axis = k.type == MeasurementType::kPoint   ? "|p_model - centre| [mm]"
+                     : k.type == MeasurementType::kPlane ? "n . (p_model - centre) [mm]"
+                     : position                          ? "|p_model - p_measured| [mm]"
+                                                         : "delta_model - delta_measured [mm]";
+  FigureSpec residuals = figure("errors_per_sample", title, "sample", axis, {sample, eb, ea});
   residuals.series = {{"nominal model", 0, 1, "points"}, {"calibrated model", 0, 2, "points"}};
   report.figures.push_back(residuals);
   if (k.correlation.size() > 0) {

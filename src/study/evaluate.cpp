@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <numeric>
 
 #include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/io/error.hpp"
@@ -17,8 +18,61 @@ ErrorStats stats(const Eigen::VectorXd& e) {
 
 }  // namespace
 
-Evaluation evaluate(const DeviceModel& model, const Log& log) {
+namespace {
+
+// Fixture logs: the spread of each label's predicted tool points (evaluate).
+void evaluate_fixture(const Log& log, const std::vector<Eigen::Vector3d>& points,
+                      const std::vector<PointDistance>& point_distances, Evaluation& ev) {
+  const MeasurementType type = measurement_type(log);
+  std::vector<int> rows(log.rows);
+  std::iota(rows.begin(), rows.end(), 0);
+  const FixtureLabels labels = fixture_labels(type, log, rows, point_distances);
+  Eigen::VectorXd raw(3 * log.rows);
+  for (int r = 0; r < log.rows; ++r) raw.segment<3>(3 * r) = points[r];
+  Eigen::VectorXd residual(fixture_rows(type, labels, log.rows));
+  fixture_residuals(type, labels, Eigen::VectorXd(), raw, nullptr, residual.data(), nullptr);
+  const bool point = type == MeasurementType::kPoint;
+  ev.fixture_error.resize(log.rows);
+  ev.labels.resize(labels.count());
+  for (int l = 0; l < labels.count(); ++l) ev.labels[l].name = labels.names[l];
+  double sum = 0, sum2 = 0;
+  for (int r = 0; r < log.rows; ++r) {
+    const double e = point ? residual.segment<3>(3 * r).norm() : residual[r];
+    ev.fixture_error[r] = e;
+    Evaluation::Label& label = ev.labels[labels.of_pose[r]];
+    ++label.samples;
+    label.centre += points[r];
+    label.mean_deviation += std::abs(e);
+    label.rms_deviation += e * e;
+    sum += std::abs(e);
+    sum2 += e * e;
+  }
+  for (Evaluation::Label& label : ev.labels) {
+    label.centre /= label.samples;
+    label.mean_deviation /= label.samples;
+    label.rms_deviation = std::sqrt(label.rms_deviation / label.samples);
+  }
+  if (!point) {
+    ev.rms_plane_distance = std::sqrt(sum2 / log.rows);
+    return;
+  }
+  ev.mean_point_deviation = sum / log.rows;
+  ev.rms_point_deviation = std::sqrt(sum2 / log.rows);
+  if (labels.distances.empty()) return;
+  double worst = 0;
+  for (const FixtureLabels::Known& d : labels.distances) {
+    const double measured = (ev.labels[d.a].centre - ev.labels[d.b].centre).norm();
+    worst = std::max(worst, std::abs(measured - d.metres));
+  }
+  ev.max_point_distance_error = worst;
+}
+
+}  // namespace
+
+Evaluation evaluate(const DeviceModel& model, const Log& log,
+                    const std::vector<PointDistance>& point_distances) {
   check_log_fits(log, model);
+  std::vector<Eigen::Vector3d> points;
   const PreparedModel prepared(model);
   Evaluation ev;
   ev.n = log.rows;
@@ -30,6 +84,13 @@ Evaluation evaluate(const DeviceModel& model, const Log& log) {
     q = log.q.row(r).transpose();
     const Frame<double> tool = prepared.forward(q.data());
     const Eigen::Vector3d& p = tool.p;
+    if (log.has_point || log.has_plane) {
+      if (!p.allFinite()) {
+        throw InputError(log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0, "",
+                         "the model's tool point on this row is not finite");
+      }
+      points.push_back(p);
+    }
     if (log.has_orientation) {
       const Eigen::Quaterniond measured(log.orientation(r, 0), log.orientation(r, 1),
                                         log.orientation(r, 2), log.orientation(r, 3));
@@ -48,6 +109,7 @@ Evaluation evaluate(const DeviceModel& model, const Log& log) {
   if (log.has_distance) ev.distance = stats(ev.distance_error);
   if (log.has_position) ev.position = stats(ev.position_error);
   if (log.has_orientation) ev.orientation = stats(ev.orientation_error);
+  if (log.has_point || log.has_plane) evaluate_fixture(log, points, point_distances, ev);
   return ev;
 }
 
@@ -56,8 +118,10 @@ double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated) {
 }
 
 EvaluationComparison compare_to_reference(const DeviceModel& model, const DeviceModel& reference,
-                                          const Log& log) {
-  EvaluationComparison c{evaluate(model, log), evaluate(reference, log), {}, {}};
+                                          const Log& log,
+                                          const std::vector<PointDistance>& point_distances) {
+  EvaluationComparison c{
+      evaluate(model, log, point_distances), evaluate(reference, log, point_distances), {}, {}};
   if (c.model.distance && c.reference.distance) {
     c.improvement_distance_pct =
         rms_improvement_pct(c.model.distance->rms, c.reference.distance->rms);

@@ -147,6 +147,8 @@ struct CalibrationOptions {
   // support are held at nominal (see calibrate). true: keep every structurally
   // identifiable, excited parameter (the behaviour before model selection).
   bool keep_all = false;
+  // Known distances between fixture points (--point-distance A:B=METRES).
+  std::vector<PointDistance> point_distances;
   double selection_alpha = 0.05;  // family-wise significance level of the model selection
   // K of the K-fold cross-validated RMS (poses, repeats together, in K folds);
   // 0: no cross-validation.
@@ -193,6 +195,7 @@ struct KinematicProblem {
   double length_scale = 1;              // m: RMS distance of the tool from the base origin
   double rotation_scale = 1;            // m/rad of a pose's rotation rows: the length scale
   bool compressed = false;              // the Jacobian too large: work on its R factor
+  FixtureLabels labels;                 // fixture points or planes: the poses' labels
 };
 // From the poses (a log, one row a pose) and each pose's repeat count (empty:
 // one each).

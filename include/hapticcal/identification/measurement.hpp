@@ -7,6 +7,14 @@
 //     position error and s * log(R R_measured^T), the rotation error as a
 //     rotation vector in the measurement frame times a length s (metres per
 //     radian), so that both parts are lengths.
+//   point (a fixture socket, a label a sample): the tool point is at a fixed,
+//     unknown point: p - m, 3 rows, m the label's mean point
+//   plane (a plate touched, a label a sample): the tool point is on a fixed,
+//     unknown plane: n . (p - m), 1 row, n the normal of the label's best plane
+//   Fixture points and planes have no measured values: the unknown point or
+//   plane of a label is eliminated (variable projection: for given parameters
+//   its best estimate is the mean, or the best plane, of the label's predicted
+//   points), and known distances between points add a row each.
 // Everything that depends on the kind of measurement (the fit, evaluate, the
 // reports, the Cramer-Rao bound) asks this family instead of switching itself.
 #pragma once
@@ -22,21 +30,26 @@
 
 namespace hapticcal {
 
-enum class MeasurementType { kDistance, kPosition, kPose };
+enum class MeasurementType { kDistance, kPosition, kPose, kPoint, kPlane };
+// Fixture points and planes: labels, no measured values.
+inline bool is_fixture(MeasurementType t) {
+  return t == MeasurementType::kPoint || t == MeasurementType::kPlane;
+}
 
 // Measured values, one row a sample (traits(type).width values), contiguous.
 using MeasuredValues = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
 struct MeasurementTraits {
-  const char* name;    // "distance", "position", "pose"
+  const char* name;    // "distance", "position", "pose", "point", "plane"
   const char* plural;  // "distances", ...
-  int dimension;       // residual rows a sample
-  int width;           // measured values a sample: 1, 3, 7 (x, y, z, qw, qx, qy, qz)
+  int dimension;       // residual rows a sample (a fixture's after projection: 3, 1)
+  int width;           // values a sample: 1, 3, 7 (x, y, z, qw, qx, qy, qz); a fixture's 3 (zeros)
 };
 const MeasurementTraits& traits(MeasurementType type);
 
-// What a log measures: a pose if it has orientations, else positions, else
-// distances (a log with positions and distances is fitted on its positions).
+// What a log measures: fixture points or planes if it has labels, a pose if it
+// has orientations, else positions, else distances (a log with positions and
+// distances is fitted on its positions).
 MeasurementType measurement_type(const Log& log);
 // The `width` measured values of a log row.
 void measured_values(MeasurementType type, const Log& log, int row, double* out);
@@ -50,6 +63,43 @@ struct MeasurementGroup {
   double sigma = NAN;     // sd of one residual row [m]; NaN: estimated from the fit
 };
 std::vector<MeasurementGroup> measurement_groups(const Log& log);
+
+// A known distance between two fixture points (labels), e.g. a fixture's
+// sockets (`--point-distance A:B=METRES`).
+struct PointDistance {
+  std::string a, b;
+  double metres = 0;
+};
+
+// The labels of a fixture problem's poses and the known distances between them.
+struct FixtureLabels {
+  std::vector<std::string> names;  // in order of first appearance
+  std::vector<int> of_pose;        // label index of each pose
+  struct Known {
+    int a = 0, b = 0;
+    double metres = 0;
+  };
+  std::vector<Known> distances;
+  int count() const { return static_cast<int>(names.size()); }
+};
+// The labels of `rows` of a fixture log; throws InputError for a distance
+// naming a label the log lacks, a point label with fewer than 2 samples or a
+// plane label with fewer than 3.
+FixtureLabels fixture_labels(MeasurementType type, const Log& log, const std::vector<int>& rows,
+                             const std::vector<PointDistance>& distances);
+
+// The fit's residual rows of a fixture problem from each pose's tool point
+// (raw: 3 rows a pose, p_i) and, if raw_J, its Jacobian (3 rows a pose):
+//   point: w_i (p_i - m_L), 3 rows; plane: w_i n_L . (p_i - m_L), 1 row;
+//   then per known distance (|m_A - m_B| - D) sqrt(n_A + n_B),
+// m_L the label's mean point (weights w_i^2), n_L the normal of its best plane
+// (the smallest principal axis of its points). The Jacobian holds m_L and n_L's
+// dependence through the mean (exact for points; n_L held, Gauss-Newton, for
+// planes). w: each pose's weight (sqrt of its repeats; empty: 1).
+int fixture_rows(MeasurementType type, const FixtureLabels& labels, int poses);
+void fixture_residuals(MeasurementType type, const FixtureLabels& labels, const Eigen::VectorXd& w,
+                       const Eigen::VectorXd& raw, const Eigen::MatrixXd* raw_J, double* residual,
+                       Eigen::MatrixXd* J);
 
 // The rotation vector of a rotation matrix (templated: double or ceres::Jet).
 template <typename T>
@@ -99,7 +149,8 @@ void measurement_residual(MeasurementType type, const Frame<T>& tool, const doub
 }
 
 // The residual rows of one sample and their analytic Jacobian (dimension x
-// num_slots) w.r.t. the parameters.
+// num_slots) w.r.t. the parameters; of a fixture sample, its raw rows: the tool
+// point (3 rows; fixture_residuals makes the fit's rows).
 void measurement_rows(MeasurementType type, const ChainStructure& s,
                       const ChainConstants<double>& constants, const double* params,
                       const double* joint, const double* measured, double rotation_scale,

@@ -44,6 +44,10 @@ struct Log {
   Eigen::MatrixXd orientation;
   bool has_distance = false, has_position = false, has_time = false;
   bool has_orientation = false;
+  // Fixture logs: each row's label (has_point: the fixed point the tool point is
+  // at; has_plane: the plane it touches); no measured values.
+  std::vector<std::string> label;
+  bool has_point = false, has_plane = false;
   std::vector<int> line;  // source line of each row
   int dof() const { return static_cast<int>(q.cols()); }
 };
@@ -51,9 +55,10 @@ struct Log {
 // Reads a CSV log. Without `columns` the first non-comment line is the header;
 // with it, `columns` names every column ("_" skips one) and all lines are data.
 // Column names: q<i>, ext<i>, distance, x, y, z, t, each optionally followed by a
-// unit in brackets: [rad] [deg] for angles, [m] [mm] [um] for lengths, [s] [ms].
-// An orientation (beside x, y, z) is either all of qw, qx, qy, qz (no unit; a norm
-// more than 1e-3 from 1 is an error, else it is normalised) or all of rx, ry, rz, a
+// unit in brackets, and `point` or `plane` (a label a row: a fixture point or a
+// plane the tool point is at; such a log has no measured values): [rad] [deg] for angles, [m] [mm]
+// [um] for lengths, [s] [ms]. An orientation (beside x, y, z) is either all of qw, qx, qy, qz (no
+// unit; a norm more than 1e-3 from 1 is an error, else it is normalised) or all of rx, ry, rz, a
 // rotation vector (angle * axis, [rad] or [deg]) converted to a unit quaternion.
 Log read_log(const std::string& path, const std::vector<std::string>& columns = {});
 Log parse_log(const std::string& csv_text, const std::string& origin,

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <optional>
 
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/io/io.hpp"
 #include "hapticcal/model/model.hpp"
 
@@ -24,10 +25,29 @@ struct Evaluation {
   Eigen::VectorXd distance_error;     // per row, signed
   Eigen::VectorXd position_error;     // per row, Euclidean norm
   Eigen::VectorXd orientation_error;  // per row, the angle
+
+  // Fixture logs. Points: each label's predicted tool points against their
+  // mean; over all rows (labels weighted by their samples, as MUKCa's KPI)
+  // the mean and RMS of |p_i - mean|; the largest error of a known distance
+  // between two labels' means. Planes: the RMS distance of the points from
+  // each label's best plane.
+  struct Label {
+    std::string name;
+    int samples = 0;
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // the mean point [m]
+    double mean_deviation = 0, rms_deviation = 0;      // of |p_i - centre| or plane distance
+  };
+  std::vector<Label> labels;
+  std::optional<double> mean_point_deviation, rms_point_deviation;  // [m]
+  std::optional<double> max_point_distance_error;                   // [m]
+  std::optional<double> rms_plane_distance;                         // [m]
+  Eigen::VectorXd fixture_error;  // per row: |p_i - centre| or the signed plane distance
 };
 
-// Throws InputError if the log does not fit the model (check_log_fits).
-Evaluation evaluate(const DeviceModel& model, const Log& log);
+// Throws InputError if the log does not fit the model (check_log_fits), or a
+// known distance names a label the log lacks.
+Evaluation evaluate(const DeviceModel& model, const Log& log,
+                    const std::vector<PointDistance>& point_distances = {});
 
 // Paper eq. (9), signed: (RMS(e_nc) - RMS(e_c)) / RMS(e_nc) * 100. It equals the
 // paper's |RMS(e_c) - RMS(e_nc)| / |RMS(e_nc)| * 100 whenever calibration helps,
@@ -44,6 +64,7 @@ struct EvaluationComparison {
 
 // Throws InputError if the log does not fit either model.
 EvaluationComparison compare_to_reference(const DeviceModel& model, const DeviceModel& reference,
-                                          const Log& log);
+                                          const Log& log,
+                                          const std::vector<PointDistance>& point_distances = {});
 
 }  // namespace hapticcal

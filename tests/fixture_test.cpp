@@ -1,0 +1,189 @@
+// Calibration without an instrument (issue 13): fixture points (a ball tip put
+// into the sockets of a fixture) and plane contacts, on the real MUKCa Franka
+// Panda data (../shared/data/mukca, held-out placements) and on simulated data.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/study/evaluate.hpp"
+#include "test_models.hpp"
+
+namespace hapticcal {
+namespace {
+
+const char* kPlacements[] = {"back-high", "front", "right"};
+
+// The MUKCa recordings of some placements as one fixture log: a row a
+// configuration, labelled <placement>_<socket>.
+Log mukca_log(const std::vector<std::string>& placements) {
+  std::string csv = "q1,q2,q3,q4,q5,q6,q7,point\n";
+  for (const std::string& placement : placements) {
+    for (int socket = 0; socket < 2; ++socket) {
+      std::ifstream in(testing::shared_path("data/mukca/panda_1/" + placement + "/hole_" +
+                                            std::to_string(socket) + ".csv"));
+      EXPECT_TRUE(in) << placement;
+      std::string line;
+      while (std::getline(in, line)) {
+        if (!line.empty()) csv += line + "," + placement + "_" + std::to_string(socket) + "\n";
+      }
+    }
+  }
+  return parse_log(csv, "mukca");
+}
+
+std::vector<PointDistance> socket_distances(const std::vector<std::string>& placements) {
+  std::vector<PointDistance> out;
+  for (const std::string& p : placements) out.push_back({p + "_0", p + "_1", 0.05});
+  return out;
+}
+
+DeviceModel panda() {
+  return load_model(testing::shared_path("data/mukca/panda.urdf"), "ball_link", "panda_link0");
+}
+
+// Leave one placement out: calibrate on the other two, evaluate on it (issue 13:
+// nominal 7.5-10.3 mm; a reference fit with every joint origin free 0.96 /
+// 0.66 / 0.72 mm, mean 0.78; the issue's target, a mean of 0.70 mm, is not met:
+// see the README).
+TEST(Fixture, MukcaPandaHeldOutPlacements) {
+  const DeviceModel nominal = panda();
+  double sum[2] = {0, 0};
+  for (const bool keep_all : {false, true}) {
+    for (const char* held_out : kPlacements) {
+      std::vector<std::string> train;
+      for (const char* p : kPlacements) {
+        if (std::string(p) != held_out) train.push_back(p);
+      }
+      CalibrationOptions options;
+      options.point_distances = socket_distances(train);
+      options.keep_all = keep_all;
+      const CalibrationResult r = calibrate(nominal, mukca_log(train), options);
+      EXPECT_EQ(r.status, CalibrationStatus::kConverged) << held_out << ": " << r.status_reason;
+      const Log test = mukca_log({held_out});
+      const std::vector<PointDistance> known = socket_distances({held_out});
+      const Evaluation before = evaluate(nominal, test, known);
+      const Evaluation after = evaluate(r.calibrated, test, known);
+      std::printf(
+          "%-9s %-10s mean point deviation %.3f -> %.3f mm, distance error %.3f -> %.3f mm (%d of "
+          "%d parameters, %d iterations)\n",
+          keep_all ? "keep-all" : "default", held_out, *before.mean_point_deviation * 1e3,
+          *after.mean_point_deviation * 1e3, *before.max_point_distance_error * 1e3,
+          *after.max_point_distance_error * 1e3, r.kinematics.identified,
+          r.kinematics.structurally_identified, r.kinematics.iterations);
+      EXPECT_LT(*after.mean_point_deviation, *before.mean_point_deviation / 5) << held_out;
+      EXPECT_LT(*after.max_point_distance_error, *before.max_point_distance_error) << held_out;
+      sum[keep_all] += *after.mean_point_deviation;
+    }
+  }
+  std::printf("mean over the held-out placements: %.3f mm (default), %.3f mm (--keep-all)\n",
+              sum[0] / 3 * 1e3, sum[1] / 3 * 1e3);
+  EXPECT_LT(sum[1] / 3, 0.85e-3);  // the reference fit: 0.78 mm
+  EXPECT_LT(sum[0] / 3, 1.0e-3);
+}
+
+// Readings near `q` that put the truth's tool point on `target` (points) or on
+// the plane n . p = c (planes): damped least squares on the position Jacobian.
+Eigen::VectorXd reach(const PreparedModel& truth, Eigen::VectorXd q, const Eigen::Vector3d& target,
+                      const Eigen::Vector3d* normal) {
+  Jacobian6<double> J;
+  for (int it = 0; it < 50; ++it) {
+    const Eigen::Vector3d p = truth.forward_jacobian(q.data(), JacobianFrame::kMeasurement, J).p;
+    const Eigen::MatrixXd Jp = J.topRows<3>();
+    if (normal) {
+      const double e = normal->dot(target - p);
+      const Eigen::RowVectorXd a = normal->transpose() * Jp;
+      q += a.transpose() * (e / (a.squaredNorm() + 1e-12));
+    } else {
+      const Eigen::Vector3d e = target - p;
+      q += Jp.transpose() *
+           (Jp * Jp.transpose() + 1e-12 * Eigen::Matrix3d::Identity()).ldlt().solve(e);
+    }
+  }
+  return q;
+}
+
+// Simulated sockets (the real data's configurations moved onto the perturbed
+// truth's common points) and plates: noise-free, so a calibration must fit them
+// exactly and predict a placement it has not seen to a micrometre.
+TEST(Fixture, SimulatedSocketsAndPlanesAreFittedExactly) {
+  const DeviceModel nominal = panda();
+  std::mt19937_64 rng(21);
+  const DeviceModel truth = testing::perturbed(nominal, rng, 1e-3);
+  const PreparedModel actual(truth);
+  for (const bool planes : {false, true}) {
+    SCOPED_TRACE(planes ? "planes" : "points");
+    std::string train_csv =
+        std::string("q1,q2,q3,q4,q5,q6,q7,") + (planes ? "plane" : "point") + "\n";
+    std::string test_csv = train_csv;
+    std::vector<PointDistance> train_known, test_known;
+    for (const char* placement : kPlacements) {
+      const Log real = mukca_log({placement});
+      Eigen::Vector3d target[2];
+      for (int r = 0; r < real.rows; ++r) {
+        const int socket = real.label[r].back() - '0';
+        Eigen::VectorXd q = real.q.row(r).transpose();
+        if (r == 0 || real.label[r] != real.label[r - 1])
+          target[socket] = actual.forward(q.data()).p;
+        const Eigen::Vector3d normal = Eigen::Vector3d(0.2, -0.3 * socket, 1).normalized();
+        q = reach(actual, q, target[socket], planes ? &normal : nullptr);
+        if (planes) {  // spread the contacts over the plate
+          ASSERT_LT(std::abs(normal.dot(actual.forward(q.data()).p - target[socket])), 1e-12);
+        } else {
+          ASSERT_LT((actual.forward(q.data()).p - target[socket]).norm(), 1e-12);
+        }
+        std::string row;
+        for (int j = 0; j < 7; ++j) row += fmt::format("{},", q[j]);
+        (std::string(placement) == "front" ? test_csv : train_csv) += row + real.label[r] + "\n";
+      }
+      if (planes) continue;
+      const PointDistance d{std::string(placement) + "_0", std::string(placement) + "_1",
+                            (target[0] - target[1]).norm()};
+      (std::string(placement) == "front" ? test_known : train_known).push_back(d);
+    }
+    CalibrationOptions options;
+    options.point_distances = train_known;
+    options.keep_all = true;
+    const CalibrationResult r = calibrate(nominal, parse_log(train_csv, "train"), options);
+    std::printf("%s: %s; RMS %.4g -> %.4g mm\n", planes ? "planes" : "points",
+                r.status_reason.c_str(), r.kinematics.rms_before * 1e3,
+                r.kinematics.rms_after * 1e3);
+    // Plane contacts: Levenberg-Marquardt creeps (the planes' normals are held
+    // in each step's Jacobian) and stops at its limit short of zero; points
+    // converge to rounding.
+    if (!planes) {
+      ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
+      EXPECT_LT(r.kinematics.rms_after, 1e-9);
+    } else {
+      EXPECT_LT(r.kinematics.rms_after, r.kinematics.rms_before / 1000);
+    }
+    const Log test = parse_log(test_csv, "test");
+    const Evaluation before = evaluate(nominal, test, test_known);
+    const Evaluation after = evaluate(r.calibrated, test, test_known);
+    if (planes) {
+      std::printf("planes: held-out RMS plane distance %.4f -> %.6f mm (%d parameters)\n",
+                  *before.rms_plane_distance * 1e3, *after.rms_plane_distance * 1e3,
+                  r.kinematics.identified);
+      EXPECT_LT(*after.rms_plane_distance, *before.rms_plane_distance / 100);
+      EXPECT_GT(*before.rms_plane_distance, 1e-4);
+    } else {
+      std::printf(
+          "points: held-out mean point deviation %.4f -> %.6f mm, distance error %.6f mm "
+          "(%d parameters)\n",
+          *before.mean_point_deviation * 1e3, *after.mean_point_deviation * 1e3,
+          *after.max_point_distance_error * 1e3, r.kinematics.identified);
+      EXPECT_LT(*after.mean_point_deviation, 1e-6);
+      EXPECT_LT(*after.max_point_distance_error, 1e-6);
+      EXPECT_GT(*before.mean_point_deviation, 1e-4);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace hapticcal
