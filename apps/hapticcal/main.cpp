@@ -508,6 +508,7 @@ int run_simulate(const SimulateOptions& o) {
 
 struct ForceOptions {
   std::string actual, nominal, calibrated, out = "hapticcal-out/force", posture;
+  int lock = -1;  // 1-based; 0: none; -1: the default (ForceScenario::kLockRedundant)
   ChainOptions chain;
   hapticcal::ForceScenario scenario;
 };
@@ -528,8 +529,10 @@ int run_force_study(ForceOptions o) {
   const hapticcal::DeviceModel actual = o.chain.load(o.actual);
   const hapticcal::DeviceModel nominal = o.chain.load(o.nominal);
   const hapticcal::DeviceModel calibrated = o.chain.load(o.calibrated);
-  hapticcal::OutputSet out(o.out, "force");
   hapticcal::ForceScenario& sc = o.scenario;
+  if (o.lock >= 0) sc.locked_joint = o.lock - 1;  // 0 -> kNoLock
+  sc.locked_joint = hapticcal::resolved_locked_joint(sc, actual.dof());
+  hapticcal::OutputSet out(o.out, "force");
   if (!o.posture.empty()) {
     const std::vector<std::string> v = names(o.posture);
     sc.posture.resize(v.size());
@@ -558,10 +561,12 @@ int run_force_study(ForceOptions o) {
     posture += fmt::format("{}{}", i ? "," : "", sc.posture[i]);
   fmt::print(
       "hapticcal force: virtual wall K = {} N/m moved {} mm along the handle's z in {} s, "
-      "held {} s, at {} Hz; gain G = {} (stable for |G| < {:.4f}); joint {} locked; posture q = "
+      "held {} s, at {} Hz; gain G = {} (stable for |G| < {:.4f}); {}; posture q = "
       "[{}] rad{}\n",
       sc.stiffness, sc.travel * 1e3, sc.move_seconds, sc.hold_seconds, sc.rate_hz, sc.gain, limit,
-      sc.locked_joint + 1, posture,
+      sc.locked_joint >= 0 ? fmt::format("joint {} locked", sc.locked_joint + 1)
+                           : "no joint locked",
+      posture,
       o.posture.empty() && actual.dof() == 7
           ? " (home with j6 = 0.3 rad: home is a wrist singularity of this model)"
           : "");
@@ -767,6 +772,11 @@ int main(int argc, char** argv) {
                     "Readings q of the fixed handle, comma separated (default: home, j6 = 0.3 rad "
                     "on a 7-joint device)");
   force->add_option("--seed", fo.scenario.seed, "Seed of the sensor noise");
+  force
+      ->add_option("--lock", fo.lock,
+                   "Joint to lock, 1-based; 0: none (default: joint 3 on a 7-joint device, none "
+                   "on a 6-joint one; 6 joints must remain)")
+      ->check(within(0, 1000, ""));
   add_chain_options(force, fo.chain);
 
   ConvertOptions conv;
