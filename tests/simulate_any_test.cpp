@@ -182,7 +182,7 @@ TEST(SimulateAnyRefusals, PaperTransmissionsOnAnotherDevice) {
 TEST(SimulateAnyRefusals, DeviationOfAParameterTheDeviceDoesNotHave) {
   expect_refused(fresh_dir("r2"),
                  small_scenario("meca500", "position", "deviations: {j9.a: 1e-3}\n"),
-                 "deviations.j9.a", "meca500 has no kinematic parameter of that name");
+                 "deviations.j9.a", "not a kinematic parameter of meca500");
 }
 
 TEST(SimulateAnyRefusals, MeasurementSimulateCannotProduce) {

@@ -463,8 +463,7 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
       const auto it = std::find_if(info.begin(), info.end(),
                                    [&](const ParameterInfo& p) { return p.name == name; });
       if (it == info.end())
-        r.fail(kv.first, key,
-               fmt::format("{} has no kinematic parameter of that name", sc.nominal.name));
+        r.fail(kv.first, key, fmt::format("not a kinematic parameter of {}", sc.nominal.name));
       const double v = r.number(kv.second, key);
       const bool angle = it->unit == ParameterUnit::kAngle;
       const double hi = angle ? kMaxAngleDeviation : kMaxLengthDeviation;
