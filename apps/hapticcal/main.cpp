@@ -347,6 +347,29 @@ struct SimulateOptions {
   long long seed = -1;
 };
 
+// The validation (Fig. 8) and trajectory (Fig. 10) lines; the figures' numbers
+// and the paper's percentages in the paper's study only.
+void print_validation_and_trajectory(const hapticcal::Scenario& sc,
+                                     const hapticcal::TrialResult& t) {
+  const bool paper = sc.paper_comparison();
+  fmt::print(
+      "Validation ({} poses{}): position RMS {:.4f} -> {:.4f} mm, orientation RMS "
+      "{:.4f} -> {:.4f} mrad\n",
+      sc.validation_poses, paper ? ", Fig. 8" : "", t.position_rms_before * 1e3,
+      t.position_rms_after * 1e3, t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
+  fmt::print(
+      "Trajectory ({:.0f} s at {:.0f} Hz{}): distance RMS {:.4f} mm nominal, {:.4f} mm "
+      "full ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %){}\n",
+      sc.trajectory_seconds, sc.trajectory_rate_hz, paper ? ", Fig. 10" : "",
+      t.trajectory_rms_before * 1e3, t.trajectory_rms_full * 1e3,
+      hapticcal::rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
+      t.trajectory_rms_kinematic * 1e3,
+      hapticcal::rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before),
+      paper ? fmt::format("; paper: {:.1f} % and {:.1f} %", hapticcal::kPaperImprovementFullPct,
+                          hapticcal::kPaperImprovementKinematicOnlyPct)
+            : "");
+}
+
 // A percentage, or "-" where it is undefined (a parameter without deviation).
 std::string pct(double v, int width) {
   return std::isfinite(v) ? fmt::format("{:{}.2f}", v, width) : fmt::format("{:>{}}", "-", width);
@@ -397,19 +420,7 @@ void print_general_study(const hapticcal::Scenario& sc, const hapticcal::StudyRe
                (row.identified - row.nominal) * row.paper_scale, pct(row.improvement_pct, 8),
                crlb(row));
   }
-  fmt::print(
-      "Validation ({} poses): position RMS {:.4f} -> {:.4f} mm, orientation RMS {:.4f} -> {:.4f} "
-      "mrad\n",
-      sc.validation_poses, t.position_rms_before * 1e3, t.position_rms_after * 1e3,
-      t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
-  fmt::print(
-      "Trajectory ({:.0f} s at {:.0f} Hz): distance RMS {:.4f} mm nominal, {:.4f} mm full "
-      "({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %)\n",
-      sc.trajectory_seconds, sc.trajectory_rate_hz, t.trajectory_rms_before * 1e3,
-      t.trajectory_rms_full * 1e3,
-      hapticcal::rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
-      t.trajectory_rms_kinematic * 1e3,
-      hapticcal::rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before));
+  print_validation_and_trajectory(sc, t);
 }
 
 void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r) {
@@ -458,20 +469,7 @@ void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r)
                (row.identified - row.nominal) * row.paper_scale, row.improvement_pct,
                paper(row.name), monte_carlo(row));
   }
-  fmt::print(
-      "Validation ({} poses, Fig. 8): position RMS {:.4f} -> {:.4f} mm, orientation RMS "
-      "{:.4f} -> {:.4f} mrad\n",
-      sc.validation_poses, t.position_rms_before * 1e3, t.position_rms_after * 1e3,
-      t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
-  fmt::print(
-      "Trajectory ({:.0f} s at {:.0f} Hz, Fig. 10): distance RMS {:.4f} mm nominal, {:.4f} mm "
-      "full ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %); paper: {:.1f} % and {:.1f} %\n",
-      sc.trajectory_seconds, sc.trajectory_rate_hz, t.trajectory_rms_before * 1e3,
-      t.trajectory_rms_full * 1e3,
-      hapticcal::rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
-      t.trajectory_rms_kinematic * 1e3,
-      hapticcal::rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before),
-      hapticcal::kPaperImprovementFullPct, hapticcal::kPaperImprovementKinematicOnlyPct);
+  print_validation_and_trajectory(sc, t);
 }
 
 int run_simulate(const SimulateOptions& o) {
