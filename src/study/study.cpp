@@ -15,6 +15,7 @@
 #include <random>
 #include <thread>
 
+#include "hapticcal/design/plan.hpp"
 #include "hapticcal/identification/information.hpp"
 #include "hapticcal/identification/two_step.hpp"
 #include "hapticcal/io/error.hpp"
@@ -329,17 +330,13 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
   }
   if (const YAML::Node m = root["measurement"]) {
     const std::string name = r.string(m, "measurement");
-    if (name == "distance") {
-      sc.measurement = MeasurementType::kDistance;
-    } else if (name == "position") {
-      sc.measurement = MeasurementType::kPosition;
-    } else if (name == "pose") {
-      sc.measurement = MeasurementType::kPose;
-    } else {
+    const std::optional<MeasurementType> type = measurement_kind(name);
+    if (!type) {
       r.fail(m, "measurement",
              fmt::format("'{}' is not a measurement simulate produces: distance, position or pose",
                          printable(name)));
     }
+    sc.measurement = *type;
   }
   if (const YAML::Node t = root["transmissions"]) {
     const std::string name = r.string(t, "transmissions");
