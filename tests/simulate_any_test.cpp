@@ -144,6 +144,18 @@ TEST(SimulateAnyCli, DeviceWithoutScenarioUsesItsOwnTransmissionsAsTheTruth) {
   fs::remove_all(dir);
 }
 
+// The issue's Meca500 command: it failed in the paper's joint-4 linkage ("the
+// linkage cannot close") and left a stray nominal.yaml.
+TEST(SimulateAnyCli, Meca500DeviceFlagRuns) {
+  const std::string dir = fresh_dir("meca_cli");
+  const testing::CliResult r = testing::run_cli(
+      std::vector<std::string>{"simulate", "--device", meca(), "--out", dir + "/out"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const DeviceModel actual = load_device(dir + "/out/actual.yaml");
+  for (const Link& l : actual.links) EXPECT_TRUE(l.transmission.is_none()) << l.name;
+  fs::remove_all(dir);
+}
+
 TEST(SimulateAnyCli, UrdfDeviceWithTipAndRoot) {
   const std::string dir = fresh_dir("panda_cli");
   const testing::CliResult r = testing::run_cli(
