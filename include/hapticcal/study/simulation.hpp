@@ -50,9 +50,9 @@ Log simulate_measurement_log(const DeviceModel& actual, MeasurementType type, in
                              std::uint64_t seed);
 
 // The experiment analogue of paper Fig. 10: a continuous random motion of
-// `seconds` sampled at `rate_hz`, at rest at home at both ends (a joint whose limits exclude home:
-// at their middle), each joint a sum of slow sinusoids within its limits; columns t, q, distance
-// (with noise).
+// `seconds` sampled at `rate_hz`, at rest at home at both ends (a joint whose
+// limits exclude home: at their middle), each joint a sum of slow sinusoids
+// within its limits; columns t, q, distance (with noise).
 Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_hz,
                         const SimulationNoise& noise, std::uint64_t seed);
 

@@ -85,8 +85,9 @@ struct Scenario {
   }
 };
 
-// Whether `model` is the paper's built-in device (the same name, convention and
-// kinematic parameters as builtin_device_path()'s; limits may differ).
+// Whether `model` is the paper's built-in device (the same name, joint count,
+// base kind and kinematic parameters as builtin_device_path()'s; limits and
+// transmissions may differ).
 bool is_paper_device(const DeviceModel& model);
 
 // SPEC section 3 on the built-in device file at `device_path`; on any other
