@@ -666,7 +666,9 @@ int main(int argc, char** argv) {
   SimulateOptions sim;
   sim.device = hapticcal::builtin_device_path();
   std::string out;
-  auto* simulate = app.add_subcommand("simulate", "Run the paper's simulation study (main job)");
+  auto* simulate = app.add_subcommand(
+      "simulate",
+      "Run the paper's simulation study (main job), or one on any device and measurement");
   simulate->add_option("--scenario", sim.scenario, "Scenario file (YAML)");
   simulate->add_option("--trials", sim.trials, "Monte Carlo trials (default 1)")
       ->check(within(1, 100000, ""));
