@@ -126,7 +126,12 @@ std::vector<StudyRow> study_rows(const Scenario& sc, const CalibrationResult& fu
 }
 
 bool is_paper_device(const DeviceModel& model) {
-  const DeviceModel paper = load_device(builtin_device_path());
+  DeviceModel paper;
+  try {
+    paper = load_device(builtin_device_path());
+  } catch (const std::exception&) {
+    return false;  // no built-in device here: nothing can be the paper's
+  }
   return model.name == paper.name && model.dof() == paper.dof() &&
          model.base_kind == paper.base_kind &&
          model.kinematic_parameters() == paper.kinematic_parameters();
