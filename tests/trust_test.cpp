@@ -388,16 +388,30 @@ TEST_F(Trust, WriteFailuresAreIoErrorsNotBadInput) {
   }
 }
 
-TEST_F(Trust, PaperStudyRefusesADeviceTooSmallForIt) {
+TEST_F(Trust, SmallDeviceGetsItsOwnTruthNeverThePapersFourDrives) {
   // Found by fuzz_scenario: Table 2's four drives written past a 2-joint device.
-  const CliRun r =
-      run({"simulate", "--device", testing::source_path("tests/malformed/good-2dof.yaml"), "--out",
-           (scratch_ / "o").string()});
-  EXPECT_EQ(r.code, 2) << r.err;
-  EXPECT_NE(r.err.find("good-2dof.yaml: links: the paper's study needs at least 4 joints"),
+  // The paper's truth is the paper's device's only (issue 13): a 2-joint device
+  // is simulated with its own transmissions, and asking for the paper's is refused.
+  const std::string device = testing::source_path("tests/malformed/good-2dof.yaml");
+  const CliRun r = run({"simulate", "--device", device, "--out", (scratch_ / "o").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const DeviceModel nominal = load_device(device),
+                    actual = load_device((scratch_ / "o" / "actual.yaml").string());
+  ASSERT_EQ(actual.dof(), 2);
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_EQ(actual.links[j].transmission.parameters(),
+              nominal.links[j].transmission.parameters());
+  }
+  const fs::path scenario = scratch_ / "paper.yaml";
+  std::ofstream(scenario) << "format: hapticcal-scenario/1\ndevice: " << device
+                          << "\ntransmissions: paper\n";
+  const CliRun refused =
+      run({"simulate", "--scenario", scenario.string(), "--out", (scratch_ / "p").string()});
+  EXPECT_EQ(refused.code, 2);
+  EXPECT_NE(refused.err.find("paper.yaml:3: transmissions: the paper's capstans"),
             std::string::npos)
-      << r.err;
-  EXPECT_FALSE(fs::exists(scratch_ / "o"));
+      << refused.err;
+  EXPECT_FALSE(fs::exists(scratch_ / "p"));
 }
 
 TEST_F(Trust, OutputFolderIsCheckedBeforeAnyWork) {

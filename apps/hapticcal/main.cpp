@@ -414,11 +414,89 @@ int run_calibrate(const CalibrateOptions& o) {
 
 struct SimulateOptions {
   std::string scenario, out = "hapticcal-out/simulate", device;
+  ChainOptions chain;
   int trials = 0, threads = 0;
   long long seed = -1;
 };
 
+// The validation (Fig. 8) and trajectory (Fig. 10) lines; the figures' numbers
+// and the paper's percentages in the paper's study only.
+void print_validation_and_trajectory(const hapticcal::Scenario& sc,
+                                     const hapticcal::TrialResult& t) {
+  const bool paper = sc.paper_comparison();
+  fmt::print(
+      "Validation ({} poses{}): position RMS {:.4f} -> {:.4f} mm, orientation RMS "
+      "{:.4f} -> {:.4f} mrad\n",
+      sc.validation_poses, paper ? ", Fig. 8" : "", t.position_rms_before * 1e3,
+      t.position_rms_after * 1e3, t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
+  fmt::print(
+      "Trajectory ({:.0f} s at {:.0f} Hz{}): distance RMS {:.4f} mm nominal, {:.4f} mm "
+      "full ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %){}\n",
+      sc.trajectory_seconds, sc.trajectory_rate_hz, paper ? ", Fig. 10" : "",
+      t.trajectory_rms_before * 1e3, t.trajectory_rms_full * 1e3,
+      hapticcal::rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
+      t.trajectory_rms_kinematic * 1e3,
+      hapticcal::rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before),
+      paper ? fmt::format("; paper: {:.1f} % and {:.1f} %", hapticcal::kPaperImprovementFullPct,
+                          hapticcal::kPaperImprovementKinematicOnlyPct)
+            : "");
+}
+
+// A percentage, or "-" where it is undefined (a parameter without deviation).
+std::string pct(double v, int width) {
+  return std::isfinite(v) ? fmt::format("{:{}.2f}", v, width) : fmt::format("{:>{}}", "-", width);
+}
+
+// Beyond the paper's study: the truth as chosen, identified against assigned
+// deviations with their error in Cramer-Rao standard deviations; no paper columns.
+void print_general_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r) {
+  const hapticcal::TrialResult& t = r.first;
+  std::string kinematics =
+      sc.random.enabled()
+          ? fmt::format("random deviations (sd {} m lengths, {} rad angles, seed {})",
+                        sc.random.lengths, sc.random.angles, sc.random.seed)
+          : (sc.paper_device ? std::string("the paper's Table 3 deviations") : "nominal");
+  for (const auto& [name, v] : sc.deviations) kinematics += fmt::format(", {} {:+g}", name, v);
+  fmt::print("Truth: {} transmissions; kinematics {}. Measurement: {} (sigma_m {:.3g} m{})\n",
+             sc.paper_transmissions ? "the paper's (Table 2)" : "the device's own", kinematics,
+             hapticcal::traits(sc.measurement).plural, hapticcal::measurement_sigma(sc),
+             sc.measurement == hapticcal::MeasurementType::kPose
+                 ? fmt::format(", sigma_r {:.3g} rad", sc.noise.sigma_orientation)
+                 : "");
+  const std::vector<hapticcal::StudyRow> rows = hapticcal::study_rows(sc, t.full);
+  auto crlb = [&](const hapticcal::StudyRow& row) {
+    const auto it = r.monte_carlo.find(row.name);
+    if (it == r.monte_carlo.end() || !(it->second.crlb_sd > 0)) return std::string("       -");
+    return fmt::format("{:8.2f}", (row.identified - row.assigned) / it->second.crlb_sd);
+  };
+  fmt::print("Transmission parameters (SI; assigned = truth)\n");
+  fmt::print("  {:<20} {:>12} {:>12} {:>8} {:>8}\n", "parameter", "assigned", "identified", "I %",
+             "err/CRLB");
+  for (const hapticcal::StudyRow& row : rows) {
+    if (!row.capstan) continue;
+    fmt::print("  {:<20} {:>12.6g} {:>12.6g} {} {}\n", row.name, row.assigned, row.identified,
+               pct(row.improvement_pct, 8), crlb(row));
+  }
+  fmt::print("Kinematic parameters: deviation from nominal, assigned and identified (mm, mrad)\n");
+  fmt::print("  {:<20} {:>10} {:>10} {:>8} {:>8}\n", "parameter", "assigned", "identified", "I %",
+             "err/CRLB");
+  for (const hapticcal::StudyRow& row : rows) {
+    if (row.capstan) continue;
+    const double assigned = (row.assigned - row.nominal) * row.paper_scale;
+    if (!row.held.empty()) {
+      fmt::print("  {:<20} {:>10.4f} {:>10} {:>8} {:>8}   ({})\n", row.name, assigned, "-", "-",
+                 "-", row.held);
+      continue;
+    }
+    fmt::print("  {:<20} {:>10.4f} {:>10.4f} {} {}\n", row.name, assigned,
+               (row.identified - row.nominal) * row.paper_scale, pct(row.improvement_pct, 8),
+               crlb(row));
+  }
+  print_validation_and_trajectory(sc, t);
+}
+
 void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r) {
+  if (!sc.paper_comparison()) return print_general_study(sc, r);
   const hapticcal::TrialResult& t = r.first;
   const auto& mc = r.monte_carlo;
   const bool many = r.trials > 1;
@@ -463,30 +541,15 @@ void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r)
                (row.identified - row.nominal) * row.paper_scale, row.improvement_pct,
                paper(row.name), monte_carlo(row));
   }
-  fmt::print(
-      "Validation ({} poses, Fig. 8): position RMS {:.4f} -> {:.4f} mm, orientation RMS "
-      "{:.4f} -> {:.4f} mrad\n",
-      sc.validation_poses, t.position_rms_before * 1e3, t.position_rms_after * 1e3,
-      t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
-  fmt::print(
-      "Trajectory ({:.0f} s at {:.0f} Hz, Fig. 10): distance RMS {:.4f} mm nominal, {:.4f} mm "
-      "full ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %); paper: {:.1f} % and {:.1f} %\n",
-      sc.trajectory_seconds, sc.trajectory_rate_hz, t.trajectory_rms_before * 1e3,
-      t.trajectory_rms_full * 1e3,
-      hapticcal::rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
-      t.trajectory_rms_kinematic * 1e3,
-      hapticcal::rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before),
-      hapticcal::kPaperImprovementFullPct, hapticcal::kPaperImprovementKinematicOnlyPct);
+  print_validation_and_trajectory(sc, t);
 }
 
 int run_simulate(const SimulateOptions& o) {
-  if (hapticcal::is_urdf_path(o.device)) {
-    throw hapticcal::InputError(o.device, 0, "--device",
-                                "simulate takes a device file (YAML): convert the URDF first "
-                                "(hapticcal convert ROBOT.urdf DEVICE.yaml --tip LINK)");
-  }
-  hapticcal::Scenario sc = o.scenario.empty() ? hapticcal::default_scenario(o.device)
-                                              : hapticcal::load_scenario(o.scenario, o.device);
+  if (o.scenario.empty()) o.chain.check_used({o.device});
+  hapticcal::Scenario sc =
+      o.scenario.empty()
+          ? hapticcal::default_scenario(o.device, o.chain.tip, o.chain.root)
+          : hapticcal::load_scenario(o.scenario, o.device, o.chain.tip, o.chain.root);
   if (o.trials > 0) sc.trials = o.trials;
   if (o.seed >= 0) sc.seed = static_cast<std::uint64_t>(o.seed);
   const int threads = o.threads > 0 ? o.threads : std::max(1u, std::thread::hardware_concurrency());
@@ -515,6 +578,7 @@ int run_simulate(const SimulateOptions& o) {
 
 struct ForceOptions {
   std::string actual, nominal, calibrated, out = "hapticcal-out/force", posture;
+  int lock = -1;  // 1-based; 0: none; -1: the default (ForceScenario::kLockRedundant)
   ChainOptions chain;
   hapticcal::ForceScenario scenario;
 };
@@ -535,8 +599,10 @@ int run_force_study(ForceOptions o) {
   const hapticcal::DeviceModel actual = o.chain.load(o.actual);
   const hapticcal::DeviceModel nominal = o.chain.load(o.nominal);
   const hapticcal::DeviceModel calibrated = o.chain.load(o.calibrated);
-  hapticcal::OutputSet out(o.out, "force");
   hapticcal::ForceScenario& sc = o.scenario;
+  if (o.lock >= 0) sc.locked_joint = o.lock - 1;  // 0 -> kNoLock
+  sc.locked_joint = hapticcal::resolved_locked_joint(sc, actual.dof());
+  hapticcal::OutputSet out(o.out, "force");
   if (!o.posture.empty()) {
     const std::vector<std::string> v = names(o.posture);
     sc.posture.resize(v.size());
@@ -565,10 +631,12 @@ int run_force_study(ForceOptions o) {
     posture += fmt::format("{}{}", i ? "," : "", sc.posture[i]);
   fmt::print(
       "hapticcal force: virtual wall K = {} N/m moved {} mm along the handle's z in {} s, "
-      "held {} s, at {} Hz; gain G = {} (stable for |G| < {:.4f}); joint {} locked; posture q = "
+      "held {} s, at {} Hz; gain G = {} (stable for |G| < {:.4f}); {}; posture q = "
       "[{}] rad{}\n",
       sc.stiffness, sc.travel * 1e3, sc.move_seconds, sc.hold_seconds, sc.rate_hz, sc.gain, limit,
-      sc.locked_joint + 1, posture,
+      sc.locked_joint >= 0 ? fmt::format("joint {} locked", sc.locked_joint + 1)
+                           : "no joint locked",
+      posture,
       o.posture.empty() && actual.dof() == 7
           ? " (home with j6 = 0.3 rad: home is a wrist singularity of this model)"
           : "");
@@ -670,7 +738,9 @@ int main(int argc, char** argv) {
   SimulateOptions sim;
   sim.device = hapticcal::builtin_device_path();
   std::string out;
-  auto* simulate = app.add_subcommand("simulate", "Run the paper's simulation study (main job)");
+  auto* simulate = app.add_subcommand(
+      "simulate",
+      "Run the paper's simulation study (main job), or one on any device and measurement");
   simulate->add_option("--scenario", sim.scenario, "Scenario file (YAML)");
   simulate->add_option("--trials", sim.trials, "Monte Carlo trials (default 1)")
       ->check(within(1, 100000, ""));
@@ -678,8 +748,10 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   simulate->add_option("--threads", sim.threads, "Threads (default: all cores)")
       ->check(within(1, 256, ""));
-  simulate->add_option("--device", sim.device, "Nominal device file (default: the built-in 7-DOF)");
+  simulate->add_option("--device", sim.device,
+                       "Nominal device file or URDF (default: the built-in 7-DOF)");
   simulate->add_option("--out", sim.out, "Output directory (default hapticcal-out/simulate)");
+  add_chain_options(simulate, sim.chain);
 
   CalibrateOptions cal;
   auto* calibrate = app.add_subcommand("calibrate", "Two-step identification from a log");
@@ -777,6 +849,11 @@ int main(int argc, char** argv) {
                     "Readings q of the fixed handle, comma separated (default: home, j6 = 0.3 rad "
                     "on a 7-joint device)");
   force->add_option("--seed", fo.scenario.seed, "Seed of the sensor noise");
+  force
+      ->add_option("--lock", fo.lock,
+                   "Joint to lock, 1-based; 0: none (default: joint 3 on a 7-joint device, none "
+                   "on a 6-joint one; 6 joints must remain)")
+      ->check(within(0, 1000, ""));
   add_chain_options(force, fo.chain);
 
   ConvertOptions conv;

@@ -247,19 +247,36 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
 Report study_report(const Scenario& sc, const StudyResult& r) {
   const TrialResult& t = r.first;
   Report report;
-  report.title = fmt::format("hapticcal simulate: the paper's study on {}", sc.nominal.name);
-  report.sections.push_back(fmt::format(
-      "<p>{} trial(s), seed {}; {} identification and {} validation poses; sigma_e {:.4g} rad, "
-      "sigma_m {:.4g} m ({}).</p>\n<p>Trajectory (Fig. 10, eq. 9): distance RMS {:.4f} mm nominal, "
-      "{:.4f} mm full calibration ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %); the paper "
-      "measured {:.1f} % and {:.1f} %.</p>\n",
-      r.trials, sc.seed, sc.identification_poses, sc.validation_poses, sc.noise.sigma_ext,
-      sc.noise.sigma_distance, sc.sigma_m_formula, t.trajectory_rms_before * 1e3,
-      t.trajectory_rms_full * 1e3,
-      rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
-      t.trajectory_rms_kinematic * 1e3,
-      rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before),
-      kPaperImprovementFullPct, kPaperImprovementKinematicOnlyPct));
+  const bool paper_study = sc.paper_comparison();
+  report.title = paper_study
+                     ? fmt::format("hapticcal simulate: the paper's study on {}", sc.nominal.name)
+                     : fmt::format("hapticcal simulate: {} measured by {}", sc.nominal.name,
+                                   traits(sc.measurement).plural);
+  if (!paper_study) {
+    report.sections.push_back(fmt::format(
+        "<p>{} trial(s), seed {}; {} identification and {} validation poses; sigma_e {:.4g} rad, "
+        "sigma_m {:.4g} m ({}). Truth: {} transmissions, {} kinematics. Trajectory: distance "
+        "RMS {:.4f} mm nominal, {:.4f} mm full calibration, {:.4f} mm kinematic-only.</p>\n",
+        r.trials, sc.seed, sc.identification_poses, sc.validation_poses, sc.noise.sigma_ext,
+        measurement_sigma(sc), sc.sigma_m_formula,
+        sc.paper_transmissions ? "the paper's" : "the device's own",
+        sc.random.enabled() ? "randomly deviated" : "assigned", t.trajectory_rms_before * 1e3,
+        t.trajectory_rms_full * 1e3, t.trajectory_rms_kinematic * 1e3));
+  } else {
+    report.sections.push_back(fmt::format(
+        "<p>{} trial(s), seed {}; {} identification and {} validation poses; sigma_e {:.4g} rad, "
+        "sigma_m {:.4g} m ({}).</p>\n<p>Trajectory (Fig. 10, eq. 9): distance RMS {:.4f} mm "
+        "nominal, "
+        "{:.4f} mm full calibration ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %); the paper "
+        "measured {:.1f} % and {:.1f} %.</p>\n",
+        r.trials, sc.seed, sc.identification_poses, sc.validation_poses, sc.noise.sigma_ext,
+        sc.noise.sigma_distance, sc.sigma_m_formula, t.trajectory_rms_before * 1e3,
+        t.trajectory_rms_full * 1e3,
+        rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
+        t.trajectory_rms_kinematic * 1e3,
+        rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before),
+        kPaperImprovementFullPct, kPaperImprovementKinematicOnlyPct));
+  }
   // Tables 2 and 3 analogues (identified parameters; capstans in SI units).
   std::vector<std::vector<std::string>> t2, t3;
   auto paper = [](const std::string& name) {
@@ -274,22 +291,29 @@ Report study_report(const Scenario& sc, const StudyResult& r) {
   };
   for (const StudyRow& row : study_rows(sc, t.full)) {
     if (!row.held.empty()) continue;
-    const std::string ip = fmt::format("{:.2f}", row.improvement_pct);
-    if (row.capstan) {
-      t2.push_back({row.name, fmt::format("{:.6g}", row.assigned),
-                    fmt::format("{:.6g}", row.identified), ip, paper(row.name), mc(row.name, false),
-                    mc(row.name, true)});
-    } else {
-      t3.push_back({row.name, f4((row.assigned - row.nominal) * 1e3),
-                    f4((row.identified - row.nominal) * 1e3), ip, paper(row.name),
-                    mc(row.name, false), mc(row.name, true)});
-    }
+    const std::string ip =
+        std::isfinite(row.improvement_pct) ? fmt::format("{:.2f}", row.improvement_pct) : "-";
+    std::vector<std::string> cells =
+        row.capstan ? std::vector<std::string>{row.name, fmt::format("{:.6g}", row.assigned),
+                                               fmt::format("{:.6g}", row.identified), ip}
+                    : std::vector<std::string>{row.name, f4((row.assigned - row.nominal) * 1e3),
+                                               f4((row.identified - row.nominal) * 1e3), ip};
+    if (paper_study) cells.push_back(paper(row.name));  // the paper's columns: its study only
+    cells.push_back(mc(row.name, false));
+    cells.push_back(mc(row.name, true));
+    (row.capstan ? t2 : t3).push_back(cells);
   }
-  const std::vector<std::string> header = {"parameter", "assigned", "identified", "I %",
-                                           "paper I %", "mean I %", "RMSE / CRLB"};
-  report.sections.push_back("<h2>Table 2 analogue: capstan drives (SI units)</h2>\n" +
-                            html_table(header, t2));
-  report.sections.push_back("<h2>Table 3 analogue: kinematic deviations (mm, mrad)</h2>\n" +
+  std::vector<std::string> header = {"parameter", "assigned", "identified", "I %"};
+  if (paper_study) header.push_back("paper I %");
+  header.insert(header.end(), {"mean I %", "RMSE / CRLB"});
+  report.sections.push_back(
+      (paper_study ? "<h2>Table 2 analogue: capstan drives (SI units)</h2>\n"
+                   : "<h2>Transmission parameters (SI units): assigned and identified</h2>\n") +
+      html_table(header, t2));
+  report.sections.push_back((paper_study
+                                 ? "<h2>Table 3 analogue: kinematic deviations (mm, mrad)</h2>\n"
+                                 : "<h2>Kinematic deviations from nominal (mm, mrad): assigned and "
+                                   "identified</h2>\n") +
                             html_table(header, t3));
   report.sections.push_back(held_table(t.full.kinematics));
 

@@ -25,15 +25,15 @@ Statics statics(const DeviceModel& model, const ForceScenario& sc, const char* w
   const PreparedModel prepared(model);
   Jacobian6<double> J;
   prepared.forward_jacobian(sc.posture.data(), JacobianFrame::kTool, J);
-  const int kept = model.dof() - (sc.locked_joint >= 0 ? 1 : 0);
-  if (kept != 6) {
-    throw InputError(
-        fmt::format("{}: {} joints remain with joint {} locked; the force study needs 6", which,
-                    kept, sc.locked_joint + 1));
+  int locked = ForceScenario::kNoLock;
+  try {
+    locked = resolved_locked_joint(sc, model.dof());
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{}: {}", which, e.what()));
   }
   Statics s;
   for (int i = 0, c = 0; i < model.dof(); ++i) {
-    if (i == sc.locked_joint) continue;
+    if (i == locked) continue;
     s.J.col(c) = J.col(i);
     s.D[c] = 1 + model.links[i].transmission.derivative(sc.posture[i]);
     ++c;
@@ -52,6 +52,27 @@ Statics statics(const DeviceModel& model, const ForceScenario& sc, const char* w
 }
 
 }  // namespace
+
+int resolved_locked_joint(const ForceScenario& sc, int dof) {
+  int locked = sc.locked_joint;
+  if (locked == ForceScenario::kLockRedundant) locked = dof == 7 ? 2 : ForceScenario::kNoLock;
+  if (locked >= dof || locked < ForceScenario::kNoLock) {
+    throw InputError(
+        fmt::format("joint {} cannot be locked: the device has {} joints", locked + 1, dof));
+  }
+  const int kept = dof - (locked >= 0 ? 1 : 0);
+  if (kept != 6) {
+    throw InputError(fmt::format(
+        "the force study needs 6 joints after locking (a 6 x 6 handle Jacobian): the device has "
+        "{} joints{}, so {} remain; {}",
+        dof, locked >= 0 ? fmt::format(" with joint {} locked", locked + 1) : "", kept,
+        kept > 6 ? "lock one with --lock J (a 7-joint device)"
+        : dof == 6
+            ? "lock none (--lock 0)"
+            : "a device of fewer than 6 joints cannot render a 6-D wrench at a fixed handle"));
+  }
+  return locked;
+}
 
 Eigen::Matrix<double, 6, 6> rendering_map(const DeviceModel& actual, const DeviceModel& controller,
                                           const ForceScenario& scenario) {
@@ -121,6 +142,7 @@ ForceStudy run_force_study(const DeviceModel& actual, const DeviceModel& nominal
   ForceScenario& sc = study.scenario;
   study.default_posture = sc.posture.size() == 0;
   if (study.default_posture) sc.posture = default_posture(actual);
+  sc.locked_joint = resolved_locked_joint(sc, actual.dof());
   study.stable_gain_limit = force_study_gain_limit(actual, nominal, calibrated, sc);
   if (!(std::abs(sc.gain) < study.stable_gain_limit)) {
     throw InputError(fmt::format(

@@ -44,9 +44,52 @@ namespace {
 
 // A log of `poses` rows; each row's readings from `draw(row, rng, q)` (in
 // order, from the same generator as the noise that follows them).
+// What a log measures: its columns.
+struct Columns {
+  bool distance = true, position = false, orientation = false;
+};
+
+// The columns a measurement type fills. Fixture points and planes (a label
+// column and their own unknowns) are added here and in simulated_measurement.
+Columns columns_of(MeasurementType type) {
+  switch (type) {
+    case MeasurementType::kDistance:
+      return {true, false, false};
+    case MeasurementType::kPosition:
+      return {false, true, false};
+    case MeasurementType::kPose:
+      return {false, true, true};
+  }
+  assert(false && "a measurement type the simulation does not fill");
+  return {};
+}
+
+// Row r's measured columns of the tool frame T_meas_tool, with noise; the
+// draws in the order distance, position, orientation.
+template <typename Rng>
+void simulated_measurement(const Frame<double>& T_meas_tool, const Columns& c,
+                           const SimulationNoise& noise, Rng& rng,
+                           std::normal_distribution<double>& gauss, Log& log, int r) {
+  const Eigen::Vector3d& p = T_meas_tool.p;
+  if (c.distance) log.distance[r] = p.norm() + noise.sigma_distance * gauss(rng);
+  if (c.position) {
+    for (int k = 0; k < 3; ++k) log.position(r, k) = p[k] + noise.sigma_position * gauss(rng);
+  }
+  if (c.orientation) {
+    Eigen::Vector3d w;
+    for (int k = 0; k < 3; ++k) w[k] = noise.sigma_orientation * gauss(rng);
+    const double angle = w.norm();
+    const Eigen::Matrix3d turn = angle > 0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
+                                           : Eigen::Matrix3d::Identity();
+    const Eigen::Quaterniond quat(turn * T_meas_tool.R);
+    log.orientation.row(r) << quat.w(), quat.x(), quat.y(), quat.z();
+  }
+}
+
 template <typename Draw>
 Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, std::uint64_t seed,
-            bool distance, bool position, Draw draw) {
+            const Columns& columns, Draw draw) {
+  const bool distance = columns.distance, position = columns.position;
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   const int n = actual.dof();
@@ -63,6 +106,8 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
   log.has_position = position;
   if (distance) log.distance.resize(poses);
   if (position) log.position.resize(poses, 3);
+  log.has_orientation = columns.orientation;
+  if (columns.orientation) log.orientation.resize(poses, 4);
   for (int r = 0; r < poses; ++r) {
     log.line.push_back(r + 2);
     draw(r, rng, log.q);
@@ -73,37 +118,60 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
           q + actual.links[j].transmission.error(q) + 1e-3 * (j + 1) + noise.sigma_ext * gauss(rng);
     }
     const Eigen::VectorXd q = log.q.row(r).transpose();
-    const Eigen::Vector3d p = prepared.forward(q.data()).p;
+    const Frame<double> T_meas_tool = prepared.forward(q.data());
     for (int j = 0; j < n; ++j) {
       log.q(r, j) = quantized_reading(q[j], ratio[j], noise.motor_counts_per_rev);
     }
-    if (distance) log.distance[r] = p.norm() + noise.sigma_distance * gauss(rng);
-    if (position) {
-      for (int k = 0; k < 3; ++k) log.position(r, k) = p[k] + noise.sigma_position * gauss(rng);
-    }
+    simulated_measurement(T_meas_tool, columns, noise, rng, gauss, log, r);
   }
   return log;
 }
 
 }  // namespace
 
+namespace {
+
+// Readings drawn uniformly within the joint limits.
+auto uniform_readings(const DeviceModel& actual) {
+  return [&actual](int r, std::mt19937_64& rng, Eigen::MatrixXd& q) {
+    for (int j = 0; j < actual.dof(); ++j) {
+      const Link& l = actual.links[j];
+      q(r, j) = std::uniform_real_distribution<double>(l.lower, l.upper)(rng);
+    }
+  };
+}
+
+// The given readings, row by row.
+auto given_readings(const DeviceModel& actual, const Eigen::MatrixXd& readings) {
+  assert(readings.cols() == actual.dof());
+  (void)actual;
+  return [&readings](int r, std::mt19937_64&, Eigen::MatrixXd& q) { q.row(r) = readings.row(r); };
+}
+
+}  // namespace
+
 Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& noise,
                  std::uint64_t seed, bool distance, bool position) {
-  return measure(actual, poses, noise, seed, distance, position,
-                 [&](int r, std::mt19937_64& rng, Eigen::MatrixXd& q) {
-                   for (int j = 0; j < actual.dof(); ++j) {
-                     const Link& l = actual.links[j];
-                     q(r, j) = std::uniform_real_distribution<double>(l.lower, l.upper)(rng);
-                   }
-                 });
+  return measure(actual, poses, noise, seed, Columns{distance, position, false},
+                 uniform_readings(actual));
 }
 
 Log simulate_log_at(const DeviceModel& actual, const Eigen::MatrixXd& readings,
                     const SimulationNoise& noise, std::uint64_t seed, bool distance,
                     bool position) {
-  assert(readings.cols() == actual.dof());
-  return measure(actual, static_cast<int>(readings.rows()), noise, seed, distance, position,
-                 [&](int r, std::mt19937_64&, Eigen::MatrixXd& q) { q.row(r) = readings.row(r); });
+  return measure(actual, static_cast<int>(readings.rows()), noise, seed,
+                 Columns{distance, position, false}, given_readings(actual, readings));
+}
+
+Log simulate_measurement_log(const DeviceModel& actual, MeasurementType type, int poses,
+                             const Eigen::MatrixXd& readings, const SimulationNoise& noise,
+                             std::uint64_t seed) {
+  const Columns c = columns_of(type);
+  if (readings.size()) {
+    return measure(actual, static_cast<int>(readings.rows()), noise, seed, c,
+                   given_readings(actual, readings));
+  }
+  return measure(actual, poses, noise, seed, c, uniform_readings(actual));
 }
 
 Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_hz,
@@ -144,13 +212,19 @@ Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_h
     const double envelope = u * u * (3 - 2 * u);
     for (int j = 0; j < n; ++j) {
       const Link& l = actual.links[j];
-      const double half = 0.45 * std::min(-l.lower, l.upper);  // home (0) stays the centre
+      // Home (0) stays the centre; a joint whose limits exclude it moves about
+      // their middle instead.
+      const bool home_inside = l.lower <= 0 && 0 <= l.upper;
+      const double centre = home_inside ? 0.0 : (l.lower + l.upper) / 2;
+      const double half =
+          0.45 * (home_inside ? std::min(-l.lower, l.upper) : (l.upper - l.lower) / 2);
       double v = 0;
       for (int k = 0; k < kHarmonics; ++k) {
         v += amp[j][k] * (std::sin(2 * std::numbers::pi * freq[j][k] * t + phase[j][k]) -
                           std::sin(phase[j][k]));
       }
-      q[j] = std::clamp(envelope * half * v, l.lower, l.upper);
+      q[j] = std::clamp(home_inside ? envelope * half * v : centre + envelope * half * v, l.lower,
+                        l.upper);
     }
     log.t[r] = t;
     log.distance[r] = prepared.forward(q.data()).p.norm() + noise.sigma_distance * gauss(rng);

@@ -17,7 +17,10 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 struct ForceScenario {
   Eigen::VectorXd posture;  // readings q of the fixed handle (empty: the default)
-  int locked_joint = 2;     // zero-based; -1: none (the 7-DOF's redundant joint 3)
+  // Zero-based; kNoLock: none; kLockRedundant: joint 3 on a 7-joint device (the
+  // paper's redundant joint), none on a 6-joint one. 6 joints must remain.
+  static constexpr int kNoLock = -1, kLockRedundant = -2;
+  int locked_joint = kLockRedundant;
   double stiffness = 100;   // virtual wall K [N/m]
   double travel = 0.02;     // how far the wall moves along the handle's z [m]
   double move_seconds = 2;  // over this time (smooth), then
@@ -33,6 +36,11 @@ struct ForceRun {
   std::vector<Vector6d> desired, measured;  // [F; M] in the handle frame
   double transverse_rms = 0;                // RMS of sqrt(Fx^2 + Fy^2) [N]
 };
+
+// The locked joint (zero-based, or kNoLock) for a device of `dof` joints:
+// kLockRedundant resolved. Throws InputError, saying what the study needs,
+// unless 6 joints remain (the handle Jacobian must be 6 x 6).
+int resolved_locked_joint(const ForceScenario& scenario, int dof);
 
 // The static map from the commanded to the rendered wrench with the handle
 // fixed: W = J_a^-T D_a^-1 D_m J_m^T F_cmd, J in the handle frame with the

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/io/io.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/study/paper.hpp"
@@ -13,6 +14,7 @@ struct SimulationNoise {
   double sigma_ext = kPaperSigmaE;            // external encoders [rad]
   double sigma_distance = kPaperSigmaMPaper;  // cable encoder [m]
   double sigma_position = 0;                  // tracker [m]
+  double sigma_orientation = 0;               // a pose's rotation, per axis [rad]
   // Motor-encoder counts per motor turn (0: readings not quantised). The reading
   // q is the motor count times 2 pi / (counts * R), R the joint's capstan ratio
   // (1 without one); the truth follows the unquantised angle.
@@ -36,9 +38,21 @@ Log simulate_log_at(const DeviceModel& actual, const Eigen::MatrixXd& readings,
                     const SimulationNoise& noise, std::uint64_t seed, bool distance = true,
                     bool position = false);
 
+// A log measuring `type` at `readings` (poses x dof; empty: `poses` random
+// readings within the limits, as simulate_log): a distance (noise
+// sigma_distance), a position (sigma_position per coordinate) or a pose (the
+// position, and the orientation turned by a random rotation vector of
+// sigma_orientation per axis). The extension point of the measurement family:
+// a new MeasurementType fills its columns here (simulated_measurement in
+// simulation.cpp). For kDistance the same log as simulate_log(_at).
+Log simulate_measurement_log(const DeviceModel& actual, MeasurementType type, int poses,
+                             const Eigen::MatrixXd& readings, const SimulationNoise& noise,
+                             std::uint64_t seed);
+
 // The experiment analogue of paper Fig. 10: a continuous random motion of
-// `seconds` sampled at `rate_hz`, at rest at home at both ends, each joint a sum
-// of slow sinusoids within its limits; columns t, q, distance (with noise).
+// `seconds` sampled at `rate_hz`, at rest at home at both ends (a joint whose
+// limits exclude home: at their middle), each joint a sum of slow sinusoids
+// within its limits; columns t, q, distance (with noise).
 Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_hz,
                         const SimulationNoise& noise, std::uint64_t seed);
 

@@ -18,10 +18,45 @@
 
 namespace hapticcal {
 
+// Random deviations of the truth from nominal: each identifiable kinematic
+// parameter (for the scenario's measurement, in calibrate's priority order) moved
+// by a normal draw of its class's sd; a class at 0 is not moved.
+struct RandomDeviations {
+  double lengths = 0;      // sd [m]
+  double angles = 0;       // sd [rad]
+  std::uint64_t seed = 1;  // of the draws (the scenario's seed unless given)
+  bool enabled() const { return lengths > 0 || angles > 0; }
+};
+
+// The random deviations of a device other than the paper's when its scenario
+// names none: 1 mm and 1 mrad.
+constexpr double kDefaultLengthDeviationSd = 1e-3;
+constexpr double kDefaultAngleDeviationSd = 1e-3;
+// Noise of a device other than the paper's unless the scenario gives it: a
+// tracker of 10 um per coordinate (or a cable encoder of 10 um) and 10 urad.
+constexpr double kDefaultSigmaM = 1e-5;
+constexpr double kDefaultSigmaR = 1e-5;
+
 struct Scenario {
-  std::string device_path;  // the nominal device file
+  std::string device_path;  // the nominal device file (or URDF, with tip and root)
+  std::string tip, root;    // a URDF's chain
   DeviceModel nominal;
   DeviceModel actual;  // the truth
+  // The device is the paper's built-in one (is_paper_device): only then may the
+  // truth be the paper's (Tables 2-3) and the paper's figures be compared.
+  bool paper_device = true;
+  // The truth's transmissions are the paper's Table 2 capstans and joint-4
+  // linkage (paper device only); false: the device's own.
+  bool paper_transmissions = true;
+  // Kinematic truth: Table 3 (paper device, unless random deviations replace it)
+  // or nominal, plus `random`, then the named `deviations` (SI, from nominal).
+  RandomDeviations random;
+  std::map<std::string, double> deviations;
+  // What the identification log measures (the validation scores position and
+  // orientation against the truth whatever it is). Fixture points and planes
+  // join here when the measurement family has them (simulation.hpp:
+  // simulated_measurement is the one place that fills a log's columns).
+  MeasurementType measurement = MeasurementType::kDistance;
   int identification_poses = 200;
   // Readings to measure at (poses x dof, e.g. a plan.csv) instead of random
   // ones; identification_poses is then their count.
@@ -32,20 +67,48 @@ struct Scenario {
   // (calibrate's model selection off), so that its Monte Carlo compares with the
   // full model's Cramer-Rao bound.
   bool keep_all = true;
-  std::vector<std::string> fix;     // CalibrationOptions::fix of the trials' calibrations
+  std::vector<std::string> fix;  // CalibrationOptions::fix of the trials' calibrations
   int validation_poses = 200;
   double trajectory_seconds = 100;
   double trajectory_rate_hz = 1000;
   SimulationNoise noise;
-  std::string sigma_m_formula = "paper";  // "paper", "consistent" or "given"
+  // "paper", "consistent", "given" or "default" (kDefaultSigmaM: not the paper's study)
+  std::string sigma_m_formula = "paper";
   std::uint64_t seed = 1;
   int trials = 1;
+
+  // The paper's comparisons apply (its Table 2/3 I % column, its Fig. 10
+  // percentages): the paper's device with the paper's truth, measured by distance.
+  bool paper_comparison() const {
+    return paper_device && paper_transmissions && !random.enabled() &&
+           measurement == MeasurementType::kDistance;
+  }
 };
 
-// SPEC section 3 on the built-in device file at `device_path`.
-Scenario default_scenario(const std::string& device_path);
+// Whether `model` is the paper's built-in device (the same name, joint count,
+// base kind and kinematic parameters as builtin_device_path()'s; limits and
+// transmissions may differ).
+bool is_paper_device(const DeviceModel& model);
+
+// SPEC section 3 on the built-in device file at `device_path`; on any other
+// device (a device file, or a URDF with `tip` and `root`) the general study: the
+// device's own transmissions as the truth, random deviations of
+// kDefault*DeviationSd, distance measurements with kDefaultSigmaM.
+Scenario default_scenario(const std::string& device_path, const std::string& tip = "",
+                          const std::string& root = "");
+// Sets the truth from the scenario's choices (paper_transmissions, random,
+// deviations, measurement); throws InputError naming `source` when one does not
+// apply to the device.
+void assign_truth(Scenario& scenario, const std::string& source);
 // A scenario file (YAML, `format: hapticcal-scenario/1`); every key optional:
-//   device: PATH (relative to the file)     seed: N     trials: N
+//   device: PATH (relative to the file; a device file or a URDF)
+//   tip: LINK, root: LINK                   a URDF's chain
+//   seed: N     trials: N
+//   measurement: distance | position | pose the identification log's (default distance)
+//   transmissions: paper | device           the truth's (paper: the paper's device only)
+//   random_deviations: {lengths: SD_M, angles: SD_RAD, seed: N}
+//                                           normal deviations of every identifiable
+//                                           kinematic parameter (replace Table 3)
 //   poses: {identification: N | PLAN.csv, validation: N}
 //                                           PLAN.csv (relative to the file; q1..qn as
 //                                           `plan` writes it): measure exactly at its
@@ -56,11 +119,19 @@ Scenario default_scenario(const std::string& device_path);
 //                                           for plans with fewer measurements than
 //                                           calibrate's candidates)
 //   trajectory: {seconds: S, rate_hz: F}
-//   noise: {sigma_e: RAD, sigma_m: paper | consistent | METRES, motor_counts_per_rev: N}
-//   deviations: {DOTTED_NAME: VALUE, ...}   replaces Table 3's deviation of a kinematic
-//                                           parameter (SI, added to nominal)
+//   noise: {sigma_e: RAD, sigma_m: paper | consistent | METRES, sigma_r: RAD,
+//           motor_counts_per_rev: N}        sigma_m: of a distance or of each position
+//                                           coordinate (the formulas: the paper's device
+//                                           and distance only); sigma_r: a pose's rotation
+//   deviations: {DOTTED_NAME: VALUE, ...}   replaces Table 3's (or the random) deviation
+//                                           of a kinematic parameter (SI, added to nominal)
+// Anything that does not apply to the device is refused, never replaced.
 // Unknown keys are errors naming the file, line and key.
-Scenario load_scenario(const std::string& path, const std::string& default_device_path);
+Scenario load_scenario(const std::string& path, const std::string& default_device_path,
+                       const std::string& default_tip = "", const std::string& default_root = "");
+
+// The sd of one distance or position coordinate of the scenario's measurement [m].
+double measurement_sigma(const Scenario& scenario);
 
 // One trial's figures (metres, radians).
 struct TrialResult {
