@@ -1,5 +1,7 @@
 #include "hapticcal/study/simulation.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <cassert>
@@ -7,6 +9,7 @@
 #include <numbers>
 #include <random>
 
+#include "hapticcal/io/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
@@ -59,9 +62,12 @@ Columns columns_of(MeasurementType type) {
       return {false, true, false};
     case MeasurementType::kPose:
       return {false, true, true};
+    case MeasurementType::kPoint:
+    case MeasurementType::kPlane:
+      break;
   }
-  assert(false && "a measurement type the simulation does not fill");
-  return {};
+  throw InputError(fmt::format("simulate does not produce {} yet (distance, position or pose)",
+                               traits(type).plural));
 }
 
 // Row r's measured columns of the tool frame T_meas_tool, with noise; the
