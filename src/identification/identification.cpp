@@ -685,6 +685,51 @@ bool register_measurement_frame(KinematicProblem& problem, const std::vector<int
   return true;
 }
 
+namespace {
+
+std::vector<Eigen::VectorXd> consistent_joints(const ChainStructure& s, const Eigen::VectorXd& p,
+                                               std::vector<Eigen::VectorXd> joints,
+                                               MeasurementType type, const FixtureLabels& labels) {
+  constexpr int kSteps = 30;
+  const ChainConstants<double> constants = chain_constants(s, p.data());
+  const int m = static_cast<int>(joints.size());
+  std::vector<Eigen::Vector3d> point(m);
+  for (int i = 0; i < m; ++i) point[i] = forward_kinematics(s, constants, joints[i].data()).p;
+  // Each label's mean point and (planes) the normal of its best plane.
+  std::vector<Eigen::Vector3d> mean(labels.count(), Eigen::Vector3d::Zero());
+  std::vector<Eigen::Matrix3d> scatter(labels.count(), Eigen::Matrix3d::Zero());
+  std::vector<int> count(labels.count(), 0);
+  for (int i = 0; i < m; ++i) {
+    mean[labels.of_pose[i]] += point[i];
+    ++count[labels.of_pose[i]];
+  }
+  for (int l = 0; l < labels.count(); ++l) mean[l] /= count[l];
+  for (int i = 0; i < m; ++i) {
+    const Eigen::Vector3d e = point[i] - mean[labels.of_pose[i]];
+    scatter[labels.of_pose[i]] += e * e.transpose();
+  }
+  std::array<Frame<double>, kMaxDof + 1> frames;
+  Jacobian6<double> J;
+  for (int i = 0; i < m; ++i) {
+    const int l = labels.of_pose[i];
+    const Eigen::Vector3d normal =
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter[l]).eigenvectors().col(0);
+    for (int step = 0; step < kSteps; ++step) {
+      const Frame<double> tool = forward_kinematics(s, constants, joints[i].data(), frames.data());
+      Eigen::Vector3d e = mean[l] - tool.p;
+      if (type == MeasurementType::kPlane) e = normal * normal.dot(e);
+      if (e.norm() < 1e-13) break;
+      geometric_jacobian(s, frames.data(), tool, JacobianFrame::kMeasurement, J);
+      const Eigen::MatrixXd Jp = J.topRows<3>();
+      joints[i] += Jp.transpose() *
+                   (Jp * Jp.transpose() + 1e-10 * Eigen::Matrix3d::Identity()).ldlt().solve(e);
+    }
+  }
+  return joints;
+}
+
+}  // namespace
+
 IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
                                                 const std::vector<int>& candidates,
                                                 double tolerance) {
@@ -703,8 +748,17 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
     }
     qs = model.compensate(reading);
   }
+  // A fixture's rows change with the residual itself (p_i - m_L turns with the
+  // robot): at the data, directions that only turn or stretch the residuals look
+  // identifiable, with an information that is the noise's. The rank test runs
+  // where the nominal model meets the fixture exactly: each pose moved (damped
+  // least squares in the joints) until its tool point is at its label's mean
+  // point, or on its label's best plane.
+  const std::vector<Eigen::VectorXd> joints =
+      kind.labels ? consistent_joints(s, p0, problem.joints, problem.type, problem.labels)
+                  : problem.joints;
   const Stack data =
-      stack(s, p0, problem.joints, kind, problem.measured, problem.weights, problem.compressed);
+      stack(s, p0, joints, kind, problem.measured, problem.weights, problem.compressed);
   // A fixture problem's synthetic poses are spread over as many labels as the data's.
   FixtureLabels synthetic_labels;
   RowsOf synthetic_kind = kind;

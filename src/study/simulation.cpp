@@ -180,6 +180,64 @@ Log simulate_measurement_log(const DeviceModel& actual, MeasurementType type, in
   return measure(actual, poses, noise, seed, c, uniform_readings(actual));
 }
 
+Log simulate_fixture_log(const DeviceModel& actual,
+                         const std::vector<std::pair<std::string, Eigen::Vector3d>>& sockets,
+                         int per_socket, double placement, std::uint64_t seed) {
+  constexpr int kStarts = 1000, kSteps = 100;
+  constexpr double kReached = 1e-12;  // m
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  const PreparedModel prepared(actual);
+  const int n = actual.dof();
+  Log log;
+  log.origin = "simulated fixture";
+  log.rows = static_cast<int>(sockets.size()) * per_socket;
+  log.q.resize(log.rows, n);
+  log.ext.setZero(log.rows, n);
+  log.has_ext.assign(n, false);
+  log.has_point = true;
+  Jacobian6<double> J;
+  int row = 0;
+  for (const auto& [name, socket] : sockets) {
+    for (int k = 0; k < per_socket; ++k) {
+      Eigen::Vector3d target = socket;
+      for (int a = 0; a < 3; ++a) target[a] += placement * gauss(rng);
+      bool reached = false;
+      for (int start = 0; start < kStarts && !reached; ++start) {
+        Eigen::VectorXd q(n);
+        for (int j = 0; j < n; ++j) {
+          q[j] = std::uniform_real_distribution<double>(actual.links[j].lower,
+                                                        actual.links[j].upper)(rng);
+        }
+        for (int step = 0; step < kSteps; ++step) {
+          const Eigen::Vector3d e =
+              target - prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, J).p;
+          if (e.norm() < kReached) break;
+          // The Jacobian is w.r.t. the compensated angles; near enough for the steps.
+          const Eigen::MatrixXd Jp = J.topRows<3>();
+          q += Jp.transpose() * (Jp * Jp.transpose() + 1e-10 * Eigen::Matrix3d::Identity())
+                                    .ldlt()
+                                    .solve(e);
+        }
+        bool inside = true;
+        for (int j = 0; j < n; ++j) {
+          inside = inside && q[j] >= actual.links[j].lower && q[j] <= actual.links[j].upper;
+        }
+        reached = inside && (target - prepared.forward(q.data()).p).norm() < 1e-9;
+        if (reached) log.q.row(row) = q.transpose();
+      }
+      if (!reached) {
+        throw InputError(fmt::format("socket '{}' cannot be reached within the joint limits of {}",
+                                     name, actual.name));
+      }
+      log.label.push_back(name);
+      log.line.push_back(row + 2);
+      ++row;
+    }
+  }
+  return log;
+}
+
 Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_hz,
                         const SimulationNoise& noise, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
