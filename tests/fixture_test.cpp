@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -17,6 +18,8 @@
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "identification/stack.hpp"
+#include "nlohmann/json.hpp"
+#include "run_cli.hpp"
 #include "test_models.hpp"
 
 namespace hapticcal {
@@ -194,16 +197,6 @@ TEST(Fixture, SimulatedSocketsAndPlanesAreFittedExactly) {
 namespace hapticcal {
 namespace {
 
-// Two sockets 50 mm apart in front of the device: the truth's tool point at
-// mid-range readings, and 50 mm along x from it.
-std::vector<std::pair<std::string, Eigen::Vector3d>> two_sockets(const DeviceModel& truth) {
-  Eigen::VectorXd q(truth.dof());
-  for (int j = 0; j < truth.dof(); ++j)
-    q[j] = truth.links[j].lower + 0.45 * (truth.links[j].upper - truth.links[j].lower);
-  const Eigen::Vector3d a = PreparedModel(truth).forward(q.data()).p;
-  return {{"a", a}, {"b", a + Eigen::Vector3d(0.05, 0, 0)}};
-}
-
 // A two-socket calibration (15 configurations a socket, placement error
 // `sigma` per axis) of `nominal` with a truth 1 mm / 1 mrad off in every
 // parameter two sockets identify, over `trials` trials: per parameter the RMSE
@@ -216,7 +209,7 @@ struct Efficiency {
   int not_converged = 0;
 };
 Efficiency two_socket_study(const DeviceModel& nominal, bool known, int trials, double sigma) {
-  const auto sockets = two_sockets(nominal);
+  const auto sockets = default_sockets(nominal);
   CalibrationOptions options;
   options.keep_all = true;
   options.folds = 0;
@@ -253,9 +246,9 @@ Efficiency two_socket_study(const DeviceModel& nominal, bool known, int trials, 
     EXPECT_EQ(r.kinematics.identified, k);
     const Eigen::VectorXd estimate = r.calibrated.kinematic_parameters();
     const KinematicProblem problem = kinematic_problem(truth, log, {}, o);
-    const detail::Stack at = detail::stack(truth.structure(), p, problem.joints,
-                                           detail::rows_of(problem), problem.measured,
-                                           problem.weights);
+    const detail::Stack at =
+        detail::stack(truth.structure(), p, problem.joints, detail::rows_of(problem),
+                      problem.measured, problem.weights);
     Eigen::MatrixXd J(at.J.rows(), k);
     for (int c = 0; c < k; ++c) J.col(c) = at.J.col(slots[c]);
     const Eigen::MatrixXd covariance = sigma * sigma * (J.transpose() * J).inverse();
@@ -300,6 +293,60 @@ TEST(Fixture, TwoSocketCalibrationWithTheKnownDistanceRecoversTheDeviations) {
                 (e.rmse.array() / e.crlb_sd.array()).minCoeff(), worst);
     EXPECT_LT(worst, 3.0);
   }
+}
+
+}  // namespace
+}  // namespace hapticcal
+namespace hapticcal {
+namespace {
+
+// Issue 13's haptic study: the built-in PHANToM calibrated with a simulated
+// two-socket fixture and nothing else (data/scenarios/phantom-two-socket.yaml):
+// the model's tool point over 200 validation poses gets closer to the truth.
+TEST(Fixture, HapticStudyCalibratesThePhantomWithTwoSockets) {
+  const std::string out = ::testing::TempDir() + "/hapticcal_haptic_study";
+  std::filesystem::remove_all(out);
+  const testing::CliResult r = testing::run_cli(
+      {"simulate", "--scenario", testing::source_path("data/scenarios/phantom-two-socket.yaml"),
+       "--trials", "3", "--out", out});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(testing::slurp(out + "/results.json"));
+  EXPECT_EQ(j["measurement"], "point");
+  const double before = j["validation"]["position_rms_before"];
+  const double after = j["validation"]["position_rms_after"];
+  std::printf("PHANToM, two sockets: validation position RMS %.3f -> %.3f mm\n", before * 1e3,
+              after * 1e3);
+  EXPECT_LT(after, before);
+  std::filesystem::remove_all(out);
+}
+
+// The scenario keys of fixture simulations: each refusal names its key.
+TEST(Fixture, ScenarioKeysOfSocketsAreChecked) {
+  const std::string dir = ::testing::TempDir() + "/hapticcal_socket_keys";
+  std::filesystem::create_directories(dir);
+  const std::string device = testing::source_path("data/devices/phantom-premium-1.5.yaml");
+  const std::pair<std::string, std::string> cases[] = {
+      {"measurement: distance\nsockets: {a: [0, 0, 0], b: [0.05, 0, 0]}\n",
+       "sockets: sockets are for measurement: point"},
+      {"measurement: point\nsockets: {a: [0, 0, 0]}\n", "sockets: expected a map of 2 to 20"},
+      {"measurement: point\nsockets: {a: [0, 0], b: [0, 0, 1]}\n",
+       "sockets.a: expected [X, Y, Z] in metres"},
+      {"measurement: point\nsockets: {a: [0, 0, 1e9], b: [0, 0, 1]}\n", "sockets.a: 1000000000 m"},
+      {"measurement: point\nsocket_distances: maybe\n",
+       "socket_distances: expected known or unknown"},
+      {"measurement: point\nsockets: {a: [5, 5, 5], b: [5, 5, 5.05]}\n",
+       "socket 'a' cannot be reached"},
+  };
+  int k = 0;
+  for (const auto& [body, expected] : cases) {
+    const std::string path = dir + "/s" + std::to_string(k++) + ".yaml";
+    std::ofstream(path) << "format: hapticcal-scenario/1\ndevice: " << device << "\n" << body;
+    const testing::CliResult r =
+        testing::run_cli({"simulate", "--scenario", path, "--out", dir + "/out"});
+    EXPECT_EQ(r.exit_code, 2) << body;
+    EXPECT_NE(r.err.find(expected), std::string::npos) << body << " -> " << r.err;
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -180,9 +180,18 @@ Log simulate_measurement_log(const DeviceModel& actual, MeasurementType type, in
   return measure(actual, poses, noise, seed, c, uniform_readings(actual));
 }
 
+std::vector<std::pair<std::string, Eigen::Vector3d>> default_sockets(const DeviceModel& model) {
+  Eigen::VectorXd q(model.dof());
+  for (int j = 0; j < model.dof(); ++j)
+    q[j] = model.links[j].lower + 0.45 * (model.links[j].upper - model.links[j].lower);
+  const Eigen::Vector3d a = PreparedModel(model).forward(q.data()).p;
+  return {{"a", a}, {"b", a + Eigen::Vector3d(0.05, 0, 0)}};
+}
+
 Log simulate_fixture_log(const DeviceModel& actual,
                          const std::vector<std::pair<std::string, Eigen::Vector3d>>& sockets,
-                         int per_socket, double placement, std::uint64_t seed) {
+                         int per_socket, double placement, std::uint64_t seed, bool encoders,
+                         double sigma_ext) {
   constexpr int kStarts = 1000, kSteps = 100;
   constexpr double kReached = 1e-12;  // m
   std::mt19937_64 rng(seed);
@@ -195,6 +204,7 @@ Log simulate_fixture_log(const DeviceModel& actual,
   log.q.resize(log.rows, n);
   log.ext.setZero(log.rows, n);
   log.has_ext.assign(n, false);
+  for (int j = 0; encoders && j < n; ++j) log.has_ext[j] = !actual.links[j].transmission.is_none();
   log.has_point = true;
   Jacobian6<double> J;
   int row = 0;
@@ -215,9 +225,8 @@ Log simulate_fixture_log(const DeviceModel& actual,
           if (e.norm() < kReached) break;
           // The Jacobian is w.r.t. the compensated angles; near enough for the steps.
           const Eigen::MatrixXd Jp = J.topRows<3>();
-          q += Jp.transpose() * (Jp * Jp.transpose() + 1e-10 * Eigen::Matrix3d::Identity())
-                                    .ldlt()
-                                    .solve(e);
+          q += Jp.transpose() *
+               (Jp * Jp.transpose() + 1e-10 * Eigen::Matrix3d::Identity()).ldlt().solve(e);
         }
         bool inside = true;
         for (int j = 0; j < n; ++j) {
@@ -229,6 +238,12 @@ Log simulate_fixture_log(const DeviceModel& actual,
       if (!reached) {
         throw InputError(fmt::format("socket '{}' cannot be reached within the joint limits of {}",
                                      name, actual.name));
+      }
+      for (int j = 0; encoders && j < n; ++j) {
+        if (!log.has_ext[j]) continue;
+        const double qj = log.q(row, j);
+        log.ext(row, j) =
+            qj + actual.links[j].transmission.error(qj) + 1e-3 * (j + 1) + sigma_ext * gauss(rng);
       }
       log.label.push_back(name);
       log.line.push_back(row + 2);

@@ -48,6 +48,7 @@ Eigen::VectorXd readings(const Log& log, int r) { return log.q.row(r).transpose(
 // the distances' sensitivity to the transmission parameters.
 std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
                                    const CalibrationResult& full) {
+  if (is_fixture(sc.measurement)) return {};  // not derived for fixtures (tests/fixture_test)
   std::vector<int> slots;
   std::vector<std::string> names;
   for (const ParameterEstimate& e : full.kinematics.parameters) {
@@ -139,19 +140,37 @@ bool is_paper_device(const DeviceModel& model) {
 
 namespace {
 
+// Every pair of sockets' distance, as --point-distance gives it.
+std::vector<PointDistance> socket_distances(
+    const std::vector<std::pair<std::string, Eigen::Vector3d>>& sockets) {
+  std::vector<PointDistance> out;
+  for (size_t a = 0; a < sockets.size(); ++a) {
+    for (size_t b = a + 1; b < sockets.size(); ++b) {
+      out.push_back(
+          {sockets[a].first, sockets[b].first, (sockets[a].second - sockets[b].second).norm()});
+    }
+  }
+  return out;
+}
+
 // The kinematic parameters `type` identifies on `nominal` (calibrate's
 // candidates and priority order, its rank test on exact synthetic measurements
 // over the joint limits): those random deviations move, so that the truth is
 // one a calibration can recover.
-std::vector<int> identifiable_slots(const DeviceModel& nominal, MeasurementType type,
-                                    const std::vector<std::string>& fix) {
+std::vector<int> identifiable_slots(
+    const DeviceModel& nominal, MeasurementType type, const std::vector<std::string>& fix,
+    const std::vector<std::pair<std::string, Eigen::Vector3d>>& sockets, bool known) {
   constexpr int kPoses = 200;
   constexpr std::uint64_t kSeed = 20130101;
   SimulationNoise exact;
   exact.sigma_ext = exact.sigma_distance = exact.sigma_position = exact.sigma_orientation = 0;
-  const Log log = simulate_measurement_log(nominal, type, kPoses, {}, exact, kSeed);
   CalibrationOptions options;
   options.fix = fix;
+  const Log log = type == MeasurementType::kPoint
+                      ? simulate_fixture_log(nominal, sockets,
+                                             kPoses / static_cast<int>(sockets.size()), 0, kSeed)
+                      : simulate_measurement_log(nominal, type, kPoses, {}, exact, kSeed);
+  if (type == MeasurementType::kPoint && known) options.point_distances = socket_distances(sockets);
   const KinematicProblem problem = kinematic_problem(nominal, log, {}, options);
   std::vector<int> slots =
       analyze_identifiability(problem, candidate_slots(nominal, fix, {})).identified;
@@ -186,7 +205,8 @@ void assign_truth(Scenario& sc, const std::string& source) {
   if (sc.random.enabled()) {
     std::mt19937_64 rng(sc.random.seed);
     std::normal_distribution<double> gauss(0.0, 1.0);
-    for (int slot : identifiable_slots(sc.nominal, sc.measurement, sc.fix)) {
+    for (int slot : identifiable_slots(sc.nominal, sc.measurement, sc.fix, sc.sockets,
+                                       sc.socket_distances_known)) {
       const bool angle = info[slot].unit == ParameterUnit::kAngle;
       truth[slot] = nominal[slot] + (angle ? sc.random.angles : sc.random.lengths) * gauss(rng);
     }
@@ -227,6 +247,8 @@ namespace {
 // Bounds on the numbers of a scenario file: a typo must not ask for terabytes
 // of samples or a deviation that no device has.
 constexpr int kMaxTrials = 100000;
+constexpr size_t kMaxSockets = 20;
+constexpr double kMaxSocketCoordinate = 100;  // m
 constexpr int kMaxPoses = 1000000;
 constexpr double kMaxTrajectorySeconds = 1e5;
 constexpr double kMaxRateHz = 1e5;
@@ -251,7 +273,8 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
   const detail::YamlReader r(path);
   r.check_keys(root, "",
                {"format", "device", "tip", "root", "seed", "trials", "poses", "trajectory", "noise",
-                "deviations", "random_deviations", "transmissions", "measurement", "calibration"});
+                "deviations", "random_deviations", "transmissions", "measurement", "calibration",
+                "sockets", "socket_distances"});
   const std::string format = r.string(r.require(root, "", "format"), "format");
   if (format != "hapticcal-scenario/1") {
     r.fail(root["format"], "format",
@@ -335,14 +358,48 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
   }
   if (const YAML::Node m = root["measurement"]) {
     const std::string name = r.string(m, "measurement");
-    const std::optional<MeasurementType> type = measurement_kind(name);
+    std::optional<MeasurementType> type = measurement_kind(name);
+    if (name == "point") type = MeasurementType::kPoint;
     if (!type) {
       r.fail(m, "measurement",
-             fmt::format("'{}' is not a measurement simulate produces: distance, position or pose",
-                         printable(name)));
+             fmt::format(
+                 "'{}' is not a measurement simulate produces: distance, position, pose or point",
+                 printable(name)));
     }
     sc.measurement = *type;
   }
+  if (const YAML::Node sockets = root["sockets"]) {
+    if (sc.measurement != MeasurementType::kPoint)
+      r.fail(sockets, "sockets", "sockets are for measurement: point");
+    if (!sockets.IsMap() || sockets.size() < 2 || sockets.size() > kMaxSockets) {
+      r.fail(
+          sockets, "sockets",
+          fmt::format("expected a map of 2 to {} sockets: NAME: [X, Y, Z] (metres)", kMaxSockets));
+    }
+    for (const auto& entry : sockets) {
+      const std::string name = r.string(entry.first, "sockets");
+      const std::string key = "sockets." + name;
+      const YAML::Node& xyz = entry.second;
+      if (!xyz.IsSequence() || xyz.size() != 3) r.fail(xyz, key, "expected [X, Y, Z] in metres");
+      Eigen::Vector3d p;
+      for (int k = 0; k < 3; ++k) {
+        p[k] = r.number(xyz[k], key);
+        if (!(std::abs(p[k]) <= kMaxSocketCoordinate))
+          r.fail(xyz[k], key, fmt::format("{} m is beyond {} m", p[k], kMaxSocketCoordinate));
+      }
+      sc.sockets.emplace_back(name, p);
+    }
+  }
+  if (const YAML::Node known = root["socket_distances"]) {
+    const std::string value = r.string(known, "socket_distances");
+    if (sc.measurement != MeasurementType::kPoint)
+      r.fail(known, "socket_distances", "socket distances are for measurement: point");
+    if (value != "known" && value != "unknown")
+      r.fail(known, "socket_distances", "expected known or unknown");
+    sc.socket_distances_known = value == "known";
+  }
+  if (sc.measurement == MeasurementType::kPoint && sc.sockets.empty())
+    sc.sockets = default_sockets(sc.nominal);
   if (const YAML::Node t = root["transmissions"]) {
     const std::string name = r.string(t, "transmissions");
     if (name == "paper") {
@@ -490,8 +547,13 @@ std::uint64_t trial_seed(std::uint64_t study_seed, int trial) {
 TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string& out) {
   TrialResult t;
   t.seed = seed;
-  Log ident = simulate_measurement_log(sc.actual, sc.measurement, sc.identification_poses,
-                                       sc.identification_readings, sc.noise, trial_seed(seed, 0));
+  Log ident =
+      sc.measurement == MeasurementType::kPoint
+          ? simulate_fixture_log(sc.actual, sc.sockets,
+                                 sc.identification_poses / static_cast<int>(sc.sockets.size()),
+                                 sc.noise.sigma_position, trial_seed(seed, 0))
+          : simulate_measurement_log(sc.actual, sc.measurement, sc.identification_poses,
+                                     sc.identification_readings, sc.noise, trial_seed(seed, 0));
   SimulationNoise exact = sc.noise;
   exact.sigma_position = 0;  // a perfect tracker: validation scores against the truth
   Log val = simulate_log(sc.actual, sc.validation_poses, exact, trial_seed(seed, 1), true, true);
@@ -509,6 +571,8 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
   CalibrationOptions options;
   options.keep_all = sc.keep_all;
   options.fix = sc.fix;
+  if (sc.measurement == MeasurementType::kPoint && sc.socket_distances_known)
+    options.point_distances = socket_distances(sc.sockets);
   t.full = calibrate(sc.nominal, ident, options);
   CalibrationOptions kin = options;
   kin.transmissions = false;

@@ -2,6 +2,9 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/io/io.hpp"
@@ -53,6 +56,24 @@ Log simulate_measurement_log(const DeviceModel& actual, MeasurementType type, in
 // `seconds` sampled at `rate_hz`, at rest at home at both ends (a joint whose
 // limits exclude home: at their middle), each joint a sum of slow sinusoids
 // within its limits; columns t, q, distance (with noise).
+// A fixture log (column `point`): for each socket (a name and a point in the
+// measurement frame), `per_socket` configurations whose tool point is at the
+// socket plus a placement error of sd `placement` [m] per axis: random readings
+// within the limits, moved by damped least squares on the actual device's
+// position Jacobian until the tool point is there (a start that ends outside
+// the limits or short of the point is drawn again). Readings exact (the
+// error is where the tool point sits); reproducible for a seed. Throws
+// InputError if a socket cannot be reached in 1000 starts.
+// With `encoders`, joints with a transmission get ext<i> columns as in
+// simulate_log (encoder zeros 1, 2, 3 ... mrad, noise sd sigma_ext).
+Log simulate_fixture_log(const DeviceModel& actual,
+                         const std::vector<std::pair<std::string, Eigen::Vector3d>>& sockets,
+                         int per_socket, double placement, std::uint64_t seed,
+                         bool encoders = false, double sigma_ext = 0);
+// Two sockets 50 mm apart where a fixture would stand: the tool point of
+// `model` at readings 45 % into each joint's range, and 50 mm along x from it.
+std::vector<std::pair<std::string, Eigen::Vector3d>> default_sockets(const DeviceModel& model);
+
 Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_hz,
                         const SimulationNoise& noise, std::uint64_t seed);
 

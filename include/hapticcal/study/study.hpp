@@ -57,6 +57,13 @@ struct Scenario {
   // join here when the measurement family has them (simulation.hpp:
   // simulated_measurement is the one place that fills a log's columns).
   MeasurementType measurement = MeasurementType::kDistance;
+  // measurement: point (a fixture's sockets, the tool point put into each in
+  // random configurations; sigma_m the placement error per axis; no external
+  // encoders: an owner without instruments has none): the sockets in
+  // the measurement frame (default: default_sockets of the nominal device), and
+  // whether their distances are given to the calibration (--point-distance).
+  std::vector<std::pair<std::string, Eigen::Vector3d>> sockets;
+  bool socket_distances_known = true;
   int identification_poses = 200;
   // Readings to measure at (poses x dof, e.g. a plan.csv) instead of random
   // ones; identification_poses is then their count.
@@ -113,6 +120,8 @@ void assign_truth(Scenario& scenario, const std::string& source);
 //                                           PLAN.csv (relative to the file; q1..qn as
 //                                           `plan` writes it): measure exactly at its
 //                                           readings, noise as usual
+//   measurement: point,  sockets: {NAME: [X, Y, Z], ...}, socket_distances: known | unknown
+//                                           a fixture (default: two sockets 50 mm apart)
 //   calibration: {keep_all: true | false,   CalibrationOptions::keep_all (true: the
 //                                           paper's procedure; false: model selection)
 //                 fix: [DOTTED_NAME, ...]}  and ::fix (e.g. what a plan reports held,
