@@ -351,3 +351,37 @@ TEST(Fixture, ScenarioKeysOfSocketsAreChecked) {
 
 }  // namespace
 }  // namespace hapticcal
+namespace hapticcal {
+namespace {
+
+// simulate measures fixture points on every kind of chain: the PHANToM (DH
+// with capstans), the Meca500 (MDH) and the Panda (URDF), default sockets.
+TEST(Fixture, SimulateMeasuresSocketsOnEveryKindOfChain) {
+  const std::string dir = ::testing::TempDir() + "/hapticcal_sockets_devices";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::pair<std::string, std::string> devices[] = {
+      {testing::source_path("data/devices/phantom-premium-1.5.yaml"), ""},
+      {testing::source_path("examples/meca500/meca500.yaml"), ""},
+      {testing::shared_path("data/mukca/panda.urdf"), "tip: ball_link\n"}};
+  int k = 0;
+  for (const auto& [device, chain] : devices) {
+    SCOPED_TRACE(device);
+    const std::string path = dir + "/s" + std::to_string(k) + ".yaml";
+    std::ofstream(path) << "format: hapticcal-scenario/1\ndevice: " << device << "\n"
+                        << chain << "measurement: point\nposes: {identification: 60}\n";
+    const std::string out = dir + "/out" + std::to_string(k++);
+    const testing::CliResult r = testing::run_cli({"simulate", "--scenario", path, "--out", out});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto j = nlohmann::json::parse(testing::slurp(out + "/results.json"));
+    const double before = j["validation"]["position_rms_before"];
+    const double after = j["validation"]["position_rms_after"];
+    std::printf("%s: validation position RMS %.3f -> %.3f mm\n",
+                j["device"].get<std::string>().c_str(), before * 1e3, after * 1e3);
+    EXPECT_LT(after, before);
+  }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace hapticcal
