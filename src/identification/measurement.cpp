@@ -158,7 +158,10 @@ void fixture_residuals(MeasurementType type, const FixtureLabels& labels, const 
   for (size_t k = 0; k < labels.distances.size(); ++k) {
     const FixtureLabels::Known& known = labels.distances[k];
     const Eigen::Vector3d v = mean[known.a] - mean[known.b];
-    const double scale = std::sqrt(static_cast<double>(samples[known.a] + samples[known.b]));
+    // The exact distance moves the two points apart along their line: the least
+    // squares cost grows by delta^2 W_A W_B / (W_A + W_B) (W: a label's summed
+    // weights), so this row is the constrained fit's, not a soft guess.
+    const double scale = std::sqrt(total[known.a] * total[known.b] / (total[known.a] + total[known.b]));
     const int row = m * d + static_cast<int>(k);
     residual[row] = scale * (v.norm() - known.metres);
     if (J) {

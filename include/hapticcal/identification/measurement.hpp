@@ -91,8 +91,11 @@ FixtureLabels fixture_labels(MeasurementType type, const Log& log, const std::ve
 // The fit's residual rows of a fixture problem from each pose's tool point
 // (raw: 3 rows a pose, p_i) and, if raw_J, its Jacobian (3 rows a pose):
 //   point: w_i (p_i - m_L), 3 rows; plane: w_i n_L . (p_i - m_L), 1 row;
-//   then per known distance (|m_A - m_B| - D) sqrt(n_A + n_B),
-// m_L the label's mean point (weights w_i^2), n_L the normal of its best plane
+//   then per known distance (|m_A - m_B| - D) sqrt(W_A W_B / (W_A + W_B)),
+// W_L the summed weights w_i^2 of a label: for labels in one known distance at
+// most, exactly the least squares with the distance as a constraint (the two
+// points moved apart along their line); m_L the label's mean point (weights
+// w_i^2), n_L the normal of its best plane
 // (the smallest principal axis of its points). The Jacobian holds m_L and n_L's
 // dependence through the mean (exact for points; n_L held, Gauss-Newton, for
 // planes). w: each pose's weight (sqrt of its repeats; empty: 1).
