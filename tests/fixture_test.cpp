@@ -161,15 +161,8 @@ TEST(Fixture, SimulatedSocketsAndPlanesAreFittedExactly) {
     std::printf("%s: %s; RMS %.4g -> %.4g mm\n", planes ? "planes" : "points",
                 r.status_reason.c_str(), r.kinematics.rms_before * 1e3,
                 r.kinematics.rms_after * 1e3);
-    // Plane contacts: Levenberg-Marquardt creeps (the planes' normals are held
-    // in each step's Jacobian) and stops at its limit short of zero; points
-    // converge to rounding.
-    if (!planes) {
-      ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
-      EXPECT_LT(r.kinematics.rms_after, 1e-9);
-    } else {
-      EXPECT_LT(r.kinematics.rms_after, r.kinematics.rms_before / 1000);
-    }
+    ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
+    EXPECT_LT(r.kinematics.rms_after, 1e-9);
     const Log test = parse_log(test_csv, "test");
     const Evaluation before = evaluate(nominal, test, test_known);
     const Evaluation after = evaluate(r.calibrated, test, test_known);
@@ -177,7 +170,7 @@ TEST(Fixture, SimulatedSocketsAndPlanesAreFittedExactly) {
       std::printf("planes: held-out RMS plane distance %.4f -> %.6f mm (%d parameters)\n",
                   *before.rms_plane_distance * 1e3, *after.rms_plane_distance * 1e3,
                   r.kinematics.identified);
-      EXPECT_LT(*after.rms_plane_distance, *before.rms_plane_distance / 100);
+      EXPECT_LT(*after.rms_plane_distance, 1e-9);
       EXPECT_GT(*before.rms_plane_distance, 1e-4);
     } else {
       std::printf(
@@ -301,8 +294,9 @@ namespace hapticcal {
 namespace {
 
 // Issue 13's haptic study: the built-in PHANToM calibrated with a simulated
-// two-socket fixture and nothing else (data/scenarios/phantom-two-socket.yaml):
-// the model's tool point over 200 validation poses gets closer to the truth.
+// two-socket fixture and nothing else (data/scenarios/phantom-two-socket.yaml),
+// calibrated as an owner would (calibrate's default, model selection): the
+// tool point over 200 validation poses gets three times closer to the truth.
 TEST(Fixture, HapticStudyCalibratesThePhantomWithTwoSockets) {
   const std::string out = ::testing::TempDir() + "/hapticcal_haptic_study";
   std::filesystem::remove_all(out);
@@ -316,7 +310,7 @@ TEST(Fixture, HapticStudyCalibratesThePhantomWithTwoSockets) {
   const double after = j["validation"]["position_rms_after"];
   std::printf("PHANToM, two sockets: validation position RMS %.3f -> %.3f mm\n", before * 1e3,
               after * 1e3);
-  EXPECT_LT(after, before);
+  EXPECT_LT(after, before / 3);  // model selection holds j1.a, which two sockets barely see
   std::filesystem::remove_all(out);
 }
 

@@ -653,6 +653,9 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   problem.measured = measured_values(poses, pose_index, RowsOf{problem.type});
   if (is_fixture(problem.type)) {
     problem.labels = fixture_labels(problem.type, poses, pose_index, options.point_distances);
+  } else if (!options.point_distances.empty()) {
+    throw InputError(poses.origin, 0, "--point-distance",
+                     "known distances are between fixture points: the log has no point column");
   }
   problem.rows = m;
   if (!repeats.empty()) {
@@ -790,27 +793,30 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   std::vector<int> order = candidates;
   const auto is_base = [&](int slot) { return slot < s.base_slots(); };
   if (kind.labels) std::stable_partition(order.begin(), order.end(), is_base);
-  Eigen::MatrixXd data_J = scaled(data.J);
-  // Planes, and points without a known distance, cannot see a uniform scale of
-  // the robot either (every length times 1 + e): its effect joins the base's in
-  // front of the rank test, as a pseudo-parameter after the slots.
-  const int scale_column = s.num_slots();
-  if (kind.labels &&
-      (problem.type == MeasurementType::kPlane || problem.labels.distances.empty())) {
-    Eigen::VectorXd lengths = Eigen::VectorXd::Zero(s.num_slots());
+  // Planes, and points without a known distance, cannot see the robot's size
+  // (every length times 1 + e leaves the residuals as they are): the rank test
+  // finds one length dependent on the others; its reason says so.
+  const bool sizeless =
+      kind.labels && (problem.type == MeasurementType::kPlane || problem.labels.distances.empty());
+  // A slot the rank test holds only because of that: one it accepts once a row
+  // that measures the scale (d size = lengths . d params) is added.
+  std::map<int, bool> sized;
+  if (sizeless) {
+    Eigen::MatrixXd with_size = scaled(data.J);
+    with_size.conservativeResize(with_size.rows() + 1, Eigen::NoChange);
+    with_size.bottomRows(1).setZero();
     for (const ParameterInfo& pi : model.parameter_info()) {
-      if (pi.unit == ParameterUnit::kLength) lengths[pi.slot] = p0[pi.slot];
+      if (pi.unit == ParameterUnit::kLength) with_size(with_size.rows() - 1, pi.slot) = p0[pi.slot];
     }
-    data_J.conservativeResize(Eigen::NoChange, scale_column + 1);
-    data_J.col(scale_column) = data.J * lengths;
-    order.insert(std::find_if_not(order.begin(), order.end(), is_base), scale_column);
-    name[scale_column] = "a uniform scale of every length";
+    with_size.bottomRows(1) *= with_size.topRows(with_size.rows() - 1).norm() /
+                               std::max(with_size.bottomRows(1).norm(), 1e-300);
+    for (const auto& [slot, v] : rank_test(with_size, order, tolerance))
+      sized[slot] = v.kind == Verdict::kIdentified;
   }
-  const auto data_verdict = rank_test(data_J, order, tolerance);
+  const auto data_verdict = rank_test(scaled(data.J), order, tolerance);
   const auto structural_verdict =
       kind.labels ? data_verdict : rank_test(scaled(structural.J), order, tolerance);
   for (int slot : order) {
-    if (slot == scale_column && kind.labels) continue;  // the pseudo-parameter
     const Verdict& sv = structural_verdict.at(slot);
     const Verdict& dv = data_verdict.at(slot);
     if (kind.labels && is_base(slot)) {
@@ -830,11 +836,12 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
       out.reason[slot] = "dependent: its effect is that of " + names_of(sv.on, name);
       if (kind.labels && std::all_of(sv.on.begin(), sv.on.end(), is_base)) {
         out.reason[slot] += " (a rigid motion of the whole robot, which the fixture absorbs)";
-      } else if (kind.labels &&
-                 std::find(sv.on.begin(), sv.on.end(), scale_column) != sv.on.end()) {
+      } else if (sizeless && sized[slot]) {
         out.reason[slot] += fmt::format(
-            " (the {} cannot see the robot's size: give a known distance between points)",
-            traits(problem.type).plural);
+            " (with them, a uniform scale of the robot: {} cannot see its size; give a known "
+            "distance between points, --point-distance)",
+            problem.type == MeasurementType::kPlane ? "plane contacts"
+                                                    : "fixture points without a known distance");
       }
     } else {
       out.rank_deficient = true;
@@ -940,13 +947,18 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   const int d = traits(fit.type).dimension;
   // Too few measurements for the parameters the model can identify at all (the
   // structural rank, before these poses' own analysis below).
+  // A fixture's points or planes take 3 unknowns each out of its rows.
+  const int nuisance = 3 * problem.labels.count();
+  const int kind_rows = rows_of(problem).rows(m);
   const auto too_few = [&](std::size_t parameters, const char* what) {
-    if (m * d > static_cast<int>(parameters)) return;
-    throw InputError(log.origin, 0, "",
-                     fmt::format("too few measurements: {} pose{} give{} {} residual{} for {} "
-                                 "{} parameters",
-                                 m, m == 1 ? "" : "s", m == 1 ? "s" : "", m * d,
-                                 m * d == 1 ? "" : "s", parameters, what));
+    if (kind_rows - nuisance > static_cast<int>(parameters)) return;
+    throw InputError(
+        log.origin, 0, "",
+        fmt::format("too few measurements: {} pose{} give{} {} residual{}{} for {} {} parameters",
+                    m, m == 1 ? "" : "s", m == 1 ? "s" : "", kind_rows - nuisance,
+                    kind_rows - nuisance == 1 ? "" : "s",
+                    nuisance ? fmt::format(" (less 3 a fixture point or plane)") : std::string(),
+                    parameters, what));
   };
   if (m < 2) too_few(candidates.size(), "candidate");
   fit.frame_registered = register_measurement_frame(problem, candidates, result.notes);
@@ -968,6 +980,11 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
         residuals_at(s, nominal.kinematic_parameters(), nominal_joints, kind, measured, weights);
     for (Eigen::Index i = 0; i < r0.size(); ++i) {
       if (std::isfinite(r0[i] * r0[i])) continue;
+      if (kind.labels || i >= static_cast<Eigen::Index>(m) * d) {  // no measured value to blame
+        throw InputError(log.origin, 0, "",
+                         "the nominal model's tool point is not finite on some row: a reading is "
+                         "too large");
+      }
       // The row of the pose with the largest measured value is the culprit.
       auto size = [&](int row) {
         return kind.type == MeasurementType::kDistance ? std::abs(log.distance[row])
@@ -1093,7 +1110,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     Ji.col(c) = data.J.col(identified[c]);
     Js.col(c) = Ji.col(c) / scale[identified[c]];
   }
-  const Eigen::Index dof_residual = data.residuals - k;
+  // Each fixture point or plane is 3 unknowns the projection took out.
+  const Eigen::Index dof_residual = data.residuals - k - 3 * problem.labels.count();
   fit.sigma_given = options.sigma.has_value();
   fit.sigma =
       options.sigma

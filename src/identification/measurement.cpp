@@ -62,7 +62,8 @@ FixtureLabels fixture_labels(MeasurementType type, const Log& log, const std::ve
   }
   const bool plane = type == MeasurementType::kPlane;
   for (int k = 0; k < out.count(); ++k) {
-    const int needed = plane ? 3 : 2;
+    // Any 3 points lie on a plane: a plane needs a fourth to say anything.
+    const int needed = plane ? 4 : 2;
     if (samples[k] >= needed) continue;
     throw InputError(log.origin, 0, plane ? "plane" : "point",
                      fmt::format("{} '{}' has {} sample{} (distinct poses): a {} needs at least {}",
@@ -143,15 +144,37 @@ void fixture_residuals(MeasurementType type, const FixtureLabels& labels, const 
       const Eigen::Vector3d e = raw.segment<3>(3 * i) - mean[l];
       scatter[l] += weight(i) * weight(i) * e * e.transpose();
     }
+    // The normal turns with the points: dn = -P dS n (eigenvector perturbation),
+    // P = sum over the other axes v_j v_j^T / (lambda_j - lambda_0), dS n =
+    // sum w_i^2 (de_i (e_i . n) + e_i (n . de_i)), de_i = dp_i - dm.
+    std::vector<Eigen::Matrix3d> turn(L, Eigen::Matrix3d::Zero());
     for (int l = 0; l < L; ++l) {
       const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(scatter[l]);
       normal[l] = eig.eigenvectors().col(0);
+      for (int j = 1; j < 3; ++j) {
+        const double gap = eig.eigenvalues()[j] - eig.eigenvalues()[0];
+        if (gap > 0)
+          turn[l] += eig.eigenvectors().col(j) * eig.eigenvectors().col(j).transpose() / gap;
+      }
+    }
+    std::vector<Eigen::MatrixXd> dn(L);
+    if (J) {
+      for (int l = 0; l < L; ++l) dn[l] = Eigen::MatrixXd::Zero(3, n);
+      for (int i = 0; i < m; ++i) {
+        const int l = labels.of_pose[i];
+        const Eigen::Vector3d e = raw.segment<3>(3 * i) - mean[l];
+        const Eigen::MatrixXd de = raw_J->middleRows(3 * i, 3) - mean_J[l];
+        dn[l] -= weight(i) * weight(i) * (de * e.dot(normal[l]) + e * (normal[l].transpose() * de));
+      }
+      for (int l = 0; l < L; ++l) dn[l] = turn[l] * dn[l];
     }
     for (int i = 0; i < m; ++i) {
       const int l = labels.of_pose[i];
-      residual[i] = weight(i) * normal[l].dot(raw.segment<3>(3 * i) - mean[l]);
+      const Eigen::Vector3d e = raw.segment<3>(3 * i) - mean[l];
+      residual[i] = weight(i) * normal[l].dot(e);
       if (J) {
-        J->row(i) = weight(i) * normal[l].transpose() * (raw_J->middleRows(3 * i, 3) - mean_J[l]);
+        J->row(i) = weight(i) * (normal[l].transpose() * (raw_J->middleRows(3 * i, 3) - mean_J[l]) +
+                                 e.transpose() * dn[l]);
       }
     }
   }
@@ -161,7 +184,8 @@ void fixture_residuals(MeasurementType type, const FixtureLabels& labels, const 
     // The exact distance moves the two points apart along their line: the least
     // squares cost grows by delta^2 W_A W_B / (W_A + W_B) (W: a label's summed
     // weights), so this row is the constrained fit's, not a soft guess.
-    const double scale = std::sqrt(total[known.a] * total[known.b] / (total[known.a] + total[known.b]));
+    const double scale =
+        std::sqrt(total[known.a] * total[known.b] / (total[known.a] + total[known.b]));
     const int row = m * d + static_cast<int>(k);
     residual[row] = scale * (v.norm() - known.metres);
     if (J) {

@@ -393,6 +393,12 @@ Log parse_log(const std::string& text, const std::string& origin,
         if (const std::string problem = text_problem(f); !problem.empty()) {
           throw InputError(origin, line_no, columns[k].name, "label " + problem);
         }
+        if (f.find_first_of(":=") != std::string::npos) {
+          throw InputError(origin, line_no, columns[k].name,
+                           fmt::format("label '{}': ':' and '=' are not allowed (--point-distance "
+                                       "A:B=METRES names labels)",
+                                       printable(f)));
+        }
         row_label = f;
         continue;
       }

@@ -109,7 +109,12 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
   if (log.has_distance) ev.distance = stats(ev.distance_error);
   if (log.has_position) ev.position = stats(ev.position_error);
   if (log.has_orientation) ev.orientation = stats(ev.orientation_error);
-  if (log.has_point || log.has_plane) evaluate_fixture(log, points, point_distances, ev);
+  if (log.has_point || log.has_plane) {
+    evaluate_fixture(log, points, point_distances, ev);
+  } else if (!point_distances.empty()) {
+    throw InputError(log.origin, 0, "--point-distance",
+                     "known distances are between fixture points: the log has no point column");
+  }
   return ev;
 }
 

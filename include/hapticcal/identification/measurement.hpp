@@ -84,7 +84,7 @@ struct FixtureLabels {
 };
 // The labels of `rows` of a fixture log; throws InputError for a distance
 // naming a label the log lacks, a point label with fewer than 2 samples or a
-// plane label with fewer than 3.
+// plane label with fewer than 4 (any 3 points lie on a plane).
 FixtureLabels fixture_labels(MeasurementType type, const Log& log, const std::vector<int>& rows,
                              const std::vector<PointDistance>& distances);
 
@@ -96,9 +96,9 @@ FixtureLabels fixture_labels(MeasurementType type, const Log& log, const std::ve
 // most, exactly the least squares with the distance as a constraint (the two
 // points moved apart along their line); m_L the label's mean point (weights
 // w_i^2), n_L the normal of its best plane
-// (the smallest principal axis of its points). The Jacobian holds m_L and n_L's
-// dependence through the mean (exact for points; n_L held, Gauss-Newton, for
-// planes). w: each pose's weight (sqrt of its repeats; empty: 1).
+// (the smallest principal axis of its points). The Jacobian is exact: m_L's and
+// n_L's dependence on the points included (the normal by eigenvector
+// perturbation). w: each pose's weight (sqrt of its repeats; empty: 1).
 int fixture_rows(MeasurementType type, const FixtureLabels& labels, int poses);
 void fixture_residuals(MeasurementType type, const FixtureLabels& labels, const Eigen::VectorXd& w,
                        const Eigen::VectorXd& raw, const Eigen::MatrixXd* raw_J, double* residual,
