@@ -211,7 +211,9 @@ void assign_truth(Scenario& sc, const std::string& source) {
       truth[slot] = nominal[slot] + (angle ? sc.random.angles : sc.random.lengths) * gauss(rng);
     }
   }
-  for (const auto& [name, value] : sc.deviations) {
+  for (const auto& [dotted, value] : sc.deviations) {
+    const std::string& name =
+        dotted;  // (a structured binding is not captured before C++20's P1091)
     const auto it = std::find_if(info.begin(), info.end(),
                                  [&](const ParameterInfo& p) { return p.name == name; });
     if (it == info.end())
