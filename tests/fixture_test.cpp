@@ -201,7 +201,8 @@ struct Efficiency {
   Eigen::VectorXd rmse, crlb_sd;
   int not_converged = 0;
 };
-Efficiency two_socket_study(const DeviceModel& nominal, bool known, int trials, double sigma) {
+Efficiency two_socket_study(const DeviceModel& nominal, bool known, int trials, double sigma,
+                            int per_socket = 15) {
   const auto sockets = default_sockets(nominal);
   CalibrationOptions options;
   options.keep_all = true;
@@ -209,7 +210,7 @@ Efficiency two_socket_study(const DeviceModel& nominal, bool known, int trials, 
   if (known) options.point_distances = {{"a", "b", 0.05}};
   // What two sockets identify: the rank test on exact data of the nominal device.
   const CalibrationResult exact =
-      calibrate(nominal, simulate_fixture_log(nominal, sockets, 15, 0, 7), options);
+      calibrate(nominal, simulate_fixture_log(nominal, sockets, per_socket, 0, 7), options);
   EXPECT_EQ(exact.status, CalibrationStatus::kConverged) << exact.status_reason;
   std::vector<int> slots;
   Efficiency out;
@@ -228,7 +229,7 @@ Efficiency two_socket_study(const DeviceModel& nominal, bool known, int trials, 
   Eigen::VectorXd squared = Eigen::VectorXd::Zero(k), variance = Eigen::VectorXd::Zero(k);
   int used = 0;
   for (int t = 0; t < trials; ++t) {
-    const Log log = simulate_fixture_log(truth, sockets, 15, sigma, 1000 + t);
+    const Log log = simulate_fixture_log(truth, sockets, per_socket, sigma, 1000 + t);
     CalibrationOptions o = options;
 
     const CalibrationResult r = calibrate(nominal, log, o);
@@ -272,20 +273,65 @@ TEST(Fixture, TwoSocketCalibrationOfThePhantomIsEfficient) {
   }
 }
 
-// With the fixture's 50 mm given, the Panda and the PHANToM recover the assigned
-// deviations (RMSE within 3 Cramer-Rao sd of the truth: the PHANToM's 0.85-1.06
-// in 30 trials; the Panda's up to 2.3, open: see the README).
-TEST(Fixture, TwoSocketCalibrationWithTheKnownDistanceRecoversTheDeviations) {
-  for (const DeviceModel& nominal : {testing::builtin("phantom-premium-1.5"), panda()}) {
-    SCOPED_TRACE(nominal.name);
-    const Efficiency e = two_socket_study(nominal, true, 30, 1e-4);
-    EXPECT_EQ(e.not_converged, 0);
-    const double worst = (e.rmse.array() / e.crlb_sd.array()).maxCoeff();
-    std::printf("%s (50 mm given): %zu parameters, RMSE / CRLB %.3f .. %.3f over 30 trials\n",
-                nominal.name.c_str(), e.names.size(),
-                (e.rmse.array() / e.crlb_sd.array()).minCoeff(), worst);
-    EXPECT_LT(worst, 3.0);
+// Issue 13: a two-socket calibration of the Panda is efficient too, given the
+// fixture's 50 mm (as MUKCa's fixture gives it) and 30 configurations a socket
+// (as MUKCa recorded): every one of its 25 identifiable parameters has an RMSE
+// within 10 % of its Cramer-Rao bound over 200 trials. With 15 a socket the
+// flange's rotations (the ball 0.09 mm off joint 7's axis, bounds of 0.2 rad)
+// leave the linear regime: up to 3.0.
+TEST(Fixture, TwoSocketCalibrationOfThePandaWithTheKnownDistanceIsEfficient) {
+  const Efficiency e = two_socket_study(panda(), true, 200, 1e-4, 30);
+  EXPECT_EQ(e.not_converged, 0);
+  EXPECT_EQ(e.names.size(), 25u);
+  for (size_t c = 0; c < e.names.size(); ++c) {
+    const double ratio = e.rmse[c] / e.crlb_sd[c];
+    std::printf("Panda %-18s RMSE %.4f, CRLB %.4f (m or rad): %.3f\n", e.names[c].c_str(),
+                e.rmse[c], e.crlb_sd[c], ratio);
+    EXPECT_GT(ratio, 0.9) << e.names[c];
+    EXPECT_LT(ratio, 1.1) << e.names[c];
   }
+}
+
+// With the fixture's 50 mm given, the PHANToM recovers the assigned deviations
+// (RMSE within 3 Cramer-Rao sd of the truth; 0.85-1.06 in 30 trials: j1.a, seen
+// only through the 50 mm, has a bound of 3.7 mm, beyond the linear regime of a
+// 1 mm deviation, so 0.9-1.1 is not expected of it).
+TEST(Fixture, TwoSocketCalibrationWithTheKnownDistanceRecoversTheDeviations) {
+  const Efficiency e = two_socket_study(testing::builtin("phantom-premium-1.5"), true, 30, 1e-4);
+  EXPECT_EQ(e.not_converged, 0);
+  const double worst = (e.rmse.array() / e.crlb_sd.array()).maxCoeff();
+  std::printf("PHANToM (50 mm given): %zu parameters, RMSE / CRLB %.3f .. %.3f over 30 trials\n",
+              e.names.size(), (e.rmse.array() / e.crlb_sd.array()).minCoeff(), worst);
+  EXPECT_LT(worst, 3.0);
+}
+
+// Without a known distance the fixture cannot see the robot's size: on the real
+// Panda data a length that carries the scale is held, with that reason, and the
+// other lengths are well determined (the greedy rank test used to hold the
+// ball's 0.025 mm x offset, which carries the scale only faintly: link lengths then
+// had standard deviations of 1.5-1.8 mm; now 0.04-0.22 mm).
+TEST(Fixture, WithoutAKnownDistanceTheRobotsSizeIsNamed) {
+  CalibrationOptions options;
+  options.keep_all = true;
+  options.folds = 0;
+  const DeviceModel nominal = panda();
+  const CalibrationResult r =
+      calibrate(nominal, mukca_log({"back-high", "front", "right"}), options);
+  EXPECT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
+  int sized = 0;
+  for (const ParameterEstimate& e : r.kinematics.parameters) {
+    const bool length = e.unit == ParameterUnit::kLength;
+    if (!e.identifiable && e.reason.find("a uniform scale of the robot") != std::string::npos) {
+      ++sized;
+      EXPECT_TRUE(length) << e.name;
+      EXPECT_GT(std::abs(e.nominal), 0.1) << e.name << " carries the scale faintly";
+    }
+    // The arm's links (the flange's geometry, with the ball 0.09 mm off joint
+    // 7's axis, is weakly seen by any fixture: 2-3 cm).
+    const bool arm = e.name < "panda_joint6";
+    if (e.identifiable && length && arm) EXPECT_LT(e.sd, 1e-3) << e.name;
+  }
+  EXPECT_EQ(sized, 1);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <numeric>
 #include <random>
@@ -172,6 +173,61 @@ std::map<int, Verdict> rank_test(const Eigen::MatrixXd& J, const std::vector<int
     basis.push_back(v / rest);
     accepted.push_back(slot);
     out[slot] = {Verdict::kIdentified, {}};
+  }
+  return out;
+}
+
+// Greedy holds the last dependent column in order, which may carry a dependency
+// only faintly (its unit column is the others' combination with coefficients
+// far above 1: those others are then nearly dependent among themselves, badly
+// conditioned). Exchanges such a held slot of `exchangeable` with the accepted
+// one of the largest coefficient, while one exceeds 2 (a basis exchange on the
+// largest pivot, as in maxvol); returns the slots now held in exchange.
+std::vector<int> exchange_faint_carriers(const Eigen::MatrixXd& J, const std::vector<int>& order,
+                                         const std::function<bool(int)>& exchangeable,
+                                         std::map<int, Verdict>& verdict) {
+  std::vector<int> out;
+  for (int round = 0; round < 8; ++round) {
+    bool changed = false;
+    for (int held : order) {
+      if (verdict.at(held).kind != Verdict::kDependent || !exchangeable(held)) continue;
+      std::vector<int> accepted;
+      for (int slot : order) {
+        if (verdict.at(slot).kind == Verdict::kIdentified) accepted.push_back(slot);
+      }
+      Eigen::MatrixXd A(J.rows(), static_cast<Eigen::Index>(accepted.size()));
+      for (size_t k = 0; k < accepted.size(); ++k) A.col(k) = J.col(accepted[k]).normalized();
+      const Eigen::VectorXd x = A.colPivHouseholderQr().solve(J.col(held).normalized());
+      if (x.size() == 0) continue;
+      // The accepted slots of the largest coefficients (at most 3), largest first.
+      std::vector<Eigen::Index> by_size(static_cast<size_t>(x.size()));
+      std::iota(by_size.begin(), by_size.end(), 0);
+      std::stable_sort(by_size.begin(), by_size.end(), [&](Eigen::Index a, Eigen::Index b) {
+        return std::abs(x[a]) > std::abs(x[b]);
+      });
+      const Eigen::Index k = by_size[0];
+      const auto relation = [&](int also, Eigen::Index skip) {
+        Verdict v{Verdict::kDependent, {}};
+        if (also >= 0) v.on.push_back(also);
+        for (Eigen::Index c : by_size) {
+          if (c != skip && std::abs(x[c]) > 0.1 * std::abs(x[k]) && v.on.size() < 3)
+            v.on.push_back(accepted[static_cast<size_t>(c)]);
+        }
+        return v;
+      };
+      if (std::abs(x[k]) <= 2 || !exchangeable(accepted[static_cast<size_t>(k)])) {
+        verdict[held] = relation(-1, -1);  // the relation with the accepted set of now
+        continue;
+      }
+      const int swapped = accepted[static_cast<size_t>(k)];
+      const Verdict v = relation(held, k);
+      verdict[held] = {Verdict::kIdentified, {}};
+      verdict[swapped] = v;
+      out.erase(std::remove(out.begin(), out.end(), held), out.end());
+      out.push_back(swapped);
+      changed = true;
+    }
+    if (!changed) break;
   }
   return out;
 }
@@ -813,7 +869,21 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
     for (const auto& [slot, v] : rank_test(with_size, order, tolerance))
       sized[slot] = v.kind == Verdict::kIdentified;
   }
-  const auto data_verdict = rank_test(scaled(data.J), order, tolerance);
+  auto data_verdict = rank_test(scaled(data.J), order, tolerance);
+  // The scale is a dependency among lengths; greedy may hold one that carries
+  // it faintly (the Panda's flange ball, 0.025 mm off the axis in x: its other lengths
+  // were then left with a 23 mm Cramer-Rao sd). Exchanged for the length that
+  // carries most of it.
+  std::vector<int> size_held;
+  // (Points only: plane contacts leave many dependencies among lengths, and
+  // exchanging there made their fits crawl.)
+  if (sizeless && problem.type == MeasurementType::kPoint) {
+    const auto is_length = [&](int slot) {
+      return !is_base(slot) && out.scale[slot] == 1.0;  // angles' scale is the length scale
+    };
+    size_held = exchange_faint_carriers(scaled(data.J), order, is_length, data_verdict);
+    for (int slot : size_held) sized[slot] = true;
+  }
   const auto structural_verdict =
       kind.labels ? data_verdict : rank_test(scaled(structural.J), order, tolerance);
   for (int slot : order) {
