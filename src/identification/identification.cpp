@@ -833,8 +833,10 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   IdentifiabilityAnalysis out;
   out.scale = Eigen::VectorXd::Ones(s.num_slots());
   std::map<int, std::string> name;
+  std::vector<bool> length(static_cast<size_t>(s.num_slots()), false);
   for (const ParameterInfo& pi : model.parameter_info()) {
     name[pi.slot] = pi.name;
+    length[static_cast<size_t>(pi.slot)] = pi.unit == ParameterUnit::kLength;
     if (pi.unit == ParameterUnit::kAngle) out.scale[pi.slot] = problem.length_scale;
   }
   // An angle phi enters as L phi (metres at the tool): its column is divided by L.
@@ -879,7 +881,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   // exchanging there made their fits crawl.)
   if (sizeless && problem.type == MeasurementType::kPoint) {
     const auto is_length = [&](int slot) {
-      return !is_base(slot) && out.scale[slot] == 1.0;  // angles' scale is the length scale
+      return !is_base(slot) && length[static_cast<size_t>(slot)];
     };
     size_held = exchange_faint_carriers(scaled(data.J), order, is_length, data_verdict);
     for (int slot : size_held) sized[slot] = true;
