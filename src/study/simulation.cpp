@@ -53,7 +53,7 @@ struct Columns {
 };
 
 // The columns a measurement type fills. Fixture points and planes (a label
-// column and their own unknowns) are added here and in simulated_measurement.
+// column, no measured values) are simulate_fixture_log's and simulate_plane_log's.
 Columns columns_of(MeasurementType type) {
   switch (type) {
     case MeasurementType::kDistance:
@@ -66,8 +66,10 @@ Columns columns_of(MeasurementType type) {
     case MeasurementType::kPlane:
       break;
   }
-  throw InputError(fmt::format("simulate does not produce {} yet (distance, position or pose)",
-                               traits(type).plural));
+  throw InputError(
+      fmt::format("{} have no measured columns: simulate them with "
+                  "simulate_fixture_log or simulate_plane_log",
+                  traits(type).plural));
 }
 
 // Row r's measured columns of the tool frame T_meas_tool, with noise; the

@@ -54,8 +54,7 @@ struct Scenario {
   std::map<std::string, double> deviations;
   // What the identification log measures (the validation scores position and
   // orientation against the truth whatever it is). Fixture points and planes
-  // join here when the measurement family has them (simulation.hpp:
-  // simulated_measurement is the one place that fills a log's columns).
+  // are simulated by simulate_fixture_log and simulate_plane_log.
   MeasurementType measurement = MeasurementType::kDistance;
   // measurement: point (a fixture's sockets, the tool point put into each in
   // random configurations; sigma_m the placement error per axis; no external
