@@ -95,27 +95,6 @@ TEST(Fixture, MukcaPandaHeldOutPlacements) {
   EXPECT_LT(sum[0] / 3, 1.0e-3);
 }
 
-// Readings near `q` that put the truth's tool point on `target` (points) or on
-// the plane n . p = c (planes): damped least squares on the position Jacobian.
-Eigen::VectorXd reach(const PreparedModel& truth, Eigen::VectorXd q, const Eigen::Vector3d& target,
-                      const Eigen::Vector3d* normal) {
-  Jacobian6<double> J;
-  for (int it = 0; it < 50; ++it) {
-    const Eigen::Vector3d p = truth.forward_jacobian(q.data(), JacobianFrame::kMeasurement, J).p;
-    const Eigen::MatrixXd Jp = J.topRows<3>();
-    if (normal) {
-      const double e = normal->dot(target - p);
-      const Eigen::RowVectorXd a = normal->transpose() * Jp;
-      q += a.transpose() * (e / (a.squaredNorm() + 1e-12));
-    } else {
-      const Eigen::Vector3d e = target - p;
-      q += Jp.transpose() *
-           (Jp * Jp.transpose() + 1e-12 * Eigen::Matrix3d::Identity()).ldlt().solve(e);
-    }
-  }
-  return q;
-}
-
 // Simulated sockets (the real data's configurations moved onto the perturbed
 // truth's common points) and plates: noise-free, so a calibration must fit them
 // exactly and predict a placement it has not seen to a micrometre.
@@ -139,7 +118,11 @@ TEST(Fixture, SimulatedSocketsAndPlanesAreFittedExactly) {
         if (r == 0 || real.label[r] != real.label[r - 1])
           target[socket] = actual.forward(q.data()).p;
         const Eigen::Vector3d normal = Eigen::Vector3d(0.2, -0.3 * socket, 1).normalized();
-        q = reach(actual, q, target[socket], planes ? &normal : nullptr);
+        q = reach(actual, q,
+                  planes ? ToolTarget::on_plane(normal, normal.dot(target[socket]))
+                         : ToolTarget::at(target[socket]),
+                  {.max_steps = 50, .damping = 1e-12, .tolerance = 1e-13})
+                .q;
         if (planes) {  // spread the contacts over the plate
           ASSERT_LT(std::abs(normal.dot(actual.forward(q.data()).p - target[socket])), 1e-12);
         } else {
@@ -420,6 +403,141 @@ TEST(Fixture, SimulateMeasuresSocketsOnEveryKindOfChain) {
                 j["device"].get<std::string>().c_str(), before * 1e3, after * 1e3);
     EXPECT_LT(after, before);
   }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace hapticcal
+namespace hapticcal {
+namespace {
+
+// simulate measures plane contacts on every kind of chain (issue 13): the
+// PHANToM (DH with capstans), the Meca500 (MDH) and the Panda (URDF), default
+// plates. Planes cannot see the robot's size: the study holds what they cannot
+// identify, reports assigned and identified deviations of what they can, and
+// the calibrated model predicts the validation tool points better than nominal.
+TEST(Fixture, SimulateMeasuresPlanesOnEveryKindOfChain) {
+  const std::string dir = ::testing::TempDir() + "/hapticcal_planes_devices";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  // The Panda's plane calibration is ill-conditioned: at the default contact
+  // error (10 um) it ends farther from the truth than nominal (printed, not
+  // checked: see the README); at 1 nm it recovers the truth.
+  struct Run {
+    std::string device, chain, noise;
+    bool improves;
+  };
+  const Run runs[] = {
+      {testing::source_path("data/devices/phantom-premium-1.5.yaml"), "", "", true},
+      {testing::source_path("examples/meca500/meca500.yaml"), "", "", true},
+      {testing::shared_path("data/mukca/panda.urdf"), "tip: ball_link\n", "", false},
+      {testing::shared_path("data/mukca/panda.urdf"), "tip: ball_link\n",
+       "noise: {sigma_m: 1.0e-9}\n", true}};
+  int k = 0;
+  for (const auto& [device, chain, noise, improves] : runs) {
+    SCOPED_TRACE(device + " " + noise);
+    const std::string path = dir + "/s" + std::to_string(k) + ".yaml";
+    std::ofstream(path) << "format: hapticcal-scenario/1\ndevice: " << device << "\n"
+                        << chain << noise
+                        << "measurement: plane\nposes: {identification: 150, validation: 100}\n"
+                           "trajectory: {seconds: 2, rate_hz: 100}\n";
+    const std::string out = dir + "/out" + std::to_string(k++);
+    const testing::CliResult r = testing::run_cli({"simulate", "--scenario", path, "--out", out});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto j = nlohmann::json::parse(testing::slurp(out + "/results.json"));
+    EXPECT_EQ(j["measurement"], "plane");
+    const Log ident = read_log(out + "/identification.csv");
+    EXPECT_TRUE(ident.has_plane);
+    EXPECT_EQ(ident.rows, 150);
+    const double before = j["validation"]["position_rms_before"];
+    const double after = j["validation"]["position_rms_after"];
+    int deviating = 0;
+    double worst = 0;
+    for (const auto& [name, p] : j["parameters"].items()) {
+      ASSERT_TRUE(p.contains("assigned_deviation") && p.contains("identified_deviation")) << name;
+      if (p["assigned_deviation"].get<double>() == 0) continue;
+      ++deviating;
+      worst = std::max(worst, std::abs(p["identified_deviation"].get<double>() -
+                                       p["assigned_deviation"].get<double>()));
+    }
+    std::printf(
+        "%s%s, 3 plates: %zu parameters reported (%d deviating, largest error %.4f mm or mrad), "
+        "%zu held; validation position RMS %.4f -> %.4f mm\n",
+        j["device"].get<std::string>().c_str(), noise.empty() ? "" : " (contact sd 1 nm)",
+        j["parameters"].size(), deviating, worst * 1e3, j["held"].size(), before * 1e3,
+        after * 1e3);
+    EXPECT_GT(deviating, 0);
+    EXPECT_FALSE(j["held"].empty());  // the base pose at least
+    if (improves) {
+      EXPECT_LT(after, before / 10);
+    }
+  }
+  std::filesystem::remove_all(dir);
+}
+
+// Noise-free plane contacts simulated by simulate_plane_log on a truth 1 mm /
+// 1 mrad off in what three plates identify: they are fitted exactly and a
+// fourth plate, held out, is predicted to 1e-9 m.
+TEST(Fixture, SimulatedPlaneContactsAreFittedExactly) {
+  for (const DeviceModel& nominal : {testing::builtin("phantom-premium-1.5"), panda()}) {
+    SCOPED_TRACE(nominal.name);
+    std::vector<SimulatedPlane> plates = default_planes(nominal);
+    CalibrationOptions options;
+    options.keep_all = true;
+    // What three plates identify (the rank test on exact data of the nominal
+    // device) deviates 1 mm / 1 mrad.
+    const CalibrationResult exact =
+        calibrate(nominal, simulate_plane_log(nominal, plates, 30, 0, 2), options);
+    DeviceModel truth = nominal;
+    Eigen::VectorXd p = truth.kinematic_parameters();
+    std::mt19937_64 rng(8);
+    std::normal_distribution<double> deviation(0.0, 1e-3);
+    for (const ParameterEstimate& e : exact.kinematics.parameters) {
+      if (e.identifiable) p[e.slot] += deviation(rng);
+    }
+    truth.set_kinematic_parameters(p);
+    ASSERT_EQ(plates.size(), 3u);
+    for (size_t a = 0; a < plates.size(); ++a) {
+      for (size_t b = a + 1; b < plates.size(); ++b)
+        EXPECT_LT(std::abs(plates[a].normal.dot(plates[b].normal)), 0.9);  // not parallel
+    }
+    const Eigen::Vector3d tilted = Eigen::Vector3d(1, 1, 1).normalized();
+    const std::vector<SimulatedPlane> held_out = {{"held-out", plates[0].point, tilted}};
+    const Log train = simulate_plane_log(truth, plates, 30, 0, 3);
+    const Log test = simulate_plane_log(truth, held_out, 30, 0, 4);
+    for (int r = 0; r < train.rows; ++r) {
+      const SimulatedPlane& plate = plates[r / 30];
+      const Eigen::VectorXd q = train.q.row(r).transpose();
+      ASSERT_LT(std::abs(plate.normal.dot(PreparedModel(truth).forward(q.data()).p - plate.point)),
+                1e-9);
+      ASSERT_EQ(train.label[r], plate.name);
+    }
+    const CalibrationResult r = calibrate(nominal, train, options);
+    ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
+    EXPECT_LT(r.kinematics.rms_after, 1e-9);
+    const Evaluation before = evaluate(nominal, test), after = evaluate(r.calibrated, test);
+    std::printf("%s: 3 plates, %d parameters; held-out plate RMS distance %.4f mm -> %.3g m\n",
+                nominal.name.c_str(), r.kinematics.identified, *before.rms_plane_distance * 1e3,
+                *after.rms_plane_distance);
+    EXPECT_LT(*after.rms_plane_distance, 1e-9);
+    EXPECT_GT(*before.rms_plane_distance, 1e-5);
+  }
+}
+
+// A plane simulate cannot reach is refused with its name (exit 2).
+TEST(Fixture, UnreachablePlaneIsRefused) {
+  const std::string dir = ::testing::TempDir() + "/hapticcal_plane_unreachable";
+  std::filesystem::create_directories(dir);
+  const std::string path = dir + "/s.yaml";
+  std::ofstream(path) << "format: hapticcal-scenario/1\ndevice: "
+                      << testing::source_path("data/devices/phantom-premium-1.5.yaml")
+                      << "\nmeasurement: plane\nplanes: {far: {point: [0, 0, 50], normal: [0, 0, "
+                         "1]}}\nposes: {identification: 8}\n";
+  const testing::CliResult r =
+      testing::run_cli({"simulate", "--scenario", path, "--out", dir + "/out"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("plane 'far' cannot be reached"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
   std::filesystem::remove_all(dir);
 }
 

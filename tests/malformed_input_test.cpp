@@ -1,5 +1,6 @@
-// Every malformed device file and log of tests/malformed/cases.txt makes the
-// command line exit with code 2 and one line naming the file, line and key.
+// Every malformed device file, log and scenario of tests/malformed/cases.txt
+// makes the command line exit with code 2 and one line naming the file, line
+// and key (a scenario: before any output).
 // The sanitizer build (make test) runs this under AddressSanitizer and UBSan.
 #include <gtest/gtest.h>
 
@@ -39,14 +40,19 @@ std::vector<Case> cases() {
 TEST(MalformedInput, EachCaseGivesItsOneLineErrorAndExitCode2) {
   const std::string dir = testing::source_path("tests/malformed");
   const std::vector<Case> all = cases();
-  int models = 0, logs = 0;
+  const std::string out = ::testing::TempDir() + "/malformed_cases_out";
+  std::filesystem::remove_all(out);
+  int models = 0, logs = 0, scenarios = 0;
   for (const Case& c : all) {
     SCOPED_TRACE(c.file);
-    const bool model = c.kind == "model";
-    (model ? models : logs)++;
-    std::vector<std::string> args = {"evaluate", "--model",
-                                     model ? dir + "/" + c.file : dir + "/good-2dof.yaml", "--log",
-                                     model ? dir + "/good-2dof.csv" : dir + "/" + c.file};
+    const bool model = c.kind == "model", scenario = c.kind == "scenario";
+    (model ? models : scenario ? scenarios : logs)++;
+    std::vector<std::string> args =
+        scenario
+            ? std::vector<std::string>{"simulate", "--scenario", dir + "/" + c.file, "--out", out}
+            : std::vector<std::string>{
+                  "evaluate", "--model", model ? dir + "/" + c.file : dir + "/good-2dof.yaml",
+                  "--log", model ? dir + "/good-2dof.csv" : dir + "/" + c.file};
     for (const std::string& a : testing::split_arguments(c.extra)) args.push_back(a);
     const testing::CliResult r = testing::run_cli(args);
     EXPECT_EQ(r.exit_code, 2) << r.err;
@@ -56,9 +62,11 @@ TEST(MalformedInput, EachCaseGivesItsOneLineErrorAndExitCode2) {
     EXPECT_NE(r.err.find(c.expected), std::string::npos)
         << "expected \"" << c.expected << "\" in: " << r.err;
     EXPECT_EQ(r.err.rfind("hapticcal: ", 0), 0u) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out)) << "a refused scenario wrote output";
   }
   EXPECT_GE(models, 15);
   EXPECT_GE(logs, 15);
+  EXPECT_GE(scenarios, 10);
 }
 
 TEST(MalformedInput, GoodFilesOfTheSuitePass) {

@@ -232,7 +232,7 @@ TEST(SimulateAnyRefusals, DeviationOfAParameterTheDeviceDoesNotHave) {
 }
 
 TEST(SimulateAnyRefusals, MeasurementSimulateCannotProduce) {
-  expect_refused(fresh_dir("r3"), small_scenario("phantom", "plane"), "measurement",
+  expect_refused(fresh_dir("r3"), small_scenario("phantom", "sphere"), "measurement",
                  "not a measurement simulate produces");
 }
 

@@ -1,5 +1,7 @@
 #include "hapticcal/kinematics/kinematics.hpp"
 
+#include <Eigen/Cholesky>
+
 #include "kinematics/fast_math.hpp"
 
 namespace hapticcal {
@@ -206,6 +208,36 @@ Frame<double> PreparedModel::forward_jacobian(const double* q, JacobianFrame exp
     }
   }
   return T_meas_tool;
+}
+
+ReachResult reach(const PreparedModel& model, const Eigen::VectorXd& q, const ToolTarget& target,
+                  const ReachOptions& options) {
+  ReachResult out;
+  out.q = q;
+  Jacobian6<double> J(6, model.dof());
+  auto error_at = [&](const Eigen::Vector3d& p) {
+    return target.plane ? std::abs(target.offset - target.normal.dot(p))
+                        : (target.point - p).norm();
+  };
+  for (int step = 0; step < options.max_steps; ++step) {
+    const Eigen::Vector3d p =
+        model.forward_jacobian(out.q.data(), JacobianFrame::kMeasurement, J).p;
+    if (error_at(p) < options.tolerance) break;
+    if (target.plane) {
+      const Eigen::RowVectorXd a = target.normal.transpose() * J.topRows<3>();
+      out.q += a.transpose() *
+               ((target.offset - target.normal.dot(p)) / (a.squaredNorm() + options.damping));
+    } else {
+      const Eigen::Matrix<double, 3, Eigen::Dynamic> Jp = J.topRows<3>();
+      out.q +=
+          Jp.transpose() * (Jp * Jp.transpose() + options.damping * Eigen::Matrix3d::Identity())
+                               .ldlt()
+                               .solve(target.point - p);
+    }
+  }
+  out.error = error_at(model.forward(out.q.data()).p);
+  out.reached = out.error <= options.tolerance;
+  return out;
 }
 
 }  // namespace hapticcal

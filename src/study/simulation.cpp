@@ -53,7 +53,7 @@ struct Columns {
 };
 
 // The columns a measurement type fills. Fixture points and planes (a label
-// column and their own unknowns) are added here and in simulated_measurement.
+// column, no measured values) are simulate_fixture_log's and simulate_plane_log's.
 Columns columns_of(MeasurementType type) {
   switch (type) {
     case MeasurementType::kDistance:
@@ -66,8 +66,10 @@ Columns columns_of(MeasurementType type) {
     case MeasurementType::kPlane:
       break;
   }
-  throw InputError(fmt::format("simulate does not produce {} yet (distance, position or pose)",
-                               traits(type).plural));
+  throw InputError(
+      fmt::format("{} have no measured columns: simulate them with "
+                  "simulate_fixture_log or simulate_plane_log",
+                  traits(type).plural));
 }
 
 // Row r's measured columns of the tool frame T_meas_tool, with noise; the
@@ -188,30 +190,34 @@ std::vector<std::pair<std::string, Eigen::Vector3d>> default_sockets(const Devic
   return {{"a", a}, {"b", a + Eigen::Vector3d(0.05, 0, 0)}};
 }
 
-Log simulate_fixture_log(const DeviceModel& actual,
-                         const std::vector<std::pair<std::string, Eigen::Vector3d>>& sockets,
-                         int per_socket, double placement, std::uint64_t seed, bool encoders,
-                         double sigma_ext) {
-  constexpr int kStarts = 1000, kSteps = 100;
-  constexpr double kReached = 1e-12;  // m
+namespace {
+
+// A fixture log of `per_label` rows a label (column `point`, or `plane`): each
+// row random readings within the limits moved by reach() onto the target that
+// target(label, rng) draws for it (a start that ends outside the limits or
+// farther than 1e-9 m from the target is drawn again, up to 1000 times).
+template <typename DrawTarget>
+Log contact_log(const DeviceModel& actual, const std::vector<std::string>& labels, int per_label,
+                bool planes, std::uint64_t seed, bool encoders, double sigma_ext,
+                DrawTarget draw_target) {
+  constexpr int kStarts = 1000;
+  constexpr double kReached = 1e-9;  // m
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   const PreparedModel prepared(actual);
   const int n = actual.dof();
   Log log;
-  log.origin = "simulated fixture";
-  log.rows = static_cast<int>(sockets.size()) * per_socket;
+  log.origin = planes ? "simulated plane contacts" : "simulated fixture";
+  log.rows = static_cast<int>(labels.size()) * per_label;
   log.q.resize(log.rows, n);
   log.ext.setZero(log.rows, n);
   log.has_ext.assign(n, false);
   for (int j = 0; encoders && j < n; ++j) log.has_ext[j] = !actual.links[j].transmission.is_none();
-  log.has_point = true;
-  Jacobian6<double> J;
+  (planes ? log.has_plane : log.has_point) = true;
   int row = 0;
-  for (const auto& [name, socket] : sockets) {
-    for (int k = 0; k < per_socket; ++k) {
-      Eigen::Vector3d target = socket;
-      for (int a = 0; a < 3; ++a) target[a] += placement * gauss(rng);
+  for (size_t l = 0; l < labels.size(); ++l) {
+    for (int k = 0; k < per_label; ++k) {
+      const ToolTarget target = draw_target(l, rng, gauss);
       bool reached = false;
       for (int start = 0; start < kStarts && !reached; ++start) {
         Eigen::VectorXd q(n);
@@ -219,25 +225,17 @@ Log simulate_fixture_log(const DeviceModel& actual,
           q[j] = std::uniform_real_distribution<double>(actual.links[j].lower,
                                                         actual.links[j].upper)(rng);
         }
-        for (int step = 0; step < kSteps; ++step) {
-          const Eigen::Vector3d e =
-              target - prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, J).p;
-          if (e.norm() < kReached) break;
-          // The Jacobian is w.r.t. the compensated angles; near enough for the steps.
-          const Eigen::MatrixXd Jp = J.topRows<3>();
-          q += Jp.transpose() *
-               (Jp * Jp.transpose() + 1e-10 * Eigen::Matrix3d::Identity()).ldlt().solve(e);
-        }
+        const ReachResult r = reach(prepared, q, target);
         bool inside = true;
         for (int j = 0; j < n; ++j) {
-          inside = inside && q[j] >= actual.links[j].lower && q[j] <= actual.links[j].upper;
+          inside = inside && r.q[j] >= actual.links[j].lower && r.q[j] <= actual.links[j].upper;
         }
-        reached = inside && (target - prepared.forward(q.data()).p).norm() < 1e-9;
-        if (reached) log.q.row(row) = q.transpose();
+        reached = inside && r.error < kReached;
+        if (reached) log.q.row(row) = r.q.transpose();
       }
       if (!reached) {
-        throw InputError(fmt::format("socket '{}' cannot be reached within the joint limits of {}",
-                                     name, actual.name));
+        throw InputError(fmt::format("{} '{}' cannot be reached within the joint limits of {}",
+                                     planes ? "plane" : "socket", labels[l], actual.name));
       }
       for (int j = 0; encoders && j < n; ++j) {
         if (!log.has_ext[j]) continue;
@@ -245,12 +243,56 @@ Log simulate_fixture_log(const DeviceModel& actual,
         log.ext(row, j) =
             qj + actual.links[j].transmission.error(qj) + 1e-3 * (j + 1) + sigma_ext * gauss(rng);
       }
-      log.label.push_back(name);
+      log.label.push_back(labels[l]);
       log.line.push_back(row + 2);
       ++row;
     }
   }
   return log;
+}
+
+}  // namespace
+
+Log simulate_fixture_log(const DeviceModel& actual,
+                         const std::vector<std::pair<std::string, Eigen::Vector3d>>& sockets,
+                         int per_socket, double placement, std::uint64_t seed, bool encoders,
+                         double sigma_ext) {
+  std::vector<std::string> labels;
+  for (const auto& socket : sockets) labels.push_back(socket.first);
+  return contact_log(actual, labels, per_socket, false, seed, encoders, sigma_ext,
+                     [&](size_t l, std::mt19937_64& rng, std::normal_distribution<double>& gauss) {
+                       Eigen::Vector3d p = sockets[l].second;
+                       for (int a = 0; a < 3; ++a) p[a] += placement * gauss(rng);
+                       return ToolTarget::at(p);
+                     });
+}
+
+Log simulate_plane_log(const DeviceModel& actual, const std::vector<SimulatedPlane>& planes,
+                       int per_plane, double contact_sd, std::uint64_t seed, bool encoders,
+                       double sigma_ext) {
+  std::vector<std::string> labels;
+  for (const SimulatedPlane& plane : planes) {
+    assert(std::abs(plane.normal.norm() - 1) < 1e-12);
+    labels.push_back(plane.name);
+  }
+  return contact_log(actual, labels, per_plane, true, seed, encoders, sigma_ext,
+                     [&](size_t l, std::mt19937_64& rng, std::normal_distribution<double>& gauss) {
+                       const SimulatedPlane& plane = planes[l];
+                       return ToolTarget::on_plane(
+                           plane.normal, plane.normal.dot(plane.point) + contact_sd * gauss(rng));
+                     });
+}
+
+std::vector<SimulatedPlane> default_planes(const DeviceModel& model) {
+  const Eigen::Vector3d a = default_sockets(model).front().second;
+  // "Forward": from the measurement frame's z axis towards the tool point.
+  Eigen::Vector3d forward(a.x(), a.y(), 0);
+  forward = forward.norm() > 1e-6 ? forward.normalized() : Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ(), side = up.cross(forward);
+  const double reach = std::max(a.norm(), 0.05);
+  return {{"floor", a - 0.05 * reach * up, (up + 0.2 * forward).normalized()},
+          {"front", a + 0.05 * reach * forward, (-forward + 0.3 * side).normalized()},
+          {"side", a + 0.05 * reach * side, (-side + 0.3 * up).normalized()}};
 }
 
 Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_hz,

@@ -157,9 +157,11 @@ std::vector<PointDistance> socket_distances(
 // candidates and priority order, its rank test on exact synthetic measurements
 // over the joint limits): those random deviations move, so that the truth is
 // one a calibration can recover.
-std::vector<int> identifiable_slots(
-    const DeviceModel& nominal, MeasurementType type, const std::vector<std::string>& fix,
-    const std::vector<std::pair<std::string, Eigen::Vector3d>>& sockets, bool known) {
+std::vector<int> identifiable_slots(const DeviceModel& nominal, const Scenario& sc) {
+  const MeasurementType type = sc.measurement;
+  const std::vector<std::string>& fix = sc.fix;
+  const auto& sockets = sc.sockets;
+  const bool known = sc.socket_distances_known;
   constexpr int kPoses = 200;
   constexpr std::uint64_t kSeed = 20130101;
   SimulationNoise exact;
@@ -169,6 +171,9 @@ std::vector<int> identifiable_slots(
   const Log log = type == MeasurementType::kPoint
                       ? simulate_fixture_log(nominal, sockets,
                                              kPoses / static_cast<int>(sockets.size()), 0, kSeed)
+                  : type == MeasurementType::kPlane
+                      ? simulate_plane_log(nominal, sc.planes,
+                                           kPoses / static_cast<int>(sc.planes.size()), 0, kSeed)
                       : simulate_measurement_log(nominal, type, kPoses, {}, exact, kSeed);
   if (type == MeasurementType::kPoint && known) options.point_distances = socket_distances(sockets);
   const KinematicProblem problem = kinematic_problem(nominal, log, {}, options);
@@ -205,8 +210,7 @@ void assign_truth(Scenario& sc, const std::string& source) {
   if (sc.random.enabled()) {
     std::mt19937_64 rng(sc.random.seed);
     std::normal_distribution<double> gauss(0.0, 1.0);
-    for (int slot : identifiable_slots(sc.nominal, sc.measurement, sc.fix, sc.sockets,
-                                       sc.socket_distances_known)) {
+    for (int slot : identifiable_slots(sc.nominal, sc)) {
       const bool angle = info[slot].unit == ParameterUnit::kAngle;
       truth[slot] = nominal[slot] + (angle ? sc.random.angles : sc.random.lengths) * gauss(rng);
     }
@@ -250,6 +254,7 @@ namespace {
 // of samples or a deviation that no device has.
 constexpr int kMaxTrials = 100000;
 constexpr size_t kMaxSockets = 20;
+constexpr size_t kMaxPlanes = 20;
 constexpr double kMaxSocketCoordinate = 100;  // m
 constexpr int kMaxPoses = 1000000;
 constexpr double kMaxTrajectorySeconds = 1e5;
@@ -276,7 +281,7 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
   r.check_keys(root, "",
                {"format", "device", "tip", "root", "seed", "trials", "poses", "trajectory", "noise",
                 "deviations", "random_deviations", "transmissions", "measurement", "calibration",
-                "sockets", "socket_distances"});
+                "sockets", "socket_distances", "planes"});
   const std::string format = r.string(r.require(root, "", "format"), "format");
   if (format != "hapticcal-scenario/1") {
     r.fail(root["format"], "format",
@@ -362,11 +367,12 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
     const std::string name = r.string(m, "measurement");
     std::optional<MeasurementType> type = measurement_kind(name);
     if (name == "point") type = MeasurementType::kPoint;
+    if (name == "plane") type = MeasurementType::kPlane;
     if (!type) {
       r.fail(m, "measurement",
-             fmt::format(
-                 "'{}' is not a measurement simulate produces: distance, position, pose or point",
-                 printable(name)));
+             fmt::format("'{}' is not a measurement simulate produces: distance, position, pose, "
+                         "point or plane",
+                         printable(name)));
     }
     sc.measurement = *type;
   }
@@ -400,8 +406,56 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
       r.fail(known, "socket_distances", "expected known or unknown");
     sc.socket_distances_known = value == "known";
   }
+  if (const YAML::Node planes = root["planes"]) {
+    if (sc.measurement != MeasurementType::kPlane)
+      r.fail(planes, "planes", "planes are for measurement: plane");
+    if (!planes.IsMap() || planes.size() < 1 || planes.size() > kMaxPlanes) {
+      r.fail(planes, "planes",
+             fmt::format("expected a map of 1 to {} planes: NAME: {{point: [X, Y, Z], normal: [X, "
+                         "Y, Z]}} (metres)",
+                         kMaxPlanes));
+    }
+    for (const auto& entry : planes) {
+      const std::string name = r.string(entry.first, "planes");
+      const std::string key = "planes." + name;
+      r.check_keys(entry.second, key, {"point", "normal"});
+      auto vector = [&](const char* what) {
+        const std::string k = key + "." + what;
+        const YAML::Node xyz = r.require(entry.second, key, what);
+        if (!xyz.IsSequence() || xyz.size() != 3) r.fail(xyz, k, "expected [X, Y, Z]");
+        Eigen::Vector3d v;
+        for (int c = 0; c < 3; ++c) {
+          v[c] = r.number(xyz[c], k);
+          if (!(std::abs(v[c]) <= kMaxSocketCoordinate))
+            r.fail(xyz[c], k, fmt::format("{} is beyond {}", v[c], kMaxSocketCoordinate));
+        }
+        return std::pair{v, xyz};
+      };
+      const Eigen::Vector3d point = vector("point").first;
+      const auto [normal, normal_node] = vector("normal");
+      if (!(normal.norm() > 1e-9))
+        r.fail(normal_node, key + ".normal", "a normal of zero length has no direction");
+      sc.planes.push_back({name, point, normal.normalized()});
+    }
+  }
   if (sc.measurement == MeasurementType::kPoint && sc.sockets.empty())
     sc.sockets = default_sockets(sc.nominal);
+  if (sc.measurement == MeasurementType::kPlane && sc.planes.empty())
+    sc.planes = default_planes(sc.nominal);
+  // Enough samples a label: 2 a socket (a point is 3 unknowns), 4 a plane (any
+  // 3 points lie on one).
+  if (is_fixture(sc.measurement)) {
+    const bool point = sc.measurement == MeasurementType::kPoint;
+    const int labels = static_cast<int>(point ? sc.sockets.size() : sc.planes.size());
+    const int least = point ? 2 : 4;
+    if (sc.identification_poses / labels < least) {
+      const YAML::Node poses = root["poses"];
+      r.fail(poses ? poses["identification"] : root, "poses.identification",
+             fmt::format("{} poses over {} {} are fewer than the {} {} needs: give at least {}",
+                         sc.identification_poses, labels, point ? "sockets" : "planes", least,
+                         point ? "a socket" : "a plane", least * labels));
+    }
+  }
   if (const YAML::Node t = root["transmissions"]) {
     const std::string name = r.string(t, "transmissions");
     if (name == "paper") {
@@ -554,6 +608,10 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
           ? simulate_fixture_log(sc.actual, sc.sockets,
                                  sc.identification_poses / static_cast<int>(sc.sockets.size()),
                                  sc.noise.sigma_position, trial_seed(seed, 0))
+      : sc.measurement == MeasurementType::kPlane
+          ? simulate_plane_log(sc.actual, sc.planes,
+                               sc.identification_poses / static_cast<int>(sc.planes.size()),
+                               sc.noise.sigma_position, trial_seed(seed, 0))
           : simulate_measurement_log(sc.actual, sc.measurement, sc.identification_poses,
                                      sc.identification_readings, sc.noise, trial_seed(seed, 0));
   SimulationNoise exact = sc.noise;

@@ -412,4 +412,38 @@ class PreparedModel {
   enum class Path { kDh, kMdh, kGeneric } path_ = Path::kGeneric;
 };
 
+// Where a reach moves the tool point (in the measurement frame): onto a point,
+// or onto the plane n . p = c (n a unit normal).
+struct ToolTarget {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  double offset = 0;  // c
+  bool plane = false;
+
+  static ToolTarget at(const Eigen::Vector3d& p) { return {p, Eigen::Vector3d::Zero(), 0, false}; }
+  static ToolTarget on_plane(const Eigen::Vector3d& n, double c) {
+    return {Eigen::Vector3d::Zero(), n, c, true};
+  }
+};
+
+struct ReachOptions {
+  int max_steps = 100;
+  double damping = 1e-10;    // lambda of the damped least squares [m^2]
+  double tolerance = 1e-12;  // m: stop once the tool point is this close
+};
+
+struct ReachResult {
+  Eigen::VectorXd q;     // the readings reached
+  double error = 0;      // distance of the tool point from its target (point or plane) [m]
+  bool reached = false;  // error <= tolerance
+};
+
+// Readings near `q` that put `model`'s tool point on `target`: damped least
+// squares on the position Jacobian, q += A^T (A A^T + lambda I)^-1 e, with e
+// the error (target - p, or c - n . p for a plane) and A its rows of J_p (for a
+// plane n^T J_p). The Jacobian is w.r.t. the compensated angles, near enough
+// for the steps. Joint limits are not imposed: the caller checks them.
+ReachResult reach(const PreparedModel& model, const Eigen::VectorXd& q, const ToolTarget& target,
+                  const ReachOptions& options = {});
+
 }  // namespace hapticcal

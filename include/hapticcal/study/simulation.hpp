@@ -52,15 +52,11 @@ Log simulate_measurement_log(const DeviceModel& actual, MeasurementType type, in
                              const Eigen::MatrixXd& readings, const SimulationNoise& noise,
                              std::uint64_t seed);
 
-// The experiment analogue of paper Fig. 10: a continuous random motion of
-// `seconds` sampled at `rate_hz`, at rest at home at both ends (a joint whose
-// limits exclude home: at their middle), each joint a sum of slow sinusoids
-// within its limits; columns t, q, distance (with noise).
 // A fixture log (column `point`): for each socket (a name and a point in the
 // measurement frame), `per_socket` configurations whose tool point is at the
 // socket plus a placement error of sd `placement` [m] per axis: random readings
-// within the limits, moved by damped least squares on the actual device's
-// position Jacobian until the tool point is there (a start that ends outside
+// within the limits, moved by reach() (kinematics.hpp: damped least squares on
+// the actual device's position Jacobian) until the tool point is there (a start that ends outside
 // the limits or short of the point is drawn again). Readings exact (the
 // error is where the tool point sits); reproducible for a seed. Throws
 // InputError if a socket cannot be reached in 1000 starts.
@@ -70,10 +66,38 @@ Log simulate_fixture_log(const DeviceModel& actual,
                          const std::vector<std::pair<std::string, Eigen::Vector3d>>& sockets,
                          int per_socket, double placement, std::uint64_t seed,
                          bool encoders = false, double sigma_ext = 0);
+// A plane of a plane-contact simulation: a name, a point on it and its unit
+// normal, in the measurement frame.
+struct SimulatedPlane {
+  std::string name;
+  Eigen::Vector3d point, normal;
+};
+
+// A plane-contact log (column `plane`): for each plane, `per_plane`
+// configurations whose tool point touches it, n . p = n . point + e with a
+// contact error e of sd `contact_sd` [m] along the normal: random readings
+// within the limits moved onto it by reach() (kinematics.hpp), so the contacts
+// spread over the plane wherever the device reaches it. Readings exact;
+// reproducible for a seed; encoders as simulate_fixture_log. Throws InputError
+// if a plane cannot be reached in 1000 starts.
+Log simulate_plane_log(const DeviceModel& actual, const std::vector<SimulatedPlane>& planes,
+                       int per_plane, double contact_sd, std::uint64_t seed, bool encoders = false,
+                       double sigma_ext = 0);
+
+// Three plates, mutually non-parallel, in front of the device: near
+// default_sockets' first socket, 5 % of its distance from the origin below
+// it (a floor tilted towards the device), beyond it (a wall facing the
+// device) and beside it (a side wall), each tilted off the axes.
+std::vector<SimulatedPlane> default_planes(const DeviceModel& model);
+
 // Two sockets 50 mm apart where a fixture would stand: the tool point of
 // `model` at readings 45 % into each joint's range, and 50 mm along x from it.
 std::vector<std::pair<std::string, Eigen::Vector3d>> default_sockets(const DeviceModel& model);
 
+// The experiment analogue of paper Fig. 10: a continuous random motion of
+// `seconds` sampled at `rate_hz`, at rest at home at both ends (a joint whose
+// limits exclude home: at their middle), each joint a sum of slow sinusoids
+// within its limits; columns t, q, distance (with noise).
 Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_hz,
                         const SimulationNoise& noise, std::uint64_t seed);
 

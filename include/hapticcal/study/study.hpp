@@ -54,8 +54,7 @@ struct Scenario {
   std::map<std::string, double> deviations;
   // What the identification log measures (the validation scores position and
   // orientation against the truth whatever it is). Fixture points and planes
-  // join here when the measurement family has them (simulation.hpp:
-  // simulated_measurement is the one place that fills a log's columns).
+  // are simulated by simulate_fixture_log and simulate_plane_log.
   MeasurementType measurement = MeasurementType::kDistance;
   // measurement: point (a fixture's sockets, the tool point put into each in
   // random configurations; sigma_m the placement error per axis; no external
@@ -64,6 +63,12 @@ struct Scenario {
   // whether their distances are given to the calibration (--point-distance).
   std::vector<std::pair<std::string, Eigen::Vector3d>> sockets;
   bool socket_distances_known = true;
+  // measurement: plane (the tool point touching unknown plates in random
+  // configurations; sigma_m the contact error along the normal; no external
+  // encoders): the plates in the measurement frame (default: default_planes of
+  // the nominal device). No distance reaches the calibration: what planes
+  // cannot see (the robot's size among it) the rank test holds.
+  std::vector<SimulatedPlane> planes;
   int identification_poses = 200;
   // Readings to measure at (poses x dof, e.g. a plan.csv) instead of random
   // ones; identification_poses is then their count.
@@ -122,6 +127,10 @@ void assign_truth(Scenario& scenario, const std::string& source);
 //                                           readings, noise as usual
 //   measurement: point,  sockets: {NAME: [X, Y, Z], ...}, socket_distances: known | unknown
 //                                           a fixture (default: two sockets 50 mm apart)
+//   measurement: plane,  planes: {NAME: {point: [X, Y, Z], normal: [X, Y, Z]}, ...}
+//                                           plate contacts (default: default_planes)
+//   poses.identification is spread over the sockets (at least 2 each) or the
+//   planes (at least 4 each)
 //   calibration: {keep_all: true | false,   CalibrationOptions::keep_all (true: the
 //                                           paper's procedure; false: model selection)
 //                 fix: [DOTTED_NAME, ...]}  and ::fix (e.g. what a plan reports held,
