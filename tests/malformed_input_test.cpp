@@ -39,14 +39,18 @@ std::vector<Case> cases() {
 TEST(MalformedInput, EachCaseGivesItsOneLineErrorAndExitCode2) {
   const std::string dir = testing::source_path("tests/malformed");
   const std::vector<Case> all = cases();
-  int models = 0, logs = 0;
+  int models = 0, logs = 0, fixtures = 0;
   for (const Case& c : all) {
     SCOPED_TRACE(c.file);
     const bool model = c.kind == "model";
-    (model ? models : logs)++;
-    std::vector<std::string> args = {"evaluate", "--model",
-                                     model ? dir + "/" + c.file : dir + "/good-2dof.yaml", "--log",
-                                     model ? dir + "/good-2dof.csv" : dir + "/" + c.file};
+    const bool fixture = c.kind == "fixture";  // a fixture file for the good points log
+    (model ? models : fixture ? fixtures : logs)++;
+    const std::string log = model     ? dir + "/good-2dof.csv"
+                            : fixture ? dir + "/good-2dof-points.csv"
+                                      : dir + "/" + c.file;
+    std::vector<std::string> args = {
+        "evaluate", "--model", model ? dir + "/" + c.file : dir + "/good-2dof.yaml", "--log", log};
+    if (fixture) args.insert(args.end(), {"--fixture", dir + "/" + c.file});
     for (const std::string& a : testing::split_arguments(c.extra)) args.push_back(a);
     const testing::CliResult r = testing::run_cli(args);
     EXPECT_EQ(r.exit_code, 2) << r.err;
@@ -59,6 +63,7 @@ TEST(MalformedInput, EachCaseGivesItsOneLineErrorAndExitCode2) {
   }
   EXPECT_GE(models, 15);
   EXPECT_GE(logs, 15);
+  EXPECT_GE(fixtures, 10);
 }
 
 TEST(MalformedInput, GoodFilesOfTheSuitePass) {
