@@ -1,6 +1,7 @@
 // Every malformed device file and log of tests/malformed/cases.txt makes the
 // command line exit with code 2 and one line naming the file, line and key.
 // The sanitizer build (make test) runs this under AddressSanitizer and UBSan.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -172,6 +173,37 @@ TEST(MalformedInput, HugeNamesAndValuesGiveOneShortLine) {
                             "evaluate", "--model", src + "/good-2dof.yaml", "--log",
                             src + "/good-2dof.csv", "--columns", "q1," + huge + ",x,y,z"}),
                         "--columns: a" + dots + ": unknown column");
+  std::filesystem::remove_all(dir);
+}
+
+// Fixture files (--fixture) are bounded: a file beyond 1 MiB is refused before
+// YAML reads it, and a huge label or value is one short line.
+TEST(MalformedInput, HugeFixtureFilesGiveOneShortLine) {
+  const std::string src = testing::source_path("tests/malformed");
+  const std::string dir = temp_folder("fixture");
+  const std::string huge(30000, 'a');
+  struct Generated {
+    std::string file, text, expected;
+  };
+  std::string big = "distances:\n";
+  while (big.size() <= (size_t{1} << 20)) big += "  - [a, b, 0.05]   # the same pair, again\n";
+  const std::string dots = std::string(39, 'a') + "...";
+  const std::vector<Generated> all = {
+      {"big.yaml", big,
+       fmt::format(": {} bytes, more than the 1048576 a fixture file may have", big.size())},
+      {"label.yaml", "points:\n  ? " + huge + "\n  : [0, 0, 0]\n",
+       ":2: points: a label of 30000 characters: at most 64"},
+      {"value.yaml", "distances:\n  - [a, b, " + huge + "]\n",
+       ":2: distances[0][2]: 'a" + dots + "' is not a number"},
+  };
+  for (const Generated& g : all) {
+    SCOPED_TRACE(g.file);
+    std::ofstream(dir + "/" + g.file) << g.text;
+    expect_one_short_line(testing::run_cli(std::vector<std::string>{
+                              "evaluate", "--model", src + "/good-2dof.yaml", "--log",
+                              src + "/good-2dof-points.csv", "--fixture", dir + "/" + g.file}),
+                          g.file + g.expected);
+  }
   std::filesystem::remove_all(dir);
 }
 

@@ -100,7 +100,7 @@ Fixture load_fixture(const std::string& path) {
   if (!ec && bytes > kMaxFixtureBytes) {
     throw InputError(
         path, 0, "",
-        fmt::format("{} bytes: a fixture file is at most {}", bytes, kMaxFixtureBytes));
+        fmt::format("{} bytes, more than the {} a fixture file may have", bytes, kMaxFixtureBytes));
   }
   return parse_fixture(read_file(path), path);
 }
