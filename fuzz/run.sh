@@ -10,13 +10,15 @@ build="$(cd "$1" && pwd)"
 seconds="$2"
 shift 2
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(fuzz_device fuzz_log fuzz_log_columns fuzz_scenario fuzz_urdf)
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_device fuzz_fixture fuzz_log fuzz_log_columns fuzz_scenario fuzz_urdf)
 
 seeds() {
   case "$1" in
     fuzz_device)
       ls "$src"/data/devices/*.yaml "$src"/tests/malformed/*.yaml
       find "$src/examples" -name '*.yaml' ;;
+    fuzz_fixture)
+      ls "$src"/tests/malformed/fixture-*.yaml "$src"/fuzz/seeds/fixture/* ;;
     fuzz_log)
       ls "$src"/tests/malformed/*.csv
       find "$src/examples" -name '*.csv' ;;
@@ -32,6 +34,7 @@ seeds() {
 dict() {
   case "$1" in
     fuzz_device) echo device ;;
+    fuzz_fixture) echo fixture ;;
     fuzz_log | fuzz_log_columns) echo log ;;
     fuzz_scenario) echo scenario ;;
     fuzz_urdf) echo urdf ;;

@@ -2,6 +2,7 @@
 // makes the command line exit with code 2 and one line naming the file, line
 // and key (a scenario: before any output).
 // The sanitizer build (make test) runs this under AddressSanitizer and UBSan.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -42,17 +43,22 @@ TEST(MalformedInput, EachCaseGivesItsOneLineErrorAndExitCode2) {
   const std::vector<Case> all = cases();
   const std::string out = ::testing::TempDir() + "/malformed_cases_out";
   std::filesystem::remove_all(out);
-  int models = 0, logs = 0, scenarios = 0;
+  int models = 0, logs = 0, scenarios = 0, fixtures = 0;
   for (const Case& c : all) {
     SCOPED_TRACE(c.file);
     const bool model = c.kind == "model", scenario = c.kind == "scenario";
-    (model ? models : scenario ? scenarios : logs)++;
+    const bool fixture = c.kind == "fixture";  // a fixture file for the good points log
+    (model ? models : scenario ? scenarios : fixture ? fixtures : logs)++;
+    const std::string log = model     ? dir + "/good-2dof.csv"
+                            : fixture ? dir + "/good-2dof-points.csv"
+                                      : dir + "/" + c.file;
     std::vector<std::string> args =
         scenario
             ? std::vector<std::string>{"simulate", "--scenario", dir + "/" + c.file, "--out", out}
-            : std::vector<std::string>{
-                  "evaluate", "--model", model ? dir + "/" + c.file : dir + "/good-2dof.yaml",
-                  "--log", model ? dir + "/good-2dof.csv" : dir + "/" + c.file};
+            : std::vector<std::string>{"evaluate", "--model",
+                                       model ? dir + "/" + c.file : dir + "/good-2dof.yaml",
+                                       "--log", log};
+    if (fixture) args.insert(args.end(), {"--fixture", dir + "/" + c.file});
     for (const std::string& a : testing::split_arguments(c.extra)) args.push_back(a);
     const testing::CliResult r = testing::run_cli(args);
     EXPECT_EQ(r.exit_code, 2) << r.err;
@@ -67,6 +73,7 @@ TEST(MalformedInput, EachCaseGivesItsOneLineErrorAndExitCode2) {
   EXPECT_GE(models, 15);
   EXPECT_GE(logs, 15);
   EXPECT_GE(scenarios, 10);
+  EXPECT_GE(fixtures, 10);
 }
 
 TEST(MalformedInput, GoodFilesOfTheSuitePass) {
@@ -175,6 +182,37 @@ TEST(MalformedInput, HugeNamesAndValuesGiveOneShortLine) {
                             "evaluate", "--model", src + "/good-2dof.yaml", "--log",
                             src + "/good-2dof.csv", "--columns", "q1," + huge + ",x,y,z"}),
                         "--columns: a" + dots + ": unknown column");
+  std::filesystem::remove_all(dir);
+}
+
+// Fixture files (--fixture) are bounded: a file beyond 1 MiB is refused before
+// YAML reads it, and a huge label or value is one short line.
+TEST(MalformedInput, HugeFixtureFilesGiveOneShortLine) {
+  const std::string src = testing::source_path("tests/malformed");
+  const std::string dir = temp_folder("fixture");
+  const std::string huge(30000, 'a');
+  struct Generated {
+    std::string file, text, expected;
+  };
+  std::string big = "distances:\n";
+  while (big.size() <= (size_t{1} << 20)) big += "  - [a, b, 0.05]   # the same pair, again\n";
+  const std::string dots = std::string(39, 'a') + "...";
+  const std::vector<Generated> all = {
+      {"big.yaml", big,
+       fmt::format(": {} bytes, more than the 1048576 a fixture file may have", big.size())},
+      {"label.yaml", "points:\n  ? " + huge + "\n  : [0, 0, 0]\n",
+       ":2: points: a label of 30000 characters: at most 64"},
+      {"value.yaml", "distances:\n  - [a, b, " + huge + "]\n",
+       ":2: distances[0][2]: 'a" + dots + "' is not a number"},
+  };
+  for (const Generated& g : all) {
+    SCOPED_TRACE(g.file);
+    std::ofstream(dir + "/" + g.file) << g.text;
+    expect_one_short_line(testing::run_cli(std::vector<std::string>{
+                              "evaluate", "--model", src + "/good-2dof.yaml", "--log",
+                              src + "/good-2dof-points.csv", "--fixture", dir + "/" + g.file}),
+                          g.file + g.expected);
+  }
   std::filesystem::remove_all(dir);
 }
 

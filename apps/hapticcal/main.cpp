@@ -15,6 +15,7 @@
 
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/io/error.hpp"
+#include "hapticcal/io/fixture_io.hpp"
 #include "hapticcal/io/io.hpp"
 #include "hapticcal/io/model_source.hpp"
 #include "hapticcal/io/output_set.hpp"
@@ -85,7 +86,17 @@ std::vector<hapticcal::PointDistance> point_distances(const std::vector<std::str
   return out;
 }
 
+// The fixture facts of --fixture FILE and --point-distance together: the file's
+// first (fixture_labels refuses a distance given twice or two for one pair).
+hapticcal::Fixture fixture_facts(const std::string& file, const std::vector<std::string>& specs) {
+  hapticcal::Fixture fixture = file.empty() ? hapticcal::Fixture{} : hapticcal::load_fixture(file);
+  for (hapticcal::PointDistance& d : point_distances(specs))
+    fixture.distances.push_back(std::move(d));
+  return fixture;
+}
+
 struct EvaluateOptions {
+  std::string fixture;
   std::vector<std::string> point_distance;
   std::string model, log, columns, reference;
   ChainOptions chain;
@@ -97,11 +108,14 @@ int run_evaluate(const EvaluateOptions& o) {
   const hapticcal::DeviceModel model = o.chain.load(o.model);
   const hapticcal::Log log = hapticcal::read_log(
       o.log, o.columns.empty() ? std::vector<std::string>{} : hapticcal::split_columns(o.columns));
-  const std::vector<hapticcal::PointDistance> known = point_distances(o.point_distance);
+  const hapticcal::Fixture known = fixture_facts(o.fixture, o.point_distance);
   std::optional<hapticcal::EvaluationComparison> cmp;
-  if (!o.reference.empty())
-    cmp = hapticcal::compare_to_reference(model, o.chain.load(o.reference), log, known);
-  const hapticcal::Evaluation ev = cmp ? cmp->model : hapticcal::evaluate(model, log, known);
+  if (!o.reference.empty()) {
+    cmp = hapticcal::compare_to_reference(model, o.chain.load(o.reference), log, known.distances,
+                                          known.points);
+  }
+  const hapticcal::Evaluation ev =
+      cmp ? cmp->model : hapticcal::evaluate(model, log, known.distances, known.points);
   const std::optional<hapticcal::Evaluation> ref =
       cmp ? std::optional<hapticcal::Evaluation>(cmp->reference) : std::nullopt;
   if (o.json) {
@@ -124,6 +138,7 @@ int run_evaluate(const EvaluateOptions& o) {
       j["rms_point_deviation"] = *ev.rms_point_deviation;
     }
     if (ev.max_point_distance_error) j["max_point_distance_error"] = *ev.max_point_distance_error;
+    if (ev.rms_known_point_error) j["rms_known_point_error"] = *ev.rms_known_point_error;
     if (ev.rms_plane_distance) j["rms_plane_distance"] = *ev.rms_plane_distance;
     if (!ev.labels.empty()) {
       nlohmann::ordered_json labels = nlohmann::ordered_json::object();
@@ -132,6 +147,7 @@ int run_evaluate(const EvaluateOptions& o) {
                           {"centre", {l.centre.x(), l.centre.y(), l.centre.z()}},
                           {"mean_deviation", l.mean_deviation},
                           {"rms_deviation", l.rms_deviation}};
+        if (l.rms_known_error) labels[l.name]["rms_known_error"] = *l.rms_known_error;
       }
       j["labels"] = labels;
     }
@@ -171,6 +187,9 @@ int run_evaluate(const EvaluateOptions& o) {
                ev.mean_point_deviation ? "point" : "plane", l.name, l.samples,
                ev.mean_point_deviation ? "spread about its centre" : "distance from its plane",
                l.mean_deviation * 1e3, l.rms_deviation * 1e3);
+    if (l.rms_known_error) {
+      fmt::print("  against its known position: {:.4f} mm RMS\n", *l.rms_known_error * 1e3);
+    }
   }
   if (ev.mean_point_deviation) {
     fmt::print("point deviation (every sample): mean {:.4f} mm, RMS {:.4f} mm{}\n",
@@ -181,6 +200,9 @@ int run_evaluate(const EvaluateOptions& o) {
   }
   if (ev.max_point_distance_error) {
     fmt::print("known distances: largest error {:.4f} mm\n", *ev.max_point_distance_error * 1e3);
+  }
+  if (ev.rms_known_point_error) {
+    fmt::print("known positions: RMS error {:.4f} mm\n", *ev.rms_known_point_error * 1e3);
   }
   if (ev.rms_plane_distance) {
     fmt::print("plane distance: RMS {:.4f} mm\n", *ev.rms_plane_distance * 1e3);
@@ -199,6 +221,7 @@ int run_evaluate(const EvaluateOptions& o) {
 }
 
 struct CalibrateOptions {
+  std::string fixture;
   std::vector<std::string> point_distance;
   std::string model, log, columns, out = "hapticcal-out/calibrate", fix, free;
   ChainOptions chain;
@@ -374,7 +397,9 @@ int run_calibrate(const CalibrateOptions& o) {
   options.dependency_tolerance = o.tolerance;
   options.keep_all = o.keep_all;
   options.folds = o.folds;
-  options.point_distances = point_distances(o.point_distance);
+  hapticcal::Fixture fixture = fixture_facts(o.fixture, o.point_distance);
+  options.point_distances = std::move(fixture.distances);
+  options.known_points = std::move(fixture.points);
   options.fix = names(o.fix);
   options.free = names(o.free);
   hapticcal::CalibrationResult result = hapticcal::calibrate(model, log, options);
@@ -397,8 +422,10 @@ int run_calibrate(const CalibrateOptions& o) {
   hapticcal::write_file_atomically(
       out.dir() + "/results.json",
       hapticcal::calibration_json(result, model, o.model, o.log, options));
-  const std::string reported = report(
-      hapticcal::calibration_report(result, model, log, options.point_distances), out.dir(), o.out);
+  const std::string reported =
+      report(hapticcal::calibration_report(result, model, log, options.point_distances,
+                                           options.known_points),
+             out.dir(), o.out);
   out.commit();
   fmt::print("{}", reported);
   fmt::print("wrote {0}/: {1}{2}results.json, report.html, figures/ (seed {3})\n", o.out,
@@ -785,6 +812,9 @@ int main(int argc, char** argv) {
   calibrate->add_option("--point-distance", cal.point_distance,
                         "A known distance between two fixture points of the log (column point): "
                         "A:B=METRES (repeatable)");
+  calibrate->add_option("--fixture", cal.fixture,
+                        "Fixture file (YAML): known positions (points) and distances of the "
+                        "log's fixture points");
   calibrate->add_flag("--keep-all", cal.keep_all,
                       "No model selection: fit every identifiable parameter the data excite, "
                       "even those they do not support");
@@ -815,6 +845,9 @@ int main(int argc, char** argv) {
   evaluate->add_flag("--json", eval.json, "Print one JSON object (metres)");
   evaluate->add_option("--point-distance", eval.point_distance,
                        "A known distance between two fixture points: A:B=METRES (repeatable)");
+  evaluate->add_option("--fixture", eval.fixture,
+                       "Fixture file (YAML): known positions (points) and distances of the log's "
+                       "fixture points");
   evaluate->add_option("--reference", eval.reference,
                        "A second device file (e.g. the nominal one): adds the paper's eq. 9 "
                        "improvement of --model over it on the same log");

@@ -708,9 +708,11 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   std::iota(pose_index.begin(), pose_index.end(), 0);
   problem.measured = measured_values(poses, pose_index, RowsOf{problem.type});
   if (is_fixture(problem.type)) {
-    problem.labels = fixture_labels(problem.type, poses, pose_index, options.point_distances);
-  } else if (!options.point_distances.empty()) {
-    throw InputError(poses.origin, 0, "--point-distance",
+    problem.labels = fixture_labels(problem.type, poses, pose_index, options.point_distances,
+                                    options.known_points);
+  } else if (!options.point_distances.empty() || !options.known_points.empty()) {
+    throw InputError(poses.origin, 0,
+                     options.point_distances.empty() ? "--fixture" : "--point-distance",
                      "known distances are between fixture points: the log has no point column");
   }
   problem.rows = m;
@@ -762,7 +764,11 @@ std::vector<Eigen::VectorXd> consistent_joints(const ChainStructure& s, const Ei
     mean[labels.of_pose[i]] += point[i];
     ++count[labels.of_pose[i]];
   }
-  for (int l = 0; l < labels.count(); ++l) mean[l] /= count[l];
+  for (int l = 0; l < labels.count(); ++l) {
+    mean[l] /= count[l];
+    if (l < static_cast<int>(labels.known_point.size()) && labels.known_point[l])
+      mean[l] = *labels.known_point[l];  // a known position: the poses go there
+  }
   for (int i = 0; i < m; ++i) {
     const Eigen::Vector3d e = point[i] - mean[labels.of_pose[i]];
     scatter[labels.of_pose[i]] += e * e.transpose();
@@ -848,6 +854,8 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   // is that motion: it goes first in the rank test, so that what duplicates it
   // is found dependent on it, and is held. Synthetic poses cannot reach a common
   // point: the data's poses decide alone.
+  // A known position pins the fixture: the rank test then decides the base too.
+  const bool rigid = kind.labels && problem.labels.known_points() == 0;
   std::vector<int> order = candidates;
   const auto is_base = [&](int slot) { return slot < s.base_slots(); };
   if (kind.labels) std::stable_partition(order.begin(), order.end(), is_base);
@@ -855,7 +863,8 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   // (every length times 1 + e leaves the residuals as they are): the rank test
   // finds one length dependent on the others; its reason says so.
   const bool sizeless =
-      kind.labels && (problem.type == MeasurementType::kPlane || problem.labels.distances.empty());
+      kind.labels && (problem.type == MeasurementType::kPlane ||
+                      (problem.labels.distances.empty() && problem.labels.known_points() < 2));
   // A slot the rank test holds only because of that: one it accepts once a row
   // that measures the scale (d size = lengths . d params) is added.
   std::map<int, bool> sized;
@@ -891,7 +900,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   for (int slot : order) {
     const Verdict& sv = structural_verdict.at(slot);
     const Verdict& dv = data_verdict.at(slot);
-    if (kind.labels && is_base(slot)) {
+    if (rigid && is_base(slot)) {
       out.reason[slot] = fmt::format(
           "no effect on the measurements: the unknown places of the fixture's {} absorb a "
           "rigid motion of the whole robot",
@@ -906,7 +915,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
       }
     } else if (sv.kind == Verdict::kDependent) {
       out.reason[slot] = "dependent: its effect is that of " + names_of(sv.on, name);
-      if (kind.labels && std::all_of(sv.on.begin(), sv.on.end(), is_base)) {
+      if (rigid && std::all_of(sv.on.begin(), sv.on.end(), is_base)) {
         out.reason[slot] += " (a rigid motion of the whole robot, which the fixture absorbs)";
       } else if (sizeless && sized[slot]) {
         out.reason[slot] += fmt::format(
@@ -1019,8 +1028,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   const int d = traits(fit.type).dimension;
   // Too few measurements for the parameters the model can identify at all (the
   // structural rank, before these poses' own analysis below).
-  // A fixture's points or planes take 3 unknowns each out of its rows.
-  const int nuisance = 3 * problem.labels.count();
+  // A fixture's points or planes take 3 unknowns each out of its rows (known points none).
+  const int nuisance = problem.labels.unknowns();
   const int kind_rows = rows_of(problem).rows(m);
   const auto too_few = [&](std::size_t parameters, const char* what) {
     if (kind_rows - nuisance > static_cast<int>(parameters)) return;
@@ -1182,8 +1191,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     Ji.col(c) = data.J.col(identified[c]);
     Js.col(c) = Ji.col(c) / scale[identified[c]];
   }
-  // Each fixture point or plane is 3 unknowns the projection took out.
-  const Eigen::Index dof_residual = data.residuals - k - 3 * problem.labels.count();
+  // Each eliminated fixture point or plane is 3 unknowns the projection took out.
+  const Eigen::Index dof_residual = data.residuals - k - problem.labels.unknowns();
   fit.sigma_given = options.sigma.has_value();
   fit.sigma =
       options.sigma

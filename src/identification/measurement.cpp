@@ -45,8 +45,24 @@ void measured_values(MeasurementType type, const Log& log, int row, double* out)
   }
 }
 
+namespace {
+
+// Bad input about a fixture fact: named where it was given (a fixture file's
+// line and key), or for a command-line option, the log's.
+[[noreturn]] void refuse(const Log& log, const FixtureSource& where, const std::string& message) {
+  if (where.file.empty()) throw InputError(log.origin, 0, where.key, message);
+  throw InputError(where.file, where.line, where.key, message);
+}
+
+std::string describe(const FixtureSource& where) {
+  return where.file.empty() ? "by " + where.key : fmt::format("at {}:{}", where.file, where.line);
+}
+
+}  // namespace
+
 FixtureLabels fixture_labels(MeasurementType type, const Log& log, const std::vector<int>& rows,
-                             const std::vector<PointDistance>& distances) {
+                             const std::vector<PointDistance>& distances,
+                             const std::vector<KnownPoint>& known_points) {
   FixtureLabels out;
   std::vector<int> samples;
   for (int r : rows) {
@@ -70,32 +86,62 @@ FixtureLabels fixture_labels(MeasurementType type, const Log& log, const std::ve
                                  plane ? "plane" : "point", out.names[k], samples[k],
                                  samples[k] == 1 ? "" : "s", plane ? "plane" : "point", needed));
   }
+  out.known_point.assign(out.names.size(), std::nullopt);
+  auto index = [&](const FixtureSource& where, const std::string& name, const char* what) {
+    const auto it = std::find(out.names.begin(), out.names.end(), name);
+    if (it == out.names.end()) {
+      refuse(log, where,
+             fmt::format("no {} '{}' in the log{}", what, printable(name, 80),
+                         plane ? " (it holds planes)" : ""));
+    }
+    return static_cast<int>(it - out.names.begin());
+  };
+  for (const KnownPoint& k : known_points) {
+    if (plane) {
+      refuse(log, k.source, "known positions are of fixture points; this log holds planes");
+    }
+    const int l = index(k.source, k.label, "point");
+    if (out.known_point[l]) refuse(log, k.source, fmt::format("'{}' given twice", k.label));
+    if (!k.p_meas.allFinite()) refuse(log, k.source, "a known position must be finite");
+    out.known_point[l] = k.p_meas;
+  }
+  std::vector<const FixtureSource*> given;  // where each accepted distance was given
   for (const PointDistance& d : distances) {
     if (plane) {
-      throw InputError(log.origin, 0, "--point-distance",
-                       "known distances are between fixture points; this log holds planes");
+      refuse(log, d.source, "known distances are between fixture points; this log holds planes");
     }
-    auto index = [&](const std::string& name) {
-      const auto it = std::find(out.names.begin(), out.names.end(), name);
-      if (it == out.names.end()) {
-        throw InputError(log.origin, 0, "--point-distance",
-                         fmt::format("no point '{}' in the log", name));
-      }
-      return static_cast<int>(it - out.names.begin());
-    };
-    const int a = index(d.a), b = index(d.b);
+    const int a = index(d.source, d.a, "point"), b = index(d.source, d.b, "point");
     if (a == b) {
-      throw InputError(log.origin, 0, "--point-distance",
-                       fmt::format("'{}' twice: a distance is between two points", d.a));
+      refuse(log, d.source, fmt::format("'{}' twice: a distance is between two points", d.a));
     }
     if (!(d.metres > 0 && std::isfinite(d.metres))) {
-      throw InputError(
-          log.origin, 0, "--point-distance",
-          fmt::format("{}:{}: a distance must be a positive number of metres", d.a, d.b));
+      refuse(log, d.source,
+             fmt::format("{}:{}: a distance must be a positive number of metres", d.a, d.b));
+    }
+    if (out.known_point[a] && out.known_point[b]) {
+      refuse(log, d.source,
+             fmt::format("'{}' and '{}' both have known positions ({:.6g} m apart): a distance "
+                         "between them is redundant",
+                         d.a, d.b, (*out.known_point[a] - *out.known_point[b]).norm()));
+    }
+    for (size_t k = 0; k < out.distances.size(); ++k) {
+      const FixtureLabels::Known& e = out.distances[k];
+      if (!((e.a == a && e.b == b) || (e.a == b && e.b == a))) continue;
+      refuse(log, d.source,
+             e.metres == d.metres
+                 ? fmt::format("{}:{} given twice (also {})", d.a, d.b, describe(*given[k]))
+                 : fmt::format("{}:{} = {} m contradicts {} m given {}", d.a, d.b, d.metres,
+                               e.metres, describe(*given[k])));
     }
     out.distances.push_back({a, b, d.metres});
+    given.push_back(&d.source);
   }
   return out;
+}
+
+int FixtureLabels::known_points() const {
+  return static_cast<int>(std::count_if(known_point.begin(), known_point.end(),
+                                        [](const auto& k) { return k.has_value(); }));
 }
 
 int fixture_rows(MeasurementType type, const FixtureLabels& labels, int poses) {
@@ -122,7 +168,16 @@ void fixture_residuals(MeasurementType type, const FixtureLabels& labels, const 
     total[l] += wi;
     ++samples[l];
   }
+  // A label whose position is known is not eliminated: its rows are w_i (p_i - k_L).
+  auto is_known = [&](int l) {
+    return l < static_cast<int>(labels.known_point.size()) && labels.known_point[l].has_value();
+  };
   for (int l = 0; l < L; ++l) {
+    if (is_known(l)) {
+      mean[l] = *labels.known_point[l];
+      if (raw_J) mean_J[l].setZero();
+      continue;
+    }
     mean[l] /= total[l];
     if (raw_J) mean_J[l] /= total[l];
   }
@@ -182,10 +237,11 @@ void fixture_residuals(MeasurementType type, const FixtureLabels& labels, const 
     const FixtureLabels::Known& known = labels.distances[k];
     const Eigen::Vector3d v = mean[known.a] - mean[known.b];
     // The exact distance moves the two points apart along their line: the least
-    // squares cost grows by delta^2 W_A W_B / (W_A + W_B) (W: a label's summed
-    // weights), so this row is the constrained fit's, not a soft guess.
-    const double scale =
-        std::sqrt(total[known.a] * total[known.b] / (total[known.a] + total[known.b]));
+    // squares cost grows by delta^2 / (1 / W_A + 1 / W_B) (W: a label's summed
+    // weights; a known position does not move: 1 / W = 0), so this row is the
+    // constrained fit's, not a soft guess.
+    const auto give = [&](int l) { return is_known(l) ? 0.0 : 1 / total[l]; };
+    const double scale = 1 / std::sqrt(give(known.a) + give(known.b));
     const int row = m * d + static_cast<int>(k);
     residual[row] = scale * (v.norm() - known.metres);
     if (J) {

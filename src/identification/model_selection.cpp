@@ -271,7 +271,7 @@ ModelSelection select_model(const KinematicProblem& problem, const std::vector<i
     // The parameter whose change from its start is the fewest standard
     // deviations is the candidate to hold next.
     const double dof = static_cast<double>(system.rows() - step.parameters -
-                                           3 * problem.labels.count());  // a fixture's unknowns
+                                           problem.labels.unknowns());  // a fixture's unknowns
     const double sigma = std::sqrt(fit.rss / std::max(dof, 1.0));
     int weakest = 0;
     double weakest_t = kInfinite;

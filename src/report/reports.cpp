@@ -137,7 +137,8 @@ void selection_section(const KinematicFit& k, Report& report) {
 }  // namespace
 
 Report calibration_report(const CalibrationResult& result, const DeviceModel& nominal,
-                          const Log& log, const std::vector<PointDistance>& point_distances) {
+                          const Log& log, const std::vector<PointDistance>& point_distances,
+                          const std::vector<KnownPoint>& known_points) {
   const KinematicFit& k = result.kinematics;
   Report report;
   report.title = fmt::format("hapticcal calibrate: {} on {}", nominal.name, log.origin);
@@ -203,8 +204,8 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
     transmission_figures(t, nominal.links[t.joint].name, log, plotted_rows,
                          result.calibrated.links[t.joint].transmission, nullptr, report.figures);
   }
-  const Evaluation before = evaluate(nominal, log, point_distances),
-                   after = evaluate(result.calibrated, log, point_distances);
+  const Evaluation before = evaluate(nominal, log, point_distances, known_points),
+                   after = evaluate(result.calibrated, log, point_distances, known_points);
   const bool fixture = is_fixture(k.type);
   const bool position = k.type != MeasurementType::kDistance && !fixture;
   const Eigen::VectorXd& error_before = fixture    ? before.fixture_error

@@ -22,11 +22,16 @@ namespace {
 
 // Fixture logs: the spread of each label's predicted tool points (evaluate).
 void evaluate_fixture(const Log& log, const std::vector<Eigen::Vector3d>& points,
-                      const std::vector<PointDistance>& point_distances, Evaluation& ev) {
+                      const std::vector<PointDistance>& point_distances,
+                      const std::vector<KnownPoint>& known_points, Evaluation& ev) {
   const MeasurementType type = measurement_type(log);
   std::vector<int> rows(log.rows);
   std::iota(rows.begin(), rows.end(), 0);
-  const FixtureLabels labels = fixture_labels(type, log, rows, point_distances);
+  FixtureLabels labels = fixture_labels(type, log, rows, point_distances, known_points);
+  // The spread is about each label's centre, known or not; the known positions
+  // are compared on their own.
+  const std::vector<std::optional<Eigen::Vector3d>> known = std::move(labels.known_point);
+  labels.known_point.assign(labels.count(), std::nullopt);
   Eigen::VectorXd raw(3 * log.rows);
   for (int r = 0; r < log.rows; ++r) raw.segment<3>(3 * r) = points[r];
   Eigen::VectorXd residual(fixture_rows(type, labels, log.rows));
@@ -35,11 +40,19 @@ void evaluate_fixture(const Log& log, const std::vector<Eigen::Vector3d>& points
   ev.fixture_error.resize(log.rows);
   ev.labels.resize(labels.count());
   for (int l = 0; l < labels.count(); ++l) ev.labels[l].name = labels.names[l];
-  double sum = 0, sum2 = 0;
+  double sum = 0, sum2 = 0, known_sum2 = 0;
+  int known_rows = 0;
   for (int r = 0; r < log.rows; ++r) {
     const double e = point ? residual.segment<3>(3 * r).norm() : residual[r];
     ev.fixture_error[r] = e;
-    Evaluation::Label& label = ev.labels[labels.of_pose[r]];
+    const int l = labels.of_pose[r];
+    Evaluation::Label& label = ev.labels[l];
+    if (known[l]) {
+      const double k2 = (points[r] - *known[l]).squaredNorm();
+      label.rms_known_error = label.rms_known_error.value_or(0) + k2;
+      known_sum2 += k2;
+      ++known_rows;
+    }
     ++label.samples;
     label.centre += points[r];
     label.mean_deviation += std::abs(e);
@@ -51,7 +64,10 @@ void evaluate_fixture(const Log& log, const std::vector<Eigen::Vector3d>& points
     label.centre /= label.samples;
     label.mean_deviation /= label.samples;
     label.rms_deviation = std::sqrt(label.rms_deviation / label.samples);
+    if (label.rms_known_error)
+      label.rms_known_error = std::sqrt(*label.rms_known_error / label.samples);
   }
+  if (known_rows > 0) ev.rms_known_point_error = std::sqrt(known_sum2 / known_rows);
   if (!point) {
     ev.rms_plane_distance = std::sqrt(sum2 / log.rows);
     return;
@@ -70,7 +86,8 @@ void evaluate_fixture(const Log& log, const std::vector<Eigen::Vector3d>& points
 }  // namespace
 
 Evaluation evaluate(const DeviceModel& model, const Log& log,
-                    const std::vector<PointDistance>& point_distances) {
+                    const std::vector<PointDistance>& point_distances,
+                    const std::vector<KnownPoint>& known_points) {
   check_log_fits(log, model);
   std::vector<Eigen::Vector3d> points;
   const PreparedModel prepared(model);
@@ -110,9 +127,9 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
   if (log.has_position) ev.position = stats(ev.position_error);
   if (log.has_orientation) ev.orientation = stats(ev.orientation_error);
   if (log.has_point || log.has_plane) {
-    evaluate_fixture(log, points, point_distances, ev);
-  } else if (!point_distances.empty()) {
-    throw InputError(log.origin, 0, "--point-distance",
+    evaluate_fixture(log, points, point_distances, known_points, ev);
+  } else if (!point_distances.empty() || !known_points.empty()) {
+    throw InputError(log.origin, 0, point_distances.empty() ? "--fixture" : "--point-distance",
                      "known distances are between fixture points: the log has no point column");
   }
   return ev;
@@ -124,9 +141,12 @@ double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated) {
 
 EvaluationComparison compare_to_reference(const DeviceModel& model, const DeviceModel& reference,
                                           const Log& log,
-                                          const std::vector<PointDistance>& point_distances) {
-  EvaluationComparison c{
-      evaluate(model, log, point_distances), evaluate(reference, log, point_distances), {}, {}};
+                                          const std::vector<PointDistance>& point_distances,
+                                          const std::vector<KnownPoint>& known_points) {
+  EvaluationComparison c{evaluate(model, log, point_distances, known_points),
+                         evaluate(reference, log, point_distances, known_points),
+                         {},
+                         {}};
   if (c.model.distance && c.reference.distance) {
     c.improvement_distance_pct =
         rms_improvement_pct(c.model.distance->rms, c.reference.distance->rms);

@@ -149,6 +149,9 @@ struct CalibrationOptions {
   bool keep_all = false;
   // Known distances between fixture points (--point-distance A:B=METRES).
   std::vector<PointDistance> point_distances;
+  // Known positions of fixture points in the measurement frame (a fixture file's
+  // `points`): those labels are not eliminated, and the base pose becomes visible.
+  std::vector<KnownPoint> known_points;
   double selection_alpha = 0.05;  // family-wise significance level of the model selection
   // K of the K-fold cross-validated RMS (poses, repeats together, in K folds);
   // 0: no cross-validation.

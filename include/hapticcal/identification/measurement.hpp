@@ -8,7 +8,8 @@
 //     rotation vector in the measurement frame times a length s (metres per
 //     radian), so that both parts are lengths.
 //   point (a fixture socket, a label a sample): the tool point is at a fixed,
-//     unknown point: p - m, 3 rows, m the label's mean point
+//     unknown point: p - m, 3 rows, m the label's mean point (or its known
+//     position k, from a fixture file: p - k)
 //   plane (a plate touched, a label a sample): the tool point is on a fixed,
 //     unknown plane: n . (p - m), 1 row, n the normal of the label's best plane
 //   Fixture points and planes have no measured values: the unknown point or
@@ -21,6 +22,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -64,11 +66,28 @@ struct MeasurementGroup {
 };
 std::vector<MeasurementGroup> measurement_groups(const Log& log);
 
+// Where a fact about the fixture was given, for its error messages: a fixture
+// file's line and key, or a command-line option (file empty, line 0).
+struct FixtureSource {
+  std::string file;
+  int line = 0;
+  std::string key = "--point-distance";
+};
+
 // A known distance between two fixture points (labels), e.g. a fixture's
-// sockets (`--point-distance A:B=METRES`).
+// sockets (`--point-distance A:B=METRES` or a fixture file's `distances`).
 struct PointDistance {
   std::string a, b;
   double metres = 0;
+  FixtureSource source = {};
+};
+
+// A fixture point's known position in the measurement frame (a fixture file's
+// `points`): that label is not eliminated, its rows are p_i - p_meas.
+struct KnownPoint {
+  std::string label;
+  Eigen::Vector3d p_meas = Eigen::Vector3d::Zero();
+  FixtureSource source = {};
 };
 
 // The labels of a fixture problem's poses and the known distances between them.
@@ -80,22 +99,31 @@ struct FixtureLabels {
     double metres = 0;
   };
   std::vector<Known> distances;
+  // Per label, its known position (a fixture file's `points`) or none: eliminated.
+  std::vector<std::optional<Eigen::Vector3d>> known_point;
   int count() const { return static_cast<int>(names.size()); }
+  int known_points() const;  // labels with a known position
+  // The unknowns the projection takes out of the rows: 3 an eliminated label.
+  int unknowns() const { return 3 * (count() - known_points()); }
 };
-// The labels of `rows` of a fixture log; throws InputError for a distance
-// naming a label the log lacks, a point label with fewer than 2 samples or a
+// The labels of `rows` of a fixture log; throws InputError (naming where the
+// fact was given) for a distance or known point naming a label the log lacks, a
+// distance given twice (or two different ones for one pair), a distance between
+// two known points (redundant), a point label with fewer than 2 samples or a
 // plane label with fewer than 4 (any 3 points lie on a plane).
 FixtureLabels fixture_labels(MeasurementType type, const Log& log, const std::vector<int>& rows,
-                             const std::vector<PointDistance>& distances);
+                             const std::vector<PointDistance>& distances,
+                             const std::vector<KnownPoint>& known_points = {});
 
 // The fit's residual rows of a fixture problem from each pose's tool point
 // (raw: 3 rows a pose, p_i) and, if raw_J, its Jacobian (3 rows a pose):
 //   point: w_i (p_i - m_L), 3 rows; plane: w_i n_L . (p_i - m_L), 1 row;
-//   then per known distance (|m_A - m_B| - D) sqrt(W_A W_B / (W_A + W_B)),
+//   then per known distance (|m_A - m_B| - D) / sqrt(1 / W_A + 1 / W_B),
 // W_L the summed weights w_i^2 of a label: for labels in one known distance at
 // most, exactly the least squares with the distance as a constraint (the two
 // points moved apart along their line); m_L the label's mean point (weights
-// w_i^2), n_L the normal of its best plane
+// w_i^2), or its known position (then 1 / W_L = 0: it does not move), n_L the
+// normal of its best plane
 // (the smallest principal axis of its points). The Jacobian is exact: m_L's and
 // n_L's dependence on the points included (the normal by eigenvector
 // perturbation). w: each pose's weight (sqrt of its repeats; empty: 1).

@@ -54,7 +54,8 @@ namespace hapticcal {
 // after per sample, the parameter table with sd, the identifiability list and
 // the correlation heat map.
 Report calibration_report(const CalibrationResult& result, const DeviceModel& nominal,
-                          const Log& log, const std::vector<PointDistance>& point_distances = {});
+                          const Log& log, const std::vector<PointDistance>& point_distances = {},
+                          const std::vector<KnownPoint>& known_points = {});
 // simulate: Figs 7, 8, 9-like fits, 10, and for Monte Carlo the I % spread and
 // RMSE / CRLB per parameter, with the Table 2 and 3 analogues, from the series
 // the first trial keeps in memory (TrialResult::figures).

@@ -36,18 +36,22 @@ struct Evaluation {
     int samples = 0;
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // the mean point [m]
     double mean_deviation = 0, rms_deviation = 0;      // of |p_i - centre| or plane distance
+    std::optional<double> rms_known_error;  // of |p_i - known position|, if it is known [m]
   };
   std::vector<Label> labels;
   std::optional<double> mean_point_deviation, rms_point_deviation;  // [m]
   std::optional<double> max_point_distance_error;                   // [m]
   std::optional<double> rms_plane_distance;                         // [m]
+  // Over the rows of labels with a known position: the RMS of |p_i - known| [m].
+  std::optional<double> rms_known_point_error;
   Eigen::VectorXd fixture_error;  // per row: |p_i - centre| or the signed plane distance
 };
 
 // Throws InputError if the log does not fit the model (check_log_fits), or a
-// known distance names a label the log lacks.
+// known distance or position names a label the log lacks (fixture_labels).
 Evaluation evaluate(const DeviceModel& model, const Log& log,
-                    const std::vector<PointDistance>& point_distances = {});
+                    const std::vector<PointDistance>& point_distances = {},
+                    const std::vector<KnownPoint>& known_points = {});
 
 // Paper eq. (9), signed: (RMS(e_nc) - RMS(e_c)) / RMS(e_nc) * 100. It equals the
 // paper's |RMS(e_c) - RMS(e_nc)| / |RMS(e_nc)| * 100 whenever calibration helps,
@@ -65,6 +69,7 @@ struct EvaluationComparison {
 // Throws InputError if the log does not fit either model.
 EvaluationComparison compare_to_reference(const DeviceModel& model, const DeviceModel& reference,
                                           const Log& log,
-                                          const std::vector<PointDistance>& point_distances = {});
+                                          const std::vector<PointDistance>& point_distances = {},
+                                          const std::vector<KnownPoint>& known_points = {});
 
 }  // namespace hapticcal
