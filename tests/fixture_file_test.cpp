@@ -159,18 +159,7 @@ TEST(FixtureFile, KnownPositionsRecoverTheBasePose) {
 
 // The MUKCa log of one placement's two sockets as a CSV file.
 std::string write_mukca(const std::string& dir, const std::vector<std::string>& placements) {
-  std::string csv = "q1,q2,q3,q4,q5,q6,q7,point\n";
-  for (const std::string& placement : placements) {
-    for (int socket = 0; socket < 2; ++socket) {
-      std::ifstream in(testing::shared_path("data/mukca/panda_1/" + placement + "/hole_" +
-                                            std::to_string(socket) + ".csv"));
-      EXPECT_TRUE(in) << placement;
-      std::string line;
-      while (std::getline(in, line)) {
-        if (!line.empty()) csv += line + "," + placement + "_" + std::to_string(socket) + "\n";
-      }
-    }
-  }
+  const std::string csv = testing::mukca_csv(placements);
   const std::string path = dir + "/mukca.csv";
   std::ofstream(path) << csv;
   return path;

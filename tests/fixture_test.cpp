@@ -30,19 +30,7 @@ const char* kPlacements[] = {"back-high", "front", "right"};
 // The MUKCa recordings of some placements as one fixture log: a row a
 // configuration, labelled <placement>_<socket>.
 Log mukca_log(const std::vector<std::string>& placements) {
-  std::string csv = "q1,q2,q3,q4,q5,q6,q7,point\n";
-  for (const std::string& placement : placements) {
-    for (int socket = 0; socket < 2; ++socket) {
-      std::ifstream in(testing::shared_path("data/mukca/panda_1/" + placement + "/hole_" +
-                                            std::to_string(socket) + ".csv"));
-      EXPECT_TRUE(in) << placement;
-      std::string line;
-      while (std::getline(in, line)) {
-        if (!line.empty()) csv += line + "," + placement + "_" + std::to_string(socket) + "\n";
-      }
-    }
-  }
-  return parse_log(csv, "mukca");
+  return parse_log(testing::mukca_csv(placements), "mukca");
 }
 
 std::vector<PointDistance> socket_distances(const std::vector<std::string>& placements) {

@@ -1,9 +1,12 @@
 // Device models for tests: the shipped files and randomly perturbed variants.
 #pragma once
 
+#include <fstream>
 #include <numbers>
 #include <random>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "hapticcal/io/io.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
@@ -39,6 +42,24 @@ inline Log meca500_log(const std::string& kind, const std::string& set) {
 
 // Every meaningful kinematic parameter moved by up to +-scale (m or rad), so that
 // no term (beta, tool rotation, base DH) is tested only at zero.
+// The MUKCa recordings (../shared/data/mukca) of some placements as one fixture
+// log's CSV: a row a configuration, labelled <placement>_<socket>.
+inline std::string mukca_csv(const std::vector<std::string>& placements) {
+  std::string csv = "q1,q2,q3,q4,q5,q6,q7,point\n";
+  for (const std::string& placement : placements) {
+    for (int socket = 0; socket < 2; ++socket) {
+      std::ifstream in(shared_path("data/mukca/panda_1/" + placement + "/hole_" +
+                                   std::to_string(socket) + ".csv"));
+      if (!in) throw std::runtime_error("no MUKCa recording of " + placement);
+      std::string line;
+      while (std::getline(in, line)) {
+        if (!line.empty()) csv += line + "," + placement + "_" + std::to_string(socket) + "\n";
+      }
+    }
+  }
+  return csv;
+}
+
 inline DeviceModel perturbed(DeviceModel m, std::mt19937_64& rng, double scale = 0.05) {
   std::uniform_real_distribution<double> u(-scale, scale);
   Eigen::VectorXd p = m.kinematic_parameters();
