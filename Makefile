@@ -8,7 +8,8 @@ FUZZ_SECONDS ?= 60
 JOBS ?= 2
 DEB_PACKAGES := cmake g++ make pkg-config libeigen3-dev libceres-dev libyaml-cpp-dev \
   nlohmann-json3-dev libcli11-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev \
-  liborocos-kdl-dev liburdfdom-dev gnuplot-nox
+  liborocos-kdl-dev liburdfdom-dev gnuplot-nox \
+  python3-dev python3-pybind11 python3-numpy python3-pytest
 # Debian's clang and its compiler-rt (libclang_rt.fuzzer, ASan, UBSan) for `make fuzz`.
 FUZZ_PACKAGES := clang libclang-rt-dev
 SANITIZE_TARGETS := hapticcal_cli convert_meca500 malformed_input_test device_io_test \
@@ -42,8 +43,8 @@ run: configure
 	cmake --build $(BUILD) -j$(JOBS) --target hapticcal_cli
 	./$(BUILD)/hapticcal simulate
 
-# Every test in Release, then the input-handling tests again under
-# AddressSanitizer and UBSan.
+# Every test in Release (the Python module's pytest among them: python_test),
+# then the input-handling tests again under AddressSanitizer and UBSan.
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
 	cmake -S . -B $(SANITIZE_BUILD) -DCMAKE_BUILD_TYPE=Debug -DHAPTICCAL_SANITIZE=ON \

@@ -57,44 +57,6 @@ void add_chain_options(CLI::App* command, ChainOptions& chain) {
                       "Root link of a URDF model's chain (default: the URDF's root link)");
 }
 
-// --point-distance A:B=METRES (repeatable): a known distance between two fixture points.
-std::vector<hapticcal::PointDistance> point_distances(const std::vector<std::string>& specs) {
-  std::vector<hapticcal::PointDistance> out;
-  for (const std::string& spec : specs) {
-    const size_t colon = spec.find(':'), equals = spec.find('=');
-    hapticcal::PointDistance d;
-    bool ok = colon != std::string::npos && equals != std::string::npos && colon > 0 &&
-              equals > colon + 1 && equals + 1 < spec.size();
-    if (ok) {
-      d.a = spec.substr(0, colon);
-      d.b = spec.substr(colon + 1, equals - colon - 1);
-      size_t used = 0;
-      try {
-        d.metres = std::stod(spec.substr(equals + 1), &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      ok = used == spec.size() - equals - 1 && d.metres > 0 && std::isfinite(d.metres);
-    }
-    if (!ok) {
-      throw hapticcal::InputError(fmt::format(
-          "--point-distance '{}': expected A:B=METRES (two point labels and a positive distance)",
-          hapticcal::printable(spec, 200)));
-    }
-    out.push_back(d);
-  }
-  return out;
-}
-
-// The fixture facts of --fixture FILE and --point-distance together: the file's
-// first (fixture_labels refuses a distance given twice or two for one pair).
-hapticcal::Fixture fixture_facts(const std::string& file, const std::vector<std::string>& specs) {
-  hapticcal::Fixture fixture = file.empty() ? hapticcal::Fixture{} : hapticcal::load_fixture(file);
-  for (hapticcal::PointDistance& d : point_distances(specs))
-    fixture.distances.push_back(std::move(d));
-  return fixture;
-}
-
 struct EvaluateOptions {
   std::string fixture;
   std::vector<std::string> point_distance;
@@ -108,7 +70,7 @@ int run_evaluate(const EvaluateOptions& o) {
   const hapticcal::DeviceModel model = o.chain.load(o.model);
   const hapticcal::Log log = hapticcal::read_log(
       o.log, o.columns.empty() ? std::vector<std::string>{} : hapticcal::split_columns(o.columns));
-  const hapticcal::Fixture known = fixture_facts(o.fixture, o.point_distance);
+  const hapticcal::Fixture known = hapticcal::fixture_facts(o.fixture, o.point_distance);
   std::optional<hapticcal::EvaluationComparison> cmp;
   if (!o.reference.empty()) {
     cmp = hapticcal::compare_to_reference(model, o.chain.load(o.reference), log, known.distances,
@@ -119,53 +81,7 @@ int run_evaluate(const EvaluateOptions& o) {
   const std::optional<hapticcal::Evaluation> ref =
       cmp ? std::optional<hapticcal::Evaluation>(cmp->reference) : std::nullopt;
   if (o.json) {
-    nlohmann::ordered_json j;
-    j["n"] = ev.n;
-    if (ev.distance) {
-      j["rms_distance"] = ev.distance->rms;
-      j["max_distance"] = ev.distance->max;
-    }
-    if (ev.orientation) {
-      j["rms_orientation"] = ev.orientation->rms;
-      j["max_orientation"] = ev.orientation->max;
-    }
-    if (ev.position) {
-      j["rms_position"] = ev.position->rms;
-      j["max_position"] = ev.position->max;
-    }
-    if (ev.mean_point_deviation) {
-      j["mean_point_deviation"] = *ev.mean_point_deviation;
-      j["rms_point_deviation"] = *ev.rms_point_deviation;
-    }
-    if (ev.max_point_distance_error) j["max_point_distance_error"] = *ev.max_point_distance_error;
-    if (ev.rms_known_point_error) j["rms_known_point_error"] = *ev.rms_known_point_error;
-    if (ev.rms_plane_distance) j["rms_plane_distance"] = *ev.rms_plane_distance;
-    if (!ev.labels.empty()) {
-      nlohmann::ordered_json labels = nlohmann::ordered_json::object();
-      for (const auto& l : ev.labels) {
-        labels[l.name] = {{"samples", l.samples},
-                          {"centre", {l.centre.x(), l.centre.y(), l.centre.z()}},
-                          {"mean_deviation", l.mean_deviation},
-                          {"rms_deviation", l.rms_deviation}};
-        if (l.rms_known_error) labels[l.name]["rms_known_error"] = *l.rms_known_error;
-      }
-      j["labels"] = labels;
-    }
-    if (ref) {
-      if (ref->mean_point_deviation) {
-        j["reference_mean_point_deviation"] = *ref->mean_point_deviation;
-      }
-      if (ref->rms_plane_distance) j["reference_rms_plane_distance"] = *ref->rms_plane_distance;
-      if (ev.distance) {
-        j["reference_rms_distance"] = ref->distance->rms;
-        j["improvement_distance_pct"] = *cmp->improvement_distance_pct;
-      }
-      if (ev.position) {
-        j["reference_rms_position"] = ref->position->rms;
-        j["improvement_position_pct"] = *cmp->improvement_position_pct;
-      }
-    }
-    fmt::print("{}\n", j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+    fmt::print("{}\n", hapticcal::evaluation_json(cmp ? &*cmp : nullptr, ev));
     return 0;
   }
   fmt::print("model: {} ({}, {} joints)\n", o.model, model.name, model.dof());
@@ -397,7 +313,7 @@ int run_calibrate(const CalibrateOptions& o) {
   options.dependency_tolerance = o.tolerance;
   options.keep_all = o.keep_all;
   options.folds = o.folds;
-  hapticcal::Fixture fixture = fixture_facts(o.fixture, o.point_distance);
+  hapticcal::Fixture fixture = hapticcal::fixture_facts(o.fixture, o.point_distance);
   options.point_distances = std::move(fixture.distances);
   options.known_points = std::move(fixture.points);
   options.fix = names(o.fix);

@@ -1,19 +1,17 @@
 // `hapticcal plan`: experiment design (issue 12) on the command line. Parsing
-// and printing only; the work is hapticcal::plan_poses (design/plan.hpp).
+// and printing only; the work is hapticcal::prepare_plan and plan_poses (design/).
 #pragma once
 
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "hapticcal/design/plan_request.hpp"
+
 namespace hapticcal::cli {
 
 struct PlanCommandOptions {
-  std::string model, measurement, candidates, columns, criterion = "i", out = "hapticcal-out/plan";
-  std::string tip, root, distance_range, box, fix, free;
-  int poses = 0, pool = 0;
-  unsigned long long seed = 1;
-  double sigma = 0, sigma_e = 0;
-  int refine_passes = -1;
+  PlanRequest request;
+  std::string out = "hapticcal-out/plan";
 };
 
 // Registers `plan` on the app; returns the subcommand (true when given).

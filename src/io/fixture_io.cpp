@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <filesystem>
 #include <set>
 
@@ -103,6 +104,37 @@ Fixture load_fixture(const std::string& path) {
         fmt::format("{} bytes, more than the {} a fixture file may have", bytes, kMaxFixtureBytes));
   }
   return parse_fixture(read_file(path), path);
+}
+
+PointDistance parse_point_distance(const std::string& spec) {
+  const size_t colon = spec.find(':'), equals = spec.find('=');
+  PointDistance d;
+  bool ok = colon != std::string::npos && equals != std::string::npos && colon > 0 &&
+            equals > colon + 1 && equals + 1 < spec.size();
+  if (ok) {
+    d.a = spec.substr(0, colon);
+    d.b = spec.substr(colon + 1, equals - colon - 1);
+    size_t used = 0;
+    try {
+      d.metres = std::stod(spec.substr(equals + 1), &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    ok = used == spec.size() - equals - 1 && d.metres > 0 && std::isfinite(d.metres);
+  }
+  if (!ok) {
+    throw InputError(fmt::format(
+        "--point-distance '{}': expected A:B=METRES (two point labels and a positive distance)",
+        printable(spec, 200)));
+  }
+  return d;
+}
+
+Fixture fixture_facts(const std::string& file, const std::vector<std::string>& point_distances) {
+  Fixture fixture = file.empty() ? Fixture{} : load_fixture(file);
+  for (const std::string& spec : point_distances)
+    fixture.distances.push_back(parse_point_distance(spec));
+  return fixture;
 }
 
 }  // namespace hapticcal

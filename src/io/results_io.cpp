@@ -1,6 +1,7 @@
 #include <nlohmann/json.hpp>
 
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/study/evaluate.hpp"
 
 namespace hapticcal {
 namespace {
@@ -111,6 +112,57 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
   j["notes"] = result.notes;
   // Paths are bytes on Linux: invalid UTF-8 is replaced, never a throw.
   return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
+
+std::string evaluation_json(const EvaluationComparison* comparison, const Evaluation& ev) {
+  const Evaluation* ref = comparison ? &comparison->reference : nullptr;
+  nlohmann::ordered_json j;
+  j["n"] = ev.n;
+  if (ev.distance) {
+    j["rms_distance"] = ev.distance->rms;
+    j["max_distance"] = ev.distance->max;
+  }
+  if (ev.orientation) {
+    j["rms_orientation"] = ev.orientation->rms;
+    j["max_orientation"] = ev.orientation->max;
+  }
+  if (ev.position) {
+    j["rms_position"] = ev.position->rms;
+    j["max_position"] = ev.position->max;
+  }
+  if (ev.mean_point_deviation) {
+    j["mean_point_deviation"] = *ev.mean_point_deviation;
+    j["rms_point_deviation"] = *ev.rms_point_deviation;
+  }
+  if (ev.max_point_distance_error) j["max_point_distance_error"] = *ev.max_point_distance_error;
+  if (ev.rms_known_point_error) j["rms_known_point_error"] = *ev.rms_known_point_error;
+  if (ev.rms_plane_distance) j["rms_plane_distance"] = *ev.rms_plane_distance;
+  if (!ev.labels.empty()) {
+    nlohmann::ordered_json labels = nlohmann::ordered_json::object();
+    for (const auto& l : ev.labels) {
+      labels[l.name] = {{"samples", l.samples},
+                        {"centre", {l.centre.x(), l.centre.y(), l.centre.z()}},
+                        {"mean_deviation", l.mean_deviation},
+                        {"rms_deviation", l.rms_deviation}};
+      if (l.rms_known_error) labels[l.name]["rms_known_error"] = *l.rms_known_error;
+    }
+    j["labels"] = labels;
+  }
+  if (ref) {
+    if (ref->mean_point_deviation) {
+      j["reference_mean_point_deviation"] = *ref->mean_point_deviation;
+    }
+    if (ref->rms_plane_distance) j["reference_rms_plane_distance"] = *ref->rms_plane_distance;
+    if (ev.distance) {
+      j["reference_rms_distance"] = ref->distance->rms;
+      j["improvement_distance_pct"] = *comparison->improvement_distance_pct;
+    }
+    if (ev.position) {
+      j["reference_rms_position"] = ref->position->rms;
+      j["improvement_position_pct"] = *comparison->improvement_position_pct;
+    }
+  }
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 }  // namespace hapticcal

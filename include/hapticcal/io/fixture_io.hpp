@@ -23,4 +23,12 @@ struct Fixture {
 Fixture parse_fixture(const std::string& yaml_text, const std::string& origin);
 Fixture load_fixture(const std::string& path);
 
+// One --point-distance A:B=METRES (a known distance between two fixture
+// points); InputError naming the option otherwise.
+PointDistance parse_point_distance(const std::string& spec);
+// The facts of a fixture file (none if `file` is empty) and of --point-distance
+// specs together, the file's first (fixture_labels refuses a distance given
+// twice or two for one pair).
+Fixture fixture_facts(const std::string& file, const std::vector<std::string>& point_distances);
+
 }  // namespace hapticcal

@@ -72,4 +72,9 @@ EvaluationComparison compare_to_reference(const DeviceModel& model, const Device
                                           const std::vector<PointDistance>& point_distances = {},
                                           const std::vector<KnownPoint>& known_points = {});
 
+// `evaluate --json`: one JSON object on one line, in metres: n, the RMS and max
+// of each error the log measures, the fixture figures, and with a comparison
+// (whose `model` is `ev`) the reference's figures and eq. (9)'s improvements.
+std::string evaluation_json(const EvaluationComparison* comparison, const Evaluation& ev);
+
 }  // namespace hapticcal

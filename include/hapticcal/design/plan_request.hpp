@@ -1,0 +1,48 @@
+// `hapticcal plan` as a request of strings and numbers (the command line's and
+// the Python module's options): checked and resolved into a PlanProblem's
+// inputs, and the plan's files (plan.csv, plan.json, the report) written.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "hapticcal/design/plan.hpp"
+#include "hapticcal/model/model.hpp"
+
+namespace hapticcal {
+
+struct PlanRequest {
+  std::string model, measurement, candidates, columns, criterion = "i";
+  std::string tip, root, distance_range, box, fix, free;
+  int poses = 0, pool = 0;  // pool 0: PlanOptions' default
+  unsigned long long seed = 1;
+  double sigma = 0, sigma_e = 0;  // 0: the defaults (kPaperSigmaMPaper or kPlanSigmaPosition)
+  int refine_passes = -1;         // -1: PlanOptions' default
+};
+
+// A request resolved: what PlanProblem and plan_poses take.
+struct PlanSetup {
+  DeviceModel model;
+  MeasurementType type = MeasurementType::kDistance;
+  PlanOptions options;
+  double sigma = 0, sigma_e = 0;
+  Eigen::MatrixXd analysis;  // the readings the identifiability is tested on
+  std::vector<std::string> fix, free;
+  bool user_candidates = false;  // options.candidates from the request's log
+};
+
+// Every problem of the request (a name, a number, a file, a log) is an
+// InputError with the command line's option name in its message.
+PlanSetup prepare_plan(const PlanRequest& request);
+
+// plan.json's text (format hapticcal-plan/1).
+std::string plan_json(const PlanRequest& request, const PlanSetup& setup,
+                      const PlanProblem& problem, const Plan& plan);
+
+// Writes plan.csv, plan.json and report.html with its figures into `dir`;
+// returns the number of figures drawn and sets `note` as write_report does.
+int write_plan_files(const std::string& dir, const PlanRequest& request, const PlanSetup& setup,
+                     const PlanProblem& problem, const Plan& plan, std::string& note);
+
+}  // namespace hapticcal

@@ -1,0 +1,406 @@
+// The Python module `hapticcal`: the command line's commands as functions with
+// numpy arrays in and out. Like apps/hapticcal, a thin shell over the library:
+// options are mapped onto the same library calls, results come back as the
+// same JSON the command line writes (parsed into dicts). Bad input raises
+// ValueError with the command line's message (InputError, a
+// std::invalid_argument); I/O errors raise OSError.
+#include <fmt/format.h>
+#include <pybind11/eigen.h>
+#include <pybind11/functional.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <optional>
+#include <string>
+#include <thread>
+#include <variant>
+#include <vector>
+
+#include "hapticcal/design/plan_request.hpp"
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/fixture_io.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/io/output_set.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/report/report.hpp"
+#include "hapticcal/study/evaluate.hpp"
+#include "hapticcal/study/study.hpp"
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace hapticcal::python {
+namespace {
+
+// A device model and the file it came from (the path results.json names; empty
+// once its parameters are changed in Python).
+struct Model {
+  DeviceModel model;
+  std::string path;
+};
+
+// A list option given as a Python list of strings or as the command line's
+// comma-separated text.
+using Names = std::variant<std::string, std::vector<std::string>>;
+
+std::vector<std::string> names(const std::optional<Names>& value) {
+  if (!value) return {};
+  if (const auto* list = std::get_if<std::vector<std::string>>(&*value)) return *list;
+  const std::string& text = std::get<std::string>(*value);
+  return text.empty() ? std::vector<std::string>{} : split_columns(text);
+}
+
+std::string joined(const std::optional<Names>& value) {
+  std::string out;
+  for (const std::string& n : names(value)) out += (out.empty() ? "" : ",") + n;
+  return out;
+}
+
+// A number list option (--box, --distance-range): numbers, or the command line's text.
+using Numbers = std::variant<std::string, std::vector<double>>;
+
+std::string number_text(const std::optional<Numbers>& value) {
+  if (!value) return {};
+  if (const auto* text = std::get_if<std::string>(&*value)) return *text;
+  std::string out;
+  for (double v : std::get<std::vector<double>>(*value))
+    out += (out.empty() ? "" : ",") + py::repr(py::float_(v)).cast<std::string>();
+  return out;
+}
+
+// A path option: None or '' for none.
+using Text = std::optional<std::string>;
+
+std::string text(const Text& t) { return t.value_or(""); }
+
+// A model argument: a Model, or a path loaded as the command line loads --model.
+Model model_of(const std::variant<Model, std::string>& arg, const std::string& tip = "",
+               const std::string& root = "") {
+  if (const auto* m = std::get_if<Model>(&arg)) return *m;
+  const std::string& path = std::get<std::string>(arg);
+  return {load_model(path, tip, root), path};
+}
+
+Eigen::VectorXd readings(const Model& m, const Eigen::VectorXd& q) {
+  if (q.size() != m.model.dof()) {
+    throw InputError(fmt::format("q has {} values, the model {} joints", q.size(), m.model.dof()));
+  }
+  return q;
+}
+
+Eigen::Matrix4d homogeneous(const Frame<double>& T) {
+  Eigen::Matrix4d out = Eigen::Matrix4d::Identity();
+  out.topLeftCorner<3, 3>() = T.R;
+  out.topRightCorner<3, 1>() = T.p;
+  return out;
+}
+
+py::object parsed(const std::string& json_text) {
+  return py::module_::import("json").attr("loads")(json_text);
+}
+
+py::dict parameters(const DeviceModel& model) {
+  const Eigen::VectorXd values = model.kinematic_parameters();
+  py::dict out;
+  for (const ParameterInfo& p : model.parameter_info()) out[py::str(p.name)] = values[p.slot];
+  return out;
+}
+
+void set_parameters(Model& m, const std::map<std::string, double>& values) {
+  Eigen::VectorXd p = m.model.kinematic_parameters();
+  const std::vector<ParameterInfo> info = m.model.parameter_info();
+  for (const auto& [name, value] : values) {
+    const auto it = std::find_if(info.begin(), info.end(),
+                                 [&](const ParameterInfo& i) { return i.name == name; });
+    if (it == info.end())
+      throw InputError(fmt::format("{}: not a kinematic parameter of {}", name, m.model.name));
+    p[it->slot] = value;
+  }
+  m.model.set_kinematic_parameters(p);
+  m.path.clear();
+}
+
+// What `hapticcal calibrate` computes, with the results.json it would write.
+struct Calibration {
+  std::optional<Model> model;  // the calibrated model, if usable (exit 0)
+  std::string status, status_reason;
+  bool usable = false;
+  double rms_before = 0, rms_after = 0, cv_rms = 0;
+  py::dict parameters;
+  py::object results;  // results.json, parsed
+  std::vector<std::string> notes;
+};
+
+Calibration calibrate(const std::variant<Model, std::string>& model_arg,
+                      const std::string& log_path, bool no_transmission, int samples,
+                      unsigned long long seed, std::optional<double> sigma,
+                      const std::optional<Names>& fix, const std::optional<Names>& free,
+                      const std::optional<Names>& point_distance, const Text& fixture_arg,
+                      bool keep_all, int folds, const std::optional<Names>& columns, bool force,
+                      std::optional<int> polynomial_order, double dependency_tolerance,
+                      const Text& tip_arg, const Text& root_arg, const Text& out_arg) {
+  const std::string fixture = text(fixture_arg), tip = text(tip_arg), root = text(root_arg),
+                    out = text(out_arg);
+  const Model nominal = model_of(model_arg, tip, root);
+  const Log log = read_log(log_path, names(columns));
+  std::optional<OutputSet> set;
+  if (!out.empty()) set.emplace(out, "calibrate");
+  CalibrationOptions options;
+  options.force = force;
+  options.transmissions = !no_transmission;
+  options.samples = samples;
+  options.seed = seed;
+  if (sigma && *sigma > 0) options.sigma = sigma;
+  if (polynomial_order && *polynomial_order > 0) options.polynomial_order = polynomial_order;
+  options.dependency_tolerance = dependency_tolerance;
+  options.keep_all = keep_all;
+  options.folds = folds;
+  Fixture facts = fixture_facts(fixture, names(point_distance));
+  options.point_distances = std::move(facts.distances);
+  options.known_points = std::move(facts.points);
+  options.fix = names(fix);
+  options.free = names(free);
+  CalibrationResult result;
+  {
+    py::gil_scoped_release released;
+    result = hapticcal::calibrate(nominal.model, log, options);
+  }
+  Calibration c;
+  c.usable = result.status == CalibrationStatus::kConverged;
+  if (!c.usable)
+    result.notes.push_back("no calibrated.yaml written: the calibration is not usable");
+  c.status = to_string(result.status);
+  c.status_reason = result.status_reason;
+  const KinematicFit& k = result.kinematics;
+  c.rms_before = k.rms_before;
+  c.rms_after = k.rms_after;
+  c.cv_rms = k.cv_rms;
+  for (const ParameterEstimate& e : k.parameters) {
+    c.parameters[py::str(e.name)] =
+        py::dict("value"_a = e.value, "nominal"_a = e.nominal, "sd"_a = e.sd,
+                 "identifiable"_a = e.identifiable, "reason"_a = e.reason);
+  }
+  c.notes = result.notes;
+  const std::string json = calibration_json(result, nominal.model, nominal.path, log_path, options);
+  c.results = parsed(json);
+  if (c.usable) c.model = Model{result.calibrated, ""};
+  if (set) {
+    if (c.usable) save_device(result.calibrated, set->dir() + "/calibrated.yaml");
+    write_file_atomically(set->dir() + "/results.json", json);
+    std::string note;
+    write_report(calibration_report(result, nominal.model, log, options.point_distances,
+                                    options.known_points),
+                 set->dir(), note);
+    set->commit();
+  }
+  return c;
+}
+
+py::object evaluate(const std::variant<Model, std::string>& model_arg, const std::string& log_path,
+                    const std::optional<Names>& columns, const std::optional<Names>& point_distance,
+                    const Text& fixture_arg,
+                    const std::optional<std::variant<Model, std::string>>& reference,
+                    const Text& tip_arg, const Text& root_arg) {
+  const std::string fixture = text(fixture_arg), tip = text(tip_arg), root = text(root_arg);
+  const Model model = model_of(model_arg, tip, root);
+  const Log log = read_log(log_path, names(columns));
+  const Fixture known = fixture_facts(fixture, names(point_distance));
+  if (reference) {
+    const EvaluationComparison cmp = compare_to_reference(
+        model.model, model_of(*reference, tip, root).model, log, known.distances, known.points);
+    return parsed(evaluation_json(&cmp, cmp.model));
+  }
+  return parsed(evaluation_json(
+      nullptr, hapticcal::evaluate(model.model, log, known.distances, known.points)));
+}
+
+py::dict plan(const std::variant<Model, std::string>& model_arg, const std::string& measurement,
+              int poses, const Text& candidates_arg, const std::optional<Names>& columns,
+              const std::string& criterion, unsigned long long seed, double sigma, double sigma_e,
+              const std::optional<Numbers>& distance_range, const std::optional<Numbers>& box,
+              int refine_passes, const std::optional<Names>& fix, const std::optional<Names>& free,
+              int pool, const Text& tip_arg, const Text& root_arg, const Text& out_arg) {
+  const std::string* path = std::get_if<std::string>(&model_arg);
+  const std::string model_path = path ? *path : std::get<Model>(model_arg).path;
+  if (model_path.empty()) {
+    throw InputError("plan: the model must be a file (save a Model changed in Python first)");
+  }
+  const std::string candidates = text(candidates_arg), tip = text(tip_arg), root = text(root_arg),
+                    out = out_arg.value_or("hapticcal-out/plan");
+  PlanRequest request;
+  request.model = model_path;
+  request.measurement = measurement;
+  request.poses = poses;
+  request.candidates = candidates;
+  request.columns = joined(columns);
+  request.criterion = criterion;
+  request.seed = seed;
+  request.sigma = sigma;
+  request.sigma_e = sigma_e;
+  request.distance_range = number_text(distance_range);
+  request.box = number_text(box);
+  request.refine_passes = refine_passes;
+  request.fix = joined(fix);
+  request.free = joined(free);
+  request.pool = pool;
+  request.tip = tip;
+  request.root = root;
+  if (poses < 1 || poses > 100000) throw InputError("--poses: expected 1 to 100000 poses");
+  PlanSetup setup = prepare_plan(request);
+  OutputSet set(out, "plan");
+  Plan result;
+  std::string json;
+  {
+    py::gil_scoped_release released;
+    const PlanProblem problem(setup.model, setup.type, setup.sigma, setup.sigma_e, setup.analysis,
+                              setup.fix, setup.free);
+    result = plan_poses(problem, setup.options);
+    json = plan_json(request, setup, problem, result);
+    std::string note;
+    write_plan_files(set.dir(), request, setup, problem, result, note);
+    set.commit();
+  }
+  return py::dict("plan"_a = parsed(json), "readings"_a = result.readings, "out"_a = out,
+                  "files"_a = std::vector<std::string>{out + "/plan.csv", out + "/plan.json",
+                                                       out + "/report.html"});
+}
+
+py::dict simulate(const Text& scenario_arg, int trials, long long seed, int threads,
+                  const Text& device_arg, const Text& tip_arg, const Text& root_arg,
+                  const Text& out_arg) {
+  const std::string scenario = text(scenario_arg), device = text(device_arg), tip = text(tip_arg),
+                    root = text(root_arg), out = out_arg.value_or("hapticcal-out/simulate");
+  const std::string device_path = device.empty() ? builtin_device_path() : device;
+  Scenario sc = scenario.empty() ? default_scenario(device_path, tip, root)
+                                 : load_scenario(scenario, device_path, tip, root);
+  if (trials > 0) sc.trials = trials;
+  if (seed >= 0) sc.seed = static_cast<std::uint64_t>(seed);
+  const int n = threads > 0 ? threads : std::max(1u, std::thread::hardware_concurrency());
+  OutputSet set(out, "simulate");
+  std::string json;
+  {
+    py::gil_scoped_release released;
+    const StudyResult r = run_study(sc, set.dir(), n);
+    json = study_json(sc, r);
+    write_file_atomically(set.dir() + "/results.json", json);
+    std::string note;
+    write_report(study_report(sc, r), set.dir(), note);
+    set.commit();
+  }
+  return py::dict("results"_a = parsed(json), "out"_a = out,
+                  "files"_a = std::vector<std::string>{out + "/results.json", out + "/report.html",
+                                                       out + "/calibrated.yaml"});
+}
+
+}  // namespace
+}  // namespace hapticcal::python
+
+PYBIND11_MODULE(hapticcal, m) {
+  using namespace hapticcal::python;
+  using hapticcal::DeviceModel;
+  m.doc() =
+      "Kinematic calibration of haptic devices and robots (the hapticcal command line as "
+      "functions). Lengths in metres, angles in radians.";
+  py::register_exception<hapticcal::IoError>(m, "IoError", PyExc_OSError);
+
+  py::class_<Model>(m, "Model")
+      .def_property_readonly("name", [](const Model& s) { return s.model.name; })
+      .def_property_readonly("dof", [](const Model& s) { return s.model.dof(); })
+      .def_property_readonly(
+          "path", [](const Model& s) { return s.path; },
+          "The file it was loaded from ('' if made or changed in Python)")
+      .def(
+          "forward",
+          [](const Model& s, const Eigen::VectorXd& q) {
+            const Eigen::VectorXd r = readings(s, q);
+            return homogeneous(hapticcal::PreparedModel(s.model).forward(r.data()));
+          },
+          "q"_a, "T_meas_tool (4x4) from the joint readings q (transmissions applied)")
+      .def(
+          "jacobian",
+          [](const Model& s, const Eigen::VectorXd& q, const std::string& frame) {
+            const Eigen::VectorXd r = readings(s, q);
+            if (frame != "measurement" && frame != "tool") {
+              throw hapticcal::InputError(
+                  fmt::format("frame '{}': expected measurement or tool", frame));
+            }
+            hapticcal::Jacobian6<double> J;
+            hapticcal::PreparedModel(s.model).forward_jacobian(
+                r.data(),
+                frame == "tool" ? hapticcal::JacobianFrame::kTool
+                                : hapticcal::JacobianFrame::kMeasurement,
+                J);
+            return Eigen::MatrixXd(J);
+          },
+          "q"_a, "frame"_a = "measurement",
+          "Geometric Jacobian (6 x dof: linear velocity over angular) w.r.t. the joint values")
+      .def(
+          "compensate",
+          [](const Model& s, const Eigen::VectorXd& q) {
+            return s.model.compensate(readings(s, q));
+          },
+          "q"_a, "q + dtheta(q): the readings through the transmission models")
+      .def(
+          "parameters", [](const Model& s) { return parameters(s.model); },
+          "The kinematic parameters by dotted name (j1.a, tool.x, ...)")
+      .def("set_parameters", &set_parameters, "values"_a,
+           "Sets kinematic parameters by dotted name (ValueError for an unknown name)")
+      .def(
+          "save",
+          [](const Model& s, const std::string& path) { hapticcal::save_device(s.model, path); },
+          "path"_a, "Writes the model as a device file (YAML)")
+      .def("to_yaml", [](const Model& s) { return hapticcal::device_to_yaml(s.model); })
+      .def("__repr__", [](const Model& s) {
+        return fmt::format("<hapticcal.Model '{}', {} joints>", s.model.name, s.model.dof());
+      });
+
+  m.def(
+      "load_model",
+      [](const std::string& path, std::optional<std::string> tip, std::optional<std::string> root) {
+        return Model{hapticcal::load_model(path, tip.value_or(""), root.value_or("")), path};
+      },
+      "path"_a, "tip"_a = py::none(), "root"_a = py::none(),
+      "A device file (YAML) or a URDF (.urdf, with tip and root as --tip and --root)");
+
+  py::class_<Calibration>(m, "CalibrationResult")
+      .def_readonly("model", &Calibration::model, "The calibrated Model, None if not usable")
+      .def_readonly("status", &Calibration::status, "results.json's status")
+      .def_readonly("status_reason", &Calibration::status_reason)
+      .def_readonly("usable", &Calibration::usable,
+                    "status == 'converged' (the command line's exit 0; else its exit 3)")
+      .def_readonly("rms_before", &Calibration::rms_before, "Training RMS residual, nominal [m]")
+      .def_readonly("rms_after", &Calibration::rms_after, "Training RMS residual, calibrated [m]")
+      .def_readonly("cv_rms", &Calibration::cv_rms, "K-fold held-out RMS [m] (nan if none)")
+      .def_readonly("parameters", &Calibration::parameters,
+                    "name -> dict(value, nominal, sd, identifiable, reason)")
+      .def_readonly("results", &Calibration::results, "results.json of the command line, parsed")
+      .def_readonly("notes", &Calibration::notes);
+
+  m.def("calibrate", &calibrate, "model"_a, "log"_a, py::kw_only(), "no_transmission"_a = false,
+        "samples"_a = 0, "seed"_a = 1ULL, "sigma"_a = py::none(), "fix"_a = py::none(),
+        "free"_a = py::none(), "point_distance"_a = py::none(), "fixture"_a = py::none(),
+        "keep_all"_a = false, "folds"_a = 5, "columns"_a = py::none(), "force"_a = false,
+        "polynomial_order"_a = py::none(), "dependency_tolerance"_a = 1e-6, "tip"_a = py::none(),
+        "root"_a = py::none(), "out"_a = py::none(),
+        "hapticcal calibrate: the two-step identification of a log. Does not raise when the "
+        "calibration is not usable (the command line's exit 3): .usable is False, .model None.");
+  m.def("evaluate", &evaluate, "model"_a, "log"_a, py::kw_only(), "columns"_a = py::none(),
+        "point_distance"_a = py::none(), "fixture"_a = py::none(), "reference"_a = py::none(),
+        "tip"_a = py::none(), "root"_a = py::none(),
+        "hapticcal evaluate --json: the same keys, in metres");
+  m.def("plan", &plan, "model"_a, "measurement"_a, "poses"_a, py::kw_only(),
+        "candidates"_a = py::none(), "columns"_a = py::none(), "criterion"_a = "i", "seed"_a = 1ULL,
+        "sigma"_a = 0.0, "sigma_e"_a = 0.0, "distance_range"_a = py::none(), "box"_a = py::none(),
+        "refine_passes"_a = -1, "fix"_a = py::none(), "free"_a = py::none(), "pool"_a = 0,
+        "tip"_a = py::none(), "root"_a = py::none(), "out"_a = "hapticcal-out/plan",
+        "hapticcal plan: writes plan.csv, plan.json and the report into out; returns "
+        "dict(plan=plan.json parsed, readings=poses x dof array, out, files)");
+  m.def("simulate", &simulate, "scenario"_a = py::none(), py::kw_only(), "trials"_a = 0,
+        "seed"_a = -1LL, "threads"_a = 0, "device"_a = py::none(), "tip"_a = py::none(),
+        "root"_a = py::none(), "out"_a = "hapticcal-out/simulate",
+        "hapticcal simulate: writes its files into out; returns dict(results=results.json "
+        "parsed, out, files)");
+}

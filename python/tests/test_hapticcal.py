@@ -1,0 +1,265 @@
+"""The Python module against the command line and against numerical derivatives.
+
+Run by ctest (python_test) with PYTHONPATH=<build>/python, HAPTICCAL_CLI the
+built command line and HAPTICCAL_SOURCE the source tree; by hand:
+    PYTHONPATH=build/python HAPTICCAL_CLI=build/hapticcal python3 -m pytest -q python/tests
+"""
+
+import json
+import math
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import hapticcal
+
+SOURCE = pathlib.Path(os.environ.get("HAPTICCAL_SOURCE", pathlib.Path(__file__).parents[2]))
+CLI = os.environ.get("HAPTICCAL_CLI", str(SOURCE / "build" / "hapticcal"))
+MECA = str(SOURCE / "examples" / "meca500" / "meca500.yaml")
+CAL_LOG = str(SOURCE / "examples" / "meca500" / "cal-norm_dist_data_0deg_160cube.csv")
+VAL_LOG = str(SOURCE / "examples" / "meca500" / "val-norm_dist_data_0deg_160cube.csv")
+BUILTIN = str(SOURCE / "data" / "devices" / "baser-7dof.yaml")
+
+
+def cli(*args):
+    """The command line with a list of arguments (no shell): (exit code, stdout, stderr)."""
+    run = subprocess.run([CLI, *args], capture_output=True, text=True, timeout=120)
+    return run.returncode, run.stdout, run.stderr
+
+
+def assert_same(a, b, path="", tol=1e-12):
+    """JSON-like values equal; numbers to `tol` relative (absolute below 1)."""
+    if isinstance(a, dict):
+        assert isinstance(b, dict) and list(a) == list(b), path
+        for k in a:
+            assert_same(a[k], b[k], f"{path}.{k}", tol)
+    elif isinstance(a, list):
+        assert isinstance(b, list) and len(a) == len(b), path
+        for i, (x, y) in enumerate(zip(a, b)):
+            assert_same(x, y, f"{path}[{i}]", tol)
+    elif isinstance(a, float) or isinstance(b, float):
+        if a is None or b is None:
+            assert a == b, path
+        else:
+            assert abs(a - b) <= tol * max(1.0, abs(a)), f"{path}: {a} != {b}"
+    else:
+        assert a == b, path
+
+
+@pytest.fixture(scope="module")
+def cli_calibration(tmp_path_factory):
+    """The README's Meca500 calibration by the command line, and its validation."""
+    out = tmp_path_factory.mktemp("cli") / "cal"
+    code, stdout, stderr = cli("calibrate", "--model", MECA, "--log", CAL_LOG, "--out", str(out))
+    assert code == 0, stderr
+    results = json.loads((out / "results.json").read_text())
+    code, stdout, stderr = cli(
+        "evaluate", "--model", str(out / "calibrated.yaml"), "--log", VAL_LOG, "--json"
+    )
+    assert code == 0, stderr
+    return results, json.loads(stdout), out
+
+
+@pytest.fixture(scope="module")
+def py_calibration():
+    return hapticcal.calibrate(MECA, CAL_LOG)
+
+
+def test_calibration_reproduces_the_cli_results_json(cli_calibration, py_calibration):
+    results, _, _ = cli_calibration
+    r = py_calibration
+    assert r.usable and r.status == "converged" == results["status"]
+    assert_same(r.results, results)
+    assert r.rms_before == pytest.approx(results["rms_before"], rel=1e-12)
+    assert r.rms_after == pytest.approx(results["rms_after"], rel=1e-12)
+    assert r.rms_after * 1e3 == pytest.approx(0.0378, abs=5e-5)
+    assert r.cv_rms * 1e3 == pytest.approx(0.0413, abs=5e-5)  # README: held out
+    assert list(r.parameters) == list(results["parameters"])
+    for name, p in results["parameters"].items():
+        mine = r.parameters[name]
+        assert abs(mine["value"] - p["value"]) <= 1e-12 * max(1.0, abs(p["value"]))
+        assert mine["identifiable"] == p["identifiable"]
+    assert r.model.parameters()["j2.a"] == pytest.approx(r.parameters["j2.a"]["value"], rel=1e-15)
+
+
+def test_validation_rms_matches_the_cli(cli_calibration, py_calibration):
+    _, validation, out = cli_calibration
+    mine = hapticcal.evaluate(py_calibration.model, VAL_LOG)
+    assert list(mine) == list(validation)
+    assert mine["n"] == validation["n"]
+    assert abs(mine["rms_position"] - validation["rms_position"]) < 1e-12
+    assert abs(mine["max_position"] - validation["max_position"]) < 1e-12
+    # The README's figure: 0.0396 mm on the validation log.
+    assert mine["rms_position"] * 1e3 == pytest.approx(0.0396, abs=5e-5)
+    # The CLI's calibrated.yaml read back gives the same figures.
+    assert_same(hapticcal.evaluate(str(out / "calibrated.yaml"), VAL_LOG), validation)
+
+
+def test_evaluation_with_reference_matches_the_cli(cli_calibration):
+    _, _, out = cli_calibration
+    calibrated = str(out / "calibrated.yaml")
+    code, stdout, stderr = cli(
+        "evaluate", "--model", calibrated, "--log", VAL_LOG, "--reference", MECA, "--json"
+    )
+    assert code == 0, stderr
+    mine = hapticcal.evaluate(calibrated, VAL_LOG, reference=MECA)
+    assert_same(mine, json.loads(stdout))
+    # The README's figure: the nominal model's 0.8372 mm on the validation log.
+    assert mine["reference_rms_position"] * 1e3 == pytest.approx(0.8372, abs=5e-5)
+
+
+def rotation_vector(R):
+    """The rotation vector of a small rotation R (vee of its skew part)."""
+    return 0.5 * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+
+
+@pytest.fixture(scope="module")
+def eccentric(tmp_path_factory):
+    """The built-in device with eccentric capstans: q + dtheta(q) is not q."""
+    text = pathlib.Path(BUILTIN).read_text()
+    ideal = "transmission: {type: capstan, ratio: 10, drum_distance: 0.005}"
+    assert ideal in text
+    text = text.replace(
+        ideal,
+        "transmission: {type: capstan, ratio: 10, drum_distance: 0.005, r_out: 0.0002, "
+        "beta_out: 0.3, r_in: 0.0001, beta_in: -0.7}",
+    )
+    path = tmp_path_factory.mktemp("device") / "eccentric.yaml"
+    path.write_text(text)
+    return str(path)
+
+
+@pytest.mark.parametrize("which", ["meca500", "builtin", "eccentric"])
+def test_jacobian_matches_central_differences(which, eccentric):
+    m = hapticcal.load_model({"meca500": MECA, "builtin": BUILTIN, "eccentric": eccentric}[which])
+    rng = np.random.default_rng(7)
+    h = 1e-6
+    for _ in range(5):
+        q = rng.uniform(-1.0, 1.0, m.dof)
+        T = m.forward(q)
+        assert T.shape == (4, 4) and np.allclose(T[3], [0, 0, 0, 1])
+        J = m.jacobian(q)
+        J_tool = m.jacobian(q, frame="tool")
+        assert J.shape == (6, m.dof)
+        # The Jacobian is w.r.t. the joint values: through the transmissions'
+        # compensation, d theta / d q by central differences too.
+        numeric = np.zeros((6, m.dof))
+        for i in range(m.dof):
+            dq = np.zeros(m.dof)
+            dq[i] = h
+            Tp, Tm = m.forward(q + dq), m.forward(q - dq)
+            numeric[:3, i] = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
+            numeric[3:, i] = rotation_vector(Tp[:3, :3] @ Tm[:3, :3].T) / (2 * h)
+        dtheta = np.array(
+            [
+                (m.compensate(q + h * e)[i] - m.compensate(q - h * e)[i]) / (2 * h)
+                for i, e in enumerate(np.eye(m.dof))
+            ]
+        )
+        assert np.max(np.abs(numeric - J * dtheta)) < 1e-7
+        R = T[:3, :3]
+        assert np.allclose(J_tool[:3], R.T @ J[:3], atol=1e-12)
+        assert np.allclose(J_tool[3:], R.T @ J[3:], atol=1e-12)
+
+
+def test_transmissions_make_compensate_differ_from_q(eccentric):
+    m = hapticcal.load_model(eccentric)
+    q = np.full(m.dof, 0.3)
+    assert np.max(np.abs(m.compensate(q) - q)) > 1e-6
+    meca = hapticcal.load_model(MECA)
+    assert np.array_equal(meca.compensate(q[:6]), q[:6])
+
+
+def test_parameters_round_trip(tmp_path):
+    m = hapticcal.load_model(MECA)
+    assert m.dof == 6 and m.path == MECA and m.name
+    p = m.parameters()
+    assert "j2.a" in p and "tool.x" in p
+    T0 = m.forward(np.zeros(6))
+    p["j2.a"] += 1e-3
+    m.set_parameters(p)
+    assert m.parameters() == p and m.path == ""
+    assert not np.allclose(m.forward(np.zeros(6)), T0)
+    m.save(str(tmp_path / "changed.yaml"))
+    back = hapticcal.load_model(str(tmp_path / "changed.yaml"))
+    assert back.parameters() == p
+    with pytest.raises(ValueError, match="not a kinematic parameter"):
+        m.set_parameters({"j9.a": 1.0})
+    with pytest.raises(ValueError, match="q has 5 values"):
+        m.forward(np.zeros(5))
+
+
+def test_bad_input_raises_value_error_with_the_cli_message(tmp_path):
+    bad = tmp_path / "bad.csv"
+    lines = pathlib.Path(CAL_LOG).read_text().splitlines()[:4]
+    lines[2] = lines[2].replace(lines[2].split(",")[1], "abc", 1)
+    bad.write_text("\n".join(lines) + "\n")
+    for command, call in [
+        ("evaluate", lambda: hapticcal.evaluate(MECA, str(bad))),
+        ("calibrate", lambda: hapticcal.calibrate(MECA, str(bad))),
+    ]:
+        args = [command, "--model", MECA, "--log", str(bad)]
+        if command == "calibrate":
+            args += ["--out", str(tmp_path / "out")]
+        code, _, stderr = cli(*args)
+        assert code == 2
+        assert stderr.startswith("hapticcal: ")
+        with pytest.raises(ValueError) as e:
+            call()
+        assert "hapticcal: " + str(e.value) + "\n" == stderr
+        assert "bad.csv:3" in str(e.value)
+    code, _, stderr = cli(
+        "calibrate", "--model", MECA, "--log", CAL_LOG, "--point-distance", "A:B",
+        "--out", str(tmp_path / "out"),
+    )
+    assert code == 2
+    with pytest.raises(ValueError) as e:
+        hapticcal.calibrate(MECA, CAL_LOG, point_distance=["A:B"])
+    assert "hapticcal: " + str(e.value) + "\n" == stderr
+
+
+def test_options_reach_the_calibration():
+    r = hapticcal.calibrate(
+        MECA, CAL_LOG, samples=20, seed=3, keep_all=True, folds=0, fix=["j2.a"], sigma=2e-5
+    )
+    assert r.usable
+    assert not r.parameters["j2.a"]["identifiable"]
+    assert r.parameters["j2.a"]["value"] == r.parameters["j2.a"]["nominal"]
+    assert r.results["poses"] == 20 and r.results["seed"] == 3
+    assert math.isnan(r.cv_rms)
+
+
+def test_plan_smoke(tmp_path):
+    out = tmp_path / "plan"
+    r = hapticcal.plan(MECA, "position", 12, pool=200, refine_passes=0, seed=2, out=str(out))
+    assert set(r) == {"plan", "readings", "out", "files"}
+    assert r["readings"].shape == (12, 6)
+    plan = r["plan"]
+    for key in ["format", "measurement", "criterion", "poses", "chosen_candidates",
+                "predicted_rms_sd", "parameter_sd", "observability", "path_length"]:
+        assert key in plan
+    assert plan["poses"] == 12 and plan["pool"] == 200
+    assert json.loads((out / "plan.json").read_text()) == plan
+    assert (out / "plan.csv").exists()
+    with pytest.raises(ValueError, match="--measurement 'speed'"):
+        hapticcal.plan(MECA, "speed", 12, out=str(out))
+
+
+def test_simulate_smoke(tmp_path):
+    scenario = tmp_path / "small.yaml"
+    scenario.write_text(
+        "format: hapticcal-scenario/1\n"
+        f"device: {MECA}\n"
+        "measurement: position\n"
+        "poses: {identification: 40, validation: 10}\n"
+        "trajectory: {seconds: 1, rate_hz: 10}\n"
+    )
+    out = tmp_path / "sim"
+    r = hapticcal.simulate(str(scenario), seed=4, threads=1, out=str(out))
+    assert set(r) == {"results", "out", "files"}
+    assert (out / "results.json").exists() and (out / "calibrated.yaml").exists()
+    assert json.loads((out / "results.json").read_text()) == r["results"]
+    assert r["results"]["seed"] == 4

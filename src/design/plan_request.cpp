@@ -1,0 +1,163 @@
+#include "hapticcal/design/plan_request.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/report/report.hpp"
+#include "hapticcal/study/paper.hpp"
+
+namespace hapticcal {
+namespace {
+
+// "A,B,..." as `count` finite numbers, or InputError naming the option.
+std::vector<double> numbers(const std::string& text, size_t count, const std::string& option) {
+  std::vector<double> out;
+  for (const std::string& part : split_columns(text)) {
+    try {
+      size_t used = 0;
+      const double v = std::stod(part, &used);
+      if (used != part.size() || !std::isfinite(v)) throw std::invalid_argument("");
+      out.push_back(v);
+    } catch (const std::exception&) {
+      throw InputError(
+          fmt::format("{} '{}': '{}' is not a number", option, printable(text), printable(part)));
+    }
+  }
+  if (out.size() != count) {
+    throw InputError(fmt::format("{} '{}': expected {} comma-separated numbers", option,
+                                 printable(text), count));
+  }
+  return out;
+}
+
+std::vector<std::string> list(const std::string& text) {
+  return text.empty() ? std::vector<std::string>{} : split_columns(text);
+}
+
+}  // namespace
+
+PlanSetup prepare_plan(const PlanRequest& o) {
+  PlanSetup setup;
+  const std::optional<MeasurementType> type = measurement_kind(o.measurement);
+  if (!type) {
+    throw InputError(fmt::format("--measurement '{}': expected distance, position or pose",
+                                 printable(o.measurement)));
+  }
+  const std::optional<PlanCriterion> criterion = plan_criterion(o.criterion);
+  if (!criterion) {
+    throw InputError(
+        fmt::format("--criterion '{}': expected d, a, i or e", printable(o.criterion)));
+  }
+  if ((!o.tip.empty() || !o.root.empty()) && !is_urdf_path(o.model)) {
+    throw InputError(fmt::format("{}: applies to URDF models (.urdf); none is given",
+                                 o.tip.empty() ? "--root" : "--tip"));
+  }
+  setup.model = load_model(o.model, o.tip, o.root);
+  setup.type = *type;
+  const DeviceModel& model = setup.model;
+  PlanOptions& options = setup.options;
+  options.poses = o.poses;
+  options.criterion = *criterion;
+  options.seed = o.seed;
+  if (o.pool > 0) options.pool = o.pool;
+  if (o.refine_passes >= 0) options.refine_passes = o.refine_passes;
+  if (!o.distance_range.empty()) {
+    const std::vector<double> v = numbers(o.distance_range, 2, "--distance-range");
+    if (!(v[0] >= 0 && v[0] < v[1])) {
+      throw InputError(fmt::format("--distance-range '{}': expected 0 <= MIN < MAX",
+                                   printable(o.distance_range)));
+    }
+    options.constraints.min_distance = v[0];
+    options.constraints.max_distance = v[1];
+  }
+  if (!o.box.empty()) {
+    const std::vector<double> v = numbers(o.box, 6, "--box");
+    for (int k = 0; k < 3; ++k) {
+      if (!(v[2 * k] < v[2 * k + 1]))
+        throw InputError(
+            fmt::format("--box '{}': each MIN must be below its MAX", printable(o.box)));
+    }
+    options.constraints.box = std::array<double, 6>{v[0], v[1], v[2], v[3], v[4], v[5]};
+  }
+  if (!o.candidates.empty()) {
+    if (options.constraints.any())
+      throw InputError("--distance-range / --box: apply to random candidates, not to --candidates");
+    const Log log = read_log(o.candidates, list(o.columns));
+    if (log.q.cols() != model.dof()) {
+      throw InputError(o.candidates, log.line.empty() ? 1 : log.line.front(), "q",
+                       fmt::format("the log has {} joint readings a row, the model {} joints",
+                                   log.q.cols(), model.dof()));
+    }
+    const std::vector<std::vector<int>> groups = repeated_poses(log);
+    options.candidates.resize(static_cast<Eigen::Index>(groups.size()), model.dof());
+    for (size_t g = 0; g < groups.size(); ++g)
+      options.candidates.row(static_cast<Eigen::Index>(g)) = log.q.row(groups[g].front());
+    if (o.poses > options.candidates.rows()) {
+      throw InputError(o.candidates, 0, "",
+                       fmt::format("--poses {}: the log has only {} distinct poses", o.poses,
+                                   options.candidates.rows()));
+    }
+  }
+  setup.sigma = o.sigma > 0                           ? o.sigma
+                : *type == MeasurementType::kDistance ? kPaperSigmaMPaper
+                                                      : kPlanSigmaPosition;
+  setup.sigma_e = o.sigma_e > 0 ? o.sigma_e : kPaperSigmaE;
+  setup.analysis = options.candidates.size()
+                       ? options.candidates
+                       : random_readings(model, 300, options.seed ^ 0x5eed, options.constraints);
+  setup.fix = list(o.fix);
+  setup.free = list(o.free);
+  setup.user_candidates = options.candidates.size() > 0;
+  return setup;
+}
+
+std::string plan_json(const PlanRequest& o, const PlanSetup& setup, const PlanProblem& problem,
+                      const Plan& plan) {
+  nlohmann::ordered_json j;
+  j["format"] = "hapticcal-plan/1";
+  j["model"] = o.model;
+  j["measurement"] = traits(setup.type).name;
+  j["criterion"] = to_string(setup.options.criterion);
+  j["seed"] = o.seed;
+  j["poses"] = o.poses;
+  j["candidates"] = setup.user_candidates ? o.candidates : "random";
+  j["pool"] = plan.pool;
+  j["sigma_m"] = setup.sigma;
+  j["sigma_e"] = setup.sigma_e;
+  j["chosen_candidates"] = plan.candidate;
+  j["predicted_rms_sd"] = {{"planned", plan.planned.rms_sd},
+                           {"random_median", plan.random_median_rms_sd},
+                           {"random_draws", plan.random_rms_sd}};
+  nlohmann::ordered_json sd = nlohmann::ordered_json::object();
+  for (int k = 0; k < problem.parameters(); ++k) {
+    if (problem.names()[k].ends_with(".encoder_zero")) continue;
+    sd[problem.names()[k]] = {{"planned", plan.planned.sd[k]}, {"random", plan.random.sd[k]}};
+  }
+  j["parameter_sd"] = sd;
+  auto obs = [](const Conditioning& c) {
+    return nlohmann::ordered_json{{"condition_number", c.condition_number},
+                                  {"O1", c.observability.O1},
+                                  {"O2", c.observability.O2},
+                                  {"O3", c.observability.O3},
+                                  {"O4", c.observability.O4}};
+  };
+  j["observability"] = {{"planned", obs(plan.planned.conditioning)},
+                        {"random", obs(plan.random.conditioning)}};
+  j["path_length"] = plan.path_length;
+  return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
+
+int write_plan_files(const std::string& dir, const PlanRequest& request, const PlanSetup& setup,
+                     const PlanProblem& problem, const Plan& plan, std::string& note) {
+  write_file_atomically(dir + "/plan.csv", plan_to_csv(plan.readings));
+  write_file_atomically(dir + "/plan.json", plan_json(request, setup, problem, plan));
+  return write_report(plan_report(problem, plan), dir, note);
+}
+
+}  // namespace hapticcal
