@@ -13,7 +13,7 @@ DEB_PACKAGES := cmake g++ make pkg-config libeigen3-dev libceres-dev libyaml-cpp
 # Debian's clang and its compiler-rt (libclang_rt.fuzzer, ASan, UBSan) for `make fuzz`.
 FUZZ_PACKAGES := clang libclang-rt-dev
 SANITIZE_TARGETS := hapticcal_cli convert_meca500 malformed_input_test device_io_test \
-  log_io_test transmission_test urdf_test registration_test
+  log_io_test transmission_test urdf_test registration_test runtime_test runtime_c99
 
 .PHONY: all deps configure build run test bench fuzz clean
 

@@ -2,13 +2,19 @@
 // calibrated 7-DOF model (transmissions included) against orocos KDL's
 // ChainFkSolverPos_recursive + ChainJntToJacSolver on the same chain. KDL has no
 // transmissions, so it is handed the compensated joint angles: it does less work.
-// The same for a Panda-like 7-DOF in URDF origin + axis geometry.
+// The same for a Panda-like 7-DOF in URDF origin + axis geometry. And the 7-DOF
+// through the C runtime (hapticcal/runtime.h), against the library's call.
+#include <unistd.h>
+
+#include <filesystem>
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <kdl/chainjnttojacsolver.hpp>
 #include <numbers>
 #include <random>
 
+#include "hapticcal/io/io.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/runtime.h"
 #include "hapticcal/study/simulation.hpp"
 #include "kdl_chain.hpp"
 #include "ratio_main.hpp"
@@ -87,6 +93,36 @@ void fk_jacobian_kdl(benchmark::State& state, const DeviceModel& model) {
   }
 }
 
+// Compensation + FK + Jacobian through the C ABI: the model saved as a device
+// file and loaded by hapticcal_load, as a controller would.
+void BM_Runtime_FkJacobian(benchmark::State& state) {
+  const DeviceModel model = calibrated_7dof();
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("fk_jacobian_bench_" + std::to_string(::getpid()) + ".yaml"))
+                               .string();
+  save_device(model, path);
+  hapticcal_model* runtime = nullptr;
+  char message[256];
+  const hapticcal_status status =
+      hapticcal_load(path.c_str(), nullptr, nullptr, &runtime, message, sizeof message);
+  std::filesystem::remove(path);
+  if (status != HAPTICCAL_OK) {
+    state.SkipWithError(message);
+    return;
+  }
+  const auto qs = configurations(model);
+  std::vector<double> J(6 * model.dof());
+  double T[16];
+  size_t k = 0;
+  for (auto _ : state) {
+    hapticcal_jacobian(runtime, qs[k++ & 1023].data(), HAPTICCAL_FRAME_MEASUREMENT, J.data(), T);
+    benchmark::DoNotOptimize(T);
+    benchmark::DoNotOptimize(J.data());
+    benchmark::ClobberMemory();
+  }
+  hapticcal_free(runtime);
+}
+
 void BM_FkJacobian_Hapticcal(benchmark::State& state) {
   fk_jacobian_hapticcal(state, calibrated_7dof());
 }
@@ -99,6 +135,7 @@ void BM_FkJacobian_PandaLike_KDL(benchmark::State& state) {
 }
 
 BENCHMARK(BM_FkJacobian_Hapticcal);
+BENCHMARK(BM_Runtime_FkJacobian);
 BENCHMARK(BM_FkJacobian_KDL);
 BENCHMARK(BM_FkJacobian_PandaLike_Hapticcal);
 BENCHMARK(BM_FkJacobian_PandaLike_KDL);
@@ -110,5 +147,6 @@ int main(int argc, char** argv) {
       argc, argv,
       hapticcal::bench::Pairs{
           {"BM_FkJacobian_Hapticcal", "BM_FkJacobian_KDL"},
+          {"BM_Runtime_FkJacobian", "BM_FkJacobian_Hapticcal"},
           {"BM_FkJacobian_PandaLike_Hapticcal", "BM_FkJacobian_PandaLike_KDL"}});
 }

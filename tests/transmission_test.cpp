@@ -163,6 +163,7 @@ TEST(Transmission, PreparedEvaluationEqualsGeneric) {
     for (int i = 0; i < 200; ++i) {
       const double q = u(rng);
       EXPECT_NEAR(fast.error(q), t.error(q), 1e-15) << name;
+      EXPECT_NEAR(fast.derivative(q), t.derivative(q), 1e-13) << name;
     }
   }
 }

@@ -175,6 +175,18 @@ Frame<double> PreparedModel::forward(const double* q) const {
 
 Frame<double> PreparedModel::forward_jacobian(const double* q, JacobianFrame expressed_in,
                                               Jacobian6<double>& J) const {
+  J.resize(6, structure_.dof);
+  return forward_jacobian(q, expressed_in, J.data());
+}
+
+void PreparedModel::joint_derivative(const double* q, double* J_joint_reading_diagonal) const {
+  for (int i = 0; i < structure_.dof; ++i) {
+    J_joint_reading_diagonal[i] = 1 + transmissions_[i].derivative(q[i]);
+  }
+}
+
+Frame<double> PreparedModel::forward_jacobian(const double* q, JacobianFrame expressed_in,
+                                              double* J_col_major) const {
   std::array<Frame<double>, kMaxDof + 1> frames;
   const Frame<double> T_meas_tool = chain(q, frames.data());
   // geometric_jacobian in plain doubles, written straight into J's storage: 2511
@@ -182,10 +194,10 @@ Frame<double> PreparedModel::forward_jacobian(const double* q, JacobianFrame exp
   // the controller's hot path. Both are checked against KDL.
   const int n = structure_.dof;
   if (path_ == Path::kGeneric) {
-    geometric_jacobian(structure_, frames.data(), T_meas_tool, expressed_in, J);
+    Eigen::Map<Jacobian6<double>> J(J_col_major, 6, n);
+    geometric_jacobian_into(structure_, frames.data(), T_meas_tool, expressed_in, J);
     return T_meas_tool;
   }
-  J.resize(6, n);
   const int shift = path_ == Path::kDh ? 0 : 1;
   const Eigen::Matrix3d Rt = T_meas_tool.R.transpose();
   const bool in_tool = expressed_in == JacobianFrame::kTool;
@@ -194,7 +206,7 @@ Frame<double> PreparedModel::forward_jacobian(const double* q, JacobianFrame exp
     const Frame<double>& axis = frames[i + shift];
     const double z[3] = {axis.R(0, 2), axis.R(1, 2), axis.R(2, 2)};
     const double r[3] = {pe[0] - axis.p[0], pe[1] - axis.p[1], pe[2] - axis.p[2]};
-    double* col = J.data() + 6 * i;
+    double* col = J_col_major + 6 * i;
     col[0] = z[1] * r[2] - z[2] * r[1];
     col[1] = z[2] * r[0] - z[0] * r[2];
     col[2] = z[0] * r[1] - z[1] * r[0];

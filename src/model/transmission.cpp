@@ -85,13 +85,33 @@ void polynomial_basis(const Polynomial& poly, double q, double* P, double* dP_dq
   }
 }
 
+// d/dq of sum_k c_k P_k(q), without allocation (a controller calls it per
+// cycle): Horner for the monomial basis; for Chebyshev T'_k by the recurrence
+// T'_k = 2 T_{k-1} + 2x T'_{k-1} - T'_{k-2}, times dx/dq.
 double polynomial_derivative(const Polynomial& poly, double q) {
   const int n = poly.order();
-  std::vector<double> P(n + 1), dP(n + 1);
-  polynomial_basis(poly, q, P.data(), dP.data());
-  double d = 0;
-  for (int k = 1; k <= n; ++k) d += poly.coefficients[k] * dP[k];
-  return d;
+  if (n < 1) return 0.0;
+  const std::vector<double>& c = poly.coefficients;
+  if (poly.basis == PolynomialBasis::kMonomial) {
+    double d = n * c[n];
+    for (int k = n - 1; k >= 1; --k) d = d * q + k * c[k];
+    return d;
+  }
+  const double scale = 2 / (poly.upper - poly.lower);
+  const double x = (2 * q - (poly.lower + poly.upper)) / (poly.upper - poly.lower);
+  double T_prev = 1, T = x;    // T_{k-2}, T_{k-1} as k runs
+  double dT_prev = 0, dT = 1;  // their derivatives in x
+  double d = c[1];
+  for (int k = 2; k <= n; ++k) {
+    const double T_next = 2 * x * T - T_prev;
+    const double dT_next = 2 * T + 2 * x * dT - dT_prev;
+    T_prev = T;
+    T = T_next;
+    dT_prev = dT;
+    dT = dT_next;
+    d += c[k] * dT;
+  }
+  return d * scale;
 }
 
 void polynomial_jacobian(const Polynomial& poly, double q, double* J) {
@@ -422,6 +442,28 @@ double PreparedTransmission::error(double q) const {
     }
     case Kind::kGeneric:
       return generic_.error(q);
+  }
+  return 0.0;
+}
+
+double PreparedTransmission::derivative(double q) const {
+  switch (kind_) {
+    case Kind::kNone:
+      return 0.0;
+    case Kind::kCapstan: {
+      // slope + g'(q + beta_out) + R g'(R q + beta_in), g' = drum_du, with
+      // cos(q + beta) from the prepared phase.
+      const double cos_out = std::cos(q) * cos_bo_ - std::sin(q) * sin_bo_;
+      const double cos_in = std::cos(ratio_ * q) * cos_bi_ - std::sin(ratio_ * q) * sin_bi_;
+      auto du = [&](double r, double c) {
+        return (r * drum_ * c - r * r) / (drum_ * drum_ - 2 * drum_ * r * c + r * r);
+      };
+      return slope_ + du(r_out_, cos_out) + ratio_ * du(r_in_, cos_in);
+    }
+    case Kind::kPolynomial:
+      return polynomial_derivative(polynomial_, q);
+    case Kind::kGeneric:
+      return generic_.derivative(q);
   }
   return 0.0;
 }

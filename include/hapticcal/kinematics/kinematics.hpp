@@ -246,11 +246,13 @@ HAPTICCAL_INLINE void joint_axis(const ChainStructure& s, const Frame<T>* frames
 }
 
 // Geometric Jacobian (6 x n, linear rows first) of the tool point with respect to
-// the joint values, from the frames of forward_kinematics.
-template <typename T>
-void geometric_jacobian(const ChainStructure& s, const Frame<T>* frames,
-                        const Frame<T>& T_meas_tool, JacobianFrame expressed_in, Jacobian6<T>& J) {
-  J.resize(6, s.dof);
+// the joint values, from the frames of forward_kinematics, into J already 6 x n
+// (a Jacobian6 or a Map of a caller's buffer).
+template <typename T, typename Derived>
+void geometric_jacobian_into(const ChainStructure& s, const Frame<T>* frames,
+                             const Frame<T>& T_meas_tool, JacobianFrame expressed_in,
+                             Eigen::MatrixBase<Derived>& J) {
+  assert(J.rows() == 6 && J.cols() == s.dof);
   for (int i = 0; i < s.dof; ++i) {
     Vec3<T> z, o;
     joint_axis(s, frames, i, z, o);
@@ -269,6 +271,13 @@ void geometric_jacobian(const ChainStructure& s, const Frame<T>* frames,
       J.template block<3, 1>(3, i) = (Rt * J.template block<3, 1>(3, i)).eval();
     }
   }
+}
+
+template <typename T>
+void geometric_jacobian(const ChainStructure& s, const Frame<T>* frames,
+                        const Frame<T>& T_meas_tool, JacobianFrame expressed_in, Jacobian6<T>& J) {
+  J.resize(6, s.dof);
+  geometric_jacobian_into(s, frames, T_meas_tool, expressed_in, J);
 }
 
 // J: d (p, w) / d params of the tool pose, Rows = 3 (position) or 6 (position,
@@ -398,6 +407,14 @@ class PreparedModel {
   // T_meas_tool and the geometric Jacobian w.r.t. the joint values.
   Frame<double> forward_jacobian(const double* q, JacobianFrame expressed_in,
                                  Jacobian6<double>& J) const;
+  // The same into a caller's buffer: J_col_major holds the 6 x n Jacobian
+  // column by column (Jacobian6's storage). Allocates nothing.
+  Frame<double> forward_jacobian(const double* q, JacobianFrame expressed_in,
+                                 double* J_col_major) const;
+  // d theta_i / d q_i = 1 + dtheta_i'(q_i) for the readings q. compensate maps
+  // each reading to its own joint (no transmission couples joints), so the
+  // Jacobian J_joint_reading is diagonal: this writes its n diagonal values.
+  void joint_derivative(const double* q, double* J_joint_reading_diagonal) const;
 
  private:
   Frame<double> chain(const double* q, Frame<double>* frames) const;

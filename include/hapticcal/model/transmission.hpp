@@ -192,6 +192,8 @@ class PreparedTransmission {
   PreparedTransmission() = default;
   explicit PreparedTransmission(const Transmission& transmission);
   double error(double q) const;
+  // d dtheta / dq, equal to Transmission::derivative; allocates nothing.
+  double derivative(double q) const;
 
   // Eq. (1) split so that a caller can batch its sines, cosines and arc
   // tangents over joints (PreparedModel does): with sin(q + b) expanded, the
