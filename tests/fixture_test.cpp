@@ -300,7 +300,9 @@ TEST(Fixture, WithoutAKnownDistanceTheRobotsSizeIsNamed) {
     // The arm's links (the flange's geometry, with the ball 0.09 mm off joint
     // 7's axis, is weakly seen by any fixture: 2-3 cm).
     const bool arm = e.name < "panda_joint6";
-    if (e.identifiable && length && arm) EXPECT_LT(e.sd, 1e-3) << e.name;
+    if (e.identifiable && length && arm) {
+      EXPECT_LT(e.sd, 1e-3) << e.name;
+    }
   }
   EXPECT_EQ(sized, 1);
 }
