@@ -24,6 +24,7 @@
 #include "hapticcal/study/control.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/study.hpp"
+#include "output_summary.hpp"
 #include "plan_command.hpp"
 
 namespace {
@@ -344,8 +345,7 @@ int run_calibrate(const CalibrateOptions& o) {
              out.dir(), o.out);
   out.commit();
   fmt::print("{}", reported);
-  fmt::print("wrote {0}/: {1}{2}results.json, report.html, figures/ (seed {3})\n", o.out,
-             usable ? "calibrated.yaml, " : "", usable && urdf ? "calibrated.urdf, " : "", o.seed);
+  fmt::print("{}", hapticcal::cli::output_summary(out, o.out, fmt::format(" (seed {})", o.seed)));
   if (!usable) {
     fmt::print("status: {}: {}; {}\n", to_string(result.status), result.status_reason,
                kept ? "the previous calibrated.yaml is kept" : "no calibrated.yaml written");
@@ -512,10 +512,7 @@ int run_simulate(const SimulateOptions& o) {
   const std::string reported = report(hapticcal::study_report(sc, r), out.dir(), o.out);
   out.commit();
   fmt::print("{}", reported);
-  fmt::print(
-      "wrote {}/: results.json, nominal.yaml, actual.yaml, calibrated.yaml, "
-      "identification.csv, validation.csv, trajectory.csv, fig7/8/10 series\n",
-      o.out);
+  fmt::print("{}", hapticcal::cli::output_summary(out, o.out));
   return 0;
 }
 
@@ -613,7 +610,7 @@ int run_force_study(ForceOptions o) {
       report(hapticcal::force_report(before, after, reduction), out.dir(), o.out);
   out.commit();
   fmt::print("{}", reported);
-  fmt::print("wrote {0}/force_nominal.csv, {0}/force_calibrated.csv, {0}/results.json\n", o.out);
+  fmt::print("{}", hapticcal::cli::output_summary(out, o.out));
   return 0;
 }
 

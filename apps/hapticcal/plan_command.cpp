@@ -15,6 +15,7 @@
 #include "hapticcal/io/output_set.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/paper.hpp"
+#include "output_summary.hpp"
 
 namespace hapticcal::cli {
 CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
@@ -111,8 +112,9 @@ int run_plan(const PlanCommandOptions& options) {
   out.commit();
   fmt::print("report: {}/report.html ({} figures)\n", options.out, drawn);
   if (!note.empty()) fmt::print("note: {}\n", note);
-  fmt::print("wrote {0}/plan.csv (q1..q{1} in radians, path order), {0}/plan.json\n", options.out,
-             model.dof());
+  fmt::print("{}", output_summary(
+                       out, options.out,
+                       fmt::format(" (plan.csv: q1..q{} in radians, path order)", model.dof())));
   return 0;
 }
 

@@ -258,13 +258,21 @@ bool OutputSet::keep_previous(const std::string& name) const {
 void OutputSet::commit() {
   // The marker lists what the set holds: a later run replaces nothing else.
   std::string marker = fmt::format("hapticcal {}\n", command_);
-  std::set<std::string> names;
+  std::set<std::string> names, shown;
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(staging_, ec)) {
-    names.insert(entry.path().filename().string());
+    const std::string name = entry.path().filename().string();
+    names.insert(name);
+    shown.insert(entry.is_directory(ec) ? name + "/" : name);
   }
   for (const std::string& name : names) marker += name + "\n";
   write_file_atomically(staging_ + "/" + kOutputMarker, marker);
+  // --out is locked: the set it holds now is the one the exchange replaces.
+  std::string replaced;
+  if (fs::exists(fs::path(target_) / kOutputMarker, ec)) {
+    marker_entries(target_, &replaced);
+    if (replaced.empty()) replaced = "hapticcal";
+  }
 
   Registry& r = registry();
   std::lock_guard<std::mutex> lock(r.mutex);
@@ -290,6 +298,8 @@ void OutputSet::commit() {
   }
   committed_ = true;
   r.committed = true;
+  replaced_command_ = replaced;
+  written_.assign(shown.begin(), shown.end());
   fs::remove_all(staging_, ec);
   r.staging.erase(staging_);
 }

@@ -63,8 +63,11 @@ inline std::vector<std::string> split_arguments(const std::string& args) {
   return out;
 }
 
-// Runs `program` with `args` (program's own name not included) and waits.
-inline CliResult run_program(const std::string& program, const std::vector<std::string>& args) {
+// Runs `program` with `args` (program's own name not included) and waits; in
+// the folder `cwd` when it is not empty (then a relative `program` is relative
+// to it).
+inline CliResult run_program(const std::string& program, const std::vector<std::string>& args,
+                             const std::string& cwd = "") {
   static int counter = 0;
   const std::string base = std::filesystem::temp_directory_path().string() + "/hapticcal_cli_" +
                            std::to_string(::getpid()) + "_" + std::to_string(counter++);
@@ -83,6 +86,7 @@ inline CliResult run_program(const std::string& program, const std::vector<std::
                                    O_WRONLY | O_CREAT | O_TRUNC, 0600);
   posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err_path.c_str(),
                                    O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  if (!cwd.empty()) posix_spawn_file_actions_addchdir_np(&actions, cwd.c_str());
   pid_t pid = 0;
   const int spawn_error =
       posix_spawn(&pid, program.c_str(), &actions, nullptr, cargv.data(), environ);
@@ -111,5 +115,9 @@ inline CliResult run_cli(const std::vector<std::string>& args) {
   return run_program(HAPTICCAL_CLI, args);
 }
 inline CliResult run_cli(const std::string& args) { return run_program(HAPTICCAL_CLI, args); }
+// The command line run in the folder `cwd` (its default --out is relative).
+inline CliResult run_cli_in(const std::string& cwd, const std::vector<std::string>& args) {
+  return run_program(HAPTICCAL_CLI, args, cwd);
+}
 
 }  // namespace hapticcal::testing

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace hapticcal {
 
@@ -42,6 +43,13 @@ class OutputSet {
   // exchange where the file system has one) and removes the old set. IoError
   // if that fails; the old set is then unchanged.
   void commit();
+  // After commit(): whether --out held an earlier set, now replaced (not an
+  // empty or new folder), and the command that had written it.
+  bool replaced_previous() const { return !replaced_command_.empty(); }
+  const std::string& replaced_command() const { return replaced_command_; }
+  // After commit(): the set's entries, sorted, folders ending in '/'; the
+  // marker is left out (it is bookkeeping, listed in no summary).
+  const std::vector<std::string>& written() const { return written_; }
 
  private:
   // The constructor's second half (the lock, the staging folder), and its undo.
@@ -50,6 +58,8 @@ class OutputSet {
 
   std::string shown_, command_;
   std::string target_, staging_;  // resolved paths
+  std::string replaced_command_;  // "hapticcal simulate"... of the set commit() replaced
+  std::vector<std::string> written_;
   int lock_fd_ = -1, staging_fd_ = -1;
   bool committed_ = false;
   bool created_ = false;   // --out was empty (or missing) when this run locked it
