@@ -1,0 +1,76 @@
+// The command line's errors help: numeric ranges read as numbers, a log
+// without a header (or a header beside --columns) says so and what to do, an
+// unknown parameter name suggests the closest one, and a bare `hapticcal`
+// points to --help. Each is exit code 2 and one line "hapticcal: <message>".
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "hapticcal/io/error.hpp"
+#include "run_cli.hpp"
+#include "test_models.hpp"
+
+namespace hapticcal {
+namespace {
+
+std::string malformed(const std::string& file) {
+  return testing::source_path("tests/malformed/" + file);
+}
+
+std::string temp_folder(const std::string& name) {
+  const std::string dir = ::testing::TempDir() + "/cli_errors_" + name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// Exit code 2, nothing on standard output, one line on standard error that
+// starts "hapticcal: " and holds `expected`.
+void expect_one_line(const testing::CliResult& r, const std::string& expected) {
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_EQ(r.out, "");
+  ASSERT_FALSE(r.err.empty());
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "not one line: " << r.err;
+  EXPECT_EQ(r.err.rfind("hapticcal: ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find(expected), std::string::npos)
+      << "expected \"" << expected << "\" in: " << r.err;
+}
+
+// --seed once printed "Value -1 not in range 0.000000 to 1797693...(309
+// digits).000000": CLI11's NonNegativeNumber with the largest double.
+TEST(CliErrors, NumericRangesReadAsNumbers) {
+  const testing::CliResult trials = testing::run_cli("simulate --trials 0");
+  expect_one_line(trials, "");
+  EXPECT_EQ(trials.err, "hapticcal: --trials: 0 is outside [1, 100000]\n");
+  const testing::CliResult seed = testing::run_cli("simulate --seed -1");
+  expect_one_line(seed, "");
+  EXPECT_EQ(seed.err, "hapticcal: --seed: -1 is less than 0\n");
+  expect_one_line(testing::run_cli("simulate --trials 1.5"),
+                  "--trials: '1.5' is not a whole number");
+  const std::string calibrate =
+      "calibrate --model " + malformed("good-2dof.yaml") + " --log " + malformed("good-2dof.csv");
+  expect_one_line(testing::run_cli(calibrate + " --polynomial-order 0"),
+                  "--polynomial-order: 0 is outside [1, 30]");
+  expect_one_line(testing::run_cli(calibrate + " --dependency-tolerance 1"),
+                  "--dependency-tolerance: 1 is outside [1e-12, 0.5]");
+  expect_one_line(testing::run_cli(calibrate + " --seed -3"), "--seed: -3 is less than 0");
+  expect_one_line(testing::run_cli("plan --model " + malformed("good-2dof.yaml") +
+                                   " --measurement position --poses 0"),
+                  "--poses: 0 is outside [1, 100000]");
+  expect_one_line(testing::run_cli("force --actual a --nominal b --calibrated c --seed -1"),
+                  "--seed: -1 is less than 0");
+  // No range anywhere in the help prints a double's digits.
+  for (const char* command : {"simulate", "calibrate", "evaluate", "force", "plan", "convert"}) {
+    SCOPED_TRACE(command);
+    const testing::CliResult help = testing::run_cli(std::string(command) + " --help");
+    EXPECT_EQ(help.exit_code, 0);
+    EXPECT_EQ(help.out.find("179769"), std::string::npos) << help.out;
+    EXPECT_EQ(help.out.find(".000000"), std::string::npos) << help.out;
+  }
+}
+
+}  // namespace
+}  // namespace hapticcal
