@@ -72,5 +72,44 @@ TEST(CliErrors, NumericRangesReadAsNumbers) {
   }
 }
 
+TEST(CliErrors, LogWithoutHeaderAsksForColumns) {
+  const std::string dir = temp_folder("no_header");
+  std::ofstream(dir + "/log.csv") << "9.972280355,0.2,0.3,0.05,0.1\n0.1,0.2,0.3,0.05,0.1\n";
+  const testing::CliResult r = testing::run_cli(std::vector<std::string>{
+      "evaluate", "--model", malformed("good-2dof.yaml"), "--log", dir + "/log.csv"});
+  expect_one_line(r, "log.csv:1: the log has no header");
+  EXPECT_NE(r.err.find("give its 5 column names with --columns q1,q2,...,x"), std::string::npos)
+      << r.err;
+  // With the names given, the same log is read.
+  EXPECT_EQ(testing::run_cli(std::vector<std::string>{"evaluate", "--model",
+                                                      malformed("good-2dof.yaml"), "--log",
+                                                      dir + "/log.csv", "--columns", "q1,q2,x,y,z"})
+                .exit_code,
+            0);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(CliErrors, HeaderBesideColumnsSaysDropColumns) {
+  const std::string dir = temp_folder("header_and_columns");
+  std::ofstream(dir + "/log.csv") << "q1[deg],q2[deg],x,y,z\n0,0,0.35,0,0.1\n";
+  expect_one_line(testing::run_cli(std::vector<std::string>{
+                      "evaluate", "--model", malformed("good-2dof.yaml"), "--log", dir + "/log.csv",
+                      "--columns", "q1[deg],q2[deg],x,y,z"}),
+                  "log.csv:1: the log has a header line; drop --columns (or remove the header)");
+  // A headerless log with labels (words in a data row) is no header.
+  std::ofstream(dir + "/points.csv") << "0,0,a\n0.1,0.1,a\n0.2,0.2,b\n0.3,0.1,b\n";
+  const testing::CliResult points = testing::run_cli(
+      std::vector<std::string>{"evaluate", "--model", malformed("good-2dof.yaml"), "--log",
+                               dir + "/points.csv", "--columns", "q1,q2,point"});
+  EXPECT_EQ(points.err.find("header"), std::string::npos) << points.err;
+  // A data row with a word where a number belongs stays "not a number".
+  std::ofstream(dir + "/word.csv") << "abc,0,0.35,0,0.1\n";
+  expect_one_line(testing::run_cli(std::vector<std::string>{
+                      "evaluate", "--model", malformed("good-2dof.yaml"), "--log",
+                      dir + "/word.csv", "--columns", "q1,q2,x,y,z"}),
+                  "word.csv:1: q1: 'abc' is not a number");
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace hapticcal
