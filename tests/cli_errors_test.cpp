@@ -111,5 +111,39 @@ TEST(CliErrors, HeaderBesideColumnsSaysDropColumns) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(CliErrors, UnknownParameterSuggestsTheClosest) {
+  const std::string dir = temp_folder("fix");
+  const std::vector<std::string> calibrate{
+      "calibrate", "--model",   malformed("good-2dof.yaml"), "--log", malformed("good-2dof.csv"),
+      "--out",     dir + "/out"};
+  auto with = [&](const std::string& option, const std::string& value) {
+    std::vector<std::string> args = calibrate;
+    args.insert(args.end(), {option, value});
+    return testing::run_cli(args);
+  };
+  expect_one_line(with("--fix", "j1.alfa"),
+                  "--fix: 'j1.alfa' is not a kinematic parameter of model 'two-link' (did you "
+                  "mean 'j1.alpha'?)");
+  expect_one_line(with("--free", "j2.bta"),
+                  "--free: 'j2.bta' is not a kinematic parameter of "
+                  "model 'two-link' (did you mean 'j2.beta'?)");
+  // Nothing close: no guess.
+  const testing::CliResult far = with("--fix", "stiffness");
+  expect_one_line(far, "--fix: 'stiffness' is not a kinematic parameter");
+  EXPECT_EQ(far.err.find("did you mean"), std::string::npos) << far.err;
+  std::filesystem::remove_all(dir);
+}
+
+TEST(CliErrors, EditDistanceIsLevenshtein) {
+  EXPECT_EQ(edit_distance("kitten", "sitting"), 3u);
+  EXPECT_EQ(edit_distance("", "abc"), 3u);
+  EXPECT_EQ(edit_distance("j1.alfa", "j1.alpha"), 2u);
+  EXPECT_EQ(edit_distance("j1.a", "j1.a"), 0u);
+  EXPECT_EQ(did_you_mean("j1.thta", {"j1.a", "j1.theta", "j2.theta"}),
+            " (did you mean 'j1.theta'?)");
+  EXPECT_EQ(did_you_mean("j1.theta", {"j1.theta"}), "");
+  EXPECT_EQ(did_you_mean("abc", {"xyzuvw"}), "");
+}
+
 }  // namespace
 }  // namespace hapticcal
