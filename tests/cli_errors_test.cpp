@@ -145,5 +145,13 @@ TEST(CliErrors, EditDistanceIsLevenshtein) {
   EXPECT_EQ(did_you_mean("abc", {"xyzuvw"}), "");
 }
 
+TEST(CliErrors, BareCommandPointsToHelp) {
+  const testing::CliResult r = testing::run_cli(std::vector<std::string>{});
+  expect_one_line(r, "");
+  EXPECT_EQ(r.err,
+            "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, convert); see "
+            "hapticcal --help\n");
+}
+
 }  // namespace
 }  // namespace hapticcal

@@ -793,6 +793,12 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    if (dynamic_cast<const CLI::RequiredError*>(&e) && app.get_subcommands().empty()) {
+      fmt::print(stderr,
+                 "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, "
+                 "convert); see hapticcal --help\n");
+      return kExitBadInput;
+    }
     fmt::print(stderr, "hapticcal: {}\n", e.what());
     return kExitBadInput;
   }
