@@ -24,10 +24,14 @@
 #include "hapticcal/study/control.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/study.hpp"
+#include "number_options.hpp"
 #include "output_summary.hpp"
 #include "plan_command.hpp"
 
 namespace {
+
+using hapticcal::cli::whole_number;
+using hapticcal::cli::within;
 
 constexpr int kExitBadInput = 2;
 constexpr int kExitUnusable = 3;
@@ -149,35 +153,6 @@ struct CalibrateOptions {
   int polynomial_order = 0;
   double tolerance = 1e-6;
 };
-
-// A numeric option's range, with the limits (and a unit) in its error; also
-// refuses nan and inf, which CLI11's Range lets through.
-CLI::Validator within(double lo, double hi, const std::string& unit) {
-  auto number = [](double v) {
-    return v == std::floor(v) && std::abs(v) < 1e15 ? fmt::format("{}", static_cast<long long>(v))
-                                                    : fmt::format("{}", v);
-  };
-  const std::string range =
-      fmt::format("[{}, {}]{}{}", number(lo), number(hi), unit.empty() ? "" : " ", unit);
-  return CLI::Validator(
-      [lo, hi, range](std::string& text) -> std::string {
-        double v = 0;
-        try {
-          size_t used = 0;
-          v = std::stod(text, &used);
-          if (used != text.size()) {
-            return fmt::format("'{}' is not a number", hapticcal::printable(text));
-          }
-        } catch (const std::exception&) {
-          return fmt::format("'{}' is not a number", hapticcal::printable(text));
-        }
-        if (!(v >= lo && v <= hi)) {
-          return fmt::format("{} is outside {}", hapticcal::printable(text), range);
-        }
-        return {};
-      },
-      "in " + range);
-}
 
 std::vector<std::string> names(const std::string& list) {
   return list.empty() ? std::vector<std::string>{} : hapticcal::split_columns(list);
@@ -683,11 +658,10 @@ int main(int argc, char** argv) {
       "Run the paper's simulation study (main job), or one on any device and measurement");
   simulate->add_option("--scenario", sim.scenario, "Scenario file (YAML)");
   simulate->add_option("--trials", sim.trials, "Monte Carlo trials (default 1)")
-      ->check(within(1, 100000, ""));
-  simulate->add_option("--seed", sim.seed, "Random seed (default 1)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(whole_number(1, 100000));
+  simulate->add_option("--seed", sim.seed, "Random seed (default 1)")->check(whole_number(0));
   simulate->add_option("--threads", sim.threads, "Threads (default: all cores)")
-      ->check(within(1, 256, ""));
+      ->check(whole_number(1, 256));
   simulate->add_option("--device", sim.device,
                        "Nominal device file or URDF (default: the built-in 7-DOF)");
   simulate->add_option("--out", sim.out, "Output directory (default hapticcal-out/simulate)");
@@ -707,8 +681,8 @@ int main(int argc, char** argv) {
   calibrate
       ->add_option("--samples", cal.samples,
                    "Use N random poses of the log (0: all; repeated rows count as one pose)")
-      ->check(within(0, 1e8, ""));
-  calibrate->add_option("--seed", cal.seed, "Seed of the row sample");
+      ->check(whole_number(0, 100000000));
+  calibrate->add_option("--seed", cal.seed, "Seed of the row sample")->check(whole_number(0));
   calibrate
       ->add_option("--sigma", cal.sigma,
                    "Measurement noise sd [m] for the standard deviations (default: "
@@ -717,7 +691,7 @@ int main(int argc, char** argv) {
   calibrate
       ->add_option("--polynomial-order", cal.polynomial_order,
                    "Order of polynomial transmissions (default: the device file's, else 10)")
-      ->check(CLI::Range(1, 30));
+      ->check(whole_number(1, 30));
   calibrate->add_option("--fix", cal.fix, "Kinematic parameters held at nominal, e.g. j1.a,j2.d");
   calibrate->add_option("--free", cal.free,
                         "Parameters added to the candidates, e.g. j2.beta (a beta is one by "
@@ -734,13 +708,13 @@ int main(int argc, char** argv) {
   calibrate
       ->add_option("--folds", cal.folds,
                    "K of the K-fold cross-validated (held-out) RMS by pose (default 5; 0: none)")
-      ->check(within(0, 1000, ""));
+      ->check(whole_number(0, 1000));
   calibrate->add_option("--columns", cal.columns, "Column names of a log without header");
   calibrate
       ->add_option("--dependency-tolerance", cal.tolerance,
                    "A parameter whose scaled Jacobian column lies within this relative "
                    "distance of the span of those before it is held (default 1e-6)")
-      ->check(CLI::Range(1e-12, 0.5));
+      ->check(within(1e-12, 0.5));
   calibrate->add_flag(
       "--force", cal.force,
       "Calibrate even if the log looks implausible for the model (readings "
@@ -778,7 +752,7 @@ int main(int argc, char** argv) {
       ->required();
   force->add_option("--out", fo.out, "Output directory (default hapticcal-out/force)");
   force->add_option("--gain", fo.scenario.gain, "Force-loop gain G (default 0.5)")
-      ->check(within(-100, 100, ""));
+      ->check(within(-100, 100));
   force->add_option("--noise", fo.scenario.sensor_noise, "Force sensor noise sd [N] (default 0)")
       ->check(within(0, 1000, "N"));
   force->add_option("--stiffness", fo.scenario.stiffness, "Wall stiffness [N/m] (default 100)")
@@ -794,12 +768,12 @@ int main(int argc, char** argv) {
   force->add_option("--posture", fo.posture,
                     "Readings q of the fixed handle, comma separated (default: home, j6 = 0.3 rad "
                     "on a 7-joint device)");
-  force->add_option("--seed", fo.scenario.seed, "Seed of the sensor noise");
+  force->add_option("--seed", fo.scenario.seed, "Seed of the sensor noise")->check(whole_number(0));
   force
       ->add_option("--lock", fo.lock,
                    "Joint to lock, 1-based; 0: none (default: joint 3 on a 7-joint device, none "
                    "on a 6-joint one; 6 joints must remain)")
-      ->check(within(0, 1000, ""));
+      ->check(whole_number(0, 1000));
   add_chain_options(force, fo.chain);
 
   ConvertOptions conv;
@@ -816,6 +790,12 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    if (dynamic_cast<const CLI::RequiredError*>(&e) && app.get_subcommands().empty()) {
+      fmt::print(stderr,
+                 "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, "
+                 "convert); see hapticcal --help\n");
+      return kExitBadInput;
+    }
     fmt::print(stderr, "hapticcal: {}\n", e.what());
     return kExitBadInput;
   }

@@ -15,6 +15,7 @@
 #include "hapticcal/io/output_set.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/paper.hpp"
+#include "number_options.hpp"
 #include "output_summary.hpp"
 
 namespace hapticcal::cli {
@@ -27,27 +28,27 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
   plan->add_option("--measurement", o.measurement, "distance, position or pose")->required();
   plan->add_option("--poses", o.poses, "Number of poses to plan")
       ->required()
-      ->check(CLI::Range(1, 100000));
+      ->check(whole_number(1, 100000));
   auto* candidates =
       plan->add_option("--candidates", o.candidates,
                        "A log of recorded poses to choose from (repeated rows count as one pose)");
   auto* pool = plan->add_option("--pool", o.pool,
                                 "Random candidate poses within the joint limits (default 10000)")
-                   ->check(CLI::Range(1, 10000000));
+                   ->check(whole_number(1, 10000000));
   candidates->excludes(pool);
   pool->excludes(candidates);
   plan->add_option("--columns", o.columns, "Column names of a candidates log without header");
   plan->add_option("--criterion", o.criterion,
                    "d (log det), a (trace of the scaled covariance), i (mean prediction "
                    "variance over the workspace, default), e (smallest eigenvalue)");
-  plan->add_option("--seed", o.seed, "Random seed (default 1)");
+  plan->add_option("--seed", o.seed, "Random seed (default 1)")->check(whole_number(0));
   plan->add_option("--sigma", o.sigma,
                    "Measurement sd [m] (default: the paper's sigma_m for distances, 10 um for "
                    "positions and poses)")
-      ->check(CLI::Range(1e-12, 1.0));
+      ->check(within(1e-12, 1, "m"));
   plan->add_option("--sigma-e", o.sigma_e,
                    "External encoder sd [rad] (default: the paper's 2 pi / 20000 / 3)")
-      ->check(CLI::Range(1e-12, 1.0));
+      ->check(within(1e-12, 1, "rad"));
   plan->add_option("--distance-range", o.distance_range,
                    "MIN,MAX: the tool point's distance from the measurement origin [m] (a cable "
                    "encoder's range)");
@@ -56,7 +57,7 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
                    "(measurement frame) [m]");
   plan->add_option("--refine-passes", o.refine_passes,
                    "Continuous refinement passes of random candidates (default 20; 0: none)")
-      ->check(CLI::Range(0, 1000));
+      ->check(whole_number(0, 1000));
   plan->add_option("--fix", o.fix, "Kinematic parameters held at nominal, e.g. j1.a,j2.d");
   plan->add_option("--free", o.free, "Parameters added to the candidates, e.g. j2.beta");
   plan->add_option("--tip", o.tip, "Tip link of a URDF model's chain");

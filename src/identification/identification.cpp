@@ -388,12 +388,16 @@ std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std
                                  const std::vector<std::string>& free) {
   const std::vector<ParameterInfo> info = model.parameter_info();
   std::map<std::string, int> slot_of;
-  for (const ParameterInfo& p : info) slot_of[p.name] = p.slot;
+  std::vector<std::string> known;
+  for (const ParameterInfo& p : info) {
+    slot_of[p.name] = p.slot;
+    known.push_back(p.name);
+  }
   auto lookup = [&](const std::string& name, const char* option) {
     const auto it = slot_of.find(name);
     if (it == slot_of.end()) {
-      throw InputError(fmt::format("{}: '{}' is not a kinematic parameter of model '{}'", option,
-                                   name, model.name));
+      throw InputError(fmt::format("{}: '{}' is not a kinematic parameter of model '{}'{}", option,
+                                   printable(name), model.name, did_you_mean(name, known)));
     }
     return it->second;
   };

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include "hapticcal/io/error.hpp"
 #include "hapticcal/io/io.hpp"
@@ -165,6 +166,39 @@ void write_file_atomically(const std::string& path, const std::string& text) {
     std::remove(tmp.c_str());
     throw IoError(path + ": cannot write: " + ec.message());
   }
+}
+
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  // One row of the (|a| + 1) x (|b| + 1) table at a time.
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];  // the table's (i - 1, j - 1)
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string did_you_mean(const std::string& name, const std::vector<std::string>& known) {
+  // Long input is not a typo of a short name: skip the table.
+  if (name.empty() || name.size() > 200) return {};
+  const std::string* best = nullptr;
+  std::size_t best_distance = 0;
+  for (const std::string& k : known) {
+    const std::size_t d = edit_distance(name, k);
+    if (!best || d < best_distance) {
+      best = &k;
+      best_distance = d;
+    }
+  }
+  if (!best || best_distance == 0) return {};
+  if (best_distance > std::max<std::size_t>(2, name.size() / 3)) return {};
+  return fmt::format(" (did you mean '{}'?)", printable(*best));
 }
 
 }  // namespace hapticcal

@@ -206,6 +206,36 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
                   printable(unit)));
 }
 
+// `f` as a number (a leading '+' allowed); false if it is not one.
+bool parse_number(const std::string& f, double& v) {
+  const char* begin = f.data();
+  const char* end = f.data() + f.size();
+  if (begin != end && *begin == '+') ++begin;
+  const auto [ptr, ec] = std::from_chars(begin, end, v);
+  return ec == std::errc() && ptr == end && !f.empty();
+}
+
+bool is_number(const std::string& f) {
+  double v = 0;
+  return parse_number(f, v);
+}
+
+// A line that is a header: no field is a number, each is written like a
+// column name, and at least one is a column parse_column accepts.
+bool looks_like_header(const std::vector<std::string>& fields) {
+  bool known = false;
+  for (const std::string& f : fields) {
+    std::string base, index, unit;
+    if (is_number(f) || !split_spec(f, base, index, unit)) return false;
+    try {
+      parse_column(f, "", 0);
+      known = true;
+    } catch (const InputError&) {
+    }
+  }
+  return known;
+}
+
 // An orientation is one complete set, qw, qx, qy, qz or rx, ry, rz, beside the position x, y, z.
 // count: the columns of each quantity.
 void check_orientation_columns(const std::vector<Column>& columns, const std::vector<int>& count,
@@ -367,6 +397,13 @@ Log parse_log(const std::string& text, const std::string& origin,
           origin, line_no, "",
           fmt::format("{} columns in the header: a log has at most {}", field_count, kMaxColumns));
     }
+    // The first row of a log read with --columns: a header there is a log
+    // that names its own columns.
+    if (!column_names.empty() && rows.empty() && field_count <= kMaxColumns &&
+        looks_like_header(split(line))) {
+      throw InputError(origin, line_no, "",
+                       "the log has a header line; drop --columns (or remove the header)");
+    }
     if (!columns.empty() && field_count != columns.size()) {
       throw InputError(
           origin, line_no, "",
@@ -375,6 +412,12 @@ Log parse_log(const std::string& text, const std::string& origin,
     }
     const std::vector<std::string> fields = split(line);
     if (columns.empty()) {
+      if (std::all_of(fields.begin(), fields.end(), is_number)) {
+        throw InputError(origin, line_no, "",
+                         fmt::format("the log has no header (its first line is numbers): give "
+                                     "its {} column names with --columns q1,q2,...,x",
+                                     fields.size()));
+      }
       set_columns(fields, origin, line_no);
       continue;
     }
@@ -402,12 +445,8 @@ Log parse_log(const std::string& text, const std::string& origin,
         row_label = f;
         continue;
       }
-      const char* begin = f.data();
-      const char* end = f.data() + f.size();
-      if (begin != end && *begin == '+') ++begin;
       double v = 0;
-      const auto [ptr, ec] = std::from_chars(begin, end, v);
-      if (ec != std::errc() || ptr != end || f.empty()) {
+      if (!parse_number(f, v)) {
         throw InputError(origin, line_no, columns[k].name,
                          fmt::format("'{}' is not a number", printable(f)));
       }

@@ -577,8 +577,13 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
       const std::string key = "deviations." + printable(name);
       const auto it = std::find_if(info.begin(), info.end(),
                                    [&](const ParameterInfo& p) { return p.name == name; });
-      if (it == info.end())
-        r.fail(kv.first, key, fmt::format("not a kinematic parameter of {}", sc.nominal.name));
+      if (it == info.end()) {
+        std::vector<std::string> known;
+        for (const ParameterInfo& p : info) known.push_back(p.name);
+        r.fail(kv.first, key,
+               fmt::format("not a kinematic parameter of {}{}", sc.nominal.name,
+                           did_you_mean(name, known)));
+      }
       const double v = r.number(kv.second, key);
       const bool angle = it->unit == ParameterUnit::kAngle;
       const double hi = angle ? kMaxAngleDeviation : kMaxLengthDeviation;

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace hapticcal {
 
@@ -43,5 +44,14 @@ std::string printable(const std::string& text, std::size_t max_chars = 40);
 // empty when it is valid UTF-8 without control characters, else the reason,
 // e.g. "control character \x0a at byte 4" or "invalid UTF-8 at byte 2".
 std::string text_problem(const std::string& text);
+
+// The Levenshtein distance between `a` and `b`: the fewest single-character
+// insertions, deletions and substitutions that turn one into the other.
+std::size_t edit_distance(const std::string& a, const std::string& b);
+
+// For an unknown `name`: " (did you mean 'NAME'?)" with the closest of `known`
+// by edit distance when it is close (at most 2 edits, or a third of the
+// name's length), else empty. Ties go to the first in `known`.
+std::string did_you_mean(const std::string& name, const std::vector<std::string>& known);
 
 }  // namespace hapticcal
