@@ -20,48 +20,31 @@ std::string malformed(const std::string& file) {
   return testing::source_path("tests/malformed/" + file);
 }
 
-std::string temp_folder(const std::string& name) {
-  const std::string dir = ::testing::TempDir() + "/cli_errors_" + name;
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
-
-// Exit code 2, nothing on standard output, one line on standard error that
-// starts "hapticcal: " and holds `expected`.
-void expect_one_line(const testing::CliResult& r, const std::string& expected) {
-  EXPECT_EQ(r.exit_code, 2) << r.err;
-  EXPECT_EQ(r.out, "");
-  ASSERT_FALSE(r.err.empty());
-  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "not one line: " << r.err;
-  EXPECT_EQ(r.err.rfind("hapticcal: ", 0), 0u) << r.err;
-  EXPECT_NE(r.err.find(expected), std::string::npos)
-      << "expected \"" << expected << "\" in: " << r.err;
-}
-
 // --seed once printed "Value -1 not in range 0.000000 to 1797693...(309
 // digits).000000": CLI11's NonNegativeNumber with the largest double.
 TEST(CliErrors, NumericRangesReadAsNumbers) {
   const testing::CliResult trials = testing::run_cli("simulate --trials 0");
-  expect_one_line(trials, "");
+  testing::expect_input_error(trials, "");
   EXPECT_EQ(trials.err, "hapticcal: --trials: 0 is outside [1, 100000]\n");
   const testing::CliResult seed = testing::run_cli("simulate --seed -1");
-  expect_one_line(seed, "");
+  testing::expect_input_error(seed, "");
   EXPECT_EQ(seed.err, "hapticcal: --seed: -1 is less than 0\n");
-  expect_one_line(testing::run_cli("simulate --trials 1.5"),
-                  "--trials: '1.5' is not a whole number");
+  testing::expect_input_error(testing::run_cli("simulate --trials 1.5"),
+                              "--trials: '1.5' is not a whole number");
   const std::string calibrate =
       "calibrate --model " + malformed("good-2dof.yaml") + " --log " + malformed("good-2dof.csv");
-  expect_one_line(testing::run_cli(calibrate + " --polynomial-order 0"),
-                  "--polynomial-order: 0 is outside [1, 30]");
-  expect_one_line(testing::run_cli(calibrate + " --dependency-tolerance 1"),
-                  "--dependency-tolerance: 1 is outside [1e-12, 0.5]");
-  expect_one_line(testing::run_cli(calibrate + " --seed -3"), "--seed: -3 is less than 0");
-  expect_one_line(testing::run_cli("plan --model " + malformed("good-2dof.yaml") +
-                                   " --measurement position --poses 0"),
-                  "--poses: 0 is outside [1, 100000]");
-  expect_one_line(testing::run_cli("force --actual a --nominal b --calibrated c --seed -1"),
-                  "--seed: -1 is less than 0");
+  testing::expect_input_error(testing::run_cli(calibrate + " --polynomial-order 0"),
+                              "--polynomial-order: 0 is outside [1, 30]");
+  testing::expect_input_error(testing::run_cli(calibrate + " --dependency-tolerance 1"),
+                              "--dependency-tolerance: 1 is outside [1e-12, 0.5]");
+  testing::expect_input_error(testing::run_cli(calibrate + " --seed -3"),
+                              "--seed: -3 is less than 0");
+  testing::expect_input_error(testing::run_cli("plan --model " + malformed("good-2dof.yaml") +
+                                               " --measurement position --poses 0"),
+                              "--poses: 0 is outside [1, 100000]");
+  testing::expect_input_error(
+      testing::run_cli("force --actual a --nominal b --calibrated c --seed -1"),
+      "--seed: -1 is less than 0");
   // No range anywhere in the help prints a double's digits.
   for (const char* command : {"simulate", "calibrate", "evaluate", "force", "plan", "convert"}) {
     SCOPED_TRACE(command);
@@ -73,11 +56,11 @@ TEST(CliErrors, NumericRangesReadAsNumbers) {
 }
 
 TEST(CliErrors, LogWithoutHeaderAsksForColumns) {
-  const std::string dir = temp_folder("no_header");
+  const std::string dir = testing::fresh_folder("cli_errors_no_header");
   std::ofstream(dir + "/log.csv") << "9.972280355,0.2,0.3,0.05,0.1\n0.1,0.2,0.3,0.05,0.1\n";
   const testing::CliResult r = testing::run_cli(std::vector<std::string>{
       "evaluate", "--model", malformed("good-2dof.yaml"), "--log", dir + "/log.csv"});
-  expect_one_line(r, "log.csv:1: the log has no header");
+  testing::expect_input_error(r, "log.csv:1: the log has no header");
   EXPECT_NE(r.err.find("give its 5 column names with --columns q1,q2,...,x"), std::string::npos)
       << r.err;
   // With the names given, the same log is read.
@@ -90,12 +73,13 @@ TEST(CliErrors, LogWithoutHeaderAsksForColumns) {
 }
 
 TEST(CliErrors, HeaderBesideColumnsSaysDropColumns) {
-  const std::string dir = temp_folder("header_and_columns");
+  const std::string dir = testing::fresh_folder("cli_errors_header_and_columns");
   std::ofstream(dir + "/log.csv") << "q1[deg],q2[deg],x,y,z\n0,0,0.35,0,0.1\n";
-  expect_one_line(testing::run_cli(std::vector<std::string>{
-                      "evaluate", "--model", malformed("good-2dof.yaml"), "--log", dir + "/log.csv",
-                      "--columns", "q1[deg],q2[deg],x,y,z"}),
-                  "log.csv:1: the log has a header line; drop --columns (or remove the header)");
+  testing::expect_input_error(
+      testing::run_cli(std::vector<std::string>{"evaluate", "--model", malformed("good-2dof.yaml"),
+                                                "--log", dir + "/log.csv", "--columns",
+                                                "q1[deg],q2[deg],x,y,z"}),
+      "log.csv:1: the log has a header line; drop --columns (or remove the header)");
   // A headerless log with labels (words in a data row) is no header.
   std::ofstream(dir + "/points.csv") << "0,0,a\n0.1,0.1,a\n0.2,0.2,b\n0.3,0.1,b\n";
   const testing::CliResult points = testing::run_cli(
@@ -104,15 +88,15 @@ TEST(CliErrors, HeaderBesideColumnsSaysDropColumns) {
   EXPECT_EQ(points.err.find("header"), std::string::npos) << points.err;
   // A data row with a word where a number belongs stays "not a number".
   std::ofstream(dir + "/word.csv") << "abc,0,0.35,0,0.1\n";
-  expect_one_line(testing::run_cli(std::vector<std::string>{
-                      "evaluate", "--model", malformed("good-2dof.yaml"), "--log",
-                      dir + "/word.csv", "--columns", "q1,q2,x,y,z"}),
-                  "word.csv:1: q1: 'abc' is not a number");
+  testing::expect_input_error(testing::run_cli(std::vector<std::string>{
+                                  "evaluate", "--model", malformed("good-2dof.yaml"), "--log",
+                                  dir + "/word.csv", "--columns", "q1,q2,x,y,z"}),
+                              "word.csv:1: q1: 'abc' is not a number");
   std::filesystem::remove_all(dir);
 }
 
 TEST(CliErrors, UnknownParameterSuggestsTheClosest) {
-  const std::string dir = temp_folder("fix");
+  const std::string dir = testing::fresh_folder("cli_errors_fix");
   const std::vector<std::string> calibrate{
       "calibrate", "--model",   malformed("good-2dof.yaml"), "--log", malformed("good-2dof.csv"),
       "--out",     dir + "/out"};
@@ -121,15 +105,16 @@ TEST(CliErrors, UnknownParameterSuggestsTheClosest) {
     args.insert(args.end(), {option, value});
     return testing::run_cli(args);
   };
-  expect_one_line(with("--fix", "j1.alfa"),
-                  "--fix: 'j1.alfa' is not a kinematic parameter of model 'two-link' (did you "
-                  "mean 'j1.alpha'?)");
-  expect_one_line(with("--free", "j2.bta"),
-                  "--free: 'j2.bta' is not a kinematic parameter of "
-                  "model 'two-link' (did you mean 'j2.beta'?)");
+  testing::expect_input_error(
+      with("--fix", "j1.alfa"),
+      "--fix: 'j1.alfa' is not a kinematic parameter of model 'two-link' (did you "
+      "mean 'j1.alpha'?)");
+  testing::expect_input_error(with("--free", "j2.bta"),
+                              "--free: 'j2.bta' is not a kinematic parameter of "
+                              "model 'two-link' (did you mean 'j2.beta'?)");
   // Nothing close: no guess.
   const testing::CliResult far = with("--fix", "stiffness");
-  expect_one_line(far, "--fix: 'stiffness' is not a kinematic parameter");
+  testing::expect_input_error(far, "--fix: 'stiffness' is not a kinematic parameter");
   EXPECT_EQ(far.err.find("did you mean"), std::string::npos) << far.err;
   std::filesystem::remove_all(dir);
 }
@@ -147,7 +132,7 @@ TEST(CliErrors, EditDistanceIsLevenshtein) {
 
 TEST(CliErrors, BareCommandPointsToHelp) {
   const testing::CliResult r = testing::run_cli(std::vector<std::string>{});
-  expect_one_line(r, "");
+  testing::expect_input_error(r, "");
   EXPECT_EQ(r.err,
             "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, convert); see "
             "hapticcal --help\n");

@@ -115,10 +115,7 @@ void expect_one_short_line(const testing::CliResult& r, const std::string& expec
 }
 
 std::string temp_folder(const std::string& name) {
-  const std::string dir = ::testing::TempDir() + "/malformed_" + name;
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
+  return testing::fresh_folder("malformed_" + name);
 }
 
 // A 30,000-character header field or link name overflowed std::regex's

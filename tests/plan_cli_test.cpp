@@ -18,25 +18,8 @@ namespace {
 
 std::string builtin_file() { return testing::source_path("data/devices/baser-7dof.yaml"); }
 
-std::string temp_folder(const std::string& name) {
-  const std::string dir = ::testing::TempDir() + "/plan_cli_" + name;
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
-
-void expect_one_line_error(const testing::CliResult& r, const std::string& expected) {
-  EXPECT_EQ(r.exit_code, 2) << r.err;
-  EXPECT_EQ(r.out, "");
-  ASSERT_FALSE(r.err.empty());
-  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "not one line: " << r.err;
-  EXPECT_EQ(r.err.rfind("hapticcal: ", 0), 0u) << r.err;
-  EXPECT_NE(r.err.find(expected), std::string::npos)
-      << "expected \"" << expected << "\" in: " << r.err;
-}
-
 TEST(PlanCli, BadOptionsExitWith2AndOneLineNamingTheOption) {
-  const std::string out = temp_folder("bad") + "/out";
+  const std::string out = testing::fresh_folder("plan_cli_bad") + "/out";
   const std::string model = builtin_file();
   const std::string two_joints = testing::source_path("tests/malformed/good-2dof.csv");
   struct Case {
@@ -62,13 +45,13 @@ TEST(PlanCli, BadOptionsExitWith2AndOneLineNamingTheOption) {
     SCOPED_TRACE(c.args);
     std::vector<std::string> args = {"plan", "--model", model, "--out", out};
     for (const std::string& a : testing::split_arguments(c.args)) args.push_back(a);
-    expect_one_line_error(testing::run_cli(args), c.expected);
+    testing::expect_input_error(testing::run_cli(args), c.expected);
   }
   EXPECT_FALSE(std::filesystem::exists(out + "/plan.csv"));
 }
 
 TEST(PlanCli, PlanRunsAndSimulateMeasuresAtThePlannedPoses) {
-  const std::string dir = temp_folder("run");
+  const std::string dir = testing::fresh_folder("plan_cli_run");
   const testing::CliResult r = testing::run_cli(std::vector<std::string>{
       "plan", "--model", builtin_file(), "--measurement", "distance", "--poses", "40", "--pool",
       "2000", "--seed", "3", "--refine-passes", "2", "--out", dir + "/plan"});
@@ -103,7 +86,7 @@ TEST(PlanCli, PlanRunsAndSimulateMeasuresAtThePlannedPoses) {
 }
 
 TEST(PlanCli, ScenarioKeysForPlansAreCheckedWithFileAndLine) {
-  const std::string dir = temp_folder("scenario");
+  const std::string dir = testing::fresh_folder("plan_cli_scenario");
   std::ofstream(dir + "/two.csv") << "q1,q2\n0,0\n0.1,0.2\n";
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"poses: {identification: missing.csv}\n", "2: poses.identification"},
@@ -115,14 +98,15 @@ TEST(PlanCli, ScenarioKeysForPlansAreCheckedWithFileAndLine) {
   for (const auto& [body, expected] : cases) {
     SCOPED_TRACE(body);
     std::ofstream(dir + "/s.yaml") << "format: hapticcal-scenario/1\n" << body;
-    expect_one_line_error(testing::run_cli(std::vector<std::string>{
-                              "simulate", "--scenario", dir + "/s.yaml", "--out", dir + "/o"}),
-                          expected);
+    testing::expect_input_error(
+        testing::run_cli(std::vector<std::string>{"simulate", "--scenario", dir + "/s.yaml",
+                                                  "--out", dir + "/o"}),
+        expected);
   }
 }
 
 TEST(PlanCli, RecordedCandidatesChooseAmongTheLogsDistinctPoses) {
-  const std::string dir = temp_folder("meca");
+  const std::string dir = testing::fresh_folder("plan_cli_meca");
   const testing::CliResult r = testing::run_cli(std::vector<std::string>{
       "plan", "--model", testing::source_path("examples/meca500/meca500.yaml"), "--measurement",
       "position", "--poses", "20", "--candidates",

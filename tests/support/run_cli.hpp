@@ -3,6 +3,7 @@
 #pragma once
 
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -118,6 +119,26 @@ inline CliResult run_cli(const std::string& args) { return run_program(HAPTICCAL
 // The command line run in the folder `cwd` (its default --out is relative).
 inline CliResult run_cli_in(const std::string& cwd, const std::vector<std::string>& args) {
   return run_program(HAPTICCAL_CLI, args, cwd);
+}
+
+// A fresh, empty folder `name` under the tests' temporary directory.
+inline std::string fresh_folder(const std::string& name) {
+  const std::string dir = ::testing::TempDir() + "/" + name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// Bad input: exit code 2, nothing on standard output, one line on standard
+// error that starts "hapticcal: " and holds `expected`.
+inline void expect_input_error(const CliResult& r, const std::string& expected) {
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_EQ(r.out, "");
+  ASSERT_FALSE(r.err.empty());
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "not one line: " << r.err;
+  EXPECT_EQ(r.err.rfind("hapticcal: ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find(expected), std::string::npos)
+      << "expected \"" << expected << "\" in: " << r.err;
 }
 
 }  // namespace hapticcal::testing
