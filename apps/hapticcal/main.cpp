@@ -62,12 +62,24 @@ void add_chain_options(CLI::App* command, ChainOptions& chain) {
                       "Root link of a URDF model's chain (default: the URDF's root link)");
 }
 
+// Writes report.html with its figures into `dir` (a staging folder that
+// becomes `shown`); returns what to print once the set is in place.
+std::string report(const hapticcal::Report& r, const std::string& dir, const std::string& shown) {
+  std::string note;
+  const int drawn = hapticcal::write_report(r, dir, note);
+  std::string said = fmt::format("report: {}/report.html ({} figures, SVG and PNG in {}/figures)\n",
+                                 shown, drawn, shown);
+  if (!note.empty()) said += fmt::format("note: {}\n", note);
+  return said;
+}
+
 struct EvaluateOptions {
   std::string fixture;
   std::vector<std::string> point_distance;
-  std::string model, log, columns, reference;
+  std::string model, log, columns, reference, out = "hapticcal-out/evaluate";
   ChainOptions chain;
   bool json = false;
+  bool out_given = false;  // --json writes no files unless --out is given
 };
 
 int run_evaluate(const EvaluateOptions& o) {
@@ -85,59 +97,28 @@ int run_evaluate(const EvaluateOptions& o) {
       cmp ? cmp->model : hapticcal::evaluate(model, log, known.distances, known.points);
   const std::optional<hapticcal::Evaluation> ref =
       cmp ? std::optional<hapticcal::Evaluation>(cmp->reference) : std::nullopt;
+  const std::string json = hapticcal::evaluation_json(cmp ? &*cmp : nullptr, ev);
+  const std::vector<std::string> lines =
+      hapticcal::evaluation_lines(cmp ? &*cmp : nullptr, ev, o.reference);
   if (o.json) {
-    fmt::print("{}\n", hapticcal::evaluation_json(cmp ? &*cmp : nullptr, ev));
-    return 0;
+    fmt::print("{}\n", json);
+    if (!o.out_given) return 0;
+  } else {
+    fmt::print("model: {} ({}, {} joints)\n", o.model, model.name, model.dof());
+    fmt::print("log:   {} ({} rows)\n", o.log, ev.n);
+    for (const std::string& line : lines) fmt::print("{}\n", line);
   }
-  fmt::print("model: {} ({}, {} joints)\n", o.model, model.name, model.dof());
-  fmt::print("log:   {} ({} rows)\n", o.log, ev.n);
-  if (ev.distance) {
-    fmt::print("distance error: RMS {:.4f} mm, max {:.4f} mm\n", ev.distance->rms * 1e3,
-               ev.distance->max * 1e3);
-  }
-  if (ev.orientation) {
-    fmt::print("orientation error: RMS {:.4f} mrad, max {:.4f} mrad\n", ev.orientation->rms * 1e3,
-               ev.orientation->max * 1e3);
-  }
-  if (ev.position) {
-    fmt::print("position error: RMS {:.4f} mm, max {:.4f} mm\n", ev.position->rms * 1e3,
-               ev.position->max * 1e3);
-  }
-  for (const auto& l : ev.labels) {
-    fmt::print("{} '{}' ({} samples): {} {:.4f} mm mean, {:.4f} mm RMS\n",
-               ev.mean_point_deviation ? "point" : "plane", l.name, l.samples,
-               ev.mean_point_deviation ? "spread about its centre" : "distance from its plane",
-               l.mean_deviation * 1e3, l.rms_deviation * 1e3);
-    if (l.rms_known_error) {
-      fmt::print("  against its known position: {:.4f} mm RMS\n", *l.rms_known_error * 1e3);
-    }
-  }
-  if (ev.mean_point_deviation) {
-    fmt::print("point deviation (every sample): mean {:.4f} mm, RMS {:.4f} mm{}\n",
-               *ev.mean_point_deviation * 1e3, *ev.rms_point_deviation * 1e3,
-               ref && ref->mean_point_deviation ? fmt::format(" ({} : mean {:.4f} mm)", o.reference,
-                                                              *ref->mean_point_deviation * 1e3)
-                                                : std::string());
-  }
-  if (ev.max_point_distance_error) {
-    fmt::print("known distances: largest error {:.4f} mm\n", *ev.max_point_distance_error * 1e3);
-  }
-  if (ev.rms_known_point_error) {
-    fmt::print("known positions: RMS error {:.4f} mm\n", *ev.rms_known_point_error * 1e3);
-  }
-  if (ev.rms_plane_distance) {
-    fmt::print("plane distance: RMS {:.4f} mm\n", *ev.rms_plane_distance * 1e3);
-  }
-  if (ref && ev.distance) {
-    fmt::print("against {}: distance RMS {:.4f} mm -> {:.4f} mm, improvement {:.1f} % (eq. 9)\n",
-               o.reference, ref->distance->rms * 1e3, ev.distance->rms * 1e3,
-               *cmp->improvement_distance_pct);
-  }
-  if (ref && ev.position) {
-    fmt::print("against {}: position RMS {:.4f} mm -> {:.4f} mm, improvement {:.1f} % (eq. 9)\n",
-               o.reference, ref->position->rms * 1e3, ev.position->rms * 1e3,
-               *cmp->improvement_position_pct);
-  }
+  hapticcal::OutputSet out(o.out, "evaluate");
+  hapticcal::write_file_atomically(out.dir() + "/results.json", json + "\n");
+  const std::string reported =
+      report(hapticcal::evaluation_report(model, o.model, log, ev, ref ? &*ref : nullptr,
+                                          o.reference, lines),
+             out.dir(), o.out);
+  out.commit();
+  // With --json, stdout is the JSON object alone.
+  std::FILE* said = o.json ? stderr : stdout;
+  fmt::print(said, "{}", reported);
+  fmt::print(said, "{}", hapticcal::cli::output_summary(out, o.out));
   return 0;
 }
 
@@ -156,17 +137,6 @@ struct CalibrateOptions {
 
 std::vector<std::string> names(const std::string& list) {
   return list.empty() ? std::vector<std::string>{} : hapticcal::split_columns(list);
-}
-
-// Writes report.html with its figures into `dir` (a staging folder that
-// becomes `shown`); returns what to print once the set is in place.
-std::string report(const hapticcal::Report& r, const std::string& dir, const std::string& shown) {
-  std::string note;
-  const int drawn = hapticcal::write_report(r, dir, note);
-  std::string said = fmt::format("report: {}/report.html ({} figures, SVG and PNG in {}/figures)\n",
-                                 shown, drawn, shown);
-  if (!note.empty()) said += fmt::format("note: {}\n", note);
-  return said;
 }
 
 // Values as the paper's Tables 2-5 print them: mm, mrad, deg.
@@ -189,11 +159,10 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
           t.converged ? "" : " (did not converge)");
       if (t.type == "capstan") {
         const char* labels[] = {"Re", "ro", "bo", "ri", "bi"};
-        const double scale[] = {1, 1e3, 180 / M_PI, 1e3, 180 / M_PI};
-        const char* units[] = {"", "mm", "deg", "mm", "deg"};
         for (int k = 0; k < 5; ++k) {
-          fmt::print("    {:<3} {:>12.6f} +- {:<10.6f} {}\n", labels[k], t.value[k] * scale[k],
-                     t.sd[k] * scale[k], units[k]);
+          const hapticcal::DisplayUnit u = hapticcal::display_unit(t, k);
+          fmt::print("    {:<3} {:>12.6f} +- {:<10.6f} {}\n", labels[k], t.value[k] * u.scale,
+                     t.sd[k] * u.scale, u.unit);
         }
       } else {
         fmt::print("    monomial view (rad):");
@@ -344,9 +313,13 @@ void print_validation_and_trajectory(const hapticcal::Scenario& sc,
   const bool paper = sc.paper_comparison();
   fmt::print(
       "Validation ({} poses{}): position RMS {:.4f} -> {:.4f} mm, orientation RMS "
-      "{:.4f} -> {:.4f} mrad\n",
+      "{:.4f} -> {:.4f} mrad{}\n",
       sc.validation_poses, paper ? ", Fig. 8" : "", t.position_rms_before * 1e3,
-      t.position_rms_after * 1e3, t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
+      t.position_rms_after * 1e3, t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3,
+      sc.measurement == hapticcal::MeasurementType::kDistance
+          ? fmt::format(", distance RMS {:.4f} -> {:.4f} mm", t.distance_rms_before * 1e3,
+                        t.distance_rms_after * 1e3)
+          : "");
   fmt::print(
       "Trajectory ({:.0f} s at {:.0f} Hz{}): distance RMS {:.4f} mm nominal, {:.4f} mm "
       "full ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %){}\n",
@@ -387,15 +360,18 @@ void print_general_study(const hapticcal::Scenario& sc, const hapticcal::StudyRe
     if (it == r.monte_carlo.end() || !(it->second.crlb_sd > 0)) return std::string("       -");
     return fmt::format("{:8.2f}", (row.identified - row.assigned) / it->second.crlb_sd);
   };
-  fmt::print("Transmission parameters (SI; assigned = truth)\n");
+  fmt::print("Transmission parameters (assigned = truth; the paper's Table 2 units)\n");
   fmt::print("  {:<20} {:>12} {:>12} {:>8} {:>8}\n", "parameter", "assigned", "identified", "I %",
              "err/CRLB");
   for (const hapticcal::StudyRow& row : rows) {
     if (!row.capstan) continue;
-    fmt::print("  {:<20} {:>12.6g} {:>12.6g} {} {}\n", row.name, row.assigned, row.identified,
-               pct(row.improvement_pct, 8), crlb(row));
+    fmt::print("  {:<20} {:>12.6f} {:>12.6f} {} {} {}\n", row.name, row.assigned * row.paper_scale,
+               row.identified * row.paper_scale, pct(row.improvement_pct, 8), crlb(row),
+               row.paper_unit);
   }
-  fmt::print("Kinematic parameters: deviation from nominal, assigned and identified (mm, mrad)\n");
+  fmt::print(
+      "Kinematic parameters: deviation from nominal (assigned = truth - nominal), assigned and "
+      "identified (mm, mrad)\n");
   fmt::print("  {:<20} {:>10} {:>10} {:>8} {:>8}\n", "parameter", "assigned", "identified", "I %",
              "err/CRLB");
   for (const hapticcal::StudyRow& row : rows) {
@@ -444,7 +420,9 @@ void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r)
                sc.nominal.links[f.joint].name, f.value.size(), f.rms_after * 1e3,
                sc.nominal.links[f.joint].name);
   }
-  fmt::print("Table 3 analogue: kinematic deviations (mm, mrad)\n");
+  fmt::print(
+      "Table 3 analogue: kinematic deviations from nominal (assigned = truth - nominal; mm, "
+      "mrad)\n");
   fmt::print("  {:<12} {:>10} {:>10} {:>8} {:>8}{}\n", "parameter", "assigned", "identified", "I %",
              "paper", many ? "   mean I %   RMSE/CRLB" : "");
   for (const hapticcal::StudyRow& row : rows) {
@@ -581,8 +559,9 @@ int run_force_study(ForceOptions o) {
   hapticcal::write_file_atomically(
       out.dir() + "/results.json",
       j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
-  const std::string reported =
-      report(hapticcal::force_report(before, after, reduction), out.dir(), o.out);
+  hapticcal::Report force_report = hapticcal::force_report(before, after, reduction);
+  force_report.outcome = hapticcal::force_outcome(study);
+  const std::string reported = report(force_report, out.dir(), o.out);
   out.commit();
   fmt::print("{}", reported);
   fmt::print("{}", hapticcal::cli::output_summary(out, o.out));
@@ -729,7 +708,11 @@ int main(int argc, char** argv) {
   evaluate->add_option("--model", eval.model, "Device file (YAML) or URDF (.urdf)")->required();
   add_chain_options(evaluate, eval.chain);
   evaluate->add_option("--log", eval.log, "Measurement log (CSV)")->required();
-  evaluate->add_flag("--json", eval.json, "Print one JSON object (metres)");
+  evaluate->add_flag("--json", eval.json,
+                     "Print one JSON object (metres); writes no files unless --out is given");
+  evaluate->add_option("--out", eval.out,
+                       "Output directory: report.html, results.json (default "
+                       "hapticcal-out/evaluate)");
   evaluate->add_option("--point-distance", eval.point_distance,
                        "A known distance between two fixture points: A:B=METRES (repeatable)");
   evaluate->add_option("--fixture", eval.fixture,
@@ -802,7 +785,10 @@ int main(int argc, char** argv) {
 
   int code = 1;
   try {
-    if (*evaluate) code = run_evaluate(eval);
+    if (*evaluate) {
+      eval.out_given = evaluate->get_option("--out")->count() > 0;
+      code = run_evaluate(eval);
+    }
     if (*simulate) code = run_simulate(sim);
     if (*calibrate) code = run_calibrate(cal);
     if (*force) code = run_force_study(fo);

@@ -175,4 +175,11 @@ Transmission fit_transmission(const DeviceModel& model, int joint, const Eigen::
   return fitted;
 }
 
+DisplayUnit display_unit(const TransmissionFit& fit, int k) {
+  if (fit.type != "capstan") return {1, "rad"};
+  static const DisplayUnit capstan[] = {
+      {1, ""}, {1e3, "mm"}, {180 / M_PI, "deg"}, {1e3, "mm"}, {180 / M_PI, "deg"}};
+  return capstan[k];
+}
+
 }  // namespace hapticcal

@@ -12,6 +12,16 @@ Report plan_report(const PlanProblem& problem, const Plan& plan) {
   report.title = fmt::format("hapticcal plan: {} poses, {}-optimal", plan.readings.rows(),
                              to_string(plan.criterion));
   const char* tip = problem.type() == MeasurementType::kDistance ? "distance" : "position";
+  report.outcome.status = "done";
+  report.outcome.headline.push_back(fmt::format(
+      "predicted RMS {} sd over the workspace: {:.3f} um with the {} planned poses, {:.3f} um "
+      "with random poses of the same count (median of {} draws)",
+      tip, plan.planned.rms_sd * 1e6, plan.readings.rows(), plan.random_median_rms_sd * 1e6,
+      plan.random_rms_sd.size()));
+  report.outcome.headline.push_back(fmt::format(
+      "condition number {:.4g} planned, {:.4g} random; {} parameters held at nominal",
+      plan.planned.conditioning.condition_number, plan.random.conditioning.condition_number,
+      problem.held().size()));
   report.sections.push_back(fmt::format(
       "<p>{} poses chosen from {} candidates (seed {}), measurement: {} (sd {:.3g} um), "
       "external encoders sd {:.3g} urad. Predicted RMS {} sd over the workspace (exact two-step "

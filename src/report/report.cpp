@@ -102,6 +102,20 @@ std::string inline_svg(const std::string& svg) {
   return start == std::string::npos ? std::string() : svg.substr(start);
 }
 
+std::string outcome_html(const Outcome& o) {
+  std::string html = fmt::format("<section id=\"outcome\"{}>\n<p><b>Status: {}</b></p>\n",
+                                 o.usable ? "" : " class=\"unusable\"", html_escape(o.status));
+  auto list = [&](const std::vector<std::string>& lines, const char* cls) {
+    if (lines.empty()) return;
+    html += fmt::format("<ul class=\"{}\">\n", cls);
+    for (const std::string& line : lines) html += "<li>" + html_escape(line) + "</li>\n";
+    html += "</ul>\n";
+  };
+  list(o.headline, "headline");
+  list(o.notes, "notes");
+  return html + "</section>\n";
+}
+
 }  // namespace
 
 std::string html_escape(const std::string& text) {
@@ -198,8 +212,12 @@ int write_report(const Report& report, const std::string& dir, std::string& note
                      "td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}\n"
                      "th{background:#eee}td:first-child{text-align:left}\n"
                      "figure{margin:1.5em 0}figure svg{max-width:100%;height:auto}\n"
-                     "figcaption{font-style:italic}.note{color:#a40}\n</style></head><body>\n";
+                     "figcaption{font-style:italic}.note{color:#a40}\n"
+                     "#outcome{padding:0.6em 1em;border:2px solid #2a7;background:#efe}\n"
+                     "#outcome.unusable{border-color:#c22;background:#fee}\n"
+                     "#outcome ul{margin:0.3em 0}\n</style></head><body>\n";
   html += "<h1>" + html_escape(report.title) + "</h1>\n";
+  html += outcome_html(report.outcome);
   if (!note.empty()) html += "<p class=\"note\">" + html_escape(note) + "</p>\n";
   for (const std::string& section : report.sections) html += section;
   html += figures + "</body></html>\n";

@@ -134,6 +134,65 @@ void selection_section(const KinematicFit& k, Report& report) {
   report.figures.push_back(f);
 }
 
+// simulate's outcome: the validation and trajectory errors before and after,
+// the Monte Carlo summary, and why a distance measurement leaves the position
+// error where it is.
+Outcome study_outcome(const Scenario& sc, const StudyResult& r) {
+  const TrialResult& t = r.first;
+  Outcome o;
+  o.usable = t.full.status == CalibrationStatus::kConverged;
+  o.status = fmt::format("{} trial(s), seed {}; the first trial's calibration: {}", r.trials,
+                         sc.seed, to_string(t.full.status));
+  std::string validation = fmt::format(
+      "validation ({} poses): position RMS {:.4f} -> {:.4f} mm, orientation RMS {:.4f} -> "
+      "{:.4f} mrad",
+      sc.validation_poses, t.position_rms_before * 1e3, t.position_rms_after * 1e3,
+      t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
+  if (sc.measurement == MeasurementType::kDistance) {
+    validation += fmt::format(", distance RMS {:.4f} -> {:.4f} mm", t.distance_rms_before * 1e3,
+                              t.distance_rms_after * 1e3);
+  }
+  o.headline.push_back(validation);
+  o.headline.push_back(fmt::format(
+      "trajectory ({:.0f} s at {:.0f} Hz): distance RMS {:.4f} mm nominal, {:.4f} mm full "
+      "calibration ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %){}",
+      sc.trajectory_seconds, sc.trajectory_rate_hz, t.trajectory_rms_before * 1e3,
+      t.trajectory_rms_full * 1e3, rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
+      t.trajectory_rms_kinematic * 1e3,
+      rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before),
+      sc.paper_comparison() ? fmt::format("; the paper measured {:.1f} % and {:.1f} %",
+                                          kPaperImprovementFullPct,
+                                          kPaperImprovementKinematicOnlyPct)
+                            : ""));
+  if (r.trials > 1 && !r.monte_carlo.empty()) {
+    std::vector<double> e;
+    for (const auto& [name, m] : r.monte_carlo) {
+      if (std::isfinite(m.efficiency)) e.push_back(m.efficiency);
+    }
+    std::sort(e.begin(), e.end());
+    if (!e.empty()) {
+      o.headline.push_back(fmt::format(
+          "Monte Carlo over {} trials: RMSE / CRLB median {:.3f} over {} parameters (range "
+          "{:.3f} - {:.3f}); 1 is an efficient estimator",
+          r.trials, e[e.size() / 2], e.size(), e.front(), e.back()));
+    }
+  }
+  std::string unseen;  // held because the measurement cannot see them at all
+  for (const ParameterEstimate& e : t.full.kinematics.parameters) {
+    if (!e.identifiable && e.reason.starts_with("no effect"))
+      unseen += (unseen.empty() ? "" : ", ") + e.name;
+  }
+  if (sc.measurement == MeasurementType::kDistance && !unseen.empty()) {
+    o.notes.push_back(fmt::format(
+        "A distance from a fixed anchor does not change when the device turns about the anchor, "
+        "nor with the tool's orientation: {} have no effect on it and stay at nominal, so the "
+        "validation position and orientation errors keep their deviations. The distance error "
+        "is what the calibration reached.",
+        unseen));
+  }
+  return o;
+}
+
 }  // namespace
 
 Report calibration_report(const CalibrationResult& result, const DeviceModel& nominal,
@@ -142,54 +201,75 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   const KinematicFit& k = result.kinematics;
   Report report;
   report.title = fmt::format("hapticcal calibrate: {} on {}", nominal.name, log.origin);
-  // The outcome first: a banner no reader can miss, with the notes.
+  // The outcome first, with what the terminal prints: status, RMS before and
+  // after, held-out error, solver, step 1, notes and warnings.
   const bool usable = result.status == CalibrationStatus::kConverged;
-  std::string banner = fmt::format(
-      "<div class=\"status\" style=\"padding:0.6em 1em;border:2px solid {0};background:{1}\">"
-      "<b>Status: {2}</b> &mdash; {3}{4}",
-      usable ? "#2a7" : "#c22", usable ? "#efe" : "#fee", to_string(result.status),
-      html_escape(result.status_reason),
-      usable ? "" : ". <b>This calibration is not usable: no new calibrated.yaml was written.</b>");
-  if (!result.notes.empty()) {
-    banner += "<ul>";
-    for (const std::string& note : result.notes) banner += "<li>" + html_escape(note) + "</li>";
-    banner += "</ul>";
+  Outcome& o = report.outcome;
+  o.usable = usable;
+  o.status = fmt::format("{} ({}){}", to_string(result.status), result.status_reason,
+                         usable ? "" : ": this calibration is not usable");
+  const std::string measured = traits(k.type).name;
+  o.headline.push_back(fmt::format("RMS {} error: {:.4f} mm before, {:.4f} mm after (training)",
+                                   measured, k.rms_before * 1e3, k.rms_after * 1e3));
+  o.headline.push_back(
+      std::isfinite(k.cv_rms)
+          ? fmt::format("held-out RMS ({}-fold cross-validation by pose): {:.4f} mm", k.cv_folds,
+                        k.cv_rms * 1e3)
+          : fmt::format("held-out RMS (cross-validation): {}",
+                        k.cv_note.empty() ? std::string("not computed") : k.cv_note));
+  o.headline.push_back(fmt::format(
+      "{} parameters identified{}; condition number {:.4g}; sd from sigma = {:.4g} mm ({}); "
+      "solver: {} after {} iterations",
+      k.identified,
+      k.model_selection ? fmt::format(" ({} identifiable; model selection)",
+                                      k.structurally_identified)
+                        : "",
+      k.condition_number, k.sigma * 1e3, k.sigma_given ? "given" : "residual estimate",
+      k.converged ? "converged" : "NOT converged", k.iterations));
+  for (const TransmissionFit& t : result.transmissions) {
+    o.headline.push_back(fmt::format(
+        "step 1, {} {} ({} samples): RMS of ext - q - c {:.4f} mrad before, {:.4f} mrad after{}; "
+        "encoder zero c {:.6f} +- {:.6f} mrad",
+        nominal.links[t.joint].name, t.type, t.n, t.rms_before * 1e3, t.rms_after * 1e3,
+        t.converged ? "" : " (did not converge)", t.offset * 1e3, t.offset_sd * 1e3));
   }
-  report.sections.push_back(banner + "</div>\n");
-  std::string flagged;
   for (const ParameterEstimate& e : k.parameters) {
-    if (e.large_change) flagged += (flagged.empty() ? "" : ", ") + e.name;
+    if (!e.large_change) continue;
+    o.notes.push_back(fmt::format(
+        "warning: {} moved {:.4g} {} from nominal (flagged beyond {} mm / {} mrad): plausible for "
+        "a base pose measured in an unknown frame; for a link, check the model and the log",
+        e.name, (e.value - e.nominal) * 1e3, e.unit == ParameterUnit::kAngle ? "mrad" : "mm",
+        kLargeChangeLength * 1e3, kLargeChangeAngle * 1e3));
   }
-  if (!flagged.empty()) {
-    report.sections.push_back(fmt::format(
-        "<p class=\"note\">Large changes from nominal (beyond {} mm or {} mrad): {}. Plausible "
-        "for a base pose measured in an unknown frame; for a link, check the model and the "
-        "log.</p>\n",
-        kLargeChangeLength * 1e3, kLargeChangeAngle * 1e3, html_escape(flagged)));
-  }
+  for (const std::string& note : result.notes)
+    o.notes.push_back(note.rfind("warning: ", 0) == 0 ? note : "note: " + note);
   const std::string repeats =
       k.rows > k.poses ? fmt::format(" ({} poses, repeats averaged; repeatability {:.4f} mm RMS)",
                                      k.poses, k.repeatability * 1e3)
                        : "";
   report.sections.push_back(fmt::format(
-      "<p>{} rows{}, {} measurements; {} parameters identified; condition number {:.4g}; "
-      "observability O1 {:.4g}, O4 {:.4g}; RMS error {:.4f} mm before, {:.4f} mm after "
-      "(training); <b>held-out RMS {}</b>.{}</p>\n",
-      k.rows, repeats, traits(k.type).name, k.identified, k.condition_number, k.observability.O1,
-      k.observability.O4, k.rms_before * 1e3, k.rms_after * 1e3,
-      std::isfinite(k.cv_rms)
-          ? fmt::format("{:.4f} mm ({}-fold cross-validation by pose)", k.cv_rms * 1e3, k.cv_folds)
-          : html_escape(k.cv_note.empty() ? std::string("not computed") : k.cv_note),
+      "<p>{} rows{}, {} measurements; observability O1 {:.4g}, O4 {:.4g} (angles scaled by "
+      "{:.3f} m).{}</p>\n",
+      k.rows, repeats, traits(k.type).name, k.observability.O1, k.observability.O4,
+      k.length_scale,
       k.rank_deficient ? " <b>Rank-deficient: see the held parameters.</b>" : ""));
+  // Step 1 in the terminal's units (the paper's Table 2), the encoder zero c last.
   std::vector<std::vector<std::string>> tx;
   for (const TransmissionFit& t : result.transmissions) {
     for (size_t i = 0; i < t.names.size(); ++i) {
-      tx.push_back({t.names[i], fmt::format("{:.6g}", t.value[i]), fmt::format("{:.3g}", t.sd[i])});
+      const DisplayUnit u = display_unit(t, static_cast<int>(i));
+      tx.push_back({t.names[i], fmt::format("{:.6f}", t.nominal[i] * u.scale),
+                    fmt::format("{:.6f}", t.value[i] * u.scale),
+                    fmt::format("{:.6f}", t.sd[i] * u.scale), u.unit.empty() ? "-" : u.unit});
     }
+    tx.push_back({nominal.links[t.joint].name + ".c (encoder zero, nuisance)", "-",
+                  fmt::format("{:.6f}", t.offset * 1e3), fmt::format("{:.6f}", t.offset_sd * 1e3),
+                  "mrad"});
   }
   if (!tx.empty()) {
-    report.sections.push_back("<h2>Transmissions (step 1, SI units)</h2>\n" +
-                              html_table({"parameter", "identified", "sd"}, tx));
+    report.sections.push_back(
+        "<h2>Transmissions (step 1)</h2>\n" +
+        html_table({"parameter", "nominal", "identified", "sd", "unit"}, tx));
   }
   report.sections.push_back(parameter_table(k));
   report.sections.push_back(held_table(k));
@@ -294,29 +374,39 @@ Report study_report(const Scenario& sc, const StudyResult& r) {
     if (!row.held.empty()) continue;
     const std::string ip =
         std::isfinite(row.improvement_pct) ? fmt::format("{:.2f}", row.improvement_pct) : "-";
-    std::vector<std::string> cells =
-        row.capstan ? std::vector<std::string>{row.name, fmt::format("{:.6g}", row.assigned),
-                                               fmt::format("{:.6g}", row.identified), ip}
-                    : std::vector<std::string>{row.name, f4((row.assigned - row.nominal) * 1e3),
-                                               f4((row.identified - row.nominal) * 1e3), ip};
+    // The terminal's units: Table 2 values as the paper prints them, Table 3
+    // deviations from nominal in mm and mrad.
+    const double shift = row.capstan ? 0 : row.nominal;
+    auto value = [&](double v) {
+      return fmt::format("{:.{}f}", (v - shift) * row.paper_scale, row.capstan ? 6 : 4);
+    };
+    std::vector<std::string> cells = {row.name, value(row.assigned), value(row.identified), ip};
     if (paper_study) cells.push_back(paper(row.name));  // the paper's columns: its study only
     cells.push_back(mc(row.name, false));
     cells.push_back(mc(row.name, true));
+    cells.push_back(row.paper_unit.empty() ? "-" : row.paper_unit);
     (row.capstan ? t2 : t3).push_back(cells);
   }
-  std::vector<std::string> header = {"parameter", "assigned", "identified", "I %"};
-  if (paper_study) header.push_back("paper I %");
-  header.insert(header.end(), {"mean I %", "RMSE / CRLB"});
+  auto header = [&](bool deviations) {
+    std::vector<std::string> h = {"parameter", deviations ? "assigned deviation" : "assigned",
+                                  deviations ? "identified deviation" : "identified", "I %"};
+    if (paper_study) h.push_back("paper I %");
+    h.insert(h.end(), {"mean I %", "RMSE / CRLB", "unit"});
+    return h;
+  };
+  if (!t2.empty()) {
+    report.sections.push_back(
+        (paper_study ? "<h2>Table 2 analogue: capstan drives (assigned = truth)</h2>\n"
+                     : "<h2>Transmission parameters: assigned (truth) and identified</h2>\n") +
+        html_table(header(false), t2));
+  }
   report.sections.push_back(
-      (paper_study ? "<h2>Table 2 analogue: capstan drives (SI units)</h2>\n"
-                   : "<h2>Transmission parameters (SI units): assigned and identified</h2>\n") +
-      html_table(header, t2));
-  report.sections.push_back((paper_study
-                                 ? "<h2>Table 3 analogue: kinematic deviations (mm, mrad)</h2>\n"
-                                 : "<h2>Kinematic deviations from nominal (mm, mrad): assigned and "
-                                   "identified</h2>\n") +
-                            html_table(header, t3));
+      (paper_study ? "<h2>Table 3 analogue: kinematic deviations from nominal</h2>\n"
+                   : "<h2>Kinematic deviations from nominal: assigned (truth - nominal) and "
+                     "identified</h2>\n") +
+      html_table(header(true), t3));
   report.sections.push_back(held_table(t.full.kinematics));
+  report.outcome = study_outcome(sc, r);
 
   // Fig. 7: the parallelogram joint's error.
   const Log& ident = t.figures.identification;
@@ -435,6 +525,33 @@ Report force_report(const ForceRun& nominal, const ForceRun& calibrated, double 
     report.figures.push_back(f);
   }
   return report;
+}
+
+Outcome force_outcome(const ForceStudy& study) {
+  const ForceScenario& sc = study.scenario;
+  const ForceRun &before = study.nominal, &after = study.calibrated;
+  Outcome o;
+  o.status = "done";
+  o.headline.push_back(fmt::format(
+      "transverse force (|Fx, Fy|) RMS: {:.4f} N with the nominal model, {:.4f} N with the "
+      "calibrated one ({:.1f} % less)",
+      before.transverse_rms, after.transverse_rms, study.reduction_pct));
+  o.headline.push_back(fmt::format("at the end: Fz {:.4f} N desired, {:.4f} N nominal, {:.4f} N "
+                                   "calibrated",
+                                   before.desired.back()[2], before.measured.back()[2],
+                                   after.measured.back()[2]));
+  std::string posture;
+  for (int i = 0; i < sc.posture.size(); ++i)
+    posture += fmt::format("{}{:.4g}", i ? ", " : "", sc.posture[i]);
+  o.headline.push_back(fmt::format(
+      "virtual wall K = {} N/m moved {} mm along the handle's z in {} s, held {} s, at {} Hz; "
+      "gain G = {} (stable for |G| < {:.4f}); {}; posture q = [{}] rad{}",
+      sc.stiffness, sc.travel * 1e3, sc.move_seconds, sc.hold_seconds, sc.rate_hz, sc.gain,
+      study.stable_gain_limit,
+      sc.locked_joint >= 0 ? fmt::format("joint {} locked", sc.locked_joint + 1)
+                           : "no joint locked",
+      posture, study.default_posture ? " (the default posture)" : ""));
+  return o;
 }
 
 }  // namespace hapticcal

@@ -158,4 +158,65 @@ EvaluationComparison compare_to_reference(const DeviceModel& model, const Device
   return c;
 }
 
+std::vector<std::string> evaluation_lines(const EvaluationComparison* cmp, const Evaluation& ev,
+                                          const std::string& reference_name) {
+  std::vector<std::string> lines;
+  const Evaluation* ref = cmp ? &cmp->reference : nullptr;
+  if (ev.distance) {
+    lines.push_back(fmt::format("distance error: RMS {:.4f} mm, max {:.4f} mm",
+                                ev.distance->rms * 1e3, ev.distance->max * 1e3));
+  }
+  if (ev.orientation) {
+    lines.push_back(fmt::format("orientation error: RMS {:.4f} mrad, max {:.4f} mrad",
+                                ev.orientation->rms * 1e3, ev.orientation->max * 1e3));
+  }
+  if (ev.position) {
+    lines.push_back(fmt::format("position error: RMS {:.4f} mm, max {:.4f} mm",
+                                ev.position->rms * 1e3, ev.position->max * 1e3));
+  }
+  for (const auto& l : ev.labels) {
+    lines.push_back(fmt::format(
+        "{} '{}' ({} samples): {} {:.4f} mm mean, {:.4f} mm RMS",
+        ev.mean_point_deviation ? "point" : "plane", l.name, l.samples,
+        ev.mean_point_deviation ? "spread about its centre" : "distance from its plane",
+        l.mean_deviation * 1e3, l.rms_deviation * 1e3));
+    if (l.rms_known_error) {
+      lines.push_back(
+          fmt::format("  against its known position: {:.4f} mm RMS", *l.rms_known_error * 1e3));
+    }
+  }
+  if (ev.mean_point_deviation) {
+    lines.push_back(fmt::format(
+        "point deviation (every sample): mean {:.4f} mm, RMS {:.4f} mm{}",
+        *ev.mean_point_deviation * 1e3, *ev.rms_point_deviation * 1e3,
+        ref && ref->mean_point_deviation
+            ? fmt::format(" ({} : mean {:.4f} mm)", reference_name, *ref->mean_point_deviation * 1e3)
+            : std::string()));
+  }
+  if (ev.max_point_distance_error) {
+    lines.push_back(
+        fmt::format("known distances: largest error {:.4f} mm", *ev.max_point_distance_error * 1e3));
+  }
+  if (ev.rms_known_point_error) {
+    lines.push_back(
+        fmt::format("known positions: RMS error {:.4f} mm", *ev.rms_known_point_error * 1e3));
+  }
+  if (ev.rms_plane_distance) {
+    lines.push_back(fmt::format("plane distance: RMS {:.4f} mm", *ev.rms_plane_distance * 1e3));
+  }
+  if (ref && ev.distance) {
+    lines.push_back(
+        fmt::format("against {}: distance RMS {:.4f} mm -> {:.4f} mm, improvement {:.1f} % (eq. 9)",
+                    reference_name, ref->distance->rms * 1e3, ev.distance->rms * 1e3,
+                    *cmp->improvement_distance_pct));
+  }
+  if (ref && ev.position) {
+    lines.push_back(
+        fmt::format("against {}: position RMS {:.4f} mm -> {:.4f} mm, improvement {:.1f} % (eq. 9)",
+                    reference_name, ref->position->rms * 1e3, ev.position->rms * 1e3,
+                    *cmp->improvement_position_pct));
+  }
+  return lines;
+}
+
 }  // namespace hapticcal

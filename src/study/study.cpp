@@ -107,11 +107,10 @@ std::vector<StudyRow> study_rows(const Scenario& sc, const CalibrationResult& fu
     const Transmission& truth = sc.actual.links[t.joint].transmission;
     if (t.type != "capstan" || !std::holds_alternative<Capstan>(truth.model())) continue;
     const Eigen::VectorXd tv = truth.parameters();
-    const double scale[] = {1, 1e3, 180 / std::numbers::pi, 1e3, 180 / std::numbers::pi};
-    const char* unit[] = {"", "mm", "deg", "mm", "deg"};
     for (int c = 0; c < 5; ++c) {
+      const DisplayUnit u = display_unit(t, c);
       rows.push_back({t.names[c], true, tv[c], t.nominal[c], t.value[c],
-                      improvement_or_nan(tv[c], t.nominal[c], t.value[c]), "", scale[c], unit[c]});
+                      improvement_or_nan(tv[c], t.nominal[c], t.value[c]), "", u.scale, u.unit});
     }
   }
   const Eigen::VectorXd truth = sc.actual.kinematic_parameters();
@@ -814,9 +813,7 @@ void general_study_json(const Scenario& sc, const StudyResult& r, nlohmann::orde
   j["truth"] = truth;
   for (auto& [name, p] : j["parameters"].items()) {
     p.erase("paper_improvement_pct");
-    const double assigned = p["assigned"], nominal = p["nominal"], identified = p["identified"];
-    p["assigned_deviation"] = assigned - nominal;
-    p["identified_deviation"] = identified - nominal;
+    const double assigned = p["assigned"], identified = p["identified"];
     const auto mc = r.monte_carlo.find(name);
     const double sd = mc != r.monte_carlo.end() ? mc->second.crlb_sd : 0;
     p["error_in_crlb_sd"] = sd > 0 ? json((identified - assigned) / sd) : json(nullptr);
@@ -856,6 +853,8 @@ std::string study_json(const Scenario& sc, const StudyResult& r) {
         {"assigned", row.assigned},
         {"nominal", row.nominal},
         {"identified", row.identified},
+        {"assigned_deviation", row.assigned - row.nominal},
+        {"identified_deviation", row.identified - row.nominal},
         {"improvement_pct", row.improvement_pct},
         {"paper_improvement_pct", paper ? json(*paper) : json(nullptr)},
         {"crlb_sd", mc != r.monte_carlo.end() ? json(mc->second.crlb_sd) : json(nullptr)}};

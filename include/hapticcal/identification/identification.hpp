@@ -46,6 +46,15 @@ struct TransmissionFit {
   std::vector<double> monomial;  // polynomial: k_0..k_n in q (derived view)
 };
 
+// How the terminal and the reports print a step-1 parameter: the paper's
+// Table 2 units (capstan radii in mm, eccentricity angles in deg; the ratio
+// error is dimensionless, polynomial coefficients are in rad). Files are SI.
+struct DisplayUnit {
+  double scale = 1;       // display value = SI value * scale
+  std::string unit = "";  // "" for dimensionless
+};
+DisplayUnit display_unit(const TransmissionFit& fit, int k);
+
 struct ParameterEstimate {
   std::string name;
   int slot = 0;

@@ -25,9 +25,19 @@ struct FigureSpec {
   std::string extra;       // more gnuplot commands
 };
 
+// What a report opens with, before any table or figure: the status and the
+// headline numbers a reader needs first (plain text; write_report escapes it).
+struct Outcome {
+  std::string status;                 // e.g. "converged", "not usable", "done"
+  bool usable = true;                 // drawn green, else red
+  std::vector<std::string> headline;  // the numbers, one line each
+  std::vector<std::string> notes;     // warnings and notes, as the terminal prints them
+};
+
 struct Report {
   std::string title;
-  std::vector<std::string> sections;  // HTML blocks before the figures
+  Outcome outcome;                    // section#outcome, first after the title
+  std::vector<std::string> sections;  // HTML blocks after the outcome, before the figures
   std::vector<FigureSpec> figures;
 };
 
@@ -62,6 +72,16 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
 Report study_report(const Scenario& scenario, const StudyResult& result);
 // force: the Fig. 12 analogue for the nominal and the calibrated model.
 Report force_report(const ForceRun& nominal, const ForceRun& calibrated, double reduction_pct);
+// force's outcome block: the transverse force before and after, the final Fz
+// and the set-up (wall, gain and its stability limit, locked joint, posture).
+Outcome force_outcome(const ForceStudy& study);
+
+struct Evaluation;
+// evaluate: the lines the terminal prints as the outcome, each error per
+// sample (and the reference model's, if given), and the fixture's labels.
+Report evaluation_report(const DeviceModel& model, const std::string& model_path, const Log& log,
+                         const Evaluation& ev, const Evaluation* reference,
+                         const std::string& reference_path, const std::vector<std::string>& lines);
 
 class PlanProblem;
 struct Plan;

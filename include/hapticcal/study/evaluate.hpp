@@ -4,6 +4,8 @@
 
 #include <Eigen/Core>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/io/io.hpp"
@@ -71,6 +73,12 @@ EvaluationComparison compare_to_reference(const DeviceModel& model, const Device
                                           const Log& log,
                                           const std::vector<PointDistance>& point_distances = {},
                                           const std::vector<KnownPoint>& known_points = {});
+
+// What `evaluate` prints, one line each (mm, mrad), and its report's headline:
+// the errors of `ev`, the fixture figures, and with a comparison (whose
+// `model` is `ev`) the reference `reference_name`'s figures and eq. (9).
+std::vector<std::string> evaluation_lines(const EvaluationComparison* comparison,
+                                          const Evaluation& ev, const std::string& reference_name);
 
 // `evaluate --json`: one JSON object on one line, in metres: n, the RMS and max
 // of each error the log measures, the fixture figures, and with a comparison

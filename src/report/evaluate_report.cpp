@@ -1,0 +1,109 @@
+// The report of `evaluate`: a model's errors on a log, per sample, against a
+// reference model if one is given.
+#include <fmt/format.h>
+
+#include "hapticcal/report/report.hpp"
+#include "hapticcal/study/evaluate.hpp"
+
+namespace hapticcal {
+namespace {
+
+// Long logs are decimated to about this many points a figure.
+constexpr int kMaxPlotted = 2000;
+
+// One per-sample figure of |error| in `unit` (scaled by 1e3 from SI), the
+// model's and the reference's. A log axis when every value is positive, so
+// that errors orders of magnitude apart are both visible; else from zero.
+FigureSpec per_sample(const std::string& name, const std::string& caption,
+                      const std::string& ylabel, const Eigen::VectorXd& model,
+                      const Eigen::VectorXd* reference, const std::string& model_label,
+                      const std::string& reference_label) {
+  FigureSpec f;
+  f.name = name;
+  f.title = caption;
+  f.xlabel = "sample";
+  f.ylabel = ylabel;
+  std::vector<double> sample, m, r;
+  const int stride = std::max<int>(1, (model.size() + kMaxPlotted - 1) / kMaxPlotted);
+  bool positive = true;
+  for (int i = 0; i < model.size(); i += stride) {
+    sample.push_back(i + 1);
+    m.push_back(std::abs(model[i]) * 1e3);
+    positive = positive && m.back() > 0;
+    if (reference) {
+      r.push_back(std::abs((*reference)[i]) * 1e3);
+      positive = positive && r.back() > 0;
+    }
+  }
+  f.columns = {sample, m};
+  f.series = {{model_label, 0, 1, "points"}};
+  if (reference) {
+    f.columns.push_back(r);
+    f.series.push_back({reference_label, 0, 2, "points"});
+  }
+  f.extra = positive ? "set logscale y" : "set yrange [0:*]";
+  return f;
+}
+
+}  // namespace
+
+Report evaluation_report(const DeviceModel& model, const std::string& model_path, const Log& log,
+                         const Evaluation& ev, const Evaluation* reference,
+                         const std::string& reference_path, const std::vector<std::string>& lines) {
+  Report report;
+  report.title = fmt::format("hapticcal evaluate: {} on {}", model.name, log.origin);
+  report.outcome.status = "evaluated";
+  report.outcome.headline = lines;
+  report.sections.push_back(fmt::format(
+      "<p>Model {} ({}, {} joints); log {} ({} rows){}. Errors are the model's prediction minus "
+      "the measurement, in mm and mrad; results.json holds them in metres and radians.</p>\n",
+      html_escape(model_path), html_escape(model.name), model.dof(), html_escape(log.origin),
+      ev.n,
+      reference ? fmt::format("; reference model {}", html_escape(reference_path)) : std::string()));
+  if (!ev.labels.empty()) {
+    std::vector<std::vector<std::string>> rows;
+    const bool points = ev.mean_point_deviation.has_value();
+    for (const auto& l : ev.labels) {
+      rows.push_back({l.name, std::to_string(l.samples), fmt::format("{:.4f}", l.mean_deviation * 1e3),
+                      fmt::format("{:.4f}", l.rms_deviation * 1e3),
+                      l.rms_known_error ? fmt::format("{:.4f}", *l.rms_known_error * 1e3) : "-"});
+    }
+    report.sections.push_back(
+        fmt::format("<h2>Fixture {} </h2>\n", points ? "points" : "planes") +
+        html_table({"label", "samples",
+                    points ? "mean spread about its centre [mm]" : "mean distance from its plane [mm]",
+                    points ? "RMS spread [mm]" : "RMS distance [mm]",
+                    "RMS error against its known position [mm]"},
+                   rows));
+  }
+  const std::string mine = "this model", theirs = "reference model";
+  const Evaluation* ref = reference;
+  if (ev.fixture_error.size() > 0) {
+    const bool points = ev.mean_point_deviation.has_value();
+    report.figures.push_back(per_sample(
+        "fixture_errors_per_sample",
+        points ? "Distance of each sample's tool point from its fixture point's centre"
+               : "Distance of each sample's tool point from its plane",
+        points ? "|p_model - centre| [mm]" : "|n . (p_model - centre)| [mm]", ev.fixture_error,
+        ref && ref->fixture_error.size() ? &ref->fixture_error : nullptr, mine, theirs));
+  }
+  if (ev.position) {
+    report.figures.push_back(per_sample("position_errors_per_sample", "Position error per sample",
+                                        "|p_model - p_measured| [mm]", ev.position_error,
+                                        ref ? &ref->position_error : nullptr, mine, theirs));
+  }
+  if (ev.distance) {
+    report.figures.push_back(per_sample("distance_errors_per_sample", "Distance error per sample",
+                                        "|delta_model - delta_measured| [mm]", ev.distance_error,
+                                        ref ? &ref->distance_error : nullptr, mine, theirs));
+  }
+  if (ev.orientation) {
+    report.figures.push_back(per_sample("orientation_errors_per_sample",
+                                        "Orientation error per sample", "orientation error [mrad]",
+                                        ev.orientation_error,
+                                        ref ? &ref->orientation_error : nullptr, mine, theirs));
+  }
+  return report;
+}
+
+}  // namespace hapticcal
