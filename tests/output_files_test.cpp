@@ -107,8 +107,8 @@ TEST_F(OutputFiles, EachCommandHasItsOwnDefaultFolder) {
   EXPECT_EQ(folders, (std::set<std::string>{"calibrate", "simulate"}));
   EXPECT_TRUE(fs::exists(calibrate_dir() / "results.json"));
   EXPECT_TRUE(fs::exists(simulate_dir() / "results.json"));
-  // force and plan, not run here, name theirs in --help.
-  for (const std::string command : {"force", "plan"}) {
+  // evaluate, force and plan, not run here, name theirs in --help.
+  for (const std::string command : {"evaluate", "force", "plan"}) {
     const testing::CliResult help = testing::run_cli({command, "--help"});
     EXPECT_NE(help.out.find("default hapticcal-out/" + command + ")"), std::string::npos)
         << help.out;

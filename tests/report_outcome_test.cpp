@@ -1,0 +1,344 @@
+// Every report opens with its outcome and carries what the terminal printed,
+// in the terminal's units; results.json agrees with both (SI).
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "run_cli.hpp"
+#include "test_models.hpp"
+
+namespace hapticcal {
+namespace {
+
+namespace fs = std::filesystem;
+
+// One run of every command, shared by the tests (a Monte Carlo study of 3
+// trials, its calibration, a force study, an evaluation and a plan).
+class ReportOutcome : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new std::string(testing::fresh_folder("report_outcome"));
+    runs_ = new std::map<std::string, testing::CliResult>;
+    const std::string& d = *dir_;
+    const std::string device = testing::source_path("data/devices/baser-7dof.yaml");
+    (*runs_)["simulate"] = testing::run_cli("simulate --trials 3 --out " + d + "/simulate");
+    (*runs_)["calibrate"] = testing::run_cli("calibrate --model " + device + " --log " + d +
+                                             "/simulate/identification.csv --out " + d +
+                                             "/calibrate");
+    (*runs_)["force"] = testing::run_cli("force --actual " + d + "/simulate/actual.yaml --nominal " +
+                                         d + "/simulate/nominal.yaml --calibrated " + d +
+                                         "/simulate/calibrated.yaml --out " + d + "/force");
+    (*runs_)["evaluate"] = testing::run_cli(
+        "evaluate --model " + d + "/calibrate/calibrated.yaml --log " + d +
+        "/simulate/validation.csv --reference " + d + "/simulate/nominal.yaml --out " + d +
+        "/evaluate");
+    (*runs_)["plan"] = testing::run_cli("plan --model " + device +
+                                        " --measurement distance --poses 40 --pool 500 --seed 3 "
+                                        "--refine-passes 0 --out " +
+                                        d + "/plan");
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*dir_);
+    delete dir_;
+    delete runs_;
+  }
+  static const testing::CliResult& run(const std::string& command) {
+    const testing::CliResult& r = runs_->at(command);
+    EXPECT_EQ(r.exit_code, 0) << command << ": " << r.err;
+    return r;
+  }
+  static std::string html(const std::string& command) {
+    return testing::slurp(*dir_ + "/" + command + "/report.html");
+  }
+  static nlohmann::json results(const std::string& command) {
+    return nlohmann::json::parse(testing::slurp(*dir_ + "/" + command + "/results.json"));
+  }
+  static std::string* dir_;
+  static std::map<std::string, testing::CliResult>* runs_;
+};
+std::string* ReportOutcome::dir_ = nullptr;
+std::map<std::string, testing::CliResult>* ReportOutcome::runs_ = nullptr;
+
+std::string unescape(std::string s) {
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"&gt;", ">"}, {"&lt;", "<"}, {"&quot;", "\""}, {"&amp;", "&"}}) {
+    for (size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size()))
+      s.replace(at, from.size(), to);
+  }
+  return s;
+}
+
+// The report's outcome section, unescaped; empty if there is none.
+std::string outcome(const std::string& html) {
+  const size_t start = html.find("<section id=\"outcome\"");
+  if (start == std::string::npos) return {};
+  return unescape(html.substr(start, html.find("</section>", start) - start));
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+std::vector<std::string> numbers_in(const std::string& line) {
+  static const std::regex number(R"(-?\d+\.\d+)");
+  std::vector<std::string> found;
+  for (auto it = std::sregex_iterator(line.begin(), line.end(), number);
+       it != std::sregex_iterator(); ++it)
+    found.push_back(it->str());
+  return found;
+}
+
+// Every number of every terminal line containing one of `markers` is in `block`.
+int expect_numbers_carried(const std::string& terminal, const std::vector<std::string>& markers,
+                           const std::string& block) {
+  int carried = 0;
+  for (const std::string& line : lines_of(terminal)) {
+    bool wanted = false;
+    for (const std::string& m : markers) wanted = wanted || line.find(m) != std::string::npos;
+    if (!wanted) continue;
+    for (const std::string& n : numbers_in(line)) {
+      EXPECT_NE(block.find(n), std::string::npos) << "'" << n << "' of: " << line;
+      ++carried;
+    }
+  }
+  return carried;
+}
+
+// The cells of the report's table row whose first cell is `name`.
+std::vector<std::string> table_row(const std::string& html, const std::string& name) {
+  const std::string start = "<tr><td>" + name + "</td>";
+  const size_t at = html.find(start);
+  if (at == std::string::npos) return {};
+  const std::string row = html.substr(at, html.find("</tr>", at) - at);
+  static const std::regex cell("<td>([^<]*)</td>");
+  std::vector<std::string> cells;
+  for (auto it = std::sregex_iterator(row.begin(), row.end(), cell); it != std::sregex_iterator();
+       ++it)
+    cells.push_back(unescape((*it)[1].str()));
+  return cells;
+}
+
+std::vector<std::string> words(const std::string& line) {
+  std::istringstream in(line);
+  std::vector<std::string> w;
+  for (std::string s; in >> s;) w.push_back(s);
+  return w;
+}
+
+TEST_F(ReportOutcome, EveryReportOpensWithItsOutcome) {
+  for (const char* command : {"simulate", "calibrate", "force", "evaluate", "plan"}) {
+    SCOPED_TRACE(command);
+    run(command);
+    const std::string page = html(command);
+    const size_t title = page.find("<h1>"), block = page.find("<section id=\"outcome\"");
+    ASSERT_NE(block, std::string::npos);
+    EXPECT_LT(title, block);
+    // Nothing but the title before it: no table, section heading or figure.
+    for (const char* later : {"<h2", "<table", "<figure", "<p>"}) {
+      const size_t at = page.find(later);
+      if (at != std::string::npos) EXPECT_LT(block, at) << later;
+    }
+    const std::string o = outcome(page);
+    EXPECT_NE(o.find("Status: "), std::string::npos) << o;
+    EXPECT_NE(o.find("<ul class=\"headline\">"), std::string::npos) << o;
+  }
+}
+
+TEST_F(ReportOutcome, CalibrateCarriesWhatTheTerminalShows) {
+  const testing::CliResult& r = run("calibrate");
+  const std::string o = outcome(html("calibrate"));
+  EXPECT_NE(o.find("Status: converged"), std::string::npos) << o;
+  // Step 1 (RMS before and after, the encoder zero c of all 7 joints), the
+  // solver, the RMS residual, the held-out error, notes and warnings.
+  const int carried = expect_numbers_carried(
+      r.out,
+      {"RMS of ext - q - c", "c (encoder zero", "solver:", "RMS residual:", "held-out RMS",
+       "note:", "warning:"},
+      o);
+  // Four step-1 joints (three capstans and j4's polynomial) of four numbers
+  // each, and the solver, residual and held-out lines.
+  EXPECT_GE(carried, 4 * 4 + 3) << r.out;
+  EXPECT_NE(o.find("held-out RMS"), std::string::npos);
+  EXPECT_NE(o.find("solver: converged"), std::string::npos);
+}
+
+TEST_F(ReportOutcome, CalibrateTablesUseTheTerminalsUnits) {
+  const testing::CliResult& r = run("calibrate");
+  const std::string page = html("calibrate");
+  const std::map<std::string, std::string> capstan = {{"Re", "ratio_error"},
+                                                      {"ro", "r_out"},
+                                                      {"bo", "beta_out"},
+                                                      {"ri", "r_in"},
+                                                      {"bi", "beta_in"}};
+  std::string joint;
+  int step1 = 0, step2 = 0;
+  bool in_step2 = false;
+  for (const std::string& line : lines_of(r.out)) {
+    const std::vector<std::string> w = words(line);
+    if (w.empty()) continue;
+    if (line.starts_with("Step 2")) in_step2 = true;
+    if (line.starts_with("  held at nominal")) in_step2 = false;
+    if (!in_step2 && line.find("RMS of ext - q - c") != std::string::npos) joint = w[0];
+    if (!in_step2 && capstan.count(w[0]) && w.size() >= 4) {
+      // "    ro   12.345678 +- 0.000123 mm": nominal, identified, sd and unit as printed.
+      SCOPED_TRACE(line);
+      const std::vector<std::string> cells = table_row(page, joint + "." + capstan.at(w[0]));
+      ASSERT_EQ(cells.size(), 5u);
+      EXPECT_EQ(cells[2], w[1]);
+      EXPECT_EQ(cells[3], w[3]);
+      EXPECT_EQ(cells[4], w.size() > 4 ? w[4] : "-");
+      ++step1;
+    }
+    if (!in_step2 && line.find("c (encoder zero") != std::string::npos) {
+      const std::vector<std::string> cells =
+          table_row(page, joint + ".c (encoder zero, nuisance)");
+      ASSERT_EQ(cells.size(), 5u) << line;
+      EXPECT_EQ(cells[2], w[4]) << line;
+      EXPECT_EQ(cells[4], "mrad");
+    }
+    // "  j1.a  nominal identified deviation +- sd unit corr with"
+    if (in_step2 && w.size() >= 7 && w[4] == "+-") {
+      SCOPED_TRACE(line);
+      const std::vector<std::string> cells = table_row(page, w[0]);
+      ASSERT_GE(cells.size(), 6u);
+      for (int k : {1, 2, 3}) EXPECT_EQ(cells[k], w[k]);
+      EXPECT_EQ(cells[4], w[5]);  // sd
+      EXPECT_EQ(cells[5], w[6]);  // unit
+      ++step2;
+    }
+  }
+  EXPECT_EQ(step1, 3 * 5) << "three capstan joints of five parameters";
+  EXPECT_EQ(step2, results("calibrate")["identified"].get<int>());
+}
+
+TEST_F(ReportOutcome, SimulateTablesAgreeAcrossTerminalReportAndJson) {
+  const testing::CliResult& r = run("simulate");
+  const std::string page = html("simulate");
+  const nlohmann::json params = results("simulate")["parameters"];
+  int table2 = 0, table3 = 0;
+  int table = 0;
+  for (const std::string& line : lines_of(r.out)) {
+    if (line.starts_with("Table 2")) table = 2;
+    if (line.starts_with("Table 3")) table = 3;
+    if (line.starts_with("Validation")) table = 0;
+    const std::vector<std::string> w = words(line);
+    if (table == 0 || w.size() < 4 || !params.contains(w[0])) continue;
+    SCOPED_TRACE(line);
+    const nlohmann::json& p = params[w[0]];
+    const std::vector<std::string> cells = table_row(page, w[0]);
+    ASSERT_GE(cells.size(), 8u);
+    // The same numbers, to the terminal's precision, and the same unit.
+    const double tolerance = table == 2 ? 1e-6 : 6e-4;
+    EXPECT_NEAR(std::stod(cells[1]), std::stod(w[1]), tolerance);
+    EXPECT_NEAR(std::stod(cells[2]), std::stod(w[2]), tolerance);
+    // results.json: SI, `assigned` the truth's value and `assigned_deviation`
+    // what Table 3 prints (in mm or mrad).
+    EXPECT_NEAR(p["assigned_deviation"].get<double>(),
+                p["assigned"].get<double>() - p["nominal"].get<double>(), 1e-15);
+    if (table == 3) {
+      EXPECT_NEAR(p["assigned_deviation"].get<double>() * 1e3, std::stod(w[1]), tolerance);
+      EXPECT_NEAR(p["identified_deviation"].get<double>() * 1e3, std::stod(w[2]), tolerance);
+      EXPECT_TRUE(cells.back() == "mm" || cells.back() == "mrad") << cells.back();
+      ++table3;
+    } else {
+      const std::string unit = cells.back();
+      EXPECT_EQ(unit, line.ends_with(" mm") ? "mm" : line.ends_with(" deg") ? "deg" : "-");
+      const double scale = unit == "mm" ? 1e3 : unit == "deg" ? 180 / M_PI : 1;
+      EXPECT_NEAR(p["assigned"].get<double>() * scale, std::stod(w[1]), tolerance);
+      ++table2;
+    }
+  }
+  EXPECT_EQ(table2, 3 * 5);  // three capstans
+  EXPECT_EQ(table2 + table3, static_cast<int>(params.size()));
+}
+
+TEST_F(ReportOutcome, SimulateOutcomeHasTheValidationAndWhyPositionStays) {
+  const testing::CliResult& r = run("simulate");
+  const std::string o = outcome(html("simulate"));
+  EXPECT_GE(expect_numbers_carried(r.out, {"Validation (", "Trajectory ("}, o), 6 + 7);
+  EXPECT_NE(o.find("RMSE / CRLB median"), std::string::npos) << o;
+  // The distance measurement cannot see the base's turn about the anchor: the
+  // note names what it held for that reason, as results.json's held list does.
+  const nlohmann::json held = results("simulate")["held"];
+  int unseen = 0;
+  for (const auto& [name, why] : held.items()) {
+    if (why.get<std::string>().starts_with("no effect")) {
+      EXPECT_NE(o.find(name), std::string::npos) << name;
+      ++unseen;
+    }
+  }
+  EXPECT_GE(unseen, 2);
+  EXPECT_NE(o.find("The distance error is what the calibration reached"), std::string::npos);
+}
+
+TEST_F(ReportOutcome, ForceOutcomeHasTheForcesAndTheSetUp) {
+  const testing::CliResult& r = run("force");
+  const std::string o = outcome(html("force"));
+  EXPECT_GE(expect_numbers_carried(r.out, {"transverse force", "at the end:"}, o), 6);
+  const nlohmann::json j = results("force");
+  EXPECT_NE(o.find(fmt::format("stable for |G| < {:.4f}", j["stable_gain_limit"].get<double>())),
+            std::string::npos)
+      << o;
+  EXPECT_NE(o.find("posture q = ["), std::string::npos) << o;
+}
+
+TEST_F(ReportOutcome, EvaluateWritesAReportWithTheTerminalsLines) {
+  const testing::CliResult& r = run("evaluate");
+  const std::string o = outcome(html("evaluate"));
+  int lines = 0;
+  for (const std::string& line : lines_of(r.out)) {
+    if (line.starts_with("model:") || line.starts_with("log:") || line.starts_with("report:") ||
+        line.starts_with("wrote ") || line.starts_with("replaced "))
+      continue;
+    EXPECT_NE(o.find("<li>" + line + "</li>"), std::string::npos) << line;
+    ++lines;
+  }
+  EXPECT_EQ(lines, 4) << r.out;  // distance, position and both against the reference
+  const nlohmann::json j = results("evaluate");
+  EXPECT_EQ(j["n"], 200);
+  EXPECT_NE(r.out.find("report: " + *dir_ + "/evaluate/report.html"), std::string::npos) << r.out;
+}
+
+TEST_F(ReportOutcome, EvaluateJsonWritesFilesOnlyWithOut) {
+  const std::string cwd = testing::fresh_folder("report_outcome_json");
+  const std::vector<std::string> args = {
+      "evaluate", "--model", testing::source_path("data/devices/baser-7dof.yaml"), "--log",
+      *dir_ + "/simulate/validation.csv", "--json"};
+  const testing::CliResult bare = testing::run_cli_in(cwd, args);
+  ASSERT_EQ(bare.exit_code, 0) << bare.err;
+  EXPECT_FALSE(fs::exists(cwd + "/hapticcal-out")) << "--json without --out writes no files";
+  std::vector<std::string> with_out = args;
+  with_out.insert(with_out.end(), {"--out", "ev"});
+  const testing::CliResult written = testing::run_cli_in(cwd, with_out);
+  ASSERT_EQ(written.exit_code, 0) << written.err;
+  EXPECT_EQ(written.out, bare.out) << "stdout stays the JSON object alone";
+  EXPECT_NO_THROW(nlohmann::json::parse(written.out));
+  EXPECT_TRUE(fs::exists(cwd + "/ev/report.html"));
+  EXPECT_NE(written.err.find("report: ev/report.html"), std::string::npos) << written.err;
+  fs::remove_all(cwd);
+}
+
+TEST_F(ReportOutcome, PlanOutcomeHasThePredictedErrors) {
+  const testing::CliResult& r = run("plan");
+  const std::string o = outcome(html("plan"));
+  for (const std::string& line : lines_of(r.out)) {
+    if (line.find("predicted RMS") == std::string::npos) continue;
+    const std::vector<std::string> n = numbers_in(line);
+    ASSERT_GE(n.size(), 2u);
+    EXPECT_NE(o.find(n[0] + " um with the 40 planned poses"), std::string::npos) << o;
+    EXPECT_NE(o.find(n[1] + " um"), std::string::npos) << o;
+  }
+}
+
+}  // namespace
+}  // namespace hapticcal
