@@ -120,7 +120,7 @@ std::vector<std::string> table_row(const std::string& html, const std::string& n
   const size_t at = html.find(start);
   if (at == std::string::npos) return {};
   const std::string row = html.substr(at, html.find("</tr>", at) - at);
-  static const std::regex cell("<td>([^<]*)</td>");
+  static const std::regex cell("<td[^>]*>([^<]*)</td>");
   std::vector<std::string> cells;
   for (auto it = std::sregex_iterator(row.begin(), row.end(), cell); it != std::sregex_iterator();
        ++it)

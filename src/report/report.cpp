@@ -102,6 +102,13 @@ std::string inline_svg(const std::string& svg) {
   return start == std::string::npos ? std::string() : svg.substr(start);
 }
 
+bool is_number(const std::string& cell) {
+  if (cell == "-") return true;  // a number that does not apply
+  char* end = nullptr;
+  std::strtod(cell.c_str(), &end);
+  return !cell.empty() && end == cell.c_str() + cell.size();
+}
+
 std::string outcome_html(const Outcome& o) {
   std::string html = fmt::format("<section id=\"outcome\"{}>\n<p><b>Status: {}</b></p>\n",
                                  o.usable ? "" : " class=\"unusable\"", html_escape(o.status));
@@ -148,7 +155,10 @@ std::string html_table(const std::vector<std::string>& header,
   out += "</tr></thead><tbody>\n";
   for (const auto& row : rows) {
     out += "<tr>";
-    for (const std::string& cell : row) out += "<td>" + html_escape(cell) + "</td>";
+    for (const std::string& cell : row) {
+      // Numbers align right, text left (a reason, a name).
+      out += (is_number(cell) ? "<td class=\"n\">" : "<td>") + html_escape(cell) + "</td>";
+    }
     out += "</tr>\n";
   }
   return out + "</tbody></table>\n";
@@ -209,8 +219,8 @@ int write_report(const Report& report, const std::string& dir, std::string& note
                      "</title>\n<style>\n"
                      "body{font-family:sans-serif;margin:2em;max-width:1000px;color:#222}\n"
                      "table{border-collapse:collapse;margin:1em 0;font-size:90%}\n"
-                     "td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}\n"
-                     "th{background:#eee}td:first-child{text-align:left}\n"
+                     "td,th{border:1px solid #bbb;padding:2px 8px;text-align:left}\n"
+                     "th{background:#eee}td.n{text-align:right}\n"
                      "figure{margin:1.5em 0}figure svg{max-width:100%;height:auto}\n"
                      "figcaption{font-style:italic}.note{color:#a40}\n"
                      "#outcome{padding:0.6em 1em;border:2px solid #2a7;background:#efe}\n"
