@@ -29,16 +29,17 @@ class ReportOutcome : public ::testing::Test {
     const std::string& d = *dir_;
     const std::string device = testing::source_path("data/devices/baser-7dof.yaml");
     (*runs_)["simulate"] = testing::run_cli("simulate --trials 3 --out " + d + "/simulate");
-    (*runs_)["calibrate"] = testing::run_cli("calibrate --model " + device + " --log " + d +
-                                             "/simulate/identification.csv --out " + d +
-                                             "/calibrate");
-    (*runs_)["force"] = testing::run_cli("force --actual " + d + "/simulate/actual.yaml --nominal " +
-                                         d + "/simulate/nominal.yaml --calibrated " + d +
-                                         "/simulate/calibrated.yaml --out " + d + "/force");
-    (*runs_)["evaluate"] = testing::run_cli(
-        "evaluate --model " + d + "/calibrate/calibrated.yaml --log " + d +
-        "/simulate/validation.csv --reference " + d + "/simulate/nominal.yaml --out " + d +
-        "/evaluate");
+    (*runs_)["calibrate"] =
+        testing::run_cli("calibrate --model " + device + " --log " + d +
+                         "/simulate/identification.csv --out " + d + "/calibrate");
+    (*runs_)["force"] =
+        testing::run_cli("force --actual " + d + "/simulate/actual.yaml --nominal " + d +
+                         "/simulate/nominal.yaml --calibrated " + d +
+                         "/simulate/calibrated.yaml --out " + d + "/force");
+    (*runs_)["evaluate"] =
+        testing::run_cli("evaluate --model " + d + "/calibrate/calibrated.yaml --log " + d +
+                         "/simulate/validation.csv --reference " + d +
+                         "/simulate/nominal.yaml --out " + d + "/evaluate");
     (*runs_)["plan"] = testing::run_cli("plan --model " + device +
                                         " --measurement distance --poses 40 --pool 500 --seed 3 "
                                         "--refine-passes 0 --out " +
@@ -160,11 +161,11 @@ TEST_F(ReportOutcome, CalibrateCarriesWhatTheTerminalShows) {
   EXPECT_NE(o.find("Status: converged"), std::string::npos) << o;
   // Step 1 (RMS before and after, the encoder zero c of all 7 joints), the
   // solver, the RMS residual, the held-out error, notes and warnings.
-  const int carried = expect_numbers_carried(
-      r.out,
-      {"RMS of ext - q - c", "c (encoder zero", "solver:", "RMS residual:", "held-out RMS",
-       "note:", "warning:"},
-      o);
+  const int carried =
+      expect_numbers_carried(r.out,
+                             {"RMS of ext - q - c", "c (encoder zero",
+                              "solver:", "RMS residual:", "held-out RMS", "note:", "warning:"},
+                             o);
   // Four step-1 joints (three capstans and j4's polynomial) of four numbers
   // each, and the solver, residual and held-out lines.
   EXPECT_GE(carried, 4 * 4 + 3) << r.out;
@@ -200,8 +201,7 @@ TEST_F(ReportOutcome, CalibrateTablesUseTheTerminalsUnits) {
       ++step1;
     }
     if (!in_step2 && line.find("c (encoder zero") != std::string::npos) {
-      const std::vector<std::string> cells =
-          table_row(page, joint + ".c (encoder zero, nuisance)");
+      const std::vector<std::string> cells = table_row(page, joint + ".c (encoder zero, nuisance)");
       ASSERT_EQ(cells.size(), 5u) << line;
       EXPECT_EQ(cells[2], w[4]) << line;
       EXPECT_EQ(cells[4], "mrad");
@@ -311,9 +311,12 @@ TEST_F(ReportOutcome, EvaluateWritesAReportWithTheTerminalsLines) {
 
 TEST_F(ReportOutcome, EvaluateJsonWritesFilesOnlyWithOut) {
   const std::string cwd = testing::fresh_folder("report_outcome_json");
-  const std::vector<std::string> args = {
-      "evaluate", "--model", testing::source_path("data/devices/baser-7dof.yaml"), "--log",
-      *dir_ + "/simulate/validation.csv", "--json"};
+  const std::vector<std::string> args = {"evaluate",
+                                         "--model",
+                                         testing::source_path("data/devices/baser-7dof.yaml"),
+                                         "--log",
+                                         *dir_ + "/simulate/validation.csv",
+                                         "--json"};
   const testing::CliResult bare = testing::run_cli_in(cwd, args);
   ASSERT_EQ(bare.exit_code, 0) << bare.err;
   EXPECT_FALSE(fs::exists(cwd + "/hapticcal-out")) << "--json without --out writes no files";
@@ -337,6 +340,27 @@ TEST_F(ReportOutcome, PlanOutcomeHasThePredictedErrors) {
     ASSERT_GE(n.size(), 2u);
     EXPECT_NE(o.find(n[0] + " um with the 40 planned poses"), std::string::npos) << o;
     EXPECT_NE(o.find(n[1] + " um"), std::string::npos) << o;
+  }
+}
+
+// plan's table: the sd in the units of calibrate's tables, with a unit column;
+// plan.json keeps SI.
+TEST_F(ReportOutcome, PlanTableUsesTheTerminalsUnits) {
+  run("plan");
+  const std::string page = html("plan");
+  const nlohmann::json sd =
+      nlohmann::json::parse(testing::slurp(*dir_ + "/plan/plan.json"))["parameter_sd"];
+  const std::map<std::string, std::pair<double, std::string>> expected = {
+      {"j1.a", {1e3, "mm"}},        {"j2.alpha", {1e3, "mrad"}},
+      {"j1.r_out", {1e3, "mm"}},    {"j1.beta_out", {180 / M_PI, "deg"}},
+      {"j1.ratio_error", {1, "-"}}, {"j4.c1", {1, "rad"}}};
+  for (const auto& [name, unit] : expected) {
+    SCOPED_TRACE(name);
+    const std::vector<std::string> cells = table_row(page, name);
+    ASSERT_EQ(cells.size(), 5u);
+    EXPECT_EQ(cells[4], unit.second);
+    const double planned = sd[name]["planned"].get<double>() * unit.first;
+    EXPECT_NEAR(std::stod(cells[1]), planned, 1e-3 * planned);
   }
 }
 

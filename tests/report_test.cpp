@@ -162,13 +162,13 @@ TEST(Report, EveryReportLoadsInChromiumWithItsFigures) {
   std::ofstream(dir + "/fixture.yaml") << "distances:\n  - [back-high_0, back-high_1, 0.05]\n";
   const std::string urdf = testing::shared_path("data/mukca/panda.urdf");
   ASSERT_TRUE(ok(testing::run_cli({"calibrate", "--model", urdf, "--tip", "ball_link", "--log",
-                                   dir + "/sockets.csv", "--point-distance",
-                                   "front_0:front_1=0.05", "--point-distance",
-                                   "right_0:right_1=0.05", "--out", dir + "/calibrate-fixture"})));
-  ASSERT_TRUE(ok(testing::run_cli({"evaluate", "--model", dir + "/calibrate-fixture/calibrated.urdf",
-                                   "--tip", "ball_link", "--log", dir + "/held-out.csv",
-                                   "--fixture", dir + "/fixture.yaml", "--reference", urdf, "--out",
-                                   dir + "/evaluate-fixture"})));
+                                   dir + "/sockets.csv", "--point-distance", "front_0:front_1=0.05",
+                                   "--point-distance", "right_0:right_1=0.05", "--out",
+                                   dir + "/calibrate-fixture"})));
+  ASSERT_TRUE(ok(testing::run_cli(
+      {"evaluate", "--model", dir + "/calibrate-fixture/calibrated.urdf", "--tip", "ball_link",
+       "--log", dir + "/held-out.csv", "--fixture", dir + "/fixture.yaml", "--reference", urdf,
+       "--out", dir + "/evaluate-fixture"})));
   for (const char* name : {"simulate", "calibrate", "evaluate", "force", "plan",
                            "calibrate-fixture", "evaluate-fixture"}) {
     check_page(dir + "/" + name, shots + "/" + name + ".png");

@@ -57,24 +57,25 @@ Report evaluation_report(const DeviceModel& model, const std::string& model_path
   report.sections.push_back(fmt::format(
       "<p>Model {} ({}, {} joints); log {} ({} rows){}. Errors are the model's prediction minus "
       "the measurement, in mm and mrad; results.json holds them in metres and radians.</p>\n",
-      html_escape(model_path), html_escape(model.name), model.dof(), html_escape(log.origin),
-      ev.n,
-      reference ? fmt::format("; reference model {}", html_escape(reference_path)) : std::string()));
+      html_escape(model_path), html_escape(model.name), model.dof(), html_escape(log.origin), ev.n,
+      reference ? fmt::format("; reference model {}", html_escape(reference_path))
+                : std::string()));
   if (!ev.labels.empty()) {
     std::vector<std::vector<std::string>> rows;
     const bool points = ev.mean_point_deviation.has_value();
     for (const auto& l : ev.labels) {
-      rows.push_back({l.name, std::to_string(l.samples), fmt::format("{:.4f}", l.mean_deviation * 1e3),
+      rows.push_back({l.name, std::to_string(l.samples),
+                      fmt::format("{:.4f}", l.mean_deviation * 1e3),
                       fmt::format("{:.4f}", l.rms_deviation * 1e3),
                       l.rms_known_error ? fmt::format("{:.4f}", *l.rms_known_error * 1e3) : "-"});
     }
-    report.sections.push_back(
-        fmt::format("<h2>Fixture {} </h2>\n", points ? "points" : "planes") +
-        html_table({"label", "samples",
-                    points ? "mean spread about its centre [mm]" : "mean distance from its plane [mm]",
-                    points ? "RMS spread [mm]" : "RMS distance [mm]",
-                    "RMS error against its known position [mm]"},
-                   rows));
+    report.sections.push_back(fmt::format("<h2>Fixture {} </h2>\n", points ? "points" : "planes") +
+                              html_table({"label", "samples",
+                                          points ? "mean spread about its centre [mm]"
+                                                 : "mean distance from its plane [mm]",
+                                          points ? "RMS spread [mm]" : "RMS distance [mm]",
+                                          "RMS error against its known position [mm]"},
+                                         rows));
   }
   const std::string mine = "this model", theirs = "reference model";
   const Evaluation* ref = reference;
@@ -98,10 +99,9 @@ Report evaluation_report(const DeviceModel& model, const std::string& model_path
                                         ref ? &ref->distance_error : nullptr, mine, theirs));
   }
   if (ev.orientation) {
-    report.figures.push_back(per_sample("orientation_errors_per_sample",
-                                        "Orientation error per sample", "orientation error [mrad]",
-                                        ev.orientation_error,
-                                        ref ? &ref->orientation_error : nullptr, mine, theirs));
+    report.figures.push_back(per_sample(
+        "orientation_errors_per_sample", "Orientation error per sample", "orientation error [mrad]",
+        ev.orientation_error, ref ? &ref->orientation_error : nullptr, mine, theirs));
   }
   return report;
 }

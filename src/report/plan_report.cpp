@@ -6,6 +6,22 @@
 #include "hapticcal/report/report.hpp"
 
 namespace hapticcal {
+namespace {
+
+// The terminal's and the other reports' units: kinematic lengths in mm and
+// angles in mrad, step-1 parameters as calibrate prints them (display_unit).
+DisplayUnit unit_of(const PlanProblem& problem, const std::string& name) {
+  for (const ParameterInfo& info : problem.model().parameter_info()) {
+    if (info.name == name) return {1e3, info.unit == ParameterUnit::kAngle ? "mrad" : "mm"};
+  }
+  const std::string p = name.substr(name.rfind('.') + 1);
+  if (p == "r_out" || p == "r_in" || (p.size() == 2 && p[0] == 'L')) return {1e3, "mm"};
+  if (p == "beta_out" || p == "beta_in") return {180 / M_PI, "deg"};
+  if (p == "ratio_error") return {1, ""};
+  return {1, "rad"};  // polynomial coefficients
+}
+
+}  // namespace
 
 Report plan_report(const PlanProblem& problem, const Plan& plan) {
   Report report;
@@ -18,10 +34,10 @@ Report plan_report(const PlanProblem& problem, const Plan& plan) {
       "with random poses of the same count (median of {} draws)",
       tip, plan.planned.rms_sd * 1e6, plan.readings.rows(), plan.random_median_rms_sd * 1e6,
       plan.random_rms_sd.size()));
-  report.outcome.headline.push_back(fmt::format(
-      "condition number {:.4g} planned, {:.4g} random; {} parameters held at nominal",
-      plan.planned.conditioning.condition_number, plan.random.conditioning.condition_number,
-      problem.held().size()));
+  report.outcome.headline.push_back(
+      fmt::format("condition number {:.4g} planned, {:.4g} random; {} parameters held at nominal",
+                  plan.planned.conditioning.condition_number,
+                  plan.random.conditioning.condition_number, problem.held().size()));
   report.sections.push_back(fmt::format(
       "<p>{} poses chosen from {} candidates (seed {}), measurement: {} (sd {:.3g} um), "
       "external encoders sd {:.3g} urad. Predicted RMS {} sd over the workspace (exact two-step "
@@ -56,21 +72,23 @@ Report plan_report(const PlanProblem& problem, const Plan& plan) {
   for (int k = 0; k < problem.parameters(); ++k) {
     const std::string& name = problem.names()[k];
     if (name.ends_with(".encoder_zero")) continue;
+    const DisplayUnit u = unit_of(problem, name);
     rows.push_back(
-        {html_escape(name), fmt::format("{:.4g}", plan.planned.sd[k]),
-         fmt::format("{:.4g}", plan.random.sd[k]),
+        {name, fmt::format("{:.4g}", plan.planned.sd[k] * u.scale),
+         fmt::format("{:.4g}", plan.random.sd[k] * u.scale),
          fmt::format("{:.3f}",
-                     plan.random.sd[k] > 0 ? plan.planned.sd[k] / plan.random.sd[k] : 0.0)});
+                     plan.random.sd[k] > 0 ? plan.planned.sd[k] / plan.random.sd[k] : 0.0),
+         u.unit.empty() ? "-" : u.unit});
     index.push_back(static_cast<double>(index.size()));
     planned.push_back(plan.planned.sd[k]);
     random.push_back(plan.random.sd[k]);
   }
   report.sections.push_back(
-      "<h2>Predicted standard deviation per parameter (m, rad or as the model)</h2>\n" +
-      html_table({"parameter", "planned", "random (median draw)", "ratio"}, rows));
+      "<h2>Predicted standard deviation per parameter</h2>\n" +
+      html_table({"parameter", "planned", "random (median draw)", "ratio", "unit"}, rows));
   if (!problem.held().empty()) {
     std::vector<std::vector<std::string>> held;
-    for (const auto& [name, why] : problem.held()) held.push_back({html_escape(name), why});
+    for (const auto& [name, why] : problem.held()) held.push_back({name, why});
     report.sections.push_back("<h2>Held at nominal</h2>\n" +
                               html_table({"parameter", "why"}, held));
   }

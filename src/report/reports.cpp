@@ -157,13 +157,14 @@ Outcome study_outcome(const Scenario& sc, const StudyResult& r) {
       "trajectory ({:.0f} s at {:.0f} Hz): distance RMS {:.4f} mm nominal, {:.4f} mm full "
       "calibration ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %){}",
       sc.trajectory_seconds, sc.trajectory_rate_hz, t.trajectory_rms_before * 1e3,
-      t.trajectory_rms_full * 1e3, rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
+      t.trajectory_rms_full * 1e3,
+      rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
       t.trajectory_rms_kinematic * 1e3,
       rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before),
-      sc.paper_comparison() ? fmt::format("; the paper measured {:.1f} % and {:.1f} %",
-                                          kPaperImprovementFullPct,
-                                          kPaperImprovementKinematicOnlyPct)
-                            : ""));
+      sc.paper_comparison()
+          ? fmt::format("; the paper measured {:.1f} % and {:.1f} %", kPaperImprovementFullPct,
+                        kPaperImprovementKinematicOnlyPct)
+          : ""));
   if (r.trials > 1 && !r.monte_carlo.empty()) {
     std::vector<double> e;
     for (const auto& [name, m] : r.monte_carlo) {
@@ -221,9 +222,9 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
       "{} parameters identified{}; condition number {:.4g}; sd from sigma = {:.4g} mm ({}); "
       "solver: {} after {} iterations",
       k.identified,
-      k.model_selection ? fmt::format(" ({} identifiable; model selection)",
-                                      k.structurally_identified)
-                        : "",
+      k.model_selection
+          ? fmt::format(" ({} identifiable; model selection)", k.structurally_identified)
+          : "",
       k.condition_number, k.sigma * 1e3, k.sigma_given ? "given" : "residual estimate",
       k.converged ? "converged" : "NOT converged", k.iterations));
   for (const TransmissionFit& t : result.transmissions) {
@@ -250,8 +251,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   report.sections.push_back(fmt::format(
       "<p>{} rows{}, {} measurements; observability O1 {:.4g}, O4 {:.4g} (angles scaled by "
       "{:.3f} m).{}</p>\n",
-      k.rows, repeats, traits(k.type).name, k.observability.O1, k.observability.O4,
-      k.length_scale,
+      k.rows, repeats, traits(k.type).name, k.observability.O1, k.observability.O4, k.length_scale,
       k.rank_deficient ? " <b>Rank-deficient: see the held parameters.</b>" : ""));
   // Step 1 in the terminal's units (the paper's Table 2), the encoder zero c last.
   std::vector<std::vector<std::string>> tx;
@@ -267,9 +267,8 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
                   "mrad"});
   }
   if (!tx.empty()) {
-    report.sections.push_back(
-        "<h2>Transmissions (step 1)</h2>\n" +
-        html_table({"parameter", "nominal", "identified", "sd", "unit"}, tx));
+    report.sections.push_back("<h2>Transmissions (step 1)</h2>\n" +
+                              html_table({"parameter", "nominal", "identified", "sd", "unit"}, tx));
   }
   report.sections.push_back(parameter_table(k));
   report.sections.push_back(held_table(k));
@@ -536,10 +535,10 @@ Outcome force_outcome(const ForceStudy& study) {
       "transverse force (|Fx, Fy|) RMS: {:.4f} N with the nominal model, {:.4f} N with the "
       "calibrated one ({:.1f} % less)",
       before.transverse_rms, after.transverse_rms, study.reduction_pct));
-  o.headline.push_back(fmt::format("at the end: Fz {:.4f} N desired, {:.4f} N nominal, {:.4f} N "
-                                   "calibrated",
-                                   before.desired.back()[2], before.measured.back()[2],
-                                   after.measured.back()[2]));
+  o.headline.push_back(
+      fmt::format("at the end: Fz {:.4f} N desired, {:.4f} N nominal, {:.4f} N "
+                  "calibrated",
+                  before.desired.back()[2], before.measured.back()[2], after.measured.back()[2]));
   std::string posture;
   for (int i = 0; i < sc.posture.size(); ++i)
     posture += fmt::format("{}{:.4g}", i ? ", " : "", sc.posture[i]);

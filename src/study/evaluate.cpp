@@ -175,27 +175,27 @@ std::vector<std::string> evaluation_lines(const EvaluationComparison* cmp, const
                                 ev.position->rms * 1e3, ev.position->max * 1e3));
   }
   for (const auto& l : ev.labels) {
-    lines.push_back(fmt::format(
-        "{} '{}' ({} samples): {} {:.4f} mm mean, {:.4f} mm RMS",
-        ev.mean_point_deviation ? "point" : "plane", l.name, l.samples,
-        ev.mean_point_deviation ? "spread about its centre" : "distance from its plane",
-        l.mean_deviation * 1e3, l.rms_deviation * 1e3));
+    lines.push_back(
+        fmt::format("{} '{}' ({} samples): {} {:.4f} mm mean, {:.4f} mm RMS",
+                    ev.mean_point_deviation ? "point" : "plane", l.name, l.samples,
+                    ev.mean_point_deviation ? "spread about its centre" : "distance from its plane",
+                    l.mean_deviation * 1e3, l.rms_deviation * 1e3));
     if (l.rms_known_error) {
       lines.push_back(
           fmt::format("  against its known position: {:.4f} mm RMS", *l.rms_known_error * 1e3));
     }
   }
   if (ev.mean_point_deviation) {
-    lines.push_back(fmt::format(
-        "point deviation (every sample): mean {:.4f} mm, RMS {:.4f} mm{}",
-        *ev.mean_point_deviation * 1e3, *ev.rms_point_deviation * 1e3,
-        ref && ref->mean_point_deviation
-            ? fmt::format(" ({} : mean {:.4f} mm)", reference_name, *ref->mean_point_deviation * 1e3)
-            : std::string()));
+    lines.push_back(fmt::format("point deviation (every sample): mean {:.4f} mm, RMS {:.4f} mm{}",
+                                *ev.mean_point_deviation * 1e3, *ev.rms_point_deviation * 1e3,
+                                ref && ref->mean_point_deviation
+                                    ? fmt::format(" ({} : mean {:.4f} mm)", reference_name,
+                                                  *ref->mean_point_deviation * 1e3)
+                                    : std::string()));
   }
   if (ev.max_point_distance_error) {
-    lines.push_back(
-        fmt::format("known distances: largest error {:.4f} mm", *ev.max_point_distance_error * 1e3));
+    lines.push_back(fmt::format("known distances: largest error {:.4f} mm",
+                                *ev.max_point_distance_error * 1e3));
   }
   if (ev.rms_known_point_error) {
     lines.push_back(
