@@ -360,7 +360,8 @@ void print_general_study(const hapticcal::Scenario& sc, const hapticcal::StudyRe
     if (it == r.monte_carlo.end() || !(it->second.crlb_sd > 0)) return std::string("       -");
     return fmt::format("{:8.2f}", (row.identified - row.assigned) / it->second.crlb_sd);
   };
-  fmt::print("Transmission parameters (assigned = truth; the paper's Table 2 units)\n");
+  fmt::print(
+      "Transmission parameters (assigned = truth; ratio error, radii in mm, angles in deg)\n");
   fmt::print("  {:<20} {:>12} {:>12} {:>8} {:>8}\n", "parameter", "assigned", "identified", "I %",
              "err/CRLB");
   for (const hapticcal::StudyRow& row : rows) {
@@ -370,8 +371,8 @@ void print_general_study(const hapticcal::Scenario& sc, const hapticcal::StudyRe
                row.paper_unit);
   }
   fmt::print(
-      "Kinematic parameters: deviation from nominal (assigned = truth - nominal), assigned and "
-      "identified (mm, mrad)\n");
+      "Kinematic parameters: deviation from nominal, assigned and identified (mm, mrad; "
+      "assigned = truth - nominal)\n");
   fmt::print("  {:<20} {:>10} {:>10} {:>8} {:>8}\n", "parameter", "assigned", "identified", "I %",
              "err/CRLB");
   for (const hapticcal::StudyRow& row : rows) {

@@ -208,7 +208,9 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   Outcome& o = report.outcome;
   o.usable = usable;
   o.status = fmt::format("{} ({}){}", to_string(result.status), result.status_reason,
-                         usable ? "" : ": this calibration is not usable");
+                         usable ? ""
+                                : ": this calibration is not usable; no new calibrated.yaml was "
+                                  "written");
   const std::string measured = traits(k.type).name;
   o.headline.push_back(fmt::format("RMS {} error: {:.4f} mm before, {:.4f} mm after (training)",
                                    measured, k.rms_before * 1e3, k.rms_after * 1e3));
@@ -400,9 +402,10 @@ Report study_report(const Scenario& sc, const StudyResult& r) {
         html_table(header(false), t2));
   }
   report.sections.push_back(
-      (paper_study ? "<h2>Table 3 analogue: kinematic deviations from nominal</h2>\n"
-                   : "<h2>Kinematic deviations from nominal: assigned (truth - nominal) and "
-                     "identified</h2>\n") +
+      (paper_study
+           ? "<h2>Table 3 analogue: kinematic deviations from nominal</h2>\n"
+           : "<h2>Kinematic deviations from nominal (assigned = truth - nominal): assigned and "
+             "identified</h2>\n") +
       html_table(header(true), t3));
   report.sections.push_back(held_table(t.full.kinematics));
   report.outcome = study_outcome(sc, r);
