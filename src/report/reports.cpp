@@ -293,6 +293,8 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   FigureSpec residuals = figure("errors_per_sample", title, "sample", axis, {sample, eb, ea});
   residuals.series = {before_series("nominal model", 0, 1), after_series("calibrated model", 0, 2)};
   residuals.extra = "set pointsize 0.5";
+  residuals.x_min = 0;
+  residuals.x_max = log.rows + 1;
   use_log_y(residuals, 6);
   report.figures.push_back(residuals);
   if (k.correlation.size() > 0) report.figures.push_back(detail::correlation_figure(k));
