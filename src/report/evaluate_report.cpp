@@ -4,6 +4,7 @@
 
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/evaluate.hpp"
+#include "report/figures.hpp"
 
 namespace hapticcal {
 namespace {
@@ -12,8 +13,7 @@ namespace {
 constexpr int kMaxPlotted = 2000;
 
 // One per-sample figure of |error| in `unit` (scaled by 1e3 from SI), the
-// model's and the reference's. A log axis when every value is positive, so
-// that errors orders of magnitude apart are both visible; else from zero.
+// model's and the reference's, on a log axis.
 FigureSpec per_sample(const std::string& name, const std::string& caption,
                       const std::string& ylabel, const Eigen::VectorXd& model,
                       const Eigen::VectorXd* reference, const std::string& model_label,
@@ -25,23 +25,21 @@ FigureSpec per_sample(const std::string& name, const std::string& caption,
   f.ylabel = ylabel;
   std::vector<double> sample, m, r;
   const int stride = std::max<int>(1, (model.size() + kMaxPlotted - 1) / kMaxPlotted);
-  bool positive = true;
   for (int i = 0; i < model.size(); i += stride) {
     sample.push_back(i + 1);
     m.push_back(std::abs(model[i]) * 1e3);
-    positive = positive && m.back() > 0;
-    if (reference) {
-      r.push_back(std::abs((*reference)[i]) * 1e3);
-      positive = positive && r.back() > 0;
-    }
+    if (reference) r.push_back(std::abs((*reference)[i]) * 1e3);
   }
   f.columns = {sample, m};
-  f.series = {{model_label, 0, 1, "points"}};
+  f.series = {detail::after_series(model_label, 0, 1)};
   if (reference) {
     f.columns.push_back(r);
-    f.series.push_back({reference_label, 0, 2, "points"});
+    f.series.push_back(detail::before_series(reference_label, 0, 2));
   }
-  f.extra = positive ? "set logscale y" : "set yrange [0:*]";
+  f.extra = "set pointsize 0.5";
+  f.x_min = 0;
+  f.x_max = model.size() + 1;
+  use_log_y(f, 6);  // errors orders of magnitude apart both visible
   return f;
 }
 

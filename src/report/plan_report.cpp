@@ -68,7 +68,8 @@ Report plan_report(const PlanProblem& problem, const Plan& plan) {
             fmt::format("{:.4g}", b.observability.O3),
             fmt::format("{:.4g}", b.observability.O4)}}));
   std::vector<std::vector<std::string>> rows;
-  std::vector<double> index, planned, random;
+  std::vector<double> planned, random;
+  std::vector<std::string> plotted_names;
   for (int k = 0; k < problem.parameters(); ++k) {
     const std::string& name = problem.names()[k];
     if (name.ends_with(".encoder_zero")) continue;
@@ -79,9 +80,9 @@ Report plan_report(const PlanProblem& problem, const Plan& plan) {
          fmt::format("{:.3f}",
                      plan.random.sd[k] > 0 ? plan.planned.sd[k] / plan.random.sd[k] : 0.0),
          u.unit.empty() ? "-" : u.unit});
-    index.push_back(static_cast<double>(index.size()));
-    planned.push_back(plan.planned.sd[k]);
-    random.push_back(plan.random.sd[k]);
+    plotted_names.push_back(name);
+    planned.push_back(plan.planned.sd[k] * u.scale);
+    random.push_back(plan.random.sd[k] * u.scale);
   }
   report.sections.push_back(
       "<h2>Predicted standard deviation per parameter</h2>\n" +
@@ -96,10 +97,14 @@ Report plan_report(const PlanProblem& problem, const Plan& plan) {
   f.name = "plan_sd";
   f.title = "Predicted sd per parameter: planned vs random poses";
   f.xlabel = "parameter";
-  f.ylabel = "sd";
-  f.columns = {index, planned, random};
-  f.series = {{"planned", 0, 1, "linespoints"}, {"random", 0, 2, "linespoints"}};
-  f.extra = "set logscale y";
+  f.ylabel = "predicted sd [the table's unit: mm, mrad, deg, rad or -]";
+  f.columns = {planned, random};
+  f.xtics = plotted_names;
+  f.series = {{"planned", -1, 0, "points", -1, "#0072b2", 0, 1.5, 7},
+              {"random (median draw)", -1, 1, "points", -1, "#d55e00", 0, 1.5, 5}};
+  f.x_min = -0.5;
+  f.x_max = static_cast<double>(plotted_names.size()) - 0.5;
+  use_log_y(f, 8);
   report.figures.push_back(f);
   return report;
 }

@@ -3,8 +3,11 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 
 #include "hapticcal/io/io.hpp"
 #include "report/process.hpp"
@@ -36,34 +39,73 @@ std::string quote(const std::string& s) {
   return out + "\"";
 }
 
+std::string number(double v) { return fmt::format("{:.6g}", v); }
+
+std::string range(double lo, double hi) {
+  return fmt::format("[{}:{}]", std::isnan(lo) ? "*" : number(lo),
+                     std::isnan(hi) ? "*" : number(hi));
+}
+
+// "lc rgb ... dt ... lw ... pt ..." of a series, as much as it sets.
+std::string line_style(const Series& s) {
+  std::string out;
+  if (!s.color.empty()) out += " lc rgb " + quote(s.color);
+  if (s.dash > 0) out += fmt::format(" dt {}", s.dash);
+  if (s.width > 0) out += fmt::format(" lw {}", number(s.width));
+  const bool points = s.style.find("points") != std::string::npos || s.error >= 0;
+  if (s.point > 0 && points) out += fmt::format(" pt {}", s.point);
+  return out;
+}
+
 // The gnuplot commands of one figure for a terminal. `data` names the data file
 // relative to the figures folder (gnuplot runs there). The output file is the
 // variable `output_var`, defaulting to `output`: write_report sets it to a
-// temporary name, a user running the script gets the final one.
+// temporary name, a user running the script gets the final one. No title: the
+// report's caption is the figure's one title.
 std::string script(const FigureSpec& f, const std::string& data, const std::string& terminal,
                    const std::string& output_var, const std::string& output) {
   std::string s = fmt::format(
       "set terminal {}\nset termoption noenhanced\nif (!exists(\"{}\")) {} = {}\nset output {}\n",
       terminal, output_var, output_var, quote(output), output_var);
-  s += fmt::format("set title {} noenhanced\nset xlabel {} noenhanced\nset ylabel {} noenhanced\n",
-                   quote(f.title), quote(f.xlabel), quote(f.ylabel));
-  s += "set grid\nset key outside right top noenhanced\nset datafile separator ','\n";
-  s += "set offsets graph 0, graph 0, graph 0.05, graph 0.05\n";
-  s += f.extra + "\n";
+  s += fmt::format("set xlabel {} noenhanced\nset ylabel {} noenhanced\n", quote(f.xlabel),
+                   quote(f.ylabel));
+  s += "set datafile separator ','\n";
   if (f.matrix.size() > 0) {
+    // Each cell a rectangle (`pixels`): sharp in SVG at any size.
     s += "set view map\nset palette defined (-1 'blue', 0 'white', 1 'red')\nset cbrange [-1:1]\n";
-    s += fmt::format("set xrange [-0.5:{}]\nset yrange [-0.5:{}]\n", f.matrix.cols() - 0.5,
-                     f.matrix.rows() - 0.5);
+    s += fmt::format("set cblabel {} noenhanced\nset size ratio -1\n", quote(f.cblabel));
+    s += fmt::format("set xrange [-0.5:{}]\nset yrange [{}:-0.5]\n", number(f.matrix.cols() - 0.5),
+                     number(f.matrix.rows() - 0.5));
     std::string tics;
     for (size_t i = 0; i < f.xtics.size(); ++i)
       tics += fmt::format("{}{} {}", i ? ", " : "", quote(f.xtics[i]), i);
     if (!tics.empty())
       s += fmt::format("set xtics ({}) rotate by 90 right\nset ytics ({})\n", tics, tics);
-    s += fmt::format("plot {} matrix with image title {}\n", quote(data),
-                     quote(f.series.empty() ? "correlation" : f.series[0].label));
+    s += f.extra + "\n";
+    s += fmt::format("plot {} matrix with image pixels notitle\n", quote(data));
     return s;
   }
-  if (!f.xtics.empty()) s += "set xtics rotate by 90 right\n";
+  s += "set grid\nset key below horizontal noenhanced\n";
+  // Autoscaled axes get a margin so that points on the frame show; never below
+  // a fixed lower limit (a quantity that cannot be negative keeps y >= 0).
+  const bool y_fixed_low = f.log_y || !std::isnan(f.y_min);
+  const bool y_fixed_high = f.log_y || !std::isnan(f.y_max);
+  s += fmt::format("set offsets graph 0, graph 0, graph {}, graph {}\n",
+                   y_fixed_high ? "0" : "0.05", y_fixed_low ? "0" : "0.05");
+  if (f.log_y) s += "set logscale y\nset format y \"%g\"\n";
+  if (!std::isnan(f.x_min) || !std::isnan(f.x_max))
+    s += fmt::format("set xrange {}\n", range(f.x_min, f.x_max));
+  if (!std::isnan(f.y_min) || !std::isnan(f.y_max))
+    s += fmt::format("set yrange {}\n", range(f.y_min, f.y_max));
+  if (!f.xtics.empty()) {
+    // Room under the plot for the vertical labels, the axis label and the key
+    // (gnuplot's own margin lets the last two overlap).
+    size_t longest = 0;
+    for (const std::string& tic : f.xtics) longest = std::max(longest, tic.size());
+    s += fmt::format("set xtics rotate by 90 right\nset bmargin {}\n",
+                     static_cast<int>(std::ceil(0.6 * static_cast<double>(longest))) + 3);
+  }
+  s += f.extra + "\n";
   std::string plots;
   for (const Series& ser : f.series) {
     std::string x =
@@ -71,8 +113,9 @@ std::string script(const FigureSpec& f, const std::string& data, const std::stri
     std::string usage = fmt::format("{}:{}", x, ser.y + 2);
     if (ser.error >= 0) usage += fmt::format(":{}", ser.error + 2);
     if (!f.xtics.empty()) usage += ":xtic(1)";
-    plots += fmt::format("{}{} using {} with {} title {}", plots.empty() ? "" : ", ", quote(data),
-                         usage, ser.error >= 0 ? "yerrorbars" : ser.style, quote(ser.label));
+    plots += fmt::format("{}{} using {} with {}{} {}", plots.empty() ? "" : ", ", quote(data),
+                         usage, ser.error >= 0 ? "yerrorbars" : ser.style, line_style(ser),
+                         ser.label.empty() ? "notitle" : "title " + quote(ser.label));
   }
   s += "plot " + plots + "\n";
   return s;
@@ -124,6 +167,27 @@ std::string outcome_html(const Outcome& o) {
 }
 
 }  // namespace
+
+void use_log_y(FigureSpec& f, int decades) {
+  double lo = std::numeric_limits<double>::infinity(), hi = 0;
+  for (const Series& ser : f.series) {
+    if (ser.y < 0 || ser.y >= static_cast<int>(f.columns.size())) continue;
+    for (double v : f.columns[ser.y]) {
+      if (!(v > 0) || !std::isfinite(v)) continue;
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  }
+  f.log_y = true;
+  if (!(hi > 0)) {
+    f.y_min = f.y_max = std::numeric_limits<double>::quiet_NaN();
+    return;
+  }
+  const double top = std::ceil(std::log10(hi) - 1e-9);
+  const double bottom = std::max(std::floor(std::log10(lo) + 1e-9), top - std::max(decades, 1));
+  f.y_min = std::pow(10.0, bottom);
+  f.y_max = std::pow(10.0, top > bottom ? top : bottom + 1);
+}
 
 std::string html_escape(const std::string& text) {
   std::string out;

@@ -2,10 +2,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/evaluate.hpp"
+#include "report/figures.hpp"
 
 namespace hapticcal {
 namespace {
@@ -23,6 +25,18 @@ FigureSpec figure(std::string name, std::string title, std::string xlabel, std::
   return f;
 }
 
+// One look per role in every figure (Okabe-Ito colours, told apart in grey
+// print too): measurements grey points, identified a solid colour, truth black
+// dashed; before / nominal vermillion, after / calibrated blue.
+Series measured_points(std::string label, int x, int y) {
+  return {std::move(label), x, y, "points", -1, "gray50", 0, 0, 7};
+}
+Series identified_line(std::string label, int x, int y) {
+  return {std::move(label), x, y, "lines", -1, "#0072b2", 1, 2.5, 0};
+}
+Series truth_line(std::string label, int x, int y) {
+  return {std::move(label), x, y, "lines", -1, "black", 2, 1.5, 0};
+}
 // Rows sorted by x, so that model curves draw as lines.
 std::vector<int> order_by(const std::vector<double>& x) {
   std::vector<int> idx(x.size());
@@ -52,16 +66,17 @@ void transmission_figures(const TransmissionFit& t, const std::string& link, con
       figure("transmission_" + link,
              fmt::format("{} transmission error: measured and identified {} model", link, t.type),
              "reading q [deg]", "dtheta [mrad]", {q, measured, model});
-  fit.series = {{"measured (ext - q - c)", 0, 1, "points"}, {"identified", 0, 2, "lines"}};
+  fit.series = {measured_points("measured (ext - q - c)", 0, 1),
+                identified_line("identified", 0, 2)};
   if (truth) {
     fit.columns.push_back(real);
-    fit.series.push_back({"truth", 0, 3, "lines"});
+    fit.series.push_back(truth_line("truth", 0, 3));
   }
   figures.push_back(fit);
   FigureSpec res = figure("transmission_" + link + "_residual",
                           fmt::format("{} transmission fit residual", link), "reading q [deg]",
                           "residual [mrad]", {q, residual});
-  res.series = {{"measured - identified", 0, 1, "points"}};
+  res.series = {measured_points("measured - identified", 0, 1)};
   figures.push_back(res);
 }
 
@@ -127,10 +142,10 @@ void selection_section(const KinematicFit& k, Report& report) {
   if (n.size() < 2) return;
   FigureSpec f = figure("model_selection", "Training and cross-validated RMS along the selection",
                         "parameters fitted", "RMS error [mm]", {n, train, cv});
-  f.series = {{"training (all poses)", 0, 1, "linespoints"},
-              {"cross-validated (held-out poses)", 0, 2, "linespoints"}};
-  f.extra = fmt::format("set logscale y; set arrow from {0},graph 0 to {0},graph 1 nohead dt 2",
-                        k.identified);
+  f.series = {{"training (all poses)", 0, 1, "linespoints", -1, "#d55e00", 0, 1.5, 7},
+              {"cross-validated (held-out poses)", 0, 2, "linespoints", -1, "#0072b2", 0, 1.5, 5}};
+  use_log_y(f);
+  f.extra = fmt::format("set arrow from {0},graph 0 to {0},graph 1 nohead dt 2", k.identified);
   report.figures.push_back(f);
 }
 
@@ -195,6 +210,41 @@ Outcome study_outcome(const Scenario& sc, const StudyResult& r) {
 }
 
 }  // namespace
+
+namespace detail {
+
+FigureSpec correlation_figure(const KinematicFit& k) {
+  FigureSpec heat =
+      figure("correlation", "Correlation of the identified parameters", "parameter", "parameter");
+  // In the order of the parameter table (identifiable parameters in model order).
+  std::vector<int> order;
+  for (const ParameterEstimate& e : k.parameters) {
+    const auto at = std::find(k.identified_names.begin(), k.identified_names.end(), e.name);
+    if (e.identifiable && at != k.identified_names.end())
+      order.push_back(static_cast<int>(at - k.identified_names.begin()));
+  }
+  for (int i = 0; i < static_cast<int>(k.identified_names.size()); ++i) {
+    if (std::find(order.begin(), order.end(), i) == order.end()) order.push_back(i);
+  }
+  const auto n = static_cast<Eigen::Index>(order.size());
+  if (k.correlation.rows() != n || k.correlation.cols() != n) {  // no names to order by
+    order.resize(k.correlation.rows());
+    std::iota(order.begin(), order.end(), 0);
+  }
+  heat.matrix.resize(static_cast<Eigen::Index>(order.size()),
+                     static_cast<Eigen::Index>(order.size()));
+  for (Eigen::Index r = 0; r < heat.matrix.rows(); ++r) {
+    if (order[r] < static_cast<int>(k.identified_names.size()))
+      heat.xtics.push_back(k.identified_names[order[r]]);
+    for (Eigen::Index c = 0; c < heat.matrix.cols(); ++c)
+      heat.matrix(r, c) = k.correlation(order[r], order[c]);
+  }
+  if (static_cast<Eigen::Index>(heat.xtics.size()) != heat.matrix.rows()) heat.xtics.clear();
+  heat.cblabel = "correlation coefficient [-]";
+  return heat;
+}
+
+}  // namespace detail
 
 Report calibration_report(const CalibrationResult& result, const DeviceModel& nominal,
                           const Log& log, const std::vector<PointDistance>& point_distances,
@@ -299,8 +349,8 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   const int row_stride = std::max(1, (log.rows + kMaxPlotted - 1) / kMaxPlotted);
   for (int r = 0; r < log.rows; r += row_stride) {
     sample.push_back(r + 1);
-    eb.push_back(error_before[r] * 1e3);
-    ea.push_back(error_after[r] * 1e3);
+    eb.push_back(std::abs(error_before[r]) * 1e3);
+    ea.push_back(std::abs(error_after[r]) * 1e3);
   }
   const char* title = k.type == MeasurementType::kPoint
                           ? "Distance of each sample's tool point from its fixture point's centre"
@@ -308,21 +358,20 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
                           ? "Distance of each sample's tool point from its plane"
                       : position ? "Position error per sample, before and after calibration"
                                  : "Distance error per sample, before and after calibration";
+  // Magnitudes on a log axis: the calibrated model's errors are orders of
+  // magnitude below the nominal one's.
   const char* axis = k.type == MeasurementType::kPoint   ? "|p_model - centre| [mm]"
-                     : k.type == MeasurementType::kPlane ? "n . (p_model - centre) [mm]"
+                     : k.type == MeasurementType::kPlane ? "|n . (p_model - centre)| [mm]"
                      : position                          ? "|p_model - p_measured| [mm]"
-                                                         : "delta_model - delta_measured [mm]";
+                                                         : "|delta_model - delta_measured| [mm]";
   FigureSpec residuals = figure("errors_per_sample", title, "sample", axis, {sample, eb, ea});
-  residuals.series = {{"nominal model", 0, 1, "points"}, {"calibrated model", 0, 2, "points"}};
+  residuals.series = {detail::before_series("nominal model", 0, 1), detail::after_series("calibrated model", 0, 2)};
+  residuals.extra = "set pointsize 0.5";
+  residuals.x_min = 0;
+  residuals.x_max = log.rows + 1;
+  use_log_y(residuals, 6);
   report.figures.push_back(residuals);
-  if (k.correlation.size() > 0) {
-    FigureSpec heat =
-        figure("correlation", "Correlation of the identified parameters", "parameter", "parameter");
-    heat.matrix = k.correlation;
-    heat.xtics = k.identified_names;
-    heat.series = {{"correlation coefficient"}};
-    report.figures.push_back(heat);
-  }
+  if (k.correlation.size() > 0) report.figures.push_back(detail::correlation_figure(k));
   return report;
 }
 
@@ -428,9 +477,8 @@ Report study_report(const Scenario& sc, const StudyResult& r) {
         figure("fig7_" + link,
                fmt::format("Fig. 7: {} (capstan + parallelogram) transmission error", link),
                "reading q [deg]", "dtheta [mrad]", {q, m, id, tr});
-    fig7.series = {{"measurements", 0, 1, "points"},
-                   {"identified polynomial", 0, 2, "lines"},
-                   {"truth", 0, 3, "lines"}};
+    fig7.series = {measured_points("measurements", 0, 1),
+                   identified_line("identified polynomial", 0, 2), truth_line("truth", 0, 3)};
     report.figures.push_back(fig7);
   }
   // Fig. 8: validation errors per pose.
@@ -441,15 +489,20 @@ Report study_report(const Scenario& sc, const StudyResult& r) {
   };
   FigureSpec fig8p = figure("fig8_position", "Fig. 8: position error per validation pose", "pose",
                             "position error [mm]", {v[0], scaled(v[1]), scaled(v[2])});
-  fig8p.series = {{"before calibration", 0, 1, "impulses"},
-                  {"after calibration", 0, 2, "impulses"}};
+  // Errors are norms, before and after orders of magnitude apart: a log axis.
+  fig8p.series = {detail::before_series("before calibration", 0, 1, "linespoints"),
+                  detail::after_series("after calibration", 0, 2, "linespoints")};
+  use_log_y(fig8p);
   FigureSpec fig8o = figure("fig8_orientation", "Fig. 8: orientation error per validation pose",
                             "pose", "orientation error [mrad]", {v[0], scaled(v[3]), scaled(v[4])});
   fig8o.series = fig8p.series;
+  use_log_y(fig8o);
   report.figures.push_back(fig8p);
   report.figures.push_back(fig8o);
-  // Fig. 9-like: every joint's transmission fit.
+  // Fig. 9-like: every joint's transmission fit but the polynomial one's, which
+  // is Fig. 7.
   for (const TransmissionFit& f : t.full.transmissions) {
+    if (f.type == "polynomial" && t.figures.fig7.count(sc.nominal.links[f.joint].name)) continue;
     std::vector<int> rows(ident.rows);
     std::iota(rows.begin(), rows.end(), 0);
     transmission_figures(f, sc.nominal.links[f.joint].name, ident, rows,
@@ -462,36 +515,56 @@ Report study_report(const Scenario& sc, const StudyResult& r) {
   FigureSpec fig10 =
       figure("fig10_trajectory", "Fig. 10: distance error over the trajectory", "time [s]",
              "distance error [mm]", {tr[0], scaled(tr[2]), scaled(tr[3]), scaled(tr[4])});
-  fig10.series = {{"nominal", 0, 1, "lines"},
-                  {"full calibration", 0, 2, "lines"},
-                  {"kinematic-only calibration", 0, 3, "lines"}};
+  fig10.series = {{"nominal", 0, 1, "lines", -1, "#d55e00", 0, 1.5, 0},
+                  {"full calibration", 0, 2, "lines", -1, "#0072b2", 0, 1.5, 0},
+                  {"kinematic-only calibration", 0, 3, "lines", -1, "#009e73", 2, 1.5, 0}};
   report.figures.push_back(fig10);
   // Monte Carlo.
   if (r.trials > 1) {
     std::vector<std::string> names;
-    std::vector<double> mean, half, efficiency, lo, hi;
+    std::vector<double> mean, half, efficiency;
     for (const auto& [name, m] : r.monte_carlo) {
       names.push_back(name);
       mean.push_back((m.improvement_p05 + m.improvement_p95) / 2);
       half.push_back((m.improvement_p95 - m.improvement_p05) / 2);
       efficiency.push_back(m.efficiency);
-      lo.push_back(0.9);
-      hi.push_back(1.1);
     }
+    const double n = static_cast<double>(names.size());
     FigureSpec spread =
         figure("monte_carlo_improvement",
                fmt::format("I % over {} trials: 5th to 95th percentile per parameter", r.trials),
-               "parameter", "I % (paper eq. 8)", {mean, half});
+               "parameter", "I [%] (paper eq. 8)", {mean, half});
     spread.xtics = names;
-    spread.series = {{"5-95 % of trials", -1, 0, "yerrorbars", 1}};
-    spread.extra = "set bmargin 9";
+    spread.series = {{"5-95 % of trials", -1, 0, "yerrorbars", 1, "#0072b2", 0, 1.5, 7}};
+    // Every bar inside the frame, with a margin.
+    double low = 0, high = 100;
+    for (size_t i = 0; i < mean.size(); ++i) {
+      low = std::min(low, mean[i] - half[i]);
+      high = std::max(high, mean[i] + half[i]);
+    }
+    const double margin = 0.05 * (high - low);
+    spread.x_min = -0.5;
+    spread.x_max = n - 0.5;
+    spread.y_min = low - margin;
+    spread.y_max = high + margin;
+    // What RMSE / CRLB of an efficient estimator spreads over from sampling
+    // alone: n RMSE^2 / CRLB^2 ~ chi^2_n, 5th to 95th percentile.
+    const double trials = r.trials;
+    const double band_lo = std::sqrt(chi_square_quantile(0.05, trials) / trials);
+    const double band_hi = std::sqrt(chi_square_quantile(0.95, trials) / trials);
     FigureSpec eff =
         figure("monte_carlo_efficiency", fmt::format("RMSE / CRLB over {} trials", r.trials),
-               "parameter", "RMSE / CRLB", {efficiency, lo, hi});
+               "parameter", "RMSE / CRLB [-]",
+               {efficiency, std::vector<double>(names.size(), band_lo),
+                std::vector<double>(names.size(), band_hi)});
     eff.xtics = names;
-    eff.series = {
-        {"RMSE / CRLB", -1, 0, "points"}, {"0.9", -1, 1, "lines"}, {"1.1", -1, 2, "lines"}};
-    eff.extra = "set bmargin 9";
+    eff.series = {{"RMSE / CRLB", -1, 0, "points", -1, "#0072b2", 0, 1.5, 7},
+                  {fmt::format("5-95 % for {} trials if efficient", r.trials), -1, 1, "lines", -1,
+                   "gray40", 2, 1.5, 0},
+                  {"", -1, 2, "lines", -1, "gray40", 2, 1.5, 0}};
+    eff.x_min = -0.5;
+    eff.x_max = n - 0.5;
+    eff.y_min = 0;
     report.figures.push_back(spread);
     report.figures.push_back(eff);
   }
@@ -505,27 +578,40 @@ Report force_report(const ForceRun& nominal, const ForceRun& calibrated, double 
       "<p>Transverse force (|Fx, Fy|) RMS: {:.4f} N with the nominal model, {:.4f} N with the "
       "calibrated one ({:.1f} % less).</p>\n",
       nominal.transverse_rms, calibrated.transverse_rms, reduction_pct));
-  for (const auto& [run, label] :
-       {std::pair{&nominal, "nominal"}, std::pair{&calibrated, "calibrated"}}) {
-    std::vector<double> t, fdz, fx, fy, fz;
-    const size_t stride = std::max<size_t>(5, (run->t.size() + kMaxPlotted - 1) / kMaxPlotted);
-    for (size_t k = 0; k < run->t.size(); k += stride) {
-      t.push_back(run->t[k]);
-      fdz.push_back(run->desired[k][2]);
-      fx.push_back(run->measured[k][0]);
-      fy.push_back(run->measured[k][1]);
-      fz.push_back(run->measured[k][2]);
-    }
-    FigureSpec f =
-        figure(fmt::format("fig12_{}", label),
-               fmt::format("Fig. 12: virtual wall, {} model (m: measured, d: desired)", label),
-               "time [s]", "force in the handle frame [N]", {t, fdz, fz, fx, fy});
-    f.series = {{"Fz d", 0, 1, "lines"},
-                {"Fz m", 0, 2, "lines"},
-                {"Fx m", 0, 3, "lines"},
-                {"Fy m", 0, 4, "lines"}};
-    report.figures.push_back(f);
+  // Fig. 12 as two figures: the wall force Fz, and the transverse force |Fx, Fy|
+  // of either model on a log axis (the result: orders of magnitude below Fz).
+  std::vector<double> t, fdz, fz_nominal, fz_calibrated, ft_nominal, ft_calibrated;
+  const size_t samples = std::min(nominal.t.size(), calibrated.t.size());
+  const size_t stride = std::max<size_t>(5, (samples + kMaxPlotted - 1) / kMaxPlotted);
+  for (size_t k = 0; k < samples; k += stride) {
+    t.push_back(nominal.t[k]);
+    fdz.push_back(nominal.desired[k][2]);
+    fz_nominal.push_back(nominal.measured[k][2]);
+    fz_calibrated.push_back(calibrated.measured[k][2]);
+    ft_nominal.push_back(std::hypot(nominal.measured[k][0], nominal.measured[k][1]));
+    ft_calibrated.push_back(std::hypot(calibrated.measured[k][0], calibrated.measured[k][1]));
   }
+  FigureSpec normal =
+      figure("fig12_normal", "Fig. 12: virtual wall, the force normal to the wall (handle frame)",
+             "time [s]", "Fz [N]", {t, fdz, fz_nominal, fz_calibrated});
+  // The desired force dashed on top of the calibrated model's, which follows it.
+  normal.series = {detail::before_series("nominal model", 0, 2, "lines"),
+                   detail::after_series("calibrated model", 0, 3, "lines"), truth_line("desired", 0, 1)};
+  normal.series[1].width = 3;
+  // A wall pushes: Fz >= 0 but for an overshoot, which the axis would show.
+  normal.y_min = 0;
+  for (const auto* column : {&fdz, &fz_nominal, &fz_calibrated}) {
+    for (double v : *column) normal.y_min = std::min(normal.y_min, v);
+  }
+  report.figures.push_back(normal);
+  FigureSpec transverse = figure(
+      "fig12_transverse",
+      "Fig. 12: virtual wall, the transverse force |Fx, Fy| (handle frame), nominal vs calibrated",
+      "time [s]", "|Fx, Fy| [N]", {t, ft_nominal, ft_calibrated});
+  transverse.series = {detail::before_series("nominal model", 0, 1, "lines"),
+                       detail::after_series("calibrated model", 0, 2, "lines")};
+  use_log_y(transverse, 4);
+  report.figures.push_back(transverse);
   return report;
 }
 

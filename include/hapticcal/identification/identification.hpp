@@ -260,6 +260,11 @@ ModelSelection select_model(const KinematicProblem& problem, const std::vector<i
 double significance_threshold(double alpha, int parameters, double dof);
 // P(|T| > t) for Student's T with `dof` degrees of freedom.
 double student_t_tail(double t, double dof);
+// The p-quantile x of the chi-square distribution with `dof` degrees of
+// freedom: P(X <= x) = p, from the regularised incomplete gamma function
+// P(dof / 2, x / 2) (DLMF 8.2.4). Used for the band of RMSE / CRLB that n
+// trials of an efficient estimator spread over: n RMSE^2 / CRLB^2 ~ chi^2_n.
+double chi_square_quantile(double p, double dof);
 
 // Fold of each of `poses` poses (0..folds-1, sizes differing by at most one),
 // a reproducible shuffle for a seed on every platform.

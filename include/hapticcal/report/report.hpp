@@ -3,18 +3,26 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <vector>
 
 namespace hapticcal {
 
 struct Series {
-  std::string label;
+  std::string label;            // empty: no key entry
   int x = 0, y = 1;             // data columns (zero-based); x = -1: the row number
   std::string style = "lines";  // gnuplot: lines, points, linespoints, impulses, boxes
   int error = -1;               // a column of half error bars (style yerrorbars)
+  // Drawing: a gnuplot colour ("black", "#0072b2"; empty: gnuplot's next), dash
+  // type (0: solid), line width and point type (0: gnuplot's defaults).
+  std::string color;
+  int dash = 0;
+  double width = 0;
+  int point = 0;
 };
 
+// One figure. The title is the HTML caption only: gnuplot draws none.
 struct FigureSpec {
   std::string name;  // file stem
   std::string title, xlabel, ylabel;
@@ -22,8 +30,21 @@ struct FigureSpec {
   std::vector<std::string> xtics;            // category labels by row (empty: numeric x)
   std::vector<Series> series;
   Eigen::MatrixXd matrix;  // if non-empty: a heat map of it (with xtics as labels)
-  std::string extra;       // more gnuplot commands
+  std::string cblabel;     // the heat map's colour bar label
+  // Axes: a log y axis, and fixed limits (NaN: gnuplot's autoscale). A quantity
+  // that cannot be negative gets y_min = 0 (or a log axis).
+  bool log_y = false;
+  double x_min = std::numeric_limits<double>::quiet_NaN();
+  double x_max = std::numeric_limits<double>::quiet_NaN();
+  double y_min = std::numeric_limits<double>::quiet_NaN();
+  double y_max = std::numeric_limits<double>::quiet_NaN();
+  std::string extra;  // more gnuplot commands
 };
+
+// A log y axis over whole decades that hold the positive values of the
+// figure's series (zeros and negatives fall below it), at most `decades` wide
+// down from the largest value.
+void use_log_y(FigureSpec& figure, int decades = 5);
 
 // What a report opens with, before any table or figure: the status and the
 // headline numbers a reader needs first (plain text; write_report escapes it).

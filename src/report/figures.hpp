@@ -1,0 +1,21 @@
+// Figures of the reports that tests check alone.
+#pragma once
+
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/report/report.hpp"
+
+namespace hapticcal::detail {
+
+// calibrate's correlation map of the identified parameters, rows and columns
+// in the order of the report's parameter table (KinematicFit::parameters).
+FigureSpec correlation_figure(const KinematicFit& fit);
+
+// Before (nominal, reference) orange and after (calibrated) blue, in every report.
+inline Series before_series(std::string label, int x, int y, std::string style = "points") {
+  return {std::move(label), x, y, std::move(style), -1, "#d55e00", 0, 1.5, 7};
+}
+inline Series after_series(std::string label, int x, int y, std::string style = "points") {
+  return {std::move(label), x, y, std::move(style), -1, "#0072b2", 0, 1.5, 5};
+}
+
+}  // namespace hapticcal::detail
