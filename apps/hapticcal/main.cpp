@@ -560,7 +560,7 @@ int run_force_study(ForceOptions o) {
   hapticcal::write_file_atomically(
       out.dir() + "/results.json",
       j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
-  hapticcal::Report force_report = hapticcal::force_report(before, after, reduction);
+  hapticcal::Report force_report = hapticcal::force_report(before, after);
   force_report.outcome = hapticcal::force_outcome(study);
   const std::string reported = report(force_report, out.dir(), o.out);
   out.commit();

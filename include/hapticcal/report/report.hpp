@@ -92,7 +92,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
 // the first trial keeps in memory (TrialResult::figures).
 Report study_report(const Scenario& scenario, const StudyResult& result);
 // force: the Fig. 12 analogue for the nominal and the calibrated model.
-Report force_report(const ForceRun& nominal, const ForceRun& calibrated, double reduction_pct);
+Report force_report(const ForceRun& nominal, const ForceRun& calibrated);
 // force's outcome block: the transverse force before and after, the final Fz
 // and the set-up (wall, gain and its stability limit, locked joint, posture).
 Outcome force_outcome(const ForceStudy& study);
