@@ -242,6 +242,22 @@ TEST_F(ReportFigures, SimulateFig8AfterErrorsAreVisible) {
   }
 }
 
+// Fig. 10: the full calibration's error (microns) has a figure of its own
+// beside the one of all three (millimetres), where it spreads over the axis.
+TEST_F(ReportFigures, SimulateFig10FullCalibrationIsVisible) {
+  const Script all = read_script(figure("simulate", "fig10_trajectory", ".gp"));
+  const auto all_data = read_data(figure("simulate", "fig10_trajectory", ".csv"));
+  const Clause* full_in_all = clause_titled(all, "full calibration");
+  ASSERT_TRUE(full_in_all) << all.text;
+  EXPECT_LT(extent(all, all_data, *full_in_all).span, 0.25) << "not visible among the three";
+  const Script s = read_script(figure("simulate", "fig10_trajectory_full", ".gp"));
+  const auto data = read_data(figure("simulate", "fig10_trajectory_full", ".csv"));
+  ASSERT_EQ(s.clauses.size(), 1u) << s.text;
+  const Clause* full = clause_titled(s, "full calibration");
+  ASSERT_TRUE(full) << s.text;
+  EXPECT_GT(extent(s, data, *full).span, 0.9);
+}
+
 // Fig. 12: the transverse force |Fx, Fy| of the nominal and the calibrated
 // model on an axis of its own (no Fz of about 2 N on it), the calibrated one
 // visible on it.
@@ -286,7 +302,7 @@ TEST_F(ReportFigures, NonnegativeQuantitiesHaveNoNegativeAxis) {
   // the correlation map (a fixed image range), the distance error along the
   // trajectory. The wall force Fz is not one: the wall pushes.
   const std::regex signed_figure(
-      "transmission_.*|fig7_.*|monte_carlo_improvement|correlation|fig10_trajectory");
+      "transmission_.*|fig7_.*|monte_carlo_improvement|correlation|fig10_trajectory.*");
   int checked = 0;
   for (const std::string& report : reports_) {
     for (const std::string& name : figures(report)) {

@@ -505,6 +505,12 @@ Report study_report(const Scenario& sc, const StudyResult& r) {
                   {"full calibration", 0, 2, "lines", -1, "#0072b2", 0, 1.5, 0},
                   {"kinematic-only calibration", 0, 3, "lines", -1, "#009e73", 2, 1.5, 0}};
   report.figures.push_back(fig10);
+  // Its full calibration on an axis of its own: microns beside millimetres.
+  FigureSpec fig10_full = figure("fig10_trajectory_full",
+                                 "Fig. 10 (detail): the full calibration's distance error alone",
+                                 "time [s]", "distance error [mm]", {tr[0], scaled(tr[3])});
+  fig10_full.series = {{"full calibration", 0, 1, "lines", -1, "#0072b2", 0, 1.5, 0}};
+  report.figures.push_back(fig10_full);
   // Monte Carlo.
   if (r.trials > 1) {
     std::vector<std::string> names;
