@@ -1181,7 +1181,16 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   } else if (!fit.converged) {
     result.notes.push_back("step 2 did not converge: " + solution.message);
   }
-  const Eigen::VectorXd& p = solution.parameters;
+  // Angles are periodic: a step that went round (a real fit turned a flange's
+  // pitch by 11 rad) is the same model with the deviation in (-pi, pi].
+  Eigen::VectorXd p = solution.parameters;
+  {
+    const Eigen::VectorXd start = problem.model.kinematic_parameters();
+    for (const ParameterInfo& pi : problem.model.parameter_info()) {
+      if (pi.unit != ParameterUnit::kAngle) continue;
+      p[pi.slot] = start[pi.slot] + std::remainder(p[pi.slot] - start[pi.slot], 2 * M_PI);
+    }
+  }
   model = problem.model;
   model.set_kinematic_parameters(p);
   fit.rms_after = measurement_rms(
