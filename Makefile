@@ -2,20 +2,23 @@
 # Both install missing Debian packages (apt-get), configure a Release build
 # with CMake and build with -j$(JOBS).
 BUILD ?= build
-SANITIZE_BUILD ?= build-sanitize
-FUZZ_BUILD ?= build-fuzz
+# One instrumented tree (clang, ASan + UBSan + libFuzzer's coverage) for both the
+# tests labelled "sanitize" (make test) and the fuzz targets (make fuzz). A new
+# name: CMake switching an old gcc build-sanitize to clang would drop its -D options.
+ASAN_BUILD ?= build-asan
 FUZZ_SECONDS ?= 60
 JOBS ?= 2
 DEB_PACKAGES := cmake g++ make pkg-config libeigen3-dev libceres-dev libyaml-cpp-dev \
   nlohmann-json3-dev libcli11-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev \
   liborocos-kdl-dev liburdfdom-dev gnuplot-nox \
   python3-dev python3-pybind11 python3-numpy python3-pytest
-# Debian's clang and its compiler-rt (libclang_rt.fuzzer, ASan, UBSan) for `make fuzz`.
+# Debian's clang and its compiler-rt (libclang_rt.fuzzer, ASan, UBSan) for the
+# instrumented tree of `make test` and `make fuzz`.
 FUZZ_PACKAGES := clang libclang-rt-dev
 SANITIZE_TARGETS := hapticcal_cli convert_meca500 malformed_input_test device_io_test \
   log_io_test transmission_test urdf_test registration_test runtime_test runtime_c99
 
-.PHONY: all deps configure build run test bench fuzz clean
+.PHONY: all deps configure build run test asan-configure bench fuzz clean
 
 all: build
 
@@ -43,30 +46,41 @@ run: configure
 	cmake --build $(BUILD) -j$(JOBS) --target hapticcal_cli
 	./$(BUILD)/hapticcal simulate
 
+# The instrumented tree $(ASAN_BUILD): clang at -O1 -g with assertions (no
+# -DNDEBUG, C and C++), everything under AddressSanitizer and UBSan
+# (-fno-sanitize-recover=undefined: a finding fails) and libFuzzer's coverage
+# (-fsanitize=fuzzer-no-link); only fuzz/ links libFuzzer, the tests keep
+# GoogleTest's main. -DHAPTICCAL_FUZZ=ON implies HAPTICCAL_SANITIZE. `make test`
+# builds the sanitize tests and the fuzz targets in it, so that `make fuzz`
+# afterwards compiles nothing; `make fuzz` alone builds only the fuzz targets.
+asan-configure: deps
+	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(FUZZ_PACKAGES)"
+	cmake -S . -B $(ASAN_BUILD) -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g" \
+	  "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g" -DHAPTICCAL_FUZZ=ON \
+	  -DHAPTICCAL_BUILD_BENCHMARKS=OFF
+
 # Every test in Release (the Python module's pytest among them: python_test),
-# then the input-handling tests again under AddressSanitizer and UBSan.
+# then the input-handling tests again under AddressSanitizer and UBSan (and the
+# fuzz targets built, for `make fuzz`).
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
-	cmake -S . -B $(SANITIZE_BUILD) -DCMAKE_BUILD_TYPE=Debug -DHAPTICCAL_SANITIZE=ON \
-	  -DHAPTICCAL_BUILD_BENCHMARKS=OFF
-	cmake --build $(SANITIZE_BUILD) -j$(JOBS) --target $(SANITIZE_TARGETS)
-	cd $(SANITIZE_BUILD) && ctest --output-on-failure -j$(JOBS) -L sanitize
+	@$(MAKE) --no-print-directory asan-configure
+	cmake --build $(ASAN_BUILD) -j$(JOBS) --target $(SANITIZE_TARGETS) fuzz_targets
+	cd $(ASAN_BUILD) && ctest --output-on-failure -j$(JOBS) -L sanitize
 
 bench: build
 	./$(BUILD)/bench/fk_jacobian_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
 	./$(BUILD)/bench/calibrate_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
 	./$(BUILD)/bench/plan_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 
-# libFuzzer targets of fuzz/ (clang; library under ASan and UBSan), each run
-# for FUZZ_SECONDS on a scratch copy of the seed corpus in $(FUZZ_BUILD)/corpus;
-# fails if any finds a crash. The flags keep assertions (no -DNDEBUG).
-fuzz: deps
-	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(FUZZ_PACKAGES)"
-	CC=clang CXX=clang++ cmake -S . -B $(FUZZ_BUILD) -DCMAKE_CXX_COMPILER=clang++ \
-	  -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g" \
-	  -DHAPTICCAL_FUZZ=ON -DHAPTICCAL_BUILD_TESTS=OFF -DHAPTICCAL_BUILD_BENCHMARKS=OFF
-	cmake --build $(FUZZ_BUILD) -j$(JOBS) --target fuzz_targets
-	fuzz/run.sh $(FUZZ_BUILD) $(FUZZ_SECONDS)
+# libFuzzer targets of fuzz/ in the instrumented tree (see asan-configure), each
+# run for FUZZ_SECONDS on a scratch copy of the seed corpus in $(ASAN_BUILD)/corpus;
+# fails if any finds a crash. After `make test` nothing is compiled.
+fuzz: asan-configure
+	cmake --build $(ASAN_BUILD) -j$(JOBS) --target fuzz_targets
+	fuzz/run.sh $(ASAN_BUILD) $(FUZZ_SECONDS)
 
+# build-sanitize and build-fuzz: the two trees build-asan replaced.
 clean:
-	rm -rf $(BUILD) $(SANITIZE_BUILD) $(FUZZ_BUILD)
+	rm -rf $(BUILD) $(ASAN_BUILD) build-sanitize build-fuzz
