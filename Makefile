@@ -15,8 +15,6 @@ DEB_PACKAGES := cmake g++ make pkg-config libeigen3-dev libceres-dev libyaml-cpp
 # Debian's clang and its compiler-rt (libclang_rt.fuzzer, ASan, UBSan) for the
 # instrumented tree of `make test` and `make fuzz`.
 FUZZ_PACKAGES := clang libclang-rt-dev
-SANITIZE_TARGETS := hapticcal_cli convert_meca500 malformed_input_test device_io_test \
-  log_io_test transmission_test urdf_test registration_test runtime_test runtime_c99
 
 .PHONY: all deps configure build run test asan-configure bench fuzz clean
 
@@ -66,7 +64,7 @@ asan-configure: deps
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
 	@$(MAKE) --no-print-directory asan-configure
-	cmake --build $(ASAN_BUILD) -j$(JOBS) --target $(SANITIZE_TARGETS) fuzz_targets
+	cmake --build $(ASAN_BUILD) -j$(JOBS) --target sanitize_targets fuzz_targets
 	cd $(ASAN_BUILD) && ctest --output-on-failure -j$(JOBS) -L sanitize
 
 bench: build
