@@ -7,6 +7,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -341,6 +342,63 @@ TEST_F(ReportOutcome, PlanOutcomeHasThePredictedErrors) {
     EXPECT_NE(o.find(n[0] + " um with the 40 planned poses"), std::string::npos) << o;
     EXPECT_NE(o.find(n[1] + " um"), std::string::npos) << o;
   }
+}
+
+// Units on every table column: a column of numbers has its unit in its header
+// ("[mm]"), or its table has a unit column, or it is a count, a percentage or
+// a ratio by name.
+TEST_F(ReportOutcome, EveryColumnOfNumbersHasItsUnit) {
+  const std::set<std::string> dimensionless = {"parameters",
+                                               "samples",
+                                               "I %",
+                                               "paper I %",
+                                               "mean I %",
+                                               "RMSE / CRLB",
+                                               "largest correlation",
+                                               "condition number",
+                                               "O1",
+                                               "O2",
+                                               "O3",
+                                               "O4",
+                                               "ratio"};
+  static const std::regex header_cell("<th>([^<]*)</th>"), cell("<td[^>]*>([^<]*)</td>");
+  int columns = 0;
+  for (const char* command : {"simulate", "calibrate", "force", "evaluate", "plan"}) {
+    const std::string page = html(command);
+    for (size_t at = page.find("<table>"); at != std::string::npos;
+         at = page.find("<table>", at + 1)) {
+      const std::string table = page.substr(at, page.find("</table>", at) - at);
+      std::vector<std::string> header;
+      for (auto it = std::sregex_iterator(table.begin(), table.end(), header_cell);
+           it != std::sregex_iterator(); ++it)
+        header.push_back(unescape((*it)[1].str()));
+      const bool unit_column = std::find(header.begin(), header.end(), "unit") != header.end();
+      std::vector<bool> numeric(header.size(), true);
+      size_t rows = 0;
+      for (size_t r = table.find("<tr><td"); r != std::string::npos;
+           r = table.find("<tr><td", r + 1)) {
+        const std::string row = table.substr(r, table.find("</tr>", r) - r);
+        size_t c = 0;
+        for (auto it = std::sregex_iterator(row.begin(), row.end(), cell);
+             it != std::sregex_iterator() && c < header.size(); ++it, ++c) {
+          const std::string v = (*it)[1].str();
+          char* end = nullptr;
+          std::strtod(v.c_str(), &end);
+          if (v != "-" && (v.empty() || end != v.c_str() + v.size())) numeric[c] = false;
+        }
+        ++rows;
+      }
+      if (rows == 0) continue;
+      for (size_t c = 0; c < header.size(); ++c) {
+        if (!numeric[c]) continue;
+        ++columns;
+        EXPECT_TRUE(unit_column || header[c].find('[') != std::string::npos ||
+                    dimensionless.count(header[c]))
+            << command << ": column '" << header[c] << "' has no unit";
+      }
+    }
+  }
+  EXPECT_GE(columns, 20);
 }
 
 // plan's table: the sd in the units of calibrate's tables, with a unit column;

@@ -136,8 +136,8 @@ void selection_section(const KinematicFit& k, Report& report) {
                   k.structurally_identified, k.identified,
                   k.type == MeasurementType::kPose ? "position rows" : "the measurement's error",
                   k.selection_folds) +
-      html_table({"parameters", "training RMS", "cross-validated RMS", "held next", "its t",
-                  "threshold", ""},
+      html_table({"parameters", "training RMS [mm]", "cross-validated RMS [mm]", "held next",
+                  "its t [sd]", "threshold [sd]", ""},
                  rows));
   if (n.size() < 2) return;
   FigureSpec f = figure("model_selection", "Training and cross-validated RMS along the selection",
