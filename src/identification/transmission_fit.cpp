@@ -175,11 +175,14 @@ Transmission fit_transmission(const DeviceModel& model, int joint, const Eigen::
   return fitted;
 }
 
-DisplayUnit display_unit(const TransmissionFit& fit, int k) {
-  if (fit.type != "capstan") return {1, "rad"};
-  static const DisplayUnit capstan[] = {
-      {1, ""}, {1e3, "mm"}, {180 / M_PI, "deg"}, {1e3, "mm"}, {180 / M_PI, "deg"}};
-  return capstan[k];
+DisplayUnit display_unit(const std::string& parameter) {
+  const std::string p = parameter.substr(parameter.rfind('.') + 1);
+  if (p == "ratio_error") return {1, ""};
+  if (p == "r_out" || p == "r_in" || (p.size() >= 2 && p[0] == 'L')) return {1e3, "mm"};
+  if (p == "beta_out" || p == "beta_in") return {180 / M_PI, "deg"};
+  return {1, "rad"};  // polynomial coefficients
 }
+
+DisplayUnit display_unit(const TransmissionFit& fit, int k) { return display_unit(fit.names[k]); }
 
 }  // namespace hapticcal

@@ -9,16 +9,12 @@ namespace hapticcal {
 namespace {
 
 // The terminal's and the other reports' units: kinematic lengths in mm and
-// angles in mrad, step-1 parameters as calibrate prints them (display_unit).
+// angles in mrad, step-1 parameters as calibrate prints them.
 DisplayUnit unit_of(const PlanProblem& problem, const std::string& name) {
   for (const ParameterInfo& info : problem.model().parameter_info()) {
     if (info.name == name) return {1e3, info.unit == ParameterUnit::kAngle ? "mrad" : "mm"};
   }
-  const std::string p = name.substr(name.rfind('.') + 1);
-  if (p == "r_out" || p == "r_in" || (p.size() == 2 && p[0] == 'L')) return {1e3, "mm"};
-  if (p == "beta_out" || p == "beta_in") return {180 / M_PI, "deg"};
-  if (p == "ratio_error") return {1, ""};
-  return {1, "rad"};  // polynomial coefficients
+  return display_unit(name);
 }
 
 }  // namespace

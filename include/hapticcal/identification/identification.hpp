@@ -47,12 +47,16 @@ struct TransmissionFit {
 };
 
 // How the terminal and the reports print a step-1 parameter: the paper's
-// Table 2 units (capstan radii in mm, eccentricity angles in deg; the ratio
-// error is dimensionless, polynomial coefficients are in rad). Files are SI.
+// Table 2 units (capstan radii and parallelogram lengths in mm, eccentricity
+// angles in deg; the ratio error is dimensionless, polynomial coefficients are
+// in rad). Files are SI.
 struct DisplayUnit {
   double scale = 1;       // display value = SI value * scale
   std::string unit = "";  // "" for dimensionless
 };
+// By the parameter's name ("j1.r_out", "j4.stage2.L1", "j4.c3").
+DisplayUnit display_unit(const std::string& parameter);
+// The fit's k-th parameter's.
 DisplayUnit display_unit(const TransmissionFit& fit, int k);
 
 struct ParameterEstimate {
