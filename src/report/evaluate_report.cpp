@@ -9,9 +9,6 @@
 namespace hapticcal {
 namespace {
 
-// Long logs are decimated to about this many points a figure.
-constexpr int kMaxPlotted = 2000;
-
 // One per-sample figure of |error| in `unit` (scaled by 1e3 from SI), the
 // model's and the reference's, on a log axis.
 FigureSpec per_sample(const std::string& name, const std::string& caption,
@@ -24,7 +21,7 @@ FigureSpec per_sample(const std::string& name, const std::string& caption,
   f.xlabel = "sample";
   f.ylabel = ylabel;
   std::vector<double> sample, m, r;
-  const int stride = std::max<int>(1, (model.size() + kMaxPlotted - 1) / kMaxPlotted);
+  const int stride = static_cast<int>(detail::plot_stride(model.size()));
   for (int i = 0; i < model.size(); i += stride) {
     sample.push_back(i + 1);
     m.push_back(std::abs(model[i]) * 1e3);

@@ -1,10 +1,21 @@
 // Figures of the reports that tests check alone.
 #pragma once
 
+#include <algorithm>
+#include <cstddef>
+
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/report/report.hpp"
 
 namespace hapticcal::detail {
+
+// Long logs and runs are decimated to about this many points a figure, so that
+// a report stays small (issue 10: 10^6 rows gave a 208 MB report).
+constexpr size_t kMaxPlotted = 2000;
+// The step between plotted rows of `rows` (at least `at_least`).
+inline size_t plot_stride(size_t rows, size_t at_least = 1) {
+  return std::max(at_least, (rows + kMaxPlotted - 1) / kMaxPlotted);
+}
 
 // calibrate's correlation map of the identified parameters, rows and columns
 // in the order of the report's parameter table (KinematicFit::parameters).

@@ -80,10 +80,6 @@ void transmission_figures(const TransmissionFit& t, const std::string& link, con
   figures.push_back(res);
 }
 
-// Long logs and runs are decimated to about this many points a figure, so that
-// a report stays small (issue 10: 10^6 rows gave a 208 MB report).
-constexpr int kMaxPlotted = 2000;
-
 std::string parameter_table(const KinematicFit& k) {
   std::vector<std::vector<std::string>> rows;
   for (const ParameterEstimate& e : k.parameters) {
@@ -326,8 +322,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   report.sections.push_back(held_table(k));
   selection_section(k, report);
 
-  const size_t pose_stride =
-      std::max<size_t>(1, (result.rows.size() + kMaxPlotted - 1) / kMaxPlotted);
+  const size_t pose_stride = detail::plot_stride(result.rows.size());
   std::vector<int> plotted_rows;
   for (size_t i = 0; i < result.rows.size(); i += pose_stride)
     plotted_rows.push_back(result.rows[i]);
@@ -346,7 +341,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
                                        : position ? after.position_error
                                                   : after.distance_error;
   std::vector<double> sample, eb, ea;
-  const int row_stride = std::max(1, (log.rows + kMaxPlotted - 1) / kMaxPlotted);
+  const int row_stride = static_cast<int>(detail::plot_stride(log.rows));
   for (int r = 0; r < log.rows; r += row_stride) {
     sample.push_back(r + 1);
     eb.push_back(std::abs(error_before[r]) * 1e3);
@@ -570,7 +565,7 @@ Report force_report(const ForceRun& nominal, const ForceRun& calibrated) {
   // of either model on a log axis (the result: orders of magnitude below Fz).
   std::vector<double> t, fdz, fz_nominal, fz_calibrated, ft_nominal, ft_calibrated;
   const size_t samples = std::min(nominal.t.size(), calibrated.t.size());
-  const size_t stride = std::max<size_t>(5, (samples + kMaxPlotted - 1) / kMaxPlotted);
+  const size_t stride = detail::plot_stride(samples, 5);
   for (size_t k = 0; k < samples; k += stride) {
     t.push_back(nominal.t[k]);
     fdz.push_back(nominal.desired[k][2]);
