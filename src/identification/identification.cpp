@@ -461,14 +461,17 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
   }
 }
 
-// The measurement error left once only the base pose is fitted (LM over the
-// base slots): a base known only roughly is no sign of a wrong log.
-double rms_with_base_fitted(const ChainStructure& s, Eigen::VectorXd p,
-                            const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
-                            const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
-                            bool compressed) {
+// The measurement error left once only the slots `free` are fitted (LM): a
+// base known only roughly, or a marker's unknown offset from the tip, is no
+// sign of a wrong log.
+double rms_with_fitted(const ChainStructure& s, Eigen::VectorXd p, const std::vector<int>& free,
+                       const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
+                       const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
+                       bool compressed) {
   std::vector<int> constant;
-  for (int k = s.base_slots(); k < s.num_slots(); ++k) constant.push_back(k);
+  for (int k = 0; k < s.num_slots(); ++k) {
+    if (std::find(free.begin(), free.end(), k) == free.end()) constant.push_back(k);
+  }
   ceres::Problem problem;
   problem.AddResidualBlock(measurement_cost(s, joints, kind, measured, weights, compressed),
                            nullptr, p.data());
@@ -479,9 +482,11 @@ double rms_with_base_fitted(const ChainStructure& s, Eigen::VectorXd p,
                          rows);
 }
 
-// A nominal error beyond kImplausibleErrorFraction of the reach, even with the
-// base pose fitted, says the log is not from this device: an InputError unless
-// forced.
+// A nominal error beyond kImplausibleErrorFraction of the reach, even with what
+// a measurement set-up normally leaves unknown fitted - the base pose first,
+// then the base pose and the tool point (a marker's or reflector's offset; for
+// poses the tool's orientation too) - says the log is not from this device: an
+// InputError unless forced. The message names the fits it tried.
 void check_reach(const ChainStructure& s, const DeviceModel& nominal,
                  const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
                  const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
@@ -495,19 +500,30 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
   }
   const double limit = kImplausibleErrorFraction * reach;
   if (!(rms_before > limit)) return;
+  std::vector<int> free;
+  for (int k = 0; k < s.base_slots(); ++k) free.push_back(k);
   const double rms_base =
-      rms_with_base_fitted(s, p, joints, kind, measured, weights, rows, compressed);
-  if (rms_base <= limit) {
+      rms_with_fitted(s, p, free, joints, kind, measured, weights, rows, compressed);
+  std::string tried = fmt::format("{:.1f} mm with its base pose fitted", rms_base * 1e3);
+  double rms_fitted = rms_base;
+  if (!(rms_base <= limit)) {
+    const int tool_slots = kind.type == MeasurementType::kPose ? kPoseSlots : 3;
+    for (int k = 0; k < tool_slots; ++k) free.push_back(s.tool_slot() + k);
+    rms_fitted = rms_with_fitted(s, p, free, joints, kind, measured, weights, rows, compressed);
+    tried += fmt::format(", {:.1f} mm with its base pose and tool {} fitted", rms_fitted * 1e3,
+                         kind.type == MeasurementType::kPose ? "pose" : "point");
+  }
+  if (rms_fitted <= limit) {
     notes.push_back(fmt::format(
-        "the nominal model's RMS error is {:.1f} mm, {:.1f} mm with its base pose fitted "
-        "(below {:.0f} % of the reach: plausible for this device)",
-        rms_before * 1e3, rms_base * 1e3, kImplausibleErrorFraction * 100));
+        "the nominal model's RMS error is {:.1f} mm, {} (below {:.0f} % of the reach: plausible "
+        "for this device)",
+        rms_before * 1e3, tried, kImplausibleErrorFraction * 100));
     return;
   }
   const std::string message = fmt::format(
-      "the nominal model's RMS error, {:.1f} mm ({:.1f} mm with its base pose fitted), is more "
-      "than {:.0f} % of the device's reach ({:.1f} mm): is this log from this device ({})?",
-      rms_before * 1e3, rms_base * 1e3, kImplausibleErrorFraction * 100, reach * 1e3, nominal.name);
+      "the nominal model's RMS error, {:.1f} mm ({}), is more than {:.0f} % of the device's reach "
+      "({:.1f} mm): is this log from this device ({})?",
+      rms_before * 1e3, tried, kImplausibleErrorFraction * 100, reach * 1e3, nominal.name);
   if (!force) throw InputError(message + " (--force calibrates anyway)");
   notes.push_back("warning: " + message);
 }
@@ -564,6 +580,25 @@ std::optional<std::string> register_frame(DeviceModel& model,
       "registered in closed form first (Horn/Kabsch point-set alignment: base moved by {:.1f} mm "
       "and {:.2f} deg, RMS {:.2f} mm), then refined by Levenberg-Marquardt",
       before * 1e3, shift * 1e3, turn * 180 / M_PI, reg.rms * 1e3);
+}
+
+// How far the measurement frame (base) and the tool point moved: the set-up's
+// unknowns, reported, not flagged.
+std::string setup_change_note(const DeviceModel& nominal, const DeviceModel& calibrated) {
+  const Frame<double> b0 = pose_frame(nominal.base[0], nominal.base[1], nominal.base[2],
+                                      nominal.base[3], nominal.base[4], nominal.base[5]);
+  const Frame<double> b1 = pose_frame(calibrated.base[0], calibrated.base[1], calibrated.base[2],
+                                      calibrated.base[3], calibrated.base[4], calibrated.base[5]);
+  const Frame<double> t0 = pose_frame(nominal.tool[0], nominal.tool[1], nominal.tool[2],
+                                      nominal.tool[3], nominal.tool[4], nominal.tool[5]);
+  const Frame<double> t1 = pose_frame(calibrated.tool[0], calibrated.tool[1], calibrated.tool[2],
+                                      calibrated.tool[3], calibrated.tool[4], calibrated.tool[5]);
+  return fmt::format(
+      "the measurement frame (base) moved {:.1f} mm and {:.2f} deg from the model's, the tool "
+      "point {:.1f} mm: the set-up's unknowns (the tracker's frame, the marker's offset), not "
+      "changes of the robot",
+      (b1.p - b0.p).norm() * 1e3, Eigen::AngleAxisd(b0.R.transpose() * b1.R).angle() * 180 / M_PI,
+      (t1.p - t0.p).norm() * 1e3);
 }
 
 // RMS scatter of repeated measurements about their pose's mean (`means`, the
@@ -740,6 +775,17 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   return problem;
 }
 
+bool measurement_frame_unknown(const KinematicProblem& problem, const std::vector<int>& candidates) {
+  if (problem.type != MeasurementType::kPosition && problem.type != MeasurementType::kPose) {
+    return false;
+  }
+  if (problem.model.base_kind != BaseKind::kPose) return false;
+  for (int k = 0; k < kPoseSlots; ++k) {
+    if (std::find(candidates.begin(), candidates.end(), k) == candidates.end()) return false;
+  }
+  return true;
+}
+
 bool register_measurement_frame(KinematicProblem& problem, const std::vector<int>& candidates,
                                 std::vector<std::string>& notes) {
   auto note = register_frame(problem.model, problem.joints, rows_of(problem), problem.measured,
@@ -862,7 +908,16 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   const bool rigid = kind.labels && problem.labels.known_points() == 0;
   std::vector<int> order = candidates;
   const auto is_base = [&](int slot) { return slot < s.base_slots(); };
-  if (kind.labels) std::stable_partition(order.begin(), order.end(), is_base);
+  // An unknown measurement frame is likewise the base's: it goes first, and
+  // the first joint's origin keeps only what a rigid frame cannot express.
+  // Its marker is as unknown: the tool goes next, so that a last joint's twist
+  // about its own axis does not carry the marker's offset.
+  if (kind.labels || problem.frame_unknown) {
+    const auto links = std::stable_partition(order.begin(), order.end(), is_base);
+    if (problem.frame_unknown) {
+      std::stable_partition(links, order.end(), [&](int slot) { return slot >= s.tool_slot(); });
+    }
+  }
   // Planes, and points without a known distance, cannot see the robot's size
   // (every length times 1 + e leaves the residuals as they are): the rank test
   // finds one length dependent on the others; its reason says so.
@@ -1047,6 +1102,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   };
   if (m < 2) too_few(candidates.size(), "candidate");
   fit.frame_registered = register_measurement_frame(problem, candidates, result.notes);
+  problem.frame_unknown = measurement_frame_unknown(problem, candidates);
   fit.length_scale = problem.length_scale;
   fit.rotation_scale = problem.rotation_scale;
   const ChainStructure s = model.structure();
@@ -1236,8 +1292,11 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       const int c = static_cast<int>(it - identified.begin());
       e.identifiable = true;
       e.sd = std::sqrt(covariance(c, c));
-      e.large_change = std::abs(e.value - e.nominal) >
-                       (e.unit == ParameterUnit::kAngle ? kLargeChangeAngle : kLargeChangeLength);
+      // An unknown frame and a marker's offset are the set-up's, not the robot's.
+      const bool setup = problem.frame_unknown && (pi.joint < 0 || pi.joint == model.dof());
+      e.large_change = !setup && std::abs(e.value - e.nominal) > (e.unit == ParameterUnit::kAngle
+                                                                      ? kLargeChangeAngle
+                                                                      : kLargeChangeLength);
       for (int o = 0; o < k; ++o) {
         if (o == c) continue;
         const double rho = covariance(c, o) / std::sqrt(covariance(c, c) * covariance(o, o));
@@ -1257,6 +1316,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     }
     fit.parameters.push_back(e);
   }
+  if (problem.frame_unknown) result.notes.push_back(setup_change_note(nominal, model));
   if (fit.rank_deficient) {
     result.notes.push_back(
         "rank-deficient: these measurements do not excite every parameter the model can "

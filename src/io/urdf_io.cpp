@@ -445,6 +445,12 @@ struct UrdfChain {
   // The fixed joints after the last movable joint (their product is the tool).
   std::vector<Frame<double>> tool_origins;
   std::vector<int> tool_elements;
+  // A root that is not above the tip: the fixed joints from the root up to the
+  // first link above the tip, in that order (each origin is parent <- child).
+  // The root's frame is then the measurement frame: base = o_1^-1 o_2^-1 ...
+  // (the link hapticcal adds for a calibrated base, see calibrated_urdf).
+  std::vector<Frame<double>> up_origins;
+  std::vector<int> up_elements;
 };
 
 std::string joint_key(const std::string& name) {
@@ -505,9 +511,36 @@ std::string name_list(const std::vector<std::string>& names) {
   return out;
 }
 
-// The joints from root to tip, urdfdom's.
+// The links from `link` up to the tree's root, `link` first. InputError on a
+// loop of joints (urdfdom accepts one below the root).
+std::vector<urdf::LinkConstSharedPtr> ancestry(const urdf::ModelInterface& urdf,
+                                               urdf::LinkConstSharedPtr link,
+                                               const std::string& origin, const Document& doc,
+                                               const char* key) {
+  std::vector<urdf::LinkConstSharedPtr> out;
+  std::set<std::string> passed;
+  while (link) {
+    if (!passed.insert(link->name).second) {
+      throw InputError(origin, doc.link_line(link->name), key,
+                       fmt::format("link '{}' is its own ancestor: the joints above it form a "
+                                   "loop, not a tree",
+                                   printable(link->name, 80)));
+    }
+    out.push_back(link);
+    if (!link->parent_joint) break;
+    link = urdf.getLink(link->parent_joint->parent_link_name);
+    if (!link) throw InputError(origin, 0, "", "URDF: broken tree");  // urdfdom checks this
+  }
+  return out;
+}
+
+// The joints from root to tip, urdfdom's. A root that is not above the tip may
+// be joined to the tip's branch by fixed joints only (the measurement frame of
+// a calibrated URDF hangs below the robot's root): those joints, from the root
+// upwards, go to `up`.
 std::vector<urdf::JointConstSharedPtr> chain_joints(const urdf::ModelInterface& urdf,
-                                                    const std::string& origin, UrdfChain& chain) {
+                                                    const std::string& origin, UrdfChain& chain,
+                                                    std::vector<urdf::JointConstSharedPtr>& up) {
   urdf::LinkConstSharedPtr root = chain.root.empty() ? urdf.getRoot() : urdf.getLink(chain.root);
   if (!root) {
     throw InputError(origin, 0, "root",
@@ -523,28 +556,39 @@ std::vector<urdf::JointConstSharedPtr> chain_joints(const urdf::ModelInterface& 
     }
     chain.tip = leaves[0];
   }
-  urdf::LinkConstSharedPtr link = urdf.getLink(chain.tip);
-  if (!link) {
+  urdf::LinkConstSharedPtr tip = urdf.getLink(chain.tip);
+  if (!tip) {
     throw InputError(origin, 0, "tip",
                      fmt::format("link '{}' is not in the URDF", printable(chain.tip, 80)));
   }
+  const std::vector<urdf::LinkConstSharedPtr> above_tip =
+      ancestry(urdf, tip, origin, chain.doc, "tip");
+  const std::vector<urdf::LinkConstSharedPtr> above_root =
+      ancestry(urdf, root, origin, chain.doc, "root");
+  // The first link above the root (itself included) that is above the tip too.
+  size_t meet = 0;
+  auto on_tip_branch = [&](const urdf::LinkConstSharedPtr& l) {
+    return std::find(above_tip.begin(), above_tip.end(), l) != above_tip.end();
+  };
+  while (meet < above_root.size() && !on_tip_branch(above_root[meet])) ++meet;
+  const bool moving_up = meet > 0 && meet < above_root.size() &&
+                         std::all_of(above_root.begin(), above_root.begin() + meet, [](auto& l) {
+                           return l->parent_joint->type == urdf::Joint::FIXED;
+                         });
+  if (meet == above_root.size() || (meet > 0 && !moving_up)) {
+    throw InputError(origin, chain.doc.link_line(chain.tip), "tip",
+                     fmt::format("link '{}' is not below the root link '{}'{}",
+                                 printable(chain.tip, 80), printable(root->name, 80),
+                                 meet > 0 && meet < above_root.size()
+                                     ? " (a root beside the chain must be joined to it by fixed "
+                                       "joints only)"
+                                     : ""));
+  }
+  up.clear();
+  for (size_t k = 0; k < meet; ++k) up.push_back(above_root[k]->parent_joint);
   std::vector<urdf::JointConstSharedPtr> joints;
-  std::set<std::string> passed;
-  while (link != root) {
-    if (!passed.insert(link->name).second) {  // urdfdom accepts a loop of joints
-      throw InputError(origin, chain.doc.link_line(link->name), "tip",
-                       fmt::format("link '{}' is its own ancestor: the joints above '{}' form a "
-                                   "loop, not a tree",
-                                   printable(link->name, 80), printable(chain.tip, 80)));
-    }
-    if (!link->parent_joint) {
-      throw InputError(origin, chain.doc.link_line(chain.tip), "tip",
-                       fmt::format("link '{}' is not below the root link '{}'",
-                                   printable(chain.tip, 80), printable(root->name, 80)));
-    }
-    joints.push_back(link->parent_joint);
-    link = urdf.getLink(link->parent_joint->parent_link_name);
-    if (!link) throw InputError(origin, 0, "", "URDF: broken tree");  // urdfdom checks this
+  for (auto link = above_tip.begin(); *link != above_root[meet]; ++link) {
+    joints.push_back((*link)->parent_joint);
   }
   std::reverse(joints.begin(), joints.end());
   return joints;
@@ -580,7 +624,8 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
   const urdf::ModelInterfaceSharedPtr urdf = parse_with_urdfdom(text, origin, chain.doc);
   chain.root = root;
   chain.tip = tip;
-  const std::vector<urdf::JointConstSharedPtr> joints = chain_joints(*urdf, origin, chain);
+  std::vector<urdf::JointConstSharedPtr> up;
+  const std::vector<urdf::JointConstSharedPtr> joints = chain_joints(*urdf, origin, chain, up);
 
   int movable = 0;
   for (const auto& j : joints) {
@@ -604,6 +649,14 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
   DeviceModel& model = chain.model;
   model.name = urdf->getName();
   model.base_kind = BaseKind::kPose;
+  Frame<double> base = Frame<double>::Identity();
+  for (const auto& j : up) {
+    const Frame<double> o = frame_of(joint_origin(*j, chain.doc));
+    chain.up_origins.push_back(o);
+    chain.up_elements.push_back(chain.doc.joint_index(j->name));
+    base = base * o.inverse();
+  }
+  if (!up.empty()) model.base = pose_of(base);
   Frame<double> fold = Frame<double>::Identity();
   bool folding = false;
   std::vector<Frame<double>> fixed_origins;
@@ -677,7 +730,7 @@ struct Edit {
 };
 
 std::string apply_edits(const std::string& text, std::vector<Edit> edits) {
-  std::sort(edits.begin(), edits.end(), [](const Edit& a, const Edit& b) {
+  std::stable_sort(edits.begin(), edits.end(), [](const Edit& a, const Edit& b) {
     return a.begin != b.begin ? a.begin > b.begin : a.end > b.end;
   });
   std::string out = text;
@@ -863,6 +916,58 @@ std::string device_to_urdf(const DeviceModel& model) {
   return out;
 }
 
+// The calibrated base B (the measurement frame's pose: T_measurement_root) in
+// the text. A chain read from a measurement-frame root (up_origins) has its
+// first fixed joint's origin set so that o_1^-1 o_2^-1 ... = B; otherwise, if
+// the base moved, a link `hapticcal_measurement` is added below the chain's
+// root by a fixed joint with origin B^-1, so that --root hapticcal_measurement
+// gives the whole calibration and the robot's own root the robot alone.
+// Returns the comment's words on the frame.
+template <typename Mismatch>
+std::string write_measurement_frame(const std::string& urdf_text, const UrdfChain& chain,
+                                    const DeviceModel& nominal, const DeviceModel& calibrated,
+                                    std::vector<Edit>& edits, std::vector<std::string>* notes,
+                                    const Mismatch& mismatch) {
+  const Frame<double> B = frame_of(calibrated.base);
+  if (!chain.up_origins.empty()) {
+    if (calibrated.base == nominal.base) {
+      return fmt::format("the measurement frame is the root {}", comment_safe(chain.root));
+    }
+    if (chain.up_elements.front() < 0) throw mismatch("measurement joint element not found");
+    Frame<double> rest = Frame<double>::Identity();  // o_2^-1 o_3^-1 ...
+    for (size_t k = 1; k < chain.up_origins.size(); ++k) rest = rest * chain.up_origins[k].inverse();
+    set_origin(urdf_text, chain.doc, chain.doc.elements[chain.up_elements.front()],
+               pose_of(rest * B.inverse()), edits);
+    return fmt::format("the calibrated measurement frame is the root {}",
+                       comment_safe(chain.root));
+  }
+  if (calibrated.base == nominal.base || is_identity(calibrated.base)) {
+    return "the measurement frame is the robot's root";
+  }
+  std::set<std::string> joints, links;
+  for (const auto& [name, index] : chain.doc.joints) joints.insert(name);
+  for (const auto& [name, index] : chain.doc.links) links.insert(name);
+  const std::string link = unique_name("hapticcal_measurement", links);
+  const std::string joint = unique_name("hapticcal_measurement_joint", joints);
+  const XmlElement& robot = chain.doc.elements[chain.doc.robot];
+  const size_t close = urdf_text.rfind("</", robot.end - 1);
+  std::string added = fmt::format(
+      "  <!-- hapticcal: the measurement frame of the calibration (the tracker's or capture "
+      "system's), below the root '{}': --root {} gives the calibrated chain in that frame, --root "
+      "{} the robot alone -->\n",
+      comment_safe(chain.root), comment_safe(link), comment_safe(chain.root));
+  added += fmt::format("  <link name=\"{}\"/>\n", xml_escaped(link));
+  write_joint(added, joint, "fixed", chain.root, link, B.inverse(), nullptr);
+  edits.push_back({close, close, added});
+  if (notes) {
+    notes->push_back(fmt::format(
+        "calibrated.urdf holds the measurement frame as link '{}' (fixed joint '{}' below the "
+        "root '{}'): --root {} reproduces calibrated.yaml, --root {} gives the robot alone",
+        link, joint, chain.root, link, chain.root));
+  }
+  return fmt::format("the measurement frame is the link {}", comment_safe(link));
+}
+
 std::string calibrated_urdf(const std::string& urdf_text, const std::string& origin,
                             const std::string& tip, const std::string& root,
                             const DeviceModel& calibrated, std::vector<std::string>* notes) {
@@ -933,14 +1038,14 @@ std::string calibrated_urdf(const std::string& urdf_text, const std::string& ori
     }
   }
 
+  const std::string frame_comment = write_measurement_frame(urdf_text, chain, nominal, calibrated,
+                                                             edits, notes, mismatch);
   const XmlElement& robot = chain.doc.elements[chain.doc.robot];
-  edits.push_back(
-      {robot.tag_end, robot.tag_end,
-       fmt::format("\n{}<!-- hapticcal: calibrated joint origins of the chain {} -> {} (joint "
-                   "offsets folded into them); the measurement frame is not part of the robot "
-                   "and is not written. -->",
-                   indentation_at(urdf_text, robot.begin) + "  ", comment_safe(chain.root),
-                   comment_safe(chain.tip))});
+  edits.push_back({robot.tag_end, robot.tag_end,
+                   fmt::format("\n{}<!-- hapticcal: calibrated joint origins of the chain {} -> {} "
+                               "(joint offsets folded into them); {} -->",
+                               indentation_at(urdf_text, robot.begin) + "  ",
+                               comment_safe(chain.root), comment_safe(chain.tip), frame_comment)});
   return apply_edits(urdf_text, std::move(edits));
 }
 

@@ -46,7 +46,8 @@ Report evaluation_report(const DeviceModel& model, const std::string& model_path
                          const Evaluation& ev, const Evaluation* reference,
                          const std::string& reference_path, const std::vector<std::string>& lines) {
   Report report;
-  report.title = fmt::format("hapticcal evaluate: {} on {}", model.name, log.origin);
+  report.title =
+      fmt::format("hapticcal evaluate: {} on {}", model.name, detail::display_path(log.origin));
   report.outcome.status = "evaluated";
   report.outcome.headline = lines;
   report.sections.push_back(fmt::format(

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <filesystem>
+#include <string>
 
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/report/report.hpp"
@@ -13,6 +15,11 @@ namespace hapticcal::detail {
 // a report stays small (issue 10: 10^6 rows gave a 208 MB report).
 constexpr size_t kMaxPlotted = 2000;
 // The step between plotted rows of `rows` (at least `at_least`).
+// A file as the user named it, without a doubled slash or "./" (a report's title).
+inline std::string display_path(const std::string& path) {
+  return std::filesystem::path(path).lexically_normal().string();
+}
+
 inline size_t plot_stride(size_t rows, size_t at_least = 1) {
   return std::max(at_least, (rows + kMaxPlotted - 1) / kMaxPlotted);
 }

@@ -247,7 +247,8 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
                           const std::vector<KnownPoint>& known_points) {
   const KinematicFit& k = result.kinematics;
   Report report;
-  report.title = fmt::format("hapticcal calibrate: {} on {}", nominal.name, log.origin);
+  report.title =
+      fmt::format("hapticcal calibrate: {} on {}", nominal.name, detail::display_path(log.origin));
   // The outcome first, with what the terminal prints: status, RMS before and
   // after, held-out error, solver, step 1, notes and warnings.
   const bool usable = result.status == CalibrationStatus::kConverged;

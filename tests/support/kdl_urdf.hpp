@@ -23,14 +23,36 @@ inline KDL::Frame kdl_frame(const urdf::Pose& pose) {
 }
 
 // The chain root -> tip of the URDF text; throws std::runtime_error if urdfdom
-// cannot read it or the tip is not below the root.
+// cannot read it or the tip is not below the root (nor beside it, joined by
+// fixed joints).
 inline KDL::Chain kdl_chain_from_urdf(const std::string& urdf_text, const std::string& root,
                                       const std::string& tip) {
   const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(urdf_text);
   if (!model) throw std::runtime_error("urdfdom cannot read the URDF");
+  // A root beside the chain (a measurement frame hanging below the robot's
+  // root by fixed joints): up from it to the first link above the tip, each
+  // fixed joint a segment with the inverse of its origin (as KDL::Tree::getChain
+  // walks up a tree).
+  std::vector<std::string> above_tip;
+  for (urdf::LinkConstSharedPtr l = model->getLink(tip); l;
+       l = l->parent_joint ? model->getLink(l->parent_joint->parent_link_name) : nullptr) {
+    above_tip.push_back(l->name);
+  }
+  KDL::Chain chain;
+  urdf::LinkConstSharedPtr top = model->getLink(root);
+  while (top && std::find(above_tip.begin(), above_tip.end(), top->name) == above_tip.end()) {
+    if (!top->parent_joint || top->parent_joint->type != urdf::Joint::FIXED) {
+      throw std::runtime_error("tip is not below root, nor joined to it by fixed joints");
+    }
+    chain.addSegment(KDL::Segment(top->parent_joint->parent_link_name, KDL::Joint(KDL::Joint::None),
+                                  kdl_frame(top->parent_joint->parent_to_joint_origin_transform)
+                                      .Inverse()));
+    top = model->getLink(top->parent_joint->parent_link_name);
+  }
+  if (!top) throw std::runtime_error("unknown root");
   std::vector<urdf::JointConstSharedPtr> joints;
   urdf::LinkConstSharedPtr link = model->getLink(tip);
-  while (link && link->name != root) {
+  while (link && link != top) {
     if (!link->parent_joint) throw std::runtime_error("tip is not below root");
     joints.push_back(link->parent_joint);
     link = model->getLink(link->parent_joint->parent_link_name);
@@ -38,7 +60,6 @@ inline KDL::Chain kdl_chain_from_urdf(const std::string& urdf_text, const std::s
   if (!link) throw std::runtime_error("unknown tip or root");
   std::reverse(joints.begin(), joints.end());
 
-  KDL::Chain chain;
   for (const urdf::JointConstSharedPtr& j : joints) {
     const KDL::Frame origin = kdl_frame(j->parent_to_joint_origin_transform);
     KDL::Vector axis(j->axis.x, j->axis.y, j->axis.z);

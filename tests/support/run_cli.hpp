@@ -123,7 +123,9 @@ inline CliResult run_cli_in(const std::string& cwd, const std::vector<std::strin
 
 // A fresh, empty folder `name` under the tests' temporary directory.
 inline std::string fresh_folder(const std::string& name) {
-  const std::string dir = ::testing::TempDir() + "/" + name;
+  // TempDir() ends with a slash: no doubled one in the paths a report shows.
+  const std::string dir =
+      (std::filesystem::path(::testing::TempDir()) / name).lexically_normal().string();
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

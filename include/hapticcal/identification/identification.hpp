@@ -212,6 +212,10 @@ struct KinematicProblem {
   double rotation_scale = 1;            // m/rad of a pose's rotation rows: the length scale
   bool compressed = false;              // the Jacobian too large: work on its R factor
   FixtureLabels labels;                 // fixture points or planes: the poses' labels
+  // Positions or poses in a frame of their own (a tracker's, a mocap system's)
+  // with the base a free pose: the base is that frame, identified first
+  // (measurement_frame_unknown).
+  bool frame_unknown = false;
 };
 // From the poses (a log, one row a pose) and each pose's repeat count (empty:
 // one each).
@@ -226,6 +230,16 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
 // possible (distances, a DH base, collinear points).
 bool register_measurement_frame(KinematicProblem& problem, const std::vector<int>& candidates,
                                 std::vector<std::string>& notes);
+
+// Whether the problem's measured positions or poses are in a frame the model
+// does not know: the base is a pose whose six slots are all candidates, and the
+// log measures positions or poses (not distances from the base, not a fixture).
+// Then the base is the measurement frame and the tool the marker: the rank test
+// takes the base first and the tool next (order base -> tool -> links: the first
+// joint's origin keeps only what a rigid frame cannot express, the last joint
+// only what a marker offset cannot), and neither the base's change nor the
+// tool's is a large change.
+bool measurement_frame_unknown(const KinematicProblem& problem, const std::vector<int>& candidates);
 
 // Which candidates (slots, in priority order: candidate_slots) the problem can
 // identify: a greedy rank test of the column-scaled Jacobian on these poses and

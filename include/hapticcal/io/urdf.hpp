@@ -20,11 +20,15 @@ namespace hapticcal {
 // - Fixed joints are folded: those before a movable joint into its origin, those
 //   after the last one into the tool pose.
 // - The base is the identity pose: the measurement frame is the root link's frame
-//   until a calibration moves it.
+//   until a calibration moves it. A root that is not above the tip but joined
+//   to the tip's branch by fixed joints only (calibrated_urdf's
+//   hapticcal_measurement link) is the measurement frame: those joints, taken
+//   upwards, are the base pose.
 // - The model is named after <robot name>. Joints and links off the chain (and
 //   mimic joints there) are ignored.
 // InputError (one line, naming the file and the joint or link) for malformed XML
-// or URDF, an unknown root or tip, a tip not below the root, a floating, planar or
+// or URDF, an unknown root or tip, a tip not below the root (nor joined to it by
+// fixed joints), a floating, planar or
 // mimic joint in the chain, a joint name that cannot name a link, more than
 // kMaxDof movable joints, or none.
 DeviceModel parse_urdf(const std::string& text, const std::string& origin, const std::string& tip,
@@ -49,8 +53,13 @@ std::string device_to_urdf(const DeviceModel& model);
 // composes the fixed joints folded into it. A changed tool pose goes into the
 // last fixed joint before the tip; if the tip is the child of a movable joint, a
 // fixed joint `hapticcal_tool_joint` and link `hapticcal_tool` are added under
-// it (and `notes` says so). The base (the measurement frame) is not part of the
-// robot and is not written. Everything else of the text is kept byte for byte.
+// it (and `notes` says so). A calibrated base (the measurement frame: a
+// tracker's, registered or fitted) is written as a link `hapticcal_measurement`
+// below the chain's root, by a fixed joint whose origin is B^-1: the chain
+// hapticcal_measurement -> tip (parse_urdf goes up the fixed joint into the
+// base) is the calibrated model, the chain root -> tip the robot alone. A chain
+// read from such a root has that joint's origin replaced instead. Everything
+// else of the text is kept byte for byte.
 // InputError if `calibrated` does not match the chain (joint names, types, axes).
 std::string calibrated_urdf(const std::string& urdf_text, const std::string& origin,
                             const std::string& tip, const std::string& root,
