@@ -77,6 +77,7 @@ struct EvaluateOptions {
   std::string fixture;
   std::vector<std::string> point_distance;
   std::string model, log, columns, reference, out = "hapticcal-out/evaluate";
+  std::string register_what;  // --register: empty, frame or frame,tool
   ChainOptions chain;
   bool json = false;
   bool out_given = false;  // --json writes no files unless --out is given
@@ -84,6 +85,8 @@ struct EvaluateOptions {
 
 int run_evaluate(const EvaluateOptions& o) {
   o.chain.check_used({o.model, o.reference});
+  std::optional<hapticcal::RegisterWhat> registration;
+  if (!o.register_what.empty()) registration = hapticcal::parse_register(o.register_what);
   const hapticcal::DeviceModel model = o.chain.load(o.model);
   const hapticcal::Log log = hapticcal::read_log(
       o.log, o.columns.empty() ? std::vector<std::string>{} : hapticcal::split_columns(o.columns));
@@ -91,10 +94,12 @@ int run_evaluate(const EvaluateOptions& o) {
   std::optional<hapticcal::EvaluationComparison> cmp;
   if (!o.reference.empty()) {
     cmp = hapticcal::compare_to_reference(model, o.chain.load(o.reference), log, known.distances,
-                                          known.points);
+                                          known.points, registration);
   }
   const hapticcal::Evaluation ev =
-      cmp ? cmp->model : hapticcal::evaluate(model, log, known.distances, known.points);
+      cmp            ? cmp->model
+      : registration ? hapticcal::evaluate_registered(model, log, *registration)
+                     : hapticcal::evaluate(model, log, known.distances, known.points);
   const std::optional<hapticcal::Evaluation> ref =
       cmp ? std::optional<hapticcal::Evaluation>(cmp->reference) : std::nullopt;
   const std::string json = hapticcal::evaluation_json(cmp ? &*cmp : nullptr, ev);
@@ -725,6 +730,10 @@ int main(int argc, char** argv) {
   evaluate->add_option("--columns", eval.columns,
                        "Column names of a log without header, comma separated, _ skips one "
                        "(e.g. q1[deg],q2[deg],x,y,z,_)");
+  evaluate->add_option("--register", eval.register_what,
+                       "frame or frame,tool: fit the measurement frame (the base pose), and the "
+                       "tool point, on this log before scoring (a tracker moved since); each "
+                       "model on its own with --reference");
 
   ForceOptions fo;
   auto* force = app.add_subcommand("force", "Force-control study (virtual wall, paper Figs 11-12)");
