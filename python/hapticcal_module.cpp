@@ -203,18 +203,23 @@ py::object evaluate(const std::variant<Model, std::string>& model_arg, const std
                     const std::optional<Names>& columns, const std::optional<Names>& point_distance,
                     const Text& fixture_arg,
                     const std::optional<std::variant<Model, std::string>>& reference,
-                    const Text& tip_arg, const Text& root_arg) {
+                    const Text& tip_arg, const Text& root_arg, const Text& register_arg) {
   const std::string fixture = text(fixture_arg), tip = text(tip_arg), root = text(root_arg);
+  std::optional<RegisterWhat> registration;
+  if (!text(register_arg).empty()) registration = parse_register(text(register_arg));
   const Model model = model_of(model_arg, tip, root);
   const Log log = read_log(log_path, names(columns));
   const Fixture known = fixture_facts(fixture, names(point_distance));
   if (reference) {
-    const EvaluationComparison cmp = compare_to_reference(
-        model.model, model_of(*reference, tip, root).model, log, known.distances, known.points);
+    const EvaluationComparison cmp =
+        compare_to_reference(model.model, model_of(*reference, tip, root).model, log,
+                             known.distances, known.points, registration);
     return parsed(evaluation_json(&cmp, cmp.model));
   }
   return parsed(evaluation_json(
-      nullptr, hapticcal::evaluate(model.model, log, known.distances, known.points)));
+      nullptr, registration
+                   ? evaluate_registered(model.model, log, *registration)
+                   : hapticcal::evaluate(model.model, log, known.distances, known.points)));
 }
 
 py::dict plan(const std::variant<Model, std::string>& model_arg, const std::string& measurement,
@@ -389,8 +394,9 @@ PYBIND11_MODULE(hapticcal, m) {
         "calibration is not usable (the command line's exit 3): .usable is False, .model None.");
   m.def("evaluate", &evaluate, "model"_a, "log"_a, py::kw_only(), "columns"_a = py::none(),
         "point_distance"_a = py::none(), "fixture"_a = py::none(), "reference"_a = py::none(),
-        "tip"_a = py::none(), "root"_a = py::none(),
-        "hapticcal evaluate --json: the same keys, in metres");
+        "tip"_a = py::none(), "root"_a = py::none(), "register"_a = py::none(),
+        "hapticcal evaluate --json: the same keys, in metres (register='frame' or "
+        "'frame,tool' as --register)");
   m.def("plan", &plan, "model"_a, "measurement"_a, "poses"_a, py::kw_only(),
         "candidates"_a = py::none(), "columns"_a = py::none(), "criterion"_a = "i", "seed"_a = 1ULL,
         "sigma"_a = 0.0, "sigma_e"_a = 0.0, "distance_range"_a = py::none(), "box"_a = py::none(),

@@ -263,3 +263,51 @@ def test_simulate_smoke(tmp_path):
     assert (out / "results.json").exists() and (out / "calibrated.yaml").exists()
     assert json.loads((out / "results.json").read_text()) == r["results"]
     assert r["results"]["seed"] == 4
+
+
+def moved_log(path, log, seed):
+    """`log` as a tracker moved by 0.5 m and 30 deg (a random axis) would have measured it."""
+    rng = np.random.default_rng(seed)
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    angle = math.radians(30)
+    R = np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+    direction = rng.normal(size=3)
+    t = 0.5 * direction / np.linalg.norm(direction)
+    lines = pathlib.Path(log).read_text().splitlines()
+    header = lines[0].split(",")
+    ix = header.index("x")
+    out = [lines[0]]
+    for line in lines[1:]:
+        f = line.split(",")
+        p = R @ np.array([float(v) for v in f[ix : ix + 3]]) + t
+        f[ix : ix + 3] = [repr(float(v)) for v in p]
+        out.append(",".join(f))
+    pathlib.Path(path).write_text("\n".join(out) + "\n")
+    return str(path)
+
+
+@pytest.mark.parametrize("what", ["frame", "frame,tool"])
+def test_evaluate_register_matches_the_cli(tmp_path, what):
+    log = moved_log(tmp_path / "moved.csv", VAL_LOG, 3)
+    code, stdout, stderr = cli("evaluate", "--model", MECA, "--log", log, "--register", what,
+                               "--json")
+    assert code == 0, stderr
+    mine = hapticcal.evaluate(MECA, log, register=what)
+    assert_same(mine, json.loads(stdout))
+    assert mine["registered"]["what"] == what
+    # Moved or not, the registered error is the same (the tracker's place does not matter).
+    unmoved = hapticcal.evaluate(MECA, VAL_LOG, register=what)
+    assert abs(mine["rms_position"] - unmoved["rms_position"]) < 1e-9
+    assert mine["registered"]["rms_position_before_registration"] > 0.1
+    code, stdout, stderr = cli("evaluate", "--model", MECA, "--log", log, "--register", what,
+                               "--reference", MECA, "--json")
+    assert code == 0, stderr
+    assert_same(hapticcal.evaluate(MECA, log, register=what, reference=MECA),
+                json.loads(stdout))
+
+
+def test_evaluate_register_refuses_an_unknown_word():
+    with pytest.raises(ValueError, match="expected frame"):
+        hapticcal.evaluate(MECA, VAL_LOG, register="base")
