@@ -217,9 +217,10 @@ py::object evaluate(const std::variant<Model, std::string>& model_arg, const std
     return parsed(evaluation_json(&cmp, cmp.model));
   }
   return parsed(evaluation_json(
-      nullptr, registration
-                   ? evaluate_registered(model.model, log, *registration)
-                   : hapticcal::evaluate(model.model, log, known.distances, known.points)));
+      nullptr,
+      registration
+          ? evaluate_registered(model.model, log, *registration, known.distances, known.points)
+          : hapticcal::evaluate(model.model, log, known.distances, known.points)));
 }
 
 py::dict plan(const std::variant<Model, std::string>& model_arg, const std::string& measurement,

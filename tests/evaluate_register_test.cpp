@@ -236,6 +236,18 @@ TEST(EvaluateRegister, DistanceLogIsRefusedInOneLine) {
       "registration needs measured positions (x, y, z columns); this log has distances");
 }
 
+// Known distances are between fixture points: refused with --register as without.
+TEST(EvaluateRegister, PointDistancesOnAPositionLogAreRefusedAsWithout) {
+  const std::string val =
+      testing::source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv");
+  for (const char* registration : {"", " --register frame"}) {
+    testing::expect_input_error(
+        testing::run_cli("evaluate --model " + kMeca + " --log " + val +
+                         " --point-distance A:B=0.1" + registration),
+        "known distances are between fixture points: the log has no point column");
+  }
+}
+
 TEST(EvaluateRegister, UnknownWordIsRefusedListingTheChoices) {
   testing::expect_input_error(
       testing::run_cli(

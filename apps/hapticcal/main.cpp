@@ -97,9 +97,10 @@ int run_evaluate(const EvaluateOptions& o) {
                                           known.points, registration);
   }
   const hapticcal::Evaluation ev =
-      cmp            ? cmp->model
-      : registration ? hapticcal::evaluate_registered(model, log, *registration)
-                     : hapticcal::evaluate(model, log, known.distances, known.points);
+      cmp ? cmp->model
+          : (registration ? hapticcal::evaluate_registered(model, log, *registration,
+                                                           known.distances, known.points)
+                          : hapticcal::evaluate(model, log, known.distances, known.points));
   const std::optional<hapticcal::Evaluation> ref =
       cmp ? std::optional<hapticcal::Evaluation>(cmp->reference) : std::nullopt;
   const std::string json = hapticcal::evaluation_json(cmp ? &*cmp : nullptr, ev);

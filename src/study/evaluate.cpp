@@ -162,7 +162,7 @@ EvaluationComparison compare_to_reference(const DeviceModel& model, const Device
                                           const std::vector<KnownPoint>& known_points,
                                           std::optional<RegisterWhat> registration) {
   const auto score = [&](const DeviceModel& m) {
-    return registration ? evaluate_registered(m, log, *registration)
+    return registration ? evaluate_registered(m, log, *registration, point_distances, known_points)
                         : evaluate(m, log, point_distances, known_points);
   };
   EvaluationComparison c{score(model), score(reference), {}, {}};

@@ -164,9 +164,11 @@ RegisteredModel register_for_evaluation(const DeviceModel& model, const Log& log
   return {m, frame_fit(model, m, what, rms_before)};
 }
 
-Evaluation evaluate_registered(const DeviceModel& model, const Log& log, RegisterWhat what) {
+Evaluation evaluate_registered(const DeviceModel& model, const Log& log, RegisterWhat what,
+                               const std::vector<PointDistance>& point_distances,
+                               const std::vector<KnownPoint>& known_points) {
   RegisteredModel r = register_for_evaluation(model, log, what);
-  Evaluation ev = evaluate(r.model, log);
+  Evaluation ev = evaluate(r.model, log, point_distances, known_points);
   ev.registered = std::move(r.fit);
   return ev;
 }

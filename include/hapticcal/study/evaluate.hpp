@@ -93,8 +93,11 @@ struct RegisteredModel {
 // (distances, fixture points or planes), or has fewer than 3 positions off a line.
 RegisteredModel register_for_evaluation(const DeviceModel& model, const Log& log,
                                         RegisterWhat what);
-// evaluate() of the registered model, with `registered` set.
-Evaluation evaluate_registered(const DeviceModel& model, const Log& log, RegisterWhat what);
+// evaluate() of the registered model, with `registered` set (known distances
+// and points are refused as evaluate() refuses them on a log of positions).
+Evaluation evaluate_registered(const DeviceModel& model, const Log& log, RegisterWhat what,
+                               const std::vector<PointDistance>& point_distances = {},
+                               const std::vector<KnownPoint>& known_points = {});
 
 // Paper eq. (9), signed: (RMS(e_nc) - RMS(e_c)) / RMS(e_nc) * 100. It equals the
 // paper's |RMS(e_c) - RMS(e_nc)| / |RMS(e_nc)| * 100 whenever calibration helps,
