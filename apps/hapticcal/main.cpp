@@ -20,6 +20,7 @@
 #include "hapticcal/io/model_source.hpp"
 #include "hapticcal/io/output_set.hpp"
 #include "hapticcal/io/urdf.hpp"
+#include "hapticcal/report/calibration_outputs.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/control.hpp"
 #include "hapticcal/study/evaluate.hpp"
@@ -62,15 +63,20 @@ void add_chain_options(CLI::App* command, ChainOptions& chain) {
                       "Root link of a URDF model's chain (default: the URDF's root link)");
 }
 
+// What to print once a set with a report of `drawn` figures is in `shown`.
+std::string report_said(int drawn, const std::string& note, const std::string& shown) {
+  std::string said = fmt::format("report: {}/report.html ({} figures, SVG and PNG in {}/figures)\n",
+                                 shown, drawn, shown);
+  if (!note.empty()) said += fmt::format("note: {}\n", note);
+  return said;
+}
+
 // Writes report.html with its figures into `dir` (a staging folder that
 // becomes `shown`); returns what to print once the set is in place.
 std::string report(const hapticcal::Report& r, const std::string& dir, const std::string& shown) {
   std::string note;
   const int drawn = hapticcal::write_report(r, dir, note);
-  std::string said = fmt::format("report: {}/report.html ({} figures, SVG and PNG in {}/figures)\n",
-                                 shown, drawn, shown);
-  if (!note.empty()) said += fmt::format("note: {}\n", note);
-  return said;
+  return report_said(drawn, note, shown);
 }
 
 struct EvaluateOptions {
@@ -232,19 +238,6 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
   }
 }
 
-// The previous run's calibrated.yaml (and calibrated.urdf of a URDF model),
-// carried into a failed run's set only if that run calibrated the same device.
-bool keep_previous_model(const hapticcal::OutputSet& out, const std::string& device, bool urdf) {
-  if (out.previous_command() != "calibrate") return false;
-  try {
-    if (hapticcal::load_device(out.target() + "/calibrated.yaml").name != device) return false;
-  } catch (const hapticcal::InputError&) {
-    return false;
-  }
-  if (urdf) out.keep_previous("calibrated.urdf");
-  return out.keep_previous("calibrated.yaml");
-}
-
 int run_calibrate(const CalibrateOptions& o) {
   // A URDF is read once: its text is also the base of calibrated.urdf.
   const bool urdf = hapticcal::is_urdf_path(o.model);
@@ -270,35 +263,15 @@ int run_calibrate(const CalibrateOptions& o) {
   options.fix = names(o.fix);
   options.free = names(o.free);
   hapticcal::CalibrationResult result = hapticcal::calibrate(model, log, options);
-  const bool usable = result.status == hapticcal::CalibrationStatus::kConverged;
-  bool kept = false;
-  if (usable) {
-    hapticcal::save_device(result.calibrated, out.dir() + "/calibrated.yaml");
-    if (urdf) {
-      hapticcal::write_file_atomically(
-          out.dir() + "/calibrated.urdf",
-          hapticcal::calibrated_urdf(urdf_text, o.model, o.chain.tip, o.chain.root,
-                                     result.calibrated, &result.notes));
-    }
-  } else {
-    kept = keep_previous_model(out, model.name, urdf);
-    result.notes.push_back(kept ? "calibrated.yaml is the previous run's model: not replaced"
-                                : "no calibrated.yaml written: the calibration is not usable");
-  }
+  const hapticcal::CalibrationOutputs written = hapticcal::write_calibration_outputs(
+      out, result, model, log, options, {o.model, o.log, urdf_text, o.chain.tip, o.chain.root});
   print_summary(result, model);
-  hapticcal::write_file_atomically(
-      out.dir() + "/results.json",
-      hapticcal::calibration_json(result, model, o.model, o.log, options));
-  const std::string reported =
-      report(hapticcal::calibration_report(result, model, log, options.point_distances,
-                                           options.known_points),
-             out.dir(), o.out);
-  out.commit();
-  fmt::print("{}", reported);
+  fmt::print("{}", report_said(written.figures, written.report_note, o.out));
   fmt::print("{}", hapticcal::cli::output_summary(out, o.out, fmt::format(" (seed {})", o.seed)));
-  if (!usable) {
+  if (!written.model_written) {
     fmt::print("status: {}: {}; {}\n", to_string(result.status), result.status_reason,
-               kept ? "the previous calibrated.yaml is kept" : "no calibrated.yaml written");
+               written.previous_kept ? "the previous calibrated.yaml is kept"
+                                     : "no calibrated.yaml written");
     return kExitUnusable;
   }
   fmt::print("status: {}\n", to_string(result.status));
