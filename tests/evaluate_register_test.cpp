@@ -255,6 +255,12 @@ TEST(EvaluateRegister, UnknownWordIsRefusedListingTheChoices) {
           testing::source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv") +
           " --register base"),
       "--register 'base': expected frame (the measurement frame) or frame,tool");
+  testing::expect_input_error(
+      testing::run_cli(std::vector<std::string>{
+          "evaluate", "--model", kMeca, "--log",
+          testing::source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv"),
+          "--register", ""}),
+      "--register '': expected frame");
 }
 
 TEST(EvaluateRegister, FewerThanThreePointsOrOnePlaceAreRefused) {

@@ -83,7 +83,8 @@ struct EvaluateOptions {
   std::string fixture;
   std::vector<std::string> point_distance;
   std::string model, log, columns, reference, out = "hapticcal-out/evaluate";
-  std::string register_what;  // --register: empty, frame or frame,tool
+  std::string register_what;    // --register: frame or frame,tool
+  bool register_given = false;  // --register "" is refused, not taken as absent
   ChainOptions chain;
   bool json = false;
   bool out_given = false;  // --json writes no files unless --out is given
@@ -92,7 +93,7 @@ struct EvaluateOptions {
 int run_evaluate(const EvaluateOptions& o) {
   o.chain.check_used({o.model, o.reference});
   std::optional<hapticcal::RegisterWhat> registration;
-  if (!o.register_what.empty()) registration = hapticcal::parse_register(o.register_what);
+  if (o.register_given) registration = hapticcal::parse_register(o.register_what);
   const hapticcal::DeviceModel model = o.chain.load(o.model);
   const hapticcal::Log log = hapticcal::read_log(
       o.log, o.columns.empty() ? std::vector<std::string>{} : hapticcal::split_columns(o.columns));
@@ -771,6 +772,7 @@ int main(int argc, char** argv) {
   try {
     if (*evaluate) {
       eval.out_given = evaluate->get_option("--out")->count() > 0;
+      eval.register_given = evaluate->get_option("--register")->count() > 0;
       code = run_evaluate(eval);
     }
     if (*simulate) code = run_simulate(sim);
