@@ -24,7 +24,9 @@
 #include "hapticcal/io/io.hpp"
 #include "hapticcal/io/model_source.hpp"
 #include "hapticcal/io/output_set.hpp"
+#include "hapticcal/io/urdf.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/report/calibration_outputs.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/study.hpp"
@@ -40,6 +42,7 @@ namespace {
 struct Model {
   DeviceModel model;
   std::string path;
+  std::string tip, root;  // a URDF's chain, as it was loaded
 };
 
 // A list option given as a Python list of strings or as the command line's
@@ -81,7 +84,26 @@ Model model_of(const std::variant<Model, std::string>& arg, const std::string& t
                const std::string& root = "") {
   if (const auto* m = std::get_if<Model>(&arg)) return *m;
   const std::string& path = std::get<std::string>(arg);
-  return {load_model(path, tip, root), path};
+  return {load_model(path, tip, root), path, tip, root};
+}
+
+// A model argument and, for a URDF file, its text: calibrated.urdf is written
+// from the text the model was read from (read once, as the command line does).
+struct ModelSource {
+  Model model;
+  std::string urdf_text;
+};
+
+ModelSource source_of(const std::variant<Model, std::string>& arg, const std::string& tip,
+                      const std::string& root) {
+  if (const auto* m = std::get_if<Model>(&arg)) {
+    const bool urdf = !m->path.empty() && is_urdf_path(m->path);
+    return {*m, urdf ? read_file(m->path) : std::string()};
+  }
+  const std::string& path = std::get<std::string>(arg);
+  if (!is_urdf_path(path)) return {model_of(arg, tip, root), ""};
+  std::string text = read_file(path);
+  return {Model{parse_urdf(text, path, tip, root), path, tip, root}, std::move(text)};
 }
 
 Eigen::VectorXd readings(const Model& m, const Eigen::VectorXd& q) {
@@ -144,7 +166,8 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
                       const Text& tip_arg, const Text& root_arg, const Text& out_arg) {
   const std::string fixture = text(fixture_arg), tip = text(tip_arg), root = text(root_arg),
                     out = text(out_arg);
-  const Model nominal = model_of(model_arg, tip, root);
+  const ModelSource source = source_of(model_arg, tip, root);
+  const Model& nominal = source.model;
   const Log log = read_log(log_path, names(columns));
   std::optional<OutputSet> set;
   if (!out.empty()) set.emplace(out, "calibrate");
@@ -168,10 +191,21 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
     py::gil_scoped_release released;
     result = hapticcal::calibrate(nominal.model, log, options);
   }
+  // The files and results.json as the command line writes them; without `out`
+  // results.json as the command line would write it into a fresh folder.
+  std::string json;
+  if (set) {
+    json = write_calibration_outputs(
+               *set, result, nominal.model, log, options,
+               {nominal.path, log_path, source.urdf_text, nominal.tip, nominal.root})
+               .results_json;
+  } else {
+    if (result.status != CalibrationStatus::kConverged)
+      result.notes.push_back("no calibrated.yaml written: the calibration is not usable");
+    json = calibration_json(result, nominal.model, nominal.path, log_path, options);
+  }
   Calibration c;
   c.usable = result.status == CalibrationStatus::kConverged;
-  if (!c.usable)
-    result.notes.push_back("no calibrated.yaml written: the calibration is not usable");
   c.status = to_string(result.status);
   c.status_reason = result.status_reason;
   const KinematicFit& k = result.kinematics;
@@ -184,18 +218,8 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
                  "identifiable"_a = e.identifiable, "reason"_a = e.reason);
   }
   c.notes = result.notes;
-  const std::string json = calibration_json(result, nominal.model, nominal.path, log_path, options);
   c.results = parsed(json);
-  if (c.usable) c.model = Model{result.calibrated, ""};
-  if (set) {
-    if (c.usable) save_device(result.calibrated, set->dir() + "/calibrated.yaml");
-    write_file_atomically(set->dir() + "/results.json", json);
-    std::string note;
-    write_report(calibration_report(result, nominal.model, log, options.point_distances,
-                                    options.known_points),
-                 set->dir(), note);
-    set->commit();
-  }
+  if (c.usable) c.model = Model{result.calibrated, "", "", ""};
   return c;
 }
 
@@ -203,18 +227,24 @@ py::object evaluate(const std::variant<Model, std::string>& model_arg, const std
                     const std::optional<Names>& columns, const std::optional<Names>& point_distance,
                     const Text& fixture_arg,
                     const std::optional<std::variant<Model, std::string>>& reference,
-                    const Text& tip_arg, const Text& root_arg) {
+                    const Text& tip_arg, const Text& root_arg, const Text& register_arg) {
   const std::string fixture = text(fixture_arg), tip = text(tip_arg), root = text(root_arg);
+  std::optional<RegisterWhat> registration;
+  if (!text(register_arg).empty()) registration = parse_register(text(register_arg));
   const Model model = model_of(model_arg, tip, root);
   const Log log = read_log(log_path, names(columns));
   const Fixture known = fixture_facts(fixture, names(point_distance));
   if (reference) {
-    const EvaluationComparison cmp = compare_to_reference(
-        model.model, model_of(*reference, tip, root).model, log, known.distances, known.points);
+    const EvaluationComparison cmp =
+        compare_to_reference(model.model, model_of(*reference, tip, root).model, log,
+                             known.distances, known.points, registration);
     return parsed(evaluation_json(&cmp, cmp.model));
   }
   return parsed(evaluation_json(
-      nullptr, hapticcal::evaluate(model.model, log, known.distances, known.points)));
+      nullptr,
+      registration
+          ? evaluate_registered(model.model, log, *registration, known.distances, known.points)
+          : hapticcal::evaluate(model.model, log, known.distances, known.points)));
 }
 
 py::dict plan(const std::variant<Model, std::string>& model_arg, const std::string& measurement,
@@ -360,7 +390,8 @@ PYBIND11_MODULE(hapticcal, m) {
   m.def(
       "load_model",
       [](const std::string& path, std::optional<std::string> tip, std::optional<std::string> root) {
-        return Model{hapticcal::load_model(path, tip.value_or(""), root.value_or("")), path};
+        return Model{hapticcal::load_model(path, tip.value_or(""), root.value_or("")), path,
+                     tip.value_or(""), root.value_or("")};
       },
       "path"_a, "tip"_a = py::none(), "root"_a = py::none(),
       "A device file (YAML) or a URDF (.urdf, with tip and root as --tip and --root)");
@@ -389,8 +420,9 @@ PYBIND11_MODULE(hapticcal, m) {
         "calibration is not usable (the command line's exit 3): .usable is False, .model None.");
   m.def("evaluate", &evaluate, "model"_a, "log"_a, py::kw_only(), "columns"_a = py::none(),
         "point_distance"_a = py::none(), "fixture"_a = py::none(), "reference"_a = py::none(),
-        "tip"_a = py::none(), "root"_a = py::none(),
-        "hapticcal evaluate --json: the same keys, in metres");
+        "tip"_a = py::none(), "root"_a = py::none(), "register"_a = py::none(),
+        "hapticcal evaluate --json: the same keys, in metres (register='frame' or "
+        "'frame,tool' as --register)");
   m.def("plan", &plan, "model"_a, "measurement"_a, "poses"_a, py::kw_only(),
         "candidates"_a = py::none(), "columns"_a = py::none(), "criterion"_a = "i", "seed"_a = 1ULL,
         "sigma"_a = 0.0, "sigma_e"_a = 0.0, "distance_range"_a = py::none(), "box"_a = py::none(),

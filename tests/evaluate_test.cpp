@@ -174,5 +174,30 @@ TEST(Evaluate, PoseLogsReportTheOrientationError) {
   EXPECT_LT(e.position->max, 1e-12);
 }
 
+// Without --register nothing is fitted: stdout is byte for byte what evaluate
+// printed before the option existed (tests/reference/evaluate-*, written by
+// that version), JSON and terminal lines alike.
+TEST(Evaluate, OutputWithoutRegisterIsUnchanged) {
+  const std::string meca = "examples/meca500/meca500.yaml";
+  const std::string val = "examples/meca500/val-norm_dist_data_0deg_160cube.csv";
+  const std::string cal = "examples/meca500/cal-norm_dist_data_0deg_160cube.csv";
+  const std::string dir = testing::source_path("");
+  const auto json = testing::run_cli_in(dir, {"evaluate", "--json", "--model", meca, "--log", val});
+  EXPECT_EQ(json.out,
+            testing::slurp(testing::source_path("tests/reference/evaluate-meca500-val.json")));
+  const auto ref = testing::run_cli_in(
+      dir, {"evaluate", "--json", "--model", meca, "--log", val, "--reference", meca});
+  EXPECT_EQ(
+      ref.out,
+      testing::slurp(testing::source_path("tests/reference/evaluate-meca500-val-reference.json")));
+  const auto text =
+      testing::run_cli_in(dir, {"evaluate", "--model", meca, "--log", cal, "--reference", meca,
+                                "--out", testing::fresh_folder("evaluate_unchanged")});
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_EQ(
+      text.out.substr(0, text.out.find("report: ")),
+      testing::slurp(testing::source_path("tests/reference/evaluate-meca500-cal-reference.txt")));
+}
+
 }  // namespace
 }  // namespace hapticcal

@@ -20,6 +20,7 @@
 #include "hapticcal/io/model_source.hpp"
 #include "hapticcal/io/output_set.hpp"
 #include "hapticcal/io/urdf.hpp"
+#include "hapticcal/report/calibration_outputs.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/control.hpp"
 #include "hapticcal/study/evaluate.hpp"
@@ -62,21 +63,28 @@ void add_chain_options(CLI::App* command, ChainOptions& chain) {
                       "Root link of a URDF model's chain (default: the URDF's root link)");
 }
 
-// Writes report.html with its figures into `dir` (a staging folder that
-// becomes `shown`); returns what to print once the set is in place.
-std::string report(const hapticcal::Report& r, const std::string& dir, const std::string& shown) {
-  std::string note;
-  const int drawn = hapticcal::write_report(r, dir, note);
+// What to print once a set with a report of `drawn` figures is in `shown`.
+std::string report_said(int drawn, const std::string& note, const std::string& shown) {
   std::string said = fmt::format("report: {}/report.html ({} figures, SVG and PNG in {}/figures)\n",
                                  shown, drawn, shown);
   if (!note.empty()) said += fmt::format("note: {}\n", note);
   return said;
 }
 
+// Writes report.html with its figures into `dir` (a staging folder that
+// becomes `shown`); returns what to print once the set is in place.
+std::string report(const hapticcal::Report& r, const std::string& dir, const std::string& shown) {
+  std::string note;
+  const int drawn = hapticcal::write_report(r, dir, note);
+  return report_said(drawn, note, shown);
+}
+
 struct EvaluateOptions {
   std::string fixture;
   std::vector<std::string> point_distance;
   std::string model, log, columns, reference, out = "hapticcal-out/evaluate";
+  std::string register_what;    // --register: frame or frame,tool
+  bool register_given = false;  // --register "" is refused, not taken as absent
   ChainOptions chain;
   bool json = false;
   bool out_given = false;  // --json writes no files unless --out is given
@@ -84,6 +92,8 @@ struct EvaluateOptions {
 
 int run_evaluate(const EvaluateOptions& o) {
   o.chain.check_used({o.model, o.reference});
+  std::optional<hapticcal::RegisterWhat> registration;
+  if (o.register_given) registration = hapticcal::parse_register(o.register_what);
   const hapticcal::DeviceModel model = o.chain.load(o.model);
   const hapticcal::Log log = hapticcal::read_log(
       o.log, o.columns.empty() ? std::vector<std::string>{} : hapticcal::split_columns(o.columns));
@@ -91,10 +101,13 @@ int run_evaluate(const EvaluateOptions& o) {
   std::optional<hapticcal::EvaluationComparison> cmp;
   if (!o.reference.empty()) {
     cmp = hapticcal::compare_to_reference(model, o.chain.load(o.reference), log, known.distances,
-                                          known.points);
+                                          known.points, registration);
   }
   const hapticcal::Evaluation ev =
-      cmp ? cmp->model : hapticcal::evaluate(model, log, known.distances, known.points);
+      cmp ? cmp->model
+          : (registration ? hapticcal::evaluate_registered(model, log, *registration,
+                                                           known.distances, known.points)
+                          : hapticcal::evaluate(model, log, known.distances, known.points));
   const std::optional<hapticcal::Evaluation> ref =
       cmp ? std::optional<hapticcal::Evaluation>(cmp->reference) : std::nullopt;
   const std::string json = hapticcal::evaluation_json(cmp ? &*cmp : nullptr, ev);
@@ -226,19 +239,6 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
   }
 }
 
-// The previous run's calibrated.yaml (and calibrated.urdf of a URDF model),
-// carried into a failed run's set only if that run calibrated the same device.
-bool keep_previous_model(const hapticcal::OutputSet& out, const std::string& device, bool urdf) {
-  if (out.previous_command() != "calibrate") return false;
-  try {
-    if (hapticcal::load_device(out.target() + "/calibrated.yaml").name != device) return false;
-  } catch (const hapticcal::InputError&) {
-    return false;
-  }
-  if (urdf) out.keep_previous("calibrated.urdf");
-  return out.keep_previous("calibrated.yaml");
-}
-
 int run_calibrate(const CalibrateOptions& o) {
   // A URDF is read once: its text is also the base of calibrated.urdf.
   const bool urdf = hapticcal::is_urdf_path(o.model);
@@ -264,35 +264,15 @@ int run_calibrate(const CalibrateOptions& o) {
   options.fix = names(o.fix);
   options.free = names(o.free);
   hapticcal::CalibrationResult result = hapticcal::calibrate(model, log, options);
-  const bool usable = result.status == hapticcal::CalibrationStatus::kConverged;
-  bool kept = false;
-  if (usable) {
-    hapticcal::save_device(result.calibrated, out.dir() + "/calibrated.yaml");
-    if (urdf) {
-      hapticcal::write_file_atomically(
-          out.dir() + "/calibrated.urdf",
-          hapticcal::calibrated_urdf(urdf_text, o.model, o.chain.tip, o.chain.root,
-                                     result.calibrated, &result.notes));
-    }
-  } else {
-    kept = keep_previous_model(out, model.name, urdf);
-    result.notes.push_back(kept ? "calibrated.yaml is the previous run's model: not replaced"
-                                : "no calibrated.yaml written: the calibration is not usable");
-  }
+  const hapticcal::CalibrationOutputs written = hapticcal::write_calibration_outputs(
+      out, result, model, log, options, {o.model, o.log, urdf_text, o.chain.tip, o.chain.root});
   print_summary(result, model);
-  hapticcal::write_file_atomically(
-      out.dir() + "/results.json",
-      hapticcal::calibration_json(result, model, o.model, o.log, options));
-  const std::string reported =
-      report(hapticcal::calibration_report(result, model, log, options.point_distances,
-                                           options.known_points),
-             out.dir(), o.out);
-  out.commit();
-  fmt::print("{}", reported);
+  fmt::print("{}", report_said(written.figures, written.report_note, o.out));
   fmt::print("{}", hapticcal::cli::output_summary(out, o.out, fmt::format(" (seed {})", o.seed)));
-  if (!usable) {
+  if (!written.model_written) {
     fmt::print("status: {}: {}; {}\n", to_string(result.status), result.status_reason,
-               kept ? "the previous calibrated.yaml is kept" : "no calibrated.yaml written");
+               written.previous_kept ? "the previous calibrated.yaml is kept"
+                                     : "no calibrated.yaml written");
     return kExitUnusable;
   }
   fmt::print("status: {}\n", to_string(result.status));
@@ -725,6 +705,10 @@ int main(int argc, char** argv) {
   evaluate->add_option("--columns", eval.columns,
                        "Column names of a log without header, comma separated, _ skips one "
                        "(e.g. q1[deg],q2[deg],x,y,z,_)");
+  evaluate->add_option("--register", eval.register_what,
+                       "frame or frame,tool: fit the measurement frame (the base pose), and the "
+                       "tool point, on this log before scoring (a tracker moved since); each "
+                       "model on its own with --reference");
 
   ForceOptions fo;
   auto* force = app.add_subcommand("force", "Force-control study (virtual wall, paper Figs 11-12)");
@@ -788,6 +772,7 @@ int main(int argc, char** argv) {
   try {
     if (*evaluate) {
       eval.out_given = evaluate->get_option("--out")->count() > 0;
+      eval.register_given = evaluate->get_option("--register")->count() > 0;
       code = run_evaluate(eval);
     }
     if (*simulate) code = run_simulate(sim);

@@ -263,3 +263,104 @@ def test_simulate_smoke(tmp_path):
     assert (out / "results.json").exists() and (out / "calibrated.yaml").exists()
     assert json.loads((out / "results.json").read_text()) == r["results"]
     assert r["results"]["seed"] == 4
+
+
+def moved_log(path, log, seed):
+    """`log` as a tracker moved by 0.5 m and 30 deg (a random axis) would have measured it."""
+    rng = np.random.default_rng(seed)
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    angle = math.radians(30)
+    R = np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+    direction = rng.normal(size=3)
+    t = 0.5 * direction / np.linalg.norm(direction)
+    lines = pathlib.Path(log).read_text().splitlines()
+    header = lines[0].split(",")
+    ix = header.index("x")
+    out = [lines[0]]
+    for line in lines[1:]:
+        f = line.split(",")
+        p = R @ np.array([float(v) for v in f[ix : ix + 3]]) + t
+        f[ix : ix + 3] = [repr(float(v)) for v in p]
+        out.append(",".join(f))
+    pathlib.Path(path).write_text("\n".join(out) + "\n")
+    return str(path)
+
+
+@pytest.mark.parametrize("what", ["frame", "frame,tool"])
+def test_evaluate_register_matches_the_cli(tmp_path, what):
+    log = moved_log(tmp_path / "moved.csv", VAL_LOG, 3)
+    code, stdout, stderr = cli("evaluate", "--model", MECA, "--log", log, "--register", what,
+                               "--json")
+    assert code == 0, stderr
+    mine = hapticcal.evaluate(MECA, log, register=what)
+    assert_same(mine, json.loads(stdout))
+    assert mine["registered"]["what"] == what
+    # Moved or not, the registered error is the same (the tracker's place does not matter).
+    unmoved = hapticcal.evaluate(MECA, VAL_LOG, register=what)
+    assert abs(mine["rms_position"] - unmoved["rms_position"]) < 1e-9
+    assert mine["registered"]["rms_position_before_registration"] > 0.1
+    code, stdout, stderr = cli("evaluate", "--model", MECA, "--log", log, "--register", what,
+                               "--reference", MECA, "--json")
+    assert code == 0, stderr
+    assert_same(hapticcal.evaluate(MECA, log, register=what, reference=MECA),
+                json.loads(stdout))
+
+
+def test_evaluate_register_refuses_an_unknown_word():
+    with pytest.raises(ValueError, match="expected frame"):
+        hapticcal.evaluate(MECA, VAL_LOG, register="base")
+
+
+ARM = str(SOURCE / "tests" / "data" / "urdf" / "arm.urdf")
+
+
+def arm_log(path, rows, seed, held=None):
+    """A position log of the test arm with its joint origins moved ~1 mm / 1 mrad, 10 um noise;
+    joint `held` (0-based) kept at 0."""
+    rng = np.random.default_rng(seed)
+    truth = hapticcal.load_model(ARM, tip="tcp")
+    moved = {n: v + rng.uniform(-1e-3, 1e-3) for n, v in truth.parameters().items()}
+    truth.set_parameters(moved)
+    low = np.array([-2.0, -1.2, 0.02, -3.0, -2.5])
+    high = np.array([2.0, 1.0, 0.23, 3.0, 2.5])
+    lines = ["q1,q2,q3[m],q4,q5,x,y,z"]
+    for _ in range(rows):
+        q = rng.uniform(low, high)
+        if held is not None:
+            q[held] = 0.0
+        p = truth.forward(q)[:3, 3] + rng.normal(0, 1e-5, 3)
+        lines.append(",".join(repr(float(v)) for v in [*q, *p]))
+    pathlib.Path(path).write_text("\n".join(lines) + "\n")
+    return str(path)
+
+
+def output_files(folder):
+    """The set's files relative to it (the marker left out)."""
+    root = pathlib.Path(folder)
+    files = (p for p in root.rglob("*") if p.is_file() and p.name != ".hapticcal-output")
+    return sorted(str(p.relative_to(root)) for p in files)
+
+
+def test_calibrate_out_writes_the_cli_files_for_a_urdf_model(tmp_path):
+    """calibrate(out=) writes what the command line writes (calibrated.urdf too); on an unusable
+    rerun into the same folder both keep the previous calibrated.yaml and calibrated.urdf."""
+    good = arm_log(tmp_path / "good.csv", 150, 5)
+    poor = arm_log(tmp_path / "poor.csv", 150, 6, held=3)  # the wrist still: not excited
+    cli_out, py_out = tmp_path / "cli", tmp_path / "py"
+    for log, usable in ((good, True), (poor, False)):
+        code, _, stderr = cli("calibrate", "--model", ARM, "--tip", "tcp", "--log", log,
+                              "--out", str(cli_out))
+        assert code == (0 if usable else 3), stderr
+        r = hapticcal.calibrate(ARM, log, tip="tcp", out=str(py_out))
+        assert r.usable == usable, r.status_reason
+        files = output_files(cli_out)
+        assert "calibrated.urdf" in files and "calibrated.yaml" in files
+        assert output_files(py_out) == files
+        results = json.loads((cli_out / "results.json").read_text())
+        assert_same(json.loads((py_out / "results.json").read_text()), results)
+        assert_same(r.results, results)
+        for name in ("calibrated.yaml", "calibrated.urdf"):
+            assert (py_out / name).read_text() == (cli_out / name).read_text(), name
+    assert any("previous run's model" in n for n in results["notes"])

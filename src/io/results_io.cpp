@@ -10,6 +10,23 @@ nlohmann::ordered_json number_or_null(double v) {
   return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr);
 }
 
+// evaluate --register's fit, in SI units.
+nlohmann::ordered_json registration_json(const FrameFit& fit) {
+  nlohmann::ordered_json j;
+  j["what"] = to_string(fit.what);
+  j["base"] = fit.base;
+  j["change"] = fit.change;
+  j["moved"] = fit.moved;
+  j["turned"] = fit.turned;
+  if (fit.tool) {
+    j["tool"] = *fit.tool;
+    j["tool_offset"] = {fit.tool_offset.x(), fit.tool_offset.y(), fit.tool_offset.z()};
+    j["tool_turned"] = fit.tool_turned;
+  }
+  j["rms_position_before_registration"] = fit.rms_position_before;
+  return j;
+}
+
 }  // namespace
 
 std::string calibration_json(const CalibrationResult& result, const DeviceModel& nominal,
@@ -118,6 +135,7 @@ std::string evaluation_json(const EvaluationComparison* comparison, const Evalua
   const Evaluation* ref = comparison ? &comparison->reference : nullptr;
   nlohmann::ordered_json j;
   j["n"] = ev.n;
+  if (ev.registered) j["registered"] = registration_json(*ev.registered);
   if (ev.distance) {
     j["rms_distance"] = ev.distance->rms;
     j["max_distance"] = ev.distance->max;
@@ -149,6 +167,7 @@ std::string evaluation_json(const EvaluationComparison* comparison, const Evalua
     j["labels"] = labels;
   }
   if (ref) {
+    if (ref->registered) j["reference_registered"] = registration_json(*ref->registered);
     if (ref->mean_point_deviation) {
       j["reference_mean_point_deviation"] = *ref->mean_point_deviation;
     }

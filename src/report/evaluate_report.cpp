@@ -2,6 +2,8 @@
 // reference model if one is given.
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "report/figures.hpp"
@@ -40,6 +42,23 @@ FigureSpec per_sample(const std::string& name, const std::string& caption,
   return f;
 }
 
+// evaluate --register: the fitted base (and tool), so that a reader can carry
+// the frame over to the next log from the same tracker set-up.
+std::string registration_section(const FrameFit& fit) {
+  const auto pose = [](const std::array<double, 6>& p) {
+    return fmt::format("x {:.3f}, y {:.3f}, z {:.3f} mm, roll {:.4f}, pitch {:.4f}, yaw {:.4f} deg",
+                       p[0] * 1e3, p[1] * 1e3, p[2] * 1e3, p[3] * 180 / M_PI, p[4] * 180 / M_PI,
+                       p[5] * 180 / M_PI);
+  };
+  std::string html = fmt::format(
+      "<p>Registered (<code>--register {}</code>): the measurement frame was fitted on this log "
+      "before the errors were computed (closed form, then Levenberg-Marquardt). Fitted base "
+      "pose: {}.",
+      to_string(fit.what), pose(fit.base));
+  if (fit.tool) html += fmt::format(" Fitted tool: {}.", pose(*fit.tool));
+  return html + "</p>\n";
+}
+
 }  // namespace
 
 Report evaluation_report(const DeviceModel& model, const std::string& model_path, const Log& log,
@@ -56,6 +75,7 @@ Report evaluation_report(const DeviceModel& model, const std::string& model_path
       html_escape(model_path), html_escape(model.name), model.dof(), html_escape(log.origin), ev.n,
       reference ? fmt::format("; reference model {}", html_escape(reference_path))
                 : std::string()));
+  if (ev.registered) report.sections.push_back(registration_section(*ev.registered));
   if (!ev.labels.empty()) {
     std::vector<std::vector<std::string>> rows;
     const bool points = ev.mean_point_deviation.has_value();

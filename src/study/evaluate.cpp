@@ -83,6 +83,23 @@ void evaluate_fixture(const Log& log, const std::vector<Eigen::Vector3d>& points
   ev.max_point_distance_error = worst;
 }
 
+// evaluate --register's lines: what was fitted and how far it moved; `reference`
+// names the reference model (registered on its own), empty for the model.
+void registration_lines(const FrameFit& fit, const std::string& reference,
+                        std::vector<std::string>& lines) {
+  const std::string whose = reference.empty() ? "" : fmt::format(" for {} (on its own)", reference);
+  lines.push_back(fmt::format(
+      "registered{}: measurement frame fitted on this log (moved {:.1f} mm, {:.2f} deg from the "
+      "model's base; RMS before registration {:.4f} mm)",
+      whose, fit.moved * 1e3, fit.turned * 180 / M_PI, fit.rms_position_before * 1e3));
+  if (!fit.tool) return;
+  const Eigen::Vector3d& d = fit.tool_offset;
+  lines.push_back(fmt::format(
+      "registered{}: tool fitted on this log (tool point moved {:.3f} mm: x {:+.3f}, y {:+.3f}, "
+      "z {:+.3f} mm in the last link's frame; turned {:.3f} deg)",
+      whose, d.norm() * 1e3, d.x() * 1e3, d.y() * 1e3, d.z() * 1e3, fit.tool_turned * 180 / M_PI));
+}
+
 }  // namespace
 
 Evaluation evaluate(const DeviceModel& model, const Log& log,
@@ -142,11 +159,13 @@ double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated) {
 EvaluationComparison compare_to_reference(const DeviceModel& model, const DeviceModel& reference,
                                           const Log& log,
                                           const std::vector<PointDistance>& point_distances,
-                                          const std::vector<KnownPoint>& known_points) {
-  EvaluationComparison c{evaluate(model, log, point_distances, known_points),
-                         evaluate(reference, log, point_distances, known_points),
-                         {},
-                         {}};
+                                          const std::vector<KnownPoint>& known_points,
+                                          std::optional<RegisterWhat> registration) {
+  const auto score = [&](const DeviceModel& m) {
+    return registration ? evaluate_registered(m, log, *registration, point_distances, known_points)
+                        : evaluate(m, log, point_distances, known_points);
+  };
+  EvaluationComparison c{score(model), score(reference), {}, {}};
   if (c.model.distance && c.reference.distance) {
     c.improvement_distance_pct =
         rms_improvement_pct(c.model.distance->rms, c.reference.distance->rms);
@@ -162,6 +181,8 @@ std::vector<std::string> evaluation_lines(const EvaluationComparison* cmp, const
                                           const std::string& reference_name) {
   std::vector<std::string> lines;
   const Evaluation* ref = cmp ? &cmp->reference : nullptr;
+  if (ev.registered) registration_lines(*ev.registered, "", lines);
+  if (ref && ref->registered) registration_lines(*ref->registered, reference_name, lines);
   if (ev.distance) {
     lines.push_back(fmt::format("distance error: RMS {:.4f} mm, max {:.4f} mm",
                                 ev.distance->rms * 1e3, ev.distance->max * 1e3));

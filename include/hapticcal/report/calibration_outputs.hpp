@@ -1,0 +1,41 @@
+// The files of a calibration run (calibrate --out, Python's calibrate(out=)):
+// one function writes the set, so that the command line and the module agree.
+#pragma once
+
+#include <string>
+
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/io/output_set.hpp"
+
+namespace hapticcal {
+
+// Where a calibration's model and log came from: results.json names the paths,
+// and a URDF model's text is the base of calibrated.urdf.
+struct CalibrationSource {
+  std::string model_path, log_path;
+  std::string urdf_text;  // the URDF model's text; empty for a device file
+  std::string tip, root;  // the URDF chain, as parse_urdf was given them
+};
+
+// What write_calibration_outputs did besides results.json.
+struct CalibrationOutputs {
+  bool model_written = false;  // calibrated.yaml (and .urdf) of this run
+  bool previous_kept = false;  // not usable: the previous run's model is in the set
+  int figures = 0;             // drawn into the report
+  std::string report_note;     // write_report's note (gnuplot missing), or empty
+  std::string results_json;    // the results.json written
+};
+
+// Writes into out.dir() and commits the set: calibrated.yaml (and
+// calibrated.urdf for a URDF model) if the run is usable; else the previous
+// run's model if --out held one of the same device (keep_previous), and a note
+// saying which; results.json; report.html with its figures. The notes of
+// calibrated_urdf and of the model kept are added to result.notes first, so
+// that results.json and the report hold them.
+CalibrationOutputs write_calibration_outputs(OutputSet& out, CalibrationResult& result,
+                                             const DeviceModel& nominal, const Log& log,
+                                             const CalibrationOptions& options,
+                                             const CalibrationSource& source);
+
+}  // namespace hapticcal
