@@ -7,7 +7,7 @@
 #   cmake -DSOURCE_DIR=<dir> -DSELF_TEST=ON -P self_contained.cmake
 # LIST=git (the default): the files `git ls-files` lists, or every file under
 # SOURCE_DIR as with walk when git is not installed or SOURCE_DIR is not a git
-# work tree. LIST=walk: every file under SOURCE_DIR except .git/, the build trees
+# work tree. LIST=walk: every file under SOURCE_DIR except .git, the build trees
 # (build*/ and every folder holding a CMakeCache.txt) and hapticcal-out/.
 # SELF_TEST=ON: the check run on two scratch folders, one that names the folder
 # outside a comment of .ci/ (must fail) and one that does so only in a .ci/
@@ -103,7 +103,7 @@ if(how STREQUAL "")
     endif()
   endforeach()
   foreach(f IN LISTS all)
-    if(f MATCHES "^(\\.git|build[^/]*|hapticcal-out)/")
+    if(f MATCHES "^(\\.git(/|$)|build[^/]*/|hapticcal-out/)")  # .git: a file in a worktree
       continue()
     endif()
     set(in_tree FALSE)
