@@ -96,8 +96,8 @@ TEST(DeviceIo, SaveRefusesAnUnusableModelAndLeavesNoFile) {
 }
 
 TEST(DeviceIo, ShippedMeca500FileIsWhatTheConverterMakesFromTheRealData) {
-  const std::string source = testing::shared_path("data/meca500");
-  if (!std::filesystem::exists(source)) GTEST_SKIP() << "no " << source;
+  const std::string source = testing::real_data_path("meca500");
+  ASSERT_TRUE(std::filesystem::exists(source)) << "missing from the repository: " << source;
   const std::string out = ::testing::TempDir() + "/meca500_convert";
   std::filesystem::remove_all(out);
   const testing::CliResult r =

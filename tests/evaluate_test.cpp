@@ -78,9 +78,9 @@ double independent_meca500_rms_mm(const std::string& dir, const std::string& log
 }
 
 TEST(Evaluate, Meca500ValidationRmsIs0837MillimetresAsTheRawDataGive) {
-  const std::string dir = testing::shared_path("data/meca500");
+  const std::string dir = testing::real_data_path("meca500");
   const std::string log = "val-norm_dist_data_0deg_160cube.csv";
-  ASSERT_TRUE(std::filesystem::exists(dir + "/" + log)) << "the shared data set is missing";
+  ASSERT_TRUE(std::filesystem::exists(dir + "/" + log)) << "missing from the repository: " << dir;
   const testing::CliResult r = testing::run_cli(
       "evaluate --json --model " + testing::source_path("examples/meca500/meca500.yaml") +
       " --log " + dir + "/" + log + " --columns " + kMecaColumns);
@@ -95,7 +95,7 @@ TEST(Evaluate, Meca500ValidationRmsIs0837MillimetresAsTheRawDataGive) {
 }
 
 TEST(Evaluate, ShippedConvertedLogsGiveTheSameAsRawLogsWithColumns) {
-  const std::string dir = testing::shared_path("data/meca500");
+  const std::string dir = testing::real_data_path("meca500");
   const std::string model = testing::source_path("examples/meca500/meca500.yaml");
   for (const auto& e :
        std::filesystem::directory_iterator(testing::source_path("examples/meca500"))) {

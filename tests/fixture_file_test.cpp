@@ -175,7 +175,7 @@ TEST(FixtureFile, FileDistancesEqualThePointDistanceOptions) {
                             "distances:\n  - [front_0, front_1, 0.05]\n"
                             "  - [right_0, right_1, 0.05]\n";
   const std::vector<std::string> common = {
-      "calibrate", "--model", testing::shared_path("data/mukca/panda.urdf"), "--tip", "ball_link",
+      "calibrate", "--model", testing::real_data_path("mukca/panda.urdf"), "--tip", "ball_link",
       "--log",     log};
   std::vector<std::string> with_file = common, with_options = common;
   with_file.insert(with_file.end(), {"--fixture", fixture, "--out", dir + "/file"});

@@ -1,6 +1,6 @@
 // Calibration without an instrument (issue 13): fixture points (a ball tip put
 // into the sockets of a fixture) and plane contacts, on the real MUKCa Franka
-// Panda data (../shared/data/mukca, held-out placements) and on simulated data.
+// Panda data (data/real/mukca, held-out placements) and on simulated data.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -40,7 +40,7 @@ std::vector<PointDistance> socket_distances(const std::vector<std::string>& plac
 }
 
 DeviceModel panda() {
-  return load_model(testing::shared_path("data/mukca/panda.urdf"), "ball_link", "panda_link0");
+  return load_model(testing::real_data_path("mukca/panda.urdf"), "ball_link", "panda_link0");
 }
 
 // Leave one placement out: calibrate on the other two, evaluate on it (issue 13:
@@ -382,7 +382,7 @@ TEST(Fixture, SimulateMeasuresSocketsOnEveryKindOfChain) {
   const std::pair<std::string, std::string> devices[] = {
       {testing::source_path("data/devices/phantom-premium-1.5.yaml"), ""},
       {testing::source_path("examples/meca500/meca500.yaml"), ""},
-      {testing::shared_path("data/mukca/panda.urdf"), "tip: ball_link\n"}};
+      {testing::real_data_path("mukca/panda.urdf"), "tip: ball_link\n"}};
   int k = 0;
   for (const auto& [device, chain] : devices) {
     SCOPED_TRACE(device);
@@ -423,12 +423,11 @@ TEST(Fixture, SimulateMeasuresPlanesOnEveryKindOfChain) {
     std::string device, chain, noise;
     bool improves;
   };
-  const Run runs[] = {
-      {testing::source_path("data/devices/phantom-premium-1.5.yaml"), "", "", true},
-      {testing::source_path("examples/meca500/meca500.yaml"), "", "", true},
-      {testing::shared_path("data/mukca/panda.urdf"), "tip: ball_link\n", "", false},
-      {testing::shared_path("data/mukca/panda.urdf"), "tip: ball_link\n",
-       "noise: {sigma_m: 1.0e-9}\n", true}};
+  const Run runs[] = {{testing::source_path("data/devices/phantom-premium-1.5.yaml"), "", "", true},
+                      {testing::source_path("examples/meca500/meca500.yaml"), "", "", true},
+                      {testing::real_data_path("mukca/panda.urdf"), "tip: ball_link\n", "", false},
+                      {testing::real_data_path("mukca/panda.urdf"), "tip: ball_link\n",
+                       "noise: {sigma_m: 1.0e-9}\n", true}};
   int k = 0;
   for (const auto& [device, chain, noise, improves] : runs) {
     SCOPED_TRACE(device + " " + noise);

@@ -163,7 +163,7 @@ TEST(Report, EveryReportLoadsInChromiumWithItsFigures) {
   std::ofstream(dir + "/sockets.csv") << testing::mukca_csv({"front", "right"});
   std::ofstream(dir + "/held-out.csv") << testing::mukca_csv({"back-high"});
   std::ofstream(dir + "/fixture.yaml") << "distances:\n  - [back-high_0, back-high_1, 0.05]\n";
-  const std::string urdf = testing::shared_path("data/mukca/panda.urdf");
+  const std::string urdf = testing::real_data_path("mukca/panda.urdf");
   ASSERT_TRUE(ok(testing::run_cli({"calibrate", "--model", urdf, "--tip", "ball_link", "--log",
                                    dir + "/sockets.csv", "--point-distance", "front_0:front_1=0.05",
                                    "--point-distance", "right_0:right_1=0.05", "--out",

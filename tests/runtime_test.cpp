@@ -152,8 +152,8 @@ TEST(Runtime, ForwardAndJacobianMatchTheLibraryAndKdlOnCalibratedModels) {
 }
 
 TEST(Runtime, ForwardAndJacobianMatchTheLibraryAndKdlOnThePandaUrdf) {
-  const std::string path = testing::shared_path("data/mukca/panda.urdf");
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "no " << path;
+  const std::string path = testing::real_data_path("mukca/panda.urdf");
+  ASSERT_TRUE(std::filesystem::exists(path)) << "missing from the repository: " << path;
   const RuntimeModel runtime = load(path, "ball_link");
   ASSERT_TRUE(runtime);
   expect_agrees_with_library(load_urdf(path, "ball_link"), runtime.get(), 1000);
@@ -379,12 +379,11 @@ TEST(Runtime, LoadErrorsNameTheProblemAndTruncateTheMessage) {
   EXPECT_EQ(m, nullptr);
   EXPECT_STRNE(message, "");
   // An unknown URDF tip names it.
-  const std::string urdf = testing::shared_path("data/mukca/panda.urdf");
-  if (std::filesystem::exists(urdf)) {
-    EXPECT_EQ(hapticcal_load(urdf.c_str(), "no_such_link", nullptr, &m, message, sizeof message),
-              HAPTICCAL_E_INPUT);
-    EXPECT_NE(std::string(message).find("no_such_link"), std::string::npos) << message;
-  }
+  const std::string urdf = testing::real_data_path("mukca/panda.urdf");
+  ASSERT_TRUE(std::filesystem::exists(urdf)) << "missing from the repository: " << urdf;
+  EXPECT_EQ(hapticcal_load(urdf.c_str(), "no_such_link", nullptr, &m, message, sizeof message),
+            HAPTICCAL_E_INPUT);
+  EXPECT_NE(std::string(message).find("no_such_link"), std::string::npos) << message;
   // A short buffer gets the start of the line, terminated.
   char tiny[8];
   std::memset(tiny, 'x', sizeof tiny);

@@ -22,7 +22,7 @@ namespace fs = std::filesystem;
 
 std::string phantom() { return testing::source_path("data/devices/phantom-premium-1.5.yaml"); }
 std::string meca() { return testing::source_path("examples/meca500/meca500.yaml"); }
-std::string panda() { return testing::shared_path("data/mukca/panda.urdf"); }
+std::string panda() { return testing::real_data_path("mukca/panda.urdf"); }
 
 // A fresh folder under the test's temporary directory.
 std::string fresh_dir(const std::string& name) {

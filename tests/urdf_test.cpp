@@ -37,7 +37,7 @@ namespace fs = std::filesystem;
 using testing::builtin;
 using testing::meca500;
 using testing::random_readings;
-using testing::shared_path;
+using testing::real_data_path;
 using testing::source_path;
 
 // Fewer configurations under AddressSanitizer, whose build runs this test too.
@@ -53,7 +53,7 @@ constexpr int kConfigurations = 1000;
 constexpr int kConfigurations = 1000;
 #endif
 
-std::string panda_path() { return shared_path("data/mukca/panda.urdf"); }
+std::string panda_path() { return real_data_path("mukca/panda.urdf"); }
 std::string arm_path() { return source_path("tests/data/urdf/arm.urdf"); }
 
 fs::path scratch(const std::string& name) {

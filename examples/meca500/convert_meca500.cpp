@@ -1,4 +1,4 @@
-// Converts the Meca500 laser-tracker data set (../shared/data/meca500, see its
+// Converts the Meca500 laser-tracker data set (data/real/meca500, see its
 // README) into a hapticcal device file and header-carrying logs:
 //   convert_meca500 SOURCE_DIR OUTPUT_DIR
 // The device: modified DH from mdh_nominal.csv (mm -> m), base pose from

@@ -21,8 +21,11 @@ namespace hapticcal::testing {
 inline std::string source_path(const std::string& relative) {
   return std::string(HAPTICCAL_SOURCE_DIR) + "/" + relative;
 }
-inline std::string shared_path(const std::string& relative) {
-  return std::string(HAPTICCAL_SOURCE_DIR) + "/../shared/" + relative;
+// A file of the real data sets shipped in data/real (see their READMEs), e.g.
+// real_data_path("mukca/panda.urdf"). Part of the repository: a test that reads
+// one fails, never skips, when it is missing.
+inline std::string real_data_path(const std::string& relative) {
+  return std::string(HAPTICCAL_SOURCE_DIR) + "/data/real/" + relative;
 }
 
 inline DeviceModel builtin(const std::string& name) {
@@ -30,7 +33,7 @@ inline DeviceModel builtin(const std::string& name) {
 }
 inline DeviceModel meca500() { return load_device(source_path("examples/meca500/meca500.yaml")); }
 
-// The seven Meca500 laser-tracker sets (examples/meca500/, from ../shared/data/meca500).
+// The seven Meca500 laser-tracker sets (examples/meca500/, converted from data/real/meca500).
 inline constexpr const char* kMeca500Sets[] = {
     "norm_dist_data_0deg_80cube",    "norm_dist_data_0deg_160cube", "norm_dist_data_90deg_80cube",
     "norm_dist_data_90deg_160cube",  "norm_dist_data_n90_80cube",   "norm_dist_data_n90_160cube",
@@ -42,14 +45,14 @@ inline Log meca500_log(const std::string& kind, const std::string& set) {
 
 // Every meaningful kinematic parameter moved by up to +-scale (m or rad), so that
 // no term (beta, tool rotation, base DH) is tested only at zero.
-// The MUKCa recordings (../shared/data/mukca) of some placements as one fixture
+// The MUKCa recordings (data/real/mukca) of some placements as one fixture
 // log's CSV: a row a configuration, labelled <placement>_<socket>.
 inline std::string mukca_csv(const std::vector<std::string>& placements) {
   std::string csv = "q1,q2,q3,q4,q5,q6,q7,point\n";
   for (const std::string& placement : placements) {
     for (int socket = 0; socket < 2; ++socket) {
-      std::ifstream in(shared_path("data/mukca/panda_1/" + placement + "/hole_" +
-                                   std::to_string(socket) + ".csv"));
+      std::ifstream in(real_data_path("mukca/panda_1/" + placement + "/hole_" +
+                                      std::to_string(socket) + ".csv"));
       if (!in) throw std::runtime_error("no MUKCa recording of " + placement);
       std::string line;
       while (std::getline(in, line)) {
