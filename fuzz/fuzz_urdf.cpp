@@ -25,7 +25,7 @@
 
 namespace {
 
-constexpr std::size_t kMaxInput = 64 * 1024;
+constexpr std::size_t kMaxInput = 1 << 20;  // 1 MiB: deep nesting and long attributes fit
 
 [[noreturn]] void finding(const std::string& what, const std::string& urdf) {
   std::fprintf(stderr, "fuzz_urdf: %s\n--- URDF written by device_to_urdf:\n%s\n", what.c_str(),

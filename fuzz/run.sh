@@ -50,7 +50,7 @@ for t in "${targets[@]}"; do
   echo "== $t: ${seconds}s, corpus $(ls "$corpus" | wc -l) inputs"
   # TMPDIR: fuzz_scenario's scratch directory stays in the build tree.
   if TMPDIR="$build/tmp" "$build/fuzz/$t" "$corpus" -dict="$src/fuzz/$(dict "$t").dict" \
-      -max_len=65536 -rss_limit_mb=2048 -timeout=10 -max_total_time="$seconds" \
+      -max_len=1048576 -rss_limit_mb=2048 -timeout=10 -max_total_time="$seconds" \
       -print_final_stats=1 -artifact_prefix="$artifacts/" >"$build/$t.log" 2>&1; then
     grep -E '^stat::number_of_executed_units|^Done' "$build/$t.log" || true
     echo "== $t: no crash; corpus now $(ls "$corpus" | wc -l) inputs"

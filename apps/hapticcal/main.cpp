@@ -28,6 +28,7 @@
 #include "number_options.hpp"
 #include "output_summary.hpp"
 #include "plan_command.hpp"
+#include "terminal.hpp"
 
 namespace {
 
@@ -130,8 +131,8 @@ int run_evaluate(const EvaluateOptions& o) {
   out.commit();
   // With --json, stdout is the JSON object alone.
   std::FILE* said = o.json ? stderr : stdout;
-  fmt::print(said, "{}", reported);
-  fmt::print(said, "{}", hapticcal::cli::output_summary(out, o.out));
+  hapticcal::cli::say(said, "{}", reported);
+  hapticcal::cli::say(said, "{}", hapticcal::cli::output_summary(out, o.out));
   return 0;
 }
 
@@ -242,7 +243,8 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
 int run_calibrate(const CalibrateOptions& o) {
   // A URDF is read once: its text is also the base of calibrated.urdf.
   const bool urdf = hapticcal::is_urdf_path(o.model);
-  const std::string urdf_text = urdf ? hapticcal::read_file(o.model) : std::string();
+  const std::string urdf_text =
+      urdf ? hapticcal::read_file(o.model, hapticcal::FileKind::kUrdf) : std::string();
   const hapticcal::DeviceModel model =
       urdf ? hapticcal::parse_urdf(urdf_text, o.model, o.chain.tip, o.chain.root)
            : hapticcal::load_model(o.model, o.chain.tip, o.chain.root);
@@ -437,9 +439,9 @@ int run_simulate(const SimulateOptions& o) {
   const hapticcal::StudyResult r = hapticcal::run_study(sc, out.dir(), threads, [&](int k, int n) {
     if (!bar) return;
     const int width = 40, filled = width * k / n;
-    fmt::print(stderr, "\r[{}{}] {}/{}", std::string(filled, '#'), std::string(width - filled, ' '),
+    hapticcal::cli::say(stderr, "\r[{}{}] {}/{}", std::string(filled, '#'), std::string(width - filled, ' '),
                k, n);
-    if (k == n) fmt::print(stderr, "\n");
+    if (k == n) hapticcal::cli::say(stderr, "\n");
   });
   print_study(sc, r);
   hapticcal::write_file_atomically(out.dir() + "/results.json", hapticcal::study_json(sc, r));
@@ -558,7 +560,7 @@ struct ConvertOptions {
 int run_convert(const ConvertOptions& o) {
   for (const std::string* path : {&o.in, &o.out}) {
     if (!hapticcal::is_urdf_path(*path) && !hapticcal::is_yaml_path(*path)) {
-      fmt::print(stderr,
+      hapticcal::cli::say(stderr,
                  "hapticcal: convert: '{}' is neither a device file (.yaml, .yml) nor a URDF "
                  "(.urdf)\n",
                  hapticcal::printable(*path, 200));
@@ -567,7 +569,7 @@ int run_convert(const ConvertOptions& o) {
   }
   const bool to_urdf = hapticcal::is_urdf_path(o.out);
   if (hapticcal::is_urdf_path(o.in) == to_urdf) {
-    fmt::print(stderr, "hapticcal: convert: {} and {} are both {}: nothing to convert\n",
+    hapticcal::cli::say(stderr, "hapticcal: convert: {} and {} are both {}: nothing to convert\n",
                hapticcal::printable(o.in, 200), hapticcal::printable(o.out, 200),
                to_urdf ? "URDF" : "device files");
     return kExitBadInput;
@@ -581,7 +583,7 @@ int run_convert(const ConvertOptions& o) {
     }
     hapticcal::write_file_atomically(o.out, hapticcal::device_to_urdf(model));
     if (!with_transmission.empty()) {
-      fmt::print(stderr,
+      hapticcal::cli::say(stderr,
                  "hapticcal: warning: URDF cannot express transmissions: those of {} are only "
                  "XML comments in {}\n",
                  with_transmission, o.out);
@@ -602,6 +604,7 @@ int run_convert(const ConvertOptions& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  hapticcal::cli::guard_standard_streams();
   hapticcal::remove_staging_on_signals();
   CLI::App app{"hapticcal: kinematic calibration of haptic devices and robots with transmissions"};
   app.set_version_flag("--version", "hapticcal 0.1.0");
@@ -757,15 +760,18 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    if (e.get_exit_code() == 0) {  // --help, --version
+      return hapticcal::cli::finish_streams(app.exit(e));
+    }
     if (dynamic_cast<const CLI::RequiredError*>(&e) && app.get_subcommands().empty()) {
-      fmt::print(stderr,
+      hapticcal::cli::say(stderr,
                  "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, "
                  "convert); see hapticcal --help\n");
       return kExitBadInput;
     }
-    fmt::print(stderr, "hapticcal: {}\n", e.what());
-    return kExitBadInput;
+    // One line, whatever the argument held (a newline, a control byte).
+    hapticcal::cli::say(stderr, "hapticcal: {}\n", hapticcal::printable(e.what(), 400));
+    return hapticcal::cli::finish_streams(kExitBadInput);
   }
 
   int code = 1;
@@ -782,22 +788,22 @@ int main(int argc, char** argv) {
     if (*plan) code = hapticcal::cli::run_plan(plan_options);
   } catch (const hapticcal::InputError& e) {
     hapticcal::finish_if_interrupted();
-    fmt::print(stderr, "hapticcal: {}\n", e.what());
+    hapticcal::cli::say(stderr, "hapticcal: {}\n", e.what());
     code = kExitBadInput;
   } catch (const hapticcal::IoError& e) {
     hapticcal::finish_if_interrupted();
-    fmt::print(stderr, "hapticcal: {}\n", e.what());
+    hapticcal::cli::say(stderr, "hapticcal: {}\n", e.what());
     code = 1;
   } catch (const std::runtime_error& e) {  // the system's: a write to stdout failed (a closed
                                            // pipe), a file system error
     hapticcal::finish_if_interrupted();
-    fmt::print(stderr, "hapticcal: {}\n", e.what());
+    hapticcal::cli::say(stderr, "hapticcal: {}\n", e.what());
     code = 1;
   } catch (const std::exception& e) {
     hapticcal::finish_if_interrupted();
-    fmt::print(stderr, "hapticcal: internal error: {}\n", e.what());
+    hapticcal::cli::say(stderr, "hapticcal: internal error: {}\n", e.what());
     code = 1;
   }
   hapticcal::finish_if_interrupted();
-  return code;
+  return hapticcal::cli::finish_streams(code);
 }

@@ -17,6 +17,7 @@
 #include "hapticcal/study/paper.hpp"
 #include "number_options.hpp"
 #include "output_summary.hpp"
+#include "terminal.hpp"
 
 namespace hapticcal::cli {
 CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
@@ -75,7 +76,7 @@ int run_plan(const PlanCommandOptions& options) {
   OutputSet out(options.out, "plan");
   const bool tty = isatty(2);
   setup.options.progress = [tty](const std::string& s) {
-    if (tty) fmt::print(stderr, "  {}\n", s);
+    if (tty) hapticcal::cli::say(stderr, "  {}\n", s);
   };
   const PlanProblem problem(model, type, sigma, sigma_e, setup.analysis, setup.fix, setup.free);
   fmt::print(

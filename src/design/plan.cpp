@@ -919,6 +919,11 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
   const int N = o.poses;
   const bool user = o.candidates.size() > 0;
   if (N < 1) throw InputError(fmt::format("--poses {}: must be at least 1", N));
+  // The command line's bound, for every caller (Python asked for 10^9: MemoryError).
+  constexpr int kMaxPool = 10000000;
+  if (!user && (o.pool < 1 || o.pool > kMaxPool)) {
+    throw InputError(fmt::format("--pool {}: not in [1, {}]", o.pool, kMaxPool));
+  }
   if (user && o.candidates.cols() != n)
     throw InputError(
         fmt::format("candidates have {} joints, the model {}", o.candidates.cols(), n));

@@ -461,6 +461,23 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
   }
 }
 
+// An external encoder's reading beyond any joint's travel (1e308 read for a
+// number) would only overflow the step-1 fit: bad input naming its line.
+void check_encoder_readings(const Log& log) {
+  constexpr double kLargest = 1e4;  // rad or m
+  for (int j = 0; j < static_cast<int>(log.has_ext.size()); ++j) {
+    if (!log.has_ext[j]) continue;
+    for (int r = 0; r < log.rows; ++r) {
+      const double v = log.ext(r, j);
+      if (std::isfinite(v) && std::abs(v) <= kLargest) continue;
+      throw InputError(log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0,
+                       fmt::format("ext{}", j + 1),
+                       fmt::format("{} is not an encoder reading (|value| above {:g} rad or m)", v,
+                                   kLargest));
+    }
+  }
+}
+
 // The measurement error left once only the slots `free` are fitted (LM): a
 // base known only roughly, or a marker's unknown offset from the tip, is no
 // sign of a wrong log.
@@ -1045,6 +1062,16 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options) {
   check_log_fits(log, nominal);
   if (options.samples < 0) throw InputError("--samples must not be negative");
+  // The CLI's range, for every caller (Python passed 1.0 and inf: a QR of no columns).
+  if (!(options.dependency_tolerance >= 1e-12 && options.dependency_tolerance <= 0.5)) {
+    throw InputError(fmt::format("--dependency-tolerance {}: not in [1e-12, 0.5]",
+                                 options.dependency_tolerance));
+  }
+  for (const std::string& name : options.fix) {
+    if (std::find(options.free.begin(), options.free.end(), name) != options.free.end()) {
+      throw InputError(fmt::format("'{}' is given to both --fix and --free", printable(name)));
+    }
+  }
   if (!(options.selection_alpha > 0 && options.selection_alpha < 1)) {
     throw InputError(
         fmt::format("model selection level {} is not in (0, 1)", options.selection_alpha));
@@ -1058,6 +1085,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   }
   CalibrationResult result;
   check_joint_limits(log, nominal, options.force, result.notes);
+  check_encoder_readings(log);
   // Repeats of a pose are averaged: one pose, one row of the fit.
   const std::vector<std::vector<int>> all_poses = repeated_poses(log);
   std::vector<int> repeats;

@@ -5,10 +5,23 @@
 #pragma once
 
 #include <ceres/ceres.h>
+#include <glog/logging.h>
 
 namespace hapticcal::detail {
 
+// Ceres reports a non-finite residual through glog, tens of lines on stderr
+// before hapticcal's own one-line message: glog's threshold is raised to FATAL
+// once (a host program that wants glog's warnings sets FLAGS_minloglevel back).
+inline void quiet_ceres() {
+  static const bool once = [] {
+    FLAGS_minloglevel = google::GLOG_FATAL;
+    return true;
+  }();
+  (void)once;
+}
+
 inline ceres::Solver::Options levenberg_marquardt(int max_iterations) {
+  quiet_ceres();
   ceres::Solver::Options options;
   options.minimizer_type = ceres::TRUST_REGION;
   options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;

@@ -73,14 +73,26 @@ class Reader : public detail::YamlReader {
         poly.lower = d[0];
         poly.upper = d[1];
       }
-      poly.coefficients =
-          numbers(require(node, path, "coefficients"), join(path, "coefficients"), -1);
+      // --polynomial-order's bound: a longer list would only make every fit crawl.
+      constexpr size_t kMaxCoefficients = 31;
+      const YAML::Node coefficients = require(node, path, "coefficients");
+      if (coefficients.IsSequence() && coefficients.size() > kMaxCoefficients) {
+        fail(coefficients, join(path, "coefficients"),
+             fmt::format("{} coefficients: at most {} (order 30)", coefficients.size(),
+                         kMaxCoefficients));
+      }
+      poly.coefficients = numbers(coefficients, join(path, "coefficients"), -1);
       return Transmission(poly);
     }
     if (type == "chain") {
       check_keys(node, path, {"type", "stages"});
       const YAML::Node stages = require(node, path, "stages");
       if (!stages.IsSequence()) fail(stages, join(path, "stages"), "expected a list");
+      constexpr size_t kMaxStages = 8;  // a chain is a motor, a gear, a capstan: a few
+      if (stages.size() > kMaxStages) {
+        fail(stages, join(path, "stages"),
+             fmt::format("{} stages: at most {}", stages.size(), kMaxStages));
+      }
       Chain chain;
       for (size_t k = 0; k < stages.size(); ++k) {
         chain.stages.push_back(
@@ -353,7 +365,9 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
   return model;
 }
 
-DeviceModel load_device(const std::string& path) { return parse_device(read_file(path), path); }
+DeviceModel load_device(const std::string& path) {
+  return parse_device(read_file(path, FileKind::kDevice), path);
+}
 
 std::string check_device(const DeviceModel& model) {
   if (const std::string why = device_name_problem(model.name); !why.empty()) return "name: " + why;

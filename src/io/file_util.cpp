@@ -1,4 +1,5 @@
 #include <fmt/format.h>
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -19,29 +20,6 @@ namespace hapticcal {
 namespace {
 
 std::string hex(unsigned char byte) { return fmt::format("\\x{:02x}", byte); }
-
-// what() stays one line: C0 control characters and DEL become \xNN.
-std::string one_line(const std::string& text) {
-  std::string out;
-  out.reserve(text.size());
-  for (const char c : text) {
-    const auto b = static_cast<unsigned char>(c);
-    if (b < 0x20 || b == 0x7f) {
-      out += hex(b);
-    } else {
-      out += c;
-    }
-  }
-  return out;
-}
-
-std::string compose(const std::string& file, int line, const std::string& key,
-                    const std::string& message) {
-  std::string where = file;
-  if (line > 0) where += fmt::format(":{}", line);
-  if (!key.empty()) where += (where.empty() ? "" : ": ") + key;
-  return one_line(where.empty() ? message : where + ": " + message);
-}
 
 // The length of the UTF-8 sequence at text[i] when it is the shortest encoding
 // of a Unicode scalar value (RFC 3629), else 0; its code point in `cp`.
@@ -72,7 +50,36 @@ std::size_t utf8_sequence(const std::string& text, std::size_t i, char32_t& cp) 
   return n;
 }
 
-bool is_control(char32_t cp) { return cp < 0x20 || (cp >= 0x7f && cp <= 0x9f); }
+// Control characters, and the byte-order mark, which prints as nothing.
+bool is_control(char32_t cp) { return cp < 0x20 || (cp >= 0x7f && cp <= 0x9f) || cp == 0xfeff; }
+
+// what() stays one printable line: C0 and C1 control characters, DEL and bytes
+// that are not UTF-8 (a binary file's) become \xNN.
+std::string one_line(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (std::size_t i = 0; i < text.size();) {
+    char32_t cp = 0;
+    const std::size_t n = utf8_sequence(text, i, cp);
+    if (n == 0 || is_control(cp)) {
+      for (std::size_t k = 0; k < std::max<std::size_t>(n, 1); ++k)
+        out += hex(static_cast<unsigned char>(text[i + k]));
+      i += std::max<std::size_t>(n, 1);
+    } else {
+      out.append(text, i, n);
+      i += n;
+    }
+  }
+  return out;
+}
+
+std::string compose(const std::string& file, int line, const std::string& key,
+                    const std::string& message) {
+  std::string where = file;
+  if (line > 0) where += fmt::format(":{}", line);
+  if (!key.empty()) where += (where.empty() ? "" : ": ") + key;
+  return one_line(where.empty() ? message : where + ": " + message);
+}
 
 }  // namespace
 
@@ -122,14 +129,101 @@ InputError::InputError(const std::string& file, int line, const std::string& key
 InputError::InputError(const std::string& message)
     : std::invalid_argument(one_line(message)), message_(message) {}
 
-std::string read_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw InputError(path, 0, "", "is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, 0, "", fmt::format("cannot open: {}", std::strerror(errno)));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
+std::size_t max_file_bytes(FileKind kind) {
+  constexpr std::size_t kMiB = std::size_t{1} << 20;
+  switch (kind) {
+    case FileKind::kDevice:
+    case FileKind::kFixture:
+    case FileKind::kScenario:
+      return kMiB;
+    case FileKind::kUrdf:
+      return 16 * kMiB;
+    case FileKind::kLog:
+      return 2048 * kMiB;
+    case FileKind::kOwn:
+      break;
+  }
+  return 256 * kMiB;
+}
+
+namespace {
+
+const char* kind_name(FileKind kind) {
+  switch (kind) {
+    case FileKind::kDevice:
+      return "a device file";
+    case FileKind::kUrdf:
+      return "a URDF";
+    case FileKind::kLog:
+      return "a log";
+    case FileKind::kFixture:
+      return "a fixture file";
+    case FileKind::kScenario:
+      return "a scenario";
+    case FileKind::kOwn:
+      break;
+  }
+  return "this file";
+}
+
+std::string size_text(std::size_t bytes) {
+  return bytes >= (1u << 20) ? fmt::format("{} MiB", bytes >> 20)
+                             : fmt::format("{} KiB", bytes >> 10);
+}
+
+// Closes a descriptor on every path out.
+struct Descriptor {
+  int fd;
+  ~Descriptor() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+}  // namespace
+
+std::string read_file(const std::string& path, FileKind kind) {
+  const std::size_t limit = max_file_bytes(kind);
+  if (path.find('\0') != std::string::npos) {  // c_str() would name another file
+    throw InputError(printable(path, 200), 0, "", "the file name holds a NUL byte");
+  }
+  // O_NONBLOCK: opening a FIFO must not wait for a writer; it is refused below.
+  const Descriptor file{::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC)};
+  if (file.fd < 0) {
+    throw InputError(path, 0, "", fmt::format("cannot open: {}", std::strerror(errno)));
+  }
+  struct stat st {};
+  if (::fstat(file.fd, &st) != 0) {
+    throw InputError(path, 0, "", fmt::format("cannot read: {}", std::strerror(errno)));
+  }
+  if (S_ISDIR(st.st_mode)) throw InputError(path, 0, "", "is a directory");
+  if (!S_ISREG(st.st_mode)) {
+    throw InputError(path, 0, "",
+                     "is not a regular file (a device, FIFO or socket): give a file");
+  }
+  auto too_large = [&](const std::string& size) {
+    return InputError(path, 0, "",
+                      fmt::format("{}, more than the {} {} may have", size, size_text(limit),
+                                  kind_name(kind)));
+  };
+  if (static_cast<std::size_t>(st.st_size) > limit) {
+    throw too_large(fmt::format("{} bytes", static_cast<long long>(st.st_size)));
+  }
+  std::string text;
+  text.reserve(static_cast<std::size_t>(st.st_size));
+  char buffer[1 << 16];
+  for (;;) {
+    const ssize_t n = ::read(file.fd, buffer, sizeof buffer);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw InputError(path, 0, "", fmt::format("cannot read: {}", std::strerror(errno)));
+    }
+    if (n == 0) break;
+    if (text.size() + static_cast<std::size_t>(n) > limit) {
+      throw too_large("growing while read");  // a file still being written
+    }
+    text.append(buffer, static_cast<std::size_t>(n));
+  }
+  return text;
 }
 
 void write_file_atomically(const std::string& path, const std::string& text) {

@@ -96,14 +96,7 @@ Fixture parse_fixture(const std::string& text, const std::string& origin) {
 }
 
 Fixture load_fixture(const std::string& path) {
-  std::error_code ec;
-  const auto bytes = std::filesystem::file_size(path, ec);
-  if (!ec && bytes > kMaxFixtureBytes) {
-    throw InputError(
-        path, 0, "",
-        fmt::format("{} bytes, more than the {} a fixture file may have", bytes, kMaxFixtureBytes));
-  }
-  return parse_fixture(read_file(path), path);
+  return parse_fixture(read_file(path, FileKind::kFixture), path);
 }
 
 PointDistance parse_point_distance(const std::string& spec) {

@@ -647,7 +647,7 @@ std::string log_to_csv(const Log& log) {
 }
 
 Log read_log(const std::string& path, const std::vector<std::string>& columns) {
-  return parse_log(read_file(path), path, columns);
+  return parse_log(read_file(path, FileKind::kLog), path, columns);
 }
 
 }  // namespace hapticcal

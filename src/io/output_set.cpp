@@ -92,7 +92,10 @@ void sweep_stale_staging(const fs::path& parent, const std::string& stem) {
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(parent, ec)) {
     const std::string name = entry.path().filename().string();
-    if (name.rfind(stem, 0) != 0 || !entry.is_directory(ec)) continue;
+    if (name.rfind(stem, 0) != 0 || name.size() != stem.size() + 6 || !entry.is_directory(ec) ||
+        !fs::exists(entry.path() / kStagingMarker, ec)) {
+      continue;  // not a staging folder of ours
+    }
     const int fd = ::open(entry.path().c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
     if (fd < 0) continue;
     if (::flock(fd, LOCK_EX | LOCK_NB) == 0) fs::remove_all(entry.path(), ec);
@@ -212,6 +215,7 @@ void OutputSet::acquire(const std::filesystem::path& parent, const std::string& 
   }
   staging_ = staging;
   ::chmod(staging_.c_str(), 0755);  // mkdtemp's 0700 would become --out's mode
+  write_file_atomically(staging_ + "/" + kStagingMarker, "");
   exchange_ = exchange_supported(staging_);
   staging_fd_ = ::open(staging_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (staging_fd_ >= 0) ::flock(staging_fd_, LOCK_EX | LOCK_NB);  // "in use": not stale
@@ -221,7 +225,7 @@ OutputSet::~OutputSet() { release(); }
 
 void OutputSet::release() {
   Registry& r = registry();
-  if (!committed_ && !staging_.empty()) {
+  if (!committed_ && !kept_ && !staging_.empty()) {
     std::error_code ec;
     fs::remove_all(staging_, ec);
     std::lock_guard<std::mutex> lock(r.mutex);
@@ -256,10 +260,11 @@ bool OutputSet::keep_previous(const std::string& name) const {
 }
 
 void OutputSet::commit() {
+  std::error_code ec;
+  fs::remove(fs::path(staging_) / kStagingMarker, ec);
   // The marker lists what the set holds: a later run replaces nothing else.
   std::string marker = fmt::format("hapticcal {}\n", command_);
   std::set<std::string> names, shown;
-  std::error_code ec;
   for (const auto& entry : fs::directory_iterator(staging_, ec)) {
     const std::string name = entry.path().filename().string();
     names.insert(name);
@@ -276,6 +281,18 @@ void OutputSet::commit() {
 
   Registry& r = registry();
   std::lock_guard<std::mutex> lock(r.mutex);
+  // A file the user saved into --out while this run went on is theirs: the new
+  // set stays in its staging folder instead, named in the message.
+  if (fs::is_directory(target_, ec)) {
+    if (const std::string why = foreign_entry(target_); !why.empty()) {
+      kept_ = true;
+      r.staging.erase(staging_);
+      throw IoError(fmt::format(
+          "--out {}: {} (saved there while this run went on): it was not replaced; the new "
+          "outputs are in {}",
+          printable(shown_), why, staging_));
+    }
+  }
   // After the exchange the staging path holds the old set, which is removed:
   // it stays registered until then.
   if (exchange_) {

@@ -72,10 +72,16 @@ void append_utf8(std::string& out, unsigned long cp) {
 }
 
 // The five predefined entities and character references; anything else as is.
+// The longest reference is "&#x10FFFF;": its ';' is looked for that far only,
+// so that a text of '&' without ';' is decoded in linear time.
+constexpr size_t kLongestEntity = 10;
+
 std::string decode_entities(std::string_view raw) {
   std::string out;
   for (size_t i = 0; i < raw.size();) {
-    const size_t semi = raw[i] == '&' ? raw.find(';', i) : std::string_view::npos;
+    const size_t semi =
+        raw[i] == '&' ? raw.substr(0, std::min(raw.size(), i + kLongestEntity)).find(';', i)
+                      : std::string_view::npos;
     if (semi == std::string_view::npos) {
       out += raw[i++];
       continue;
@@ -280,12 +286,77 @@ class CapturedLog : public console_bridge::OutputHandler {
   std::string first_error;
 };
 
-// NUL bytes and malformed XML, with tinyxml's line (urdfdom gives none).
+// tinyxml parses nested elements by recursion and checks each attribute against
+// the element's others: bounds far above any URDF (which nests 4 levels and has
+// at most a handful of attributes) keep its stack and time small.
+constexpr int kMaxXmlDepth = 200;
+constexpr int kMaxXmlAttributes = 100;
+
+// Nesting depth and attributes per element, in one pass before tinyxml sees the
+// text; a malformed text is left to tinyxml's message.
+void check_xml_shape(const std::string& t, const std::string& origin) {
+  const size_t n = t.size();
+  int depth = 0;
+  size_t i = 0;
+  auto line_at = [&](size_t pos) {
+    return static_cast<int>(std::count(t.begin(), t.begin() + static_cast<long>(pos), '\n')) + 1;
+  };
+  auto skip_past = [&](size_t from, std::string_view end) {
+    const size_t k = t.find(end, from);
+    return k == std::string::npos ? n : k + end.size();
+  };
+  while (i < n && (i = t.find('<', i)) != std::string::npos) {
+    if (t.compare(i, 4, "<!--") == 0) {
+      i = skip_past(i + 4, "-->");
+    } else if (t.compare(i, 9, "<![CDATA[") == 0) {
+      i = skip_past(i + 9, "]]>");
+    } else if (t.compare(i, 2, "<?") == 0) {
+      i = skip_past(i + 2, "?>");
+    } else if (t.compare(i, 2, "<!") == 0) {
+      i = skip_past(i + 2, ">");
+    } else if (t.compare(i, 2, "</") == 0) {
+      --depth;
+      i = skip_past(i + 2, ">");
+    } else {
+      const size_t start = i;
+      int attributes = 0;
+      char quote = 0;
+      size_t k = i + 1;
+      for (; k < n; ++k) {
+        const char c = t[k];
+        if (quote) {
+          if (c == quote) quote = 0;
+        } else if (c == '"' || c == '\'') {
+          quote = c;
+        } else if (c == '=') {
+          ++attributes;
+        } else if (c == '>') {
+          break;
+        }
+      }
+      if (k >= n) return;  // unterminated: tinyxml says so
+      if (attributes > kMaxXmlAttributes) {
+        throw InputError(origin, line_at(start), "",
+                         fmt::format("XML: an element with {} attributes: at most {}", attributes,
+                                     kMaxXmlAttributes));
+      }
+      if (t[k - 1] != '/' && ++depth > kMaxXmlDepth) {
+        throw InputError(origin, line_at(start), "",
+                         fmt::format("XML: elements nested more than {} deep", kMaxXmlDepth));
+      }
+      i = k + 1;
+    }
+  }
+}
+
+// NUL bytes, nesting and attributes beyond the bounds, and malformed XML, with
+// tinyxml's line (urdfdom gives none).
 void check_xml(const std::string& text, const std::string& origin) {
   if (const size_t nul = text.find('\0'); nul != std::string::npos) {
     const int line = static_cast<int>(std::count(text.begin(), text.begin() + nul, '\n')) + 1;
     throw InputError(origin, line, "", fmt::format("NUL byte at byte {}", nul));
   }
+  check_xml_shape(text, origin);
   // tinyxml 2.6 steps over a UTF-8 sequence by its lead byte, past the end of a
   // text that ends in a cut one: NUL bytes after the text stop it there.
   const std::string padded = text + std::string(4, '\0');
@@ -297,6 +368,38 @@ void check_xml(const std::string& text, const std::string& origin) {
   }
 }
 
+// A loop of joints (a link its own ancestor): urdfdom accepts one below the
+// root and then leaks the links of the loop (shared_ptr cycles), which a
+// controller that loads models repeatedly would feel. Refused before it reads.
+void check_no_joint_loop(const Document& doc, const std::string& origin) {
+  std::map<std::string, std::string> parent_of;  // child link -> parent link
+  for (const auto& [name, index] : doc.joints) {
+    const XmlElement& joint = doc.elements[index];
+    const XmlElement* parent = doc.child(joint, "parent");
+    const XmlElement* child = doc.child(joint, "child");
+    const XmlAttribute* p = parent ? parent->attribute("link") : nullptr;
+    const XmlAttribute* c = child ? child->attribute("link") : nullptr;
+    if (p && c) parent_of.emplace(c->value, p->value);
+  }
+  std::map<std::string, int> state;  // 1: on the current walk, 2: leads to a root
+  for (const auto& [start, unused] : parent_of) {
+    std::vector<std::string> walk;
+    std::string link = start;
+    while (state[link] == 0) {
+      state[link] = 1;
+      walk.push_back(link);
+      const auto up = parent_of.find(link);
+      if (up == parent_of.end()) break;
+      link = up->second;
+      if (state[link] == 1) {
+        throw InputError(origin, doc.link_line(link), fmt::format("link '{}'", printable(link, 80)),
+                         "is its own ancestor: the joints above it form a loop, not a tree");
+      }
+    }
+    for (const std::string& l : walk) state[l] = 2;
+  }
+}
+
 // urdfdom's model of a well-formed document. Its messages name a joint or link
 // in brackets ("Joint [j2] is of type REVOLUTE but ..."): that element's line.
 urdf::ModelInterfaceSharedPtr parse_with_urdfdom(const std::string& text, const std::string& origin,
@@ -304,6 +407,7 @@ urdf::ModelInterfaceSharedPtr parse_with_urdfdom(const std::string& text, const 
   // The output handler is global: one parse at a time.
   static std::mutex mutex;
   const std::lock_guard<std::mutex> lock(mutex);
+  check_no_joint_loop(doc, origin);
   CapturedLog log;
   console_bridge::useOutputHandler(&log);
   urdf::ModelInterfaceSharedPtr model;
@@ -863,7 +967,7 @@ DeviceModel parse_urdf(const std::string& text, const std::string& origin, const
 }
 
 DeviceModel load_urdf(const std::string& path, const std::string& tip, const std::string& root) {
-  return parse_urdf(read_file(path), path, tip, root);
+  return parse_urdf(read_file(path, FileKind::kUrdf), path, tip, root);
 }
 
 std::string device_to_urdf(const DeviceModel& model) {

@@ -82,6 +82,12 @@ Eigen::Matrix<double, 6, 6> rendering_map(const DeviceModel& actual, const Devic
     throw InputError(fmt::format("the posture has {} readings, the devices {} and {} joints",
                                  sc.posture.size(), actual.dof(), controller.dof()));
   }
+  for (int i = 0; i < sc.posture.size(); ++i) {  // the library's check, for every caller
+    if (!std::isfinite(sc.posture[i])) {
+      throw InputError(fmt::format("--posture: reading {} is {}: give a finite number", i + 1,
+                                   sc.posture[i]));
+    }
+  }
   const Statics a = statics(actual, sc, "actual device"),
                 m = statics(controller, sc, "controller model");
   // tau_theta,actual = D_a^-1 D_m J_m^T F = J_a^T W.

@@ -133,8 +133,10 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
     }
     if (log.has_distance) ev.distance_error[r] = p.norm() - log.distance[r];
     if (log.has_position) ev.position_error[r] = (p - log.position.row(r).transpose()).norm();
-    const bool finite = (!log.has_distance || std::isfinite(ev.distance_error[r])) &&
-                        (!log.has_position || std::isfinite(ev.position_error[r]));
+    // Squared: an error of 1e308 is finite, its square (the RMS) is not.
+    auto square_finite = [](double e) { return std::isfinite(e * e); };
+    const bool finite = (!log.has_distance || square_finite(ev.distance_error[r])) &&
+                        (!log.has_position || square_finite(ev.position_error[r]));
     if (!finite) {
       throw InputError(log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0, "",
                        "the model's error on this row is not finite: a value is too large");

@@ -269,7 +269,7 @@ constexpr double kMaxAngleDeviation = std::numbers::pi;  // rad
 
 Scenario load_scenario(const std::string& path, const std::string& default_device_path,
                        const std::string& default_tip, const std::string& default_root) {
-  const std::string text = read_file(path);
+  const std::string text = read_file(path, FileKind::kScenario);
   YAML::Node root;
   try {
     root = YAML::Load(text);
@@ -719,6 +719,10 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
 
 StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
                       const std::function<void(int, int)>& progress) {
+  // The command line's bounds, for every caller (Python's trials=10**9).
+  if (sc.trials < 1 || sc.trials > 100000) {
+    throw InputError(fmt::format("--trials {}: not in [1, 100000]", sc.trials));
+  }
   const int n = sc.trials;
   std::vector<TrialResult> trials(n);
   std::atomic<int> next{0}, done{0};

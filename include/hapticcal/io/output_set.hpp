@@ -15,6 +15,9 @@ namespace hapticcal {
 // this marker and nothing it does not list: a rerun never deletes files it did
 // not write.
 inline constexpr const char* kOutputMarker = ".hapticcal-output";
+// In a staging folder while a run writes it: the stale-staging sweep removes
+// only folders that carry it (a user's ".results.tmp-mine/" is not a run's).
+inline constexpr const char* kStagingMarker = ".hapticcal-staging";
 
 class OutputSet {
  public:
@@ -62,6 +65,7 @@ class OutputSet {
   std::vector<std::string> written_;
   int lock_fd_ = -1, staging_fd_ = -1;
   bool committed_ = false;
+  bool kept_ = false;  // commit() refused: the staging folder is the user's to take
   bool created_ = false;   // --out was empty (or missing) when this run locked it
   bool exchange_ = false;  // the file system exchanges folders atomically
 };

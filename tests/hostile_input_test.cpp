@@ -1,0 +1,399 @@
+// Hostile and careless input (issue 23): each case of the audit reproduced -
+// the large inputs generated here, never committed - and required to end in one
+// line and an exit code, never a crash, a hang or a lost file. The commands run
+// as child processes under a watchdog (a hang fails the test instead of
+// stalling it) and with unusual standard streams (a full disk, a closed stderr).
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/io/error.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/io/output_set.hpp"
+#include "hapticcal/io/urdf.hpp"
+#include "hapticcal/runtime.h"
+#include "run_cli.hpp"
+#include "test_models.hpp"
+
+extern char** environ;
+
+namespace hapticcal {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::source_path;
+
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define HAPTICCAL_ASAN 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__)
+#define HAPTICCAL_ASAN 1
+#endif
+
+// A hang guard, not a speed target: far above the 2 s a refusal takes.
+constexpr int kWatchdogSeconds = 60;
+
+struct Run {
+  int exit_code = -1;
+  bool killed = false;  // by the watchdog
+  long peak_kib = 0;    // the child's largest resident set
+  std::string out, err;
+};
+
+// Where a child's stream goes: a file of the test's, a path such as
+// /dev/full, or closed.
+struct Stream {
+  enum Kind { kCapture, kPath, kClosed } kind = kCapture;
+  std::string path;
+};
+
+Run run(const std::vector<std::string>& args, Stream out = {}, Stream err = {}) {
+  static int counter = 0;
+  const std::string base = (fs::path(::testing::TempDir()) /
+                            fmt::format("hostile_{}_{}", ::getpid(), counter++))
+                               .string();
+  std::vector<std::string> argv{HAPTICCAL_CLI};
+  argv.insert(argv.end(), args.begin(), args.end());
+  std::vector<char*> cargv;
+  for (std::string& a : argv) cargv.push_back(a.data());
+  cargv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  auto route = [&](int fd, const Stream& s, const std::string& capture) {
+    if (s.kind == Stream::kClosed) {
+      posix_spawn_file_actions_addclose(&actions, fd);
+    } else {
+      posix_spawn_file_actions_addopen(&actions, fd,
+                                       s.kind == Stream::kPath ? s.path.c_str() : capture.c_str(),
+                                       O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    }
+  };
+  route(STDOUT_FILENO, out, base + ".out");
+  route(STDERR_FILENO, err, base + ".err");
+  Run r;
+  pid_t pid = 0;
+  const int spawned = posix_spawn(&pid, argv[0].c_str(), &actions, nullptr, cargv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) {
+    r.err = "cannot run the command line";
+    return r;
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(kWatchdogSeconds);
+  int status = 0;
+  struct rusage usage {};
+  for (;;) {
+    const pid_t done = ::wait4(pid, &status, WNOHANG, &usage);
+    if (done == pid) break;
+    if (std::chrono::steady_clock::now() > deadline) {
+      ::kill(pid, SIGKILL);
+      ::wait4(pid, &status, 0, &usage);
+      r.killed = true;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.peak_kib = usage.ru_maxrss;
+  if (out.kind == Stream::kCapture) r.out = testing::slurp(base + ".out");
+  if (err.kind == Stream::kCapture) r.err = testing::slurp(base + ".err");
+  fs::remove(base + ".out");
+  fs::remove(base + ".err");
+  return r;
+}
+
+// Exit 2 with one line on stderr holding `says`; no hang; within 200 MB
+// (not measured under AddressSanitizer, whose shadow memory is most of it).
+void expect_refused(const Run& r, const std::string& says, const std::string& what) {
+  EXPECT_FALSE(r.killed) << what << ": still running after " << kWatchdogSeconds << " s";
+  EXPECT_EQ(r.exit_code, 2) << what << ": " << r.out << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << what << ": " << r.err;
+  EXPECT_NE(r.err.find(says), std::string::npos) << what << ": " << r.err;
+#ifndef HAPTICCAL_ASAN
+  EXPECT_LT(r.peak_kib, 200 * 1024) << what;
+#endif
+}
+
+std::string scratch(const std::string& name) { return testing::fresh_folder("hostile_" + name); }
+
+std::string write(const std::string& path, const std::string& text) {
+  write_file_atomically(path, text);
+  return path;
+}
+
+// A valid 2-joint log beside the malformed-input cases.
+std::string good_log() { return source_path("tests/malformed/good-2dof.csv"); }
+
+// C1: a URDF nested 50,000 levels deep (350 KB) overflowed tinyxml's stack.
+TEST(Hostile, DeeplyNestedUrdfIsRefusedBeforeTheXmlParser) {
+  const std::string dir = scratch("deep");
+  std::string text = "<robot name=\"r\"><link name=\"l0\">";
+  for (int k = 0; k < 50000; ++k) text += "<a>";
+  for (int k = 0; k < 50000; ++k) text += "</a>";
+  text += "</link></robot>\n";
+  const std::string urdf = write(dir + "/deep.urdf", text);
+  expect_refused(run({"convert", urdf, dir + "/out.yaml"}), "nested more than 200 deep",
+                 "convert");
+  expect_refused(run({"evaluate", "--model", urdf, "--log", good_log()}),
+                 "nested more than 200 deep", "evaluate --model");
+  EXPECT_FALSE(fs::exists(dir + "/out.yaml"));
+  // The library and the C runtime (a controller must survive it too).
+  EXPECT_THROW(load_model(urdf, "", ""), InputError);
+  hapticcal_model* model = nullptr;
+  char message[256];
+  EXPECT_EQ(hapticcal_load(urdf.c_str(), "l0", nullptr, &model, message, sizeof message),
+            HAPTICCAL_E_INPUT);
+  EXPECT_EQ(model, nullptr);
+  EXPECT_NE(std::string(message).find("nested"), std::string::npos) << message;
+}
+
+// H2: one element with 100,000 attributes took 41 s in tinyxml's duplicate check.
+TEST(Hostile, AnElementWithManyAttributesIsRefused) {
+  const std::string dir = scratch("attributes");
+  std::string text = "<robot name=\"r\"><link name=\"l0\"";
+  for (int k = 0; k < 100000; ++k) text += fmt::format(" a{}=\"1\"", k);
+  text += "/></robot>\n";
+  const std::string urdf = write(dir + "/many.urdf", text);
+  expect_refused(run({"convert", urdf, dir + "/out.yaml"}), "attributes: at most 100", "convert");
+}
+
+// H1: 2 MB of '&' without ';' in an attribute: entity decoding was quadratic.
+TEST(Hostile, AnAttributeOfAmpersandsIsDecodedInLinearTime) {
+  const std::string dir = scratch("entities");
+  const std::string text = "<robot name=\"" + std::string(2 << 20, '&') +
+                           "\"><link name=\"a\"/><link name=\"b\"/><joint name=\"j\" "
+                           "type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><axis "
+                           "xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" "
+                           "velocity=\"1\"/></joint></robot>\n";
+  const std::string urdf = write(dir + "/amp.urdf", text);
+  const Run r = run({"convert", urdf, dir + "/out.yaml"});
+  EXPECT_FALSE(r.killed);
+  // Either refused (a robot name that is no identifier) or converted: one line, no crash.
+  EXPECT_TRUE(r.exit_code == 0 || r.exit_code == 2) << r.err;
+  if (r.exit_code == 2) EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+// H3: /dev/zero (and a FIFO nobody writes) as an input file read until memory
+// ran out (or waited for ever).
+TEST(Hostile, DevicesAndFifosAreNotRead) {
+  const std::string dir = scratch("devices");
+  const std::string model = source_path("data/devices/baser-7dof.yaml");
+  expect_refused(run({"evaluate", "--model", "/dev/zero", "--log", good_log()}),
+                 "is not a regular file", "--model /dev/zero");
+  expect_refused(run({"evaluate", "--model", model, "--log", "/dev/zero"}),
+                 "is not a regular file", "--log /dev/zero");
+  expect_refused(run({"calibrate", "--model", model, "--log", good_log(), "--fixture", "/dev/zero",
+                      "--out", dir + "/out"}),
+                 "is not a regular file", "--fixture /dev/zero");
+  const std::string fifo = dir + "/fifo.csv";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  expect_refused(run({"evaluate", "--model", model, "--log", fifo}), "is not a regular file",
+                 "--log FIFO");
+  const std::string scenario =
+      write(dir + "/scenario.yaml",
+            "format: hapticcal-scenario/1\ndevice: /dev/zero\nmeasurement: position\n");
+  expect_refused(run({"simulate", "--scenario", scenario, "--out", dir + "/sim"}),
+                 "is not a regular file", "scenario device: /dev/zero");
+}
+
+// E4: a 16 MB device file peaked at 3.9 GB; E3: a polynomial of 10^6
+// coefficients loaded and failed 42 s later without a file, line or key.
+TEST(Hostile, LargeDeviceFilesAndPolynomialsAreBounded) {
+  const std::string dir = scratch("large");
+  std::string big = "format: hapticcal-device/1\nname: big\n# ";
+  big += std::string(16 << 20, 'x');
+  big += "\n";
+  expect_refused(run({"convert", write(dir + "/big.yaml", big), dir + "/big.urdf"}),
+                 "more than the 1 MiB a device file may have", "16 MB device file");
+  std::string text = testing::slurp(source_path("data/devices/baser-7dof.yaml"));
+  // j4's polynomial, with 100 coefficients.
+  const size_t at = text.find("coefficients: [");
+  ASSERT_NE(at, std::string::npos);
+  const size_t end = text.find(']', at);
+  std::string coefficients = "coefficients: [0";
+  for (int k = 1; k < 100; ++k) coefficients += ", 0";
+  text.replace(at, end - at, coefficients);
+  const std::string path = write(dir + "/long.yaml", text);
+  const Run r = run({"convert", path, dir + "/long.urdf"});
+  expect_refused(r, "100 coefficients: at most 31", "100 coefficients");
+  EXPECT_NE(r.err.find(path + ":"), std::string::npos) << r.err;          // the file,
+  EXPECT_NE(r.err.find("transmission.coefficients"), std::string::npos) << r.err;  // the key
+}
+
+// C2, S3: an unwritable stderr or stdout ended in SIGABRT (an exception thrown
+// from a catch block) or in exit 0 with the output lost.
+TEST(Hostile, UnwritableStreamsEndInExitOneNotAbort) {
+  const std::string dir = scratch("streams");
+  const std::string model = source_path("data/devices/baser-7dof.yaml");
+  const Stream full{Stream::kPath, "/dev/full"}, closed{Stream::kClosed, ""};
+  for (const Stream& err : {full, closed}) {
+    const std::string how = err.kind == Stream::kClosed ? "stderr closed" : "stderr /dev/full";
+    // Bad input: the message cannot be written, the exit code still says it.
+    const Run bad = run({"evaluate", "--model", dir + "/missing.yaml", "--log", good_log()}, {},
+                        err);
+    EXPECT_EQ(bad.exit_code, 2) << how;
+    // A success that prints a warning (convert of a model with transmissions).
+    const Run warned = run({"convert", model, dir + "/out.urdf"}, {}, err);
+    EXPECT_EQ(warned.exit_code, 1) << how;
+  }
+  // stdout on a full disk: evaluate's JSON, its plain lines, and --help.
+  const std::string log = source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv");
+  const std::string meca = source_path("examples/meca500/meca500.yaml");
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"evaluate", "--model", meca, "--log", log, "--json"},
+        std::vector<std::string>{"evaluate", "--model", meca, "--log", log, "--out",
+                                 dir + "/evaluate"},
+        std::vector<std::string>{"--help"}}) {
+    const Run r = run(args, full);
+    EXPECT_EQ(r.exit_code, 1) << args[0] << " " << args.back() << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_NE(r.err.find("cannot write the standard output"), std::string::npos) << r.err;
+  }
+}
+
+// S1: a file the user saves into --out while a run goes on is theirs: the run
+// does not replace the folder, and says where its outputs are.
+TEST(Hostile, AFileSavedIntoOutDuringARunSurvives) {
+  const std::string dir = scratch("saved");
+  const std::string out = dir + "/results";
+  std::string staging;
+  {
+    OutputSet set(out, "evaluate");
+    staging = set.dir();
+    write_file_atomically(set.dir() + "/results.json", "{}\n");
+    write(out + "/notes.txt", "mine\n");  // saved by the user meanwhile
+    try {
+      set.commit();
+      ADD_FAILURE() << "commit replaced a folder holding the user's file";
+    } catch (const IoError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("notes.txt"), std::string::npos) << what;
+      EXPECT_NE(what.find(staging), std::string::npos) << what;  // where the outputs are
+    }
+  }
+  EXPECT_EQ(testing::slurp(out + "/notes.txt"), "mine\n");
+  EXPECT_TRUE(fs::exists(staging + "/results.json"));  // the new set, kept for the user
+}
+
+// S2: a user's folder named like a staging folder is not swept.
+TEST(Hostile, AUserFolderNamedLikeStagingSurvives) {
+  const std::string dir = scratch("sweep");
+  const std::string mine = dir + "/.results.tmp-mybackup";
+  write(mine + "/keep.txt", "mine\n");
+  const std::string mine6 = dir + "/.results.tmp-abcdef";  // even with six characters
+  write(mine6 + "/keep.txt", "mine\n");
+  const Run r = run({"evaluate", "--model", source_path("examples/meca500/meca500.yaml"), "--log",
+                     source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv"), "--out",
+                     dir + "/results"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(testing::slurp(mine + "/keep.txt"), "mine\n");
+  EXPECT_EQ(testing::slurp(mine6 + "/keep.txt"), "mine\n");
+}
+
+// S4: a distance of 1e308 gave exit 0 with "rms_distance": null.
+TEST(Hostile, AnOverflowingErrorIsBadInputNotNull) {
+  const std::string dir = scratch("overflow");
+  std::string csv = testing::slurp(good_log());
+  // good-2dof.csv: q1,q2,x,y,z - a distance column instead.
+  const std::string log = write(dir + "/d.csv", "q1,q2,d\n0.1,0.2,0.3\n0.2,0.1,1e308\n");
+  const Run r = run({"evaluate", "--model", source_path("tests/malformed/good-2dof.yaml"), "--log",
+                     log, "--json"});
+  expect_refused(r, ":3:", "distance 1e308");
+}
+
+// E1: ext1 = 1e308 on line 7: glog dumped ~20 KB, then a message naming line 2.
+TEST(Hostile, AnEncoderReadingOf1e308IsNamedByLineAndColumn) {
+  const std::string dir = scratch("ext");
+  std::string csv = "q1,q2,ext1,x,y,z\n";
+  for (int k = 0; k < 12; ++k) {
+    csv += fmt::format("{},{},{},{},{},{}\n", 0.1 * k - 0.5, 0.05 * k, k == 5 ? 1e308 : 0.1 * k - 0.5,
+                       0.3 + 0.01 * k, 0.02 * k, 0.1);
+  }
+  const std::string log = write(dir + "/ext.csv", csv);
+  expect_refused(run({"calibrate", "--model", source_path("tests/malformed/good-2dof.yaml"),
+                      "--log", log, "--out", dir + "/out"}),
+                 "ext.csv:7: ext1: 1e+308 is not an encoder reading", "ext1 = 1e308");
+}
+
+// E5, E6, E8: messages stay one printable line.
+TEST(Hostile, MessagesAreOnePrintableLine) {
+  const std::string dir = scratch("messages");
+  // A newline inside an argument (CLI11's own error).
+  expect_refused(run({"evaluate", "--model", "a\nb.yaml", "--log", good_log(), "--bogus\nx"}),
+                 "hapticcal: ", "newline in an argument");
+  // A binary file read as YAML: no raw invalid UTF-8 byte in the message.
+  std::string binary = "format: \xff\xfe\x80\x81\n\x01\x02\x03";
+  const Run bin = run({"convert", write(dir + "/binary.yaml", binary), dir + "/b.urdf"});
+  EXPECT_EQ(bin.exit_code, 2) << bin.err;
+  for (const char c : bin.err) {
+    EXPECT_TRUE(static_cast<unsigned char>(c) < 0x80) << "a raw byte in: " << bin.err;
+  }
+  // force --posture nan named, not "singular".
+  const std::string device = source_path("data/devices/baser-7dof.yaml");
+  expect_refused(run({"force", "--actual", device, "--nominal", device, "--calibrated", device,
+                      "--posture", "0,0,0,0,0,nan,0", "--out", dir + "/force"}),
+                 "give a finite number", "--posture nan");
+  // --fix X --free X.
+  expect_refused(run({"calibrate", "--model", source_path("examples/meca500/meca500.yaml"), "--log",
+                      source_path("examples/meca500/cal-norm_dist_data_0deg_160cube.csv"),
+                      "--fix", "j2.a", "--free", "j2.a", "--out", dir + "/cal"}),
+                 "given to both --fix and --free", "--fix X --free X");
+  // A UTF-8 byte-order mark before a header: visible in the message.
+  const Run bom = run({"evaluate", "--model", source_path("tests/malformed/good-2dof.yaml"), "--log",
+                       write(dir + "/bom.csv", "\xef\xbb\xbfq1,q2,x,y,z\n0,0,0,0,0\n")});
+  if (bom.exit_code == 2) EXPECT_NE(bom.err.find("\\xef\\xbb\\xbf"), std::string::npos) << bom.err;
+}
+
+// C3 and the library's own checks: what the command line refuses, the library
+// refuses for every caller (Python passed dependency_tolerance=1.0: a segfault).
+TEST(Hostile, TheLibraryValidatesItsOptions) {
+  const DeviceModel model = testing::meca500();
+  const Log log = testing::meca500_log("cal", "norm_dist_data_0deg_160cube");
+  for (double tolerance : {1.0, std::numeric_limits<double>::infinity(), 0.0,
+                           std::numeric_limits<double>::quiet_NaN()}) {
+    CalibrationOptions options;
+    options.dependency_tolerance = tolerance;
+    EXPECT_THROW(calibrate(model, log, options), InputError) << tolerance;
+  }
+  // A NUL in a file name named another file (c_str() cut it).
+  const std::string name = source_path("examples/meca500/meca500.yaml") + std::string("\0junk", 5);
+  EXPECT_THROW(load_model(name, "", ""), InputError);
+}
+
+// E7: a URDF whose joints form a loop is refused before urdfdom reads it (which
+// leaked the loop's links: LeakSanitizer in the instrumented build).
+TEST(Hostile, AJointLoopIsRefusedBeforeUrdfdom) {
+  const std::string text =
+      "<robot name=\"r\"><link name=\"w\"/><link name=\"a\"/><link name=\"b\"/>"
+      "<joint name=\"j0\" type=\"fixed\"><parent link=\"w\"/><child link=\"a\"/></joint>"
+      "<joint name=\"j1\" type=\"fixed\"><parent link=\"a\"/><child link=\"b\"/></joint>"
+      "<joint name=\"j2\" type=\"fixed\"><parent link=\"b\"/><child link=\"a\"/></joint></robot>";
+  for (int k = 0; k < 3; ++k) {
+    try {
+      parse_urdf(text, "loop.urdf", "b", "");
+      ADD_FAILURE() << "a loop of joints was read";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("is its own ancestor"), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace hapticcal
