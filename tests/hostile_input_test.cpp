@@ -361,6 +361,25 @@ TEST(Hostile, MessagesAreOnePrintableLine) {
   if (bom.exit_code == 2) EXPECT_NE(bom.err.find("\\xef\\xbb\\xbf"), std::string::npos) << bom.err;
 }
 
+// E2: a scenario's device with limits of +-1e308 overflowed simulate's own log
+// into inf, and the failure named a staging file that was gone.
+TEST(Hostile, SimulateRefusesLimitsItCannotDrawFrom) {
+  const std::string dir = scratch("simulate_limits");
+  std::string device = testing::slurp(source_path("data/devices/baser-7dof.yaml"));
+  const size_t at = device.find("limits: [");
+  ASSERT_NE(at, std::string::npos);
+  device.replace(at, device.find(']', at) + 1 - at, "limits: [-1e308, 1e308]");
+  const std::string path = write(dir + "/wide.yaml", device);
+  const std::string scenario =
+      write(dir + "/scenario.yaml", "format: hapticcal-scenario/1\ndevice: " + path +
+                                        "\nmeasurement: position\nposes: {identification: 40, "
+                                        "validation: 10}\n");
+  const Run r = run({"simulate", "--scenario", scenario, "--trials", "1", "--out", dir + "/sim"});
+  expect_refused(r, "a simulation draws readings within the limits", "limits +-1e308");
+  EXPECT_NE(r.err.find("wide.yaml"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find(".tmp-"), std::string::npos) << r.err;  // no staging file named
+}
+
 // C3 and the library's own checks: what the command line refuses, the library
 // refuses for every caller (Python passed dependency_tolerance=1.0: a segfault).
 TEST(Hostile, TheLibraryValidatesItsOptions) {

@@ -139,6 +139,8 @@ bool is_paper_device(const DeviceModel& model) {
 
 namespace {
 
+void check_simulated_limits(const Scenario& sc);
+
 // Every pair of sockets' distance, as --point-distance gives it.
 std::vector<PointDistance> socket_distances(
     const std::vector<std::pair<std::string, Eigen::Vector3d>>& sockets) {
@@ -243,6 +245,7 @@ Scenario default_scenario(const std::string& device_path, const std::string& tip
   sc.random = {kDefaultLengthDeviationSd, kDefaultAngleDeviationSd, sc.seed};
   sc.noise.sigma_distance = sc.noise.sigma_position = kDefaultSigmaM;
   sc.sigma_m_formula = "default";
+  check_simulated_limits(sc);
   assign_truth(sc, device_path);
   return sc;
 }
@@ -593,6 +596,7 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
       sc.deviations[name] = v;
     }
   }
+  check_simulated_limits(sc);
   assign_truth(sc, path);
   return sc;
 }
@@ -717,12 +721,61 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
   return t;
 }
 
+namespace {
+
+// A simulation draws readings within the joint limits: limits of 1e308 would
+// overflow its own log into inf. Refused, naming the device file.
+void check_simulated_limits(const Scenario& sc) {
+  constexpr double kWidest = 1e3;  // rad or m
+  for (const DeviceModel* m : {&sc.actual, &sc.nominal}) {
+    for (int i = 0; i < m->dof(); ++i) {
+      const Link& l = m->links[i];
+      if (std::abs(l.lower) <= kWidest && std::abs(l.upper) <= kWidest) continue;
+      throw InputError(sc.device_path, 0, fmt::format("links[{}].limits", i),
+                       fmt::format("[{}, {}]: a simulation draws readings within the limits; at "
+                                   "most +-{:g} rad or m",
+                                   l.lower, l.upper, kWidest));
+    }
+  }
+}
+
+// A trial's own pipeline failed (its identification log written and read back,
+// then calibrated): the message names the trial, not a staging file that is
+// gone by the time it is read, nor an option the user never gave.
+InputError study_failure(const Scenario& sc, int trial, const InputError& e) {
+  std::string what = e.message();
+  for (const auto& [option, instead] :
+       {std::pair<std::string, std::string>{"--point-distance", "the scenario's socket distances"},
+        {"--fixture", "the scenario's sockets"}}) {
+    for (size_t at = what.find(option); at != std::string::npos; at = what.find(option, at)) {
+      what.replace(at, option.size(), instead);
+      at += instead.size();
+    }
+  }
+  const bool simulated = e.file().find("/identification.csv") != std::string::npos ||
+                         e.file().find("/validation.csv") != std::string::npos ||
+                         e.file().find("/trajectory.csv") != std::string::npos;
+  const std::string where =
+      simulated ? fmt::format("its simulated {}{}",
+                              std::filesystem::path(e.file()).filename().string(),
+                              e.line() > 0 ? fmt::format(" (line {})", e.line()) : "")
+      : e.file().empty() ? std::string("its calibration")
+                         : fmt::format("{}{}", e.file(),
+                                       e.line() > 0 ? fmt::format(":{}", e.line()) : "");
+  return InputError(fmt::format("simulate: trial {} of {} (seed {}): {}: {}{}", trial + 1,
+                                sc.trials, sc.seed, where, e.key().empty() ? "" : e.key() + ": ",
+                                what));
+}
+
+}  // namespace
+
 StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
                       const std::function<void(int, int)>& progress) {
   // The command line's bounds, for every caller (Python's trials=10**9).
   if (sc.trials < 1 || sc.trials > 100000) {
     throw InputError(fmt::format("--trials {}: not in [1, 100000]", sc.trials));
   }
+  check_simulated_limits(sc);
   const int n = sc.trials;
   std::vector<TrialResult> trials(n);
   std::atomic<int> next{0}, done{0};
@@ -732,6 +785,9 @@ StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
     for (int k = next++; k < n; k = next++) {
       try {
         trials[k] = run_trial(sc, trial_seed(sc.seed, k), k == 0 ? out : "");
+      } catch (const InputError& e) {
+        const std::lock_guard<std::mutex> lock(report);
+        if (!failure) failure = std::make_exception_ptr(study_failure(sc, k, e));
       } catch (...) {
         const std::lock_guard<std::mutex> lock(report);
         if (!failure) failure = std::current_exception();
