@@ -792,11 +792,18 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   return problem;
 }
 
-bool measurement_frame_unknown(const KinematicProblem& problem, const std::vector<int>& candidates) {
+bool measurement_frame_unknown(const KinematicProblem& problem, const std::vector<int>& candidates,
+                               bool registered) {
   if (problem.type != MeasurementType::kPosition && problem.type != MeasurementType::kPose) {
     return false;
   }
   if (problem.model.base_kind != BaseKind::kPose) return false;
+  // A base the model gives (a device file's measured pose, the Meca500's
+  // T_base) is the frame, known; none (a URDF's root) or one the log was far
+  // from (registered) is not.
+  const bool given = std::any_of(problem.model.base.begin(), problem.model.base.end(),
+                                 [](double v) { return v != 0; });
+  if (given && !registered) return false;
   for (int k = 0; k < kPoseSlots; ++k) {
     if (std::find(candidates.begin(), candidates.end(), k) == candidates.end()) return false;
   }
@@ -1130,7 +1137,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   };
   if (m < 2) too_few(candidates.size(), "candidate");
   fit.frame_registered = register_measurement_frame(problem, candidates, result.notes);
-  problem.frame_unknown = measurement_frame_unknown(problem, candidates);
+  problem.frame_unknown = measurement_frame_unknown(problem, candidates, fit.frame_registered);
   fit.length_scale = problem.length_scale;
   fit.rotation_scale = problem.rotation_scale;
   const ChainStructure s = model.structure();

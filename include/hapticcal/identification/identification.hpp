@@ -232,14 +232,17 @@ bool register_measurement_frame(KinematicProblem& problem, const std::vector<int
                                 std::vector<std::string>& notes);
 
 // Whether the problem's measured positions or poses are in a frame the model
-// does not know: the base is a pose whose six slots are all candidates, and the
-// log measures positions or poses (not distances from the base, not a fixture).
+// does not know: the base is a pose whose six slots are all candidates, the
+// log measures positions or poses (not distances from the base, not a fixture),
+// and the model gives no base (the identity: a URDF's root) or the log's frame
+// was far from it (`registered`, register_measurement_frame).
 // Then the base is the measurement frame and the tool the marker: the rank test
 // takes the base first and the tool next (order base -> tool -> links: the first
 // joint's origin keeps only what a rigid frame cannot express, the last joint
 // only what a marker offset cannot), and neither the base's change nor the
 // tool's is a large change.
-bool measurement_frame_unknown(const KinematicProblem& problem, const std::vector<int>& candidates);
+bool measurement_frame_unknown(const KinematicProblem& problem, const std::vector<int>& candidates,
+                               bool registered);
 
 // Which candidates (slots, in priority order: candidate_slots) the problem can
 // identify: a greedy rank test of the column-scaled Jacobian on these poses and
