@@ -22,8 +22,8 @@ constexpr double kMadToSd = 1.4826;       // 1 / Phi^-1(3/4): MAD -> sd of a nor
 constexpr double kCauchyC = 2.3849;       // 95 % efficiency at the normal (Holland & Welsch)
 constexpr double kHuberK = 1.345;         // likewise
 // The threshold's floor in robust sds of a pose's RMS component: real residuals
-// hold unmodelled errors with heavier tails than the normal (the clean Meca500
-// sets reach 2.9 sds, beyond the Bonferroni 2.38).
+// hold unmodelled errors with heavier tails than the normal (3 of the 7 clean
+// Meca500 sets had a pose beyond the Bonferroni 2.38 sds; none beyond 5).
 constexpr double kThresholdFloor = 5;
 constexpr int kMaxReweightings = 30;      // iteratively reweighted least squares' limit
 constexpr double kWeightTolerance = 1e-4; // the weights have settled
