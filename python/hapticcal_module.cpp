@@ -163,7 +163,8 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
                       const std::optional<Names>& point_distance, const Text& fixture_arg,
                       bool keep_all, int folds, const std::optional<Names>& columns, bool force,
                       std::optional<int> polynomial_order, double dependency_tolerance,
-                      const Text& tip_arg, const Text& root_arg, const Text& out_arg) {
+                      const std::string& loss, bool strict, const Text& tip_arg,
+                      const Text& root_arg, const Text& out_arg) {
   const std::string fixture = text(fixture_arg), tip = text(tip_arg), root = text(root_arg),
                     out = text(out_arg);
   const ModelSource source = source_of(model_arg, tip, root);
@@ -181,6 +182,8 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
   options.dependency_tolerance = dependency_tolerance;
   options.keep_all = keep_all;
   options.folds = folds;
+  options.loss = robust_loss(loss);
+  options.strict = strict;
   Fixture facts = fixture_facts(fixture, names(point_distance));
   options.point_distances = std::move(facts.distances);
   options.known_points = std::move(facts.points);
@@ -414,7 +417,8 @@ PYBIND11_MODULE(hapticcal, m) {
         "samples"_a = 0, "seed"_a = 1ULL, "sigma"_a = py::none(), "fix"_a = py::none(),
         "free"_a = py::none(), "point_distance"_a = py::none(), "fixture"_a = py::none(),
         "keep_all"_a = false, "folds"_a = 5, "columns"_a = py::none(), "force"_a = false,
-        "polynomial_order"_a = py::none(), "dependency_tolerance"_a = 1e-6, "tip"_a = py::none(),
+        "polynomial_order"_a = py::none(), "dependency_tolerance"_a = 1e-6, "loss"_a = "cauchy",
+        "strict"_a = false, "tip"_a = py::none(),
         "root"_a = py::none(), "out"_a = py::none(),
         "hapticcal calibrate: the two-step identification of a log. Does not raise when the "
         "calibration is not usable (the command line's exit 3): .usable is False, .model None.");

@@ -141,7 +141,8 @@ struct CalibrateOptions {
   std::vector<std::string> point_distance;
   std::string model, log, columns, out = "hapticcal-out/calibrate", fix, free;
   ChainOptions chain;
-  bool no_transmission = false, force = false, keep_all = false;
+  bool no_transmission = false, force = false, keep_all = false, strict = false;
+  std::string loss = "cauchy";
   int samples = 0, folds = 5;
   unsigned long long seed = 1;
   double sigma = 0;
@@ -160,6 +161,27 @@ std::string kinematic_row(const hapticcal::ParameterEstimate& e) {
   return fmt::format("  {:<12} {:>12.4f} {:>12.4f} {:>10.4f} +- {:<9.4f} {:<4}  {:>6.3f} {}",
                      e.name, e.nominal * f, e.value * f, (e.value - e.nominal) * f, e.sd * f,
                      angle ? "mrad" : "mm", e.max_correlation, e.max_correlation_with);
+}
+
+// A warning line a flagged pose, at most kShownOutliers, then how many more.
+void print_outliers(const hapticcal::RobustFit& robust) {
+  constexpr size_t kShownOutliers = 10;
+  const std::vector<hapticcal::OutlierPose>& outliers = robust.outliers;
+  for (size_t i = 0; i < outliers.size() && i < kShownOutliers; ++i) {
+    const hapticcal::OutlierPose& o = outliers[i];
+    std::string lines;
+    for (size_t l = 0; l < o.lines.size(); ++l) lines += (l ? ", " : "") + std::to_string(o.lines[l]);
+    fmt::print(
+        "warning: outlier: log line{} {}: residual {:.4f} mm, {:.1f} robust sds (beyond {:.2f}); "
+        "{}\n",
+        o.lines.size() == 1 ? "" : "s", lines, o.residual * 1e3, o.statistic, robust.threshold,
+        o.weight < 1 ? fmt::format("weight {:.3g} ({} loss)", o.weight, to_string(robust.loss))
+                     : std::string("not down-weighted"));
+  }
+  if (outliers.size() > kShownOutliers) {
+    fmt::print("warning: outlier: and {} more (results.json lists them all)\n",
+               outliers.size() - kShownOutliers);
+  }
 }
 
 void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::DeviceModel& nominal) {
@@ -228,6 +250,11 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
   } else if (!k.selection_note.empty()) {
     fmt::print("  model selection: {}\n", k.selection_note);
   }
+  print_outliers(k.robust);
+  for (const std::string& reason : k.suspect.reasons) {
+    fmt::print("warning: suspect fit: {}{}\n", reason,
+               r.status == hapticcal::CalibrationStatus::kSuspect ? "" : " (--strict refuses it)");
+  }
   for (const hapticcal::ParameterEstimate& e : k.parameters) {
     if (!e.large_change) continue;
     fmt::print("warning: {} moved {:.4g} {} from nominal (flagged beyond {} mm / {} mrad)\n",
@@ -260,6 +287,8 @@ int run_calibrate(const CalibrateOptions& o) {
   options.dependency_tolerance = o.tolerance;
   options.keep_all = o.keep_all;
   options.folds = o.folds;
+  options.loss = hapticcal::robust_loss(o.loss);
+  options.strict = o.strict;
   hapticcal::Fixture fixture = hapticcal::fixture_facts(o.fixture, o.point_distance);
   options.point_distances = std::move(fixture.distances);
   options.known_points = std::move(fixture.points);
@@ -672,6 +701,16 @@ int main(int argc, char** argv) {
       ->add_option("--folds", cal.folds,
                    "K of the K-fold cross-validated (held-out) RMS by pose (default 5; 0: none)")
       ->check(whole_number(0, 1000));
+  calibrate
+      ->add_option("--loss", cal.loss,
+                   "Loss for poses the outlier test flags (residual beyond the Bonferroni "
+                   "quantile in robust sds): cauchy (default), huber, or none (plain least "
+                   "squares; outliers still named)")
+      ->check(CLI::IsMember({"cauchy", "huber", "none"}));
+  calibrate->add_flag("--strict", cal.strict,
+                      "A suspect fit (training RMS beyond 100 x the repeatability, or held-out "
+                      "RMS above the nominal model's with its base fitted) is unusable: exit 3, "
+                      "the previous calibrated.yaml kept");
   calibrate->add_option("--columns", cal.columns, "Column names of a log without header");
   calibrate
       ->add_option("--dependency-tolerance", cal.tolerance,

@@ -274,6 +274,8 @@ const char* to_string(CalibrationStatus status) {
       return "not converged";
     case CalibrationStatus::kNumericalFailure:
       return "numerical failure";
+    case CalibrationStatus::kSuspect:
+      return "suspect";
     case CalibrationStatus::kRankDeficient:
       return "rank-deficient";
   }
@@ -687,6 +689,34 @@ void set_status(CalibrationResult& result, const std::vector<int>& identified) {
     result.status = CalibrationStatus::kConverged;
     result.status_reason = fmt::format("converged in {} iterations", fit.iterations);
   }
+}
+
+// The outliers' log lines (the rows of their poses), and a note of how many
+// were flagged and whether they were down-weighted.
+void name_outliers(RobustFit& robust, const Log& log, const std::vector<std::vector<int>>& poses,
+                   std::vector<std::string>& notes) {
+  for (OutlierPose& o : robust.outliers) {
+    for (int row : poses[static_cast<size_t>(o.pose)]) o.lines.push_back(log.line[row]);
+  }
+  if (robust.outliers.empty()) return;
+  notes.push_back(fmt::format(
+      "{} pose{} flagged as outlier{} (residual beyond {:.2f} robust sds of {:.4g} mm, Bonferroni "
+      "over the poses): {}",
+      robust.outliers.size(), robust.outliers.size() == 1 ? "" : "s",
+      robust.outliers.size() == 1 ? "" : "s", robust.threshold, robust.robust_sd * 1e3,
+      robust.reweighted ? fmt::format("down-weighted by the {} loss (--loss none: plain least "
+                                      "squares)",
+                                      to_string(robust.loss))
+                        : std::string("not down-weighted") +
+                              (robust.note.empty() ? " (--loss none)" : " (" + robust.note + ")")));
+}
+
+// --strict: a suspect fit is unusable.
+void refuse_suspect(CalibrationResult& result, bool strict) {
+  const SuspectFit& suspect = result.kinematics.suspect;
+  if (!strict || !suspect.suspect || result.status != CalibrationStatus::kConverged) return;
+  result.status = CalibrationStatus::kSuspect;
+  result.status_reason = "suspect fit (--strict): " + suspect.reasons.front();
 }
 
 }  // namespace
@@ -1195,6 +1225,11 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   // absorb: Levenberg-Marquardt needs more steps (the MUKCa Panda: up to 130).
   const int iterations = is_fixture(problem.type) ? kFixtureIterations : kIterations;
   KinematicSolution solution = solve_kinematics(problem, identified, iterations);
+  // Outliers: named, and down-weighted by the robust loss (problem.weights).
+  const Eigen::VectorXd plain_weights = problem.weights;
+  fit.robust = reweight_outliers(problem, identified, solution, options.loss,
+                                 options.outlier_alpha, iterations);
+  name_outliers(fit.robust, log, result.poses, result.notes);
   // The residuals and Jacobian at the fit, for selection, cross-validation and statistics.
   Stack data = stack(s, solution.parameters, problem.joints, kind, measured, weights, compressed);
   std::map<int, std::string> name;
@@ -1358,7 +1393,13 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
         "identify; see the parameters marked 'not excited'");
   }
   result.calibrated = model;
+  if (fit.converged) {
+    DeviceModel nominal_in_frame = nominal;
+    nominal_in_frame.base = problem.model.base;
+    fit.suspect = check_suspect(fit, problem, nominal_in_frame, poses, plain_weights);
+  }
   set_status(result, identified);
+  refuse_suspect(result, options.strict);
   return result;
 }
 

@@ -78,6 +78,37 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
   }
   selection["path"] = path;
   j["model_selection"] = selection;
+  const RobustFit& robust = k.robust;
+  j["robust"] = {
+      {"loss", to_string(robust.loss)},
+      {"tested", robust.tested},
+      {"rule",
+       "a pose is an outlier when its residual (weighted by sqrt(repeats)) exceeds the "
+       "chi-square quantile (d dof) at 1 - alpha / poses in robust sds (1.4826 MAD of every "
+       "component)"},
+      {"alpha", options.outlier_alpha},
+      {"robust_sd", number_or_null(robust.robust_sd)},
+      {"threshold", number_or_null(robust.threshold)},
+      {"reweighted", robust.reweighted},
+      {"iterations", robust.iterations},
+      {"note", robust.note}};
+  json outliers = json::array();
+  for (const OutlierPose& o : robust.outliers) {
+    outliers.push_back({{"lines", o.lines},
+                        {"residual", o.residual},
+                        {"robust_sd", robust.robust_sd},
+                        {"statistic", o.statistic},
+                        {"weight", o.weight}});
+  }
+  j["outliers"] = outliers;
+  const SuspectFit& suspect = k.suspect;
+  j["suspect"] = {{"suspect", suspect.suspect},
+                  {"reasons", suspect.reasons},
+                  {"repeatability_ratio", number_or_null(suspect.repeatability_ratio)},
+                  {"repeatability_limit", suspect.repeatability_limit},
+                  {"nominal_base_fitted_rms", number_or_null(suspect.nominal_base_fitted_rms)},
+                  {"cv_ratio", number_or_null(suspect.cv_ratio)},
+                  {"strict", options.strict}};
   j["condition_number"] = number_or_null(k.condition_number);
   j["observability"] = {{"O1", k.observability.O1},
                         {"O2", k.observability.O2},

@@ -242,6 +242,36 @@ FigureSpec correlation_figure(const KinematicFit& k) {
 
 }  // namespace detail
 
+namespace {
+
+// The outcome block's lines for a suspect fit, one a reason.
+std::vector<std::string> suspect_lines(const KinematicFit& k) {
+  std::vector<std::string> out;
+  for (const std::string& reason : k.suspect.reasons) out.push_back("warning: suspect fit: " + reason);
+  return out;
+}
+
+// The poses the outlier test flagged: their lines, residual and weight.
+std::string outlier_table(const RobustFit& robust) {
+  std::vector<std::vector<std::string>> rows;
+  for (const OutlierPose& o : robust.outliers) {
+    std::string lines = o.lines.size() == 1 ? "line " : "lines ";
+    for (size_t i = 0; i < o.lines.size(); ++i) lines += (i ? ", " : "") + std::to_string(o.lines[i]);
+    rows.push_back({lines, fmt::format("{:.4f}", o.residual * 1e3),
+                    fmt::format("{:.1f}", o.statistic), fmt::format("{:.3g}", o.weight)});
+  }
+  return fmt::format(
+             "<h2>Outliers</h2>\n<p>Poses whose residual exceeds {:.2f} robust sds (robust sd "
+             "{:.4g} mm of one component: 1.4826 MAD; Bonferroni over the poses); {}.</p>\n",
+             robust.threshold, robust.robust_sd * 1e3,
+             robust.reweighted
+                 ? fmt::format("down-weighted by the {} loss", to_string(robust.loss))
+                 : std::string("not down-weighted")) +
+         html_table({"log lines", "residual [mm]", "residual [robust sd]", "weight [1]"}, rows);
+}
+
+}  // namespace
+
 Report calibration_report(const CalibrationResult& result, const DeviceModel& nominal,
                           const Log& log, const std::vector<PointDistance>& point_distances,
                           const std::vector<KnownPoint>& known_points) {
@@ -291,6 +321,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
         e.name, (e.value - e.nominal) * 1e3, e.unit == ParameterUnit::kAngle ? "mrad" : "mm",
         kLargeChangeLength * 1e3, kLargeChangeAngle * 1e3));
   }
+  for (const std::string& line : suspect_lines(k)) o.notes.push_back(line);
   for (const std::string& note : result.notes)
     o.notes.push_back(note.rfind("warning: ", 0) == 0 ? note : "note: " + note);
   const std::string repeats =
@@ -319,6 +350,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
     report.sections.push_back("<h2>Transmissions (step 1)</h2>\n" +
                               html_table({"parameter", "nominal", "identified", "sd", "unit"}, tx));
   }
+  if (!k.robust.outliers.empty()) report.sections.push_back(outlier_table(k.robust));
   report.sections.push_back(parameter_table(k));
   report.sections.push_back(held_table(k));
   selection_section(k, report);

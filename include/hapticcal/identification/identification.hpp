@@ -27,8 +27,9 @@ enum class CalibrationStatus {
   kNotConverged,      // LM stopped at its iteration limit or without progress
   kNumericalFailure,  // a non-finite residual, parameter or standard deviation
   kRankDeficient,     // the data leave identifiable parameters unexcited
+  kSuspect,           // converged, but the fit is suspect and --strict refuses it
 };
-// "converged", "not converged", "numerical failure", "rank-deficient".
+// "converged", "not converged", "numerical failure", "rank-deficient", "suspect".
 const char* to_string(CalibrationStatus status);
 
 // Step 1 for one joint: ext - q = c + dtheta(q).
@@ -95,6 +96,54 @@ struct SelectionStep {
   double threshold = 0;  // the t it needed to stay (significance_threshold)
 };
 
+// The loss of the robust fit (CalibrationOptions::loss): how much a pose the
+// outlier test flags still counts. kNone: plain least squares.
+enum class RobustLoss { kNone, kCauchy, kHuber };
+// "none", "cauchy", "huber".
+const char* to_string(RobustLoss loss);
+// From its name; throws InputError for any other.
+RobustLoss robust_loss(const std::string& name);
+
+// A pose whose residual the outlier test rejects (README "Outliers and suspect fits").
+struct OutlierPose {
+  int pose = 0;            // index in CalibrationResult::poses
+  std::vector<int> lines;  // the log lines of its rows
+  double residual = 0;     // norm of its (averaged) residual at the final fit [m]
+  double statistic = 0;    // its weighted residual in robust sds (RMS over its components)
+  double weight = 1;       // its robust weight in the final fit (1: not down-weighted)
+};
+
+// The outlier test and the robust reweighting of step 2 (reweight_outliers).
+struct RobustFit {
+  RobustLoss loss = RobustLoss::kCauchy;
+  bool tested = false;  // false for fixture kinds (note says why)
+  std::string note;
+  // Robust sd [m] of one residual component of a single row (1.4826 MAD of the
+  // components weighted by sqrt(repeats)), at the final fit.
+  double robust_sd = std::numeric_limits<double>::quiet_NaN();
+  // A pose is an outlier when its RMS component exceeds this many robust sds.
+  double threshold = std::numeric_limits<double>::quiet_NaN();
+  bool reweighted = false;  // the loss was applied (some pose was flagged, loss not none)
+  int iterations = 0;       // of iteratively reweighted least squares
+  std::vector<OutlierPose> outliers;
+};
+
+// A fit that converged but should not be trusted (check_suspect).
+struct SuspectFit {
+  bool suspect = false;
+  std::vector<std::string> reasons;  // one sentence each, with the ratio
+  // rms_after / repeatability (NaN without repeats), and its limit.
+  double repeatability_ratio = std::numeric_limits<double>::quiet_NaN();
+  double repeatability_limit = 0;
+  // RMS [m] of the nominal model with only its base pose fitted (NaN if not
+  // computed), and cv_rms over it.
+  double nominal_base_fitted_rms = std::numeric_limits<double>::quiet_NaN();
+  double cv_ratio = std::numeric_limits<double>::quiet_NaN();
+};
+// A training RMS more than this many times the measured repeatability is
+// suspect (README: clean Meca500 sets give 15-20x, a tracker bumped 3 mm 670x).
+constexpr double kSuspectRepeatabilityRatio = 100;
+
 struct KinematicFit {
   MeasurementType type = MeasurementType::kDistance;
   int rows = 0;   // log rows used
@@ -139,6 +188,8 @@ struct KinematicFit {
   bool numerical_failure = false;  // Ceres's FAILURE: a residual or Jacobian not finite
   int iterations = 0;
   std::string termination;  // Ceres's report
+  RobustFit robust;     // the outlier test and reweighting
+  SuspectFit suspect;   // whether the fit should be trusted
 };
 
 struct CalibrationOptions {
@@ -169,6 +220,12 @@ struct CalibrationOptions {
   // K of the K-fold cross-validated RMS (poses, repeats together, in K folds);
   // 0: no cross-validation.
   int folds = 5;
+  // The loss of step 2 for poses the outlier test flags (README "Outliers and
+  // suspect fits"); no pose flagged: plain least squares whatever it is.
+  RobustLoss loss = RobustLoss::kCauchy;
+  double outlier_alpha = 0.05;  // family-wise level of the outlier test (Bonferroni over poses)
+  // A suspect fit (SuspectFit) is unusable: status kSuspect.
+  bool strict = false;
 };
 
 // A log whose nominal RMS error exceeds this fraction of the device's reach
@@ -318,6 +375,30 @@ struct KinematicSolution {
 // from the problem's model.
 KinematicSolution solve_kinematics(const KinematicProblem& problem,
                                    const std::vector<int>& identified, int max_iterations = 100);
+
+// The outlier test at the fit `solution` (README "Outliers and suspect fits"):
+// each pose's weighted residual e_i (d components) against the robust sd s of
+// all components (1.4826 MAD); the pose is an outlier when |e_i|^2 / s^2
+// exceeds the chi-square quantile with d dof at 1 - alpha / m (Bonferroni over
+// the m poses; d = 1: the two-sided normal quantile at alpha / m). If a pose
+// is flagged and `loss` is not kNone, iteratively reweighted least squares:
+// each pose's weight in problem.weights is multiplied by the square root of
+// the loss's weight of its RMS component in robust sds (Cauchy c = 2.3849,
+// Huber k = 1.345; s re-estimated each iteration), and `solution` refitted,
+// until the weights settle. Outliers (pose indices, lines empty) are then those
+// flagged at the final fit (at the least-squares fit if none). Not for fixture kinds.
+RobustFit reweight_outliers(KinematicProblem& problem, const std::vector<int>& identified,
+                            KinematicSolution& solution, RobustLoss loss, double alpha,
+                            int max_iterations);
+
+// Whether a converged fit is suspect: its training RMS above
+// kSuspectRepeatabilityRatio times the repeatability, or its cross-validated
+// RMS above the nominal model's with its base pose fitted (`nominal_in_frame`:
+// the nominal device in the problem's measurement frame; `poses`: one row a
+// pose, as the problem's; weights: the problem's before any reweighting).
+SuspectFit check_suspect(const KinematicFit& fit, const KinematicProblem& problem,
+                         const DeviceModel& nominal_in_frame, const Log& poses,
+                         const Eigen::VectorXd& weights);
 
 // The whole procedure. Throws InputError for logs that cannot be used (joint
 // count, no measurements, too few poses, a joint or encoder that never moves,

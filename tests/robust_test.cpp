@@ -1,0 +1,251 @@
+// Issue 23 item 4: a bad measurement is named instead of silently fitted. The
+// bad logs are made here from simulate's identification log (the paper study,
+// 200 distances) and the Meca500 laser-tracker sets: one distance read as 0 or
+// 30 cm off, one pose 1 cm off (S5, S8), a tracker bumped 3 mm half way (S7).
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/io/io.hpp"
+#include "hapticcal/study/evaluate.hpp"
+#include "hapticcal/study/simulation.hpp"
+#include "hapticcal/study/study.hpp"
+#include "run_cli.hpp"
+#include "test_models.hpp"
+
+namespace hapticcal {
+namespace {
+
+// The log as a file reads it back (lines numbered as in the file).
+Log written(const Log& log, const std::string& name) {
+  const std::string path = testing::fresh_folder("robust_" + name) + "/log.csv";
+  write_file_atomically(path, log_to_csv(log));
+  return read_log(path);
+}
+
+// simulate's main job: its identification log (200 distances) and validation log.
+struct Study {
+  Scenario sc = default_scenario(testing::source_path("data/devices/baser-7dof.yaml"));
+  Log ident, val;
+  Study() {
+    const std::uint64_t seed = trial_seed(sc.seed, 0);
+    ident = written(simulate_measurement_log(sc.actual, sc.measurement, sc.identification_poses,
+                                             sc.identification_readings, sc.noise,
+                                             trial_seed(seed, 0)),
+                    "study");
+    SimulationNoise exact = sc.noise;
+    exact.sigma_position = 0;
+    val = simulate_log(sc.actual, sc.validation_poses, exact, trial_seed(seed, 1), true, true);
+  }
+};
+const Study& study() {
+  static const Study s;
+  return s;
+}
+
+// The validation RMS: of positions (a Meca500 log), of distances (the paper
+// study: its distances leave the base's orientation unknown).
+double validation(const CalibrationResult& r, const Log& val) {
+  const Evaluation e = evaluate(r.calibrated, val);
+  return val.has_distance ? e.distance->rms : e.position->rms;
+}
+
+CalibrationOptions with_loss(RobustLoss loss) {
+  CalibrationOptions o;
+  o.loss = loss;
+  return o;
+}
+
+// The largest pose statistic over the threshold (below 1: nothing flagged).
+void print_margin(const char* what, const CalibrationResult& r) {
+  std::printf("%-40s robust sd %.4g mm, threshold %.2f sds, outliers %zu\n", what,
+              r.kinematics.robust.robust_sd * 1e3, r.kinematics.robust.threshold,
+              r.kinematics.robust.outliers.size());
+  for (const OutlierPose& o : r.kinematics.robust.outliers)
+    std::printf("  pose %d: %.2f robust sds, weight %.3g\n", o.pose, o.statistic, o.weight);
+}
+
+// S5 and S8 on the paper study: one bad distance among 200.
+TEST(Outliers, OneBadDistanceAmong200IsNamedAndDoesNotSpoilTheStudyCalibration) {
+  const Study& s = study();
+  const CalibrationResult clean = calibrate(s.sc.nominal, s.ident, {});
+  ASSERT_EQ(clean.status, CalibrationStatus::kConverged);
+  print_margin("study, clean", clean);
+  EXPECT_TRUE(clean.kinematics.robust.tested);
+  EXPECT_TRUE(clean.kinematics.robust.outliers.empty());
+  EXPECT_FALSE(clean.kinematics.suspect.suspect);
+  const double v_clean = validation(clean, s.val);
+  const int row = 57;
+  struct Case {
+    const char* what;
+    double distance;
+  } cases[] = {{"read as 0", 0.0},
+               {"30 cm off", s.ident.distance[row] + 0.30},
+               {"1 cm off", s.ident.distance[row] + 0.01}};
+  for (const Case& c : cases) {
+    Log bad = s.ident;
+    bad.distance[row] = c.distance;
+    // (A distance read as 0 puts the nominal error beyond 5 % of the reach:
+    // refused unless forced, without naming the line.)
+    CalibrationOptions forced;
+    forced.force = true;
+    const CalibrationResult d = calibrate(s.sc.nominal, bad, forced);
+    forced.loss = RobustLoss::kNone;
+    const CalibrationResult plain = calibrate(s.sc.nominal, bad, forced);
+    const double v_default = validation(d, s.val), v_plain = validation(plain, s.val);
+    std::printf("study, distance %-10s validation: clean %.4f, default %.4f, --loss none %.4f mm\n",
+                c.what, v_clean * 1e3, v_default * 1e3, v_plain * 1e3);
+    EXPECT_EQ(d.status, CalibrationStatus::kConverged) << c.what;
+    ASSERT_EQ(d.kinematics.robust.outliers.size(), 1u) << c.what;
+    const OutlierPose& o = d.kinematics.robust.outliers[0];
+    EXPECT_EQ(o.lines, std::vector<int>{s.ident.line[row]}) << c.what;
+    EXPECT_LT(o.weight, 1e-3) << c.what;
+    EXPECT_TRUE(d.kinematics.robust.reweighted);
+    EXPECT_LT(v_default, 1.2 * v_clean) << c.what;
+    // --loss none: plain least squares, the outlier named but kept at weight 1.
+    // (Least squares spreads its error: other poses may be flagged too.)
+    bool named = false;
+    for (const OutlierPose& p : plain.kinematics.robust.outliers) {
+      EXPECT_EQ(p.weight, 1);
+      named = named || p.lines == o.lines;
+    }
+    EXPECT_TRUE(named) << c.what;
+    EXPECT_FALSE(plain.kinematics.robust.reweighted);
+    EXPECT_GT(v_plain, 5 * v_clean) << c.what;
+  }
+}
+
+// No pose flagged: every loss gives the least-squares result, bit for bit.
+TEST(Outliers, CleanLogsFlagNothingAndAreFittedByPlainLeastSquares) {
+  const Study& s = study();
+  const CalibrationResult d = calibrate(s.sc.nominal, s.ident, {});
+  const CalibrationResult plain = calibrate(s.sc.nominal, s.ident, with_loss(RobustLoss::kNone));
+  EXPECT_EQ(d.calibrated.kinematic_parameters(), plain.calibrated.kinematic_parameters());
+  EXPECT_EQ(d.kinematics.cv_rms, plain.kinematics.cv_rms);
+  const DeviceModel meca = testing::meca500();
+  for (const char* set : testing::kMeca500Sets) {
+    const Log cal = testing::meca500_log("cal", set);
+    const CalibrationResult r = calibrate(meca, cal, {});
+    const CalibrationResult n = calibrate(meca, cal, with_loss(RobustLoss::kNone));
+    print_margin(set, r);
+    std::printf("%-40s training RMS / repeatability %.1f\n", set,
+                r.kinematics.suspect.repeatability_ratio);
+    EXPECT_TRUE(r.kinematics.robust.tested) << set;
+    EXPECT_TRUE(r.kinematics.robust.outliers.empty()) << set;
+    EXPECT_FALSE(r.kinematics.suspect.suspect) << set;
+    EXPECT_EQ(r.calibrated.kinematic_parameters(), n.calibrated.kinematic_parameters()) << set;
+  }
+}
+
+// The Meca500 set a log of which moves one pose (its 3 repeats) by 1 cm.
+const char* const kMecaSet = "norm_dist_data_0deg_160cube";
+
+// S8 on real data: one Meca500 pose (3 repeats averaged) 1 cm off.
+TEST(Outliers, OneMeca500Pose1cmOffIsNamedAndDoesNotSpoilTheCalibration) {
+  const DeviceModel meca = testing::meca500();
+  const Log cal = testing::meca500_log("cal", kMecaSet), val = testing::meca500_log("val", kMecaSet);
+  const double v_clean = validation(calibrate(meca, cal, {}), val);
+  const std::vector<std::vector<int>> poses = repeated_poses(cal);
+  ASSERT_EQ(poses[20].size(), 3u);
+  Log bad = cal;
+  for (int row : poses[20]) bad.position(row, 0) += 0.01;
+  const CalibrationResult d = calibrate(meca, bad, {});
+  const CalibrationResult plain = calibrate(meca, bad, with_loss(RobustLoss::kNone));
+  const double v_default = validation(d, val), v_plain = validation(plain, val);
+  std::printf("Meca500 pose 1 cm off, validation: clean %.4f, default %.4f, --loss none %.4f mm\n",
+              v_clean * 1e3, v_default * 1e3, v_plain * 1e3);
+  EXPECT_EQ(d.status, CalibrationStatus::kConverged);
+  ASSERT_EQ(d.kinematics.robust.outliers.size(), 1u);
+  std::vector<int> lines;
+  for (int row : poses[20]) lines.push_back(cal.line[row]);
+  EXPECT_EQ(d.kinematics.robust.outliers[0].lines, lines);
+  EXPECT_LT(v_default, 1.2 * v_clean);
+  // --loss none: the bad pose named (least squares spreads its error: others may be too).
+  bool named = false;
+  for (const OutlierPose& o : plain.kinematics.robust.outliers) {
+    EXPECT_EQ(o.weight, 1);
+    named = named || o.lines == lines;
+  }
+  EXPECT_TRUE(named);
+  EXPECT_GT(v_plain, 3 * v_clean);
+}
+
+// S7: the tracker's z bumped 3 mm for the second half of the rows.
+Log bumped_meca500() {
+  Log bad = testing::meca500_log("cal", kMecaSet);
+  for (int r = bad.rows / 2; r < bad.rows; ++r) bad.position(r, 2) += 0.003;
+  return bad;
+}
+
+TEST(SuspectFits, ATrackerBumpedHalfWayIsSuspectWithItsRatio) {
+  const DeviceModel meca = testing::meca500();
+  const CalibrationResult r = calibrate(meca, bumped_meca500(), {});
+  const SuspectFit& s = r.kinematics.suspect;
+  std::printf("bumped tracker: training RMS / repeatability %.0f, cv / nominal base-fitted %.2f\n",
+              s.repeatability_ratio, s.cv_ratio);
+  EXPECT_EQ(r.status, CalibrationStatus::kConverged);  // not refused without --strict
+  EXPECT_TRUE(s.suspect);
+  EXPECT_GT(s.repeatability_ratio, kSuspectRepeatabilityRatio);
+  ASSERT_FALSE(s.reasons.empty());
+  EXPECT_NE(s.reasons[0].find("times the repeatability"), std::string::npos) << s.reasons[0];
+  CalibrationOptions strict;
+  strict.strict = true;
+  EXPECT_EQ(calibrate(meca, bumped_meca500(), strict).status, CalibrationStatus::kSuspect);
+}
+
+// The command line: S5's line on the terminal and in results.json; S7 with
+// --strict exits 3 and keeps no model, without it exits 0 with a warning.
+TEST(Outliers, CommandLineNamesTheLineAndStrictRefusesASuspectFit) {
+  const Study& s = study();
+  const std::string dir = testing::fresh_folder("robust_cli");
+  Log bad = s.ident;
+  bad.distance[57] += 0.3;
+  write_file_atomically(dir + "/bad.csv", log_to_csv(bad));
+  const std::string model = testing::source_path("data/devices/baser-7dof.yaml");
+  const testing::CliResult r =
+      testing::run_cli("calibrate --model " + model + " --log " + dir + "/bad.csv --out " + dir + "/o");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const int line = read_log(dir + "/bad.csv").line[57];
+  EXPECT_NE(r.out.find(fmt::format("warning: outlier: log line {}: residual", line)),
+            std::string::npos)
+      << r.out;
+  const nlohmann::json j = nlohmann::json::parse(testing::slurp(dir + "/o/results.json"));
+  ASSERT_EQ(j["outliers"].size(), 1u);
+  EXPECT_EQ(j["outliers"][0]["lines"], nlohmann::json::array({line}));
+  EXPECT_GT(j["outliers"][0]["residual"].get<double>(), 0.2);
+  EXPECT_LT(j["outliers"][0]["weight"].get<double>(), 1e-3);
+  EXPECT_EQ(j["robust"]["loss"], "cauchy");
+  const std::string html = testing::slurp(dir + "/o/report.html");
+  EXPECT_NE(html.find("<h2>Outliers</h2>"), std::string::npos);
+  EXPECT_NE(html.find(fmt::format("line {}", line)), std::string::npos);
+
+  write_file_atomically(dir + "/bumped.csv", log_to_csv(bumped_meca500()));
+  const std::string meca = testing::source_path("examples/meca500/meca500.yaml");
+  const testing::CliResult loose = testing::run_cli("calibrate --model " + meca + " --log " + dir +
+                                                    "/bumped.csv --out " + dir + "/b");
+  EXPECT_EQ(loose.exit_code, 0) << loose.err;
+  EXPECT_NE(loose.out.find("warning: suspect fit: the training RMS residual"), std::string::npos)
+      << loose.out;
+  const nlohmann::json jb = nlohmann::json::parse(testing::slurp(dir + "/b/results.json"));
+  EXPECT_TRUE(jb["suspect"]["suspect"].get<bool>());
+  EXPECT_GT(jb["suspect"]["repeatability_ratio"].get<double>(), 100);
+  EXPECT_NE(testing::slurp(dir + "/b/report.html").find("suspect fit"), std::string::npos);
+  const testing::CliResult strict = testing::run_cli("calibrate --strict --model " + meca +
+                                                     " --log " + dir + "/bumped.csv --out " + dir +
+                                                     "/b");
+  EXPECT_EQ(strict.exit_code, 3) << strict.out;
+  EXPECT_NE(strict.out.find("status: suspect"), std::string::npos) << strict.out;
+  EXPECT_NE(strict.out.find("the previous calibrated.yaml is kept"), std::string::npos);
+  const testing::CliResult unknown = testing::run_cli("calibrate --loss l1 --model " + meca +
+                                                      " --log " + dir + "/bumped.csv");
+  EXPECT_EQ(unknown.exit_code, 2);
+}
+
+}  // namespace
+}  // namespace hapticcal
