@@ -50,7 +50,7 @@ using testing::source_path;
 // A hang guard, not a speed target: far above the 2 s a refusal takes.
 constexpr int kWatchdogSeconds = 60;
 
-struct Run {
+struct ChildRun {
   int exit_code = -1;
   bool killed = false;  // by the watchdog
   long peak_kib = 0;    // the child's largest resident set
@@ -64,7 +64,7 @@ struct Stream {
   std::string path;
 };
 
-Run run(const std::vector<std::string>& args, Stream out = {}, Stream err = {}) {
+ChildRun run(const std::vector<std::string>& args, Stream out = {}, Stream err = {}) {
   static int counter = 0;
   const std::string base = (fs::path(::testing::TempDir()) /
                             fmt::format("hostile_{}_{}", ::getpid(), counter++))
@@ -88,7 +88,7 @@ Run run(const std::vector<std::string>& args, Stream out = {}, Stream err = {}) 
   };
   route(STDOUT_FILENO, out, base + ".out");
   route(STDERR_FILENO, err, base + ".err");
-  Run r;
+  ChildRun r;
   pid_t pid = 0;
   const int spawned = posix_spawn(&pid, argv[0].c_str(), &actions, nullptr, cargv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
@@ -121,7 +121,7 @@ Run run(const std::vector<std::string>& args, Stream out = {}, Stream err = {}) 
 
 // Exit 2 with one line on stderr holding `says`; no hang; within 200 MB
 // (not measured under AddressSanitizer, whose shadow memory is most of it).
-void expect_refused(const Run& r, const std::string& says, const std::string& what) {
+void expect_refused(const ChildRun& r, const std::string& says, const std::string& what) {
   EXPECT_FALSE(r.killed) << what << ": still running after " << kWatchdogSeconds << " s";
   EXPECT_EQ(r.exit_code, 2) << what << ": " << r.out << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << what << ": " << r.err;
@@ -183,7 +183,7 @@ TEST(Hostile, AnAttributeOfAmpersandsIsDecodedInLinearTime) {
                            "xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" "
                            "velocity=\"1\"/></joint></robot>\n";
   const std::string urdf = write(dir + "/amp.urdf", text);
-  const Run r = run({"convert", urdf, dir + "/out.yaml"});
+  const ChildRun r = run({"convert", urdf, dir + "/out.yaml"});
   EXPECT_FALSE(r.killed);
   // Either refused (a robot name that is no identifier) or converted: one line, no crash.
   EXPECT_TRUE(r.exit_code == 0 || r.exit_code == 2) << r.err;
@@ -231,7 +231,7 @@ TEST(Hostile, LargeDeviceFilesAndPolynomialsAreBounded) {
   for (int k = 1; k < 100; ++k) coefficients += ", 0";
   text.replace(at, end - at, coefficients);
   const std::string path = write(dir + "/long.yaml", text);
-  const Run r = run({"convert", path, dir + "/long.urdf"});
+  const ChildRun r = run({"convert", path, dir + "/long.urdf"});
   expect_refused(r, "100 coefficients: at most 31", "100 coefficients");
   EXPECT_NE(r.err.find(path + ":"), std::string::npos) << r.err;          // the file,
   EXPECT_NE(r.err.find("transmission.coefficients"), std::string::npos) << r.err;  // the key
@@ -246,11 +246,11 @@ TEST(Hostile, UnwritableStreamsEndInExitOneNotAbort) {
   for (const Stream& err : {full, closed}) {
     const std::string how = err.kind == Stream::kClosed ? "stderr closed" : "stderr /dev/full";
     // Bad input: the message cannot be written, the exit code still says it.
-    const Run bad = run({"evaluate", "--model", dir + "/missing.yaml", "--log", good_log()}, {},
+    const ChildRun bad = run({"evaluate", "--model", dir + "/missing.yaml", "--log", good_log()}, {},
                         err);
     EXPECT_EQ(bad.exit_code, 2) << how;
     // A success that prints a warning (convert of a model with transmissions).
-    const Run warned = run({"convert", model, dir + "/out.urdf"}, {}, err);
+    const ChildRun warned = run({"convert", model, dir + "/out.urdf"}, {}, err);
     EXPECT_EQ(warned.exit_code, 1) << how;
   }
   // stdout on a full disk: evaluate's JSON, its plain lines, and --help.
@@ -261,7 +261,7 @@ TEST(Hostile, UnwritableStreamsEndInExitOneNotAbort) {
         std::vector<std::string>{"evaluate", "--model", meca, "--log", log, "--out",
                                  dir + "/evaluate"},
         std::vector<std::string>{"--help"}}) {
-    const Run r = run(args, full);
+    const ChildRun r = run(args, full);
     EXPECT_EQ(r.exit_code, 1) << args[0] << " " << args.back() << ": " << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_NE(r.err.find("cannot write the standard output"), std::string::npos) << r.err;
@@ -284,7 +284,8 @@ TEST(Hostile, AFileSavedIntoOutDuringARunSurvives) {
       ADD_FAILURE() << "commit replaced a folder holding the user's file";
     } catch (const IoError& e) {
       const std::string what = e.what();
-      EXPECT_NE(what.find("notes.txt"), std::string::npos) << what;
+      EXPECT_NE(what.find("saved there while this run went on"), std::string::npos) << what;
+      EXPECT_NE(what.find("it was not replaced"), std::string::npos) << what;
       EXPECT_NE(what.find(staging), std::string::npos) << what;  // where the outputs are
     }
   }
@@ -299,7 +300,7 @@ TEST(Hostile, AUserFolderNamedLikeStagingSurvives) {
   write(mine + "/keep.txt", "mine\n");
   const std::string mine6 = dir + "/.results.tmp-abcdef";  // even with six characters
   write(mine6 + "/keep.txt", "mine\n");
-  const Run r = run({"evaluate", "--model", source_path("examples/meca500/meca500.yaml"), "--log",
+  const ChildRun r = run({"evaluate", "--model", source_path("examples/meca500/meca500.yaml"), "--log",
                      source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv"), "--out",
                      dir + "/results"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
@@ -312,8 +313,8 @@ TEST(Hostile, AnOverflowingErrorIsBadInputNotNull) {
   const std::string dir = scratch("overflow");
   std::string csv = testing::slurp(good_log());
   // good-2dof.csv: q1,q2,x,y,z - a distance column instead.
-  const std::string log = write(dir + "/d.csv", "q1,q2,d\n0.1,0.2,0.3\n0.2,0.1,1e308\n");
-  const Run r = run({"evaluate", "--model", source_path("tests/malformed/good-2dof.yaml"), "--log",
+  const std::string log = write(dir + "/d.csv", "q1,q2,distance\n0.1,0.2,0.3\n0.2,0.1,1e308\n");
+  const ChildRun r = run({"evaluate", "--model", source_path("tests/malformed/good-2dof.yaml"), "--log",
                      log, "--json"});
   expect_refused(r, ":3:", "distance 1e308");
 }
@@ -340,7 +341,7 @@ TEST(Hostile, MessagesAreOnePrintableLine) {
                  "hapticcal: ", "newline in an argument");
   // A binary file read as YAML: no raw invalid UTF-8 byte in the message.
   std::string binary = "format: \xff\xfe\x80\x81\n\x01\x02\x03";
-  const Run bin = run({"convert", write(dir + "/binary.yaml", binary), dir + "/b.urdf"});
+  const ChildRun bin = run({"convert", write(dir + "/binary.yaml", binary), dir + "/b.urdf"});
   EXPECT_EQ(bin.exit_code, 2) << bin.err;
   for (const char c : bin.err) {
     EXPECT_TRUE(static_cast<unsigned char>(c) < 0x80) << "a raw byte in: " << bin.err;
@@ -356,7 +357,7 @@ TEST(Hostile, MessagesAreOnePrintableLine) {
                       "--fix", "j2.a", "--free", "j2.a", "--out", dir + "/cal"}),
                  "given to both --fix and --free", "--fix X --free X");
   // A UTF-8 byte-order mark before a header: visible in the message.
-  const Run bom = run({"evaluate", "--model", source_path("tests/malformed/good-2dof.yaml"), "--log",
+  const ChildRun bom = run({"evaluate", "--model", source_path("tests/malformed/good-2dof.yaml"), "--log",
                        write(dir + "/bom.csv", "\xef\xbb\xbfq1,q2,x,y,z\n0,0,0,0,0\n")});
   if (bom.exit_code == 2) EXPECT_NE(bom.err.find("\\xef\\xbb\\xbf"), std::string::npos) << bom.err;
 }
@@ -374,7 +375,7 @@ TEST(Hostile, SimulateRefusesLimitsItCannotDrawFrom) {
       write(dir + "/scenario.yaml", "format: hapticcal-scenario/1\ndevice: " + path +
                                         "\nmeasurement: position\nposes: {identification: 40, "
                                         "validation: 10}\n");
-  const Run r = run({"simulate", "--scenario", scenario, "--trials", "1", "--out", dir + "/sim"});
+  const ChildRun r = run({"simulate", "--scenario", scenario, "--trials", "1", "--out", dir + "/sim"});
   expect_refused(r, "a simulation draws readings within the limits", "limits +-1e308");
   EXPECT_NE(r.err.find("wide.yaml"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find(".tmp-"), std::string::npos) << r.err;  // no staging file named

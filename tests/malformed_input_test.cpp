@@ -196,7 +196,7 @@ TEST(MalformedInput, HugeFixtureFilesGiveOneShortLine) {
   const std::string dots = std::string(39, 'a') + "...";
   const std::vector<Generated> all = {
       {"big.yaml", big,
-       fmt::format(": {} bytes, more than the 1048576 a fixture file may have", big.size())},
+       fmt::format(": {} bytes, more than the 1 MiB a fixture file may have", big.size())},
       {"label.yaml", "points:\n  ? " + huge + "\n  : [0, 0, 0]\n",
        ":2: points: a label of 30000 characters: at most 64"},
       {"value.yaml", "distances:\n  - [a, b, " + huge + "]\n",

@@ -49,7 +49,10 @@ Outcome monte_carlo(const DeviceModel& nominal, const DeviceModel& actual,
     for (int t = next++; t < kTrials; t = next++) {
       const Log log = simulate_log_at(actual, design, SimulationNoise{}, trial_seed(seed, t));
       const CalibrationResult r = calibrate(nominal, log, options);
-      if (r.status != CalibrationStatus::kConverged) continue;
+      if (r.status != CalibrationStatus::kConverged) {
+        std::printf("trial %d: %s: %s\n", t, to_string(r.status).c_str(), r.status_reason.c_str());
+        continue;
+      }
       ok[t] = 1;
       const PreparedModel model(r.calibrated);
       for (Eigen::Index v = 0; v < validation.rows(); ++v) {
