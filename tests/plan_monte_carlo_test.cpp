@@ -50,7 +50,7 @@ Outcome monte_carlo(const DeviceModel& nominal, const DeviceModel& actual,
       const Log log = simulate_log_at(actual, design, SimulationNoise{}, trial_seed(seed, t));
       const CalibrationResult r = calibrate(nominal, log, options);
       if (r.status != CalibrationStatus::kConverged) {
-        std::printf("trial %d: %s: %s\n", t, to_string(r.status).c_str(), r.status_reason.c_str());
+        std::printf("trial %d: %s: %s\n", t, to_string(r.status), r.status_reason.c_str());
         continue;
       }
       ok[t] = 1;

@@ -117,6 +117,17 @@ RobustFit reweight_outliers(KinematicProblem& problem, const std::vector<int>& i
     out.note = "not tested: the fit did not converge";
     return out;
   }
+  // With few residual degrees of freedom the fit follows every measurement and
+  // the MAD of what is left measures nothing (30 distances for 28 parameters
+  // scaled tiny residuals into "outliers" and the reweighted fit broke down).
+  const int k = static_cast<int>(identified.size());
+  if (m * d - k < std::max(k, 10)) {
+    out.note = fmt::format(
+        "not tested: {} residuals for {} parameters leave too few degrees of freedom (at least "
+        "as many as the parameters, and 10)",
+        m * d, k);
+    return out;
+  }
   const Eigen::VectorXd base = problem.weights.size() ? problem.weights : Eigen::VectorXd::Ones(m);
   // |e|^2 / s^2 > chi^2_d(1 - alpha / m), as a threshold on the RMS component.
   out.threshold = std::max(std::sqrt(chi_square_quantile(1 - alpha / m, d) / d), kThresholdFloor);
