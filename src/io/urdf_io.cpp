@@ -372,14 +372,22 @@ void check_xml(const std::string& text, const std::string& origin) {
 // root and then leaks the links of the loop (shared_ptr cycles), which a
 // controller that loads models repeatedly would feel. Refused before it reads.
 void check_no_joint_loop(const Document& doc, const std::string& origin) {
-  std::map<std::string, std::string> parent_of;  // child link -> parent link
+  std::map<std::string, std::string> parent_of, joint_of;  // child link -> parent link, joint
   for (const auto& [name, index] : doc.joints) {
     const XmlElement& joint = doc.elements[index];
     const XmlElement* parent = doc.child(joint, "parent");
     const XmlElement* child = doc.child(joint, "child");
     const XmlAttribute* p = parent ? parent->attribute("link") : nullptr;
     const XmlAttribute* c = child ? child->attribute("link") : nullptr;
-    if (p && c) parent_of.emplace(c->value, p->value);
+    if (!p || !c) continue;
+    const auto [at, added] = parent_of.emplace(c->value, p->value);
+    if (!added) {  // a second way up: a loop (or two trees joined), never a tree
+      throw InputError(origin, doc.link_line(c->value), fmt::format("link '{}'", printable(c->value, 80)),
+                       fmt::format("is the child of two joints, '{}' and '{}': the joints form a "
+                                   "loop, not a tree",
+                                   printable(joint_of[c->value], 80), printable(name, 80)));
+    }
+    joint_of[c->value] = name;
   }
   std::map<std::string, int> state;  // 1: on the current walk, 2: leads to a root
   for (const auto& [start, unused] : parent_of) {
