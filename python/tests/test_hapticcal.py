@@ -364,3 +364,17 @@ def test_calibrate_out_writes_the_cli_files_for_a_urdf_model(tmp_path):
         for name in ("calibrated.yaml", "calibrated.urdf"):
             assert (py_out / name).read_text() == (cli_out / name).read_text(), name
     assert any("previous run's model" in n for n in results["notes"])
+
+
+def test_the_library_refuses_what_the_command_line_refuses(tmp_path):
+    """Issue 23 (C3, E8): bounds checked by the library, for Python as for the CLI."""
+    with pytest.raises(ValueError, match="--dependency-tolerance"):
+        hapticcal.calibrate(MECA, CAL_LOG, dependency_tolerance=1.0)
+    with pytest.raises(ValueError, match="--dependency-tolerance"):
+        hapticcal.calibrate(MECA, CAL_LOG, dependency_tolerance=math.inf)
+    with pytest.raises(ValueError, match="--trials 100001"):
+        hapticcal.simulate(trials=100001, out=str(tmp_path / "sim"))
+    with pytest.raises(ValueError, match="--pool 1000000000"):
+        hapticcal.plan(MECA, "position", 12, pool=10**9, out=str(tmp_path / "plan"))
+    with pytest.raises(ValueError, match="NUL byte"):
+        hapticcal.load_model(MECA + "\x00junk")
