@@ -418,8 +418,7 @@ PYBIND11_MODULE(hapticcal, m) {
         "free"_a = py::none(), "point_distance"_a = py::none(), "fixture"_a = py::none(),
         "keep_all"_a = false, "folds"_a = 5, "columns"_a = py::none(), "force"_a = false,
         "polynomial_order"_a = py::none(), "dependency_tolerance"_a = 1e-6, "loss"_a = "cauchy",
-        "strict"_a = false, "tip"_a = py::none(),
-        "root"_a = py::none(), "out"_a = py::none(),
+        "strict"_a = false, "tip"_a = py::none(), "root"_a = py::none(), "out"_a = py::none(),
         "hapticcal calibrate: the two-step identification of a log. Does not raise when the "
         "calibration is not usable (the command line's exit 3): .usable is False, .model None.");
   m.def("evaluate", &evaluate, "model"_a, "log"_a, py::kw_only(), "columns"_a = py::none(),

@@ -32,7 +32,6 @@
 
 extern char** environ;
 
-
 namespace hapticcal {
 namespace {
 
@@ -67,9 +66,9 @@ struct Stream {
 
 ChildRun run(const std::vector<std::string>& args, Stream out = {}, Stream err = {}) {
   static int counter = 0;
-  const std::string base = (fs::path(::testing::TempDir()) /
-                            fmt::format("hostile_{}_{}", ::getpid(), counter++))
-                               .string();
+  const std::string base =
+      (fs::path(::testing::TempDir()) / fmt::format("hostile_{}_{}", ::getpid(), counter++))
+          .string();
   std::vector<std::string> argv{HAPTICCAL_CLI};
   argv.insert(argv.end(), args.begin(), args.end());
   std::vector<char*> cargv;
@@ -150,8 +149,7 @@ TEST(Hostile, DeeplyNestedUrdfIsRefusedBeforeTheXmlParser) {
   for (int k = 0; k < 50000; ++k) text += "</a>";
   text += "</link></robot>\n";
   const std::string urdf = write(dir + "/deep.urdf", text);
-  expect_refused(run({"convert", urdf, dir + "/out.yaml"}), "nested more than 200 deep",
-                 "convert");
+  expect_refused(run({"convert", urdf, dir + "/out.yaml"}), "nested more than 200 deep", "convert");
   expect_refused(run({"evaluate", "--model", urdf, "--log", good_log()}),
                  "nested more than 200 deep", "evaluate --model");
   EXPECT_FALSE(fs::exists(dir + "/out.yaml"));
@@ -198,8 +196,8 @@ TEST(Hostile, DevicesAndFifosAreNotRead) {
   const std::string model = source_path("data/devices/baser-7dof.yaml");
   expect_refused(run({"evaluate", "--model", "/dev/zero", "--log", good_log()}),
                  "is not a regular file", "--model /dev/zero");
-  expect_refused(run({"evaluate", "--model", model, "--log", "/dev/zero"}),
-                 "is not a regular file", "--log /dev/zero");
+  expect_refused(run({"evaluate", "--model", model, "--log", "/dev/zero"}), "is not a regular file",
+                 "--log /dev/zero");
   expect_refused(run({"calibrate", "--model", model, "--log", good_log(), "--fixture", "/dev/zero",
                       "--out", dir + "/out"}),
                  "is not a regular file", "--fixture /dev/zero");
@@ -234,7 +232,7 @@ TEST(Hostile, LargeDeviceFilesAndPolynomialsAreBounded) {
   const std::string path = write(dir + "/long.yaml", text);
   const ChildRun r = run({"convert", path, dir + "/long.urdf"});
   expect_refused(r, "100 coefficients: at most 31", "100 coefficients");
-  EXPECT_NE(r.err.find(path + ":"), std::string::npos) << r.err;          // the file,
+  EXPECT_NE(r.err.find(path + ":"), std::string::npos) << r.err;                   // the file,
   EXPECT_NE(r.err.find("transmission.coefficients"), std::string::npos) << r.err;  // the key
 }
 
@@ -247,8 +245,8 @@ TEST(Hostile, UnwritableStreamsEndInExitOneNotAbort) {
   for (const Stream& err : {full, closed}) {
     const std::string how = err.kind == Stream::kClosed ? "stderr closed" : "stderr /dev/full";
     // Bad input: the message cannot be written, the exit code still says it.
-    const ChildRun bad = run({"evaluate", "--model", dir + "/missing.yaml", "--log", good_log()}, {},
-                        err);
+    const ChildRun bad =
+        run({"evaluate", "--model", dir + "/missing.yaml", "--log", good_log()}, {}, err);
     EXPECT_EQ(bad.exit_code, 2) << how;
     // A success that prints a warning (convert of a model with transmissions).
     const ChildRun warned = run({"convert", model, dir + "/out.urdf"}, {}, err);
@@ -301,9 +299,10 @@ TEST(Hostile, AUserFolderNamedLikeStagingSurvives) {
   write(mine + "/keep.txt", "mine\n");
   const std::string mine6 = dir + "/.results.tmp-abcdef";  // even with six characters
   write(mine6 + "/keep.txt", "mine\n");
-  const ChildRun r = run({"evaluate", "--model", source_path("examples/meca500/meca500.yaml"), "--log",
-                     source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv"), "--out",
-                     dir + "/results"});
+  const ChildRun r =
+      run({"evaluate", "--model", source_path("examples/meca500/meca500.yaml"), "--log",
+           source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv"), "--out",
+           dir + "/results"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(testing::slurp(mine + "/keep.txt"), "mine\n");
   EXPECT_EQ(testing::slurp(mine6 + "/keep.txt"), "mine\n");
@@ -315,8 +314,8 @@ TEST(Hostile, AnOverflowingErrorIsBadInputNotNull) {
   std::string csv = testing::slurp(good_log());
   // good-2dof.csv: q1,q2,x,y,z - a distance column instead.
   const std::string log = write(dir + "/d.csv", "q1,q2,distance\n0.1,0.2,0.3\n0.2,0.1,1e308\n");
-  const ChildRun r = run({"evaluate", "--model", source_path("tests/malformed/good-2dof.yaml"), "--log",
-                     log, "--json"});
+  const ChildRun r = run({"evaluate", "--model", source_path("tests/malformed/good-2dof.yaml"),
+                          "--log", log, "--json"});
   expect_refused(r, ":3:", "distance 1e308");
 }
 
@@ -325,8 +324,8 @@ TEST(Hostile, AnEncoderReadingOf1e308IsNamedByLineAndColumn) {
   const std::string dir = scratch("ext");
   std::string csv = "q1,q2,ext1,x,y,z\n";
   for (int k = 0; k < 12; ++k) {
-    csv += fmt::format("{},{},{},{},{},{}\n", 0.1 * k - 0.5, 0.05 * k, k == 5 ? 1e308 : 0.1 * k - 0.5,
-                       0.3 + 0.01 * k, 0.02 * k, 0.1);
+    csv += fmt::format("{},{},{},{},{},{}\n", 0.1 * k - 0.5, 0.05 * k,
+                       k == 5 ? 1e308 : 0.1 * k - 0.5, 0.3 + 0.01 * k, 0.02 * k, 0.1);
   }
   const std::string log = write(dir + "/ext.csv", csv);
   expect_refused(run({"calibrate", "--model", source_path("tests/malformed/good-2dof.yaml"),
@@ -354,12 +353,13 @@ TEST(Hostile, MessagesAreOnePrintableLine) {
                  "give a finite number", "--posture nan");
   // --fix X --free X.
   expect_refused(run({"calibrate", "--model", source_path("examples/meca500/meca500.yaml"), "--log",
-                      source_path("examples/meca500/cal-norm_dist_data_0deg_160cube.csv"),
-                      "--fix", "j2.a", "--free", "j2.a", "--out", dir + "/cal"}),
+                      source_path("examples/meca500/cal-norm_dist_data_0deg_160cube.csv"), "--fix",
+                      "j2.a", "--free", "j2.a", "--out", dir + "/cal"}),
                  "given to both --fix and --free", "--fix X --free X");
   // A UTF-8 byte-order mark before a header: visible in the message.
-  const ChildRun bom = run({"evaluate", "--model", source_path("tests/malformed/good-2dof.yaml"), "--log",
-                       write(dir + "/bom.csv", "\xef\xbb\xbfq1,q2,x,y,z\n0,0,0,0,0\n")});
+  const ChildRun bom =
+      run({"evaluate", "--model", source_path("tests/malformed/good-2dof.yaml"), "--log",
+           write(dir + "/bom.csv", "\xef\xbb\xbfq1,q2,x,y,z\n0,0,0,0,0\n")});
   if (bom.exit_code == 2) EXPECT_NE(bom.err.find("\\xef\\xbb\\xbf"), std::string::npos) << bom.err;
 }
 
@@ -376,7 +376,8 @@ TEST(Hostile, SimulateRefusesLimitsItCannotDrawFrom) {
       write(dir + "/scenario.yaml", "format: hapticcal-scenario/1\ndevice: " + path +
                                         "\nmeasurement: position\nposes: {identification: 40, "
                                         "validation: 10}\n");
-  const ChildRun r = run({"simulate", "--scenario", scenario, "--trials", "1", "--out", dir + "/sim"});
+  const ChildRun r =
+      run({"simulate", "--scenario", scenario, "--trials", "1", "--out", dir + "/sim"});
   expect_refused(r, "a simulation draws readings within the limits", "limits +-1e308");
   EXPECT_NE(r.err.find("wide.yaml"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find(".tmp-"), std::string::npos) << r.err;  // no staging file named
@@ -412,7 +413,8 @@ TEST(Hostile, AJointLoopIsRefusedBeforeUrdfdom) {
       parse_urdf(text, "loop.urdf", "b", "");
       ADD_FAILURE() << "a loop of joints was read";
     } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("the joints form a loop"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("the joints form a loop"), std::string::npos)
+          << e.what();
     }
   }
 }

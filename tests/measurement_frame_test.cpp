@@ -9,10 +9,10 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <cmath>
 #include <filesystem>
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <nlohmann/json.hpp>
-#include <cmath>
 #include <random>
 
 #include "hapticcal/io/io.hpp"
@@ -22,10 +22,6 @@
 #include "kdl_urdf.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
-
-// urdfdom 3.0 leaks the links of a URDF whose joints form a loop: not read here,
-// but the suppression keeps this test's sanitizer run like urdf_test's.
-extern "C" const char* __lsan_default_suppressions() { return "leak:liburdfdom_model\n"; }
 
 namespace hapticcal {
 namespace {
@@ -156,9 +152,9 @@ TEST_F(MeasurementFrame, CalibratedUrdfFromItsMeasurementRootReproducesCalibrate
             std::string::npos)
       << calibrate_.out;
   const double yaml = rms_position({"--model", out_ + "/calibrated.yaml"}, held_out_);
-  const double urdf = rms_position({"--model", out_ + "/calibrated.urdf", "--root",
-                                    "hapticcal_measurement", "--tip", "tcp"},
-                                   held_out_);
+  const double urdf = rms_position(
+      {"--model", out_ + "/calibrated.urdf", "--root", "hapticcal_measurement", "--tip", "tcp"},
+      held_out_);
   EXPECT_NEAR(urdf, yaml, 1e-9);
   EXPECT_LT(yaml, 5 * kNoise);  // and the calibration holds on poses it never saw
   // The robot's own root: 0.4 m off, as the nominal model in the robot's frame.
@@ -174,12 +170,12 @@ TEST_F(MeasurementFrame, BothRootsOfCalibratedUrdfAgreeWithKdl) {
   // The measurement root: hapticcal's reader puts the frame into the base.
   const DeviceModel measured = load_urdf(out_ + "/calibrated.urdf", "tcp", "hapticcal_measurement");
   for (int k = 0; k < 6; ++k) EXPECT_NEAR(measured.base[k], yaml.base[k], 1e-12) << k;
-  EXPECT_LT(kdl_difference(testing::kdl_chain_from_urdf(text, "hapticcal_measurement", "tcp"),
-                           yaml),
-            1e-12);
-  EXPECT_LT(kdl_difference(testing::kdl_chain_from_urdf(text, "hapticcal_measurement", "tcp"),
-                           measured),
-            1e-12);
+  EXPECT_LT(
+      kdl_difference(testing::kdl_chain_from_urdf(text, "hapticcal_measurement", "tcp"), yaml),
+      1e-12);
+  EXPECT_LT(
+      kdl_difference(testing::kdl_chain_from_urdf(text, "hapticcal_measurement", "tcp"), measured),
+      1e-12);
   // The robot's root: the robot's kinematics unchanged by the frame.
   const DeviceModel alone = load_urdf(out_ + "/calibrated.urdf", "tcp", "world");
   for (double b : alone.base) EXPECT_EQ(b, 0);
@@ -200,8 +196,8 @@ TEST_F(MeasurementFrame, RecalibratingFromTheMeasurementRootMovesThatJoint) {
   const std::string held_out = write_log(dir_ + "/moved-held-out.csv", position_log(moved, 100, 4));
   const std::string again = dir_ + "/again";
   const testing::CliResult r = testing::run_cli(std::vector<std::string>{
-      "calibrate", "--model", out_ + "/calibrated.urdf", "--root", "hapticcal_measurement",
-      "--tip", "tcp", "--log", train, "--out", again});
+      "calibrate", "--model", out_ + "/calibrated.urdf", "--root", "hapticcal_measurement", "--tip",
+      "tcp", "--log", train, "--out", again});
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   const std::string text = read_file(again + "/calibrated.urdf");
   size_t links = 0;
@@ -215,9 +211,9 @@ TEST_F(MeasurementFrame, RecalibratingFromTheMeasurementRootMovesThatJoint) {
                        yaml.base[1] - load_device(out_ + "/calibrated.yaml").base[1]),
             0.045);  // the frame moved
   const double rms_yaml = rms_position({"--model", again + "/calibrated.yaml"}, held_out);
-  const double rms_urdf = rms_position({"--model", again + "/calibrated.urdf", "--root",
-                                        "hapticcal_measurement", "--tip", "tcp"},
-                                       held_out);
+  const double rms_urdf = rms_position(
+      {"--model", again + "/calibrated.urdf", "--root", "hapticcal_measurement", "--tip", "tcp"},
+      held_out);
   EXPECT_NEAR(rms_urdf, rms_yaml, 1e-9);
   EXPECT_LT(rms_yaml, 5 * kNoise);
 }
@@ -236,9 +232,9 @@ TEST_F(MeasurementFrame, TheReportTitleNamesTheLogWithoutPathArtefacts) {
 TEST(MeasurementFrameReader, ARootBesideTheChainNeedsFixedJoints) {
   // A root that is not above the tip and is joined to it through a movable
   // joint is refused, naming both links.
-  const testing::CliResult r = testing::run_cli(std::vector<std::string>{
-      "evaluate", "--model", arm_path(), "--root", "finger_left", "--tip", "tcp", "--log",
-      source_path("tests/malformed/good-2dof.csv")});
+  const testing::CliResult r = testing::run_cli(
+      std::vector<std::string>{"evaluate", "--model", arm_path(), "--root", "finger_left", "--tip",
+                               "tcp", "--log", source_path("tests/malformed/good-2dof.csv")});
   EXPECT_EQ(r.exit_code, 2) << r.out;
   EXPECT_NE(r.err.find("link 'tcp' is not below the root link 'finger_left' (a root beside the "
                        "chain must be joined to it by fixed joints only)"),

@@ -170,7 +170,8 @@ void print_outliers(const hapticcal::RobustFit& robust) {
   for (size_t i = 0; i < outliers.size() && i < kShownOutliers; ++i) {
     const hapticcal::OutlierPose& o = outliers[i];
     std::string lines;
-    for (size_t l = 0; l < o.lines.size(); ++l) lines += (l ? ", " : "") + std::to_string(o.lines[l]);
+    for (size_t l = 0; l < o.lines.size(); ++l)
+      lines += (l ? ", " : "") + std::to_string(o.lines[l]);
     fmt::print(
         "warning: outlier: log line{} {}: residual {:.4f} mm, {:.1f} robust sds (beyond {:.2f}); "
         "{}\n",
@@ -468,8 +469,8 @@ int run_simulate(const SimulateOptions& o) {
   const hapticcal::StudyResult r = hapticcal::run_study(sc, out.dir(), threads, [&](int k, int n) {
     if (!bar) return;
     const int width = 40, filled = width * k / n;
-    hapticcal::cli::say(stderr, "\r[{}{}] {}/{}", std::string(filled, '#'), std::string(width - filled, ' '),
-               k, n);
+    hapticcal::cli::say(stderr, "\r[{}{}] {}/{}", std::string(filled, '#'),
+                        std::string(width - filled, ' '), k, n);
     if (k == n) hapticcal::cli::say(stderr, "\n");
   });
   print_study(sc, r);
@@ -589,18 +590,19 @@ struct ConvertOptions {
 int run_convert(const ConvertOptions& o) {
   for (const std::string* path : {&o.in, &o.out}) {
     if (!hapticcal::is_urdf_path(*path) && !hapticcal::is_yaml_path(*path)) {
-      hapticcal::cli::say(stderr,
-                 "hapticcal: convert: '{}' is neither a device file (.yaml, .yml) nor a URDF "
-                 "(.urdf)\n",
-                 hapticcal::printable(*path, 200));
+      hapticcal::cli::say(
+          stderr,
+          "hapticcal: convert: '{}' is neither a device file (.yaml, .yml) nor a URDF "
+          "(.urdf)\n",
+          hapticcal::printable(*path, 200));
       return kExitBadInput;
     }
   }
   const bool to_urdf = hapticcal::is_urdf_path(o.out);
   if (hapticcal::is_urdf_path(o.in) == to_urdf) {
     hapticcal::cli::say(stderr, "hapticcal: convert: {} and {} are both {}: nothing to convert\n",
-               hapticcal::printable(o.in, 200), hapticcal::printable(o.out, 200),
-               to_urdf ? "URDF" : "device files");
+                        hapticcal::printable(o.in, 200), hapticcal::printable(o.out, 200),
+                        to_urdf ? "URDF" : "device files");
     return kExitBadInput;
   }
   const hapticcal::DeviceModel model = hapticcal::load_model(o.in, o.chain.tip, o.chain.root);
@@ -612,10 +614,11 @@ int run_convert(const ConvertOptions& o) {
     }
     hapticcal::write_file_atomically(o.out, hapticcal::device_to_urdf(model));
     if (!with_transmission.empty()) {
-      hapticcal::cli::say(stderr,
-                 "hapticcal: warning: URDF cannot express transmissions: those of {} are only "
-                 "XML comments in {}\n",
-                 with_transmission, o.out);
+      hapticcal::cli::say(
+          stderr,
+          "hapticcal: warning: URDF cannot express transmissions: those of {} are only "
+          "XML comments in {}\n",
+          with_transmission, o.out);
     }
     fmt::print("wrote {} ({}, {} joints; its chain is hapticcal_measurement -> tool)\n", o.out,
                model.name, model.dof());
@@ -804,8 +807,8 @@ int main(int argc, char** argv) {
     }
     if (dynamic_cast<const CLI::RequiredError*>(&e) && app.get_subcommands().empty()) {
       hapticcal::cli::say(stderr,
-                 "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, "
-                 "convert); see hapticcal --help\n");
+                          "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, "
+                          "convert); see hapticcal --help\n");
       return kExitBadInput;
     }
     // One line, whatever the argument held (a newline, a control byte).

@@ -65,9 +65,9 @@ inline int finish_streams(int code) {
   if (out_failed || err_failed || stdout_closed()) stream_failed() = true;
   if (!stream_failed() || code != 0) return code;
   const bool out = out_failed || stdout_closed();
-  const std::string line =
-      fmt::format("hapticcal: cannot write the {}: {}\n", out ? "standard output" : "standard error",
-                  out_failed ? std::strerror(out_errno) : "it is closed or full");
+  const std::string line = fmt::format(
+      "hapticcal: cannot write the {}: {}\n", out ? "standard output" : "standard error",
+      out_failed ? std::strerror(out_errno) : "it is closed or full");
   [[maybe_unused]] const ssize_t n = ::write(2, line.data(), line.size());
   return 1;
 }

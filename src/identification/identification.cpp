@@ -472,10 +472,10 @@ void check_encoder_readings(const Log& log) {
     for (int r = 0; r < log.rows; ++r) {
       const double v = log.ext(r, j);
       if (std::isfinite(v) && std::abs(v) <= kLargest) continue;
-      throw InputError(log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0,
-                       fmt::format("ext{}", j + 1),
-                       fmt::format("{} is not an encoder reading (|value| above {:g} rad or m)", v,
-                                   kLargest));
+      throw InputError(
+          log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0,
+          fmt::format("ext{}", j + 1),
+          fmt::format("{} is not an encoder reading (|value| above {:g} rad or m)", v, kLargest));
     }
   }
 }
@@ -604,14 +604,11 @@ std::optional<std::string> register_frame(DeviceModel& model,
 // How far the measurement frame (base) and the tool point moved: the set-up's
 // unknowns, reported, not flagged.
 std::string setup_change_note(const DeviceModel& nominal, const DeviceModel& calibrated) {
-  const Frame<double> b0 = pose_frame(nominal.base[0], nominal.base[1], nominal.base[2],
-                                      nominal.base[3], nominal.base[4], nominal.base[5]);
-  const Frame<double> b1 = pose_frame(calibrated.base[0], calibrated.base[1], calibrated.base[2],
-                                      calibrated.base[3], calibrated.base[4], calibrated.base[5]);
-  const Frame<double> t0 = pose_frame(nominal.tool[0], nominal.tool[1], nominal.tool[2],
-                                      nominal.tool[3], nominal.tool[4], nominal.tool[5]);
-  const Frame<double> t1 = pose_frame(calibrated.tool[0], calibrated.tool[1], calibrated.tool[2],
-                                      calibrated.tool[3], calibrated.tool[4], calibrated.tool[5]);
+  const auto frame = [](const std::array<double, 6>& v) {
+    return pose_frame(v[0], v[1], v[2], v[3], v[4], v[5]);
+  };
+  const Frame<double> b0 = frame(nominal.base), b1 = frame(calibrated.base);
+  const Frame<double> t0 = frame(nominal.tool), t1 = frame(calibrated.tool);
   return fmt::format(
       "the measurement frame (base) moved {:.1f} mm and {:.2f} deg from the model's, the tool "
       "point {:.1f} mm: the set-up's unknowns (the tracker's frame, the marker's offset), not "
@@ -1227,8 +1224,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   KinematicSolution solution = solve_kinematics(problem, identified, iterations);
   // Outliers: named, and down-weighted by the robust loss (problem.weights).
   const Eigen::VectorXd plain_weights = problem.weights;
-  fit.robust = reweight_outliers(problem, identified, solution, options.loss,
-                                 options.outlier_alpha, iterations);
+  fit.robust = reweight_outliers(problem, identified, solution, options.loss, options.outlier_alpha,
+                                 iterations);
   name_outliers(fit.robust, log, result.poses, result.notes);
   // The residuals and Jacobian at the fit, for selection, cross-validation and statistics.
   Stack data = stack(s, solution.parameters, problem.joints, kind, measured, weights, compressed);
@@ -1364,9 +1361,9 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       e.sd = std::sqrt(covariance(c, c));
       // An unknown frame and a marker's offset are the set-up's, not the robot's.
       const bool setup = problem.frame_unknown && (pi.joint < 0 || pi.joint == model.dof());
-      e.large_change = !setup && std::abs(e.value - e.nominal) > (e.unit == ParameterUnit::kAngle
-                                                                      ? kLargeChangeAngle
-                                                                      : kLargeChangeLength);
+      e.large_change =
+          !setup && std::abs(e.value - e.nominal) >
+                        (e.unit == ParameterUnit::kAngle ? kLargeChangeAngle : kLargeChangeLength);
       for (int o = 0; o < k; ++o) {
         if (o == c) continue;
         const double rho = covariance(c, o) / std::sqrt(covariance(c, c) * covariance(o, o));

@@ -18,15 +18,15 @@
 namespace hapticcal {
 namespace {
 
-constexpr double kMadToSd = 1.4826;       // 1 / Phi^-1(3/4): MAD -> sd of a normal
-constexpr double kCauchyC = 2.3849;       // 95 % efficiency at the normal (Holland & Welsch)
-constexpr double kHuberK = 1.345;         // likewise
+constexpr double kMadToSd = 1.4826;  // 1 / Phi^-1(3/4): MAD -> sd of a normal
+constexpr double kCauchyC = 2.3849;  // 95 % efficiency at the normal (Holland & Welsch)
+constexpr double kHuberK = 1.345;    // likewise
 // The threshold's floor in robust sds of a pose's RMS component: real residuals
 // hold unmodelled errors with heavier tails than the normal (3 of the 7 clean
 // Meca500 sets had a pose beyond the Bonferroni 2.38 sds; none beyond 5).
 constexpr double kThresholdFloor = 5;
-constexpr int kMaxReweightings = 30;      // iteratively reweighted least squares' limit
-constexpr double kWeightTolerance = 1e-4; // the weights have settled
+constexpr int kMaxReweightings = 30;       // iteratively reweighted least squares' limit
+constexpr double kWeightTolerance = 1e-4;  // the weights have settled
 
 // The weighted residual components of each pose (d a pose) at `parameters`.
 Eigen::MatrixXd pose_residuals(const KinematicProblem& problem, const Eigen::VectorXd& parameters,
@@ -236,10 +236,10 @@ SuspectFit check_suspect(const KinematicFit& fit, const KinematicProblem& proble
     for (int k = 0; k < s.base_slots(); ++k) base_slots.push_back(k);
     const KinematicSolution fitted = solve_kinematics(base_only, base_slots, 50);
     const detail::RowsOf kind = detail::rows_of(base_only);
-    const double rss = detail::position_rss(
-        detail::residuals_at(s, fitted.parameters, base_only.joints, kind, base_only.measured,
-                             weights),
-        kind);
+    const double rss =
+        detail::position_rss(detail::residuals_at(s, fitted.parameters, base_only.joints, kind,
+                                                  base_only.measured, weights),
+                             kind);
     out.nominal_base_fitted_rms = std::sqrt(rss / std::max(fit.rows, 1));
     out.cv_ratio = fit.cv_rms / out.nominal_base_fitted_rms;
     if (out.cv_ratio > 1) {

@@ -1,5 +1,5 @@
-#include <fmt/format.h>
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -53,15 +53,17 @@ std::size_t utf8_sequence(const std::string& text, std::size_t i, char32_t& cp) 
 // Control characters, and the byte-order mark, which prints as nothing.
 bool is_control(char32_t cp) { return cp < 0x20 || (cp >= 0x7f && cp <= 0x9f) || cp == 0xfeff; }
 
-// what() stays one printable line: C0 and C1 control characters, DEL and bytes
-// that are not UTF-8 (a binary file's) become \xNN.
-std::string one_line(const std::string& text) {
+// `text` with every byte that is not printable UTF-8 (C0 and C1 control
+// characters, DEL, the byte-order mark, a binary file's bytes) as \xNN, and '\\'
+// too if `backslash`; cut after `max_chars` characters (`*cut` says whether).
+std::string escaped(const std::string& text, std::size_t max_chars, bool backslash, bool* cut) {
   std::string out;
-  out.reserve(text.size());
-  for (std::size_t i = 0; i < text.size();) {
+  out.reserve(std::min(text.size(), max_chars));
+  std::size_t i = 0, chars = 0;
+  while (i < text.size() && chars < max_chars) {
     char32_t cp = 0;
     const std::size_t n = utf8_sequence(text, i, cp);
-    if (n == 0 || is_control(cp)) {
+    if (n == 0 || is_control(cp) || (backslash && cp == '\\')) {
       for (std::size_t k = 0; k < std::max<std::size_t>(n, 1); ++k)
         out += hex(static_cast<unsigned char>(text[i + k]));
       i += std::max<std::size_t>(n, 1);
@@ -69,8 +71,15 @@ std::string one_line(const std::string& text) {
       out.append(text, i, n);
       i += n;
     }
+    ++chars;
   }
+  if (cut) *cut = i < text.size();
   return out;
+}
+
+// what() stays one printable line.
+std::string one_line(const std::string& text) {
+  return escaped(text, std::string::npos, false, nullptr);
 }
 
 std::string compose(const std::string& file, int line, const std::string& key,
@@ -84,22 +93,9 @@ std::string compose(const std::string& file, int line, const std::string& key,
 }  // namespace
 
 std::string printable(const std::string& text, std::size_t max_chars) {
-  std::string out;
-  std::size_t i = 0, chars = 0;
-  while (i < text.size() && chars < max_chars) {
-    char32_t cp = 0;
-    const std::size_t n = utf8_sequence(text, i, cp);
-    if (n == 0 || is_control(cp) || cp == '\\') {
-      for (std::size_t k = 0; k < std::max<std::size_t>(n, 1); ++k)
-        out += hex(static_cast<unsigned char>(text[i + k]));
-      i += std::max<std::size_t>(n, 1);
-    } else {
-      out.append(text, i, n);
-      i += n;
-    }
-    ++chars;
-  }
-  if (i < text.size()) out += "...";
+  bool cut = false;
+  std::string out = escaped(text, max_chars, true, &cut);
+  if (cut) out += "...";
   return out;
 }
 
@@ -197,13 +193,12 @@ std::string read_file(const std::string& path, FileKind kind) {
   }
   if (S_ISDIR(st.st_mode)) throw InputError(path, 0, "", "is a directory");
   if (!S_ISREG(st.st_mode)) {
-    throw InputError(path, 0, "",
-                     "is not a regular file (a device, FIFO or socket): give a file");
+    throw InputError(path, 0, "", "is not a regular file (a device, FIFO or socket): give a file");
   }
   auto too_large = [&](const std::string& size) {
-    return InputError(path, 0, "",
-                      fmt::format("{}, more than the {} {} may have", size, size_text(limit),
-                                  kind_name(kind)));
+    return InputError(
+        path, 0, "",
+        fmt::format("{}, more than the {} {} may have", size, size_text(limit), kind_name(kind)));
   };
   if (static_cast<std::size_t>(st.st_size) > limit) {
     throw too_large(fmt::format("{} bytes", static_cast<long long>(st.st_size)));

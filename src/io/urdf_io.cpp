@@ -79,9 +79,9 @@ constexpr size_t kLongestEntity = 10;
 std::string decode_entities(std::string_view raw) {
   std::string out;
   for (size_t i = 0; i < raw.size();) {
-    const size_t semi =
-        raw[i] == '&' ? raw.substr(0, std::min(raw.size(), i + kLongestEntity)).find(';', i)
-                      : std::string_view::npos;
+    const size_t semi = raw[i] == '&'
+                            ? raw.substr(0, std::min(raw.size(), i + kLongestEntity)).find(';', i)
+                            : std::string_view::npos;
     if (semi == std::string_view::npos) {
       out += raw[i++];
       continue;
@@ -382,7 +382,8 @@ void check_no_joint_loop(const Document& doc, const std::string& origin) {
     if (!p || !c) continue;
     const auto [at, added] = parent_of.emplace(c->value, p->value);
     if (!added) {  // a second way up: a loop (or two trees joined), never a tree
-      throw InputError(origin, doc.link_line(c->value), fmt::format("link '{}'", printable(c->value, 80)),
+      throw InputError(origin, doc.link_line(c->value),
+                       fmt::format("link '{}'", printable(c->value, 80)),
                        fmt::format("is the child of two joints, '{}' and '{}': the joints form a "
                                    "loop, not a tree",
                                    printable(joint_of[c->value], 80), printable(name, 80)));
@@ -1047,11 +1048,11 @@ std::string write_measurement_frame(const std::string& urdf_text, const UrdfChai
     }
     if (chain.up_elements.front() < 0) throw mismatch("measurement joint element not found");
     Frame<double> rest = Frame<double>::Identity();  // o_2^-1 o_3^-1 ...
-    for (size_t k = 1; k < chain.up_origins.size(); ++k) rest = rest * chain.up_origins[k].inverse();
+    for (size_t k = 1; k < chain.up_origins.size(); ++k)
+      rest = rest * chain.up_origins[k].inverse();
     set_origin(urdf_text, chain.doc, chain.doc.elements[chain.up_elements.front()],
                pose_of(rest * B.inverse()), edits);
-    return fmt::format("the calibrated measurement frame is the root {}",
-                       comment_safe(chain.root));
+    return fmt::format("the calibrated measurement frame is the root {}", comment_safe(chain.root));
   }
   if (calibrated.base == nominal.base || is_identity(calibrated.base)) {
     return "the measurement frame is the robot's root";
@@ -1150,8 +1151,8 @@ std::string calibrated_urdf(const std::string& urdf_text, const std::string& ori
     }
   }
 
-  const std::string frame_comment = write_measurement_frame(urdf_text, chain, nominal, calibrated,
-                                                             edits, notes, mismatch);
+  const std::string frame_comment =
+      write_measurement_frame(urdf_text, chain, nominal, calibrated, edits, notes, mismatch);
   const XmlElement& robot = chain.doc.elements[chain.doc.robot];
   edits.push_back({robot.tag_end, robot.tag_end,
                    fmt::format("\n{}<!-- hapticcal: calibrated joint origins of the chain {} -> {} "

@@ -756,12 +756,12 @@ InputError study_failure(const Scenario& sc, int trial, const InputError& e) {
                          e.file().find("/validation.csv") != std::string::npos ||
                          e.file().find("/trajectory.csv") != std::string::npos;
   const std::string where =
-      simulated ? fmt::format("its simulated {}{}",
-                              std::filesystem::path(e.file()).filename().string(),
-                              e.line() > 0 ? fmt::format(" (line {})", e.line()) : "")
-      : e.file().empty() ? std::string("its calibration")
-                         : fmt::format("{}{}", e.file(),
-                                       e.line() > 0 ? fmt::format(":{}", e.line()) : "");
+      simulated
+          ? fmt::format("its simulated {}{}", std::filesystem::path(e.file()).filename().string(),
+                        e.line() > 0 ? fmt::format(" (line {})", e.line()) : "")
+      : e.file().empty()
+          ? std::string("its calibration")
+          : fmt::format("{}{}", e.file(), e.line() > 0 ? fmt::format(":{}", e.line()) : "");
   return InputError(fmt::format("simulate: trial {} of {} (seed {}): {}: {}{}", trial + 1,
                                 sc.trials, sc.seed, where, e.key().empty() ? "" : e.key() + ": ",
                                 what));

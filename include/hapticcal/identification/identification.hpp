@@ -188,8 +188,8 @@ struct KinematicFit {
   bool numerical_failure = false;  // Ceres's FAILURE: a residual or Jacobian not finite
   int iterations = 0;
   std::string termination;  // Ceres's report
-  RobustFit robust;     // the outlier test and reweighting
-  SuspectFit suspect;   // whether the fit should be trusted
+  RobustFit robust;         // the outlier test and reweighting
+  SuspectFit suspect;       // whether the fit should be trusted
 };
 
 struct CalibrationOptions {

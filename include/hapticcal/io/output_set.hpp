@@ -65,7 +65,7 @@ class OutputSet {
   std::vector<std::string> written_;
   int lock_fd_ = -1, staging_fd_ = -1;
   bool committed_ = false;
-  bool kept_ = false;  // commit() refused: the staging folder is the user's to take
+  bool kept_ = false;      // commit() refused: the staging folder is the user's to take
   bool created_ = false;   // --out was empty (or missing) when this run locked it
   bool exchange_ = false;  // the file system exchanges folders atomically
 };
