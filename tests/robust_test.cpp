@@ -121,6 +121,61 @@ TEST(Outliers, OneBadDistanceAmong200IsNamedAndDoesNotSpoilTheStudyCalibration) 
   }
 }
 
+// The fit's estimate of a parameter by name.
+const ParameterEstimate* estimate(const CalibrationResult& r, const std::string& name) {
+  for (const ParameterEstimate& e : r.kinematics.parameters) {
+    if (e.name == name) return &e;
+  }
+  return nullptr;
+}
+
+// S6: a cable encoder's zero, +2 cm on every distance of the study's log.
+TEST(InstrumentZero, ACableEncodersOffsetIsIdentifiedAndLeftOutOfTheModel) {
+  const Study& s = study();
+  CalibrationOptions none;  // the instrument's zero assumed known (0)
+  none.fix = {"instrument.zero"};
+  const CalibrationResult clean = calibrate(s.sc.nominal, s.ident, {});
+  const CalibrationResult clean_none = calibrate(s.sc.nominal, s.ident, none);
+  const double v_clean = validation(clean, s.val), v_clean_none = validation(clean_none, s.val);
+  const ParameterEstimate* zero_clean = estimate(clean, "instrument.zero");
+  ASSERT_NE(zero_clean, nullptr);
+  Log shifted = s.ident;
+  shifted.distance.array() += 0.02;
+  const CalibrationResult r = calibrate(s.sc.nominal, shifted, {});
+  none.force = true;
+  const CalibrationResult assumed = calibrate(s.sc.nominal, shifted, none);
+  const double v = validation(r, s.val), v_assumed = validation(assumed, s.val);
+  const ParameterEstimate* zero = estimate(r, "instrument.zero");
+  ASSERT_NE(zero, nullptr);
+  std::printf(
+      "study, +2 cm zero, validation: clean %.4f (zero fixed %.4f; zero %s %.4g mm), default "
+      "%.4f, zero fixed %.4f mm; zero %.4f +- %.4f mm\n",
+      v_clean * 1e3, v_clean_none * 1e3, zero_clean->identifiable ? "fitted" : "held",
+      zero_clean->value * 1e3, v * 1e3, v_assumed * 1e3, zero->value * 1e3, zero->sd * 1e3);
+  EXPECT_EQ(r.status, CalibrationStatus::kConverged);
+  ASSERT_TRUE(zero->identifiable) << zero->reason;
+  EXPECT_LT(std::abs(zero->value - 0.02), 4 * zero->sd);
+  EXPECT_LT(zero->sd, 1e-3);
+  EXPECT_FALSE(zero->large_change);  // the set-up's, not the device's
+  EXPECT_LT(v, 1.2 * v_clean);
+  EXPECT_FALSE(r.calibrated.instrument_zero.has_value());  // not the device's
+  EXPECT_EQ(r.calibrated.kinematic_parameters().size(),
+            s.sc.nominal.kinematic_parameters().size());
+  bool noted = false;
+  for (const std::string& n : r.notes) noted = noted || n.find("instrument zero") != n.npos;
+  EXPECT_TRUE(noted);
+  // Assumed known, the offset goes into the device: the 19.6 mm.
+  EXPECT_GT(v_assumed, 10 * v_clean);
+  // On the clean log the zero is structurally identifiable, held by the model
+  // selection (or found near 0), and changes nothing that matters.
+  if (zero_clean->identifiable) {
+    EXPECT_LT(std::abs(zero_clean->value), 4 * zero_clean->sd);
+  } else {
+    EXPECT_TRUE(zero_clean->held_by_selection) << zero_clean->reason;
+  }
+  EXPECT_LT(v_clean, 1.2 * v_clean_none);
+}
+
 // No pose flagged: every loss gives the least-squares result, bit for bit.
 TEST(Outliers, CleanLogsFlagNothingAndAreFittedByPlainLeastSquares) {
   const Study& s = study();

@@ -113,7 +113,7 @@ RowMatrix predicted_values(const ChainStructure& s, const Eigen::VectorXd& param
     const Frame<double> tool = forward_kinematics(s, constants, joints[i].data());
     double* row = out.row(i).data();
     if (kind.type == MeasurementType::kDistance) {
-      row[0] = tool.p.norm();
+      row[0] = tool.p.norm() + (s.instrument ? params[s.instrument_slot()] : 0.0);
       continue;
     }
     for (int k = 0; k < 3; ++k) row[k] = tool.p[k];
@@ -424,6 +424,9 @@ std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std
   for (const ParameterInfo& p : info) {
     if (p.joint < 0) take(p);
   }
+  for (const ParameterInfo& p : info) {
+    if (p.joint > dof) take(p);  // the instrument's: held in favour of the device's
+  }
   return order;
 }
 
@@ -521,9 +524,11 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
   if (!(rms_before > limit)) return;
   std::vector<int> free;
   for (int k = 0; k < s.base_slots(); ++k) free.push_back(k);
+  if (s.instrument) free.push_back(s.instrument_slot());
   const double rms_base =
       rms_with_fitted(s, p, free, joints, kind, measured, weights, rows, compressed);
-  std::string tried = fmt::format("{:.1f} mm with its base pose fitted", rms_base * 1e3);
+  std::string tried = fmt::format("{:.1f} mm with its base pose{} fitted", rms_base * 1e3,
+                                  s.instrument ? " and the instrument's zero" : "");
   double rms_fitted = rms_base;
   if (!(rms_base <= limit)) {
     const int tool_slots = kind.type == MeasurementType::kPose ? kPoseSlots : 3;
@@ -599,6 +604,15 @@ std::optional<std::string> register_frame(DeviceModel& model,
       "registered in closed form first (Horn/Kabsch point-set alignment: base moved by {:.1f} mm "
       "and {:.2f} deg, RMS {:.2f} mm), then refined by Levenberg-Marquardt",
       before * 1e3, shift * 1e3, turn * 180 / M_PI, reg.rms * 1e3);
+}
+
+// What the identified zero of a distance instrument means for the user.
+std::string instrument_zero_note(const ParameterEstimate& zero) {
+  return fmt::format(
+      "the distances carry an instrument zero (instrument.zero) of {:+.3f} +- {:.3f} mm, fitted "
+      "with the device: the encoder's offset, not the device's, so the calibrated model leaves "
+      "it out; subtract it from this encoder's readings (--fix instrument.zero assumes none)",
+      zero.value * 1e3, zero.sd * 1e3);
 }
 
 // How far the measurement frame (base) and the tool point moved: the set-up's
@@ -1142,6 +1156,14 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   // Step 1: transmissions from the external encoders.
   DeviceModel model = nominal;
   result.transmissions = fit_transmissions(model, poses, options, result.notes);
+  // A distance instrument's own zero (a cable encoder's offset) is a candidate
+  // of step 2, after every parameter of the device. `start` is the nominal
+  // with it (at zero): step 2's parameter vector.
+  if (fit.type == MeasurementType::kDistance && options.instrument_zero) {
+    model.instrument_zero = 0.0;
+  }
+  DeviceModel start = nominal;
+  start.instrument_zero = model.instrument_zero;
 
   // Step 2: kinematic parameters from the compensated readings.
   KinematicProblem problem = kinematic_problem(model, poses, repeats, options);
@@ -1180,7 +1202,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       prepared_nominal.compensate(qi.data(), nominal_joints[i].data());
     }
     const Eigen::VectorXd r0 =
-        residuals_at(s, nominal.kinematic_parameters(), nominal_joints, kind, measured, weights);
+        residuals_at(s, start.kinematic_parameters(), nominal_joints, kind, measured, weights);
     for (Eigen::Index i = 0; i < r0.size(); ++i) {
       if (std::isfinite(r0[i] * r0[i])) continue;
       if (kind.labels || i >= static_cast<Eigen::Index>(m) * d) {  // no measured value to blame
@@ -1200,7 +1222,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                        "the nominal model's error on this row is not finite: a value is too large");
     }
     fit.rms_before = measurement_rms(position_rss(r0, kind), fit.rows);
-    DeviceModel registered = nominal;  // the nominal in the registered frame, if it was
+    DeviceModel registered = start;  // the nominal in the registered frame, if it was
     registered.base = problem.model.base;
     check_reach(s, registered, nominal_joints, kind, measured, weights, fit.rows, compressed,
                 fit.rms_before, options.force, result.notes);
@@ -1352,15 +1374,17 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     e.name = pi.name;
     e.slot = pi.slot;
     e.unit = pi.unit;
-    e.nominal = nominal.kinematic_parameters()[pi.slot];
+    e.nominal = start.kinematic_parameters()[pi.slot];
     e.value = p[pi.slot];
     const auto it = std::find(identified.begin(), identified.end(), pi.slot);
     if (it != identified.end()) {
       const int c = static_cast<int>(it - identified.begin());
       e.identifiable = true;
       e.sd = std::sqrt(covariance(c, c));
-      // An unknown frame and a marker's offset are the set-up's, not the robot's.
-      const bool setup = problem.frame_unknown && (pi.joint < 0 || pi.joint == model.dof());
+      // An unknown frame, a marker's offset and an instrument's zero are the
+      // set-up's, not the robot's.
+      const bool setup = (problem.frame_unknown && (pi.joint < 0 || pi.joint == model.dof())) ||
+                         pi.joint > model.dof();
       e.large_change =
           !setup && std::abs(e.value - e.nominal) >
                         (e.unit == ParameterUnit::kAngle ? kLargeChangeAngle : kLargeChangeLength);
@@ -1389,9 +1413,14 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
         "rank-deficient: these measurements do not excite every parameter the model can "
         "identify; see the parameters marked 'not excited'");
   }
+  if (model.instrument_zero) {
+    const ParameterEstimate& zero = fit.parameters.back();
+    if (zero.identifiable) result.notes.push_back(instrument_zero_note(zero));
+    model.instrument_zero.reset();  // the instrument's, not the device's
+  }
   result.calibrated = model;
   if (fit.converged) {
-    DeviceModel nominal_in_frame = nominal;
+    DeviceModel nominal_in_frame = start;
     nominal_in_frame.base = problem.model.base;
     fit.suspect = check_suspect(fit, problem, nominal_in_frame, poses, plain_weights);
   }

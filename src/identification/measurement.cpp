@@ -292,6 +292,10 @@ void measurement_rows(MeasurementType type, const ChainStructure& s,
     const double delta = p.norm();
     residual[0] = delta - measured[0];
     J = (p / delta).transpose() * J_p;
+    if (s.instrument) {  // the instrument reads |p| + d0
+      residual[0] += params[s.instrument_slot()];
+      J(0, s.instrument_slot()) = 1;
+    }
   }
 }
 

@@ -36,6 +36,7 @@ ChainStructure DeviceModel::structure() const {
     slot += block_size(l);
   }
   s.tool = slot;
+  s.instrument = instrument_zero ? 1 : 0;
   return s;
 }
 
@@ -54,6 +55,7 @@ Eigen::VectorXd DeviceModel::kinematic_parameters() const {
     }
   }
   for (int k = 0; k < kPoseSlots; ++k) p[s.tool_slot() + k] = tool[k];
+  if (instrument_zero) p[s.instrument_slot()] = *instrument_zero;
   return p;
 }
 
@@ -76,6 +78,7 @@ void DeviceModel::set_kinematic_parameters(const Eigen::VectorXd& p) {
     }
   }
   for (int k = 0; k < kPoseSlots; ++k) tool[k] = p[s.tool_slot() + k];
+  if (instrument_zero) instrument_zero = p[s.instrument_slot()];
 }
 
 std::vector<ParameterInfo> DeviceModel::parameter_info() const {
@@ -111,6 +114,7 @@ std::vector<ParameterInfo> DeviceModel::parameter_info() const {
     info.push_back({std::string("tool.") + kPoseNames[k], s.tool_slot() + k,
                     k < 3 ? U::kLength : U::kAngle, dof(), k});
   }
+  if (instrument_zero) info.push_back({"instrument.zero", s.instrument_slot(), U::kLength, dof() + 1, 0});
   return info;
 }
 

@@ -226,6 +226,11 @@ struct CalibrationOptions {
   double outlier_alpha = 0.05;  // family-wise level of the outlier test (Bonferroni over poses)
   // A suspect fit (SuspectFit) is unusable: status kSuspect.
   bool strict = false;
+  // A distance log: the instrument's own zero d0 (a cable encoder reads
+  // |p| + d0) is a candidate parameter, "instrument.zero", after every
+  // parameter of the device; reported, and left out of the calibrated model.
+  // false: the instrument's zero is known (a simulation's).
+  bool instrument_zero = true;
 };
 
 // A log whose nominal RMS error exceeds this fraction of the device's reach
@@ -425,7 +430,8 @@ constexpr double kParallelAxesDeg = 5.0;
 std::optional<int> parallel_axis_partner(const DeviceModel& model, int link);
 
 // Candidate kinematic parameters in priority order (links, then tool, then
-// base): a dependent parameter is held in favour of those before it. A beta is a
+// base, then the instrument's zero if the model carries one): a dependent
+// parameter is held in favour of those before it. A beta is a
 // candidate where parallel_axis_partner finds a partner, where the model's beta
 // is not zero, or when freed. Throws InputError for unknown names in fix / free.
 std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std::string>& fix,

@@ -1,7 +1,8 @@
 // The measurement family (SPEC sections 1 and 8): what an instrument measures of
 // the tool frame T_meas_tool, as residual rows predicted - measured with an
 // analytic Jacobian w.r.t. the kinematic parameters.
-//   distance (cable encoder, paper eq. 5): |p|, 1 row
+//   distance (cable encoder, paper eq. 5): |p|, 1 row (|p| + d0 while step 2
+//     estimates the encoder's zero d0, "instrument.zero")
 //   position (laser tracker):              p, 3 rows
 //   pose (mocap, tracker with a 6-D probe): p and the rotation R, 6 rows: the
 //     position error and s * log(R R_measured^T), the rotation error as a

@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -57,6 +58,8 @@ struct Link {
 //   each joint: DH/MDH a, alpha, d, theta, beta (5) |
 //               origin x, y, z, roll, pitch, yaw, offset (7)
 //   tool: x, y, z, roll, pitch, yaw (6)
+//   instrument: zero (1), only while step 2 estimates a distance instrument's
+//     zero with the device (DeviceModel::instrument_zero)
 constexpr int kLinkA = 0, kLinkAlpha = 1, kLinkD = 2, kLinkTheta = 3, kLinkBeta = 4;
 constexpr int kLinkSlots = 5;
 constexpr int kOriginX = 0, kOriginRoll = 3, kOriginPitch = 4, kOriginYaw = 5, kOriginOffset = 6;
@@ -77,10 +80,12 @@ struct ChainStructure {
   BaseKind base_kind = BaseKind::kPose;
   int dof = 0;
   std::array<JointStructure, kMaxDof> joints{};
-  int tool = 0;  // first slot of the tool block
+  int tool = 0;        // first slot of the tool block
+  int instrument = 0;  // slots of the instrument block after the tool (0 or 1)
 
   int base_slots() const { return base_kind == BaseKind::kDh ? 4 : kPoseSlots; }
-  int num_slots() const { return tool + kPoseSlots; }
+  int num_slots() const { return tool + kPoseSlots + instrument; }
+  int instrument_slot() const { return tool + kPoseSlots; }
   int link_slot(int i) const { return joints[i].slot; }  // i zero-based
   int tool_slot() const { return tool; }
 };
@@ -88,8 +93,9 @@ struct ChainStructure {
 enum class ParameterUnit { kLength, kAngle };
 
 // One kinematic parameter: its stable dotted name ("base.a", "j3.alpha",
-// "tool.x", "panda_joint2.roll"), its slot in the flat vector, and its place:
-// joint -1 is the base, dof the tool; element is its index in the block.
+// "tool.x", "panda_joint2.roll", "instrument.zero"), its slot in the flat
+// vector, and its place: joint -1 is the base, dof the tool, dof + 1 the
+// instrument; element is its index in the block.
 struct ParameterInfo {
   std::string name;
   int slot = 0;
@@ -104,6 +110,12 @@ struct DeviceModel {
   std::array<double, 6> base{};  // DH: a, alpha, d, theta, 0, 0; pose: x, y, z, roll, pitch, yaw
   std::vector<Link> links;
   std::array<double, 6> tool{};  // x, y, z, roll, pitch, yaw
+  // A distance instrument's own zero d0 [m]: a cable encoder that reads
+  // |p| + d0. Present (the slot "instrument.zero" after the tool) only in the
+  // problems of step 2 that estimate it with the device (calibrate, for
+  // distance logs); it is the instrument's, not the device's: device files and
+  // a calibrated model have none.
+  std::optional<double> instrument_zero;
 
   int dof() const { return static_cast<int>(links.size()); }
   ChainStructure structure() const;
