@@ -280,6 +280,21 @@ TEST(Outliers, CommandLineNamesTheLineAndStrictRefusesASuspectFit) {
   EXPECT_NE(html.find("<h2>Outliers</h2>"), std::string::npos);
   EXPECT_NE(html.find(fmt::format("line {}", line)), std::string::npos);
 
+  // S6 through the command line: the zero in results.json and a note, not in calibrated.yaml.
+  Log shifted = s.ident;
+  shifted.distance.array() += 0.02;
+  write_file_atomically(dir + "/shifted.csv", log_to_csv(shifted));
+  const testing::CliResult z = testing::run_cli("calibrate --model " + model + " --log " + dir +
+                                                "/shifted.csv --out " + dir + "/z");
+  ASSERT_EQ(z.exit_code, 0) << z.err;
+  EXPECT_NE(z.out.find("note: the distances carry an instrument zero (instrument.zero) of +20.00"),
+            std::string::npos)
+      << z.out;
+  const nlohmann::json jz = nlohmann::json::parse(testing::slurp(dir + "/z/results.json"));
+  EXPECT_TRUE(jz["parameters"]["instrument.zero"]["identifiable"].get<bool>());
+  EXPECT_NEAR(jz["parameters"]["instrument.zero"]["value"].get<double>(), 0.02, 1e-4);
+  EXPECT_EQ(testing::slurp(dir + "/z/calibrated.yaml").find("instrument"), std::string::npos);
+
   write_file_atomically(dir + "/bumped.csv", log_to_csv(bumped_meca500()));
   const std::string meca = testing::source_path("examples/meca500/meca500.yaml");
   const testing::CliResult loose = testing::run_cli("calibrate --model " + meca + " --log " + dir +
