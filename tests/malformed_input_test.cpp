@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "hapticcal/io/io.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
 
@@ -182,7 +183,7 @@ TEST(MalformedInput, HugeNamesAndValuesGiveOneShortLine) {
   std::filesystem::remove_all(dir);
 }
 
-// Fixture files (--fixture) are bounded: a file beyond 1 MiB is refused before
+// Fixture files (--fixture) are bounded: a file beyond 256 KiB is refused before
 // YAML reads it, and a huge label or value is one short line.
 TEST(MalformedInput, HugeFixtureFilesGiveOneShortLine) {
   const std::string src = testing::source_path("tests/malformed");
@@ -192,11 +193,13 @@ TEST(MalformedInput, HugeFixtureFilesGiveOneShortLine) {
     std::string file, text, expected;
   };
   std::string big = "distances:\n";
-  while (big.size() <= (size_t{1} << 20)) big += "  - [a, b, 0.05]   # the same pair, again\n";
+  while (big.size() <= max_file_bytes(FileKind::kFixture)) {
+    big += "  - [a, b, 0.05]   # the same pair, again\n";
+  }
   const std::string dots = std::string(39, 'a') + "...";
   const std::vector<Generated> all = {
       {"big.yaml", big,
-       fmt::format(": {} bytes, more than the 1 MiB a fixture file may have", big.size())},
+       fmt::format(": {} bytes, more than the 256 KiB a fixture file may have", big.size())},
       {"label.yaml", "points:\n  ? " + huge + "\n  : [0, 0, 0]\n",
        ":2: points: a label of 30000 characters: at most 64"},
       {"value.yaml", "distances:\n  - [a, b, " + huge + "]\n",

@@ -131,9 +131,9 @@ std::size_t max_file_bytes(FileKind kind) {
     case FileKind::kDevice:
     case FileKind::kFixture:
     case FileKind::kScenario:
-      return kMiB;
+      return kMiB / 4;  // yaml-cpp: up to 240 bytes a byte (a dense flow list): 60 MB
     case FileKind::kUrdf:
-      return 16 * kMiB;
+      return 3 * kMiB;  // tinyxml + urdfdom: up to 50 bytes a byte (tiny elements): 150 MB
     case FileKind::kLog:
       return 2048 * kMiB;
     case FileKind::kOwn:

@@ -16,7 +16,6 @@ namespace {
 
 // A fixture file states a few facts, not a data set: its size is bounded
 // before YAML sees it, and so are its entries.
-constexpr size_t kMaxFixtureBytes = size_t{1} << 20;
 constexpr size_t kMaxFixtureEntries = 10000;
 constexpr size_t kMaxLabel = 64;  // as a log's point label
 
@@ -44,10 +43,10 @@ class Reader : public detail::YamlReader {
 }  // namespace
 
 Fixture parse_fixture(const std::string& text, const std::string& origin) {
-  if (text.size() > kMaxFixtureBytes) {
-    throw InputError(
-        origin, 0, "",
-        fmt::format("{} bytes: a fixture file is at most {}", text.size(), kMaxFixtureBytes));
+  if (text.size() > max_file_bytes(FileKind::kFixture)) {
+    throw InputError(origin, 0, "",
+                     fmt::format("{} bytes: a fixture file is at most {}", text.size(),
+                                 max_file_bytes(FileKind::kFixture)));
   }
   YAML::Node root;
   try {

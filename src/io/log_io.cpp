@@ -378,7 +378,9 @@ Log parse_log(const std::string& text, const std::string& origin,
   };
   if (!column_names.empty()) set_columns(column_names, "--columns", 0);
 
-  std::vector<std::vector<double>> rows;
+  // The rows' values one after another (columns.size() a row): one allocation
+  // for the log, not one a row; labels only for a log with a label column.
+  std::vector<double> values;
   std::vector<std::string> labels;
   std::vector<int> lines;
   size_t pos = 0;
@@ -399,7 +401,7 @@ Log parse_log(const std::string& text, const std::string& origin,
     }
     // The first row of a log read with --columns: a header there is a log
     // that names its own columns.
-    if (!column_names.empty() && rows.empty() && field_count <= kMaxColumns &&
+    if (!column_names.empty() && lines.empty() && field_count <= kMaxColumns &&
         looks_like_header(split(line))) {
       throw InputError(origin, line_no, "",
                        "the log has a header line; drop --columns (or remove the header)");
@@ -421,8 +423,11 @@ Log parse_log(const std::string& text, const std::string& origin,
       set_columns(fields, origin, line_no);
       continue;
     }
-    std::vector<double> row(columns.size(), 0.0);
+    const size_t first = values.size();
+    values.resize(first + columns.size(), 0.0);
+    double* row = values.data() + first;
     std::string row_label;
+    bool labelled = false;
     for (size_t k = 0; k < fields.size(); ++k) {
       if (columns[k].quantity == Quantity::kSkip) continue;
       const std::string& f = fields[k];
@@ -443,6 +448,7 @@ Log parse_log(const std::string& text, const std::string& origin,
                                        printable(f)));
         }
         row_label = f;
+        labelled = true;
         continue;
       }
       double v = 0;
@@ -456,17 +462,16 @@ Log parse_log(const std::string& text, const std::string& origin,
       }
       row[k] = v * columns[k].scale;
     }
-    rows.push_back(std::move(row));
-    labels.push_back(std::move(row_label));
+    if (labelled) labels.push_back(std::move(row_label));
     lines.push_back(line_no);
   }
   if (columns.empty()) throw InputError(origin, 0, "", "empty log: no header and no data");
-  if (rows.empty()) throw InputError(origin, 0, "", "no data rows");
+  if (lines.empty()) throw InputError(origin, 0, "", "no data rows");
 
   Log log;
   log.origin = origin;
-  log.rows = static_cast<int>(rows.size());
-  log.line = lines;
+  log.rows = static_cast<int>(lines.size());
+  log.line = std::move(lines);
   log.q.setZero(log.rows, dof);
   log.ext.setZero(log.rows, dof);
   log.has_ext.assign(dof, false);
@@ -514,7 +519,7 @@ Log parse_log(const std::string& text, const std::string& origin,
   for (int r = 0; r < log.rows; ++r) {
     for (size_t k = 0; k < columns.size(); ++k) {
       const Column& c = columns[k];
-      const double v = rows[r][k];
+      const double v = values[static_cast<size_t>(r) * columns.size() + k];
       switch (c.quantity) {
         case Quantity::kJoint:
           log.q(r, c.joint) = v;

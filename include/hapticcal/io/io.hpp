@@ -80,11 +80,11 @@ void write_file_atomically(const std::string& path, const std::string& text);
 // bound is far above any real file of the kind and keeps the parsers' memory
 // (a few tens of bytes per input byte) within a few hundred megabytes.
 enum class FileKind {
-  kDevice,    // device file (YAML): 1 MiB (a 32-joint device is about 10 KiB)
-  kUrdf,      // URDF: 16 MiB (meshes are referenced, not inlined)
+  kDevice,    // device file (YAML): 256 KiB (a 32-joint device is about 10 KiB)
+  kUrdf,      // URDF: 3 MiB (meshes are referenced, not inlined)
   kLog,       // measurement log (CSV): 2 GiB (a one-hour 1 kHz stream is ~0.4 GiB)
-  kFixture,   // fixture file (YAML): 1 MiB
-  kScenario,  // simulate scenario (YAML): 1 MiB
+  kFixture,   // fixture file (YAML): 256 KiB
+  kScenario,  // simulate scenario (YAML): 256 KiB
   kOwn,       // hapticcal's own files (results, figures): 256 MiB
 };
 std::size_t max_file_bytes(FileKind kind);
