@@ -115,6 +115,38 @@ std::string decode_entities(std::string_view raw) {
 
 bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; }
 
+// Markup that is not an element, at t[i] == '<': a comment, a CDATA section, a
+// processing instruction or a declaration (<!DOCTYPE ... [ ... ]>, brackets and
+// quotes respected). Returns the position just past it (npos if it does not
+// end), or nothing if t[i] starts an element or an end tag.
+std::optional<size_t> past_markup(const std::string& t, size_t i) {
+  auto past = [&](size_t from, std::string_view end) {
+    const size_t k = t.find(end, from);
+    return k == std::string::npos ? k : k + end.size();
+  };
+  if (t.compare(i, 4, "<!--") == 0) return past(i + 4, "-->");
+  if (t.compare(i, 9, "<![CDATA[") == 0) return past(i + 9, "]]>");
+  if (t.compare(i, 2, "<?") == 0) return past(i + 2, "?>");
+  if (t.compare(i, 2, "<!") != 0) return std::nullopt;
+  int brackets = 0;
+  char quote = 0;
+  for (size_t k = i + 2; k < t.size(); ++k) {
+    const char c = t[k];
+    if (quote) {
+      if (c == quote) quote = 0;
+    } else if (c == '"' || c == '\'') {
+      quote = c;
+    } else if (c == '[') {
+      ++brackets;
+    } else if (c == ']') {
+      --brackets;
+    } else if (c == '>' && brackets <= 0) {
+      return k + 1;
+    }
+  }
+  return std::string::npos;
+}
+
 // Every element of a well-formed document (tinyxml has accepted it), in document
 // order. InputError in the unlikely case that this reading of the text fails.
 std::vector<XmlElement> scan_elements(const std::string& t, const std::string& origin) {
@@ -131,40 +163,12 @@ std::vector<XmlElement> scan_elements(const std::string& t, const std::string& o
     throw InputError(origin, line_at(std::min(pos, t.size())), "",
                      "cannot locate the XML elements of the text");
   };
-  auto past = [&](size_t from, std::string_view end) {
-    const size_t k = t.find(end, from);
-    if (k == std::string::npos) fail(from);
-    return k + end.size();
-  };
   const size_t n = t.size();
   size_t i = 0;
   while ((i = t.find('<', i)) != std::string::npos) {
-    if (t.compare(i, 4, "<!--") == 0) {
-      i = past(i + 4, "-->");
-    } else if (t.compare(i, 9, "<![CDATA[") == 0) {
-      i = past(i + 9, "]]>");
-    } else if (t.compare(i, 2, "<?") == 0) {
-      i = past(i + 2, "?>");
-    } else if (t.compare(i, 2, "<!") == 0) {  // <!DOCTYPE ... [ ... ]>
-      size_t k = i + 2;
-      int brackets = 0;
-      char quote = 0;
-      for (; k < n; ++k) {
-        const char c = t[k];
-        if (quote) {
-          if (c == quote) quote = 0;
-        } else if (c == '"' || c == '\'') {
-          quote = c;
-        } else if (c == '[') {
-          ++brackets;
-        } else if (c == ']') {
-          --brackets;
-        } else if (c == '>' && brackets <= 0) {
-          break;
-        }
-      }
-      if (k >= n) fail(i);
-      i = k + 1;
+    if (const std::optional<size_t> end = past_markup(t, i)) {
+      if (*end == std::string::npos) fail(i);
+      i = *end;
     } else if (t.compare(i, 2, "</") == 0) {
       const size_t close = t.find('>', i);
       if (close == std::string::npos || open.empty()) fail(i);
@@ -301,22 +305,13 @@ void check_xml_shape(const std::string& t, const std::string& origin) {
   auto line_at = [&](size_t pos) {
     return static_cast<int>(std::count(t.begin(), t.begin() + static_cast<long>(pos), '\n')) + 1;
   };
-  auto skip_past = [&](size_t from, std::string_view end) {
-    const size_t k = t.find(end, from);
-    return k == std::string::npos ? n : k + end.size();
-  };
   while (i < n && (i = t.find('<', i)) != std::string::npos) {
-    if (t.compare(i, 4, "<!--") == 0) {
-      i = skip_past(i + 4, "-->");
-    } else if (t.compare(i, 9, "<![CDATA[") == 0) {
-      i = skip_past(i + 9, "]]>");
-    } else if (t.compare(i, 2, "<?") == 0) {
-      i = skip_past(i + 2, "?>");
-    } else if (t.compare(i, 2, "<!") == 0) {
-      i = skip_past(i + 2, ">");
+    if (const std::optional<size_t> end = past_markup(t, i)) {
+      i = std::min(*end, n);  // unterminated: tinyxml says so
     } else if (t.compare(i, 2, "</") == 0) {
       --depth;
-      i = skip_past(i + 2, ">");
+      const size_t close = t.find('>', i + 2);
+      i = close == std::string::npos ? n : close + 1;
     } else {
       const size_t start = i;
       int attributes = 0;

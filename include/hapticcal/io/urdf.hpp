@@ -28,9 +28,8 @@ namespace hapticcal {
 //   mimic joints there) are ignored.
 // InputError (one line, naming the file and the joint or link) for malformed XML
 // or URDF, an unknown root or tip, a tip not below the root (nor joined to it by
-// fixed joints), a floating, planar or
-// mimic joint in the chain, a joint name that cannot name a link, more than
-// kMaxDof movable joints, or none.
+// fixed joints), a floating, planar or mimic joint in the chain, a joint name
+// that cannot name a link, more than kMaxDof movable joints, or none.
 DeviceModel parse_urdf(const std::string& text, const std::string& origin, const std::string& tip,
                        const std::string& root = "");
 DeviceModel load_urdf(const std::string& path, const std::string& tip,
