@@ -9,10 +9,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <string>
 
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/io/io.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "hapticcal/study/study.hpp"
@@ -174,6 +176,36 @@ TEST(InstrumentZero, ACableEncodersOffsetIsIdentifiedAndLeftOutOfTheModel) {
     EXPECT_TRUE(zero_clean->held_by_selection) << zero_clean->reason;
   }
   EXPECT_LT(v_clean, 1.2 * v_clean_none);
+}
+
+// A tracker's scale (it reads (1 + k) p) is not offered as a candidate: the
+// tool point is homogeneous of degree 1 in the chain's lengths (every angle
+// kept, every length times lambda: lambda p), so by Euler's theorem its column
+// d p / d k = p is sum_i L_i d p / d L_i over the length parameters - exactly
+// dependent on them whenever every length is a candidate, and the rank test
+// would hold it every time. Checked on the Meca500 (revolute joints) at random
+// readings, with the analytic Jacobian.
+TEST(InstrumentScale, ATrackersScaleIsTheSumOfTheLengthColumns) {
+  const DeviceModel meca = testing::meca500();
+  const ChainStructure s = meca.structure();
+  const Eigen::VectorXd params = meca.kinematic_parameters();
+  Eigen::VectorXd lengths = Eigen::VectorXd::Zero(params.size());
+  int count = 0;
+  for (const ParameterInfo& pi : meca.parameter_info()) {
+    if (pi.unit != ParameterUnit::kLength) continue;
+    lengths[pi.slot] = params[pi.slot];
+    ++count;
+  }
+  ASSERT_GT(count, 10);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> angle(-2.0, 2.0);
+  for (int k = 0; k < 20; ++k) {
+    Eigen::VectorXd q(meca.dof());
+    for (int j = 0; j < meca.dof(); ++j) q[j] = angle(rng);
+    Eigen::Matrix<double, 3, Eigen::Dynamic> J;
+    const Eigen::Vector3d p = position_parameter_jacobian(s, params.data(), q.data(), J);
+    EXPECT_LT((J * lengths - p).norm(), 1e-12 * p.norm()) << "pose " << k;
+  }
 }
 
 // No pose flagged: every loss gives the least-squares result, bit for bit.
