@@ -163,6 +163,26 @@ TEST(Hostile, DeeplyNestedUrdfIsRefusedBeforeTheXmlParser) {
   EXPECT_NE(std::string(message).find("nested"), std::string::npos) << message;
 }
 
+// C1 through markup the depth check must not skip further than tinyxml reads:
+// tinyxml ends a declaration or processing instruction at its first '>', so a
+// DOCTYPE "[>" (or an unclosed quote, or a "<?x" without "?>") followed by
+// 50,000 nested elements reached its recursion when the check skipped to the
+// DOCTYPE's closing bracket (a review of d0ac50d).
+TEST(Hostile, DeepNestingAfterADeclarationIsRefusedToo) {
+  const std::string dir = scratch("declaration");
+  std::string nested;
+  for (int k = 0; k < 50000; ++k) nested += "<a>";
+  for (int k = 0; k < 50000; ++k) nested += "</a>";
+  const std::vector<std::string> openings = {"<!DOCTYPE r [>", "<!x '>", "<?x >"};
+  for (size_t k = 0; k < openings.size(); ++k) {
+    const std::string urdf = write(dir + fmt::format("/d{}.urdf", k),
+                                   openings[k] + "<robot name=\"r\"><link name=\"l0\">" +
+                                       nested + "</link></robot>]>\n");
+    expect_refused(run({"convert", urdf, dir + "/out.yaml"}), "nested more than 200 deep",
+                   openings[k]);
+  }
+}
+
 // H2: one element with 100,000 attributes took 41 s in tinyxml's duplicate check.
 TEST(Hostile, AnElementWithManyAttributesIsRefused) {
   const std::string dir = scratch("attributes");

@@ -185,23 +185,18 @@ TEST(Plan, HundredPlannedPosesPredictMuchLessThanHundredRandom) {
   EXPECT_LE(planned, 1.25 * random200);
 }
 
-// Acceptance A's second half as the issue states it: NOT MET (disabled; run
-// with --gtest_also_run_disabled_tests). With step 1's error included (as the
-// Monte Carlo of plan_monte_carlo_test confirms it must be), 100 planned poses
-// predict 7.4 um (about 7.0 um with 40 exchange sweeps and 60 refinement
-// passes) against 6.15 um for 200 random ones. The encoder fits (capstans, the
-// 10th-order polynomial of joint 4) then have half the samples: the plan cuts
-// step 1's share of the variance by about 1.8 against random poses of the same
-// count, not by the 2 or more needed. The issue's filer's figures (100 random
-// 6.3 um, 200 random 4.06 um) are the kinematic fit's measurement noise alone.
-TEST(Plan, DISABLED_HundredPlannedPosesPredictNoWorseThanTwoHundredRandom) {
-  const Builtin b;
-  PlanOptions o;
-  o.poses = 100;
-  const Plan plan = plan_poses(b.problem, o);
-  EXPECT_LE(b.sd(plan.readings), b.median_random(200));
-}
-
+// Acceptance A's second half (100 planned poses predict no worse than 200
+// random ones) is not met; a DISABLED test of it, which never ran, is deleted
+// (issue 24): the test above prints the figures and this one shows why. With
+// step 1's error included (as the Monte Carlo of plan_monte_carlo_test confirms
+// it must be), 100 planned poses predict 7.4 um (about 7.0 um with 40 exchange
+// sweeps and 60 refinement passes) against 6.15 um for 200 random ones. The
+// encoder fits (capstans, the 10th-order polynomial of joint 4) then have half
+// the samples: the plan cuts step 1's share of the variance by about 1.8
+// against random poses of the same count, not by the 2 or more needed. The
+// issue's filer's figures (100 random 6.3 um, 200 random 4.06 um) are the
+// kinematic fit's measurement noise alone.
+//
 // Why acceptance A's second half is blocked, by a check independent of the
 // planner: the issue's own measure (the kinematic fit's measurement noise
 // alone, the filer's 4.06 um for 200 random poses) on the best approximate

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <sstream>
 #include <string>
 
 #include "hapticcal/identification/identification.hpp"
@@ -121,6 +122,45 @@ TEST(Outliers, OneBadDistanceAmong200IsNamedAndDoesNotSpoilTheStudyCalibration) 
     EXPECT_FALSE(plain.kinematics.robust.reweighted);
     EXPECT_GT(v_plain, 5 * v_clean) << c.what;
   }
+}
+
+// The zero's column of a distance row is 1, and the rest of the row is the
+// device's: central differences of the residual over every slot.
+TEST(InstrumentZero, ItsJacobianColumnMatchesCentralDifferences) {
+  DeviceModel model = study().sc.nominal;
+  model.instrument_zero = 0.003;
+  const ChainStructure s = model.structure();
+  ASSERT_EQ(s.instrument, 1);
+  const Eigen::VectorXd p = model.kinematic_parameters();
+  const Eigen::VectorXd q = model.compensate(study().ident.q.row(3).transpose());
+  const double measured = 0.4;
+  auto residual = [&](const Eigen::VectorXd& at) {
+    double r = 0;
+    Eigen::MatrixXd J(1, s.num_slots());
+    measurement_rows(MeasurementType::kDistance, s, chain_constants(s, at.data()), at.data(),
+                     q.data(), &measured, 1.0, &r, J);
+    return r;
+  };
+  Eigen::MatrixXd J(1, s.num_slots());
+  double r = 0;
+  measurement_rows(MeasurementType::kDistance, s, chain_constants(s, p.data()), p.data(), q.data(),
+                   &measured, 1.0, &r, J);
+  EXPECT_EQ(J(0, s.instrument_slot()), 1.0);
+  for (int k = 0; k < s.num_slots(); ++k) {
+    const double h = 1e-6;
+    Eigen::VectorXd up = p, down = p;
+    up[k] += h;
+    down[k] -= h;
+    EXPECT_NEAR(J(0, k), (residual(up) - residual(down)) / (2 * h), 1e-7) << "slot " << k;
+  }
+  model.instrument_zero.reset();  // without the slot, the residual is 0.003 smaller
+  const Eigen::VectorXd p0 = model.kinematic_parameters();
+  double r0 = 0;
+  Eigen::MatrixXd J0(1, p0.size());
+  measurement_rows(MeasurementType::kDistance, model.structure(),
+                   chain_constants(model.structure(), p0.data()), p0.data(), q.data(), &measured,
+                   1.0, &r0, J0);
+  EXPECT_NEAR(r - r0, 0.003, 1e-15);
 }
 
 // The fit's estimate of a parameter by name.
@@ -326,6 +366,16 @@ TEST(Outliers, CommandLineNamesTheLineAndStrictRefusesASuspectFit) {
   EXPECT_TRUE(jz["parameters"]["instrument.zero"]["identifiable"].get<bool>());
   EXPECT_NEAR(jz["parameters"]["instrument.zero"]["value"].get<double>(), 0.02, 1e-4);
   EXPECT_EQ(testing::slurp(dir + "/z/calibrated.yaml").find("instrument"), std::string::npos);
+  // The report's per-sample errors after calibration are of the readings less
+  // the zero (they were the 20 mm the model leaves out): every one under 0.1 mm.
+  std::istringstream rows(testing::slurp(dir + "/z/figures/errors_per_sample.csv"));
+  int samples = 0;
+  for (std::string line; std::getline(rows, line);) {
+    const double after = std::stod(line.substr(line.rfind(',') + 1));
+    EXPECT_LT(after, 0.1) << line;
+    ++samples;
+  }
+  EXPECT_GT(samples, 100);
 
   write_file_atomically(dir + "/bumped.csv", log_to_csv(bumped_meca500()));
   const std::string meca = testing::source_path("examples/meca500/meca500.yaml");

@@ -156,11 +156,11 @@ std::vector<std::string> names(const std::string& list) {
 
 // Values as the paper's Tables 2-5 print them: mm, mrad, deg.
 std::string kinematic_row(const hapticcal::ParameterEstimate& e) {
-  const bool angle = e.unit == hapticcal::ParameterUnit::kAngle;
-  const double f = 1e3;  // m -> mm, rad -> mrad
+  const hapticcal::DisplayUnit u = hapticcal::display_unit(e.unit);
+  const double f = u.scale;
   return fmt::format("  {:<12} {:>12.4f} {:>12.4f} {:>10.4f} +- {:<9.4f} {:<4}  {:>6.3f} {}",
                      e.name, e.nominal * f, e.value * f, (e.value - e.nominal) * f, e.sd * f,
-                     angle ? "mrad" : "mm", e.max_correlation, e.max_correlation_with);
+                     u.unit, e.max_correlation, e.max_correlation_with);
 }
 
 // A warning line a flagged pose, at most kShownOutliers, then how many more.
@@ -259,8 +259,8 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
   for (const hapticcal::ParameterEstimate& e : k.parameters) {
     if (!e.large_change) continue;
     fmt::print("warning: {} moved {:.4g} {} from nominal (flagged beyond {} mm / {} mrad)\n",
-               e.name, (e.value - e.nominal) * 1e3,
-               e.unit == hapticcal::ParameterUnit::kAngle ? "mrad" : "mm",
+               e.name, (e.value - e.nominal) * hapticcal::display_unit(e.unit).scale,
+               hapticcal::display_unit(e.unit).unit,
                hapticcal::kLargeChangeLength * 1e3, hapticcal::kLargeChangeAngle * 1e3);
   }
   for (const std::string& note : r.notes) {

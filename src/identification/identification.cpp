@@ -606,6 +606,17 @@ std::optional<std::string> register_frame(DeviceModel& model,
       before * 1e3, shift * 1e3, turn * 180 / M_PI, reg.rms * 1e3);
 }
 
+}  // namespace
+
+double identified_instrument_zero(const KinematicFit& fit) {
+  for (const ParameterEstimate& e : fit.parameters) {
+    if (e.name == "instrument.zero" && e.identifiable) return e.value;
+  }
+  return 0;
+}
+
+namespace {
+
 // What the identified zero of a distance instrument means for the user.
 std::string instrument_zero_note(const ParameterEstimate& zero) {
   return fmt::format(
@@ -1048,6 +1059,11 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
             problem.type == MeasurementType::kPlane ? "plane contacts"
                                                     : "fixture points without a known distance");
       }
+    } else if (s.instrument && slot == s.instrument_slot()) {
+      // The instrument's, not the device's: these poses leave it at 0 (held),
+      // they do not leave the device unidentified.
+      out.reason[slot] = "not excited by these measurements (held at 0: the poses do not "
+                         "separate the instrument's zero from the device's parameters)";
     } else {
       out.rank_deficient = true;
       out.reason[slot] = dv.kind == Verdict::kNoEffect
@@ -1159,15 +1175,20 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   // A distance instrument's own zero (a cable encoder's offset) is a candidate
   // of step 2, after every parameter of the device. `start` is the nominal
   // with it (at zero): step 2's parameter vector.
-  if (fit.type == MeasurementType::kDistance && options.instrument_zero) {
+  // --fix instrument.zero (or options.instrument_zero false): no slot at all.
+  std::vector<std::string> fix = options.fix;
+  const auto fixed_zero = std::find(fix.begin(), fix.end(), "instrument.zero");
+  const bool zero_fixed = fixed_zero != fix.end();
+  if (zero_fixed) fix.erase(fixed_zero);
+  if (fit.type == MeasurementType::kDistance && options.instrument_zero && !zero_fixed) {
     model.instrument_zero = 0.0;
   }
-  DeviceModel start = nominal;
-  start.instrument_zero = model.instrument_zero;
+  DeviceModel step2_nominal = nominal;
+  step2_nominal.instrument_zero = model.instrument_zero;
 
   // Step 2: kinematic parameters from the compensated readings.
   KinematicProblem problem = kinematic_problem(model, poses, repeats, options);
-  const std::vector<int> candidates = candidate_slots(model, options.fix, options.free);
+  const std::vector<int> candidates = candidate_slots(model, fix, options.free);
   const int d = traits(fit.type).dimension;
   // Too few measurements for the parameters the model can identify at all (the
   // structural rank, before these poses' own analysis below).
@@ -1202,7 +1223,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       prepared_nominal.compensate(qi.data(), nominal_joints[i].data());
     }
     const Eigen::VectorXd r0 =
-        residuals_at(s, start.kinematic_parameters(), nominal_joints, kind, measured, weights);
+        residuals_at(s, step2_nominal.kinematic_parameters(), nominal_joints, kind, measured,
+                     weights);
     for (Eigen::Index i = 0; i < r0.size(); ++i) {
       if (std::isfinite(r0[i] * r0[i])) continue;
       if (kind.labels || i >= static_cast<Eigen::Index>(m) * d) {  // no measured value to blame
@@ -1222,7 +1244,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                        "the nominal model's error on this row is not finite: a value is too large");
     }
     fit.rms_before = measurement_rms(position_rss(r0, kind), fit.rows);
-    DeviceModel registered = start;  // the nominal in the registered frame, if it was
+    DeviceModel registered = step2_nominal;  // the nominal in the registered frame, if it was
     registered.base = problem.model.base;
     check_reach(s, registered, nominal_joints, kind, measured, weights, fit.rows, compressed,
                 fit.rms_before, options.force, result.notes);
@@ -1374,7 +1396,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
     e.name = pi.name;
     e.slot = pi.slot;
     e.unit = pi.unit;
-    e.nominal = start.kinematic_parameters()[pi.slot];
+    e.nominal = step2_nominal.kinematic_parameters()[pi.slot];
     e.value = p[pi.slot];
     const auto it = std::find(identified.begin(), identified.end(), pi.slot);
     if (it != identified.end()) {
@@ -1420,7 +1442,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   }
   result.calibrated = model;
   if (fit.converged) {
-    DeviceModel nominal_in_frame = start;
+    DeviceModel nominal_in_frame = step2_nominal;
     nominal_in_frame.base = problem.model.base;
     fit.suspect = check_suspect(fit, problem, nominal_in_frame, poses, plain_weights);
   }

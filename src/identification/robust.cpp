@@ -234,7 +234,10 @@ SuspectFit check_suspect(const KinematicFit& fit, const KinematicProblem& proble
     const ChainStructure s = nominal_in_frame.structure();
     std::vector<int> base_slots;
     for (int k = 0; k < s.base_slots(); ++k) base_slots.push_back(k);
-    if (s.instrument) base_slots.push_back(s.instrument_slot());  // a set-up unknown too
+    // The instrument's zero too if the fit identified it (a set-up unknown).
+    if (s.instrument && identified_instrument_zero(fit) != 0) {
+      base_slots.push_back(s.instrument_slot());
+    }
     const KinematicSolution fitted = solve_kinematics(base_only, base_slots, 50);
     const detail::RowsOf kind = detail::rows_of(base_only);
     const double rss =

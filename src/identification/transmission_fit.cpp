@@ -185,4 +185,8 @@ DisplayUnit display_unit(const std::string& parameter) {
 
 DisplayUnit display_unit(const TransmissionFit& fit, int k) { return display_unit(fit.names[k]); }
 
+DisplayUnit display_unit(ParameterUnit unit) {
+  return {1e3, unit == ParameterUnit::kAngle ? "mrad" : "mm"};
+}
+
 }  // namespace hapticcal

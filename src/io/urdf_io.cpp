@@ -115,19 +115,27 @@ std::string decode_entities(std::string_view raw) {
 
 bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; }
 
+// How a processing instruction or declaration ends: as XML says (`?>`; a
+// DOCTYPE's `>` outside its brackets and quotes), or at its first `>`, as
+// tinyxml 2.6 reads both: the shape check must never skip more of the text
+// than the parser reads (a DOCTYPE "[>" then 100,000 nested elements would
+// reach tinyxml's recursion unchecked).
+enum class MarkupEnd { kXml, kFirstGreaterThan };
+
 // Markup that is not an element, at t[i] == '<': a comment, a CDATA section, a
-// processing instruction or a declaration (<!DOCTYPE ... [ ... ]>, brackets and
-// quotes respected). Returns the position just past it (npos if it does not
-// end), or nothing if t[i] starts an element or an end tag.
-std::optional<size_t> past_markup(const std::string& t, size_t i) {
+// processing instruction or a declaration. Returns the position just past it
+// (npos if it does not end), or nothing if t[i] starts an element or an end tag.
+std::optional<size_t> past_markup(const std::string& t, size_t i, MarkupEnd end_at) {
   auto past = [&](size_t from, std::string_view end) {
     const size_t k = t.find(end, from);
     return k == std::string::npos ? k : k + end.size();
   };
   if (t.compare(i, 4, "<!--") == 0) return past(i + 4, "-->");
   if (t.compare(i, 9, "<![CDATA[") == 0) return past(i + 9, "]]>");
-  if (t.compare(i, 2, "<?") == 0) return past(i + 2, "?>");
-  if (t.compare(i, 2, "<!") != 0) return std::nullopt;
+  const bool instruction = t.compare(i, 2, "<?") == 0;
+  if (!instruction && t.compare(i, 2, "<!") != 0) return std::nullopt;
+  if (end_at == MarkupEnd::kFirstGreaterThan) return past(i + 2, ">");
+  if (instruction) return past(i + 2, "?>");
   int brackets = 0;
   char quote = 0;
   for (size_t k = i + 2; k < t.size(); ++k) {
@@ -166,7 +174,7 @@ std::vector<XmlElement> scan_elements(const std::string& t, const std::string& o
   const size_t n = t.size();
   size_t i = 0;
   while ((i = t.find('<', i)) != std::string::npos) {
-    if (const std::optional<size_t> end = past_markup(t, i)) {
+    if (const std::optional<size_t> end = past_markup(t, i, MarkupEnd::kXml)) {
       if (*end == std::string::npos) fail(i);
       i = *end;
     } else if (t.compare(i, 2, "</") == 0) {
@@ -306,7 +314,7 @@ void check_xml_shape(const std::string& t, const std::string& origin) {
     return static_cast<int>(std::count(t.begin(), t.begin() + static_cast<long>(pos), '\n')) + 1;
   };
   while (i < n && (i = t.find('<', i)) != std::string::npos) {
-    if (const std::optional<size_t> end = past_markup(t, i)) {
+    if (const std::optional<size_t> end = past_markup(t, i, MarkupEnd::kFirstGreaterThan)) {
       i = std::min(*end, n);  // unterminated: tinyxml says so
     } else if (t.compare(i, 2, "</") == 0) {
       --depth;

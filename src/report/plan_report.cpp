@@ -12,7 +12,7 @@ namespace {
 // angles in mrad, step-1 parameters as calibrate prints them.
 DisplayUnit unit_of(const PlanProblem& problem, const std::string& name) {
   for (const ParameterInfo& info : problem.model().parameter_info()) {
-    if (info.name == name) return {1e3, info.unit == ParameterUnit::kAngle ? "mrad" : "mm"};
+    if (info.name == name) return display_unit(info.unit);
   }
   return display_unit(name);
 }

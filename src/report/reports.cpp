@@ -84,10 +84,10 @@ std::string parameter_table(const KinematicFit& k) {
   std::vector<std::vector<std::string>> rows;
   for (const ParameterEstimate& e : k.parameters) {
     if (!e.identifiable) continue;
-    const bool angle = e.unit == ParameterUnit::kAngle;
-    rows.push_back({e.name, f4(e.nominal * 1e3), f4(e.value * 1e3), f4((e.value - e.nominal) * 1e3),
-                    f4(e.sd * 1e3), angle ? "mrad" : "mm", fmt::format("{:.3f}", e.max_correlation),
-                    e.max_correlation_with});
+    const DisplayUnit u = display_unit(e.unit);
+    rows.push_back({e.name, f4(e.nominal * u.scale), f4(e.value * u.scale),
+                    f4((e.value - e.nominal) * u.scale), f4(e.sd * u.scale), u.unit,
+                    fmt::format("{:.3f}", e.max_correlation), e.max_correlation_with});
   }
   return "<h2>Identified kinematic parameters</h2>\n" +
          html_table({"parameter", "nominal", "identified", "deviation", "sd", "unit",
@@ -318,7 +318,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
     o.notes.push_back(fmt::format(
         "warning: {} moved {:.4g} {} from nominal (flagged beyond {} mm / {} mrad): plausible for "
         "a base pose measured in an unknown frame; for a link, check the model and the log",
-        e.name, (e.value - e.nominal) * 1e3, e.unit == ParameterUnit::kAngle ? "mrad" : "mm",
+        e.name, (e.value - e.nominal) * display_unit(e.unit).scale, display_unit(e.unit).unit,
         kLargeChangeLength * 1e3, kLargeChangeAngle * 1e3));
   }
   for (const std::string& line : suspect_lines(k)) o.notes.push_back(line);
@@ -363,8 +363,14 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
     transmission_figures(t, nominal.links[t.joint].name, log, plotted_rows,
                          result.calibrated.links[t.joint].transmission, nullptr, report.figures);
   }
+  // The calibrated model leaves the instrument's zero out: its errors are of
+  // the readings less the zero (what rms_after measures).
+  Log corrected = log;
+  if (const double zero = identified_instrument_zero(k); zero != 0) {
+    corrected.distance.array() -= zero;
+  }
   const Evaluation before = evaluate(nominal, log, point_distances, known_points),
-                   after = evaluate(result.calibrated, log, point_distances, known_points);
+                   after = evaluate(result.calibrated, corrected, point_distances, known_points);
   const bool fixture = is_fixture(k.type);
   const bool position = k.type != MeasurementType::kDistance && !fixture;
   const Eigen::VectorXd& error_before = fixture    ? before.fixture_error

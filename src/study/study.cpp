@@ -53,6 +53,7 @@ std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
   std::vector<std::string> names;
   for (const ParameterEstimate& e : full.kinematics.parameters) {
     if (!e.identifiable) continue;
+    if (e.name == "instrument.zero") continue;  // the study's instruments have none
     slots.push_back(e.slot);
     names.push_back(e.name);
   }
@@ -115,12 +116,13 @@ std::vector<StudyRow> study_rows(const Scenario& sc, const CalibrationResult& fu
   }
   const Eigen::VectorXd truth = sc.actual.kinematic_parameters();
   for (const ParameterEstimate& e : full.kinematics.parameters) {
+    if (e.slot >= truth.size()) continue;  // the instrument's zero: not the device's
     const double assigned = truth[e.slot];
     if (!e.identifiable && assigned == e.nominal) continue;
+    const DisplayUnit u = display_unit(e.unit);
     rows.push_back({e.name, false, assigned, e.nominal, e.value,
                     e.identifiable ? improvement_or_nan(assigned, e.nominal, e.value) : 0.0,
-                    e.identifiable ? "" : e.reason, 1e3,
-                    e.unit == ParameterUnit::kAngle ? "mrad" : "mm"});
+                    e.identifiable ? "" : e.reason, u.scale, u.unit});
   }
   return rows;
 }

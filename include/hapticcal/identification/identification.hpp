@@ -59,6 +59,8 @@ struct DisplayUnit {
 DisplayUnit display_unit(const std::string& parameter);
 // The fit's k-th parameter's.
 DisplayUnit display_unit(const TransmissionFit& fit, int k);
+// A kinematic parameter's: lengths in mm, angles in mrad.
+DisplayUnit display_unit(ParameterUnit unit);
 
 struct ParameterEstimate {
   std::string name;
@@ -191,6 +193,11 @@ struct KinematicFit {
   RobustFit robust;         // the outlier test and reweighting
   SuspectFit suspect;       // whether the fit should be trusted
 };
+
+// The distance instrument's zero the fit identified ("instrument.zero"; 0 if it
+// was not estimated or was held): what the instrument's readings carry beyond
+// the device's |p|, and what `calibrated` (which leaves it out) does not predict.
+double identified_instrument_zero(const KinematicFit& fit);
 
 struct CalibrationOptions {
   bool transmissions = true;            // false: the paper's kinematic-only calibration

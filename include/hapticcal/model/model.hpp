@@ -26,8 +26,6 @@ constexpr int kMaxDof = 32;
 //   A_i = Trans(x, y, z) * Rz(yaw) Ry(pitch) Rx(roll) * motion(axis, q_i + offset_i)
 // (over-parametrised: the identifiability analysis holds what is redundant).
 enum class Geometry { kDh, kMdh, kOrigin };
-// A device file's `convention`: the geometry of all its links.
-enum class Convention { kDh, kMdh };
 // revolute and continuous turn about the joint axis (DH, MDH: z) by q; prismatic
 // translate along it by q (DH, MDH: d + q). Fixed joints only as base and tool.
 enum class JointType { kRevolute, kContinuous, kPrismatic };
