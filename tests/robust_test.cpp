@@ -14,6 +14,7 @@
 #include <string>
 
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/io/error.hpp"
 #include "hapticcal/io/io.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/evaluate.hpp"
@@ -208,6 +209,12 @@ TEST(InstrumentZero, ACableEncodersOffsetIsIdentifiedAndLeftOutOfTheModel) {
   EXPECT_TRUE(noted);
   // Assumed known, the offset goes into the device: the 19.6 mm.
   EXPECT_GT(v_assumed, 10 * v_clean);
+  // A log of positions has no instrument zero: fixing one is refused by name.
+  CalibrationOptions positions;
+  positions.fix = {"instrument.zero"};
+  EXPECT_THROW(calibrate(testing::meca500(),
+                         testing::meca500_log("cal", "norm_dist_data_0deg_160cube"), positions),
+               InputError);
   // On the clean log the zero is structurally identifiable, held by the model
   // selection (or found near 0), and changes nothing that matters.
   if (zero_clean->identifiable) {

@@ -1176,13 +1176,13 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   // of step 2, after every parameter of the device. `start` is the nominal
   // with it (at zero): step 2's parameter vector.
   // --fix instrument.zero (or options.instrument_zero false): no slot at all.
+  // (Other logs have no such parameter: fixing it is refused below as unknown.)
+  const bool distances = fit.type == MeasurementType::kDistance && options.instrument_zero;
   std::vector<std::string> fix = options.fix;
   const auto fixed_zero = std::find(fix.begin(), fix.end(), "instrument.zero");
-  const bool zero_fixed = fixed_zero != fix.end();
+  const bool zero_fixed = distances && fixed_zero != fix.end();
   if (zero_fixed) fix.erase(fixed_zero);
-  if (fit.type == MeasurementType::kDistance && options.instrument_zero && !zero_fixed) {
-    model.instrument_zero = 0.0;
-  }
+  if (distances && !zero_fixed) model.instrument_zero = 0.0;
   DeviceModel step2_nominal = nominal;
   step2_nominal.instrument_zero = model.instrument_zero;
 
