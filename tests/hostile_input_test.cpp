@@ -175,9 +175,9 @@ TEST(Hostile, DeepNestingAfterADeclarationIsRefusedToo) {
   for (int k = 0; k < 50000; ++k) nested += "</a>";
   const std::vector<std::string> openings = {"<!DOCTYPE r [>", "<!x '>", "<?x >"};
   for (size_t k = 0; k < openings.size(); ++k) {
-    const std::string urdf = write(dir + fmt::format("/d{}.urdf", k),
-                                   openings[k] + "<robot name=\"r\"><link name=\"l0\">" +
-                                       nested + "</link></robot>]>\n");
+    const std::string urdf = write(
+        dir + fmt::format("/d{}.urdf", k),
+        openings[k] + "<robot name=\"r\"><link name=\"l0\">" + nested + "</link></robot>]>\n");
     expect_refused(run({"convert", urdf, dir + "/out.yaml"}), "nested more than 200 deep",
                    openings[k]);
   }
@@ -295,20 +295,19 @@ TEST(Hostile, EachParserAtItsLimitStaysWithinItsStatedMemory) {
                    {"convert", write(dir + "/padded.yaml", padded), dir + "/padded.urdf"},
                    0,
                    ""});
-  cases.push_back({"fixture file, dense",
-                   {"calibrate", "--model", model, "--log",
-                    source_path("tests/malformed/good-2dof-points.csv"), "--fixture",
-                    dense("fixture.yaml", "points:\n  a: [0, 0, 0]\n", FileKind::kFixture),
-                    "--out", dir + "/fixture-out"},
-                   2,
-                   "junk"});
   cases.push_back(
-      {"scenario, dense",
-       {"simulate", "--scenario",
-        dense("scenario.yaml", "format: hapticcal-scenario/1\n", FileKind::kScenario), "--out",
-        dir + "/sim"},
+      {"fixture file, dense",
+       {"calibrate", "--model", model, "--log", source_path("tests/malformed/good-2dof-points.csv"),
+        "--fixture", dense("fixture.yaml", "points:\n  a: [0, 0, 0]\n", FileKind::kFixture),
+        "--out", dir + "/fixture-out"},
        2,
        "junk"});
+  cases.push_back({"scenario, dense",
+                   {"simulate", "--scenario",
+                    dense("scenario.yaml", "format: hapticcal-scenario/1\n", FileKind::kScenario),
+                    "--out", dir + "/sim"},
+                   2,
+                   "junk"});
   const std::string chain =
       "<link name=\"l1\"/><link name=\"tip\"/>"
       "<joint name=\"j1\" type=\"revolute\"><parent link=\"base\"/><child link=\"l1\"/>"

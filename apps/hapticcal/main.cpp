@@ -258,10 +258,10 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
   }
   for (const hapticcal::ParameterEstimate& e : k.parameters) {
     if (!e.large_change) continue;
+    const hapticcal::DisplayUnit u = hapticcal::display_unit(e.unit);
     fmt::print("warning: {} moved {:.4g} {} from nominal (flagged beyond {} mm / {} mrad)\n",
-               e.name, (e.value - e.nominal) * hapticcal::display_unit(e.unit).scale,
-               hapticcal::display_unit(e.unit).unit,
-               hapticcal::kLargeChangeLength * 1e3, hapticcal::kLargeChangeAngle * 1e3);
+               e.name, (e.value - e.nominal) * u.scale, u.unit, hapticcal::kLargeChangeLength * 1e3,
+               hapticcal::kLargeChangeAngle * 1e3);
   }
   for (const std::string& note : r.notes) {
     fmt::print("{}{}\n", note.rfind("warning: ", 0) == 0 ? "" : "note: ", note);

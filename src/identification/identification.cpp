@@ -1061,9 +1061,11 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
       }
     } else if (s.instrument && slot == s.instrument_slot()) {
       // The instrument's, not the device's: these poses leave it at 0 (held),
-      // they do not leave the device unidentified.
-      out.reason[slot] = "not excited by these measurements (held at 0: the poses do not "
-                         "separate the instrument's zero from the device's parameters)";
+      // they do not leave the device unidentified - so not a "not excited"
+      // reason, which set_status and the too-few-measurements check count.
+      out.reason[slot] =
+          "held at 0: these poses do not separate the instrument's zero from the "
+          "device's parameters";
     } else {
       out.rank_deficient = true;
       out.reason[slot] = dv.kind == Verdict::kNoEffect
@@ -1173,8 +1175,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   DeviceModel model = nominal;
   result.transmissions = fit_transmissions(model, poses, options, result.notes);
   // A distance instrument's own zero (a cable encoder's offset) is a candidate
-  // of step 2, after every parameter of the device. `start` is the nominal
-  // with it (at zero): step 2's parameter vector.
+  // of step 2, after every parameter of the device. `step2_nominal` is the
+  // nominal with it (at zero): step 2's parameter vector.
   // --fix instrument.zero (or options.instrument_zero false): no slot at all.
   // (Other logs have no such parameter: fixing it is refused below as unknown.)
   const bool distances = fit.type == MeasurementType::kDistance && options.instrument_zero;
@@ -1222,9 +1224,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
       const Eigen::VectorXd qi = poses.q.row(i).transpose();
       prepared_nominal.compensate(qi.data(), nominal_joints[i].data());
     }
-    const Eigen::VectorXd r0 =
-        residuals_at(s, step2_nominal.kinematic_parameters(), nominal_joints, kind, measured,
-                     weights);
+    const Eigen::VectorXd r0 = residuals_at(s, step2_nominal.kinematic_parameters(), nominal_joints,
+                                            kind, measured, weights);
     for (Eigen::Index i = 0; i < r0.size(); ++i) {
       if (std::isfinite(r0[i] * r0[i])) continue;
       if (kind.labels || i >= static_cast<Eigen::Index>(m) * d) {  // no measured value to blame

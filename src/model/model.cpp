@@ -114,7 +114,8 @@ std::vector<ParameterInfo> DeviceModel::parameter_info() const {
     info.push_back({std::string("tool.") + kPoseNames[k], s.tool_slot() + k,
                     k < 3 ? U::kLength : U::kAngle, dof(), k});
   }
-  if (instrument_zero) info.push_back({"instrument.zero", s.instrument_slot(), U::kLength, dof() + 1, 0});
+  if (instrument_zero)
+    info.push_back({"instrument.zero", s.instrument_slot(), U::kLength, dof() + 1, 0});
   return info;
 }
 

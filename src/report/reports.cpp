@@ -247,7 +247,8 @@ namespace {
 // The outcome block's lines for a suspect fit, one a reason.
 std::vector<std::string> suspect_lines(const KinematicFit& k) {
   std::vector<std::string> out;
-  for (const std::string& reason : k.suspect.reasons) out.push_back("warning: suspect fit: " + reason);
+  for (const std::string& reason : k.suspect.reasons)
+    out.push_back("warning: suspect fit: " + reason);
   return out;
 }
 
@@ -256,7 +257,8 @@ std::string outlier_table(const RobustFit& robust) {
   std::vector<std::vector<std::string>> rows;
   for (const OutlierPose& o : robust.outliers) {
     std::string lines = o.lines.size() == 1 ? "line " : "lines ";
-    for (size_t i = 0; i < o.lines.size(); ++i) lines += (i ? ", " : "") + std::to_string(o.lines[i]);
+    for (size_t i = 0; i < o.lines.size(); ++i)
+      lines += (i ? ", " : "") + std::to_string(o.lines[i]);
     rows.push_back({lines, fmt::format("{:.4f}", o.residual * 1e3),
                     fmt::format("{:.1f}", o.statistic), fmt::format("{:.3g}", o.weight)});
   }
@@ -264,9 +266,8 @@ std::string outlier_table(const RobustFit& robust) {
              "<h2>Outliers</h2>\n<p>Poses whose residual exceeds {:.2f} robust sds (robust sd "
              "{:.4g} mm of one component: 1.4826 MAD; Bonferroni over the poses); {}.</p>\n",
              robust.threshold, robust.robust_sd * 1e3,
-             robust.reweighted
-                 ? fmt::format("down-weighted by the {} loss", to_string(robust.loss))
-                 : std::string("not down-weighted")) +
+             robust.reweighted ? fmt::format("down-weighted by the {} loss", to_string(robust.loss))
+                               : std::string("not down-weighted")) +
          html_table({"log lines", "residual [mm]", "residual [robust sd]", "weight [1]"}, rows);
 }
 
@@ -315,11 +316,12 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   }
   for (const ParameterEstimate& e : k.parameters) {
     if (!e.large_change) continue;
+    const DisplayUnit u = display_unit(e.unit);
     o.notes.push_back(fmt::format(
         "warning: {} moved {:.4g} {} from nominal (flagged beyond {} mm / {} mrad): plausible for "
         "a base pose measured in an unknown frame; for a link, check the model and the log",
-        e.name, (e.value - e.nominal) * display_unit(e.unit).scale, display_unit(e.unit).unit,
-        kLargeChangeLength * 1e3, kLargeChangeAngle * 1e3));
+        e.name, (e.value - e.nominal) * u.scale, u.unit, kLargeChangeLength * 1e3,
+        kLargeChangeAngle * 1e3));
   }
   for (const std::string& line : suspect_lines(k)) o.notes.push_back(line);
   for (const std::string& note : result.notes)
