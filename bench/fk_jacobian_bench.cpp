@@ -12,8 +12,8 @@
 #include <numbers>
 #include <random>
 
-#include "hapticcal/io/io.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
 #include "hapticcal/runtime.h"
 #include "hapticcal/study/simulation.hpp"
 #include "kdl_chain.hpp"

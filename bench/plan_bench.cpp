@@ -5,7 +5,7 @@
 // calibration of the default 200-pose problem (BM_Calibrate_Default's work).
 #include "hapticcal/design/plan.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/study/paper.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "ratio_main.hpp"

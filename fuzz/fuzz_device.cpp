@@ -7,8 +7,8 @@
 #include <cstdlib>
 #include <string>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/model_io/device.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

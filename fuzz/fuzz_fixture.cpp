@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <string>
 
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/data_io/fixture.hpp"
 #include "hapticcal/identification/measurement.hpp"
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/fixture_io.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const hapticcal::Log log = [] {

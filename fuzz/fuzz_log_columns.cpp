@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <string>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "round_trip.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -13,7 +13,7 @@
 #include <fstream>
 #include <string>
 
-#include "hapticcal/io/error.hpp"
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/study/study.hpp"
 
 namespace {

@@ -18,10 +18,10 @@
 #include <utility>
 #include <vector>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/urdf.hpp"
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/urdf.hpp"
 
 namespace {
 

@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/data_io/log.hpp"
 
 inline void expect_log_round_trip(const hapticcal::Log& log) {
   const std::string csv = hapticcal::log_to_csv(log);

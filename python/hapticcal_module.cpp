@@ -17,17 +17,20 @@
 #include <variant>
 #include <vector>
 
-#include "hapticcal/design/plan_request.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/core/output_set.hpp"
+#include "hapticcal/data_io/fixture.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/fixture_io.hpp"
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/model_source.hpp"
-#include "hapticcal/io/output_set.hpp"
-#include "hapticcal/io/urdf.hpp"
+#include "hapticcal/jobs/plan_job.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/model_source.hpp"
+#include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/report/calibration_outputs.hpp"
 #include "hapticcal/report/report.hpp"
+#include "hapticcal/report/results_json.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/study.hpp"
 

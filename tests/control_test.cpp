@@ -10,7 +10,7 @@
 #include <kdl/chainjnttojacsolver.hpp>
 #include <random>
 
-#include "hapticcal/io/error.hpp"
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "hapticcal/study/study.hpp"
 #include "kdl_chain.hpp"

@@ -5,8 +5,9 @@
 #include <filesystem>
 #include <random>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/model_io/device.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
 

@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "run_cli.hpp"

@@ -10,10 +10,10 @@
 #include <fstream>
 #include <random>
 
+#include "hapticcal/data_io/fixture.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/fixture_io.hpp"
-#include "hapticcal/io/model_source.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "nlohmann/json.hpp"

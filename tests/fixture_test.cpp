@@ -13,8 +13,8 @@
 #include <sstream>
 
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/model_source.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "identification/stack.hpp"

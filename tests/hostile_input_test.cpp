@@ -20,12 +20,13 @@
 #include <thread>
 #include <vector>
 
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/core/log.hpp"
+#include "hapticcal/core/output_set.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/model_source.hpp"
-#include "hapticcal/io/output_set.hpp"
-#include "hapticcal/io/urdf.hpp"
+#include "hapticcal/model_io/model_source.hpp"
+#include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/runtime.h"
 #include "run_cli.hpp"
 #include "test_models.hpp"

@@ -10,8 +10,8 @@
 #include <set>
 #include <sstream>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/urdf.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "run_cli.hpp"

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/data_io/log.hpp"
 
 namespace hapticcal {
 namespace {

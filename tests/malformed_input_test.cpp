@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/core/files.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
 

@@ -15,9 +15,10 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/urdf.hpp"
+#include "hapticcal/core/files.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/urdf.hpp"
 #include "kdl_chain.hpp"
 #include "kdl_urdf.hpp"
 #include "run_cli.hpp"

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "hapticcal/io/output_set.hpp"
+#include "hapticcal/core/output_set.hpp"
 #include "report/process.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"

@@ -9,7 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/data_io/log.hpp"
+#include "hapticcal/model_io/device.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
 

@@ -13,11 +13,12 @@
 #include <thread>
 #include <vector>
 
+#include "hapticcal/core/log.hpp"
 #include "hapticcal/design/plan.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/model_source.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/study/paper.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "hapticcal/study/study.hpp"

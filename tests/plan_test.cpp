@@ -11,9 +11,10 @@
 #include <random>
 #include <vector>
 
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/study/paper.hpp"
 #include "test_models.hpp"
 

@@ -2,9 +2,8 @@
 // bad logs are made here from simulate's identification log (the paper study,
 // 200 distances) and the Meca500 laser-tracker sets: one distance read as 0 or
 // 30 cm off, one pose 1 cm off (S5, S8), a tracker bumped 3 mm half way (S7).
-#include <gtest/gtest.h>
-
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -13,9 +12,10 @@
 #include <sstream>
 #include <string>
 
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/simulation.hpp"
@@ -39,10 +39,10 @@ struct Study {
   Log ident, val;
   Study() {
     const std::uint64_t seed = trial_seed(sc.seed, 0);
-    ident = written(simulate_measurement_log(sc.actual, sc.measurement, sc.identification_poses,
-                                             sc.identification_readings, sc.noise,
-                                             trial_seed(seed, 0)),
-                    "study");
+    ident =
+        written(simulate_measurement_log(sc.actual, sc.measurement, sc.identification_poses,
+                                         sc.identification_readings, sc.noise, trial_seed(seed, 0)),
+                "study");
     SimulationNoise exact = sc.noise;
     exact.sigma_position = 0;
     val = simulate_log(sc.actual, sc.validation_poses, exact, trial_seed(seed, 1), true, true);
@@ -202,8 +202,7 @@ TEST(InstrumentZero, ACableEncodersOffsetIsIdentifiedAndLeftOutOfTheModel) {
   EXPECT_FALSE(zero->large_change);  // the set-up's, not the device's
   EXPECT_LT(v, 1.2 * v_clean);
   EXPECT_FALSE(r.calibrated.instrument_zero.has_value());  // not the device's
-  EXPECT_EQ(r.calibrated.kinematic_parameters().size(),
-            s.sc.nominal.kinematic_parameters().size());
+  EXPECT_EQ(r.calibrated.kinematic_parameters().size(), s.sc.nominal.kinematic_parameters().size());
   bool noted = false;
   for (const std::string& n : r.notes) noted = noted || n.find("instrument zero") != n.npos;
   EXPECT_TRUE(noted);
@@ -283,7 +282,8 @@ const char* const kMecaSet = "norm_dist_data_0deg_160cube";
 // S8 on real data: one Meca500 pose (3 repeats averaged) 1 cm off.
 TEST(Outliers, OneMeca500Pose1cmOffIsNamedAndDoesNotSpoilTheCalibration) {
   const DeviceModel meca = testing::meca500();
-  const Log cal = testing::meca500_log("cal", kMecaSet), val = testing::meca500_log("val", kMecaSet);
+  const Log cal = testing::meca500_log("cal", kMecaSet),
+            val = testing::meca500_log("val", kMecaSet);
   const double v_clean = validation(calibrate(meca, cal, {}), val);
   const std::vector<std::vector<int>> poses = repeated_poses(cal);
   ASSERT_EQ(poses[20].size(), 3u);
@@ -342,8 +342,8 @@ TEST(Outliers, CommandLineNamesTheLineAndStrictRefusesASuspectFit) {
   bad.distance[57] += 0.3;
   write_file_atomically(dir + "/bad.csv", log_to_csv(bad));
   const std::string model = testing::source_path("data/devices/baser-7dof.yaml");
-  const testing::CliResult r =
-      testing::run_cli("calibrate --model " + model + " --log " + dir + "/bad.csv --out " + dir + "/o");
+  const testing::CliResult r = testing::run_cli("calibrate --model " + model + " --log " + dir +
+                                                "/bad.csv --out " + dir + "/o");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const int line = read_log(dir + "/bad.csv").line[57];
   EXPECT_NE(r.out.find(fmt::format("warning: outlier: log line {}: residual", line)),
@@ -395,14 +395,13 @@ TEST(Outliers, CommandLineNamesTheLineAndStrictRefusesASuspectFit) {
   EXPECT_TRUE(jb["suspect"]["suspect"].get<bool>());
   EXPECT_GT(jb["suspect"]["repeatability_ratio"].get<double>(), 100);
   EXPECT_NE(testing::slurp(dir + "/b/report.html").find("suspect fit"), std::string::npos);
-  const testing::CliResult strict = testing::run_cli("calibrate --strict --model " + meca +
-                                                     " --log " + dir + "/bumped.csv --out " + dir +
-                                                     "/b");
+  const testing::CliResult strict = testing::run_cli(
+      "calibrate --strict --model " + meca + " --log " + dir + "/bumped.csv --out " + dir + "/b");
   EXPECT_EQ(strict.exit_code, 3) << strict.out;
   EXPECT_NE(strict.out.find("status: suspect"), std::string::npos) << strict.out;
   EXPECT_NE(strict.out.find("the previous calibrated.yaml is kept"), std::string::npos);
-  const testing::CliResult unknown = testing::run_cli("calibrate --loss l1 --model " + meca +
-                                                      " --log " + dir + "/bumped.csv");
+  const testing::CliResult unknown =
+      testing::run_cli("calibrate --loss l1 --model " + meca + " --log " + dir + "/bumped.csv");
   EXPECT_EQ(unknown.exit_code, 2);
 }
 

@@ -16,9 +16,9 @@
 #include <thread>
 #include <vector>
 
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/urdf.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/study/paper.hpp"
 #include "kdl_chain.hpp"
 #include "test_models.hpp"

@@ -8,8 +8,10 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/core/log.hpp"
+#include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "hapticcal/study/study.hpp"
 #include "run_cli.hpp"

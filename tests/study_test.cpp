@@ -9,7 +9,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
-#include "hapticcal/io/error.hpp"
+#include "hapticcal/core/error.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
 

@@ -23,9 +23,11 @@
 #include <tuple>
 #include <vector>
 
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/model_io/device.hpp"
 #include "test_models.hpp"
 
 extern char** environ;

@@ -2,7 +2,7 @@
 // chains built by an independent walk of urdfdom's tree; device files through
 // URDF and back; calibrated URDFs read back to the calibrated kinematics with the
 // rest of the document kept; malformed input; the command line.
-#include "hapticcal/io/urdf.hpp"
+#include "hapticcal/model_io/urdf.hpp"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -17,10 +17,11 @@
 #include <random>
 #include <sstream>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "kdl_chain.hpp"
 #include "kdl_urdf.hpp"
 #include "run_cli.hpp"

@@ -11,7 +11,7 @@
 #include <limits>
 #include <string>
 
-#include "hapticcal/io/error.hpp"
+#include "hapticcal/core/error.hpp"
 
 namespace hapticcal::cli {
 

@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <string>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/output_set.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/output_set.hpp"
 
 namespace hapticcal::cli {
 

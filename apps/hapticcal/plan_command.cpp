@@ -6,13 +6,12 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/output_set.hpp"
 #include "hapticcal/design/plan.hpp"
-#include "hapticcal/design/plan_request.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/model_source.hpp"
-#include "hapticcal/io/output_set.hpp"
+#include "hapticcal/jobs/plan_job.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/paper.hpp"
 #include "number_options.hpp"

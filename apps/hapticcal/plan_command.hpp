@@ -5,7 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
-#include "hapticcal/design/plan_request.hpp"
+#include "hapticcal/jobs/plan_job.hpp"
 
 namespace hapticcal::cli {
 

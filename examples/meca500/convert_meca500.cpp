@@ -11,9 +11,11 @@
 #include <numbers>
 #include <sstream>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/model/frame.hpp"
+#include "hapticcal/model_io/device.hpp"
 
 namespace {
 

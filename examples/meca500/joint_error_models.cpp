@@ -15,8 +15,8 @@
 
 #include <iostream>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/evaluate.hpp"
 

@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <numeric>
 
-#include "hapticcal/io/error.hpp"
+#include "hapticcal/core/error.hpp"
 
 namespace hapticcal {
 
@@ -18,6 +18,20 @@ const MeasurementTraits& traits(MeasurementType type) {
                                             {"point", "fixture points", 3, 3},
                                             {"plane", "plane contacts", 1, 3}};
   return table[static_cast<int>(type)];
+}
+
+const std::vector<MeasurementType>& measurement_types() {
+  static const std::vector<MeasurementType> all = {
+      MeasurementType::kDistance, MeasurementType::kPosition, MeasurementType::kPose,
+      MeasurementType::kPoint, MeasurementType::kPlane};
+  return all;
+}
+
+std::optional<MeasurementType> measurement_type_named(const std::string& name) {
+  for (MeasurementType t : measurement_types()) {
+    if (name == traits(t).name) return t;
+  }
+  return std::nullopt;
 }
 
 MeasurementType measurement_type(const Log& log) {

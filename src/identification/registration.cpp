@@ -6,7 +6,7 @@
 #include <Eigen/SVD>
 #include <cmath>
 
-#include "hapticcal/io/error.hpp"
+#include "hapticcal/core/error.hpp"
 
 namespace hapticcal {
 namespace {

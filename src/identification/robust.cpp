@@ -10,8 +10,8 @@
 #include <limits>
 #include <set>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "identification/stack.hpp"
 

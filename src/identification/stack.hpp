@@ -4,13 +4,52 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <map>
+#include <string>
 #include <vector>
 
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "identification/measurement_cost.hpp"
 
+namespace ceres {
+class CostFunction;
+}
+
 namespace hapticcal::detail {
+
+// The cost Levenberg-Marquardt minimises over these poses: every row, or its
+// compressed form (identification.cpp).
+ceres::CostFunction* measurement_cost(const ChainStructure& s,
+                                      const std::vector<Eigen::VectorXd>& joints,
+                                      const RowsOf& kind, const RowMatrix& measured,
+                                      const Eigen::VectorXd& weights, bool compressed);
+// What the model at `params` predicts for these joint values: measurements
+// without error (for the structural analysis, whose rows need a measured value).
+RowMatrix predicted_values(const ChainStructure& s, const Eigen::VectorXd& params,
+                           const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind);
+// The parameter names of `slots`, comma-separated.
+std::string names_of(const std::vector<int>& slots, const std::map<int, std::string>& name);
+// RMS of the per-measurement error, as `evaluate` reports it: the distance error,
+// or the Euclidean norm of the position error. `rows` the log rows behind the
+// residuals (their weights' sum of squares).
+double measurement_rms(double rss, double rows);
+// Checks of a log before it is fitted (input_checks.cpp). Readings outside the
+// model's joint limits: an InputError when most of a joint's readings are out
+// (a unit missing from the header, or another device), unless forced; a warning
+// otherwise.
+void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
+                        std::vector<std::string>& notes);
+// An external encoder's reading beyond any joint's travel: bad input naming its line.
+void check_encoder_readings(const Log& log);
+// A nominal error beyond kImplausibleErrorFraction of the reach, even with the
+// base pose (then also the tool point) fitted: an InputError unless forced.
+void check_reach(const ChainStructure& s, const DeviceModel& nominal,
+                 const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
+                 const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
+                 bool compressed, double rms_before, bool force, std::vector<std::string>& notes);
+// Why a beta is not a candidate (identifiability.cpp).
+std::string beta_left_out_reason(const DeviceModel& model, int link);
 
 // The stacked residuals and identification Jacobian at `params`; compressed
 // (detail::compress_rows) for logs whose Jacobian would not fit in memory.

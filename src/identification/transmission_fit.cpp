@@ -5,8 +5,8 @@
 #include <Eigen/Dense>
 #include <cmath>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/error.hpp"
 #include "identification/capstan_cost.hpp"
 #include "identification/solver_options.hpp"
 

@@ -1,8 +1,9 @@
 #include "hapticcal/report/calibration_outputs.hpp"
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/urdf.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/report/report.hpp"
+#include "hapticcal/report/results_json.hpp"
 
 namespace hapticcal {
 namespace {

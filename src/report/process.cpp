@@ -10,7 +10,7 @@
 #include <cerrno>
 #include <cstring>
 
-#include "io/interrupt.hpp"
+#include "core/interrupt.hpp"
 
 extern char** environ;
 

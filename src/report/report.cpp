@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <limits>
 
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/core/files.hpp"
 #include "report/process.hpp"
 
 namespace hapticcal {

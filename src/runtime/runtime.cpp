@@ -8,9 +8,9 @@
 #include <new>
 #include <string>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 
 struct hapticcal_model {
   explicit hapticcal_model(const hapticcal::DeviceModel& model) : prepared(model) {}

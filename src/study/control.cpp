@@ -7,7 +7,7 @@
 #include <cmath>
 #include <random>
 
-#include "hapticcal/io/error.hpp"
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/evaluate.hpp"
 
@@ -84,8 +84,8 @@ Eigen::Matrix<double, 6, 6> rendering_map(const DeviceModel& actual, const Devic
   }
   for (int i = 0; i < sc.posture.size(); ++i) {  // the library's check, for every caller
     if (!std::isfinite(sc.posture[i])) {
-      throw InputError(fmt::format("--posture: reading {} is {}: give a finite number", i + 1,
-                                   sc.posture[i]));
+      throw InputError(
+          fmt::format("--posture: reading {} is {}: give a finite number", i + 1, sc.posture[i]));
     }
   }
   const Statics a = statics(actual, sc, "actual device"),

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <numeric>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/measurement.hpp"
-#include "hapticcal/io/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {

@@ -5,8 +5,8 @@
 
 #include <cmath>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/registration.hpp"
-#include "hapticcal/io/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "identification/measurement_cost.hpp"

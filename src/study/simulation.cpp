@@ -9,7 +9,7 @@
 #include <numbers>
 #include <random>
 
-#include "hapticcal/io/error.hpp"
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {

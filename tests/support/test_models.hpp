@@ -8,9 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model/model.hpp"
+#include "hapticcal/model_io/device.hpp"
 
 #ifndef HAPTICCAL_SOURCE_DIR
 #error "HAPTICCAL_SOURCE_DIR must be defined"

@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
+#include "hapticcal/core/log.hpp"
 #include "hapticcal/identification/information.hpp"
 #include "hapticcal/identification/measurement.hpp"
-#include "hapticcal/io/io.hpp"
 #include "hapticcal/model/model.hpp"
 
 namespace hapticcal {
@@ -454,16 +454,5 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
 // Draws `samples` distinct row indices of `rows` (all if samples <= 0 or >= rows),
 // reproducibly for a seed on every platform; sorted.
 std::vector<int> sample_rows(int rows, int samples, std::uint64_t seed);
-
-}  // namespace hapticcal
-
-namespace hapticcal {
-
-// results.json (SPEC section 5): every parameter by dotted name with nominal,
-// value, sd and identifiable (transmission parameters included), the condition
-// number, observability indices and RMS before / after. Metres and radians.
-std::string calibration_json(const CalibrationResult& result, const DeviceModel& nominal,
-                             const std::string& model_path, const std::string& log_path,
-                             const CalibrationOptions& options);
 
 }  // namespace hapticcal

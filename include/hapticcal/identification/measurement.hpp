@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "hapticcal/io/io.hpp"
+#include "hapticcal/core/log.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model/frame.hpp"
 
@@ -49,6 +49,10 @@ struct MeasurementTraits {
   int width;           // values a sample: 1, 3, 7 (x, y, z, qw, qx, qy, qz); a fixture's 3 (zeros)
 };
 const MeasurementTraits& traits(MeasurementType type);
+// The kind named `name` (traits(type).name), or none.
+std::optional<MeasurementType> measurement_type_named(const std::string& name);
+// Every kind, in declaration order.
+const std::vector<MeasurementType>& measurement_types();
 
 // What a log measures: fixture points or planes if it has labels, a pose if it
 // has orientations, else positions, else distances (a log with positions and

@@ -4,9 +4,9 @@
 
 #include <string>
 
+#include "hapticcal/core/log.hpp"
+#include "hapticcal/core/output_set.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/output_set.hpp"
 
 namespace hapticcal {
 

@@ -74,8 +74,8 @@ std::string html_table(const std::vector<std::string>& header,
 
 }  // namespace hapticcal
 
+#include "hapticcal/core/log.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/io.hpp"
 #include "hapticcal/study/control.hpp"
 #include "hapticcal/study/study.hpp"
 

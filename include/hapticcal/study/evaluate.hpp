@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/measurement.hpp"
-#include "hapticcal/io/io.hpp"
 #include "hapticcal/model/model.hpp"
 
 namespace hapticcal {
@@ -125,10 +125,5 @@ EvaluationComparison compare_to_reference(const DeviceModel& model, const Device
 // `model` is `ev`) the reference `reference_name`'s figures and eq. (9).
 std::vector<std::string> evaluation_lines(const EvaluationComparison* comparison,
                                           const Evaluation& ev, const std::string& reference_name);
-
-// `evaluate --json`: one JSON object on one line, in metres: n, the RMS and max
-// of each error the log measures, the fixture figures, and with a comparison
-// (whose `model` is `ev`) the reference's figures and eq. (9)'s improvements.
-std::string evaluation_json(const EvaluationComparison* comparison, const Evaluation& ev);
 
 }  // namespace hapticcal

@@ -6,8 +6,8 @@
 #include <utility>
 #include <vector>
 
+#include "hapticcal/core/log.hpp"
 #include "hapticcal/identification/measurement.hpp"
-#include "hapticcal/io/io.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/study/paper.hpp"
 

@@ -223,7 +223,4 @@ struct StudyResult {
 StudyResult run_study(const Scenario& scenario, const std::string& out, int threads,
                       const std::function<void(int, int)>& progress = {});
 
-// results.json of a study.
-std::string study_json(const Scenario& scenario, const StudyResult& result);
-
 }  // namespace hapticcal

@@ -1,4 +1,4 @@
-#include "hapticcal/io/output_set.hpp"
+#include "hapticcal/core/output_set.hpp"
 
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -19,9 +19,9 @@
 #include <sstream>
 #include <thread>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
-#include "io/interrupt.hpp"
+#include "core/interrupt.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
 
 namespace hapticcal {
 namespace {

@@ -1,12 +1,12 @@
-#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/urdf.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/urdf.hpp"
 
 #ifndef HAPTICCAL_DEFAULT_DEVICE
 #error "HAPTICCAL_DEFAULT_DEVICE must be defined"

@@ -1,5 +1,3 @@
-#include "hapticcal/io/fixture_io.hpp"
-
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
@@ -7,9 +5,10 @@
 #include <filesystem>
 #include <set>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
-#include "io/yaml_reader.hpp"
+#include "core/yaml_reader.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/data_io/fixture.hpp"
 
 namespace hapticcal {
 namespace {

@@ -12,7 +12,7 @@
 #include <string_view>
 #include <vector>
 
-#include "hapticcal/io/error.hpp"
+#include "hapticcal/core/error.hpp"
 
 namespace hapticcal::detail {
 

@@ -12,9 +12,9 @@
 #include <sstream>
 #include <vector>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
-#include "io/interrupt.hpp"
+#include "core/interrupt.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
 
 namespace hapticcal {
 namespace {

@@ -1,14 +1,15 @@
-#include "hapticcal/design/plan_request.hpp"
+#include "hapticcal/jobs/plan_job.hpp"
 
 #include <fmt/format.h>
 
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
-#include "hapticcal/io/model_source.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/paper.hpp"
 

@@ -6,10 +6,11 @@
 #include <numbers>
 #include <set>
 
-#include "hapticcal/io/error.hpp"
-#include "hapticcal/io/io.hpp"
+#include "core/yaml_reader.hpp"
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
-#include "io/yaml_reader.hpp"
+#include "hapticcal/model_io/device.hpp"
 
 namespace hapticcal {
 namespace {
@@ -105,9 +106,118 @@ class Reader : public detail::YamlReader {
                      printable(type)));
   }
 
+  // A geometry name: dh or mdh, and urdf in version 2.
+  Geometry geometry(const YAML::Node& node, const std::string& key, bool v2) const {
+    const std::string text = string(node, key);
+    if (text == "dh") return Geometry::kDh;
+    if (text == "mdh") return Geometry::kMdh;
+    if (v2 && text == "urdf") return Geometry::kOrigin;
+    fail(node, key,
+         fmt::format("'{}' is not {}", printable(text), v2 ? "dh, mdh or urdf" : "dh or mdh"));
+  }
+
+  // A pose {xyz: [x, y, z], rpy: [roll, pitch, yaw]} into `out`.
+  void pose(const YAML::Node& node, const std::string& path, std::array<double, 6>& out) const {
+    check_keys(node, path, {"xyz", "rpy"});
+    const auto xyz = numbers(require(node, path, "xyz"), join(path, "xyz"), 3);
+    const auto rpy = numbers(require(node, path, "rpy"), join(path, "rpy"), 3);
+    out = {xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2]};
+  }
+
  private:
   std::string origin_;
 };
+
+// What a device file's header fixes for every link: its version and the
+// convention a link without its own geometry follows.
+struct FileConvention {
+  bool v2 = false;
+  Geometry convention{};
+};
+
+// The base: a DH base {a, alpha, d, theta} or a pose.
+void read_base(const Reader& r, const YAML::Node& root, DeviceModel& model) {
+  const YAML::Node base = r.require(root, "", "base");
+  r.check_keys(base, "base", {"dh", "pose"});
+  if (base.size() != 1) r.fail(base, "base", "give exactly one of dh or pose");
+  if (base["dh"]) {
+    model.base_kind = BaseKind::kDh;
+    const YAML::Node dh = base["dh"];
+    r.check_keys(dh, "base.dh", {"a", "alpha", "d", "theta"});
+    model.base = {r.number(dh, "base.dh", "a"),
+                  r.number(dh, "base.dh", "alpha"),
+                  r.number(dh, "base.dh", "d"),
+                  r.number(dh, "base.dh", "theta"),
+                  0.0,
+                  0.0};
+  } else {
+    model.base_kind = BaseKind::kPose;
+    r.pose(base["pose"], "base.pose", model.base);
+  }
+}
+
+// One entry of `links` (at `path`), read as its file's version and convention
+// allow; the checks against the other links are check_link's.
+Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
+               const FileConvention& file) {
+  Link link;
+  link.geometry = file.convention;
+  if (file.v2 && node.IsMap() && node["geometry"]) {
+    link.geometry = r.geometry(node["geometry"], join(path, "geometry"), file.v2);
+  }
+  if (link.geometry == Geometry::kOrigin) {
+    r.check_keys(
+        node, path,
+        {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission"});
+  } else if (file.v2) {
+    r.check_keys(
+        node, path,
+        {"name", "geometry", "type", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
+  } else {
+    r.check_keys(node, path,
+                 {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
+  }
+  link.name = r.string(r.require(node, path, "name"), join(path, "name"));
+  if (node["type"]) {
+    const std::string type = r.string(node["type"], join(path, "type"));
+    if (type == "revolute") {
+      link.type = JointType::kRevolute;
+    } else if (type == "continuous") {
+      link.type = JointType::kContinuous;
+    } else if (type == "prismatic") {
+      link.type = JointType::kPrismatic;
+    } else {
+      r.fail(node["type"], join(path, "type"),
+             fmt::format("'{}' is not revolute, continuous or prismatic", printable(type)));
+    }
+  }
+  if (link.geometry == Geometry::kOrigin) {
+    r.pose(r.require(node, path, "origin"), join(path, "origin"), link.origin);
+    const auto axis = r.numbers(r.require(node, path, "axis"), join(path, "axis"), 3);
+    link.axis = Eigen::Vector3d(axis[0], axis[1], axis[2]);
+    if (!(link.axis.norm() > 0)) r.fail(node["axis"], join(path, "axis"), "zero axis");
+    link.axis.normalize();
+    if (node["offset"]) link.offset = r.number(node["offset"], join(path, "offset"));
+  } else {
+    link.a = r.number(node, path, "a");
+    link.alpha = r.number(node, path, "alpha");
+    link.d = r.number(node, path, "d");
+    link.theta = r.number(node, path, "theta");
+    if (node["beta"]) link.beta = r.number(node["beta"], join(path, "beta"));
+  }
+  const auto limits = r.numbers(r.require(node, path, "limits"), join(path, "limits"), 2);
+  link.lower = limits[0];
+  link.upper = limits[1];
+  if (!(link.lower < link.upper)) {
+    r.fail(node["limits"], join(path, "limits"),
+           fmt::format("lower {} must be below upper {}", link.lower, link.upper));
+  }
+  if (node["transmission"]) {
+    link.transmission =
+        r.transmission(node["transmission"], join(path, "transmission"), link.lower, link.upper);
+  }
+  return link;
+}
 
 constexpr size_t kMaxLinkName = 64;     // bytes
 constexpr size_t kMaxDeviceName = 200;  // bytes
@@ -248,40 +358,8 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
   model.name = r.string(r.require(root, "", "name"), "name");
   if (const std::string why = device_name_problem(model.name); !why.empty())
     r.fail(root["name"], "name", why);
-  auto geometry_of = [&](const YAML::Node& node, const std::string& key) {
-    const std::string text = r.string(node, key);
-    if (text == "dh") return Geometry::kDh;
-    if (text == "mdh") return Geometry::kMdh;
-    if (v2 && text == "urdf") return Geometry::kOrigin;
-    r.fail(node, key,
-           fmt::format("'{}' is not {}", printable(text), v2 ? "dh, mdh or urdf" : "dh or mdh"));
-  };
-  const Geometry convention = geometry_of(r.require(root, "", "convention"), "convention");
-
-  const YAML::Node base = r.require(root, "", "base");
-  r.check_keys(base, "base", {"dh", "pose"});
-  if (base.size() != 1) r.fail(base, "base", "give exactly one of dh or pose");
-  auto read_pose = [&](const YAML::Node& node, const std::string& path,
-                       std::array<double, 6>& out) {
-    r.check_keys(node, path, {"xyz", "rpy"});
-    const auto xyz = r.numbers(r.require(node, path, "xyz"), join(path, "xyz"), 3);
-    const auto rpy = r.numbers(r.require(node, path, "rpy"), join(path, "rpy"), 3);
-    out = {xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2]};
-  };
-  if (base["dh"]) {
-    model.base_kind = BaseKind::kDh;
-    const YAML::Node dh = base["dh"];
-    r.check_keys(dh, "base.dh", {"a", "alpha", "d", "theta"});
-    model.base = {r.number(dh, "base.dh", "a"),
-                  r.number(dh, "base.dh", "alpha"),
-                  r.number(dh, "base.dh", "d"),
-                  r.number(dh, "base.dh", "theta"),
-                  0.0,
-                  0.0};
-  } else {
-    model.base_kind = BaseKind::kPose;
-    read_pose(base["pose"], "base.pose", model.base);
-  }
+  const FileConvention file{v2, r.geometry(r.require(root, "", "convention"), "convention", v2)};
+  read_base(r, root, model);
 
   const YAML::Node links = r.require(root, "", "links");
   if (!links.IsSequence() || links.size() == 0) r.fail(links, "links", "expected a non-empty list");
@@ -290,64 +368,7 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
   }
   for (size_t i = 0; i < links.size(); ++i) {
     const YAML::Node node = links[i];
-    const std::string path = fmt::format("links[{}]", i);
-    Link link;
-    link.geometry = convention;
-    if (v2 && node.IsMap() && node["geometry"]) {
-      link.geometry = geometry_of(node["geometry"], join(path, "geometry"));
-    }
-    if (link.geometry == Geometry::kOrigin) {
-      r.check_keys(
-          node, path,
-          {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission"});
-    } else if (v2) {
-      r.check_keys(node, path,
-                   {"name", "geometry", "type", "a", "alpha", "d", "theta", "beta", "limits",
-                    "transmission"});
-    } else {
-      r.check_keys(node, path,
-                   {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
-    }
-    link.name = r.string(r.require(node, path, "name"), join(path, "name"));
-    if (node["type"]) {
-      const std::string type = r.string(node["type"], join(path, "type"));
-      if (type == "revolute") {
-        link.type = JointType::kRevolute;
-      } else if (type == "continuous") {
-        link.type = JointType::kContinuous;
-      } else if (type == "prismatic") {
-        link.type = JointType::kPrismatic;
-      } else {
-        r.fail(node["type"], join(path, "type"),
-               fmt::format("'{}' is not revolute, continuous or prismatic", printable(type)));
-      }
-    }
-    if (link.geometry == Geometry::kOrigin) {
-      read_pose(r.require(node, path, "origin"), join(path, "origin"), link.origin);
-      const auto axis = r.numbers(r.require(node, path, "axis"), join(path, "axis"), 3);
-      link.axis = Eigen::Vector3d(axis[0], axis[1], axis[2]);
-      if (!(link.axis.norm() > 0)) r.fail(node["axis"], join(path, "axis"), "zero axis");
-      link.axis.normalize();
-      if (node["offset"]) link.offset = r.number(node["offset"], join(path, "offset"));
-    } else {
-      link.a = r.number(node, path, "a");
-      link.alpha = r.number(node, path, "alpha");
-      link.d = r.number(node, path, "d");
-      link.theta = r.number(node, path, "theta");
-      if (node["beta"]) link.beta = r.number(node["beta"], join(path, "beta"));
-    }
-    const auto limits = r.numbers(r.require(node, path, "limits"), join(path, "limits"), 2);
-    link.lower = limits[0];
-    link.upper = limits[1];
-    if (!(link.lower < link.upper)) {
-      r.fail(node["limits"], join(path, "limits"),
-             fmt::format("lower {} must be below upper {}", link.lower, link.upper));
-    }
-    if (node["transmission"]) {
-      link.transmission =
-          r.transmission(node["transmission"], join(path, "transmission"), link.lower, link.upper);
-    }
-    model.links.push_back(std::move(link));
+    model.links.push_back(read_link(r, node, fmt::format("links[{}]", i), file));
     const auto [key, why] = check_link(model, static_cast<int>(i));
     if (!why.empty()) {
       const YAML::Node at = key.ends_with(".transmission") ? node["transmission"]
@@ -360,7 +381,7 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
   if (root["tool"]) {
     const YAML::Node tool = root["tool"];
     r.check_keys(tool, "tool", {"pose"});
-    read_pose(r.require(tool, "tool", "pose"), "tool.pose", model.tool);
+    r.pose(r.require(tool, "tool", "pose"), "tool.pose", model.tool);
   }
   return model;
 }

@@ -1,0 +1,79 @@
+// The commands of the hapticcal tool besides plan (plan_command.hpp): each
+// registers its subcommand and options on the app, returning the subcommand
+// (true when given), and runs from the options parsed. Parsing and printing
+// only; the work is the library's. Bad input throws hapticcal::InputError
+// (exit 2).
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+#include "command_support.hpp"
+#include "hapticcal/study/control.hpp"
+
+namespace hapticcal::cli {
+
+// `hapticcal calibrate`: two-step identification from a log.
+struct CalibrateOptions {
+  std::string fixture;
+  std::vector<std::string> point_distance;
+  std::string model, log, columns, out = "hapticcal-out/calibrate", fix, free;
+  ChainOptions chain;
+  bool no_transmission = false, force = false, keep_all = false, strict = false;
+  std::string loss = "cauchy";
+  int samples = 0, folds = 5;
+  unsigned long long seed = 1;
+  double sigma = 0;
+  int polynomial_order = 0;
+  double tolerance = 1e-6;
+};
+CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& options);
+// 0, or kExitUnusable when the calibration is not usable (no calibrated model replaced).
+int run_calibrate(const CalibrateOptions& options);
+
+// `hapticcal evaluate`: RMS and max error of a model on a log.
+struct EvaluateOptions {
+  std::string fixture;
+  std::vector<std::string> point_distance;
+  std::string model, log, columns, reference, out = "hapticcal-out/evaluate";
+  std::string register_what;    // --register: frame or frame,tool
+  bool register_given = false;  // --register "" is refused, not taken as absent
+  ChainOptions chain;
+  bool json = false;
+  bool out_given = false;  // --json writes no files unless --out is given
+};
+CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& options);
+// register_given and out_given are set from the parsed command first.
+int run_evaluate(const EvaluateOptions& options);
+
+// `hapticcal simulate`: the paper's simulation study, or one on any device.
+struct SimulateOptions {
+  std::string scenario, out = "hapticcal-out/simulate", device;
+  ChainOptions chain;
+  int trials = 0, threads = 0;
+  long long seed = -1;
+};
+CLI::App* add_simulate_command(CLI::App& app, SimulateOptions& options);
+int run_simulate(const SimulateOptions& options);
+
+// `hapticcal force`: the force-control study (virtual wall, paper Figs 11-12).
+struct ForceOptions {
+  std::string actual, nominal, calibrated, out = "hapticcal-out/force", posture;
+  int lock = -1;  // 1-based; 0: none; -1: the default (ForceScenario::kLockRedundant)
+  ChainOptions chain;
+  hapticcal::ForceScenario scenario;
+};
+CLI::App* add_force_command(CLI::App& app, ForceOptions& options);
+int run_force(ForceOptions options);
+
+// `hapticcal convert`: a device file to URDF or a URDF to a device file.
+struct ConvertOptions {
+  std::string in, out;
+  ChainOptions chain;
+};
+CLI::App* add_convert_command(CLI::App& app, ConvertOptions& options);
+// kExitBadInput, with a line on stderr, when the files are not a pair to convert.
+int run_convert(const ConvertOptions& options);
+
+}  // namespace hapticcal::cli

@@ -1,0 +1,212 @@
+// `hapticcal simulate`: the paper's simulation study (its Tables 2-3 and
+// Figs 8 and 10), or a study of any device and measurement from a scenario.
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "commands.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/core/output_set.hpp"
+#include "hapticcal/model_io/model_source.hpp"
+#include "hapticcal/report/report.hpp"
+#include "hapticcal/report/results_json.hpp"
+#include "hapticcal/study/paper.hpp"
+#include "hapticcal/study/study.hpp"
+#include "number_options.hpp"
+#include "output_summary.hpp"
+#include "terminal.hpp"
+
+namespace hapticcal::cli {
+namespace {
+
+// The validation (Fig. 8) and trajectory (Fig. 10) lines; the figures' numbers
+// and the paper's percentages in the paper's study only.
+void print_validation_and_trajectory(const hapticcal::Scenario& sc,
+                                     const hapticcal::TrialResult& t) {
+  const bool paper = sc.paper_comparison();
+  fmt::print(
+      "Validation ({} poses{}): position RMS {:.4f} -> {:.4f} mm, orientation RMS "
+      "{:.4f} -> {:.4f} mrad{}\n",
+      sc.validation_poses, paper ? ", Fig. 8" : "", t.position_rms_before * 1e3,
+      t.position_rms_after * 1e3, t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3,
+      sc.measurement == hapticcal::MeasurementType::kDistance
+          ? fmt::format(", distance RMS {:.4f} -> {:.4f} mm", t.distance_rms_before * 1e3,
+                        t.distance_rms_after * 1e3)
+          : "");
+  fmt::print(
+      "Trajectory ({:.0f} s at {:.0f} Hz{}): distance RMS {:.4f} mm nominal, {:.4f} mm "
+      "full ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %){}\n",
+      sc.trajectory_seconds, sc.trajectory_rate_hz, paper ? ", Fig. 10" : "",
+      t.trajectory_rms_before * 1e3, t.trajectory_rms_full * 1e3,
+      hapticcal::rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
+      t.trajectory_rms_kinematic * 1e3,
+      hapticcal::rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before),
+      paper ? fmt::format("; paper: {:.1f} % and {:.1f} %", hapticcal::kPaperImprovementFullPct,
+                          hapticcal::kPaperImprovementKinematicOnlyPct)
+            : "");
+}
+
+// A percentage, or "-" where it is undefined (a parameter without deviation).
+std::string pct(double v, int width) {
+  return std::isfinite(v) ? fmt::format("{:{}.2f}", v, width) : fmt::format("{:>{}}", "-", width);
+}
+
+// Beyond the paper's study: the truth as chosen, identified against assigned
+// deviations with their error in Cramer-Rao standard deviations; no paper columns.
+void print_general_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r) {
+  const hapticcal::TrialResult& t = r.first;
+  std::string kinematics =
+      sc.random.enabled()
+          ? fmt::format("random deviations (sd {} m lengths, {} rad angles, seed {})",
+                        sc.random.lengths, sc.random.angles, sc.random.seed)
+          : (sc.paper_device ? std::string("the paper's Table 3 deviations") : "nominal");
+  for (const auto& [name, v] : sc.deviations) kinematics += fmt::format(", {} {:+g}", name, v);
+  fmt::print("Truth: {} transmissions; kinematics {}. Measurement: {} (sigma_m {:.3g} m{})\n",
+             sc.paper_transmissions ? "the paper's (Table 2)" : "the device's own", kinematics,
+             hapticcal::traits(sc.measurement).plural, hapticcal::measurement_sigma(sc),
+             sc.measurement == hapticcal::MeasurementType::kPose
+                 ? fmt::format(", sigma_r {:.3g} rad", sc.noise.sigma_orientation)
+                 : "");
+  const std::vector<hapticcal::StudyRow> rows = hapticcal::study_rows(sc, t.full);
+  auto crlb = [&](const hapticcal::StudyRow& row) {
+    const auto it = r.monte_carlo.find(row.name);
+    if (it == r.monte_carlo.end() || !(it->second.crlb_sd > 0)) return std::string("       -");
+    return fmt::format("{:8.2f}", (row.identified - row.assigned) / it->second.crlb_sd);
+  };
+  fmt::print(
+      "Transmission parameters (assigned = truth; ratio error, radii in mm, angles in deg)\n");
+  fmt::print("  {:<20} {:>12} {:>12} {:>8} {:>8}\n", "parameter", "assigned", "identified", "I %",
+             "err/CRLB");
+  for (const hapticcal::StudyRow& row : rows) {
+    if (!row.capstan) continue;
+    fmt::print("  {:<20} {:>12.6f} {:>12.6f} {} {} {}\n", row.name, row.assigned * row.paper_scale,
+               row.identified * row.paper_scale, pct(row.improvement_pct, 8), crlb(row),
+               row.paper_unit);
+  }
+  fmt::print(
+      "Kinematic parameters: deviation from nominal, assigned and identified (mm, mrad; "
+      "assigned = truth - nominal)\n");
+  fmt::print("  {:<20} {:>10} {:>10} {:>8} {:>8}\n", "parameter", "assigned", "identified", "I %",
+             "err/CRLB");
+  for (const hapticcal::StudyRow& row : rows) {
+    if (row.capstan) continue;
+    const double assigned = (row.assigned - row.nominal) * row.paper_scale;
+    if (!row.held.empty()) {
+      fmt::print("  {:<20} {:>10.4f} {:>10} {:>8} {:>8}   ({})\n", row.name, assigned, "-", "-",
+                 "-", row.held);
+      continue;
+    }
+    fmt::print("  {:<20} {:>10.4f} {:>10.4f} {} {}\n", row.name, assigned,
+               (row.identified - row.nominal) * row.paper_scale, pct(row.improvement_pct, 8),
+               crlb(row));
+  }
+  print_validation_and_trajectory(sc, t);
+}
+
+void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r) {
+  if (!sc.paper_comparison()) return print_general_study(sc, r);
+  const hapticcal::TrialResult& t = r.first;
+  const auto& mc = r.monte_carlo;
+  const bool many = r.trials > 1;
+  auto paper = [](const std::string& name) {
+    const auto p = hapticcal::paper_improvement_pct(name);
+    return p ? fmt::format("{:7.2f}", *p) : std::string("      -");
+  };
+  const std::vector<hapticcal::StudyRow> rows = hapticcal::study_rows(sc, t.full);
+  auto monte_carlo = [&](const hapticcal::StudyRow& row) {
+    if (!many) return std::string();
+    const auto& m = mc.at(row.name);
+    return fmt::format("  {:9.2f}  {:9.3f}", m.mean_improvement_pct, m.efficiency);
+  };
+  fmt::print("Table 2 analogue: capstan drives (assigned = truth; I % by paper eq. 8)\n");
+  fmt::print("  {:<16} {:>12} {:>12} {:>8} {:>8}{}\n", "parameter", "assigned", "identified", "I %",
+             "paper", many ? "   mean I %   RMSE/CRLB" : "");
+  for (const hapticcal::StudyRow& row : rows) {
+    if (!row.capstan) continue;
+    fmt::print("  {:<16} {:>12.6f} {:>12.6f} {:>8.2f} {}{}{}\n", row.name,
+               row.assigned * row.paper_scale, row.identified * row.paper_scale,
+               row.improvement_pct, paper(row.name), monte_carlo(row),
+               row.paper_unit.empty() ? "" : " " + row.paper_unit);
+  }
+  for (const hapticcal::TransmissionFit& f : t.full.transmissions) {
+    if (f.type != "polynomial") continue;
+    fmt::print("  {}: {}th-order polynomial, RMS residual {:.3g} mrad (Fig. 7: fig7_{}.csv)\n",
+               sc.nominal.links[f.joint].name, f.value.size(), f.rms_after * 1e3,
+               sc.nominal.links[f.joint].name);
+  }
+  fmt::print(
+      "Table 3 analogue: kinematic deviations from nominal (assigned = truth - nominal; mm, "
+      "mrad)\n");
+  fmt::print("  {:<12} {:>10} {:>10} {:>8} {:>8}{}\n", "parameter", "assigned", "identified", "I %",
+             "paper", many ? "   mean I %   RMSE/CRLB" : "");
+  for (const hapticcal::StudyRow& row : rows) {
+    if (row.capstan) continue;
+    const double assigned = (row.assigned - row.nominal) * row.paper_scale;
+    if (!row.held.empty()) {
+      fmt::print("  {:<12} {:>10.3f} {:>10} {:>8} {:>8}   ({})\n", row.name, assigned, "-", "-",
+                 "-", row.held);
+      continue;
+    }
+    fmt::print("  {:<12} {:>10.3f} {:>10.3f} {:>8.2f} {}{}\n", row.name, assigned,
+               (row.identified - row.nominal) * row.paper_scale, row.improvement_pct,
+               paper(row.name), monte_carlo(row));
+  }
+  print_validation_and_trajectory(sc, t);
+}
+
+}  // namespace
+
+CLI::App* add_simulate_command(CLI::App& app, SimulateOptions& o) {
+  o.device = hapticcal::builtin_device_path();  // --device's default
+  auto* simulate = app.add_subcommand(
+      "simulate",
+      "Run the paper's simulation study (main job), or one on any device and measurement");
+  simulate->add_option("--scenario", o.scenario, "Scenario file (YAML)");
+  simulate->add_option("--trials", o.trials, "Monte Carlo trials (default 1)")
+      ->check(whole_number(1, 100000));
+  simulate->add_option("--seed", o.seed, "Random seed (default 1)")->check(whole_number(0));
+  simulate->add_option("--threads", o.threads, "Threads (default: all cores)")
+      ->check(whole_number(1, 256));
+  simulate->add_option("--device", o.device,
+                       "Nominal device file or URDF (default: the built-in 7-DOF)");
+  simulate->add_option("--out", o.out, "Output directory (default hapticcal-out/simulate)");
+  add_chain_options(simulate, o.chain);
+  return simulate;
+}
+
+int run_simulate(const SimulateOptions& o) {
+  if (o.scenario.empty()) o.chain.check_used({o.device});
+  hapticcal::Scenario sc =
+      o.scenario.empty()
+          ? hapticcal::default_scenario(o.device, o.chain.tip, o.chain.root)
+          : hapticcal::load_scenario(o.scenario, o.device, o.chain.tip, o.chain.root);
+  if (o.trials > 0) sc.trials = o.trials;
+  if (o.seed >= 0) sc.seed = static_cast<std::uint64_t>(o.seed);
+  const int threads = o.threads > 0 ? o.threads : std::max(1u, std::thread::hardware_concurrency());
+  fmt::print("hapticcal simulate: {} trial(s), seed {}, {} thread(s), device {}\n", sc.trials,
+             sc.seed, std::min(threads, sc.trials), sc.device_path);
+  const bool bar = sc.trials > 1 && isatty(2);
+  hapticcal::OutputSet out(o.out, "simulate");
+  const hapticcal::StudyResult r = hapticcal::run_study(sc, out.dir(), threads, [&](int k, int n) {
+    if (!bar) return;
+    const int width = 40, filled = width * k / n;
+    hapticcal::cli::say(stderr, "\r[{}{}] {}/{}", std::string(filled, '#'),
+                        std::string(width - filled, ' '), k, n);
+    if (k == n) hapticcal::cli::say(stderr, "\n");
+  });
+  print_study(sc, r);
+  hapticcal::write_file_atomically(out.dir() + "/results.json", hapticcal::study_json(sc, r));
+  const std::string reported = report(hapticcal::study_report(sc, r), out.dir(), o.out);
+  out.commit();
+  fmt::print("{}", reported);
+  fmt::print("{}", hapticcal::cli::output_summary(out, o.out));
+  return 0;
+}
+
+}  // namespace hapticcal::cli

@@ -1,0 +1,43 @@
+// A measurement log in memory (SPEC section 5): joint readings, external
+// encoders and what the instrument measured, one row a sample, SI units. A
+// project-wide type: read by data_io/log.hpp, used by every layer above core.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+namespace hapticcal {
+
+// The unit a joint-reading column was given in: none (SI), an angle or a length
+// (a prismatic joint's; check_log_fits matches it to the model's joint types).
+enum class ReadingUnit { kNone, kAngle, kLength };
+
+// A measurement log: one row per sample, SI units (converted from the column units).
+struct Log {
+  std::string origin;
+  int rows = 0;
+  Eigen::MatrixXd q;                  // rows x dof, joint readings [rad; m for prismatic joints]
+  std::vector<ReadingUnit> q_unit;    // per joint, as the header gave it
+  std::vector<std::string> q_column;  // per joint, the header's name (for messages)
+  std::vector<ReadingUnit> ext_unit;  // likewise for the ext<i> columns
+  std::vector<std::string> ext_column;
+  Eigen::MatrixXd ext;        // rows x dof, external encoders [rad]; columns without one are 0
+  std::vector<bool> has_ext;  // per joint
+  Eigen::VectorXd distance;   // [m], if has_distance
+  Eigen::MatrixXd position;   // rows x 3 [m], if has_position
+  Eigen::VectorXd t;          // [s], if has_time
+  // rows x 4 unit quaternions (w, x, y, z) of the tool in the measurement frame, if
+  // has_orientation (which needs has_position: a pose is position and orientation).
+  Eigen::MatrixXd orientation;
+  bool has_distance = false, has_position = false, has_time = false;
+  bool has_orientation = false;
+  // Fixture logs: each row's label (has_point: the fixed point the tool point is
+  // at; has_plane: the plane it touches); no measured values.
+  std::vector<std::string> label;
+  bool has_point = false, has_plane = false;
+  std::vector<int> line;  // source line of each row
+  int dof() const { return static_cast<int>(q.cols()); }
+};
+
+}  // namespace hapticcal

@@ -1,0 +1,641 @@
+// The whole calibration (SPEC section 4): step 1, step 2, the model selection
+// and the fit's statistics, composed of the public stages.
+#include <ceres/ceres.h>
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <map>
+#include <numeric>
+#include <random>
+#include <unordered_map>
+
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/log_fit.hpp"
+#include "hapticcal/identification/registration.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "identification/measurement_cost.hpp"
+#include "identification/solver_options.hpp"
+#include "identification/stack.hpp"
+
+namespace hapticcal {
+namespace {
+
+constexpr int kDefaultFolds = 5;
+constexpr int kIterations = 100;  // Levenberg-Marquardt's limit
+constexpr int kFixtureIterations =
+    500;  // for fixture points and planes  // model selection when cross-validation is off
+
+using detail::beta_left_out_reason;
+using detail::check_encoder_readings;
+using detail::check_joint_limits;
+using detail::check_reach;
+using detail::CompressedMeasurementCost;
+using detail::measurement_cost;
+using detail::measurement_rms;
+using detail::measurement_rows;
+using detail::MeasurementCost;
+using detail::names_of;
+using detail::position_rss;
+using detail::residuals_at;
+using detail::RowMatrix;
+using detail::rows_of;
+using detail::RowsOf;
+using detail::Stack;
+using detail::stack;
+
+}  // namespace
+
+double identified_instrument_zero(const KinematicFit& fit) {
+  for (const ParameterEstimate& e : fit.parameters) {
+    if (e.name == "instrument.zero" && e.identifiable) return e.value;
+  }
+  return 0;
+}
+
+namespace {
+
+// What the identified zero of a distance instrument means for the user.
+std::string instrument_zero_note(const ParameterEstimate& zero) {
+  return fmt::format(
+      "the distances carry an instrument zero (instrument.zero) of {:+.3f} +- {:.3f} mm, fitted "
+      "with the device: the encoder's offset, not the device's, so the calibrated model leaves "
+      "it out; subtract it from this encoder's readings (--fix instrument.zero assumes none)",
+      zero.value * 1e3, zero.sd * 1e3);
+}
+
+// How far the measurement frame (base) and the tool point moved: the set-up's
+// unknowns, reported, not flagged.
+std::string setup_change_note(const DeviceModel& nominal, const DeviceModel& calibrated) {
+  const auto frame = [](const std::array<double, 6>& v) {
+    return pose_frame(v[0], v[1], v[2], v[3], v[4], v[5]);
+  };
+  const Frame<double> b0 = frame(nominal.base), b1 = frame(calibrated.base);
+  const Frame<double> t0 = frame(nominal.tool), t1 = frame(calibrated.tool);
+  return fmt::format(
+      "the measurement frame (base) moved {:.1f} mm and {:.2f} deg from the model's, the tool "
+      "point {:.1f} mm: the set-up's unknowns (the tracker's frame, the marker's offset), not "
+      "changes of the robot",
+      (b1.p - b0.p).norm() * 1e3, Eigen::AngleAxisd(b0.R.transpose() * b1.R).angle() * 180 / M_PI,
+      (t1.p - t0.p).norm() * 1e3);
+}
+
+// RMS scatter of repeated measurements about their pose's mean (`means`, the
+// average_repeats of `log` over `poses`; Euclidean for positions), with
+// rows - poses degrees of freedom; NaN without repeats.
+double repeatability(const Log& log, const std::vector<std::vector<int>>& poses, const Log& means,
+                     const RowsOf& kind) {
+  if (is_fixture(kind.type)) return std::numeric_limits<double>::quiet_NaN();  // nothing measured
+  double sum = 0;
+  int dof = 0;
+  for (size_t g = 0; g < poses.size(); ++g) {
+    dof += static_cast<int>(poses[g].size()) - 1;
+    for (int r : poses[g]) {
+      sum += kind.type != MeasurementType::kDistance
+                 ? (log.position.row(r) - means.position.row(g)).squaredNorm()
+                 : std::pow(log.distance[r] - means.distance[g], 2);
+    }
+  }
+  return dof > 0 ? std::sqrt(sum / dof) : std::numeric_limits<double>::quiet_NaN();
+}
+
+// The outcome: a numerical failure, then no convergence, then parameters the
+// data do not excite; else converged.
+void set_status(CalibrationResult& result, const std::vector<int>& identified) {
+  const KinematicFit& fit = result.kinematics;
+  bool finite = std::isfinite(fit.rms_after) && std::isfinite(fit.rms_before) &&
+                result.calibrated.kinematic_parameters().allFinite();
+  std::string unexcited, transmissions_failed;
+  for (const ParameterEstimate& e : fit.parameters) {
+    finite = finite && (!e.identifiable || std::isfinite(e.sd));
+    if (e.reason.rfind("not excited", 0) == 0)
+      unexcited += (unexcited.empty() ? "" : ", ") + e.name;
+  }
+  for (const TransmissionFit& t : result.transmissions) {
+    finite = finite && t.value.allFinite() && std::isfinite(t.offset) && std::isfinite(t.rms_after);
+    if (!t.converged) {
+      transmissions_failed +=
+          (transmissions_failed.empty() ? "" : ", ") + result.calibrated.links[t.joint].name;
+    }
+  }
+  if (!finite || fit.numerical_failure) {
+    result.status = CalibrationStatus::kNumericalFailure;
+    result.status_reason = fit.numerical_failure
+                               ? "the solver failed: " + fit.termination
+                               : "the fit produced non-finite values (a measurement too large "
+                                 "for the model, or a degenerate model)";
+  } else if (!transmissions_failed.empty()) {
+    result.status = CalibrationStatus::kNotConverged;
+    result.status_reason =
+        "the transmission fit (step 1) did not converge for " + transmissions_failed;
+  } else if (!identified.empty() && !fit.converged) {
+    result.status = CalibrationStatus::kNotConverged;
+    result.status_reason = fmt::format("Levenberg-Marquardt did not converge in {} iterations ({})",
+                                       fit.iterations, fit.termination);
+  } else if (identified.empty() && fit.model_selection && fit.structurally_identified > 0) {
+    result.status = CalibrationStatus::kConverged;
+    result.status_reason =
+        "model selection: these data support no change from the model (every identifiable "
+        "parameter held at nominal)";
+  } else if (identified.empty()) {
+    result.status = CalibrationStatus::kRankDeficient;
+    result.status_reason = "no parameter is identifiable from these measurements";
+  } else if (fit.rank_deficient) {
+    result.status = CalibrationStatus::kRankDeficient;
+    result.status_reason = "these measurements do not excite " + unexcited +
+                           " (measure poses that move them, or hold them with --fix to calibrate "
+                           "the rest)";
+  } else {
+    result.status = CalibrationStatus::kConverged;
+    result.status_reason = fmt::format("converged in {} iterations", fit.iterations);
+  }
+}
+
+// The outliers' log lines (the rows of their poses), and a note of how many
+// were flagged and whether they were down-weighted.
+void name_outliers(RobustFit& robust, const Log& log, const std::vector<std::vector<int>>& poses,
+                   std::vector<std::string>& notes) {
+  for (OutlierPose& o : robust.outliers) {
+    for (int row : poses[static_cast<size_t>(o.pose)]) o.lines.push_back(log.line[row]);
+  }
+  if (robust.outliers.empty()) return;
+  notes.push_back(fmt::format(
+      "{} pose{} flagged as outlier{} (residual beyond {:.2f} robust sds of {:.4g} mm, Bonferroni "
+      "over the poses): {}",
+      robust.outliers.size(), robust.outliers.size() == 1 ? "" : "s",
+      robust.outliers.size() == 1 ? "" : "s", robust.threshold, robust.robust_sd * 1e3,
+      robust.reweighted ? fmt::format("down-weighted by the {} loss (--loss none: plain least "
+                                      "squares)",
+                                      to_string(robust.loss))
+                        : std::string("not down-weighted") +
+                              (robust.note.empty() ? " (--loss none)" : " (" + robust.note + ")")));
+}
+
+// --strict: a suspect fit is unusable.
+void refuse_suspect(CalibrationResult& result, bool strict) {
+  const SuspectFit& suspect = result.kinematics.suspect;
+  if (!strict || !suspect.suspect || result.status != CalibrationStatus::kConverged) return;
+  result.status = CalibrationStatus::kSuspect;
+  result.status_reason = "suspect fit (--strict): " + suspect.reasons.front();
+}
+
+}  // namespace
+
+namespace {
+
+// The options a caller may get wrong, checked before anything is read (the
+// CLI's ranges, for every caller: Python passed 1.0 and inf).
+void check_options(const CalibrationOptions& options) {
+  if (options.samples < 0) throw InputError("--samples must not be negative");
+  if (!(options.dependency_tolerance >= 1e-12 && options.dependency_tolerance <= 0.5)) {
+    throw InputError(fmt::format("--dependency-tolerance {}: not in [1e-12, 0.5]",
+                                 options.dependency_tolerance));
+  }
+  for (const std::string& name : options.fix) {
+    if (std::find(options.free.begin(), options.free.end(), name) != options.free.end()) {
+      throw InputError(fmt::format("'{}' is given to both --fix and --free", printable(name)));
+    }
+  }
+  if (!(options.selection_alpha > 0 && options.selection_alpha < 1)) {
+    throw InputError(
+        fmt::format("model selection level {} is not in (0, 1)", options.selection_alpha));
+  }
+  if (options.folds < 0 || options.folds == 1) {
+    throw InputError(fmt::format("--folds {}: K-fold cross-validation needs K = 0 (none) or K >= 2",
+                                 options.folds));
+  }
+  if (options.sigma && !(*options.sigma > 0 && std::isfinite(*options.sigma))) {
+    throw InputError("--sigma must be a positive number of metres");
+  }
+}
+
+// One calibration on its way through the stages: what each stage leaves for
+// the next.
+struct CalibrationRun {
+  const DeviceModel& nominal;
+  const Log& log;
+  const CalibrationOptions& options;
+  CalibrationResult& result;
+  KinematicFit& fit;
+  Log poses;                 // one row a pose: repeats averaged
+  std::vector<int> repeats;  // per pose
+  int m = 0;                 // poses
+  DeviceModel model;         // step 1's transmissions; after step 2 the calibrated model
+  // Step 2's parameter vector at the start: the nominal, with the instrument's
+  // zero (at 0) if step 2 estimates it.
+  DeviceModel step2_nominal;
+  std::vector<std::string> fix;  // options.fix less instrument.zero
+  KinematicProblem problem;
+  std::vector<int> candidates;
+  std::vector<int> identified;
+  std::map<int, std::string> reason;  // held candidates: why
+  std::vector<int> held_by_selection;
+  Eigen::VectorXd scale;          // per slot, from the identifiability analysis
+  Eigen::VectorXd plain_weights;  // before the robust reweighting
+  KinematicSolution solution;
+  Stack data;                       // residuals and Jacobian at the solution
+  std::map<int, std::string> name;  // slot -> parameter name
+  int iterations = kIterations;
+  Eigen::VectorXd p;  // the solution, angles wrapped to the start's period
+  Eigen::MatrixXd covariance;
+
+  CalibrationRun(const DeviceModel& nominal_, const Log& log_, const CalibrationOptions& options_,
+                 CalibrationResult& result_)
+      : nominal(nominal_), log(log_), options(options_), result(result_), fit(result_.kinematics) {}
+  RowsOf kind() const { return rows_of(problem); }
+};
+
+// The poses of the fit: a sample of the log's (--samples), repeats of a pose
+// averaged (one pose, one row of the fit).
+void prepare_poses(CalibrationRun& run) {
+  const std::vector<std::vector<int>> all_poses = repeated_poses(run.log);
+  for (int g :
+       sample_rows(static_cast<int>(all_poses.size()), run.options.samples, run.options.seed)) {
+    run.result.poses.push_back(all_poses[g]);
+    run.result.rows.push_back(all_poses[g].front());
+    run.repeats.push_back(static_cast<int>(all_poses[g].size()));
+  }
+  run.poses = average_repeats(run.log, run.result.poses);
+  run.m = run.poses.rows;
+  KinematicFit& fit = run.fit;
+  fit.type = measurement_type(run.log);
+  fit.poses = run.m;
+  fit.rows = std::accumulate(run.repeats.begin(), run.repeats.end(), 0);
+  fit.repeatability = repeatability(run.log, run.result.poses, run.poses, RowsOf{fit.type});
+  if (run.log.has_position && run.log.has_distance) {
+    run.result.notes.push_back("the log has positions and distances: positions are used");
+  }
+}
+
+// A distance instrument's own zero (a cable encoder's offset) is a candidate
+// of step 2, after every parameter of the device. `step2_nominal` is the
+// nominal with it (at zero): step 2's parameter vector.
+// --fix instrument.zero (or options.instrument_zero false): no slot at all.
+// (Other logs have no such parameter: fixing it is refused as unknown.)
+void offer_instrument_zero(CalibrationRun& run) {
+  const bool distances = run.fit.type == MeasurementType::kDistance && run.options.instrument_zero;
+  run.fix = run.options.fix;
+  const auto fixed_zero = std::find(run.fix.begin(), run.fix.end(), "instrument.zero");
+  const bool zero_fixed = distances && fixed_zero != run.fix.end();
+  if (zero_fixed) run.fix.erase(fixed_zero);
+  if (distances && !zero_fixed) run.model.instrument_zero = 0.0;
+  run.step2_nominal = run.nominal;
+  run.step2_nominal.instrument_zero = run.model.instrument_zero;
+}
+
+// Too few measurements for `parameters` (the structural rank before these
+// poses' own analysis, or the identifiable ones after it). A fixture's points
+// or planes take 3 unknowns each out of its rows (known points none).
+void check_enough_rows(const CalibrationRun& run, std::size_t parameters, const char* what) {
+  const int m = run.m;
+  const int nuisance = run.problem.labels.unknowns();
+  const int kind_rows = run.kind().rows(m);
+  if (kind_rows - nuisance > static_cast<int>(parameters)) return;
+  throw InputError(
+      run.log.origin, 0, "",
+      fmt::format("too few measurements: {} pose{} give{} {} residual{}{} for {} {} parameters", m,
+                  m == 1 ? "" : "s", m == 1 ? "s" : "", kind_rows - nuisance,
+                  kind_rows - nuisance == 1 ? "" : "s",
+                  nuisance ? fmt::format(" (less 3 a fixture point or plane)") : std::string(),
+                  parameters, what));
+}
+
+// The nominal model's error on the poses: finite on every row (else the row
+// with the largest measured value is named), and plausible for this device
+// (check_reach). Sets fit.rms_before.
+void check_nominal(CalibrationRun& run) {
+  const int m = run.m;
+  const int d = traits(run.fit.type).dimension;
+  const ChainStructure s = run.model.structure();
+  const RowsOf kind = run.kind();
+  const PreparedModel prepared_nominal(run.nominal);
+  std::vector<Eigen::VectorXd> nominal_joints(m, Eigen::VectorXd(run.model.dof()));
+  for (int i = 0; i < m; ++i) {
+    const Eigen::VectorXd qi = run.poses.q.row(i).transpose();
+    prepared_nominal.compensate(qi.data(), nominal_joints[i].data());
+  }
+  const Eigen::VectorXd r0 =
+      residuals_at(s, run.step2_nominal.kinematic_parameters(), nominal_joints, kind,
+                   run.problem.measured, run.problem.weights);
+  for (Eigen::Index i = 0; i < r0.size(); ++i) {
+    if (std::isfinite(r0[i] * r0[i])) continue;
+    if (kind.labels || i >= static_cast<Eigen::Index>(m) * d) {  // no measured value to blame
+      throw InputError(run.log.origin, 0, "",
+                       "the nominal model's tool point is not finite on some row: a reading is "
+                       "too large");
+    }
+    // The row of the pose with the largest measured value is the culprit.
+    auto size = [&](int row) {
+      return kind.type == MeasurementType::kDistance ? std::abs(run.log.distance[row])
+                                                     : run.log.position.row(row).norm();
+    };
+    const std::vector<int>& rows = run.result.poses[i / d];
+    const int culprit = *std::max_element(rows.begin(), rows.end(),
+                                          [&](int a, int b) { return size(a) < size(b); });
+    throw InputError(run.log.origin, run.log.line[culprit], "",
+                     "the nominal model's error on this row is not finite: a value is too large");
+  }
+  run.fit.rms_before = measurement_rms(position_rss(r0, kind), run.fit.rows);
+  DeviceModel registered = run.step2_nominal;  // the nominal in the registered frame, if it was
+  registered.base = run.problem.model.base;
+  check_reach(s, registered, nominal_joints, kind, run.problem.measured, run.problem.weights,
+              run.fit.rows, run.problem.compressed, run.fit.rms_before, run.options.force,
+              run.result.notes);
+}
+
+// Step 2's problem: the poses with step 1's transmissions, the candidates,
+// the measurement frame registered if it is unknown, the nominal checked.
+void build_problem(CalibrationRun& run) {
+  run.problem = kinematic_problem(run.model, run.poses, run.repeats, run.options);
+  run.candidates = candidate_slots(run.model, run.fix, run.options.free);
+  if (run.m < 2) check_enough_rows(run, run.candidates.size(), "candidate");
+  KinematicFit& fit = run.fit;
+  fit.frame_registered = register_measurement_frame(run.problem, run.candidates, run.result.notes);
+  run.problem.frame_unknown =
+      measurement_frame_unknown(run.problem, run.candidates, fit.frame_registered);
+  fit.length_scale = run.problem.length_scale;
+  fit.rotation_scale = run.problem.rotation_scale;
+  check_nominal(run);
+}
+
+// Identifiability, then Levenberg-Marquardt over the identified parameters,
+// outliers named and down-weighted by the robust loss (problem.weights).
+void identify_and_solve(CalibrationRun& run) {
+  const IdentifiabilityAnalysis analysis =
+      analyze_identifiability(run.problem, run.candidates, run.options.dependency_tolerance);
+  run.identified = analysis.identified;
+  run.reason = analysis.reason;
+  run.scale = analysis.scale;
+  KinematicFit& fit = run.fit;
+  fit.rank_deficient = analysis.rank_deficient;
+  check_enough_rows(
+      run,
+      run.identified.size() +
+          std::count_if(run.reason.begin(), run.reason.end(),
+                        [](const auto& r) { return r.second.rfind("not excited", 0) == 0; }),
+      "identifiable");
+  fit.structurally_identified = static_cast<int>(run.identified.size());
+  // A fixture problem's cost is flat along motions its unknown points nearly
+  // absorb: Levenberg-Marquardt needs more steps (the MUKCa Panda: up to 130).
+  run.iterations = is_fixture(run.problem.type) ? kFixtureIterations : kIterations;
+  run.solution = solve_kinematics(run.problem, run.identified, run.iterations);
+  run.plain_weights = run.problem.weights;
+  fit.robust = reweight_outliers(run.problem, run.identified, run.solution, run.options.loss,
+                                 run.options.outlier_alpha, run.iterations);
+  name_outliers(fit.robust, run.log, run.result.poses, run.result.notes);
+  // The residuals and Jacobian at the fit, for selection, cross-validation and statistics.
+  const ChainStructure s = run.model.structure();
+  run.data = stack(s, run.solution.parameters, run.problem.joints, run.kind(), run.problem.measured,
+                   run.problem.weights, run.problem.compressed);
+  for (const ParameterInfo& pi : run.model.parameter_info()) run.name[pi.slot] = pi.name;
+}
+
+// The fit again with the parameters the selection held back at their start: from
+// the full fit, a few iterations (none if the selection kept nothing).
+KinematicSolution refit_selected(const CalibrationRun& run, const ModelSelection& selection,
+                                 const std::vector<int>& held) {
+  const Eigen::VectorXd start = run.problem.model.kinematic_parameters();
+  KinematicSolution refit;
+  if (selection.kept.empty()) {
+    // The data support no change from the model: it stays as it is.
+    refit.parameters = start;
+    refit.termination = SolveTermination::kConverged;
+    refit.message = "model selection: no parameter changed";
+    return refit;
+  }
+  KinematicProblem warm = run.problem;
+  Eigen::VectorXd from = run.solution.parameters;
+  for (int slot : held) from[slot] = start[slot];
+  warm.model.set_kinematic_parameters(from);
+  return solve_kinematics(warm, selection.kept, run.iterations);
+}
+
+// Model selection: hold what the data do not support, and fit again.
+void select_parameters(CalibrationRun& run) {
+  KinematicFit& fit = run.fit;
+  const int selection_folds = run.options.folds >= 2 ? run.options.folds : kDefaultFolds;
+  if (run.options.keep_all) {
+    fit.selection_note = "off (--keep-all)";
+    return;
+  }
+  if (run.solution.termination != SolveTermination::kConverged) {
+    fit.selection_note = "skipped: the fit of every identifiable parameter did not converge";
+    return;
+  }
+  if (run.problem.compressed) {
+    fit.selection_note = "skipped: the log is too long for per-pose fits (compressed Jacobian)";
+    run.result.notes.push_back("model selection " + fit.selection_note);
+    return;
+  }
+  const ModelSelection selection =
+      detail::select_model(run.problem, run.identified, run.solution.parameters, run.data,
+                           run.options.selection_alpha, selection_folds, run.options.seed);
+  fit.model_selection = true;
+  fit.selection_folds = std::min(selection_folds, run.m);
+  fit.selection_path = selection.path;
+  if (selection.kept.size() >= run.identified.size()) return;
+  std::vector<int> held;
+  for (const auto& [slot, why] : selection.reason) held.push_back(slot);
+  const KinematicSolution refit = refit_selected(run, selection, held);
+  if (refit.termination != SolveTermination::kConverged) {
+    fit.model_selection = false;
+    fit.selection_note =
+        "its re-fit did not converge (" + refit.message + "): every identifiable parameter kept";
+    run.result.notes.push_back("model selection: " + fit.selection_note);
+    return;
+  }
+  run.identified = selection.kept;
+  run.solution = refit;
+  run.held_by_selection = held;
+  for (const auto& [slot, why] : selection.reason) run.reason[slot] = why;
+  run.data = stack(run.model.structure(), run.solution.parameters, run.problem.joints, run.kind(),
+                   run.problem.measured, run.problem.weights);
+  run.result.notes.push_back(fmt::format(
+      "model selection held {} of the {} identifiable parameters at nominal (not supported "
+      "by these data; --keep-all keeps them): {}",
+      held.size(), fit.structurally_identified, names_of(held, run.name)));
+}
+
+// Cross-validation (--folds), the solver's outcome, and the calibrated model:
+// angles are periodic, so a step that went round (a real fit turned a flange's
+// pitch by 11 rad) is the same model with the deviation in (-pi, pi].
+void finish_solution(CalibrationRun& run) {
+  KinematicFit& fit = run.fit;
+  const KinematicSolution& solution = run.solution;
+  fit.identified = static_cast<int>(run.identified.size());
+  if (run.options.folds >= 2 && solution.termination == SolveTermination::kConverged) {
+    const CrossValidation cv = detail::cross_validate(run.problem, run.identified, run.data,
+                                                      run.options.folds, run.options.seed);
+    fit.cv_rms = cv.rms;
+    fit.cv_folds = cv.folds;
+    fit.cv_note = cv.note;
+  } else if (run.options.folds >= 2) {
+    fit.cv_note = "not computed: the fit did not converge";
+  }
+  fit.converged = solution.termination == SolveTermination::kConverged;
+  fit.numerical_failure = solution.termination == SolveTermination::kFailure;
+  fit.iterations = solution.iterations;
+  fit.termination = solution.message;
+  if (solution.termination == SolveTermination::kNothingToSolve) {
+    run.result.notes.push_back(fit.termination);
+  } else if (!fit.converged) {
+    run.result.notes.push_back("step 2 did not converge: " + solution.message);
+  }
+  run.p = solution.parameters;
+  const Eigen::VectorXd start = run.problem.model.kinematic_parameters();
+  for (const ParameterInfo& pi : run.problem.model.parameter_info()) {
+    if (pi.unit != ParameterUnit::kAngle) continue;
+    run.p[pi.slot] = start[pi.slot] + std::remainder(run.p[pi.slot] - start[pi.slot], 2 * M_PI);
+  }
+  const ChainStructure s = run.model.structure();
+  run.model = run.problem.model;
+  run.model.set_kinematic_parameters(run.p);
+  fit.rms_after =
+      measurement_rms(position_rss(residuals_at(s, run.p, run.problem.joints, run.kind(),
+                                                run.problem.measured, run.problem.weights),
+                                   run.kind()),
+                      fit.rows);
+}
+
+// Uncertainty, conditioning and observability of the identified parameters.
+void fit_statistics(CalibrationRun& run) {
+  KinematicFit& fit = run.fit;
+  const Stack& data = run.data;
+  const int k = static_cast<int>(run.identified.size());
+  Eigen::MatrixXd Ji(data.J.rows(), k), Js(data.J.rows(), k);
+  for (int c = 0; c < k; ++c) {
+    Ji.col(c) = data.J.col(run.identified[c]);
+    Js.col(c) = Ji.col(c) / run.scale[run.identified[c]];
+  }
+  // Each eliminated fixture point or plane is 3 unknowns the projection took out.
+  const Eigen::Index dof_residual = data.residuals - k - run.problem.labels.unknowns();
+  fit.sigma_given = run.options.sigma.has_value();
+  fit.sigma =
+      run.options.sigma
+          ? *run.options.sigma
+          : std::sqrt(data.rss / static_cast<double>(std::max<Eigen::Index>(dof_residual, 1)));
+  // From the eigen-decomposition of the small normal matrices J^T J: the
+  // covariance sigma^2 (J^T J)^-1, and the singular values of the scaled J.
+  run.covariance = parameter_covariance(Ji, fit.sigma);
+  const Conditioning scaled_conditioning =
+      conditioning(Js, static_cast<double>(fit.rows) * traits(fit.type).dimension);
+  fit.condition_number = scaled_conditioning.condition_number;
+  fit.observability = scaled_conditioning.observability;
+  fit.correlation.resize(k, k);
+  const Eigen::MatrixXd& covariance = run.covariance;
+  for (int a = 0; a < k; ++a) {
+    fit.identified_names.push_back(run.name[run.identified[a]]);
+    for (int b = 0; b < k; ++b) {
+      fit.correlation(a, b) = covariance(a, b) / std::sqrt(covariance(a, a) * covariance(b, b));
+    }
+  }
+}
+
+// One parameter's estimate: its value and sd if identified (with its largest
+// correlation and whether it moved far), else why it was held.
+ParameterEstimate parameter_estimate(const CalibrationRun& run, const ParameterInfo& pi) {
+  ParameterEstimate e;
+  e.name = pi.name;
+  e.slot = pi.slot;
+  e.unit = pi.unit;
+  e.nominal = run.step2_nominal.kinematic_parameters()[pi.slot];
+  e.value = run.p[pi.slot];
+  const std::vector<int>& identified = run.identified;
+  const Eigen::MatrixXd& covariance = run.covariance;
+  const auto it = std::find(identified.begin(), identified.end(), pi.slot);
+  if (it != identified.end()) {
+    const int c = static_cast<int>(it - identified.begin());
+    e.identifiable = true;
+    e.sd = std::sqrt(covariance(c, c));
+    // An unknown frame, a marker's offset and an instrument's zero are the
+    // set-up's, not the robot's.
+    const int dof = run.model.dof();
+    const bool setup =
+        (run.problem.frame_unknown && (pi.joint < 0 || pi.joint == dof)) || pi.joint > dof;
+    e.large_change =
+        !setup && std::abs(e.value - e.nominal) >
+                      (e.unit == ParameterUnit::kAngle ? kLargeChangeAngle : kLargeChangeLength);
+    for (int o = 0; o < static_cast<int>(identified.size()); ++o) {
+      if (o == c) continue;
+      const double rho = covariance(c, o) / std::sqrt(covariance(c, c) * covariance(o, o));
+      if (std::abs(rho) > std::abs(e.max_correlation)) {
+        e.max_correlation = rho;
+        e.max_correlation_with = run.name.at(identified[o]);
+      }
+    }
+  } else if (run.reason.count(pi.slot)) {
+    e.reason = run.reason.at(pi.slot);
+    e.held_by_selection = std::find(run.held_by_selection.begin(), run.held_by_selection.end(),
+                                    pi.slot) != run.held_by_selection.end();
+  } else if (std::find(run.options.fix.begin(), run.options.fix.end(), pi.name) !=
+             run.options.fix.end()) {
+    e.reason = "fixed by the user";
+  } else {  // a beta that candidate_slots left out
+    e.reason = beta_left_out_reason(run.nominal, pi.joint);
+  }
+  return e;
+}
+
+// The notes on the outcome, the calibrated model (without the instrument's
+// zero: the instrument's, not the device's), the suspect-fit checks and the status.
+void conclude(CalibrationRun& run) {
+  KinematicFit& fit = run.fit;
+  CalibrationResult& result = run.result;
+  DeviceModel& model = run.model;
+  if (run.problem.frame_unknown) result.notes.push_back(setup_change_note(run.nominal, model));
+  if (fit.rank_deficient) {
+    result.notes.push_back(
+        "rank-deficient: these measurements do not excite every parameter the model can "
+        "identify; see the parameters marked 'not excited'");
+  }
+  if (model.instrument_zero) {
+    const ParameterEstimate& zero = fit.parameters.back();
+    if (zero.identifiable) result.notes.push_back(instrument_zero_note(zero));
+    model.instrument_zero.reset();
+  }
+  result.calibrated = model;
+  if (fit.converged) {
+    DeviceModel nominal_in_frame = run.step2_nominal;
+    nominal_in_frame.base = run.problem.model.base;
+    fit.suspect = check_suspect(fit, run.problem, nominal_in_frame, run.poses, run.plain_weights);
+  }
+  set_status(result, run.identified);
+  refuse_suspect(result, run.options.strict);
+}
+
+}  // namespace
+
+// The stages in order: step 1 (fit_transmissions), step 2's problem
+// (kinematic_problem, register_measurement_frame), analyze_identifiability,
+// solve_kinematics with the robust reweighting, the model selection, and the
+// information of the fit.
+CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
+                            const CalibrationOptions& options) {
+  check_log_fits(log, nominal);
+  check_options(options);
+  CalibrationResult result;
+  CalibrationRun run(nominal, log, options, result);
+  check_joint_limits(log, nominal, options.force, result.notes);
+  check_encoder_readings(log);
+  prepare_poses(run);
+  // Step 1: transmissions from the external encoders.
+  run.model = nominal;
+  result.transmissions = fit_transmissions(run.model, run.poses, options, result.notes);
+  offer_instrument_zero(run);
+  // Step 2: kinematic parameters from the compensated readings.
+  build_problem(run);
+  identify_and_solve(run);
+  select_parameters(run);
+  finish_solution(run);
+  fit_statistics(run);
+  for (const ParameterInfo& pi : run.model.parameter_info())
+    run.fit.parameters.push_back(parameter_estimate(run, pi));
+  conclude(run);
+  return result;
+}
+
+}  // namespace hapticcal

@@ -1,0 +1,174 @@
+// Checks of a log before it is fitted: joint readings within the limits, encoder
+// readings that are readings, and a nominal error plausible for this device.
+#include <ceres/ceres.h>
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <map>
+#include <numeric>
+#include <random>
+#include <unordered_map>
+
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/registration.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "identification/measurement_cost.hpp"
+#include "identification/solver_options.hpp"
+#include "identification/stack.hpp"
+
+namespace hapticcal {
+namespace {
+
+using detail::CompressedMeasurementCost;
+using detail::measurement_cost;
+using detail::measurement_rms;
+using detail::measurement_rows;
+using detail::MeasurementCost;
+using detail::position_rss;
+using detail::residuals_at;
+using detail::RowMatrix;
+using detail::rows_of;
+using detail::RowsOf;
+using detail::Stack;
+using detail::stack;
+
+}  // namespace
+
+namespace detail {
+
+// Readings outside the model's joint limits: an InputError when most of a
+// joint's readings are out (a unit missing from the header, or another
+// device), unless forced; a warning otherwise.
+void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
+                        std::vector<std::string>& notes) {
+  constexpr double kSlack = 1e-9;  // rad or m: rounding in the log
+  for (int j = 0; j < model.dof(); ++j) {
+    const Link& link = model.links[j];
+    int out = 0;
+    double largest = 0;
+    for (int r = 0; r < log.rows; ++r) {
+      const double q = log.q(r, j);
+      if (q < link.lower - kSlack || q > link.upper + kSlack) ++out;
+      largest = std::max(largest, std::abs(q));
+    }
+    if (out == 0) continue;
+    const double bound = std::max(std::abs(link.lower), std::abs(link.upper));
+    std::string hint;
+    if (link.prismatic() && largest * 1e-3 <= bound + kSlack) {
+      hint = fmt::format("; in millimetres they would fit: name the column q{}[mm]", j + 1);
+    } else if (!link.prismatic() && largest > 2 * M_PI && largest * M_PI / 180 <= bound + kSlack) {
+      hint = fmt::format("; in degrees they would fit: name the column q{}[deg]", j + 1);
+    }
+    const std::string message = fmt::format(
+        "{} of {} readings are outside {}'s limits [{:.4g}, {:.4g}] {} (largest |q| {:.4g}){}", out,
+        log.rows, link.name, link.lower, link.upper, link.prismatic() ? "m" : "rad", largest, hint);
+    if (2 * out > log.rows && !force) {
+      throw InputError(log.origin, 0, fmt::format("q{}", j + 1),
+                       message + " (--force calibrates anyway)");
+    }
+    notes.push_back(fmt::format("warning: q{}: {}", j + 1, message));
+  }
+}
+
+// An external encoder's reading beyond any joint's travel (1e308 read for a
+// number) would only overflow the step-1 fit: bad input naming its line.
+void check_encoder_readings(const Log& log) {
+  constexpr double kLargest = 1e4;  // rad or m
+  for (int j = 0; j < static_cast<int>(log.has_ext.size()); ++j) {
+    if (!log.has_ext[j]) continue;
+    for (int r = 0; r < log.rows; ++r) {
+      const double v = log.ext(r, j);
+      if (std::isfinite(v) && std::abs(v) <= kLargest) continue;
+      throw InputError(
+          log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0,
+          fmt::format("ext{}", j + 1),
+          fmt::format("{} is not an encoder reading (|value| above {:g} rad or m)", v, kLargest));
+    }
+  }
+}
+
+}  // namespace detail
+
+namespace {
+
+// The measurement error left once only the slots `free` are fitted (LM): a
+// base known only roughly, or a marker's unknown offset from the tip, is no
+// sign of a wrong log.
+double rms_with_fitted(const ChainStructure& s, Eigen::VectorXd p, const std::vector<int>& free,
+                       const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
+                       const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
+                       bool compressed) {
+  std::vector<int> constant;
+  for (int k = 0; k < s.num_slots(); ++k) {
+    if (std::find(free.begin(), free.end(), k) == free.end()) constant.push_back(k);
+  }
+  ceres::Problem problem;
+  problem.AddResidualBlock(measurement_cost(s, joints, kind, measured, weights, compressed),
+                           nullptr, p.data());
+  problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
+  ceres::Solver::Summary summary;
+  ceres::Solve(detail::levenberg_marquardt(50), &problem, &summary);
+  return measurement_rms(position_rss(residuals_at(s, p, joints, kind, measured, weights), kind),
+                         rows);
+}
+
+}  // namespace
+
+namespace detail {
+
+// A nominal error beyond kImplausibleErrorFraction of the reach, even with what
+// a measurement set-up normally leaves unknown fitted - the base pose first,
+// then the base pose and the tool point (a marker's or reflector's offset; for
+// poses the tool's orientation too) - says the log is not from this device: an
+// InputError unless forced. The message names the fits it tried.
+void check_reach(const ChainStructure& s, const DeviceModel& nominal,
+                 const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
+                 const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
+                 bool compressed, double rms_before, bool force, std::vector<std::string>& notes) {
+  const Eigen::VectorXd p = nominal.kinematic_parameters();
+  const ChainConstants<double> constants = chain_constants(s, p.data());
+  double reach = 0;
+  for (const Eigen::VectorXd& q : joints) {
+    reach =
+        std::max(reach, (forward_kinematics(s, constants, q.data()).p - constants.base.p).norm());
+  }
+  const double limit = kImplausibleErrorFraction * reach;
+  if (!(rms_before > limit)) return;
+  std::vector<int> free;
+  for (int k = 0; k < s.base_slots(); ++k) free.push_back(k);
+  if (s.instrument) free.push_back(s.instrument_slot());
+  const double rms_base =
+      rms_with_fitted(s, p, free, joints, kind, measured, weights, rows, compressed);
+  std::string tried = fmt::format("{:.1f} mm with its base pose{} fitted", rms_base * 1e3,
+                                  s.instrument ? " and the instrument's zero" : "");
+  double rms_fitted = rms_base;
+  if (!(rms_base <= limit)) {
+    const int tool_slots = kind.type == MeasurementType::kPose ? kPoseSlots : 3;
+    for (int k = 0; k < tool_slots; ++k) free.push_back(s.tool_slot() + k);
+    rms_fitted = rms_with_fitted(s, p, free, joints, kind, measured, weights, rows, compressed);
+    tried += fmt::format(", {:.1f} mm with its base pose and tool {} fitted", rms_fitted * 1e3,
+                         kind.type == MeasurementType::kPose ? "pose" : "point");
+  }
+  if (rms_fitted <= limit) {
+    notes.push_back(fmt::format(
+        "the nominal model's RMS error is {:.1f} mm, {} (below {:.0f} % of the reach: plausible "
+        "for this device)",
+        rms_before * 1e3, tried, kImplausibleErrorFraction * 100));
+    return;
+  }
+  const std::string message = fmt::format(
+      "the nominal model's RMS error, {:.1f} mm ({}), is more than {:.0f} % of the device's reach "
+      "({:.1f} mm): is this log from this device ({})?",
+      rms_before * 1e3, tried, kImplausibleErrorFraction * 100, reach * 1e3, nominal.name);
+  if (!force) throw InputError(message + " (--force calibrates anyway)");
+  notes.push_back("warning: " + message);
+}
+
+}  // namespace detail
+
+}  // namespace hapticcal

@@ -1,0 +1,303 @@
+// calibrate's report: the outcome the terminal prints, the transmission,
+// parameter, held and model-selection tables, and the figures of the fit.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "hapticcal/report/report.hpp"
+#include "hapticcal/study/evaluate.hpp"
+#include "report/figures.hpp"
+#include "report/report_parts.hpp"
+
+namespace hapticcal {
+namespace {
+
+using detail::figure;
+using detail::held_table;
+using detail::transmission_figures;
+
+std::string f4(double v) { return fmt::format("{:.4f}", v); }
+
+std::string parameter_table(const KinematicFit& k) {
+  std::vector<std::vector<std::string>> rows;
+  for (const ParameterEstimate& e : k.parameters) {
+    if (!e.identifiable) continue;
+    const DisplayUnit u = display_unit(e.unit);
+    rows.push_back({e.name, f4(e.nominal * u.scale), f4(e.value * u.scale),
+                    f4((e.value - e.nominal) * u.scale), f4(e.sd * u.scale), u.unit,
+                    fmt::format("{:.3f}", e.max_correlation), e.max_correlation_with});
+  }
+  return "<h2>Identified kinematic parameters</h2>\n" +
+         html_table({"parameter", "nominal", "identified", "deviation", "sd", "unit",
+                     "largest correlation", "with"},
+                    rows);
+}
+
+// The model selection's path as a table and a figure: training and
+// cross-validated RMS by the number of parameters fitted.
+void selection_section(const KinematicFit& k, Report& report) {
+  if (!k.model_selection || k.selection_path.empty()) return;
+  std::vector<std::vector<std::string>> rows;
+  std::vector<double> n, train, cv;
+  for (const SelectionStep& step : k.selection_path) {
+    rows.push_back(
+        {std::to_string(step.parameters), fmt::format("{:.4f}", step.rms * 1e3),
+         std::isfinite(step.cv_rms) ? fmt::format("{:.4f}", step.cv_rms * 1e3) : std::string("-"),
+         step.removed, step.removed.empty() ? "" : fmt::format("{:.2f}", step.removed_t),
+         step.removed.empty() ? "" : fmt::format("{:.2f}", step.threshold),
+         step.parameters == k.identified ? "kept" : ""});
+    if (!std::isfinite(step.cv_rms)) continue;
+    n.push_back(step.parameters);
+    train.push_back(step.rms * 1e3);
+    cv.push_back(step.cv_rms * 1e3);
+  }
+  report.sections.push_back(
+      fmt::format("<h2>Model selection</h2>\n<p>Backward elimination from the {} identifiable "
+                  "parameters: the one whose change from nominal is the fewest standard deviations "
+                  "(t) is held next, while t is below the family-wise (Bonferroni) 5 % threshold "
+                  "of Student's t for the parameters then fitted. {} kept. RMS [mm] of the "
+                  "linearised fits ({}); cross-validated over {} folds of poses (for the record: "
+                  "the rule does not use it). <code>--keep-all</code> fits all of them.</p>\n",
+                  k.structurally_identified, k.identified,
+                  k.type == MeasurementType::kPose ? "position rows" : "the measurement's error",
+                  k.selection_folds) +
+      html_table({"parameters", "training RMS [mm]", "cross-validated RMS [mm]", "held next",
+                  "its t [sd]", "threshold [sd]", ""},
+                 rows));
+  if (n.size() < 2) return;
+  FigureSpec f = figure("model_selection", "Training and cross-validated RMS along the selection",
+                        "parameters fitted", "RMS error [mm]", {n, train, cv});
+  f.series = {{"training (all poses)", 0, 1, "linespoints", -1, "#d55e00", 0, 1.5, 7},
+              {"cross-validated (held-out poses)", 0, 2, "linespoints", -1, "#0072b2", 0, 1.5, 5}};
+  use_log_y(f);
+  f.extra = fmt::format("set arrow from {0},graph 0 to {0},graph 1 nohead dt 2", k.identified);
+  report.figures.push_back(f);
+}
+
+}  // namespace
+
+namespace detail {
+
+FigureSpec correlation_figure(const KinematicFit& k) {
+  FigureSpec heat =
+      figure("correlation", "Correlation of the identified parameters", "parameter", "parameter");
+  // In the order of the parameter table (identifiable parameters in model order).
+  std::vector<int> order;
+  for (const ParameterEstimate& e : k.parameters) {
+    const auto at = std::find(k.identified_names.begin(), k.identified_names.end(), e.name);
+    if (e.identifiable && at != k.identified_names.end())
+      order.push_back(static_cast<int>(at - k.identified_names.begin()));
+  }
+  for (int i = 0; i < static_cast<int>(k.identified_names.size()); ++i) {
+    if (std::find(order.begin(), order.end(), i) == order.end()) order.push_back(i);
+  }
+  const auto n = static_cast<Eigen::Index>(order.size());
+  if (k.correlation.rows() != n || k.correlation.cols() != n) {  // no names to order by
+    order.resize(k.correlation.rows());
+    std::iota(order.begin(), order.end(), 0);
+  }
+  heat.matrix.resize(static_cast<Eigen::Index>(order.size()),
+                     static_cast<Eigen::Index>(order.size()));
+  for (Eigen::Index r = 0; r < heat.matrix.rows(); ++r) {
+    if (order[r] < static_cast<int>(k.identified_names.size()))
+      heat.xtics.push_back(k.identified_names[order[r]]);
+    for (Eigen::Index c = 0; c < heat.matrix.cols(); ++c)
+      heat.matrix(r, c) = k.correlation(order[r], order[c]);
+  }
+  if (static_cast<Eigen::Index>(heat.xtics.size()) != heat.matrix.rows()) heat.xtics.clear();
+  heat.cblabel = "correlation coefficient [-]";
+  return heat;
+}
+
+}  // namespace detail
+
+namespace {
+
+// The outcome block's lines for a suspect fit, one a reason.
+std::vector<std::string> suspect_lines(const KinematicFit& k) {
+  std::vector<std::string> out;
+  for (const std::string& reason : k.suspect.reasons)
+    out.push_back("warning: suspect fit: " + reason);
+  return out;
+}
+
+// The poses the outlier test flagged: their lines, residual and weight.
+std::string outlier_table(const RobustFit& robust) {
+  std::vector<std::vector<std::string>> rows;
+  for (const OutlierPose& o : robust.outliers) {
+    std::string lines = o.lines.size() == 1 ? "line " : "lines ";
+    for (size_t i = 0; i < o.lines.size(); ++i)
+      lines += (i ? ", " : "") + std::to_string(o.lines[i]);
+    rows.push_back({lines, fmt::format("{:.4f}", o.residual * 1e3),
+                    fmt::format("{:.1f}", o.statistic), fmt::format("{:.3g}", o.weight)});
+  }
+  return fmt::format(
+             "<h2>Outliers</h2>\n<p>Poses whose residual exceeds {:.2f} robust sds (robust sd "
+             "{:.4g} mm of one component: 1.4826 MAD; Bonferroni over the poses); {}.</p>\n",
+             robust.threshold, robust.robust_sd * 1e3,
+             robust.reweighted ? fmt::format("down-weighted by the {} loss", to_string(robust.loss))
+                               : std::string("not down-weighted")) +
+         html_table({"log lines", "residual [mm]", "residual [robust sd]", "weight [1]"}, rows);
+}
+
+// The outcome first, with what the terminal prints: status, RMS before and
+// after, held-out error, solver, step 1, notes and warnings.
+Outcome calibration_outcome(const CalibrationResult& result, const DeviceModel& nominal) {
+  const KinematicFit& k = result.kinematics;
+  const bool usable = result.status == CalibrationStatus::kConverged;
+  Outcome o;
+  o.usable = usable;
+  o.status = fmt::format("{} ({}){}", to_string(result.status), result.status_reason,
+                         usable ? ""
+                                : ": this calibration is not usable; no new calibrated.yaml was "
+                                  "written");
+  const std::string measured = traits(k.type).name;
+  o.headline.push_back(fmt::format("RMS {} error: {:.4f} mm before, {:.4f} mm after (training)",
+                                   measured, k.rms_before * 1e3, k.rms_after * 1e3));
+  o.headline.push_back(
+      std::isfinite(k.cv_rms)
+          ? fmt::format("held-out RMS ({}-fold cross-validation by pose): {:.4f} mm", k.cv_folds,
+                        k.cv_rms * 1e3)
+          : fmt::format("held-out RMS (cross-validation): {}",
+                        k.cv_note.empty() ? std::string("not computed") : k.cv_note));
+  o.headline.push_back(fmt::format(
+      "{} parameters identified{}; condition number {:.4g}; sd from sigma = {:.4g} mm ({}); "
+      "solver: {} after {} iterations",
+      k.identified,
+      k.model_selection
+          ? fmt::format(" ({} identifiable; model selection)", k.structurally_identified)
+          : "",
+      k.condition_number, k.sigma * 1e3, k.sigma_given ? "given" : "residual estimate",
+      k.converged ? "converged" : "NOT converged", k.iterations));
+  for (const TransmissionFit& t : result.transmissions) {
+    o.headline.push_back(fmt::format(
+        "step 1, {} {} ({} samples): RMS of ext - q - c {:.4f} mrad before, {:.4f} mrad after{}; "
+        "encoder zero c {:.6f} +- {:.6f} mrad",
+        nominal.links[t.joint].name, t.type, t.n, t.rms_before * 1e3, t.rms_after * 1e3,
+        t.converged ? "" : " (did not converge)", t.offset * 1e3, t.offset_sd * 1e3));
+  }
+  for (const ParameterEstimate& e : k.parameters) {
+    if (!e.large_change) continue;
+    const DisplayUnit u = display_unit(e.unit);
+    o.notes.push_back(fmt::format(
+        "warning: {} moved {:.4g} {} from nominal (flagged beyond {} mm / {} mrad): plausible for "
+        "a base pose measured in an unknown frame; for a link, check the model and the log",
+        e.name, (e.value - e.nominal) * u.scale, u.unit, kLargeChangeLength * 1e3,
+        kLargeChangeAngle * 1e3));
+  }
+  for (const std::string& line : suspect_lines(k)) o.notes.push_back(line);
+  for (const std::string& note : result.notes)
+    o.notes.push_back(note.rfind("warning: ", 0) == 0 ? note : "note: " + note);
+  return o;
+}
+
+// Step 1 in the terminal's units (the paper's Table 2), the encoder zero c last.
+void transmission_section(const CalibrationResult& result, const DeviceModel& nominal,
+                          Report& report) {
+  std::vector<std::vector<std::string>> tx;
+  for (const TransmissionFit& t : result.transmissions) {
+    for (size_t i = 0; i < t.names.size(); ++i) {
+      const DisplayUnit u = display_unit(t, static_cast<int>(i));
+      tx.push_back({t.names[i], fmt::format("{:.6f}", t.nominal[i] * u.scale),
+                    fmt::format("{:.6f}", t.value[i] * u.scale),
+                    fmt::format("{:.6f}", t.sd[i] * u.scale), u.unit.empty() ? "-" : u.unit});
+    }
+    tx.push_back({nominal.links[t.joint].name + ".c (encoder zero, nuisance)", "-",
+                  fmt::format("{:.6f}", t.offset * 1e3), fmt::format("{:.6f}", t.offset_sd * 1e3),
+                  "mrad"});
+  }
+  if (!tx.empty()) {
+    report.sections.push_back("<h2>Transmissions (step 1)</h2>\n" +
+                              html_table({"parameter", "nominal", "identified", "sd", "unit"}, tx));
+  }
+}
+
+// The measurement's error per sample, before and after calibration.
+FigureSpec errors_per_sample(const KinematicFit& k, const Log& log, const Evaluation& before,
+                             const Evaluation& after) {
+  const bool fixture = is_fixture(k.type);
+  const bool position = k.type != MeasurementType::kDistance && !fixture;
+  const Eigen::VectorXd& error_before = fixture    ? before.fixture_error
+                                        : position ? before.position_error
+                                                   : before.distance_error;
+  const Eigen::VectorXd& error_after = fixture    ? after.fixture_error
+                                       : position ? after.position_error
+                                                  : after.distance_error;
+  std::vector<double> sample, eb, ea;
+  const int row_stride = static_cast<int>(detail::plot_stride(log.rows));
+  for (int r = 0; r < log.rows; r += row_stride) {
+    sample.push_back(r + 1);
+    eb.push_back(std::abs(error_before[r]) * 1e3);
+    ea.push_back(std::abs(error_after[r]) * 1e3);
+  }
+  const char* title = k.type == MeasurementType::kPoint
+                          ? "Distance of each sample's tool point from its fixture point's centre"
+                      : k.type == MeasurementType::kPlane
+                          ? "Distance of each sample's tool point from its plane"
+                      : position ? "Position error per sample, before and after calibration"
+                                 : "Distance error per sample, before and after calibration";
+  // Magnitudes on a log axis: the calibrated model's errors are orders of
+  // magnitude below the nominal one's.
+  const char* axis = k.type == MeasurementType::kPoint   ? "|p_model - centre| [mm]"
+                     : k.type == MeasurementType::kPlane ? "|n . (p_model - centre)| [mm]"
+                     : position                          ? "|p_model - p_measured| [mm]"
+                                                         : "|delta_model - delta_measured| [mm]";
+  FigureSpec residuals = figure("errors_per_sample", title, "sample", axis, {sample, eb, ea});
+  residuals.series = {detail::before_series("nominal model", 0, 1),
+                      detail::after_series("calibrated model", 0, 2)};
+  residuals.extra = "set pointsize 0.5";
+  residuals.x_min = 0;
+  residuals.x_max = log.rows + 1;
+  use_log_y(residuals, 6);
+  return residuals;
+}
+
+}  // namespace
+
+Report calibration_report(const CalibrationResult& result, const DeviceModel& nominal,
+                          const Log& log, const std::vector<PointDistance>& point_distances,
+                          const std::vector<KnownPoint>& known_points) {
+  const KinematicFit& k = result.kinematics;
+  Report report;
+  report.title =
+      fmt::format("hapticcal calibrate: {} on {}", nominal.name, detail::display_path(log.origin));
+  report.outcome = calibration_outcome(result, nominal);
+  const std::string repeats =
+      k.rows > k.poses ? fmt::format(" ({} poses, repeats averaged; repeatability {:.4f} mm RMS)",
+                                     k.poses, k.repeatability * 1e3)
+                       : "";
+  report.sections.push_back(fmt::format(
+      "<p>{} rows{}, {} measurements; observability O1 {:.4g}, O4 {:.4g} (angles scaled by "
+      "{:.3f} m).{}</p>\n",
+      k.rows, repeats, traits(k.type).name, k.observability.O1, k.observability.O4, k.length_scale,
+      k.rank_deficient ? " <b>Rank-deficient: see the held parameters.</b>" : ""));
+  transmission_section(result, nominal, report);
+  if (!k.robust.outliers.empty()) report.sections.push_back(outlier_table(k.robust));
+  report.sections.push_back(parameter_table(k));
+  report.sections.push_back(held_table(k));
+  selection_section(k, report);
+
+  const size_t pose_stride = detail::plot_stride(result.rows.size());
+  std::vector<int> plotted_rows;
+  for (size_t i = 0; i < result.rows.size(); i += pose_stride)
+    plotted_rows.push_back(result.rows[i]);
+  for (const TransmissionFit& t : result.transmissions) {
+    transmission_figures(t, nominal.links[t.joint].name, log, plotted_rows,
+                         result.calibrated.links[t.joint].transmission, nullptr, report.figures);
+  }
+  // The calibrated model leaves the instrument's zero out: its errors are of
+  // the readings less the zero (what rms_after measures).
+  Log corrected = log;
+  if (const double zero = identified_instrument_zero(k); zero != 0) {
+    corrected.distance.array() -= zero;
+  }
+  const Evaluation before = evaluate(nominal, log, point_distances, known_points),
+                   after = evaluate(result.calibrated, corrected, point_distances, known_points);
+  report.figures.push_back(errors_per_sample(k, log, before, after));
+  if (k.correlation.size() > 0) report.figures.push_back(detail::correlation_figure(k));
+  return report;
+}
+
+}  // namespace hapticcal

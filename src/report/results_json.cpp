@@ -1,0 +1,346 @@
+#include "hapticcal/report/results_json.hpp"
+
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/study/evaluate.hpp"
+#include "hapticcal/study/paper.hpp"
+#include "hapticcal/study/study.hpp"
+
+namespace hapticcal {
+namespace {
+
+nlohmann::ordered_json number_or_null(double v) {
+  return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr);
+}
+
+// evaluate --register's fit, in SI units.
+nlohmann::ordered_json registration_json(const FrameFit& fit) {
+  nlohmann::ordered_json j;
+  j["what"] = to_string(fit.what);
+  j["base"] = fit.base;
+  j["change"] = fit.change;
+  j["moved"] = fit.moved;
+  j["turned"] = fit.turned;
+  if (fit.tool) {
+    j["tool"] = *fit.tool;
+    j["tool_offset"] = {fit.tool_offset.x(), fit.tool_offset.y(), fit.tool_offset.z()};
+    j["tool_turned"] = fit.tool_turned;
+  }
+  j["rms_position_before_registration"] = fit.rms_position_before;
+  return j;
+}
+
+// The model selection's rule, its settings and its path.
+nlohmann::ordered_json selection_json(const KinematicFit& k, const CalibrationOptions& options) {
+  using json = nlohmann::ordered_json;
+  json selection{
+      {"enabled", k.model_selection},
+      {"rule", k.model_selection ? "backward elimination while the change from nominal is not "
+                                   "significant (Student t, Bonferroni over the parameters fitted)"
+                                 : k.selection_note},
+      {"alpha", options.selection_alpha},
+      {"folds", k.selection_folds},
+      {"identifiable", k.structurally_identified},
+      {"kept", k.identified}};
+  json path = json::array();
+  for (const SelectionStep& step : k.selection_path) {
+    path.push_back({{"parameters", step.parameters},
+                    {"rms", step.rms},
+                    {"cv_rms", number_or_null(step.cv_rms)},
+                    {"next_held", step.removed},
+                    {"next_t", number_or_null(step.removed_t)},
+                    {"threshold", number_or_null(step.threshold)}});
+  }
+  selection["path"] = path;
+  return selection;
+}
+
+// The outlier test: its rule and settings.
+nlohmann::ordered_json robust_json(const RobustFit& robust, const CalibrationOptions& options) {
+  return {{"loss", to_string(robust.loss)},
+          {"tested", robust.tested},
+          {"rule",
+           "a pose is an outlier when its residual (weighted by sqrt(repeats)) exceeds the "
+           "chi-square quantile (d dof) at 1 - alpha / poses in robust sds (1.4826 MAD of every "
+           "component)"},
+          {"alpha", options.outlier_alpha},
+          {"robust_sd", number_or_null(robust.robust_sd)},
+          {"threshold", number_or_null(robust.threshold)},
+          {"reweighted", robust.reweighted},
+          {"iterations", robust.iterations},
+          {"note", robust.note}};
+}
+
+// The poses the outlier test flagged.
+nlohmann::ordered_json outliers_json(const RobustFit& robust) {
+  using json = nlohmann::ordered_json;
+  json outliers = json::array();
+  for (const OutlierPose& o : robust.outliers) {
+    outliers.push_back({{"lines", o.lines},
+                        {"residual", o.residual},
+                        {"robust_sd", robust.robust_sd},
+                        {"statistic", o.statistic},
+                        {"weight", o.weight}});
+  }
+  return outliers;
+}
+
+}  // namespace
+
+std::string calibration_json(const CalibrationResult& result, const DeviceModel& nominal,
+                             const std::string& model_path, const std::string& log_path,
+                             const CalibrationOptions& options) {
+  using json = nlohmann::ordered_json;
+  const KinematicFit& k = result.kinematics;
+  json j;
+  j["format"] = "hapticcal-results/1";
+  j["status"] = to_string(result.status);
+  j["status_reason"] = result.status_reason;
+  j["usable"] = result.status == CalibrationStatus::kConverged;
+  j["model"] = model_path;
+  j["log"] = log_path;
+  j["device"] = nominal.name;
+  j["measurement"] = traits(k.type).name;
+  if (k.type == MeasurementType::kPose) j["rotation_scale"] = k.rotation_scale;
+  j["frame_registered"] = k.frame_registered;
+  j["rows_used"] = k.rows;
+  j["poses"] = k.poses;
+  j["repeatability"] = number_or_null(k.repeatability);
+  j["samples"] = options.samples;
+  j["seed"] = options.seed;
+  j["transmission_step"] = options.transmissions;
+  j["sigma"] = {{"value", k.sigma}, {"source", k.sigma_given ? "given" : "residual"}};
+  j["rms_before"] = k.rms_before;
+  j["rms_after"] = k.rms_after;
+  j["cross_validation"] = {{"folds", k.cv_folds},
+                           {"rms", number_or_null(k.cv_rms)},
+                           {"seed", options.seed},
+                           {"note", k.cv_note}};
+  j["model_selection"] = selection_json(k, options);
+  j["robust"] = robust_json(k.robust, options);
+  j["outliers"] = outliers_json(k.robust);
+  const SuspectFit& suspect = k.suspect;
+  j["suspect"] = {{"suspect", suspect.suspect},
+                  {"reasons", suspect.reasons},
+                  {"repeatability_ratio", number_or_null(suspect.repeatability_ratio)},
+                  {"repeatability_limit", suspect.repeatability_limit},
+                  {"nominal_base_fitted_rms", number_or_null(suspect.nominal_base_fitted_rms)},
+                  {"cv_ratio", number_or_null(suspect.cv_ratio)},
+                  {"strict", options.strict}};
+  j["condition_number"] = number_or_null(k.condition_number);
+  j["observability"] = {{"O1", k.observability.O1},
+                        {"O2", k.observability.O2},
+                        {"O3", k.observability.O3},
+                        {"O4", k.observability.O4}};
+  j["length_scale"] = k.length_scale;
+  j["identified"] = k.identified;
+  j["rank_deficient"] = k.rank_deficient;
+  j["solver"] = {
+      {"converged", k.converged}, {"iterations", k.iterations}, {"message", k.termination}};
+  json params = json::object();
+  for (const ParameterEstimate& e : k.parameters) {
+    json p{{"nominal", e.nominal},
+           {"value", e.value},
+           {"sd", e.identifiable ? number_or_null(e.sd) : json(nullptr)},
+           {"identifiable", e.identifiable}};
+    if (e.identifiable) {
+      p["max_correlation"] = e.max_correlation;
+      p["max_correlation_with"] = e.max_correlation_with;
+      p["large_change"] = e.large_change;
+    } else {
+      p["reason"] = e.reason;
+      p["held_by_selection"] = e.held_by_selection;
+    }
+    params[e.name] = p;
+  }
+  json transmissions = json::array();
+  for (const TransmissionFit& t : result.transmissions) {
+    const std::string link = nominal.links[t.joint].name;
+    for (size_t i = 0; i < t.names.size(); ++i) {
+      params[t.names[i]] = {{"nominal", t.nominal[i]},
+                            {"value", t.value[i]},
+                            {"sd", number_or_null(t.sd[i])},
+                            {"identifiable", true}};
+    }
+    json tj{{"joint", link},
+            {"type", t.type},
+            {"n", t.n},
+            {"rms_before", t.rms_before},
+            {"rms_after", t.rms_after},
+            {"offset", {{"value", t.offset}, {"sd", number_or_null(t.offset_sd)}}},
+            {"converged", t.converged},
+            {"message", t.message}};
+    if (!t.monomial.empty()) tj["monomial_coefficients"] = t.monomial;
+    transmissions.push_back(tj);
+  }
+  j["parameters"] = params;
+  j["transmissions"] = transmissions;
+  j["notes"] = result.notes;
+  // Paths are bytes on Linux: invalid UTF-8 is replaced, never a throw.
+  return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
+
+std::string evaluation_json(const EvaluationComparison* comparison, const Evaluation& ev) {
+  const Evaluation* ref = comparison ? &comparison->reference : nullptr;
+  nlohmann::ordered_json j;
+  j["n"] = ev.n;
+  if (ev.registered) j["registered"] = registration_json(*ev.registered);
+  if (ev.distance) {
+    j["rms_distance"] = ev.distance->rms;
+    j["max_distance"] = ev.distance->max;
+  }
+  if (ev.orientation) {
+    j["rms_orientation"] = ev.orientation->rms;
+    j["max_orientation"] = ev.orientation->max;
+  }
+  if (ev.position) {
+    j["rms_position"] = ev.position->rms;
+    j["max_position"] = ev.position->max;
+  }
+  if (ev.mean_point_deviation) {
+    j["mean_point_deviation"] = *ev.mean_point_deviation;
+    j["rms_point_deviation"] = *ev.rms_point_deviation;
+  }
+  if (ev.max_point_distance_error) j["max_point_distance_error"] = *ev.max_point_distance_error;
+  if (ev.rms_known_point_error) j["rms_known_point_error"] = *ev.rms_known_point_error;
+  if (ev.rms_plane_distance) j["rms_plane_distance"] = *ev.rms_plane_distance;
+  if (!ev.labels.empty()) {
+    nlohmann::ordered_json labels = nlohmann::ordered_json::object();
+    for (const auto& l : ev.labels) {
+      labels[l.name] = {{"samples", l.samples},
+                        {"centre", {l.centre.x(), l.centre.y(), l.centre.z()}},
+                        {"mean_deviation", l.mean_deviation},
+                        {"rms_deviation", l.rms_deviation}};
+      if (l.rms_known_error) labels[l.name]["rms_known_error"] = *l.rms_known_error;
+    }
+    j["labels"] = labels;
+  }
+  if (ref) {
+    if (ref->registered) j["reference_registered"] = registration_json(*ref->registered);
+    if (ref->mean_point_deviation) {
+      j["reference_mean_point_deviation"] = *ref->mean_point_deviation;
+    }
+    if (ref->rms_plane_distance) j["reference_rms_plane_distance"] = *ref->rms_plane_distance;
+    if (ev.distance) {
+      j["reference_rms_distance"] = ref->distance->rms;
+      j["improvement_distance_pct"] = *comparison->improvement_distance_pct;
+    }
+    if (ev.position) {
+      j["reference_rms_position"] = ref->position->rms;
+      j["improvement_position_pct"] = *comparison->improvement_position_pct;
+    }
+  }
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+namespace {
+
+// results.json beyond the paper's study: no paper figures; what the truth is
+// and each parameter's assigned and identified deviation, and its error in
+// Cramer-Rao standard deviations.
+void general_study_json(const Scenario& sc, const StudyResult& r, nlohmann::ordered_json& j) {
+  using json = nlohmann::ordered_json;
+  if (!sc.tip.empty()) j["tip"] = sc.tip;
+  if (!sc.root.empty()) j["root"] = sc.root;
+  j["measurement"] = traits(sc.measurement).name;
+  if (sc.measurement == MeasurementType::kPose) j["noise"]["sigma_r"] = sc.noise.sigma_orientation;
+  json truth = {{"transmissions", sc.paper_transmissions ? "paper" : "device"},
+                {"kinematics", sc.random.enabled() ? "random"
+                               : sc.paper_device   ? "paper Table 3"
+                                                   : "nominal"}};
+  if (sc.random.enabled()) {
+    truth["random_deviations"] = {
+        {"lengths", sc.random.lengths}, {"angles", sc.random.angles}, {"seed", sc.random.seed}};
+  }
+  truth["deviations"] = sc.deviations;
+  j["truth"] = truth;
+  for (auto& [name, p] : j["parameters"].items()) {
+    p.erase("paper_improvement_pct");
+    const double assigned = p["assigned"], identified = p["identified"];
+    const auto mc = r.monte_carlo.find(name);
+    const double sd = mc != r.monte_carlo.end() ? mc->second.crlb_sd : 0;
+    p["error_in_crlb_sd"] = sd > 0 ? json((identified - assigned) / sd) : json(nullptr);
+  }
+  j["trajectory"].erase("paper_improvement_full_pct");
+  j["trajectory"].erase("paper_improvement_kinematic_only_pct");
+}
+
+}  // namespace
+
+std::string study_json(const Scenario& sc, const StudyResult& r) {
+  using json = nlohmann::ordered_json;
+  const TrialResult& t = r.first;
+  json j;
+  j["format"] = "hapticcal-study/1";
+  j["device"] = sc.device_path;
+  j["seed"] = sc.seed;
+  j["trials"] = r.trials;
+  j["noise"] = {{"sigma_e", sc.noise.sigma_ext},
+                {"sigma_m", sc.noise.sigma_distance},
+                {"sigma_m_formula", sc.sigma_m_formula},
+                {"motor_counts_per_rev", sc.noise.motor_counts_per_rev}};
+  j["poses"] = {{"identification", sc.identification_poses}, {"validation", sc.validation_poses}};
+  if (!sc.identification_plan.empty()) j["identification_plan"] = sc.identification_plan;
+  // Only when not the paper's procedure (the default study's file is unchanged).
+  if (!sc.keep_all || !sc.fix.empty())
+    j["calibration"] = {{"keep_all", sc.keep_all}, {"fix", sc.fix}};
+  json params = json::object();
+  std::map<std::string, StudyRow> by_name;  // results.json lists them alphabetically
+  for (const StudyRow& row : study_rows(sc, t.full)) {
+    if (row.held.empty()) by_name[row.name] = row;
+  }
+  for (const auto& [name, row] : by_name) {
+    const auto paper = paper_improvement_pct(name);
+    const auto mc = r.monte_carlo.find(name);
+    params[name] = {
+        {"assigned", row.assigned},
+        {"nominal", row.nominal},
+        {"identified", row.identified},
+        {"assigned_deviation", row.assigned - row.nominal},
+        {"identified_deviation", row.identified - row.nominal},
+        {"improvement_pct", row.improvement_pct},
+        {"paper_improvement_pct", paper ? json(*paper) : json(nullptr)},
+        {"crlb_sd", mc != r.monte_carlo.end() ? json(mc->second.crlb_sd) : json(nullptr)}};
+  }
+  j["parameters"] = params;
+  j["held"] = json::object();
+  for (const ParameterEstimate& e : t.full.kinematics.parameters) {
+    if (!e.identifiable) j["held"][e.name] = e.reason;
+  }
+  j["validation"] = {{"position_rms_before", t.position_rms_before},
+                     {"position_rms_after", t.position_rms_after},
+                     {"orientation_rms_before", t.orientation_rms_before},
+                     {"orientation_rms_after", t.orientation_rms_after},
+                     {"distance_rms_before", t.distance_rms_before},
+                     {"distance_rms_after", t.distance_rms_after}};
+  j["trajectory"] = {
+      {"rms_before", t.trajectory_rms_before},
+      {"rms_full", t.trajectory_rms_full},
+      {"rms_kinematic_only", t.trajectory_rms_kinematic},
+      {"improvement_full_pct", rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before)},
+      {"improvement_kinematic_only_pct",
+       rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before)},
+      {"paper_improvement_full_pct", kPaperImprovementFullPct},
+      {"paper_improvement_kinematic_only_pct", kPaperImprovementKinematicOnlyPct}};
+  if (r.trials > 1) {
+    json mc = json::object();
+    for (const auto& [name, m] : r.monte_carlo) {
+      mc[name] = {{"assigned", m.assigned},
+                  {"mean", m.mean},
+                  {"mean_improvement_pct", m.mean_improvement_pct},
+                  {"rmse", m.rmse},
+                  {"crlb_sd", m.crlb_sd},
+                  {"efficiency", m.efficiency},
+                  {"improvement_p05", m.improvement_p05},
+                  {"improvement_p95", m.improvement_p95},
+                  {"trials", m.trials}};
+    }
+    j["monte_carlo"] = mc;
+  }
+  if (!sc.paper_comparison()) general_study_json(sc, r, j);
+  return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
+
+}  // namespace hapticcal

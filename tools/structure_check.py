@@ -1,0 +1,241 @@
+#!/usr/bin/env python3
+"""The code's shape, counted (issue 24): file lengths, function lengths, branch
+sites on a family's kind outside its family, string compares on a transmission
+kind, and includes that run from a lower layer up to a higher one.
+
+  tools/structure_check.py [--report] [ROOT]
+
+Prints each count against its ceiling and exits 1 if any is over. The ceilings
+are in CEILINGS below: the issue's targets where they are met, else the count
+when they were last lowered (a ratchet: a change may lower a count, not raise
+it). --report lists every offender.
+"""
+import os
+import re
+import sys
+
+# Where the targets stand. Lower a number when a change lowers its count.
+CEILINGS = {
+    "file_lines": 700,             # issue 24: no file over 700 lines
+    "files_over": 0,
+    "function_lines": 120,         # issue 24: no function longer than 120 lines
+    "functions_over": 0,
+    "measurement_branch_sites": 68,  # issue 24: <= 10 outside the family (ratchet)
+    "geometry_branch_sites": 41,     # issue 24: <= 6 outside the family (ratchet)
+    "transmission_string_compares": 9,  # issue 24: 0 outside the family (ratchet)
+    "layer_violations": 0,
+}
+
+CODE_DIRS = ["src", "apps", "include", "python"]
+EXTENSIONS = (".cpp", ".hpp", ".h", ".c")
+
+
+def sources(root):
+    for d in CODE_DIRS:
+        for dirpath, _, files in os.walk(os.path.join(root, d)):
+            for f in sorted(files):
+                if f.endswith(EXTENSIONS):
+                    yield os.path.relpath(os.path.join(dirpath, f), root)
+
+
+def strip(text):
+    """Comments and string/char literals blanked, line breaks kept."""
+    out = []
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if text.startswith("//", i):
+            j = text.find("\n", i)
+            j = n if j < 0 else j
+            out.append(" " * (j - i))
+            i = j
+        elif text.startswith("/*", i):
+            j = text.find("*/", i + 2)
+            j = n if j < 0 else j + 2
+            out.append(re.sub(r"[^\n]", " ", text[i:j]))
+            i = j
+        elif text.startswith('R"', i) and (i == 0 or not (text[i - 1].isalnum() or text[i - 1] == "_")):
+            m = re.match(r'R"([^(\s]*)\(', text[i:])
+            if not m:
+                out.append(c)
+                i += 1
+                continue
+            end = ")" + m.group(1) + '"'
+            j = text.find(end, i + m.end())
+            j = n if j < 0 else j + len(end)
+            out.append('""' + re.sub(r"[^\n]", " ", text[i + 2:j]))
+            i = j
+        elif c in "\"'":
+            if c == "'" and i > 0 and text[i - 1].isalnum():  # digit separator 1'000
+                out.append(" ")
+                i += 1
+                continue
+            j = i + 1
+            while j < n and text[j] != c and text[j] != "\n":
+                j += 2 if text[j] == "\\" else 1
+            out.append(c + " " * (j - i - 1) + c)
+            i = j + 1
+        else:
+            out.append(c)
+            i += 1
+    return "".join(out)
+
+
+SCOPE_WORDS = re.compile(r"\b(namespace|class|struct|union|enum)\b")
+
+
+def functions(code):
+    """(name, first line, lines) of each function body at namespace or class scope."""
+    found = []
+    stack = []  # 'scope', 'fn', 'other'
+    last = 0  # where the current declaration began
+    line_of = lambda pos: code.count("\n", 0, pos) + 1
+    starts = []
+    for m in re.finditer(r"[{};]", code):
+        ch, pos = m.group(), m.start()
+        inside_fn = any(k == "fn" for k in stack)
+        if ch == "{":
+            if inside_fn:
+                stack.append("other")
+            else:
+                head = code[last:pos]
+                head_flat = " ".join(head.split())
+                before_paren = head_flat.split("(")[0]
+                if SCOPE_WORDS.search(before_paren) and "(" not in before_paren.split("=")[0][-1:]:
+                    kind = "scope"
+                elif re.search(r"=\s*$", head_flat) or "(" not in head_flat:
+                    kind = "other"
+                else:
+                    kind = "fn"
+                stack.append(kind)
+                if kind == "fn":
+                    name = re.findall(r"([~\w:]+)\s*\(", head_flat)
+                    starts.append((name[0] if name else "?", line_of(pos)))
+            last = pos + 1
+        elif ch == "}":
+            kind = stack.pop() if stack else "other"
+            if kind == "fn":
+                name, first = starts.pop()
+                found.append((name, first, line_of(pos) - first + 1))
+            if not any(k == "fn" for k in stack):
+                last = pos + 1
+        else:
+            if not inside_fn:
+                last = pos + 1
+    return found
+
+
+# The layers, lowest first (docs/ARCHITECTURE.md): a file may include its own
+# layer and lower ones, never a higher one. A layer is a folder under
+# include/hapticcal/ and src/; apps/ and python/ are the front ends on top.
+LAYERS = ["core", "model", "kinematics", "model_io", "runtime", "identification", "data_io",
+          "study", "design", "report", "jobs", "apps", "python"]
+
+
+def layer_of(path):
+    """The layer of a file (a path in the repository) or an include ("hapticcal/x/y.hpp"
+    or an internal "x/y.hpp"); None for one outside the layers (runtime.h)."""
+    p = path
+    for prefix in ("include/hapticcal/", "src/", "hapticcal/"):
+        if p.startswith(prefix):
+            p = p[len(prefix):]
+            break
+    top = p.split("/")[0]
+    return top if top in LAYERS else None
+
+
+def layer_violations(path, text):
+    """Includes from this file into a higher layer."""
+    own = layer_of(path)
+    if own is None:
+        rest = next((path[len(d):] for d in ("include/hapticcal/", "src/") if path.startswith(d)), "")
+        inside = "/" in rest  # in a folder under include/hapticcal/ or src/ (runtime.h is not)
+        return [f"{path}: a folder that is not a layer"] if inside else []
+    out = []
+    for i, line in enumerate(text.split("\n")):
+        m = re.match(r'\s*#\s*include\s+"([^"]+)"', line)
+        if not m:
+            continue
+        target = layer_of(m.group(1))
+        if target is not None and LAYERS.index(target) > LAYERS.index(own):
+            out.append(f"{path}:{i + 1}: {own} includes {m.group(1)} ({target})")
+    return out
+
+
+def self_test():
+    """The counters on made-up code: each must see what it is for (else a count of
+    0 would prove nothing)."""
+    code = strip('''namespace hapticcal {
+namespace {
+struct S { int f() const { return 1; } };
+const int table[] = {1, 2};
+}  // namespace
+int g(int a) {
+  auto h = [&](int b) { return b; };
+  if (a) { return "}"[0]; }
+  // a } in a comment
+  return h(a);
+}
+}  // namespace hapticcal
+''')
+    found = functions(code)
+    assert [(n, l) for n, _, l in found] == [("f", 1), ("g", 6)], found
+    assert layer_violations("src/identification/x.cpp", '#include "hapticcal/study/study.hpp"\n')
+    assert layer_violations("include/hapticcal/core/x.hpp", '#include "model/y.hpp"\n')
+    assert not layer_violations("src/study/x.cpp", '#include "hapticcal/core/log.hpp"\n')
+    assert layer_violations("src/misc/x.cpp", "")  # a folder that is not a layer
+    print("self-test: ok")
+
+
+def main():
+    if "--self-test" in sys.argv:
+        self_test()
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    report = "--report" in sys.argv
+    root = args[0] if args else os.path.join(os.path.dirname(__file__), "..")
+    counts = {}
+    offenders = {k: [] for k in CEILINGS}
+    meas = geo = tstr = 0
+    for path in sources(root):
+        with open(os.path.join(root, path), encoding="utf-8") as f:
+            text = f.read()
+        offenders["layer_violations"] += layer_violations(path, text)
+        lines = text.count("\n")
+        if lines > CEILINGS["file_lines"]:
+            offenders["files_over"].append(f"{path}: {lines} lines")
+        code = strip(text)
+        for name, first, n in functions(code):
+            if n > CEILINGS["function_lines"]:
+                offenders["functions_over"].append(f"{path}:{first}: {name} {n} lines")
+        in_meas_family = re.search(r"identification/measurement[^/]*\.(hpp|cpp)$|/measurements/", path)
+        if not in_meas_family:
+            for i, l in enumerate(code.split("\n")):
+                for _ in re.finditer(r"\bMeasurementType::k\w+", l):
+                    offenders["measurement_branch_sites"].append(f"{path}:{i + 1}")
+        in_geo_family = re.search(r"(kinematics|model/model|model/joint)[^/]*\.(hpp|cpp)$|/kinematics/", path)
+        if not in_geo_family:
+            for i, l in enumerate(code.split("\n")):
+                for _ in re.finditer(r"\b(Geometry|JointType|BaseKind)::k\w+", l):
+                    offenders["geometry_branch_sites"].append(f"{path}:{i + 1}")
+        if not re.search(r"model/transmission[^/]*\.(hpp|cpp)$", path):
+            for i, l in enumerate(text.split("\n")):
+                if re.search(r'[!=]=\s*"(capstan|polynomial|parallelogram|generic)"', l):
+                    offenders["transmission_string_compares"].append(f"{path}:{i + 1}")
+    counts["file_lines"] = CEILINGS["file_lines"]
+    status = 0
+    for key in ["files_over", "functions_over", "measurement_branch_sites", "geometry_branch_sites",
+                "transmission_string_compares", "layer_violations"]:
+        n = len(offenders[key])
+        ceiling = CEILINGS[key]
+        ok = ceiling is None or n <= ceiling
+        print(f"{key}: {n} (ceiling {ceiling}){'' if ok else '  OVER'}")
+        if not ok:
+            status = 1
+        if report or not ok:
+            for o in offenders[key]:
+                print("  " + o)
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())
