@@ -11,6 +11,9 @@
 #include <sstream>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/data_io/log.hpp"
+#include "hapticcal/model_io/device.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/simulation.hpp"

@@ -10,6 +10,9 @@
 #include <nlohmann/json.hpp>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/data_io/log.hpp"
+#include "hapticcal/model_io/device.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
 

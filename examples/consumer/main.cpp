@@ -1,6 +1,6 @@
 // Loads a device file and prints the tool point and Jacobian at home: what a
 // controller linking hapticcal does at start-up.
-#include <hapticcal/io/io.hpp>
+#include <hapticcal/model_io/device.hpp>
 #include <hapticcal/kinematics/kinematics.hpp>
 #include <iostream>
 

@@ -16,8 +16,10 @@
 #include <iostream>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
 #include "hapticcal/study/evaluate.hpp"
 
 namespace {
