@@ -275,7 +275,7 @@ TEST(CostJacobian, CapstanReportedSdMatchesMonteCarloRmseWithin15Percent) {
       }
       TransmissionFit fit;
       fit_transmission(actual, joint, q, ext, std::nullopt, fit);
-      ASSERT_EQ(fit.type, "capstan");
+      ASSERT_EQ(fit.kind, TransmissionKind::kCapstan);
       ASSERT_TRUE(fit.converged) << fit.message;
       Eigen::VectorXd value(6), sd(6);
       value << fit.value, fit.offset;

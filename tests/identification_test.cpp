@@ -61,14 +61,14 @@ TEST(Identification, PaperStudyFindsThePapersIdentifiabilityAndRecoversTheTruthW
   }
   ASSERT_EQ(r.transmissions.size(), 4u);
   for (const TransmissionFit& t : r.transmissions) {
-    if (t.type != "capstan") continue;
+    if (t.kind != TransmissionKind::kCapstan) continue;
     const Eigen::VectorXd tv = actual.links[t.joint].transmission.parameters();
     for (int i = 0; i < 5; ++i) {
       EXPECT_LT(std::abs(t.value[i] - tv[i]), 4 * t.sd[i]) << t.names[i];
     }
     EXPECT_NEAR(t.rms_after, kPaperSigmaE, 0.2 * kPaperSigmaE) << t.joint;
   }
-  EXPECT_EQ(r.transmissions[3].type, "polynomial");
+  EXPECT_EQ(r.transmissions[3].kind, TransmissionKind::kPolynomial);
   // The residual is the simulated cable-encoder noise.
   EXPECT_NEAR(k.rms_after, kPaperSigmaMPaper, 0.2 * kPaperSigmaMPaper);
   EXPECT_GT(k.rms_before, 100 * k.rms_after);

@@ -57,9 +57,9 @@ void print_summary(const hapticcal::CalibrationResult& r, const hapticcal::Devic
       const std::string& link = nominal.links[t.joint].name;
       fmt::print(
           "  {} {} ({} samples): RMS of ext - q - c {:.4f} mrad before, {:.4f} mrad after{}\n",
-          link, t.type, t.n, t.rms_before * 1e3, t.rms_after * 1e3,
+          link, hapticcal::to_string(t.kind), t.n, t.rms_before * 1e3, t.rms_after * 1e3,
           t.converged ? "" : " (did not converge)");
-      if (t.type == "capstan") {
+      if (t.kind == hapticcal::TransmissionKind::kCapstan) {
         const char* labels[] = {"Re", "ro", "bo", "ri", "bi"};
         for (int k = 0; k < 5; ++k) {
           const hapticcal::DisplayUnit u = hapticcal::display_unit(t, k);

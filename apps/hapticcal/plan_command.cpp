@@ -90,7 +90,7 @@ int run_plan(const PlanCommandOptions& options) {
       "  candidates: {} {}; exchange: {} sweeps, {} swaps; refinement: {} moves ({:.1f} s)\n",
       plan.pool, user ? "recorded poses (" + o.candidates + ")" : "random poses", plan.sweeps,
       plan.swaps, plan.refined_moves, plan.seconds);
-  const char* tip = type == MeasurementType::kDistance ? "distance" : "position";
+  const char* tip = hapticcal::traits(type).tip;
   fmt::print(
       "  predicted RMS {} sd over the workspace: planned {:.3f} um, random {} poses {:.3f} um "
       "(median of {} draws): ratio {:.3f}\n",

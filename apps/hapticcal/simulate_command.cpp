@@ -35,7 +35,7 @@ void print_validation_and_trajectory(const hapticcal::Scenario& sc,
       "{:.4f} -> {:.4f} mrad{}\n",
       sc.validation_poses, paper ? ", Fig. 8" : "", t.position_rms_before * 1e3,
       t.position_rms_after * 1e3, t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3,
-      sc.measurement == hapticcal::MeasurementType::kDistance
+      hapticcal::traits(sc.measurement).distance_column
           ? fmt::format(", distance RMS {:.4f} -> {:.4f} mm", t.distance_rms_before * 1e3,
                         t.distance_rms_after * 1e3)
           : "");
@@ -70,7 +70,7 @@ void print_general_study(const hapticcal::Scenario& sc, const hapticcal::StudyRe
   fmt::print("Truth: {} transmissions; kinematics {}. Measurement: {} (sigma_m {:.3g} m{})\n",
              sc.paper_transmissions ? "the paper's (Table 2)" : "the device's own", kinematics,
              hapticcal::traits(sc.measurement).plural, hapticcal::measurement_sigma(sc),
-             sc.measurement == hapticcal::MeasurementType::kPose
+             hapticcal::traits(sc.measurement).rotation
                  ? fmt::format(", sigma_r {:.3g} rad", sc.noise.sigma_orientation)
                  : "");
   const std::vector<hapticcal::StudyRow> rows = hapticcal::study_rows(sc, t.full);
@@ -135,7 +135,7 @@ void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r)
                row.paper_unit.empty() ? "" : " " + row.paper_unit);
   }
   for (const hapticcal::TransmissionFit& f : t.full.transmissions) {
-    if (f.type != "polynomial") continue;
+    if (f.kind != hapticcal::TransmissionKind::kPolynomial) continue;
     fmt::print("  {}: {}th-order polynomial, RMS residual {:.3g} mrad (Fig. 7: fig7_{}.csv)\n",
                sc.nominal.links[f.joint].name, f.value.size(), f.rms_after * 1e3,
                sc.nominal.links[f.joint].name);

@@ -331,33 +331,6 @@ Log parse_log(const std::string& text, const std::string& origin,
   return log;
 }
 
-void check_log_fits(const Log& log, const DeviceModel& model) {
-  if (log.dof() != model.dof()) {
-    throw InputError(log.origin, 0, "",
-                     fmt::format("the log has {} joint columns but the model '{}' has {} joints",
-                                 log.dof(), model.name, model.dof()));
-  }
-  if (!log.has_distance && !log.has_position && !log.has_point && !log.has_plane) {
-    throw InputError(log.origin, 0, "",
-                     "no measurements: the log has neither a distance, x, y, z, a point nor a "
-                     "plane column");
-  }
-  // Readings with a unit: angles for turning joints, lengths for prismatic ones.
-  auto check = [&](const std::vector<ReadingUnit>& units, const std::vector<std::string>& names) {
-    for (int j = 0; j < static_cast<int>(units.size()) && j < model.dof(); ++j) {
-      const bool prismatic = model.links[j].prismatic();
-      const ReadingUnit u = units[j];
-      if (u == ReadingUnit::kNone || (u == ReadingUnit::kLength) == prismatic) continue;
-      throw InputError(log.origin, 1, names[j],
-                       fmt::format("{} is {}: its readings are {}", model.links[j].name,
-                                   prismatic ? "prismatic" : "a turning joint",
-                                   prismatic ? "lengths (m, mm, um)" : "angles (rad, deg)"));
-    }
-  };
-  check(log.q_unit, log.q_column);
-  check(log.ext_unit, log.ext_column);
-}
-
 std::string log_to_csv(const Log& log) {
   std::string out;
   std::vector<std::string> header;

@@ -48,17 +48,7 @@ PlanProblem::PlanProblem(const DeviceModel& model, MeasurementType type, double 
   log.has_ext.assign(model_.dof(), false);
   for (int r = 0; r < log.rows; ++r) log.line.push_back(r + 2);
   const MeasuredValues measured = predicted_measurements(model_, type, analysis);
-  if (type == MeasurementType::kDistance) {
-    log.has_distance = true;
-    log.distance = measured.col(0);
-  } else {
-    log.has_position = true;
-    log.position = measured.leftCols(3);
-    if (type == MeasurementType::kPose) {
-      log.has_orientation = true;
-      log.orientation = measured.rightCols(4);
-    }
-  }
+  kind_of(type).to_log(measured, log);
   const KinematicProblem problem = kinematic_problem(model_, log, {}, CalibrationOptions{});
   length_scale_ = problem.length_scale;
   rotation_scale_ = problem.rotation_scale;

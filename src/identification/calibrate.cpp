@@ -90,14 +90,18 @@ std::string setup_change_note(const DeviceModel& nominal, const DeviceModel& cal
 double repeatability(const Log& log, const std::vector<std::vector<int>>& poses, const Log& means,
                      const RowsOf& kind) {
   if (is_fixture(kind.type)) return std::numeric_limits<double>::quiet_NaN();  // nothing measured
+  // The spread of the values that are lengths (a pose's position, not its rotation).
+  const MeasurementTraits& t = traits(kind.type);
+  const int lengths = std::min(t.length_rows, t.width);
+  std::vector<double> value(t.width), mean(t.width);
   double sum = 0;
   int dof = 0;
   for (size_t g = 0; g < poses.size(); ++g) {
     dof += static_cast<int>(poses[g].size()) - 1;
+    measured_values(kind.type, means, static_cast<int>(g), mean.data());
     for (int r : poses[g]) {
-      sum += kind.type != MeasurementType::kDistance
-                 ? (log.position.row(r) - means.position.row(g)).squaredNorm()
-                 : std::pow(log.distance[r] - means.distance[g], 2);
+      measured_values(kind.type, log, r, value.data());
+      for (int k = 0; k < lengths; ++k) sum += std::pow(value[k] - mean[k], 2);
     }
   }
   return dof > 0 ? std::sqrt(sum / dof) : std::numeric_limits<double>::quiet_NaN();
@@ -277,7 +281,7 @@ void prepare_poses(CalibrationRun& run) {
 // --fix instrument.zero (or options.instrument_zero false): no slot at all.
 // (Other logs have no such parameter: fixing it is refused as unknown.)
 void offer_instrument_zero(CalibrationRun& run) {
-  const bool distances = run.fit.type == MeasurementType::kDistance && run.options.instrument_zero;
+  const bool distances = traits(run.fit.type).zero && run.options.instrument_zero;
   run.fix = run.options.fix;
   const auto fixed_zero = std::find(run.fix.begin(), run.fix.end(), "instrument.zero");
   const bool zero_fixed = distances && fixed_zero != run.fix.end();
@@ -329,9 +333,13 @@ void check_nominal(CalibrationRun& run) {
                        "too large");
     }
     // The row of the pose with the largest measured value is the culprit.
+    // (The size of its length values: a distance, a position.)
+    const MeasurementTraits& t = traits(kind.type);
+    std::vector<double> value(t.width);
     auto size = [&](int row) {
-      return kind.type == MeasurementType::kDistance ? std::abs(run.log.distance[row])
-                                                     : run.log.position.row(row).norm();
+      measured_values(kind.type, run.log, row, value.data());
+      return Eigen::Map<const Eigen::VectorXd>(value.data(), std::min(t.length_rows, t.width))
+          .norm();
     };
     const std::vector<int>& rows = run.result.poses[i / d];
     const int culprit = *std::max_element(rows.begin(), rows.end(),

@@ -148,16 +148,16 @@ std::vector<int> exchange_faint_carriers(const Eigen::MatrixXd& J, const std::ve
 // DH: A_i twists joint i's axis into joint i+1's; MDH: joint i-1's into joint i's.
 // None for the last DH link and the first MDH link (the tool or base pose).
 std::optional<int> twist_partner(const DeviceModel& model, int link) {
-  const Geometry g = model.links[link].geometry;
-  if (g == Geometry::kOrigin) return std::nullopt;
-  const int partner = g == Geometry::kDh ? link + 1 : link - 1;
+  const int step = traits(model.links[link].geometry).twist_partner;
+  if (step == 0) return std::nullopt;
+  const int partner = link + step;
   if (partner < 0 || partner >= model.dof()) return std::nullopt;
   return partner;
 }
 
 bool is_beta(const DeviceModel& model, const ParameterInfo& p) {
-  return p.joint >= 0 && p.joint < model.dof() &&
-         model.links[p.joint].geometry != Geometry::kOrigin && p.element == kLinkBeta;
+  return p.joint >= 0 && p.joint < model.dof() && model.links[p.joint].dh_parameters() &&
+         p.element == kLinkBeta;
 }
 
 }  // namespace
@@ -170,7 +170,7 @@ std::string beta_left_out_reason(const DeviceModel& model, int link) {
   const auto partner = twist_partner(model, link);
   if (!partner) {
     return fmt::format("not a candidate: no joint {} {} (free it by name)",
-                       model.links[link].geometry == Geometry::kDh ? "after" : "before", name);
+                       traits(model.links[link].geometry).partner_word, name);
   }
   const auto [first, second] = std::minmax(link, *partner);
   return fmt::format(
@@ -270,7 +270,7 @@ std::vector<Eigen::VectorXd> consistent_joints(const ChainStructure& s, const Ei
     for (int step = 0; step < kSteps; ++step) {
       const Frame<double> tool = forward_kinematics(s, constants, joints[i].data(), frames.data());
       Eigen::Vector3d e = mean[l] - tool.p;
-      if (type == MeasurementType::kPlane) e = normal * normal.dot(e);
+      if (!traits(type).label_points) e = normal * normal.dot(e);  // onto the plane
       if (e.norm() < 1e-13) break;
       geometric_jacobian(s, frames.data(), tool, JacobianFrame::kMeasurement, J);
       const Eigen::MatrixXd Jp = J.topRows<3>();
@@ -329,8 +329,8 @@ void record_verdicts(const KinematicProblem& problem, const RankFindings& f,
         out.reason[slot] += fmt::format(
             " (with them, a uniform scale of the robot: {} cannot see its size; give a known "
             "distance between points, --point-distance)",
-            problem.type == MeasurementType::kPlane ? "plane contacts"
-                                                    : "fixture points without a known distance");
+            traits(problem.type).label_points ? "fixture points without a known distance"
+                                              : "plane contacts");
       }
     } else if (s.instrument && slot == s.instrument_slot()) {
       // The instrument's, not the device's: these poses leave it at 0 (held),
@@ -428,7 +428,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   // (every length times 1 + e leaves the residuals as they are): the rank test
   // finds one length dependent on the others; its reason says so.
   const bool sizeless =
-      kind.labels && (problem.type == MeasurementType::kPlane ||
+      kind.labels && (!traits(problem.type).label_points ||
                       (problem.labels.distances.empty() && problem.labels.known_points() < 2));
   // A slot the rank test holds only because of that: one it accepts once a row
   // that measures the scale (d size = lengths . d params) is added.
@@ -453,7 +453,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   std::vector<int> size_held;
   // (Points only: plane contacts leave many dependencies among lengths, and
   // exchanging there made their fits crawl.)
-  if (sizeless && problem.type == MeasurementType::kPoint) {
+  if (sizeless && traits(problem.type).label_points) {
     const auto is_length = [&](int slot) {
       return !is_base(slot) && length[static_cast<size_t>(slot)];
     };

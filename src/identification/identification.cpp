@@ -56,10 +56,11 @@ double position_rss(const Eigen::VectorXd& r, const RowsOf& kind) {
         static_cast<Eigen::Index>(kind.labels->of_pose.size()) * kind.dimension();
     return r.head(pose_rows).squaredNorm();
   }
-  if (kind.type != MeasurementType::kPose) return r.squaredNorm();
+  const int d = kind.dimension(), length_rows = traits(kind.type).length_rows;
+  if (length_rows == d) return r.squaredNorm();
   double sum = 0;
   for (Eigen::Index i = 0; i < r.size(); ++i) {
-    if (i % 6 < 3) sum += r[i] * r[i];
+    if (i % d < length_rows) sum += r[i] * r[i];
   }
   return sum;
 }
@@ -83,18 +84,9 @@ RowMatrix predicted_values(const ChainStructure& s, const Eigen::VectorXd& param
   for (size_t i = 0; i < joints.size(); ++i) {
     const Frame<double> tool = forward_kinematics(s, constants, joints[i].data());
     double* row = out.row(i).data();
-    if (kind.type == MeasurementType::kDistance) {
-      row[0] = tool.p.norm() + (s.instrument ? params[s.instrument_slot()] : 0.0);
-      continue;
-    }
-    for (int k = 0; k < 3; ++k) row[k] = tool.p[k];
-    if (kind.type == MeasurementType::kPose) {
-      const Eigen::Quaterniond q(tool.R);
-      row[3] = q.w();
-      row[4] = q.x();
-      row[5] = q.y();
-      row[6] = q.z();
-    }
+    hapticcal::predicted_values(kind.type, tool, row);
+    // The instrument reads its zero d0 on top (step 2's "instrument.zero").
+    if (traits(kind.type).zero && s.instrument) row[0] += params[s.instrument_slot()];
   }
   return out;
 }
@@ -147,8 +139,7 @@ std::optional<std::string> register_frame(DeviceModel& model,
                                           const RowsOf& kind, const RowMatrix& measured,
                                           const Eigen::VectorXd& weights,
                                           const std::vector<int>& candidates) {
-  if (kind.type == MeasurementType::kDistance || is_fixture(kind.type) ||
-      model.base_kind != BaseKind::kPose) {
+  if (!traits(kind.type).own_frame || !model.base_is_pose()) {
     return {};  // no measured points to register to
   }
   for (int k = 0; k < kPoseSlots; ++k) {  // every base slot free
@@ -265,6 +256,8 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
   if (log.has_position) out.position = Eigen::MatrixXd::Zero(out.rows, 3);
   if (log.has_time) out.t.resize(out.rows);
   if (log.has_orientation) out.orientation = Eigen::MatrixXd::Zero(out.rows, 4);
+  for (const auto& [name, values] : log.columns)
+    out.columns[name] = Eigen::MatrixXd::Zero(out.rows, values.cols());
   for (int g = 0; g < out.rows; ++g) {
     const std::vector<int>& rows = groups[g];
     const int first = rows.front();
@@ -277,6 +270,7 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
       if (log.ext.cols() > 0) out.ext.row(g) += w * log.ext.row(r);
       if (log.has_distance) out.distance[g] += w * log.distance[r];
       if (log.has_position) out.position.row(g) += w * log.position.row(r);
+      for (const auto& [name, values] : log.columns) out.columns[name].row(g) += w * values.row(r);
       if (log.has_orientation) {  // q and -q are one rotation: align with the first
         const double sign = log.orientation.row(r).dot(log.orientation.row(first)) < 0 ? -1 : 1;
         out.orientation.row(g) += sign * w * log.orientation.row(r);
@@ -391,10 +385,10 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
 
 bool measurement_frame_unknown(const KinematicProblem& problem, const std::vector<int>& candidates,
                                bool registered) {
-  if (problem.type != MeasurementType::kPosition && problem.type != MeasurementType::kPose) {
+  if (!traits(problem.type).own_frame) {
     return false;
   }
-  if (problem.model.base_kind != BaseKind::kPose) return false;
+  if (!problem.model.base_is_pose()) return false;
   // A base the model gives (a device file's measured pose, the Meca500's
   // T_base) is the frame, known; none (a URDF's root) or one the log was far
   // from (registered) is not.

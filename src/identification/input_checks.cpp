@@ -148,11 +148,11 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
                                   s.instrument ? " and the instrument's zero" : "");
   double rms_fitted = rms_base;
   if (!(rms_base <= limit)) {
-    const int tool_slots = kind.type == MeasurementType::kPose ? kPoseSlots : 3;
+    const int tool_slots = traits(kind.type).rotation ? kPoseSlots : 3;
     for (int k = 0; k < tool_slots; ++k) free.push_back(s.tool_slot() + k);
     rms_fitted = rms_with_fitted(s, p, free, joints, kind, measured, weights, rows, compressed);
     tried += fmt::format(", {:.1f} mm with its base pose and tool {} fitted", rms_fitted * 1e3,
-                         kind.type == MeasurementType::kPose ? "pose" : "point");
+                         traits(kind.type).rotation ? "pose" : "point");
   }
   if (rms_fitted <= limit) {
     notes.push_back(fmt::format(

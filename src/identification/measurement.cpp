@@ -5,25 +5,263 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <memory>
 #include <numeric>
+#include <stdexcept>
 
 #include "hapticcal/core/error.hpp"
 
 namespace hapticcal {
 
-const MeasurementTraits& traits(MeasurementType type) {
-  static const MeasurementTraits table[] = {{"distance", "distances", 1, 1},
-                                            {"position", "positions", 3, 3},
-                                            {"pose", "poses", 6, 7},
-                                            {"point", "fixture points", 3, 3},
-                                            {"plane", "plane contacts", 1, 3}};
-  return table[static_cast<int>(type)];
+namespace {
+
+// The built-in kinds' log columns (MeasurementTraits): values in, values out.
+bool columns_in_log(const MeasurementTraits& t, const Log& log) {
+  if (t.orientation_columns) return log.has_orientation;
+  if (t.position_columns) return log.has_position;
+  return t.distance_column && log.has_distance;
 }
 
-const std::vector<MeasurementType>& measurement_types() {
-  static const std::vector<MeasurementType> all = {
-      MeasurementType::kDistance, MeasurementType::kPosition, MeasurementType::kPose,
-      MeasurementType::kPoint, MeasurementType::kPlane};
+// The tool point's rows: p - measured (a position, a fixture sample's raw rows).
+void point_rows(const ChainStructure& s, const ChainConstants<double>& constants,
+                const double* params, const double* joint, const double* measured, double* residual,
+                Eigen::Ref<Eigen::MatrixXd> J) {
+  Eigen::Matrix<double, 3, Eigen::Dynamic> J_p;
+  const Eigen::Vector3d p = position_parameter_jacobian(s, constants, params, joint, J_p);
+  for (int k = 0; k < 3; ++k) residual[k] = p[k] - measured[k];
+  J = J_p;
+}
+
+// A cable encoder (paper eq. 5): |p|, plus its zero d0 while step 2 estimates
+// it ("instrument.zero").
+class Distance : public MeasurementKind {
+ public:
+  Distance()
+      : MeasurementKind({.name = "distance",
+                         .plural = "distances",
+                         .dimension = 1,
+                         .width = 1,
+                         .length_rows = 1,
+                         .zero = true,
+                         .distance_column = true,
+                         .error_title = "Distance error per sample, before and after calibration",
+                         .error_axis = "|delta_model - delta_measured| [mm]",
+                         .tip = "distance"}) {}
+  void predict(const Frame<double>& tool, double* values) const override {
+    values[0] = tool.p.norm();
+  }
+  void rows(const ChainStructure& s, const ChainConstants<double>& constants, const double* params,
+            const double* joint, const double* measured, double, double* residual,
+            Eigen::Ref<Eigen::MatrixXd> J) const override {
+    Eigen::Matrix<double, 3, Eigen::Dynamic> J_p;
+    const Eigen::Vector3d p = position_parameter_jacobian(s, constants, params, joint, J_p);
+    const double delta = p.norm();
+    residual[0] = delta - measured[0];
+    J = (p / delta).transpose() * J_p;
+    if (s.instrument) {  // the instrument reads |p| + d0
+      residual[0] += params[s.instrument_slot()];
+      J(0, s.instrument_slot()) = 1;
+    }
+  }
+  void joint_rows(const Frame<double>& tool, const Jacobian6<double>& J_tool_q, double,
+                  Eigen::Ref<Eigen::MatrixXd> rows) const override {
+    rows = tool.p.normalized().transpose() * J_tool_q.topRows<3>();
+  }
+};
+
+// A laser tracker: p, 3 rows.
+class Position : public MeasurementKind {
+ public:
+  Position()
+      : MeasurementKind({.name = "position",
+                         .plural = "positions",
+                         .dimension = 3,
+                         .width = 3,
+                         .length_rows = 3,
+                         .own_frame = true,
+                         .position_columns = true,
+                         .error_title = "Position error per sample, before and after calibration",
+                         .error_axis = "|p_model - p_measured| [mm]"}) {}
+  void predict(const Frame<double>& tool, double* values) const override {
+    for (int k = 0; k < 3; ++k) values[k] = tool.p[k];
+  }
+  void rows(const ChainStructure& s, const ChainConstants<double>& constants, const double* params,
+            const double* joint, const double* measured, double, double* residual,
+            Eigen::Ref<Eigen::MatrixXd> J) const override {
+    point_rows(s, constants, params, joint, measured, residual, J);
+  }
+  void joint_rows(const Frame<double>&, const Jacobian6<double>& J_tool_q, double,
+                  Eigen::Ref<Eigen::MatrixXd> rows) const override {
+    rows = J_tool_q.topRows<3>();
+  }
+};
+
+// Mocap, a tracker with a 6-D probe: p and s * log(R R_measured^T), 6 rows.
+class Pose : public MeasurementKind {
+ public:
+  Pose()
+      : MeasurementKind({.name = "pose",
+                         .plural = "poses",
+                         .dimension = 6,
+                         .width = 7,
+                         .length_rows = 3,
+                         .rotation = true,
+                         .own_frame = true,
+                         .position_columns = true,
+                         .orientation_columns = true,
+                         .error_title = "Position error per sample, before and after calibration",
+                         .error_axis = "|p_model - p_measured| [mm]"}) {}
+  void from_log(const Log& log, int row, double* values) const override {
+    for (int k = 0; k < 3; ++k) values[k] = log.position(row, k);
+    for (int k = 0; k < 4; ++k) values[3 + k] = log.orientation(row, k);
+  }
+  void predict(const Frame<double>& tool, double* values) const override {
+    for (int k = 0; k < 3; ++k) values[k] = tool.p[k];
+    const Eigen::Quaterniond q(tool.R);
+    values[3] = q.w();
+    values[4] = q.x();
+    values[5] = q.y();
+    values[6] = q.z();
+  }
+  void rows(const ChainStructure& s, const ChainConstants<double>& constants, const double* params,
+            const double* joint, const double* measured, double rotation_scale, double* residual,
+            Eigen::Ref<Eigen::MatrixXd> J) const override {
+    Eigen::Matrix<double, 6, Eigen::Dynamic> J6;
+    const Frame<double> tool = pose_parameter_jacobian<6>(s, constants, params, joint, J6);
+    measurement_residual(MeasurementType::kPose, tool, measured, rotation_scale, residual);
+    const Eigen::Vector3d phi = Eigen::Map<Eigen::Vector3d>(residual + 3) / rotation_scale;
+    J.topRows(3) = J6.topRows(3);
+    // R -> exp(w) R turns log(R Rm^T) by J_l^-1(phi) w.
+    J.bottomRows(3) = rotation_scale * inverse_left_jacobian(phi) * J6.bottomRows(3);
+  }
+  void joint_rows(const Frame<double>&, const Jacobian6<double>& J_tool_q, double rotation_scale,
+                  Eigen::Ref<Eigen::MatrixXd> rows) const override {
+    rows.topRows(3) = J_tool_q.topRows<3>();
+    rows.bottomRows(3) = rotation_scale * J_tool_q.bottomRows<3>();
+  }
+};
+
+// A fixture: the tool point at a fixed, unknown point (socket) or on a fixed,
+// unknown plane per label; no measured values. Its raw rows are the tool point
+// (fixture_residuals makes the fit's rows).
+class FixtureKind : public MeasurementKind {
+ public:
+  using MeasurementKind::MeasurementKind;
+  void from_log(const Log&, int, double* values) const override {
+    for (int k = 0; k < 3; ++k) values[k] = 0;  // the raw rows are the tool point itself
+  }
+  void to_log(const MeasuredValues&, Log&) const override {
+    throw InputError(
+        fmt::format("{} have no measured columns: simulate them with "
+                    "simulate_fixture_log or simulate_plane_log",
+                    traits().plural));
+  }
+  void predict(const Frame<double>&, double* values) const override {
+    for (int k = 0; k < 3; ++k) values[k] = 0;  // nothing measured
+  }
+  void rows(const ChainStructure& s, const ChainConstants<double>& constants, const double* params,
+            const double* joint, const double* measured, double, double* residual,
+            Eigen::Ref<Eigen::MatrixXd> J) const override {
+    point_rows(s, constants, params, joint, measured, residual, J);
+  }
+  void joint_rows(const Frame<double>&, const Jacobian6<double>& J_tool_q, double,
+                  Eigen::Ref<Eigen::MatrixXd> rows) const override {
+    rows = J_tool_q.topRows<3>();
+  }
+};
+
+class Point : public FixtureKind {
+ public:
+  Point()
+      : FixtureKind(
+            {.name = "point",
+             .plural = "fixture points",
+             .dimension = 3,
+             .width = 3,
+             .length_rows = 3,
+             .fixture = true,
+             .label_points = true,
+             .error_title = "Distance of each sample's tool point from its fixture point's centre",
+             .error_axis = "|p_model - centre| [mm]"}) {}
+  bool in_log(const Log& log) const override { return log.has_point; }
+};
+
+class Plane : public FixtureKind {
+ public:
+  Plane()
+      : FixtureKind({.name = "plane",
+                     .plural = "plane contacts",
+                     .dimension = 1,
+                     .width = 3,
+                     .length_rows = 1,
+                     .fixture = true,
+                     .error_title = "Distance of each sample's tool point from its plane",
+                     .error_axis = "|n . (p_model - centre)| [mm]"}) {}
+  // (A log has point or plane labels, never both: a point log is fitted on its points.)
+  bool in_log(const Log& log) const override { return log.has_plane && !log.has_point; }
+};
+
+std::vector<std::unique_ptr<MeasurementKind>>& registry() {
+  static std::vector<std::unique_ptr<MeasurementKind>> kinds = [] {
+    std::vector<std::unique_ptr<MeasurementKind>> k;
+    k.push_back(std::make_unique<Distance>());  // in MeasurementType's order
+    k.push_back(std::make_unique<Position>());
+    k.push_back(std::make_unique<Pose>());
+    k.push_back(std::make_unique<Point>());
+    k.push_back(std::make_unique<Plane>());
+    return k;
+  }();
+  return kinds;
+}
+
+}  // namespace
+
+bool MeasurementKind::in_log(const Log& log) const { return columns_in_log(traits_, log); }
+
+void MeasurementKind::from_log(const Log& log, int row, double* values) const {
+  if (traits_.position_columns) {
+    for (int k = 0; k < 3; ++k) values[k] = log.position(row, k);
+  } else if (traits_.distance_column) {
+    values[0] = log.distance[row];
+  }
+}
+
+void MeasurementKind::to_log(const MeasuredValues& values, Log& log) const {
+  if (traits_.distance_column) {
+    log.has_distance = true;
+    log.distance = values.col(0);
+  }
+  if (traits_.position_columns) {
+    log.has_position = true;
+    log.position = values.leftCols(3);
+  }
+  if (traits_.orientation_columns) {
+    log.has_orientation = true;
+    log.orientation = values.rightCols(4);
+  }
+}
+
+const MeasurementKind& kind_of(MeasurementType type) {
+  const auto& kinds = registry();
+  const auto i = static_cast<std::size_t>(type);
+  if (i >= kinds.size()) throw std::invalid_argument("not a registered measurement kind");
+  return *kinds[i];
+}
+
+MeasurementType register_measurement_kind(std::unique_ptr<MeasurementKind> kind) {
+  if (!kind) throw std::invalid_argument("register_measurement_kind: no kind");
+  if (measurement_type_named(kind->traits().name)) {
+    throw std::invalid_argument(
+        fmt::format("a measurement kind named '{}' is registered already", kind->traits().name));
+  }
+  registry().push_back(std::move(kind));
+  return static_cast<MeasurementType>(registry().size() - 1);
+}
+
+std::vector<MeasurementType> measurement_types() {
+  std::vector<MeasurementType> all;
+  for (std::size_t i = 0; i < registry().size(); ++i)
+    all.push_back(static_cast<MeasurementType>(i));
   return all;
 }
 
@@ -35,30 +273,16 @@ std::optional<MeasurementType> measurement_type_named(const std::string& name) {
 }
 
 MeasurementType measurement_type(const Log& log) {
-  if (log.has_point) return MeasurementType::kPoint;
-  if (log.has_plane) return MeasurementType::kPlane;
-  if (log.has_orientation) return MeasurementType::kPose;
-  return log.has_position ? MeasurementType::kPosition : MeasurementType::kDistance;
+  const std::vector<MeasurementType> all = measurement_types();
+  for (auto it = all.rbegin(); it != all.rend(); ++it) {
+    if (kind_of(*it).in_log(log)) return *it;
+  }
+  return MeasurementType::kDistance;
 }
 
 void measured_values(MeasurementType type, const Log& log, int row, double* out) {
-  switch (type) {
-    case MeasurementType::kDistance:
-      out[0] = log.distance[row];
-      return;
-    case MeasurementType::kPose:
-      for (int k = 0; k < 4; ++k) out[3 + k] = log.orientation(row, k);
-      [[fallthrough]];
-    case MeasurementType::kPosition:
-      for (int k = 0; k < 3; ++k) out[k] = log.position(row, k);
-      return;
-    case MeasurementType::kPoint:
-    case MeasurementType::kPlane:
-      for (int k = 0; k < 3; ++k) out[k] = 0;  // the raw rows are the tool point itself
-      return;
-  }
+  kind_of(type).from_log(log, row, out);
 }
-
 namespace {
 
 // Bad input about a fixture fact: named where it was given (a fixture file's
@@ -281,36 +505,6 @@ Eigen::Matrix3d inverse_left_jacobian(const Eigen::Vector3d& phi) {
   const double c =
       a < 1e-4 ? 1.0 / 12 + a * a / 720 : 1 / (a * a) - (1 + std::cos(a)) / (2 * a * std::sin(a));
   return Eigen::Matrix3d::Identity() - W / 2 + c * W * W;
-}
-
-void measurement_rows(MeasurementType type, const ChainStructure& s,
-                      const ChainConstants<double>& constants, const double* params,
-                      const double* joint, const double* measured, double rotation_scale,
-                      double* residual, Eigen::Ref<Eigen::MatrixXd> J) {
-  if (type == MeasurementType::kPose) {
-    Eigen::Matrix<double, 6, Eigen::Dynamic> J6;
-    const Frame<double> tool = pose_parameter_jacobian<6>(s, constants, params, joint, J6);
-    measurement_residual(type, tool, measured, rotation_scale, residual);
-    const Eigen::Vector3d phi = Eigen::Map<Eigen::Vector3d>(residual + 3) / rotation_scale;
-    J.topRows(3) = J6.topRows(3);
-    // R -> exp(w) R turns log(R Rm^T) by J_l^-1(phi) w.
-    J.bottomRows(3) = rotation_scale * inverse_left_jacobian(phi) * J6.bottomRows(3);
-    return;
-  }
-  Eigen::Matrix<double, 3, Eigen::Dynamic> J_p;
-  const Eigen::Vector3d p = position_parameter_jacobian(s, constants, params, joint, J_p);
-  if (type != MeasurementType::kDistance) {  // a position, or a fixture sample's raw rows
-    for (int k = 0; k < 3; ++k) residual[k] = p[k] - measured[k];
-    J = J_p;
-  } else {
-    const double delta = p.norm();
-    residual[0] = delta - measured[0];
-    J = (p / delta).transpose() * J_p;
-    if (s.instrument) {  // the instrument reads |p| + d0
-      residual[0] += params[s.instrument_slot()];
-      J(0, s.instrument_slot()) = 1;
-    }
-  }
 }
 
 }  // namespace hapticcal

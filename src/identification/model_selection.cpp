@@ -93,8 +93,9 @@ class LinearisedFolds {
     // The rows that measure a position or distance (a pose's rotation rows are
     // reported apart, as in KinematicFit::rms_after).
     measures_ = Eigen::VectorXd::Ones(r_.size());
-    if (kind.type == MeasurementType::kPose) {
-      for (Eigen::Index i = 0; i < r_.size(); ++i) measures_[i] = i % 6 < 3 ? 1.0 : 0.0;
+    const int length_rows = traits(kind.type).length_rows;
+    if (length_rows < d) {
+      for (Eigen::Index i = 0; i < r_.size(); ++i) measures_[i] = i % d < length_rows ? 1.0 : 0.0;
     }
   }
 

@@ -151,7 +151,7 @@ Transmission fit_transmission(const DeviceModel& model, int joint, const Eigen::
   fit.rms_before = rms(target.array() - mean);
   Transmission fitted;
   if (const auto* c = std::get_if<Capstan>(&link.transmission.model())) {
-    fit.type = "capstan";
+    fit.kind = TransmissionKind::kCapstan;
     fit.nominal = link.transmission.parameters();
     fit_capstan(*c, q, target, fit, fitted);
   } else if (link.transmission.is_none() ||
@@ -159,7 +159,7 @@ Transmission fit_transmission(const DeviceModel& model, int joint, const Eigen::
     const auto* p = std::get_if<Polynomial>(&link.transmission.model());
     const int n = order ? *order : (p ? p->order() : 10);
     if (n < 1 || n > 30) throw InputError(fmt::format("polynomial order {} (use 1 to 30)", n));
-    fit.type = "polynomial";
+    fit.kind = TransmissionKind::kPolynomial;
     fit.nominal = Eigen::VectorXd::Zero(n);
     if (p && p->order() == n) fit.nominal = link.transmission.parameters();
     fit_polynomial(n, q, target, fit, fitted);

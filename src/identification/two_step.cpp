@@ -5,24 +5,6 @@
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
-namespace {
-
-void measured_from_frame(MeasurementType type, const Frame<double>& tool, double* out) {
-  if (type == MeasurementType::kDistance) {
-    out[0] = tool.p.norm();
-    return;
-  }
-  for (int k = 0; k < 3; ++k) out[k] = tool.p[k];
-  if (type == MeasurementType::kPose) {
-    const Eigen::Quaterniond q(tool.R);
-    out[3] = q.w();
-    out[4] = q.x();
-    out[5] = q.y();
-    out[6] = q.z();
-  }
-}
-
-}  // namespace
 
 MeasuredValues predicted_measurements(const DeviceModel& model, MeasurementType type,
                                       const Eigen::MatrixXd& readings) {
@@ -31,7 +13,7 @@ MeasuredValues predicted_measurements(const DeviceModel& model, MeasurementType 
   Eigen::VectorXd q(model.dof());
   for (Eigen::Index r = 0; r < readings.rows(); ++r) {
     q = readings.row(r).transpose();
-    measured_from_frame(type, prepared.forward(q.data()), out.row(r).data());
+    predicted_values(type, prepared.forward(q.data()), out.row(r).data());
   }
   return out;
 }
@@ -60,18 +42,12 @@ TwoStepJacobians two_step_jacobians(const DeviceModel& model, MeasurementType ty
     q = readings.row(r).transpose();
     prepared.compensate(q.data(), joint.data());
     const Frame<double> tool = prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, Jg);
-    measured_from_frame(type, tool, measured);
+    predicted_values(type, tool, measured);
     // At the predicted values: zero residual (a pose's rotation rows then turn by w).
     measurement_rows(type, s, constants, p.data(), joint.data(), measured, rotation_scale, residual,
                      J_all);
     for (int c = 0; c < k; ++c) out.kinematic.block(r * d, c, d, 1) = J_all.col(slots[c]);
-    auto rows = out.joint.block(r * d, 0, d, n);
-    if (type == MeasurementType::kDistance) {
-      rows = tool.p.normalized().transpose() * Jg.topRows<3>();
-    } else {
-      rows.topRows(3) = Jg.topRows<3>();
-      if (type == MeasurementType::kPose) rows.bottomRows(3) = rotation_scale * Jg.bottomRows<3>();
-    }
+    kind_of(type).joint_rows(tool, Jg, rotation_scale, out.joint.block(r * d, 0, d, n));
   }
   for (const StepOneModel& t : step_one) {
     const int np = t.transmission.num_parameters();

@@ -105,9 +105,9 @@ PlanSetup prepare_plan(const PlanRequest& o) {
                                    options.candidates.rows()));
     }
   }
-  setup.sigma = o.sigma > 0                           ? o.sigma
-                : *type == MeasurementType::kDistance ? kPaperSigmaMPaper
-                                                      : kPlanSigmaPosition;
+  setup.sigma = o.sigma > 0                     ? o.sigma
+                : traits(*type).distance_column ? kPaperSigmaMPaper
+                                                : kPlanSigmaPosition;
   setup.sigma_e = o.sigma_e > 0 ? o.sigma_e : kPaperSigmaE;
   setup.analysis = options.candidates.size()
                        ? options.candidates

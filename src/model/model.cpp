@@ -14,6 +14,31 @@ const char* const kBaseDhNames[] = {"a", "alpha", "d", "theta"};
 
 }  // namespace
 
+const GeometryTraits& traits(Geometry geometry) {
+  static const GeometryTraits table[] = {
+      {"dh", true, +1, "after"}, {"mdh", true, -1, "before"}, {"urdf", false, 0, ""}};
+  return table[static_cast<int>(geometry)];
+}
+
+std::optional<Geometry> geometry_named(const std::string& name) {
+  for (Geometry g : {Geometry::kDh, Geometry::kMdh, Geometry::kOrigin}) {
+    if (name == traits(g).name) return g;
+  }
+  return std::nullopt;
+}
+
+const char* to_string(JointType type) {
+  static const char* const names[] = {"revolute", "continuous", "prismatic"};
+  return names[static_cast<int>(type)];
+}
+
+std::optional<JointType> joint_type_named(const std::string& name) {
+  for (JointType t : {JointType::kRevolute, JointType::kContinuous, JointType::kPrismatic}) {
+    if (name == to_string(t)) return t;
+  }
+  return std::nullopt;
+}
+
 const std::vector<std::string>& block_names(Geometry geometry) {
   static const std::vector<std::string> dh = {"a", "alpha", "d", "theta", "beta"};
   static const std::vector<std::string> origin = {"x", "y", "z", "roll", "pitch", "yaw", "offset"};

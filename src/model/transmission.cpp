@@ -124,9 +124,18 @@ void polynomial_jacobian(const Polynomial& poly, double q, double* J) {
 
 }  // namespace
 
-std::string Transmission::type_name() const {
-  static const char* kNames[] = {"none", "capstan", "parallelogram", "polynomial", "chain"};
-  return kNames[model_.index()];
+const char* to_string(TransmissionKind kind) {
+  static const char* const kNames[] = {"none", "capstan", "parallelogram", "polynomial", "chain"};
+  return kNames[static_cast<int>(kind)];
+}
+
+std::optional<TransmissionKind> transmission_kind_named(const std::string& name) {
+  for (TransmissionKind k :
+       {TransmissionKind::kNone, TransmissionKind::kCapstan, TransmissionKind::kParallelogram,
+        TransmissionKind::kPolynomial, TransmissionKind::kChain}) {
+    if (name == to_string(k)) return k;
+  }
+  return std::nullopt;
 }
 
 double Transmission::error(double q) const {

@@ -31,7 +31,8 @@ class Reader : public detail::YamlReader {
                             double upper) const {
     expect_map(node, path);
     const std::string type = string(require(node, path, "type"), join(path, "type"));
-    if (type == "capstan") {
+    const std::optional<TransmissionKind> kind = transmission_kind_named(type);
+    if (kind == TransmissionKind::kCapstan) {
       check_keys(node, path,
                  {"type", "ratio", "drum_distance", "offset", "ratio_error", "r_out", "beta_out",
                   "r_in", "beta_in"});
@@ -50,12 +51,12 @@ class Reader : public detail::YamlReader {
       optional("beta_in", c.beta_in);
       return Transmission(c);
     }
-    if (type == "parallelogram") {
+    if (kind == TransmissionKind::kParallelogram) {
       check_keys(node, path, {"type", "L1", "L2", "L3", "L4"});
       return Transmission(Parallelogram{number(node, path, "L1"), number(node, path, "L2"),
                                         number(node, path, "L3"), number(node, path, "L4")});
     }
-    if (type == "polynomial") {
+    if (kind == TransmissionKind::kPolynomial) {
       check_keys(node, path, {"type", "basis", "domain", "coefficients"});
       Polynomial poly;
       poly.lower = lower;
@@ -85,7 +86,7 @@ class Reader : public detail::YamlReader {
       poly.coefficients = numbers(coefficients, join(path, "coefficients"), -1);
       return Transmission(poly);
     }
-    if (type == "chain") {
+    if (kind == TransmissionKind::kChain) {
       check_keys(node, path, {"type", "stages"});
       const YAML::Node stages = require(node, path, "stages");
       if (!stages.IsSequence()) fail(stages, join(path, "stages"), "expected a list");
@@ -109,9 +110,8 @@ class Reader : public detail::YamlReader {
   // A geometry name: dh or mdh, and urdf in version 2.
   Geometry geometry(const YAML::Node& node, const std::string& key, bool v2) const {
     const std::string text = string(node, key);
-    if (text == "dh") return Geometry::kDh;
-    if (text == "mdh") return Geometry::kMdh;
-    if (v2 && text == "urdf") return Geometry::kOrigin;
+    const std::optional<Geometry> g = geometry_named(text);
+    if (g && (v2 || traits(*g).dh_parameters)) return *g;  // urdf: version 2 only
     fail(node, key,
          fmt::format("'{}' is not {}", printable(text), v2 ? "dh, mdh or urdf" : "dh or mdh"));
   }
@@ -165,7 +165,7 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
   if (file.v2 && node.IsMap() && node["geometry"]) {
     link.geometry = r.geometry(node["geometry"], join(path, "geometry"), file.v2);
   }
-  if (link.geometry == Geometry::kOrigin) {
+  if (!link.dh_parameters()) {
     r.check_keys(
         node, path,
         {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission"});
@@ -180,18 +180,14 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
   link.name = r.string(r.require(node, path, "name"), join(path, "name"));
   if (node["type"]) {
     const std::string type = r.string(node["type"], join(path, "type"));
-    if (type == "revolute") {
-      link.type = JointType::kRevolute;
-    } else if (type == "continuous") {
-      link.type = JointType::kContinuous;
-    } else if (type == "prismatic") {
-      link.type = JointType::kPrismatic;
+    if (const std::optional<JointType> t = joint_type_named(type)) {
+      link.type = *t;
     } else {
       r.fail(node["type"], join(path, "type"),
              fmt::format("'{}' is not revolute, continuous or prismatic", printable(type)));
     }
   }
-  if (link.geometry == Geometry::kOrigin) {
+  if (!link.dh_parameters()) {
     r.pose(r.require(node, path, "origin"), join(path, "origin"), link.origin);
     const auto axis = r.numbers(r.require(node, path, "axis"), join(path, "axis"), 3);
     link.axis = Eigen::Vector3d(axis[0], axis[1], axis[2]);
@@ -260,7 +256,7 @@ std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) 
   for (double v : link.origin) {
     if (!std::isfinite(v)) return {key + ".origin", "non-finite value"};
   }
-  if (link.geometry == Geometry::kOrigin) {
+  if (!link.dh_parameters()) {
     if (!link.axis.allFinite() || std::abs(link.axis.norm() - 1) > 1e-9) {
       return {key + ".axis", "must be a unit vector"};
     }
@@ -397,7 +393,7 @@ std::string check_device(const DeviceModel& model) {
   for (double v : model.base) {
     if (!std::isfinite(v)) return "base: non-finite value";
   }
-  if (model.base_kind == BaseKind::kDh && (model.base[4] != 0 || model.base[5] != 0)) {
+  if (!model.base_is_pose() && (model.base[4] != 0 || model.base[5] != 0)) {
     return "base: unused DH slots must be zero";
   }
   for (double v : model.tool) {
@@ -414,18 +410,16 @@ std::string device_to_yaml(const DeviceModel& model) {
   std::string out;
   // Version 1 holds a model whose links are all revolute with one DH or MDH geometry.
   const Geometry first = model.links.empty() ? Geometry::kDh : model.links[0].geometry;
-  bool uniform = first != Geometry::kOrigin;
+  bool uniform = traits(first).dh_parameters;
   for (const Link& l : model.links) {
-    uniform = uniform && l.geometry == first && l.type == JointType::kRevolute;
+    uniform = uniform && l.geometry == first && !l.prismatic() && !l.continuous();
   }
-  auto geometry_name = [](Geometry g) {
-    return g == Geometry::kDh ? "dh" : g == Geometry::kMdh ? "mdh" : "urdf";
-  };
+  auto geometry_name = [](Geometry g) { return traits(g).name; };
   out += fmt::format("format: {}\n", uniform ? kFormat : kFormat2);
   out += fmt::format("name: {}\n", quoted(model.name));
   out += fmt::format("convention: {}\n", geometry_name(first));
   const auto& b = model.base;
-  if (model.base_kind == BaseKind::kDh) {
+  if (!model.base_is_pose()) {
     out += fmt::format("base:\n  dh: {{a: {}, alpha: {}, d: {}, theta: {}}}\n", num(b[0]),
                        num(b[1]), num(b[2]), num(b[3]));
   } else {
@@ -437,11 +431,9 @@ std::string device_to_yaml(const DeviceModel& model) {
     out += fmt::format("  - name: {}\n", quoted(l.name));
     if (!uniform) {
       out += fmt::format("    geometry: {}\n", geometry_name(l.geometry));
-      out += fmt::format("    type: {}\n", l.type == JointType::kRevolute     ? "revolute"
-                                           : l.type == JointType::kContinuous ? "continuous"
-                                                                              : "prismatic");
+      out += fmt::format("    type: {}\n", to_string(l.type));
     }
-    if (l.geometry == Geometry::kOrigin) {
+    if (!l.dh_parameters()) {
       const auto& o = l.origin;
       out += fmt::format("    origin: {{xyz: [{}, {}, {}], rpy: [{}, {}, {}]}}\n", num(o[0]),
                          num(o[1]), num(o[2]), num(o[3]), num(o[4]), num(o[5]));

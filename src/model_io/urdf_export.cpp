@@ -219,7 +219,7 @@ void write_joint(std::string& out, const std::string& name, const std::string& t
   out += fmt::format("    <origin xyz=\"{}\" rpy=\"{}\"/>\n", xyz_text(pose), rpy_text(pose));
   if (link) {
     out += fmt::format("    <axis xyz=\"{}\"/>\n", triple(axis[0], axis[1], axis[2]));
-    if (link->type != JointType::kContinuous) {
+    if (!link->continuous()) {
       out += fmt::format("    <limit lower=\"{}\" upper=\"{}\" effort=\"0\" velocity=\"0\"/>\n",
                          num(link->lower), num(link->upper));
     }
@@ -266,9 +266,7 @@ std::string device_to_urdf(const DeviceModel& model) {
           "device file): {} -->\n",
           comment_safe(l.name), comment_safe(transmissions[i]));
     }
-    const char* type = l.prismatic()                      ? "prismatic"
-                       : l.type == JointType::kContinuous ? "continuous"
-                                                          : "revolute";
+    const char* type = to_string(l.type);
     write_joint(out, l.name, type, parent, child, post * split.pre, &l, split.axis);
     post = split.post;
     parent = child;
@@ -347,7 +345,7 @@ std::string calibrated_urdf(const std::string& urdf_text, const std::string& ori
   for (int i = 0; i < nominal.dof(); ++i) {
     const Link& c = calibrated.links[i];
     const Link& n = nominal.links[i];
-    if (c.name != n.name || c.geometry != Geometry::kOrigin || c.type != n.type ||
+    if (c.name != n.name || c.dh_parameters() || c.type != n.type ||
         (c.axis - n.axis).norm() > 1e-12) {
       throw mismatch(fmt::format("joint {} ('{}')", i + 1, printable(c.name, 80)));
     }

@@ -412,7 +412,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
       throw InputError(origin, line, joint_key(j->name), "axis: zero or not finite");
     }
     link.axis.normalize();
-    if (link.type == JointType::kContinuous) {
+    if (link.continuous()) {
       link.lower = -std::numbers::pi;
       link.upper = std::numbers::pi;
     } else if (j->limits) {

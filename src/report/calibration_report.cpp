@@ -61,7 +61,7 @@ void selection_section(const KinematicFit& k, Report& report) {
                   "linearised fits ({}); cross-validated over {} folds of poses (for the record: "
                   "the rule does not use it). <code>--keep-all</code> fits all of them.</p>\n",
                   k.structurally_identified, k.identified,
-                  k.type == MeasurementType::kPose ? "position rows" : "the measurement's error",
+                  traits(k.type).rotation ? "position rows" : "the measurement's error",
                   k.selection_folds) +
       html_table({"parameters", "training RMS [mm]", "cross-validated RMS [mm]", "held next",
                   "its t [sd]", "threshold [sd]", ""},
@@ -175,7 +175,7 @@ Outcome calibration_outcome(const CalibrationResult& result, const DeviceModel& 
     o.headline.push_back(fmt::format(
         "step 1, {} {} ({} samples): RMS of ext - q - c {:.4f} mrad before, {:.4f} mrad after{}; "
         "encoder zero c {:.6f} +- {:.6f} mrad",
-        nominal.links[t.joint].name, t.type, t.n, t.rms_before * 1e3, t.rms_after * 1e3,
+        nominal.links[t.joint].name, to_string(t.kind), t.n, t.rms_before * 1e3, t.rms_after * 1e3,
         t.converged ? "" : " (did not converge)", t.offset * 1e3, t.offset_sd * 1e3));
   }
   for (const ParameterEstimate& e : k.parameters) {
@@ -217,8 +217,9 @@ void transmission_section(const CalibrationResult& result, const DeviceModel& no
 // The measurement's error per sample, before and after calibration.
 FigureSpec errors_per_sample(const KinematicFit& k, const Log& log, const Evaluation& before,
                              const Evaluation& after) {
-  const bool fixture = is_fixture(k.type);
-  const bool position = k.type != MeasurementType::kDistance && !fixture;
+  const MeasurementTraits& kind = traits(k.type);
+  const bool fixture = kind.fixture;
+  const bool position = kind.position_columns;
   const Eigen::VectorXd& error_before = fixture    ? before.fixture_error
                                         : position ? before.position_error
                                                    : before.distance_error;
@@ -232,18 +233,10 @@ FigureSpec errors_per_sample(const KinematicFit& k, const Log& log, const Evalua
     eb.push_back(std::abs(error_before[r]) * 1e3);
     ea.push_back(std::abs(error_after[r]) * 1e3);
   }
-  const char* title = k.type == MeasurementType::kPoint
-                          ? "Distance of each sample's tool point from its fixture point's centre"
-                      : k.type == MeasurementType::kPlane
-                          ? "Distance of each sample's tool point from its plane"
-                      : position ? "Position error per sample, before and after calibration"
-                                 : "Distance error per sample, before and after calibration";
   // Magnitudes on a log axis: the calibrated model's errors are orders of
   // magnitude below the nominal one's.
-  const char* axis = k.type == MeasurementType::kPoint   ? "|p_model - centre| [mm]"
-                     : k.type == MeasurementType::kPlane ? "|n . (p_model - centre)| [mm]"
-                     : position                          ? "|p_model - p_measured| [mm]"
-                                                         : "|delta_model - delta_measured| [mm]";
+  const char* title = kind.error_title;
+  const char* axis = kind.error_axis;
   FigureSpec residuals = figure("errors_per_sample", title, "sample", axis, {sample, eb, ea});
   residuals.series = {detail::before_series("nominal model", 0, 1),
                       detail::after_series("calibrated model", 0, 2)};

@@ -23,7 +23,7 @@ Report plan_report(const PlanProblem& problem, const Plan& plan) {
   Report report;
   report.title = fmt::format("hapticcal plan: {} poses, {}-optimal", plan.readings.rows(),
                              to_string(plan.criterion));
-  const char* tip = problem.type() == MeasurementType::kDistance ? "distance" : "position";
+  const char* tip = traits(problem.type()).tip;
   report.outcome.status = "done";
   report.outcome.headline.push_back(fmt::format(
       "predicted RMS {} sd over the workspace: {:.3f} um with the {} planned poses, {:.3f} um "

@@ -103,7 +103,7 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
   j["log"] = log_path;
   j["device"] = nominal.name;
   j["measurement"] = traits(k.type).name;
-  if (k.type == MeasurementType::kPose) j["rotation_scale"] = k.rotation_scale;
+  if (traits(k.type).rotation) j["rotation_scale"] = k.rotation_scale;
   j["frame_registered"] = k.frame_registered;
   j["rows_used"] = k.rows;
   j["poses"] = k.poses;
@@ -165,7 +165,7 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
                             {"identifiable", true}};
     }
     json tj{{"joint", link},
-            {"type", t.type},
+            {"type", to_string(t.kind)},
             {"n", t.n},
             {"rms_before", t.rms_before},
             {"rms_after", t.rms_after},
@@ -245,7 +245,7 @@ void general_study_json(const Scenario& sc, const StudyResult& r, nlohmann::orde
   if (!sc.tip.empty()) j["tip"] = sc.tip;
   if (!sc.root.empty()) j["root"] = sc.root;
   j["measurement"] = traits(sc.measurement).name;
-  if (sc.measurement == MeasurementType::kPose) j["noise"]["sigma_r"] = sc.noise.sigma_orientation;
+  if (traits(sc.measurement).rotation) j["noise"]["sigma_r"] = sc.noise.sigma_orientation;
   json truth = {{"transmissions", sc.paper_transmissions ? "paper" : "device"},
                 {"kinematics", sc.random.enabled() ? "random"
                                : sc.paper_device   ? "paper Table 3"

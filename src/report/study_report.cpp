@@ -36,7 +36,7 @@ Outcome study_outcome(const Scenario& sc, const StudyResult& r) {
       "{:.4f} mrad",
       sc.validation_poses, t.position_rms_before * 1e3, t.position_rms_after * 1e3,
       t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
-  if (sc.measurement == MeasurementType::kDistance) {
+  if (traits(sc.measurement).distance_column) {
     validation += fmt::format(", distance RMS {:.4f} -> {:.4f} mm", t.distance_rms_before * 1e3,
                               t.distance_rms_after * 1e3);
   }
@@ -71,7 +71,7 @@ Outcome study_outcome(const Scenario& sc, const StudyResult& r) {
     if (!e.identifiable && e.reason.starts_with("no effect"))
       unseen += (unseen.empty() ? "" : ", ") + e.name;
   }
-  if (sc.measurement == MeasurementType::kDistance && !unseen.empty()) {
+  if (traits(sc.measurement).distance_column && !unseen.empty()) {
     o.notes.push_back(fmt::format(
         "A distance from a fixed anchor does not change when the device turns about the anchor, "
         "nor with the tool's orientation: {} have no effect on it and stay at nominal, so the "
@@ -138,7 +138,7 @@ void parameter_tables(const Scenario& sc, const StudyResult& r, Report& report) 
 // Fig. 7: the parallelogram joint's error.
 void fig7_figures(const Scenario& sc, const TrialResult& t, Report& report) {
   for (const TransmissionFit& f : t.full.transmissions) {
-    if (f.type != "polynomial") continue;
+    if (f.kind != TransmissionKind::kPolynomial) continue;
     const std::string link = sc.nominal.links[f.joint].name;
     const auto& c = t.figures.fig7.at(link);
     std::vector<int> idx = order_by(c[0]);
@@ -187,7 +187,9 @@ void fig8_figures(const TrialResult& t, Report& report) {
 void transmission_fit_figures(const Scenario& sc, const TrialResult& t, Report& report) {
   const Log& ident = t.figures.identification;
   for (const TransmissionFit& f : t.full.transmissions) {
-    if (f.type == "polynomial" && t.figures.fig7.count(sc.nominal.links[f.joint].name)) continue;
+    if (f.kind == TransmissionKind::kPolynomial &&
+        t.figures.fig7.count(sc.nominal.links[f.joint].name))
+      continue;
     std::vector<int> rows(ident.rows);
     std::iota(rows.begin(), rows.end(), 0);
     transmission_figures(f, sc.nominal.links[f.joint].name, ident, rows,

@@ -25,7 +25,7 @@ std::array<double, 6> pose_of(const Frame<double>& T) {
 // The model with its base as a pose: a DH base is one rigid transform too, and
 // only a pose can take any registration.
 DeviceModel with_pose_base(DeviceModel m) {
-  if (m.base_kind == BaseKind::kPose) return m;
+  if (m.base_is_pose()) return m;
   const Frame<double> B = base_frame(m.structure(), m.kinematic_parameters().data());
   m.base_kind = BaseKind::kPose;
   m.base = pose_of(B);
@@ -35,7 +35,7 @@ DeviceModel with_pose_base(DeviceModel m) {
 // Registration needs the log to say where the tool point was.
 MeasurementType registrable_type(const Log& log) {
   const MeasurementType type = measurement_type(log);
-  if (type != MeasurementType::kPosition && type != MeasurementType::kPose) {
+  if (!traits(type).own_frame) {
     throw InputError(log.origin, 0, "--register",
                      fmt::format("registration needs measured positions (x, y, z columns); this "
                                  "log has {}",
@@ -79,9 +79,8 @@ double rotation_scale(const ChainStructure& s, const Eigen::VectorXd& p,
 // position (and its rotation, which only a pose log sees); every other slot held.
 void refine(const ChainStructure& s, Eigen::VectorXd& p, const std::vector<Eigen::VectorXd>& joints,
             const detail::RowsOf& kind, const detail::RowMatrix& measured, RegisterWhat what) {
-  const int tool_free = what == RegisterWhat::kFrameAndTool
-                            ? (kind.type == MeasurementType::kPose ? kPoseSlots : 3)
-                            : 0;
+  const int tool_free =
+      what == RegisterWhat::kFrameAndTool ? (traits(kind.type).rotation ? kPoseSlots : 3) : 0;
   std::vector<int> constant;
   for (int k = s.base_slots(); k < s.num_slots(); ++k) {
     if (k < s.tool_slot() || k >= s.tool_slot() + tool_free) constant.push_back(k);

@@ -206,12 +206,17 @@ void read_measurement(const ScenarioFile& file, Scenario& sc) {
   sc.measurement = *type;
 }
 
+// The fixtures a scenario simulates: sockets for fixture points, planes for
+// plane contacts.
+bool socket_fixture(MeasurementType type) { return traits(type).label_points; }
+bool plane_fixture(MeasurementType type) { return is_fixture(type) && !traits(type).label_points; }
+
 // sockets: {NAME: [X, Y, Z], ...} and socket_distances: known | unknown
 // (measurement: point).
 void read_sockets(const ScenarioFile& file, Scenario& sc) {
   const ScenarioReader& r = file.r;
   if (const YAML::Node sockets = file.root["sockets"]) {
-    if (sc.measurement != MeasurementType::kPoint)
+    if (!socket_fixture(sc.measurement))
       r.fail(sockets, "sockets", "sockets are for measurement: point");
     if (!sockets.IsMap() || sockets.size() < 2 || sockets.size() > kMaxSockets) {
       r.fail(
@@ -234,7 +239,7 @@ void read_sockets(const ScenarioFile& file, Scenario& sc) {
   }
   if (const YAML::Node known = file.root["socket_distances"]) {
     const std::string value = r.string(known, "socket_distances");
-    if (sc.measurement != MeasurementType::kPoint)
+    if (!socket_fixture(sc.measurement))
       r.fail(known, "socket_distances", "socket distances are for measurement: point");
     if (value != "known" && value != "unknown")
       r.fail(known, "socket_distances", "expected known or unknown");
@@ -247,8 +252,7 @@ void read_planes(const ScenarioFile& file, Scenario& sc) {
   const ScenarioReader& r = file.r;
   const YAML::Node planes = file.root["planes"];
   if (!planes) return;
-  if (sc.measurement != MeasurementType::kPlane)
-    r.fail(planes, "planes", "planes are for measurement: plane");
+  if (!plane_fixture(sc.measurement)) r.fail(planes, "planes", "planes are for measurement: plane");
   if (!planes.IsMap() || planes.size() < 1 || planes.size() > kMaxPlanes) {
     r.fail(planes, "planes",
            fmt::format("expected a map of 1 to {} planes: NAME: {{point: [X, Y, Z], normal: [X, "
@@ -283,14 +287,13 @@ void read_planes(const ScenarioFile& file, Scenario& sc) {
 // samples a label.
 void complete_fixture(const ScenarioFile& file, Scenario& sc) {
   const ScenarioReader& r = file.r;
-  if (sc.measurement == MeasurementType::kPoint && sc.sockets.empty())
+  if (socket_fixture(sc.measurement) && sc.sockets.empty())
     sc.sockets = default_sockets(sc.nominal);
-  if (sc.measurement == MeasurementType::kPlane && sc.planes.empty())
-    sc.planes = default_planes(sc.nominal);
+  if (plane_fixture(sc.measurement) && sc.planes.empty()) sc.planes = default_planes(sc.nominal);
   // Enough samples a label: 2 a socket (a point is 3 unknowns), 4 a plane (any
   // 3 points lie on one).
   if (is_fixture(sc.measurement)) {
-    const bool point = sc.measurement == MeasurementType::kPoint;
+    const bool point = socket_fixture(sc.measurement);
     const int labels = static_cast<int>(point ? sc.sockets.size() : sc.planes.size());
     const int least = point ? 2 : 4;
     if (sc.identification_poses / labels < least) {
@@ -402,7 +405,7 @@ void read_noise(const ScenarioFile& file, Scenario& sc) {
     if (noise["sigma_e"])
       sc.noise.sigma_ext = level(noise["sigma_e"], "noise.sigma_e", kMaxSigmaAngle, "rad");
     // The paper's formulas are of its cable encoder: its device, distances.
-    const bool paper_encoder = sc.paper_device && sc.measurement == MeasurementType::kDistance;
+    const bool paper_encoder = sc.paper_device && traits(sc.measurement).distance_column;
     if (paper_encoder) sc.noise.sigma_distance = paper_sigma_m(sc.noise.sigma_ext);  // the default
     if (const YAML::Node m = noise["sigma_m"]) {
       const bool formula = m.IsScalar() && (m.Scalar() == "consistent" || m.Scalar() == "paper");
@@ -421,14 +424,14 @@ void read_noise(const ScenarioFile& file, Scenario& sc) {
       }
     }
     if (const YAML::Node sr = noise["sigma_r"]) {
-      if (sc.measurement != MeasurementType::kPose)
+      if (!traits(sc.measurement).rotation)
         r.fail(sr, "noise.sigma_r", "a rotation's noise applies to pose measurements only");
       sc.noise.sigma_orientation = level(sr, "noise.sigma_r", kMaxSigmaAngle, "rad");
     }
     if (!(sc.noise.sigma_ext > 0 && sc.noise.sigma_distance > 0 && sc.noise.sigma_orientation > 0))
       r.fail(noise, "noise", "noise levels must be positive");
   }
-  if (sc.measurement != MeasurementType::kDistance) {
+  if (!traits(sc.measurement).distance_column) {
     if (sc.paper_device && sc.sigma_m_formula == "paper") {
       // The paper's cable-encoder noise is no tracker's: the general default.
       sc.noise.sigma_distance = kDefaultSigmaM;

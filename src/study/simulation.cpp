@@ -55,17 +55,9 @@ struct Columns {
 // The columns a measurement type fills. Fixture points and planes (a label
 // column, no measured values) are simulate_fixture_log's and simulate_plane_log's.
 Columns columns_of(MeasurementType type) {
-  switch (type) {
-    case MeasurementType::kDistance:
-      return {true, false, false};
-    case MeasurementType::kPosition:
-      return {false, true, false};
-    case MeasurementType::kPose:
-      return {false, true, true};
-    case MeasurementType::kPoint:
-    case MeasurementType::kPlane:
-      break;
-  }
+  const MeasurementTraits& t = traits(type);
+  if (t.distance_column || t.position_columns)
+    return {t.distance_column, t.position_columns, t.orientation_columns};
   throw InputError(
       fmt::format("{} have no measured columns: simulate them with "
                   "simulate_fixture_log or simulate_plane_log",

@@ -69,7 +69,7 @@ std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
   // sigma_m / sigma_r.
   const double sigma_m = measurement_sigma(sc);
   const double rotation_scale =
-      sc.measurement == MeasurementType::kPose ? sigma_m / sc.noise.sigma_orientation : 1.0;
+      traits(sc.measurement).rotation ? sigma_m / sc.noise.sigma_orientation : 1.0;
   const TwoStepJacobians J =
       two_step_jacobians(sc.actual, sc.measurement, rotation_scale, slots, step_one, ident.q);
   const TwoStepBound bound =
@@ -81,11 +81,28 @@ std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
 
 double rotation_angle(const Eigen::Matrix3d& R) { return Eigen::AngleAxisd(R).angle(); }
 
+// The scenario's measurement of `poses` poses of `model`: a fixture's points
+// (its sockets, the tool point at each) or plane contacts (its planes), the
+// poses shared out among them; else the instrument's readings at uniform poses
+// or at `readings`. The fixture's noise is the position sd.
+Log simulated_log(const Scenario& sc, const DeviceModel& model, int poses,
+                  const Eigen::MatrixXd& readings, std::uint64_t seed) {
+  const MeasurementTraits& kind = traits(sc.measurement);
+  if (kind.fixture && kind.label_points) {
+    return simulate_fixture_log(model, sc.sockets, poses / static_cast<int>(sc.sockets.size()),
+                                sc.noise.sigma_position, seed);
+  }
+  if (kind.fixture) {
+    return simulate_plane_log(model, sc.planes, poses / static_cast<int>(sc.planes.size()),
+                              sc.noise.sigma_position, seed);
+  }
+  return simulate_measurement_log(model, sc.measurement, poses, readings, sc.noise, seed);
+}
+
 }  // namespace
 
 double measurement_sigma(const Scenario& sc) {
-  return sc.measurement == MeasurementType::kDistance ? sc.noise.sigma_distance
-                                                      : sc.noise.sigma_position;
+  return traits(sc.measurement).distance_column ? sc.noise.sigma_distance : sc.noise.sigma_position;
 }
 
 double improvement_pct(double assigned, double nominal, double identified) {
@@ -106,7 +123,8 @@ std::vector<StudyRow> study_rows(const Scenario& sc, const CalibrationResult& fu
   std::vector<StudyRow> rows;
   for (const TransmissionFit& t : full.transmissions) {
     const Transmission& truth = sc.actual.links[t.joint].transmission;
-    if (t.type != "capstan" || !std::holds_alternative<Capstan>(truth.model())) continue;
+    if (t.kind != TransmissionKind::kCapstan || truth.kind() != TransmissionKind::kCapstan)
+      continue;
     const Eigen::VectorXd tv = truth.parameters();
     for (int c = 0; c < 5; ++c) {
       const DisplayUnit u = display_unit(t, c);
@@ -169,14 +187,10 @@ std::vector<int> identifiable_slots(const DeviceModel& nominal, const Scenario& 
   exact.sigma_ext = exact.sigma_distance = exact.sigma_position = exact.sigma_orientation = 0;
   CalibrationOptions options;
   options.fix = fix;
-  const Log log = type == MeasurementType::kPoint
-                      ? simulate_fixture_log(nominal, sockets,
-                                             kPoses / static_cast<int>(sockets.size()), 0, kSeed)
-                  : type == MeasurementType::kPlane
-                      ? simulate_plane_log(nominal, sc.planes,
-                                           kPoses / static_cast<int>(sc.planes.size()), 0, kSeed)
-                      : simulate_measurement_log(nominal, type, kPoses, {}, exact, kSeed);
-  if (type == MeasurementType::kPoint && known) options.point_distances = socket_distances(sockets);
+  Scenario exact_sc = sc;  // its measurement without noise
+  exact_sc.noise = exact;
+  const Log log = simulated_log(exact_sc, nominal, kPoses, {}, kSeed);
+  if (traits(type).label_points && known) options.point_distances = socket_distances(sockets);
   const KinematicProblem problem = kinematic_problem(nominal, log, {}, options);
   std::vector<int> slots =
       analyze_identifiability(problem, candidate_slots(nominal, fix, {})).identified;
@@ -260,17 +274,8 @@ std::uint64_t trial_seed(std::uint64_t study_seed, int trial) {
 TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string& out) {
   TrialResult t;
   t.seed = seed;
-  Log ident =
-      sc.measurement == MeasurementType::kPoint
-          ? simulate_fixture_log(sc.actual, sc.sockets,
-                                 sc.identification_poses / static_cast<int>(sc.sockets.size()),
-                                 sc.noise.sigma_position, trial_seed(seed, 0))
-      : sc.measurement == MeasurementType::kPlane
-          ? simulate_plane_log(sc.actual, sc.planes,
-                               sc.identification_poses / static_cast<int>(sc.planes.size()),
-                               sc.noise.sigma_position, trial_seed(seed, 0))
-          : simulate_measurement_log(sc.actual, sc.measurement, sc.identification_poses,
-                                     sc.identification_readings, sc.noise, trial_seed(seed, 0));
+  Log ident = simulated_log(sc, sc.actual, sc.identification_poses, sc.identification_readings,
+                            trial_seed(seed, 0));
   SimulationNoise exact = sc.noise;
   exact.sigma_position = 0;  // a perfect tracker: validation scores against the truth
   Log val = simulate_log(sc.actual, sc.validation_poses, exact, trial_seed(seed, 1), true, true);
@@ -291,7 +296,7 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
   // The simulated instruments read without a zero error: the study is of the
   // device's parameters (and their Cramer-Rao bound), as the paper's.
   options.instrument_zero = false;
-  if (sc.measurement == MeasurementType::kPoint && sc.socket_distances_known)
+  if (traits(sc.measurement).label_points && sc.socket_distances_known)
     options.point_distances = socket_distances(sc.sockets);
   t.full = calibrate(sc.nominal, ident, options);
   CalibrationOptions kin = options;
@@ -354,7 +359,7 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
   write_file_atomically(out + "/fig8_validation.csv", fig8);
   // Fig. 7: joint 4's transmission error: measured (ext - q - c), identified, true.
   for (const TransmissionFit& f : t.full.transmissions) {
-    if (f.type != "polynomial") continue;
+    if (f.kind != TransmissionKind::kPolynomial) continue;
     const Transmission& fitted = t.full.calibrated.links[f.joint].transmission;
     const Transmission& real = sc.actual.links[f.joint].transmission;
     std::string fig7 = "q,measured,identified,truth\n";

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,10 @@ struct Log {
   // at; has_plane: the plane it touches); no measured values.
   std::vector<std::string> label;
   bool has_point = false, has_plane = false;
+  // The values of a measurement kind registered by a program
+  // (register_measurement_kind), rows x its width, by the kind's name: the log
+  // reader does not read them (yet); repeats are averaged like the columns above.
+  std::map<std::string, Eigen::MatrixXd> columns;
   std::vector<int> line;  // source line of each row
   int dof() const { return static_cast<int>(q.cols()); }
 };

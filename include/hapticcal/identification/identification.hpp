@@ -34,10 +34,10 @@ const char* to_string(CalibrationStatus status);
 
 // Step 1 for one joint: ext - q = c + dtheta(q).
 struct TransmissionFit {
-  int joint = 0;                   // zero-based
-  std::string type;                // "capstan" or "polynomial"
-  int n = 0;                       // samples
-  std::vector<std::string> names;  // dotted: "j1.r_out", "j4.c3"
+  int joint = 0;                                    // zero-based
+  TransmissionKind kind = TransmissionKind::kNone;  // fitted: capstan or polynomial
+  int n = 0;                                        // samples
+  std::vector<std::string> names;                   // dotted: "j1.r_out", "j4.c3"
   Eigen::VectorXd nominal, value, sd;
   double offset = 0, offset_sd = 0;  // c, the external encoder's zero (nuisance)
   double rms_before = 0;             // RMS of ext - q - c: the error left by an ideal model

@@ -23,6 +23,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -33,33 +34,96 @@
 
 namespace hapticcal {
 
-enum class MeasurementType { kDistance, kPosition, kPose, kPoint, kPlane };
-// Fixture points and planes: labels, no measured values.
-inline bool is_fixture(MeasurementType t) {
-  return t == MeasurementType::kPoint || t == MeasurementType::kPlane;
-}
+// A kind of measurement. The built-in kinds; a kind registered with
+// register_measurement_kind gets the next number.
+enum class MeasurementType : int { kDistance, kPosition, kPose, kPoint, kPlane };
 
 // Measured values, one row a sample (traits(type).width values), contiguous.
 using MeasuredValues = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
+// What a kind is, for everything that is not its arithmetic.
 struct MeasurementTraits {
   const char* name;    // "distance", "position", "pose", "point", "plane"
   const char* plural;  // "distances", ...
   int dimension;       // residual rows a sample (a fixture's after projection: 3, 1)
   int width;           // values a sample: 1, 3, 7 (x, y, z, qw, qx, qy, qz); a fixture's 3 (zeros)
+  // The residual rows that are a length error (the first ones; the rest are a
+  // pose's rotation rows, times the rotation scale, reported apart).
+  int length_rows;
+  bool fixture = false;       // labels, no measured values (fixture points, plane contacts)
+  bool rotation = false;      // rotation rows: a rotation scale, an orientation noise, a tool pose
+  bool own_frame = false;     // values in the instrument's own frame (a tracker's): registrable
+  bool zero = false;          // the reading has an unknown additive zero (a cable encoder's)
+  bool label_points = false;  // fixture labels are points: known distances fix the robot's size
+  // The log's built-in columns its values come from and go to.
+  bool distance_column = false, position_columns = false, orientation_columns = false;
+  // Reports: the per-sample error figure's title and axis (mm), and what a
+  // plan calls the tool point's measurement.
+  const char* error_title = "";
+  const char* error_axis = "";
+  const char* tip = "position";
 };
-const MeasurementTraits& traits(MeasurementType type);
+
+// One kind of measurement: its facts (traits), how a log holds it, what an
+// instrument without error reads of the tool frame, and its residual rows with
+// their analytic Jacobian. A new kind is one subclass and one
+// register_measurement_kind call; nothing else switches on the kind.
+class MeasurementKind {
+ public:
+  explicit MeasurementKind(const MeasurementTraits& traits) : traits_(traits) {}
+  virtual ~MeasurementKind() = default;
+  const MeasurementTraits& traits() const { return traits_; }
+
+  // Whether a log holds this kind (the default: its built-in columns).
+  virtual bool in_log(const Log& log) const;
+  // A log row's `width` values (the default: from its built-in columns).
+  virtual void from_log(const Log& log, int row, double* values) const;
+  // The values (one row a sample) into the log's columns, which it marks present.
+  virtual void to_log(const MeasuredValues& values, Log& log) const;
+  // What an instrument without error reads of the tool frame T_meas_tool
+  // (`width` values; a fixture's: zeros).
+  virtual void predict(const Frame<double>& tool, double* values) const = 0;
+  // The residual rows (predicted - measured) of one sample and their analytic
+  // Jacobian (dimension x num_slots) w.r.t. the parameters; a fixture sample's
+  // raw rows, the tool point (3 rows; fixture_residuals makes the fit's rows).
+  virtual void rows(const ChainStructure& s, const ChainConstants<double>& constants,
+                    const double* params, const double* joint, const double* measured,
+                    double rotation_scale, double* residual,
+                    Eigen::Ref<Eigen::MatrixXd> J) const = 0;
+  // The rows' Jacobian w.r.t. the joint values (dimension x dof) from the tool
+  // frame's geometric Jacobian in the measurement frame.
+  virtual void joint_rows(const Frame<double>& tool, const Jacobian6<double>& J_tool_q,
+                          double rotation_scale, Eigen::Ref<Eigen::MatrixXd> rows) const = 0;
+
+ private:
+  MeasurementTraits traits_;
+};
+
+// The kind of a type.
+const MeasurementKind& kind_of(MeasurementType type);
+inline const MeasurementTraits& traits(MeasurementType type) { return kind_of(type).traits(); }
+// Adds a kind (before any calibration runs: the registry is not locked) and
+// returns its type. Throws std::invalid_argument for a name already taken.
+MeasurementType register_measurement_kind(std::unique_ptr<MeasurementKind> kind);
+// Every kind, built-in ones first, in the order they were registered.
+std::vector<MeasurementType> measurement_types();
 // The kind named `name` (traits(type).name), or none.
 std::optional<MeasurementType> measurement_type_named(const std::string& name);
-// Every kind, in declaration order.
-const std::vector<MeasurementType>& measurement_types();
 
-// What a log measures: fixture points or planes if it has labels, a pose if it
-// has orientations, else positions, else distances (a log with positions and
-// distances is fitted on its positions).
+// Fixture points and planes: labels, no measured values.
+inline bool is_fixture(MeasurementType t) { return traits(t).fixture; }
+
+// What a log measures: the last registered kind it holds (so fixture points
+// or planes if it has labels, a pose if it has orientations, else positions,
+// else distances; a log with positions and distances is fitted on its
+// positions); distances if none.
 MeasurementType measurement_type(const Log& log);
 // The `width` measured values of a log row.
 void measured_values(MeasurementType type, const Log& log, int row, double* out);
+// What an instrument of this type without error reads of the tool frame.
+inline void predicted_values(MeasurementType type, const Frame<double>& tool, double* out) {
+  kind_of(type).predict(tool, out);
+}
 
 // A log's samples of one measurement type with their noise: the unit of the
 // fit. (One group a log today; fixture points and planes add their own unknowns
@@ -185,11 +249,12 @@ void measurement_residual(MeasurementType type, const Frame<T>& tool, const doub
 }
 
 // The residual rows of one sample and their analytic Jacobian (dimension x
-// num_slots) w.r.t. the parameters; of a fixture sample, its raw rows: the tool
-// point (3 rows; fixture_residuals makes the fit's rows).
-void measurement_rows(MeasurementType type, const ChainStructure& s,
-                      const ChainConstants<double>& constants, const double* params,
-                      const double* joint, const double* measured, double rotation_scale,
-                      double* residual, Eigen::Ref<Eigen::MatrixXd> J);
+// num_slots) w.r.t. the parameters (MeasurementKind::rows).
+inline void measurement_rows(MeasurementType type, const ChainStructure& s,
+                             const ChainConstants<double>& constants, const double* params,
+                             const double* joint, const double* measured, double rotation_scale,
+                             double* residual, Eigen::Ref<Eigen::MatrixXd> J) {
+  kind_of(type).rows(s, constants, params, joint, measured, rotation_scale, residual, J);
+}
 
 }  // namespace hapticcal

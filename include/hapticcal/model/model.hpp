@@ -32,6 +32,24 @@ enum class JointType { kRevolute, kContinuous, kPrismatic };
 // The base transform B: a DH transform without joint (paper's frame "w") or a pose.
 enum class BaseKind { kDh, kPose };
 
+// What a joint geometry is, for everything that is not its transform (which
+// kinematics.hpp writes once, templated on the scalar).
+struct GeometryTraits {
+  const char* name;    // in device files: "dh", "mdh", "urdf"
+  bool dh_parameters;  // a, alpha, d, theta, beta; else an origin pose, an axis and an offset
+  // The neighbour whose axis this joint's twist alpha turns into (or from):
+  // +1 (DH: A_i twists joint i's axis into joint i+1's), -1 (MDH: joint i-1's
+  // into joint i's), 0 none; and the word for it ("after", "before").
+  int twist_partner;
+  const char* partner_word;
+};
+const GeometryTraits& traits(Geometry geometry);
+// The geometry named `name` (traits(g).name), or none.
+std::optional<Geometry> geometry_named(const std::string& name);
+// "revolute", "continuous", "prismatic" (device files, URDF).
+const char* to_string(JointType type);
+std::optional<JointType> joint_type_named(const std::string& name);
+
 struct Link {
   std::string name;
   Geometry geometry = Geometry::kDh;
@@ -49,6 +67,10 @@ struct Link {
   Transmission transmission;
 
   bool prismatic() const { return type == JointType::kPrismatic; }
+  // Turns without limits (a URDF continuous joint).
+  bool continuous() const { return type == JointType::kContinuous; }
+  // DH or MDH parameters (else an origin pose, an axis and an offset).
+  bool dh_parameters() const { return traits(geometry).dh_parameters; }
 };
 
 // The flat kinematic parameter vector is a sequence of named blocks:
@@ -115,6 +137,7 @@ struct DeviceModel {
   // a calibrated model have none.
   std::optional<double> instrument_zero;
 
+  bool base_is_pose() const { return base_kind == BaseKind::kPose; }
   int dof() const { return static_cast<int>(links.size()); }
   ChainStructure structure() const;
 

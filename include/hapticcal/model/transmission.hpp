@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -49,6 +50,13 @@ struct Polynomial {
 };
 
 class Transmission;
+
+// The kinds of transmission, in the order of Transmission::Model's alternatives.
+enum class TransmissionKind { kNone, kCapstan, kParallelogram, kPolynomial, kChain };
+// "none", "capstan", "parallelogram", "polynomial", "chain" (device files).
+const char* to_string(TransmissionKind kind);
+std::optional<TransmissionKind> transmission_kind_named(const std::string& name);
+
 // Stages in series: the output angle of one drives the next.
 struct Chain {
   std::vector<Transmission> stages;
@@ -65,8 +73,9 @@ class Transmission {
   const Model& model() const { return model_; }
   Model& model() { return model_; }
   bool is_none() const { return std::holds_alternative<std::monostate>(model_); }
+  TransmissionKind kind() const { return static_cast<TransmissionKind>(model_.index()); }
   // "none", "capstan", "parallelogram", "polynomial" or "chain".
-  std::string type_name() const;
+  std::string type_name() const { return to_string(kind()); }
 
   // dtheta(q), referenced to home.
   double error(double q) const;

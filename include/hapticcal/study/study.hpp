@@ -93,7 +93,7 @@ struct Scenario {
   // percentages): the paper's device with the paper's truth, measured by distance.
   bool paper_comparison() const {
     return paper_device && paper_transmissions && !random.enabled() &&
-           measurement == MeasurementType::kDistance;
+           traits(measurement).distance_column;
   }
 };
 
