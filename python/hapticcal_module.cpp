@@ -23,6 +23,7 @@
 #include "hapticcal/data_io/fixture.hpp"
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/jobs/plan_job.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/device.hpp"
@@ -92,23 +93,6 @@ Model model_of(const std::variant<Model, std::string>& arg, const std::string& t
 
 // A model argument and, for a URDF file, its text: calibrated.urdf is written
 // from the text the model was read from (read once, as the command line does).
-struct ModelSource {
-  Model model;
-  std::string urdf_text;
-};
-
-ModelSource source_of(const std::variant<Model, std::string>& arg, const std::string& tip,
-                      const std::string& root) {
-  if (const auto* m = std::get_if<Model>(&arg)) {
-    const bool urdf = !m->path.empty() && is_urdf_path(m->path);
-    return {*m, urdf ? read_file(m->path) : std::string()};
-  }
-  const std::string& path = std::get<std::string>(arg);
-  if (!is_urdf_path(path)) return {model_of(arg, tip, root), ""};
-  std::string text = read_file(path);
-  return {Model{parse_urdf(text, path, tip, root), path, tip, root}, std::move(text)};
-}
-
 Eigen::VectorXd readings(const Model& m, const Eigen::VectorXd& q) {
   if (q.size() != m.model.dof()) {
     throw InputError(fmt::format("q has {} values, the model {} joints", q.size(), m.model.dof()));
@@ -157,6 +141,7 @@ struct Calibration {
   py::dict parameters;
   py::object results;  // results.json, parsed
   std::vector<std::string> notes;
+  std::vector<std::string> lines;  // the command line's summary (calibration_lines)
 };
 
 Calibration calibrate(const std::variant<Model, std::string>& model_arg,
@@ -168,14 +153,24 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
                       std::optional<int> polynomial_order, double dependency_tolerance,
                       const std::string& loss, bool strict, const Text& tip_arg,
                       const Text& root_arg, const Text& out_arg) {
-  const std::string fixture = text(fixture_arg), tip = text(tip_arg), root = text(root_arg),
-                    out = text(out_arg);
-  const ModelSource source = source_of(model_arg, tip, root);
-  const Model& nominal = source.model;
-  const Log log = read_log(log_path, names(columns));
-  std::optional<OutputSet> set;
-  if (!out.empty()) set.emplace(out, "calibrate");
-  CalibrationOptions options;
+  // The command line's job (jobs/calibrate_job.hpp), from keywords.
+  CalibrateRequest request;
+  request.tip = text(tip_arg);
+  request.root = text(root_arg);
+  if (const auto* m = std::get_if<Model>(&model_arg)) {
+    request.nominal = m->model;
+    request.model = m->path;
+    request.tip = m->tip;
+    request.root = m->root;
+  } else {
+    request.model = std::get<std::string>(model_arg);
+  }
+  request.log = log_path;
+  request.columns = names(columns);
+  request.fixture = text(fixture_arg);
+  request.point_distances = names(point_distance);
+  if (out_arg) request.out = *out_arg;
+  CalibrationOptions& options = request.options;
   options.force = force;
   options.transmissions = !no_transmission;
   options.samples = samples;
@@ -187,29 +182,15 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
   options.folds = folds;
   options.loss = robust_loss(loss);
   options.strict = strict;
-  Fixture facts = fixture_facts(fixture, names(point_distance));
-  options.point_distances = std::move(facts.distances);
-  options.known_points = std::move(facts.points);
   options.fix = names(fix);
   options.free = names(free);
-  CalibrationResult result;
+  CalibrateJob job;
   {
     py::gil_scoped_release released;
-    result = hapticcal::calibrate(nominal.model, log, options);
+    job = run_calibrate_job(request);
   }
-  // The files and results.json as the command line writes them; without `out`
-  // results.json as the command line would write it into a fresh folder.
-  std::string json;
-  if (set) {
-    json = write_calibration_outputs(
-               *set, result, nominal.model, log, options,
-               {nominal.path, log_path, source.urdf_text, nominal.tip, nominal.root})
-               .results_json;
-  } else {
-    if (result.status != CalibrationStatus::kConverged)
-      result.notes.push_back("no calibrated.yaml written: the calibration is not usable");
-    json = calibration_json(result, nominal.model, nominal.path, log_path, options);
-  }
+  const CalibrationResult& result = job.result;
+  const std::string& json = job.results_json;
   Calibration c;
   c.usable = result.status == CalibrationStatus::kConverged;
   c.status = to_string(result.status);
@@ -224,6 +205,7 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
                  "identifiable"_a = e.identifiable, "reason"_a = e.reason);
   }
   c.notes = result.notes;
+  c.lines = job.lines;
   c.results = parsed(json);
   if (c.usable) c.model = Model{result.calibrated, "", "", ""};
   return c;
@@ -414,7 +396,9 @@ PYBIND11_MODULE(hapticcal, m) {
       .def_readonly("parameters", &Calibration::parameters,
                     "name -> dict(value, nominal, sd, identifiable, reason)")
       .def_readonly("results", &Calibration::results, "results.json of the command line, parsed")
-      .def_readonly("notes", &Calibration::notes);
+      .def_readonly("notes", &Calibration::notes)
+      .def_readonly("lines", &Calibration::lines,
+                    "The summary the command line prints, a line each");
 
   m.def("calibrate", &calibrate, "model"_a, "log"_a, py::kw_only(), "no_transmission"_a = false,
         "samples"_a = 0, "seed"_a = 1ULL, "sigma"_a = py::none(), "fix"_a = py::none(),

@@ -9,6 +9,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "hapticcal/identification/identification.hpp"
@@ -163,7 +164,8 @@ TEST(MeasurementKind, CalibratesEndToEndAndPredictsUnseenHeights) {
   EXPECT_NEAR(result.kinematics.rms_after, kSigma, 0.3 * kSigma);
   const double before = rms_height_error(nominal, unseen);
   const double after = rms_height_error(result.calibrated, unseen);
-  // Measured: before about 0.9 mm, after within a few noise sds.
+  std::printf("height RMS on 500 unseen poses: %.4f mm nominal, %.4f mm calibrated\n", before * 1e3,
+              after * 1e3);
   EXPECT_GT(before, 1e-4);
   EXPECT_LT(after, 5 * kSigma) << "before " << before;
 }

@@ -5,6 +5,7 @@ built command line and HAPTICCAL_SOURCE the source tree; by hand:
     PYTHONPATH=build/python HAPTICCAL_CLI=build/hapticcal python3 -m pytest -q python/tests
 """
 
+import html
 import json
 import math
 import os
@@ -364,6 +365,34 @@ def test_calibrate_out_writes_the_cli_files_for_a_urdf_model(tmp_path):
         for name in ("calibrated.yaml", "calibrated.urdf"):
             assert (py_out / name).read_text() == (cli_out / name).read_text(), name
     assert any("previous run's model" in n for n in results["notes"])
+
+
+def test_calibrate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
+    """The command line and the module run one job (jobs/calibrate_job.hpp): for the same inputs
+    their output folders are equal file by file, byte for byte (figures included), and the module's
+    summary lines are the lines the command line prints before its report line."""
+    cli_out, py_out = tmp_path / "cli", tmp_path / "py"
+    code, stdout, stderr = cli("calibrate", "--model", MECA, "--log", CAL_LOG, "--folds", "3",
+                               "--out", str(cli_out))
+    assert code == 0, stderr
+    r = hapticcal.calibrate(MECA, CAL_LOG, folds=3, out=str(py_out))
+    files = output_files(cli_out)
+    assert "results.json" in files and "report.html" in files and "calibrated.yaml" in files
+    assert output_files(py_out) == files
+    for name in files:
+        a, b = (cli_out / name).read_bytes(), (py_out / name).read_bytes()
+        if name == "report.html":  # it names its own folder
+            a = a.replace(str(cli_out).encode(), b"OUT")
+            b = b.replace(str(py_out).encode(), b"OUT")
+        assert a == b, name
+    printed = stdout.splitlines()
+    assert printed[: len(r.lines)] == list(r.lines)
+    assert printed[len(r.lines)].startswith("report: ")
+    # The report carries the same summary (one calibration_lines for both).
+    report = (cli_out / "report.html").read_text()
+    # (report.cpp's html_escape: & < > and ", not ')
+    summary = "\n".join(html.escape(line, quote=False).replace('"', "&quot;") for line in r.lines)
+    assert summary in report
 
 
 def test_the_library_refuses_what_the_command_line_refuses(tmp_path):

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "hapticcal/report/calibration_lines.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "report/figures.hpp"
@@ -290,6 +291,12 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
                    after = evaluate(result.calibrated, corrected, point_distances, known_points);
   report.figures.push_back(errors_per_sample(k, log, before, after));
   if (k.correlation.size() > 0) report.figures.push_back(detail::correlation_figure(k));
+  // The summary the terminal printed, from the same function (calibration_lines).
+  std::string terminal;
+  for (const std::string& line : calibration_lines(result, nominal)) terminal += line + "\n";
+  report.sections.push_back(
+      "<details><summary>The summary as the terminal printed it</summary>\n<pre>" +
+      html_escape(terminal) + "</pre></details>\n");
   return report;
 }
 

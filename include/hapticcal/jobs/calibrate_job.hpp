@@ -1,0 +1,49 @@
+// `calibrate` as one job (issue 24): the request the command line and the
+// Python module fill in, the stages run once, and what they print or return.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hapticcal/core/output_set.hpp"
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/model/model.hpp"
+#include "hapticcal/report/calibration_outputs.hpp"
+
+namespace hapticcal {
+
+struct CalibrateRequest {
+  std::string model;  // a device file or a URDF
+  // A model in memory (Python's Model) instead of reading `model`, which then
+  // only names it (results.json) and, a URDF, is the base of calibrated.urdf.
+  std::optional<DeviceModel> nominal;
+  std::string tip, root;                     // a URDF's chain ("": its own)
+  std::string log;                           // the measurement log
+  std::vector<std::string> columns;          // the log's columns, if it has no header line
+  std::string fixture;                       // a fixture file ("": none)
+  std::vector<std::string> point_distances;  // "A:B=METRES", besides the fixture file's
+  // The output folder (OutputSet: checked before any work; "" is refused);
+  // none: nothing written.
+  std::optional<std::string> out;
+  // Everything else; its point_distances and known_points are the fixture's.
+  CalibrationOptions options;
+};
+
+struct CalibrateJob {
+  DeviceModel nominal;
+  CalibrationResult result;
+  std::unique_ptr<OutputSet> out;  // with an output folder: the set, committed
+  CalibrationOutputs written;      // what write_calibration_outputs did
+  std::string results_json;        // as written (or as it would be into a fresh folder)
+  std::vector<std::string> lines;  // the summary (calibration_lines)
+  bool usable() const { return result.status == CalibrationStatus::kConverged; }
+};
+
+// Reads the model (a URDF once: its text is also the base of calibrated.urdf)
+// and the log, calibrates, and with `out` writes the output set
+// (write_calibration_outputs). Throws InputError for bad input.
+CalibrateJob run_calibrate_job(const CalibrateRequest& request);
+
+}  // namespace hapticcal

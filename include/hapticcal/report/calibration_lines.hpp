@@ -1,0 +1,19 @@
+// The calibration's summary, a line each: what the terminal prints after
+// `calibrate` and what its report carries (issue 24: written once).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/model/model.hpp"
+
+namespace hapticcal {
+
+// Step 1's transmissions, step 2's parameters (the paper's Tables 2-5 units),
+// the held ones with their reasons, the fit's statistics, outliers, suspect-fit
+// warnings, large changes and the notes. No trailing newlines.
+std::vector<std::string> calibration_lines(const CalibrationResult& result,
+                                           const DeviceModel& nominal);
+
+}  // namespace hapticcal

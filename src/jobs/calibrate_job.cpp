@@ -1,0 +1,50 @@
+// `calibrate` as one job (jobs/calibrate_job.hpp).
+#include "hapticcal/jobs/calibrate_job.hpp"
+
+#include <memory>
+
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/core/output_set.hpp"
+#include "hapticcal/data_io/fixture.hpp"
+#include "hapticcal/data_io/log.hpp"
+#include "hapticcal/model_io/model_source.hpp"
+#include "hapticcal/model_io/urdf.hpp"
+#include "hapticcal/report/calibration_lines.hpp"
+#include "hapticcal/report/results_json.hpp"
+
+namespace hapticcal {
+
+CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
+  CalibrateJob job;
+  const bool urdf = !request.model.empty() && is_urdf_path(request.model);
+  const std::string urdf_text = urdf ? read_file(request.model, FileKind::kUrdf) : std::string();
+  if (request.nominal) {
+    job.nominal = *request.nominal;
+  } else {
+    job.nominal = urdf ? parse_urdf(urdf_text, request.model, request.tip, request.root)
+                       : load_model(request.model, request.tip, request.root);
+  }
+  const Log log = read_log(request.log, request.columns);
+  if (request.out) job.out = std::make_unique<OutputSet>(*request.out, "calibrate");
+  CalibrationOptions options = request.options;
+  Fixture fixture = fixture_facts(request.fixture, request.point_distances);
+  options.point_distances = std::move(fixture.distances);
+  options.known_points = std::move(fixture.points);
+  job.result = calibrate(job.nominal, log, options);
+  if (job.out) {
+    job.written = write_calibration_outputs(
+        *job.out, job.result, job.nominal, log, options,
+        {request.model, request.log, urdf_text, request.tip, request.root});
+    job.results_json = job.written.results_json;
+  } else {
+    // results.json as the command line would write it into a fresh folder.
+    if (!job.usable())
+      job.result.notes.push_back("no calibrated.yaml written: the calibration is not usable");
+    job.results_json =
+        calibration_json(job.result, job.nominal, request.model, request.log, options);
+  }
+  job.lines = calibration_lines(job.result, job.nominal);
+  return job;
+}
+
+}  // namespace hapticcal

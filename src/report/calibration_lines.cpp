@@ -1,0 +1,133 @@
+// The calibration's summary, a line each (report/calibration_lines.hpp).
+#include "hapticcal/report/calibration_lines.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+namespace hapticcal {
+namespace {
+
+// Values as the paper's Tables 2-5 print them: mm, mrad, deg.
+std::string kinematic_row(const ParameterEstimate& e) {
+  const DisplayUnit u = display_unit(e.unit);
+  const double f = u.scale;
+  return fmt::format("  {:<12} {:>12.4f} {:>12.4f} {:>10.4f} +- {:<9.4f} {:<4}  {:>6.3f} {}",
+                     e.name, e.nominal * f, e.value * f, (e.value - e.nominal) * f, e.sd * f,
+                     u.unit, e.max_correlation, e.max_correlation_with);
+}
+
+// A warning line a flagged pose, at most kShownOutliers, then how many more.
+void outlier_lines(const RobustFit& robust, std::vector<std::string>& out) {
+  constexpr size_t kShownOutliers = 10;
+  const std::vector<OutlierPose>& outliers = robust.outliers;
+  for (size_t i = 0; i < outliers.size() && i < kShownOutliers; ++i) {
+    const OutlierPose& o = outliers[i];
+    std::string lines;
+    for (size_t l = 0; l < o.lines.size(); ++l)
+      lines += (l ? ", " : "") + std::to_string(o.lines[l]);
+    out.push_back(fmt::format(
+        "warning: outlier: log line{} {}: residual {:.4f} mm, {:.1f} robust sds (beyond {:.2f}); "
+        "{}",
+        o.lines.size() == 1 ? "" : "s", lines, o.residual * 1e3, o.statistic, robust.threshold,
+        o.weight < 1 ? fmt::format("weight {:.3g} ({} loss)", o.weight, to_string(robust.loss))
+                     : std::string("not down-weighted")));
+  }
+  if (outliers.size() > kShownOutliers) {
+    out.push_back(fmt::format("warning: outlier: and {} more (results.json lists them all)",
+                              outliers.size() - kShownOutliers));
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> calibration_lines(const CalibrationResult& r, const DeviceModel& nominal) {
+  std::vector<std::string> out;
+  if (!r.transmissions.empty()) {
+    out.push_back(fmt::format("Step 1: transmissions from the external encoders (paper Table 4)"));
+    for (const TransmissionFit& t : r.transmissions) {
+      const std::string& link = nominal.links[t.joint].name;
+      out.push_back(fmt::format(
+          "  {} {} ({} samples): RMS of ext - q - c {:.4f} mrad before, {:.4f} mrad after{}", link,
+          to_string(t.kind), t.n, t.rms_before * 1e3, t.rms_after * 1e3,
+          t.converged ? "" : " (did not converge)"));
+      if (t.kind == TransmissionKind::kCapstan) {
+        const char* labels[] = {"Re", "ro", "bo", "ri", "bi"};
+        for (int k = 0; k < 5; ++k) {
+          const DisplayUnit u = display_unit(t, k);
+          out.push_back(fmt::format("    {:<3} {:>12.6f} +- {:<10.6f} {}", labels[k],
+                                    t.value[k] * u.scale, t.sd[k] * u.scale, u.unit));
+        }
+      } else {
+        std::string line = "    monomial view (rad):";
+        for (int k = static_cast<int>(t.monomial.size()) - 1; k >= 0; --k) {
+          line += fmt::format(" k{}={:.6f}", k, t.monomial[k]);
+        }
+        out.push_back(line);
+      }
+      out.push_back(fmt::format("    c (encoder zero, nuisance) {:.6f} +- {:.6f} mrad",
+                                t.offset * 1e3, t.offset_sd * 1e3));
+    }
+  }
+  const KinematicFit& k = r.kinematics;
+  out.push_back(fmt::format("Step 2: kinematic parameters from {} ({} rows) (paper Table 5)",
+                            traits(k.type).plural, k.rows));
+  out.push_back(fmt::format("  {:<12} {:>12} {:>12} {:>10}    {:<9} {:<4}  {}", "parameter",
+                            "nominal", "identified", "deviation", "sd", "unit",
+                            "largest correlation"));
+  for (const ParameterEstimate& e : k.parameters) {
+    if (e.identifiable) out.push_back(kinematic_row(e));
+  }
+  out.push_back(fmt::format("  held at nominal:"));
+  for (const ParameterEstimate& e : k.parameters) {
+    if (!e.identifiable) out.push_back(fmt::format("  {:<12} {}", e.name, e.reason));
+  }
+  if (k.rows > k.poses) {
+    out.push_back(
+        fmt::format("  {} rows are {} poses (repeats averaged); repeatability {:.4f} mm RMS",
+                    k.rows, k.poses, k.repeatability * 1e3));
+  }
+  out.push_back(fmt::format(
+      "  {} parameters identified; condition number {:.4g}; observability O1 {:.4g}, O4 "
+      "{:.4g} (angles scaled by {:.3f} m)",
+      k.identified, k.condition_number, k.observability.O1, k.observability.O4, k.length_scale));
+  out.push_back(fmt::format("  sd from sigma = {:.4g} mm ({}); solver: {} after {} iterations",
+                            k.sigma * 1e3, k.sigma_given ? "given" : "residual estimate",
+                            k.converged ? "converged" : "NOT converged", k.iterations));
+  out.push_back(fmt::format("  RMS residual: {:.4f} mm before, {:.4f} mm after (training)",
+                            k.rms_before * 1e3, k.rms_after * 1e3));
+  if (k.cv_folds > 0 && std::isfinite(k.cv_rms)) {
+    out.push_back(fmt::format("  held-out RMS ({}-fold cross-validation by pose): {:.4f} mm",
+                              k.cv_folds, k.cv_rms * 1e3));
+  } else if (!k.cv_note.empty()) {
+    out.push_back(fmt::format("  held-out RMS (cross-validation): {}", k.cv_note));
+  }
+  if (k.model_selection) {
+    out.push_back(fmt::format(
+        "  model selection: {} of {} identifiable parameters kept (5 % family-wise significance; "
+        "--keep-all keeps them all)",
+        k.identified, k.structurally_identified));
+  } else if (!k.selection_note.empty()) {
+    out.push_back(fmt::format("  model selection: {}", k.selection_note));
+  }
+  outlier_lines(k.robust, out);
+  for (const std::string& reason : k.suspect.reasons) {
+    out.push_back(
+        fmt::format("warning: suspect fit: {}{}", reason,
+                    r.status == CalibrationStatus::kSuspect ? "" : " (--strict refuses it)"));
+  }
+  for (const ParameterEstimate& e : k.parameters) {
+    if (!e.large_change) continue;
+    const DisplayUnit u = display_unit(e.unit);
+    out.push_back(
+        fmt::format("warning: {} moved {:.4g} {} from nominal (flagged beyond {} mm / {} mrad)",
+                    e.name, (e.value - e.nominal) * u.scale, u.unit, kLargeChangeLength * 1e3,
+                    kLargeChangeAngle * 1e3));
+  }
+  for (const std::string& note : r.notes) {
+    out.push_back(fmt::format("{}{}", note.rfind("warning: ", 0) == 0 ? "" : "note: ", note));
+  }
+  return out;
+}
+
+}  // namespace hapticcal
