@@ -44,8 +44,9 @@ run: configure
 	cmake --build $(BUILD) -j$(JOBS) --target hapticcal_cli
 	./$(BUILD)/hapticcal simulate
 
-# The instrumented tree $(ASAN_BUILD): clang at -O1 -g with assertions (no
-# -DNDEBUG, C and C++), everything under AddressSanitizer and UBSan
+# The instrumented tree $(ASAN_BUILD): clang at -O1 -gline-tables-only (file and
+# line in every sanitizer report, with a fraction of -g's debug info to build and
+# link) with assertions (no -DNDEBUG, C and C++), everything under AddressSanitizer and UBSan
 # (-fno-sanitize-recover=undefined: a finding fails) and libFuzzer's coverage
 # (-fsanitize=fuzzer-no-link); only fuzz/ links libFuzzer, the tests keep
 # GoogleTest's main. -DHAPTICCAL_FUZZ=ON implies HAPTICCAL_SANITIZE. `make test`
@@ -54,8 +55,8 @@ run: configure
 asan-configure: deps
 	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(FUZZ_PACKAGES)"
 	cmake -S . -B $(ASAN_BUILD) -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-	  -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g" \
-	  "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g" -DHAPTICCAL_FUZZ=ON \
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -gline-tables-only" \
+	  "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -gline-tables-only" -DHAPTICCAL_FUZZ=ON \
 	  -DHAPTICCAL_BUILD_BENCHMARKS=OFF
 
 # Every test in Release (the Python module's pytest among them: python_test),

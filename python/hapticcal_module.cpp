@@ -24,7 +24,10 @@
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/jobs/calibrate_job.hpp"
+#include "hapticcal/jobs/evaluate_job.hpp"
+#include "hapticcal/jobs/force_job.hpp"
 #include "hapticcal/jobs/plan_job.hpp"
+#include "hapticcal/jobs/simulate_job.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/device.hpp"
 #include "hapticcal/model_io/model_source.hpp"
@@ -83,16 +86,6 @@ using Text = std::optional<std::string>;
 
 std::string text(const Text& t) { return t.value_or(""); }
 
-// A model argument: a Model, or a path loaded as the command line loads --model.
-Model model_of(const std::variant<Model, std::string>& arg, const std::string& tip = "",
-               const std::string& root = "") {
-  if (const auto* m = std::get_if<Model>(&arg)) return *m;
-  const std::string& path = std::get<std::string>(arg);
-  return {load_model(path, tip, root), path, tip, root};
-}
-
-// A model argument and, for a URDF file, its text: calibrated.urdf is written
-// from the text the model was read from (read once, as the command line does).
 Eigen::VectorXd readings(const Model& m, const Eigen::VectorXd& q) {
   if (q.size() != m.model.dof()) {
     throw InputError(fmt::format("q has {} values, the model {} joints", q.size(), m.model.dof()));
@@ -215,24 +208,38 @@ py::object evaluate(const std::variant<Model, std::string>& model_arg, const std
                     const std::optional<Names>& columns, const std::optional<Names>& point_distance,
                     const Text& fixture_arg,
                     const std::optional<std::variant<Model, std::string>>& reference,
-                    const Text& tip_arg, const Text& root_arg, const Text& register_arg) {
-  const std::string fixture = text(fixture_arg), tip = text(tip_arg), root = text(root_arg);
-  std::optional<RegisterWhat> registration;
-  if (!text(register_arg).empty()) registration = parse_register(text(register_arg));
-  const Model model = model_of(model_arg, tip, root);
-  const Log log = read_log(log_path, names(columns));
-  const Fixture known = fixture_facts(fixture, names(point_distance));
-  if (reference) {
-    const EvaluationComparison cmp =
-        compare_to_reference(model.model, model_of(*reference, tip, root).model, log,
-                             known.distances, known.points, registration);
-    return parsed(evaluation_json(&cmp, cmp.model));
+                    const Text& tip_arg, const Text& root_arg, const Text& register_arg,
+                    const Text& out_arg) {
+  // The command line's job (jobs/evaluate_job.hpp), from keywords.
+  EvaluateRequest request;
+  request.tip = text(tip_arg);
+  request.root = text(root_arg);
+  if (const auto* m = std::get_if<Model>(&model_arg)) {
+    request.given = m->model;
+    request.model = m->path;
+  } else {
+    request.model = std::get<std::string>(model_arg);
   }
-  return parsed(evaluation_json(
-      nullptr,
-      registration
-          ? evaluate_registered(model.model, log, *registration, known.distances, known.points)
-          : hapticcal::evaluate(model.model, log, known.distances, known.points)));
+  if (reference) {
+    if (const auto* m = std::get_if<Model>(&*reference)) {
+      request.given_reference = m->model;
+      request.reference = m->path;
+    } else {
+      request.reference = std::get<std::string>(*reference);
+    }
+  }
+  request.log = log_path;
+  request.columns = names(columns);
+  request.fixture = text(fixture_arg);
+  request.point_distances = names(point_distance);
+  if (!text(register_arg).empty()) request.registration = parse_register(text(register_arg));
+  if (out_arg) request.out = *out_arg;
+  EvaluateJob job;
+  {
+    py::gil_scoped_release released;
+    job = run_evaluate_job(request);
+  }
+  return parsed(job.json);
 }
 
 py::dict plan(const std::variant<Model, std::string>& model_arg, const std::string& measurement,
@@ -266,21 +273,13 @@ py::dict plan(const std::variant<Model, std::string>& model_arg, const std::stri
   request.pool = pool;
   request.tip = tip;
   request.root = root;
-  if (poses < 1 || poses > 100000) throw InputError("--poses: expected 1 to 100000 poses");
-  PlanSetup setup = prepare_plan(request);
-  OutputSet set(out, "plan");
-  Plan result;
-  std::string json;
+  PlanJob job;
   {
     py::gil_scoped_release released;
-    const PlanProblem problem(setup.model, setup.type, setup.sigma, setup.sigma_e, setup.analysis,
-                              setup.fix, setup.free);
-    result = plan_poses(problem, setup.options);
-    json = plan_json(request, setup, problem, result);
-    std::string note;
-    write_plan_files(set.dir(), request, setup, problem, result, note);
-    set.commit();
+    job = run_plan_job(request, out);
   }
+  const std::string& json = job.json;
+  const Plan& result = job.plan;
   return py::dict("plan"_a = parsed(json), "readings"_a = result.readings, "out"_a = out,
                   "files"_a = std::vector<std::string>{out + "/plan.csv", out + "/plan.json",
                                                        out + "/report.html"});
@@ -289,41 +288,73 @@ py::dict plan(const std::variant<Model, std::string>& model_arg, const std::stri
 py::dict simulate(const Text& scenario_arg, int trials, long long seed, int threads,
                   const Text& device_arg, const Text& tip_arg, const Text& root_arg,
                   const Text& out_arg) {
-  const std::string scenario = text(scenario_arg), device = text(device_arg), tip = text(tip_arg),
-                    root = text(root_arg), out = out_arg.value_or("hapticcal-out/simulate");
-  const std::string device_path = device.empty() ? builtin_device_path() : device;
-  Scenario sc = scenario.empty() ? default_scenario(device_path, tip, root)
-                                 : load_scenario(scenario, device_path, tip, root);
-  if (trials > 0) sc.trials = trials;
-  if (seed >= 0) sc.seed = static_cast<std::uint64_t>(seed);
-  const int n = threads > 0 ? threads : std::max(1u, std::thread::hardware_concurrency());
-  OutputSet set(out, "simulate");
-  std::string json;
+  // The command line's job (jobs/simulate_job.hpp), from keywords.
+  SimulateRequest request;
+  request.scenario = text(scenario_arg);
+  request.device = text(device_arg);
+  request.tip = text(tip_arg);
+  request.root = text(root_arg);
+  request.trials = trials;
+  if (seed >= 0) request.seed = static_cast<std::uint64_t>(seed);
+  request.threads = threads;
+  request.out = out_arg.value_or("hapticcal-out/simulate");
+  SimulateJob job;
   {
     py::gil_scoped_release released;
-    const StudyResult r = run_study(sc, set.dir(), n);
-    json = study_json(sc, r);
-    write_file_atomically(set.dir() + "/results.json", json);
-    std::string note;
-    write_report(study_report(sc, r), set.dir(), note);
-    set.commit();
+    job = run_simulate_job(request);
   }
-  return py::dict("results"_a = parsed(json), "out"_a = out,
+  const std::string& out = request.out;
+  return py::dict("results"_a = parsed(job.results_json), "out"_a = out,
                   "files"_a = std::vector<std::string>{out + "/results.json", out + "/report.html",
                                                        out + "/calibrated.yaml"});
+}
+
+py::dict force(const std::string& actual, const std::string& nominal, const std::string& calibrated,
+               std::optional<double> gain, std::optional<double> noise,
+               std::optional<double> stiffness, std::optional<double> travel,
+               std::optional<double> seconds, const std::optional<std::vector<double>>& posture,
+               std::optional<unsigned long long> seed, std::optional<int> lock, const Text& tip_arg,
+               const Text& root_arg, const Text& out_arg) {
+  // The command line's job (jobs/force_job.hpp), from keywords.
+  ForceRequest request;
+  request.actual = actual;
+  request.nominal = nominal;
+  request.calibrated = calibrated;
+  request.tip = text(tip_arg);
+  request.root = text(root_arg);
+  ForceScenario& sc = request.scenario;
+  if (gain) sc.gain = *gain;
+  if (noise) sc.sensor_noise = *noise;
+  if (stiffness) sc.stiffness = *stiffness;
+  if (travel) sc.travel = *travel;
+  if (seconds) sc.move_seconds = *seconds;
+  if (seed) sc.seed = *seed;
+  if (lock) request.lock = *lock;
+  request.posture = posture;
+  request.out = out_arg.value_or("hapticcal-out/force");
+  ForceJob job;
+  {
+    py::gil_scoped_release released;
+    job = run_force_job(request);
+  }
+  return py::dict("results"_a = parsed(job.results_json), "out"_a = request.out);
+}
+
+py::dict convert(const std::string& in, const std::string& out, const Text& tip_arg,
+                 const Text& root_arg) {
+  const ConvertJob job = run_convert_job({in, out, text(tip_arg), text(root_arg)});
+  return py::dict("out"_a = out, "name"_a = job.model.name, "dof"_a = job.model.dof(),
+                  "with_transmission"_a = job.with_transmission);
 }
 
 }  // namespace
 }  // namespace hapticcal::python
 
-PYBIND11_MODULE(hapticcal, m) {
-  using namespace hapticcal::python;
-  using hapticcal::DeviceModel;
-  m.doc() =
-      "Kinematic calibration of haptic devices and robots (the hapticcal command line as "
-      "functions). Lengths in metres, angles in radians.";
-  py::register_exception<hapticcal::IoError>(m, "IoError", PyExc_OSError);
+namespace hapticcal::python {
 
+// The Model class: a device model with its file, forward kinematics and
+// Jacobians, its parameters by name.
+void bind_model(py::module_& m) {
   py::class_<Model>(m, "Model")
       .def_property_readonly("name", [](const Model& s) { return s.model.name; })
       .def_property_readonly("dof", [](const Model& s) { return s.model.dof(); })
@@ -374,6 +405,19 @@ PYBIND11_MODULE(hapticcal, m) {
       .def("__repr__", [](const Model& s) {
         return fmt::format("<hapticcal.Model '{}', {} joints>", s.model.name, s.model.dof());
       });
+}
+
+}  // namespace hapticcal::python
+
+PYBIND11_MODULE(hapticcal, m) {
+  using namespace hapticcal::python;
+  using hapticcal::DeviceModel;
+  m.doc() =
+      "Kinematic calibration of haptic devices and robots (the hapticcal command line as "
+      "functions). Lengths in metres, angles in radians.";
+  py::register_exception<hapticcal::IoError>(m, "IoError", PyExc_OSError);
+
+  bind_model(m);
 
   m.def(
       "load_model",
@@ -411,8 +455,10 @@ PYBIND11_MODULE(hapticcal, m) {
   m.def("evaluate", &evaluate, "model"_a, "log"_a, py::kw_only(), "columns"_a = py::none(),
         "point_distance"_a = py::none(), "fixture"_a = py::none(), "reference"_a = py::none(),
         "tip"_a = py::none(), "root"_a = py::none(), "register"_a = py::none(),
+        "out"_a = py::none(),
         "hapticcal evaluate --json: the same keys, in metres (register='frame' or "
-        "'frame,tool' as --register)");
+        "'frame,tool' as --register; out: a folder, the command line's report.html and "
+        "results.json)");
   m.def("plan", &plan, "model"_a, "measurement"_a, "poses"_a, py::kw_only(),
         "candidates"_a = py::none(), "columns"_a = py::none(), "criterion"_a = "i", "seed"_a = 1ULL,
         "sigma"_a = 0.0, "sigma_e"_a = 0.0, "distance_range"_a = py::none(), "box"_a = py::none(),
@@ -425,4 +471,15 @@ PYBIND11_MODULE(hapticcal, m) {
         "root"_a = py::none(), "out"_a = "hapticcal-out/simulate",
         "hapticcal simulate: writes its files into out; returns dict(results=results.json "
         "parsed, out, files)");
+  m.def("force", &force, "actual"_a, "nominal"_a, "calibrated"_a, py::kw_only(),
+        "gain"_a = py::none(), "noise"_a = py::none(), "stiffness"_a = py::none(),
+        "travel"_a = py::none(), "seconds"_a = py::none(), "posture"_a = py::none(),
+        "seed"_a = py::none(), "lock"_a = py::none(), "tip"_a = py::none(), "root"_a = py::none(),
+        "out"_a = py::none(),
+        "hapticcal force: the virtual-wall study into `out` (default hapticcal-out/force); "
+        "returns {results: results.json, out}");
+  m.def("convert", &convert, "input"_a, "output"_a, py::kw_only(), "tip"_a = py::none(),
+        "root"_a = py::none(),
+        "hapticcal convert: a device file to URDF or back; returns {out, name, dof, "
+        "with_transmission}");
 }

@@ -8,12 +8,8 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "hapticcal/core/files.hpp"
 #include "hapticcal/core/output_set.hpp"
-#include "hapticcal/data_io/fixture.hpp"
-#include "hapticcal/report/report.hpp"
-#include "hapticcal/report/results_json.hpp"
-#include "hapticcal/study/evaluate.hpp"
+#include "hapticcal/jobs/evaluate_job.hpp"
 #include "output_summary.hpp"
 #include "terminal.hpp"
 
@@ -48,47 +44,31 @@ CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& o) {
 }
 
 int run_evaluate(const EvaluateOptions& o) {
-  o.chain.check_used({o.model, o.reference});
-  std::optional<hapticcal::RegisterWhat> registration;
-  if (o.register_given) registration = hapticcal::parse_register(o.register_what);
-  const hapticcal::DeviceModel model = o.chain.load(o.model);
-  const hapticcal::Log log = hapticcal::read_log(
-      o.log, o.columns.empty() ? std::vector<std::string>{} : hapticcal::split_columns(o.columns));
-  const hapticcal::Fixture known = hapticcal::fixture_facts(o.fixture, o.point_distance);
-  std::optional<hapticcal::EvaluationComparison> cmp;
-  if (!o.reference.empty()) {
-    cmp = hapticcal::compare_to_reference(model, o.chain.load(o.reference), log, known.distances,
-                                          known.points, registration);
-  }
-  const hapticcal::Evaluation ev =
-      cmp ? cmp->model
-          : (registration ? hapticcal::evaluate_registered(model, log, *registration,
-                                                           known.distances, known.points)
-                          : hapticcal::evaluate(model, log, known.distances, known.points));
-  const std::optional<hapticcal::Evaluation> ref =
-      cmp ? std::optional<hapticcal::Evaluation>(cmp->reference) : std::nullopt;
-  const std::string json = hapticcal::evaluation_json(cmp ? &*cmp : nullptr, ev);
-  const std::vector<std::string> lines =
-      hapticcal::evaluation_lines(cmp ? &*cmp : nullptr, ev, o.reference);
+  hapticcal::EvaluateRequest request;
+  request.model = o.model;
+  request.reference = o.reference;
+  request.tip = o.chain.tip;
+  request.root = o.chain.root;
+  request.log = o.log;
+  request.columns = names(o.columns);
+  request.fixture = o.fixture;
+  request.point_distances = o.point_distance;
+  if (o.register_given) request.registration = hapticcal::parse_register(o.register_what);
+  // --json writes no files unless --out is given.
+  if (!o.json || o.out_given) request.out = o.out;
+  const hapticcal::EvaluateJob job = hapticcal::run_evaluate_job(request);
   if (o.json) {
-    fmt::print("{}\n", json);
-    if (!o.out_given) return 0;
+    fmt::print("{}\n", job.json);
   } else {
-    fmt::print("model: {} ({}, {} joints)\n", o.model, model.name, model.dof());
-    fmt::print("log:   {} ({} rows)\n", o.log, ev.n);
-    for (const std::string& line : lines) fmt::print("{}\n", line);
+    fmt::print("model: {} ({}, {} joints)\n", o.model, job.model.name, job.model.dof());
+    fmt::print("log:   {} ({} rows)\n", o.log, job.evaluation.n);
+    for (const std::string& line : job.lines) fmt::print("{}\n", line);
   }
-  hapticcal::OutputSet out(o.out, "evaluate");
-  hapticcal::write_file_atomically(out.dir() + "/results.json", json + "\n");
-  const std::string reported =
-      report(hapticcal::evaluation_report(model, o.model, log, ev, ref ? &*ref : nullptr,
-                                          o.reference, lines),
-             out.dir(), o.out);
-  out.commit();
+  if (!job.out) return 0;
   // With --json, stdout is the JSON object alone.
   std::FILE* said = o.json ? stderr : stdout;
-  hapticcal::cli::say(said, "{}", reported);
-  hapticcal::cli::say(said, "{}", hapticcal::cli::output_summary(out, o.out));
+  hapticcal::cli::say(said, "{}", report_said(job.figures, job.report_note, o.out));
+  hapticcal::cli::say(said, "{}", hapticcal::cli::output_summary(*job.out, o.out));
   return 0;
 }
 

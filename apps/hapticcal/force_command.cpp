@@ -10,6 +10,7 @@
 #include "commands.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/core/output_set.hpp"
+#include "hapticcal/jobs/force_job.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/control.hpp"
 #include "number_options.hpp"
@@ -20,16 +21,6 @@ namespace {
 
 // force_nominal.csv or force_calibrated.csv: the time, the desired force and the
 // measured force and moment, one row a control step.
-std::string force_csv(const hapticcal::ForceRun& run) {
-  std::string out = "t,Fd_x,Fd_y,Fd_z,F_x,F_y,F_z,M_x,M_y,M_z\n";
-  for (size_t k = 0; k < run.t.size(); ++k) {
-    const auto& d = run.desired[k];
-    const auto& m = run.measured[k];
-    out += fmt::format("{},{},{},{},{},{},{},{},{},{}\n", run.t[k], d[0], d[1], d[2], m[0], m[1],
-                       m[2], m[3], m[4], m[5]);
-  }
-  return out;
-}
 
 }  // namespace
 
@@ -70,37 +61,30 @@ CLI::App* add_force_command(CLI::App& app, ForceOptions& o) {
 }
 
 int run_force(ForceOptions o) {
-  o.chain.check_used({o.actual, o.nominal, o.calibrated});
-  const hapticcal::DeviceModel actual = o.chain.load(o.actual);
-  const hapticcal::DeviceModel nominal = o.chain.load(o.nominal);
-  const hapticcal::DeviceModel calibrated = o.chain.load(o.calibrated);
-  hapticcal::ForceScenario& sc = o.scenario;
-  if (o.lock >= 0) sc.locked_joint = o.lock - 1;  // 0 -> kNoLock
-  sc.locked_joint = hapticcal::resolved_locked_joint(sc, actual.dof());
-  hapticcal::OutputSet out(o.out, "force");
+  hapticcal::ForceRequest request;
+  request.actual = o.actual;
+  request.nominal = o.nominal;
+  request.calibrated = o.calibrated;
+  request.tip = o.chain.tip;
+  request.root = o.chain.root;
+  request.lock = o.lock;
+  request.scenario = o.scenario;
+  request.out = o.out;
   if (!o.posture.empty()) {
-    const std::vector<std::string> v = names(o.posture);
-    sc.posture.resize(v.size());
-    for (size_t i = 0; i < v.size(); ++i) {
+    std::vector<double> q;
+    for (const std::string& v : names(o.posture)) {
       try {
-        sc.posture[i] = std::stod(v[i]);
+        q.push_back(std::stod(v));
       } catch (const std::exception&) {
-        throw hapticcal::InputError(fmt::format("--posture: '{}' is not a number", v[i]));
+        throw hapticcal::InputError(fmt::format("--posture: '{}' is not a number", v));
       }
     }
+    request.posture = q;
   }
-  const double limit = hapticcal::force_study_gain_limit(actual, nominal, calibrated, sc);
-  if (!(std::abs(sc.gain) < limit)) {
-    throw hapticcal::InputError(fmt::format(
-        "--gain {} is outside the stable range: |G| < {:.4f} for these models (1 / spectral radius "
-        "of the rendering map)",
-        sc.gain, limit));
-  }
-  const hapticcal::ForceStudy study = hapticcal::run_force_study(actual, nominal, calibrated, sc);
-  sc = study.scenario;
-  const hapticcal::ForceRun& before = study.nominal;
-  const hapticcal::ForceRun& after = study.calibrated;
-  const double reduction = study.reduction_pct;
+  const hapticcal::ForceJob job = hapticcal::run_force_job(request);
+  const hapticcal::ForceScenario& sc = job.study.scenario;
+  const hapticcal::ForceRun& before = job.study.nominal;
+  const hapticcal::ForceRun& after = job.study.calibrated;
   std::string posture;
   for (int i = 0; i < sc.posture.size(); ++i)
     posture += fmt::format("{}{}", i ? "," : "", sc.posture[i]);
@@ -108,45 +92,22 @@ int run_force(ForceOptions o) {
       "hapticcal force: virtual wall K = {} N/m moved {} mm along the handle's z in {} s, "
       "held {} s, at {} Hz; gain G = {} (stable for |G| < {:.4f}); {}; posture q = "
       "[{}] rad{}\n",
-      sc.stiffness, sc.travel * 1e3, sc.move_seconds, sc.hold_seconds, sc.rate_hz, sc.gain, limit,
+      sc.stiffness, sc.travel * 1e3, sc.move_seconds, sc.hold_seconds, sc.rate_hz, sc.gain,
+      job.gain_limit,
       sc.locked_joint >= 0 ? fmt::format("joint {} locked", sc.locked_joint + 1)
                            : "no joint locked",
       posture,
-      o.posture.empty() && actual.dof() == 7
+      o.posture.empty() && job.actual.dof() == 7
           ? " (home with j6 = 0.3 rad: home is a wrist singularity of this model)"
           : "");
   fmt::print(
       "  transverse force (|Fx, Fy|) RMS: nominal model {:.4f} N, calibrated model {:.4f} N, "
       "reduction {:.1f} %\n",
-      before.transverse_rms, after.transverse_rms, reduction);
+      before.transverse_rms, after.transverse_rms, job.study.reduction_pct);
   fmt::print("  at the end: Fz {:.4f} N desired, {:.4f} N nominal, {:.4f} N calibrated\n",
              before.desired.back()[2], before.measured.back()[2], after.measured.back()[2]);
-  hapticcal::write_file_atomically(out.dir() + "/force_nominal.csv", force_csv(before));
-  hapticcal::write_file_atomically(out.dir() + "/force_calibrated.csv", force_csv(after));
-  nlohmann::ordered_json j;
-  j["format"] = "hapticcal-force/1";
-  j["actual"] = o.actual;
-  j["nominal"] = o.nominal;
-  j["calibrated"] = o.calibrated;
-  j["stiffness"] = sc.stiffness;
-  j["travel"] = sc.travel;
-  j["gain"] = sc.gain;
-  j["stable_gain_limit"] = limit;
-  j["sensor_noise"] = sc.sensor_noise;
-  j["seed"] = sc.seed;
-  j["posture"] = std::vector<double>(sc.posture.data(), sc.posture.data() + sc.posture.size());
-  j["transverse_rms_nominal"] = before.transverse_rms;
-  j["transverse_rms_calibrated"] = after.transverse_rms;
-  j["reduction_pct"] = reduction;
-  hapticcal::write_file_atomically(
-      out.dir() + "/results.json",
-      j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
-  hapticcal::Report force_report = hapticcal::force_report(before, after);
-  force_report.outcome = hapticcal::force_outcome(study);
-  const std::string reported = report(force_report, out.dir(), o.out);
-  out.commit();
-  fmt::print("{}", reported);
-  fmt::print("{}", hapticcal::cli::output_summary(out, o.out));
+  fmt::print("{}", report_said(job.figures, job.report_note, o.out));
+  fmt::print("{}", hapticcal::cli::output_summary(*job.out, o.out));
   return 0;
 }
 

@@ -68,29 +68,27 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
 
 int run_plan(const PlanCommandOptions& options) {
   const PlanRequest& o = options.request;
-  PlanSetup setup = prepare_plan(o);
-  const DeviceModel& model = setup.model;
-  const MeasurementType type = setup.type;
-  const double sigma = setup.sigma, sigma_e = setup.sigma_e;
-  OutputSet out(options.out, "plan");
   const bool tty = isatty(2);
-  setup.options.progress = [tty](const std::string& s) {
-    if (tty) hapticcal::cli::say(stderr, "  {}\n", s);
+  const auto started = [&](const PlanSetup& setup, const PlanProblem& problem) {
+    const DeviceModel& model = setup.model;
+    fmt::print(
+        "hapticcal plan: {} poses of {} ({} joints), {} measurements, {}-optimal, seed {}\n"
+        "  parameters: {} ({} kinematic, the rest step-1 transmissions and encoder zeros); "
+        "sigma_m {:.4g} um, sigma_e {:.4g} urad\n",
+        o.poses, model.name, model.dof(), traits(setup.type).name,
+        to_string(setup.options.criterion), o.seed, problem.parameters(),
+        problem.kinematic_slots().size(), setup.sigma * 1e6, setup.sigma_e * 1e6);
   };
-  const PlanProblem problem(model, type, sigma, sigma_e, setup.analysis, setup.fix, setup.free);
-  fmt::print(
-      "hapticcal plan: {} poses of {} ({} joints), {} measurements, {}-optimal, seed {}\n"
-      "  parameters: {} ({} kinematic, the rest step-1 transmissions and encoder zeros); "
-      "sigma_m {:.4g} um, sigma_e {:.4g} urad\n",
-      o.poses, model.name, model.dof(), traits(type).name, to_string(setup.options.criterion),
-      o.seed, problem.parameters(), problem.kinematic_slots().size(), sigma * 1e6, sigma_e * 1e6);
-  const Plan plan = plan_poses(problem, setup.options);
-  const bool user = setup.user_candidates;
+  const PlanJob job = run_plan_job(o, options.out, started, [tty](const std::string& s) {
+    if (tty) hapticcal::cli::say(stderr, "  {}\n", s);
+  });
+  const Plan& plan = job.plan;
+  const bool user = job.setup.user_candidates;
   fmt::print(
       "  candidates: {} {}; exchange: {} sweeps, {} swaps; refinement: {} moves ({:.1f} s)\n",
       plan.pool, user ? "recorded poses (" + o.candidates + ")" : "random poses", plan.sweeps,
       plan.swaps, plan.refined_moves, plan.seconds);
-  const char* tip = hapticcal::traits(type).tip;
+  const char* tip = hapticcal::traits(job.setup.type).tip;
   fmt::print(
       "  predicted RMS {} sd over the workspace: planned {:.3f} um, random {} poses {:.3f} um "
       "(median of {} draws): ratio {:.3f}\n",
@@ -107,15 +105,11 @@ int run_plan(const PlanCommandOptions& options) {
     for (int c : plan.candidate) rows += fmt::format("{}{}", rows.empty() ? "" : " ", c + 1);
     fmt::print("  chosen poses (distinct poses of the log, 1-based, in path order): {}\n", rows);
   }
-
-  std::string note;
-  const int drawn = write_plan_files(out.dir(), o, setup, problem, plan, note);
-  out.commit();
-  fmt::print("report: {}/report.html ({} figures)\n", options.out, drawn);
-  if (!note.empty()) fmt::print("note: {}\n", note);
-  fmt::print("{}", output_summary(
-                       out, options.out,
-                       fmt::format(" (plan.csv: q1..q{} in radians, path order)", model.dof())));
+  fmt::print("report: {}/report.html ({} figures)\n", options.out, job.figures);
+  if (!job.report_note.empty()) fmt::print("note: {}\n", job.report_note);
+  fmt::print("{}", output_summary(*job.out, options.out,
+                                  fmt::format(" (plan.csv: q1..q{} in radians, path order)",
+                                              job.setup.model.dof())));
   return 0;
 }
 

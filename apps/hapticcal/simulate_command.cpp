@@ -13,6 +13,7 @@
 #include "commands.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/core/output_set.hpp"
+#include "hapticcal/jobs/simulate_job.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/report/results_json.hpp"
@@ -181,31 +182,32 @@ CLI::App* add_simulate_command(CLI::App& app, SimulateOptions& o) {
 }
 
 int run_simulate(const SimulateOptions& o) {
-  if (o.scenario.empty()) o.chain.check_used({o.device});
-  hapticcal::Scenario sc =
-      o.scenario.empty()
-          ? hapticcal::default_scenario(o.device, o.chain.tip, o.chain.root)
-          : hapticcal::load_scenario(o.scenario, o.device, o.chain.tip, o.chain.root);
-  if (o.trials > 0) sc.trials = o.trials;
-  if (o.seed >= 0) sc.seed = static_cast<std::uint64_t>(o.seed);
-  const int threads = o.threads > 0 ? o.threads : std::max(1u, std::thread::hardware_concurrency());
-  fmt::print("hapticcal simulate: {} trial(s), seed {}, {} thread(s), device {}\n", sc.trials,
-             sc.seed, std::min(threads, sc.trials), sc.device_path);
-  const bool bar = sc.trials > 1 && isatty(2);
-  hapticcal::OutputSet out(o.out, "simulate");
-  const hapticcal::StudyResult r = hapticcal::run_study(sc, out.dir(), threads, [&](int k, int n) {
+  hapticcal::SimulateRequest request;
+  request.scenario = o.scenario;
+  request.device = o.device;
+  request.tip = o.chain.tip;
+  request.root = o.chain.root;
+  request.trials = o.trials;
+  if (o.seed >= 0) request.seed = static_cast<std::uint64_t>(o.seed);
+  request.threads = o.threads;
+  request.out = o.out;
+  bool bar = false;
+  request.started = [&](const hapticcal::Scenario& sc, int threads) {
+    fmt::print("hapticcal simulate: {} trial(s), seed {}, {} thread(s), device {}\n", sc.trials,
+               sc.seed, threads, sc.device_path);
+    bar = sc.trials > 1 && isatty(2);
+  };
+  request.progress = [&](int k, int n) {
     if (!bar) return;
     const int width = 40, filled = width * k / n;
     hapticcal::cli::say(stderr, "\r[{}{}] {}/{}", std::string(filled, '#'),
                         std::string(width - filled, ' '), k, n);
     if (k == n) hapticcal::cli::say(stderr, "\n");
-  });
-  print_study(sc, r);
-  hapticcal::write_file_atomically(out.dir() + "/results.json", hapticcal::study_json(sc, r));
-  const std::string reported = report(hapticcal::study_report(sc, r), out.dir(), o.out);
-  out.commit();
-  fmt::print("{}", reported);
-  fmt::print("{}", hapticcal::cli::output_summary(out, o.out));
+  };
+  const hapticcal::SimulateJob job = hapticcal::run_simulate_job(request);
+  print_study(job.scenario, job.result);
+  fmt::print("{}", report_said(job.figures, job.report_note, o.out));
+  fmt::print("{}", hapticcal::cli::output_summary(*job.out, o.out));
   return 0;
 }
 

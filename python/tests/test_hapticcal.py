@@ -395,6 +395,104 @@ def test_calibrate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
     assert summary in report
 
 
+def same_folders(cli_out, py_out):
+    """Two output sets equal file by file, byte for byte (a report names its own folder)."""
+    files = output_files(cli_out)
+    assert files and output_files(py_out) == files
+    for name in files:
+        a, b = (cli_out / name).read_bytes(), (py_out / name).read_bytes()
+        if name == "report.html":
+            a = a.replace(str(cli_out).encode(), b"OUT")
+            b = b.replace(str(py_out).encode(), b"OUT")
+        assert a == b, name
+    return files
+
+
+def test_evaluate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
+    """evaluate runs one job (jobs/evaluate_job.hpp) for both front ends: with a reference and a
+    registration, the two output folders are equal byte for byte and the module's dict is the
+    command line's --json."""
+    cli_out, py_out = tmp_path / "cli", tmp_path / "py"
+    args = ["--model", MECA, "--log", VAL_LOG, "--reference", MECA, "--register", "frame"]
+    code, stdout, stderr = cli("evaluate", *args, "--json", "--out", str(cli_out))
+    assert code == 0, stderr
+    ev = hapticcal.evaluate(MECA, VAL_LOG, reference=MECA, register="frame", out=str(py_out))
+    files = same_folders(cli_out, py_out)
+    assert "results.json" in files and "report.html" in files
+    assert_same(ev, json.loads(stdout))
+
+
+def test_plan_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
+    """plan runs one job (jobs/plan_job.hpp) for both front ends: the same folders, byte for
+    byte, and the module's plan is plan.json."""
+    cli_out, py_out = tmp_path / "cli", tmp_path / "py"
+    code, _, stderr = cli("plan", "--model", MECA, "--measurement", "position", "--poses", "12",
+                          "--pool", "200", "--refine-passes", "0", "--seed", "2",
+                          "--out", str(cli_out))
+    assert code == 0, stderr
+    r = hapticcal.plan(MECA, "position", 12, pool=200, refine_passes=0, seed=2, out=str(py_out))
+    files = same_folders(cli_out, py_out)
+    assert "plan.csv" in files and "plan.json" in files
+    assert json.loads((cli_out / "plan.json").read_text()) == r["plan"]
+
+
+def test_simulate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
+    """simulate runs one job (jobs/simulate_job.hpp) for both front ends: the same folders, byte
+    for byte (trial logs, results.json, the report and its figures)."""
+    scenario = tmp_path / "small.yaml"
+    scenario.write_text(
+        "format: hapticcal-scenario/1\n"
+        f"device: {MECA}\n"
+        "measurement: position\n"
+        "poses: {identification: 40, validation: 10}\n"
+        "trajectory: {seconds: 1, rate_hz: 10}\n"
+    )
+    cli_out, py_out = tmp_path / "cli", tmp_path / "py"
+    code, _, stderr = cli("simulate", "--scenario", str(scenario), "--seed", "4", "--threads",
+                          "1", "--out", str(cli_out))
+    assert code == 0, stderr
+    r = hapticcal.simulate(str(scenario), seed=4, threads=1, out=str(py_out))
+    files = same_folders(cli_out, py_out)
+    assert "results.json" in files and "report.html" in files
+    assert json.loads((cli_out / "results.json").read_text()) == r["results"]
+
+
+def test_force_and_convert_jobs_give_the_cli_outputs_byte_for_byte(tmp_path):
+    """force and convert run one job each (jobs/force_job.hpp) for both front ends: force's
+    folders are equal byte for byte; convert writes the same file; both refuse the same input."""
+    m = hapticcal.load_model(MECA)
+    p = m.parameters()
+    p["j2.a"] += 1e-3
+    p["j3.alpha"] += 2e-3
+    m.set_parameters(p)
+    actual = str(tmp_path / "actual.yaml")
+    m.save(actual)
+    cli_out, py_out = tmp_path / "cli", tmp_path / "py"
+    posture = [0.1, 0.3, 0.2, 0.1, 0.5, 0.2]  # (home is a wrist singularity of the Meca500)
+    code, _, stderr = cli("force", "--actual", actual, "--nominal", MECA, "--calibrated", actual,
+                          "--noise", "0.01", "--seed", "3", "--posture",
+                          ",".join(str(v) for v in posture), "--out", str(cli_out))
+    assert code == 0, stderr
+    r = hapticcal.force(actual, MECA, actual, noise=0.01, seed=3, posture=posture,
+                        out=str(py_out))
+    files = same_folders(cli_out, py_out)
+    assert "force_nominal.csv" in files and "results.json" in files
+    assert json.loads((cli_out / "results.json").read_text()) == r["results"]
+    assert r["results"]["transverse_rms_calibrated"] < r["results"]["transverse_rms_nominal"]
+    for name in ("cli.urdf", "py.urdf"):
+        assert not (tmp_path / name).exists()
+    code, _, stderr = cli("convert", MECA, str(tmp_path / "cli.urdf"))
+    assert code == 0, stderr
+    c = hapticcal.convert(MECA, str(tmp_path / "py.urdf"))
+    assert c["dof"] == 6
+    assert (tmp_path / "py.urdf").read_bytes() == (tmp_path / "cli.urdf").read_bytes()
+    code, _, stderr = cli("convert", MECA, str(tmp_path / "x.yaml"))
+    assert code == 2
+    with pytest.raises(ValueError) as refused:
+        hapticcal.convert(MECA, str(tmp_path / "x.yaml"))
+    assert stderr.strip() == "hapticcal: " + str(refused.value)
+
+
 def test_the_library_refuses_what_the_command_line_refuses(tmp_path):
     """Issue 23 (C3, E8): bounds checked by the library, for Python as for the CLI."""
     with pytest.raises(ValueError, match="--dependency-tolerance"):

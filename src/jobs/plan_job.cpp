@@ -161,4 +161,25 @@ int write_plan_files(const std::string& dir, const PlanRequest& request, const P
   return write_report(plan_report(problem, plan), dir, note);
 }
 
+PlanJob run_plan_job(const PlanRequest& request, const std::string& out,
+                     const std::function<void(const PlanSetup&, const PlanProblem&)>& started,
+                     const std::function<void(const std::string&)>& progress) {
+  if (request.poses < 1 || request.poses > 100000)
+    throw InputError("--poses: expected 1 to 100000 poses");
+  PlanJob job;
+  job.setup = prepare_plan(request);
+  PlanSetup& setup = job.setup;
+  job.out = std::make_unique<OutputSet>(out, "plan");
+  if (progress) setup.options.progress = progress;
+  job.problem = std::make_unique<PlanProblem>(setup.model, setup.type, setup.sigma, setup.sigma_e,
+                                              setup.analysis, setup.fix, setup.free);
+  if (started) started(setup, *job.problem);
+  job.plan = plan_poses(*job.problem, setup.options);
+  job.json = plan_json(request, setup, *job.problem, job.plan);
+  job.figures =
+      write_plan_files(job.out->dir(), request, setup, *job.problem, job.plan, job.report_note);
+  job.out->commit();
+  return job;
+}
+
 }  // namespace hapticcal

@@ -343,4 +343,25 @@ std::string study_json(const Scenario& sc, const StudyResult& r) {
   return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
+std::string force_json(const std::string& actual, const std::string& nominal,
+                       const std::string& calibrated, const ForceStudy& study, double gain_limit) {
+  const ForceScenario& sc = study.scenario;
+  nlohmann::ordered_json j;
+  j["format"] = "hapticcal-force/1";
+  j["actual"] = actual;
+  j["nominal"] = nominal;
+  j["calibrated"] = calibrated;
+  j["stiffness"] = sc.stiffness;
+  j["travel"] = sc.travel;
+  j["gain"] = sc.gain;
+  j["stable_gain_limit"] = gain_limit;
+  j["sensor_noise"] = sc.sensor_noise;
+  j["seed"] = sc.seed;
+  j["posture"] = std::vector<double>(sc.posture.data(), sc.posture.data() + sc.posture.size());
+  j["transverse_rms_nominal"] = study.nominal.transverse_rms;
+  j["transverse_rms_calibrated"] = study.calibrated.transverse_rms;
+  j["reduction_pct"] = study.reduction_pct;
+  return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
+
 }  // namespace hapticcal

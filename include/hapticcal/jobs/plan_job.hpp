@@ -4,9 +4,12 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "hapticcal/core/output_set.hpp"
 #include "hapticcal/design/plan.hpp"
 #include "hapticcal/model/model.hpp"
 
@@ -39,6 +42,24 @@ PlanSetup prepare_plan(const PlanRequest& request);
 // plan.json's text (format hapticcal-plan/1).
 std::string plan_json(const PlanRequest& request, const PlanSetup& setup,
                       const PlanProblem& problem, const Plan& plan);
+
+// The whole command as one job (issue 24): the request resolved, the problem,
+// the plan and its files in `out` (an OutputSet, committed).
+struct PlanJob {
+  PlanSetup setup;
+  std::unique_ptr<PlanProblem> problem;
+  Plan plan;
+  std::string json;                // plan.json's text
+  std::unique_ptr<OutputSet> out;  // committed
+  int figures = 0;                 // drawn into its report
+  std::string report_note;         // write_report's note, or empty
+};
+// `started` is called once the problem is set up, before the search;
+// `progress` gets the search's progress lines. Throws InputError for bad input
+// (poses outside 1..100000 among it).
+PlanJob run_plan_job(const PlanRequest& request, const std::string& out,
+                     const std::function<void(const PlanSetup&, const PlanProblem&)>& started = {},
+                     const std::function<void(const std::string&)>& progress = {});
 
 // Writes plan.csv, plan.json and report.html with its figures into `dir`;
 // returns the number of figures drawn and sets `note` as write_report does.

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/study/control.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/study.hpp"
 
@@ -24,5 +25,11 @@ std::string evaluation_json(const EvaluationComparison* comparison, const Evalua
 
 // results.json of a study.
 std::string study_json(const Scenario& scenario, const StudyResult& result);
+
+// results.json of `force` (format hapticcal-force/1): the model files, the
+// scenario as run, the stable gain limit and the transverse force RMS before
+// and after calibration.
+std::string force_json(const std::string& actual, const std::string& nominal,
+                       const std::string& calibrated, const ForceStudy& study, double gain_limit);
 
 }  // namespace hapticcal

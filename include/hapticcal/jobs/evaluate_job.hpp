@@ -1,0 +1,46 @@
+// `evaluate` as one job (issue 24): the request the command line and the
+// Python module fill in, and what they print or return.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hapticcal/core/output_set.hpp"
+#include "hapticcal/model/model.hpp"
+#include "hapticcal/study/evaluate.hpp"
+
+namespace hapticcal {
+
+struct EvaluateRequest {
+  std::string model;                 // a device file or a URDF
+  std::optional<DeviceModel> given;  // a model in memory instead (Python's Model)
+  std::string reference;             // a second model file ("": none)
+  std::optional<DeviceModel> given_reference;
+  std::string tip, root;  // the chain of each URDF among them
+  std::string log;
+  std::vector<std::string> columns;          // the log's columns, if it has no header line
+  std::string fixture;                       // a fixture file ("": none)
+  std::vector<std::string> point_distances;  // "A:B=METRES"
+  std::optional<RegisterWhat> registration;  // --register
+  std::optional<std::string> out;            // the output folder; none: nothing written
+};
+
+struct EvaluateJob {
+  DeviceModel model;
+  Evaluation evaluation;                           // the model's (registered if asked)
+  std::optional<EvaluationComparison> comparison;  // with a reference
+  int rows = 0;                                    // the log's
+  std::string json;                                // `evaluate --json`, one line
+  std::vector<std::string> lines;                  // evaluation_lines
+  std::unique_ptr<OutputSet> out;                  // with an output folder: committed
+  int figures = 0;                                 // drawn into its report
+  std::string report_note;                         // write_report's note, or empty
+};
+
+// --tip / --root given without a URDF among the models is bad input, as every
+// other problem with the request (InputError).
+EvaluateJob run_evaluate_job(const EvaluateRequest& request);
+
+}  // namespace hapticcal

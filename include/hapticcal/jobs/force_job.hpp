@@ -1,0 +1,56 @@
+// `force` and `convert` as jobs (issue 24): the requests the command line and
+// the Python module fill in, and what they print or return.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hapticcal/core/output_set.hpp"
+#include "hapticcal/model/model.hpp"
+#include "hapticcal/study/control.hpp"
+
+namespace hapticcal {
+
+struct ForceRequest {
+  std::string actual, nominal, calibrated;     // model files (device files or URDFs)
+  std::string tip, root;                       // the chain of each URDF among them
+  int lock = -1;                               // 1-based; 0: none; -1: ForceScenario's default
+  std::optional<std::vector<double>> posture;  // q [rad or m]; none: the default posture
+  ForceScenario scenario;                      // the wall, the gain, the noise, the seed
+  std::string out = "hapticcal-out/force";
+};
+
+struct ForceJob {
+  DeviceModel actual;
+  ForceStudy study;       // its scenario as run (the posture and lock resolved)
+  double gain_limit = 0;  // |G| below it is stable
+  std::string results_json;
+  std::unique_ptr<OutputSet> out;  // committed
+  int figures = 0;
+  std::string report_note;
+};
+
+// Loads the three models, resolves the lock and the posture, refuses a gain
+// outside the stable range (InputError), runs the study and writes
+// force_nominal.csv, force_calibrated.csv, results.json and the report.
+ForceJob run_force_job(const ForceRequest& request);
+
+struct ConvertRequest {
+  std::string in, out;  // a device file and a URDF, either way round
+  std::string tip, root;
+};
+
+struct ConvertJob {
+  DeviceModel model;
+  bool to_urdf = false;
+  // Links with a transmission, which a URDF holds only as comments.
+  std::vector<std::string> with_transmission;
+};
+
+// Reads `in`, writes `out` (atomically). InputError for a pair that is not a
+// device file and a URDF.
+ConvertJob run_convert_job(const ConvertRequest& request);
+
+}  // namespace hapticcal

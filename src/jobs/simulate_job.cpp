@@ -1,0 +1,44 @@
+// `simulate` as one job (jobs/simulate_job.hpp).
+#include "hapticcal/jobs/simulate_job.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <thread>
+
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/model_io/model_source.hpp"
+#include "hapticcal/report/report.hpp"
+#include "hapticcal/report/results_json.hpp"
+
+namespace hapticcal {
+
+SimulateJob run_simulate_job(const SimulateRequest& request) {
+  const std::string device = request.device.empty() ? builtin_device_path() : request.device;
+  if (request.scenario.empty() && (!request.tip.empty() || !request.root.empty()) &&
+      !is_urdf_path(device)) {
+    throw InputError(fmt::format("{}: applies to URDF models (.urdf); none is given",
+                                 request.tip.empty() ? "--root" : "--tip"));
+  }
+  SimulateJob job;
+  Scenario& sc = job.scenario;
+  sc = request.scenario.empty()
+           ? default_scenario(device, request.tip, request.root)
+           : load_scenario(request.scenario, device, request.tip, request.root);
+  if (request.trials > 0) sc.trials = request.trials;
+  if (request.seed) sc.seed = *request.seed;
+  const int threads = request.threads > 0
+                          ? request.threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  if (request.started) request.started(sc, std::min(threads, sc.trials));
+  job.out = std::make_unique<OutputSet>(request.out, "simulate");
+  job.result = run_study(sc, job.out->dir(), threads, request.progress);
+  job.results_json = study_json(sc, job.result);
+  write_file_atomically(job.out->dir() + "/results.json", job.results_json);
+  job.figures = write_report(study_report(sc, job.result), job.out->dir(), job.report_note);
+  job.out->commit();
+  return job;
+}
+
+}  // namespace hapticcal
