@@ -11,6 +11,8 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <thread>
@@ -63,21 +65,37 @@ std::vector<std::string> names(const std::optional<Names>& value) {
   return text.empty() ? std::vector<std::string>{} : split_columns(text);
 }
 
-std::string joined(const std::optional<Names>& value) {
-  std::string out;
-  for (const std::string& n : names(value)) out += (out.empty() ? "" : ",") + n;
-  return out;
-}
-
 // A number list option (--box, --distance-range): numbers, or the command line's text.
 using Numbers = std::variant<std::string, std::vector<double>>;
 
-std::string number_text(const std::optional<Numbers>& value) {
-  if (!value) return {};
-  if (const auto* text = std::get_if<std::string>(&*value)) return *text;
-  std::string out;
-  for (double v : std::get<std::vector<double>>(*value))
-    out += (out.empty() ? "" : ",") + py::repr(py::float_(v)).cast<std::string>();
+// `N` numbers of a list option (a Python list, or the command line's text), or
+// none; InputError naming the keyword for another count or a value that is not
+// a finite number.
+template <size_t N>
+std::optional<std::array<double, N>> fixed_numbers(const std::optional<Numbers>& value,
+                                                   const char* keyword) {
+  if (!value) return std::nullopt;
+  std::vector<double> v;
+  if (const auto* list = std::get_if<std::vector<double>>(&*value)) {
+    v = *list;
+  } else {
+    for (const std::string& part : split_columns(std::get<std::string>(*value))) {
+      size_t used = 0;
+      double x = NAN;
+      try {
+        x = std::stod(part, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used != part.size()) {
+        throw InputError(fmt::format("{}: '{}' is not a number", keyword, printable(part)));
+      }
+      v.push_back(x);
+    }
+  }
+  if (v.size() != N) throw InputError(fmt::format("{}: expected {} numbers", keyword, N));
+  std::array<double, N> out;
+  std::copy(v.begin(), v.end(), out.begin());
   return out;
 }
 
@@ -260,16 +278,16 @@ py::dict plan(const std::variant<Model, std::string>& model_arg, const std::stri
   request.measurement = measurement;
   request.poses = poses;
   request.candidates = candidates;
-  request.columns = joined(columns);
+  request.columns = names(columns);
   request.criterion = criterion;
   request.seed = seed;
   request.sigma = sigma;
   request.sigma_e = sigma_e;
-  request.distance_range = number_text(distance_range);
-  request.box = number_text(box);
+  request.distance_range = fixed_numbers<2>(distance_range, "distance_range");
+  request.box = fixed_numbers<6>(box, "box");
   request.refine_passes = refine_passes;
-  request.fix = joined(fix);
-  request.free = joined(free);
+  request.fix = names(fix);
+  request.free = names(free);
   request.pool = pool;
   request.tip = tip;
   request.root = root;

@@ -3,11 +3,16 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/output_set.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/design/plan.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/jobs/plan_job.hpp"
@@ -19,6 +24,39 @@
 #include "terminal.hpp"
 
 namespace hapticcal::cli {
+namespace {
+
+// "A,B,..." as `N` finite numbers, or InputError naming the option.
+template <size_t N>
+std::array<double, N> numbers(const std::string& text, const std::string& option) {
+  std::vector<double> out;
+  for (const std::string& part : split_columns(text)) {
+    try {
+      size_t used = 0;
+      const double v = std::stod(part, &used);
+      if (used != part.size() || !std::isfinite(v)) throw std::invalid_argument("");
+      out.push_back(v);
+    } catch (const std::exception&) {
+      throw InputError(
+          fmt::format("{} '{}': '{}' is not a number", option, printable(text), printable(part)));
+    }
+  }
+  if (out.size() != N) {
+    throw InputError(
+        fmt::format("{} '{}': expected {} comma-separated numbers", option, printable(text), N));
+  }
+  std::array<double, N> a;
+  std::copy(out.begin(), out.end(), a.begin());
+  return a;
+}
+
+// The items of a comma-separated option (none for "").
+std::vector<std::string> list(const std::string& text) {
+  return text.empty() ? std::vector<std::string>{} : split_columns(text);
+}
+
+}  // namespace
+
 CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
   PlanRequest& o = options.request;
   auto* plan = app.add_subcommand(
@@ -37,7 +75,7 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
                    ->check(whole_number(1, 10000000));
   candidates->excludes(pool);
   pool->excludes(candidates);
-  plan->add_option("--columns", o.columns, "Column names of a candidates log without header");
+  plan->add_option("--columns", options.columns, "Column names of a candidates log without header");
   plan->add_option("--criterion", o.criterion,
                    "d (log det), a (trace of the scaled covariance), i (mean prediction "
                    "variance over the workspace, default), e (smallest eigenvalue)");
@@ -49,17 +87,17 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
   plan->add_option("--sigma-e", o.sigma_e,
                    "External encoder sd [rad] (default: the paper's 2 pi / 20000 / 3)")
       ->check(within(1e-12, 1, "rad"));
-  plan->add_option("--distance-range", o.distance_range,
+  plan->add_option("--distance-range", options.distance_range,
                    "MIN,MAX: the tool point's distance from the measurement origin [m] (a cable "
                    "encoder's range)");
-  plan->add_option("--box", o.box,
+  plan->add_option("--box", options.box,
                    "XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX: a box the tool point must be in "
                    "(measurement frame) [m]");
   plan->add_option("--refine-passes", o.refine_passes,
                    "Continuous refinement passes of random candidates (default 20; 0: none)")
       ->check(whole_number(0, 1000));
-  plan->add_option("--fix", o.fix, "Kinematic parameters held at nominal, e.g. j1.a,j2.d");
-  plan->add_option("--free", o.free, "Parameters added to the candidates, e.g. j2.beta");
+  plan->add_option("--fix", options.fix, "Kinematic parameters held at nominal, e.g. j1.a,j2.d");
+  plan->add_option("--free", options.free, "Parameters added to the candidates, e.g. j2.beta");
   plan->add_option("--tip", o.tip, "Tip link of a URDF model's chain");
   plan->add_option("--root", o.root, "Root link of a URDF model's chain");
   plan->add_option("--out", options.out, "Output folder (default hapticcal-out/plan)");
@@ -67,7 +105,13 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
 }
 
 int run_plan(const PlanCommandOptions& options) {
-  const PlanRequest& o = options.request;
+  PlanRequest o = options.request;
+  o.columns = list(options.columns);
+  o.fix = list(options.fix);
+  o.free = list(options.free);
+  if (!options.distance_range.empty())
+    o.distance_range = numbers<2>(options.distance_range, "--distance-range");
+  if (!options.box.empty()) o.box = numbers<6>(options.box, "--box");
   const bool tty = isatty(2);
   const auto started = [&](const PlanSetup& setup, const PlanProblem& problem) {
     const DeviceModel& model = setup.model;

@@ -11,6 +11,8 @@ namespace hapticcal::cli {
 
 struct PlanCommandOptions {
   PlanRequest request;
+  // The options given as text, parsed into the request by run_plan.
+  std::string columns, fix, free, distance_range, box;
   std::string out = "hapticcal-out/plan";
 };
 

@@ -428,12 +428,15 @@ def test_plan_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
     cli_out, py_out = tmp_path / "cli", tmp_path / "py"
     code, _, stderr = cli("plan", "--model", MECA, "--measurement", "position", "--poses", "12",
                           "--pool", "200", "--refine-passes", "0", "--seed", "2",
-                          "--out", str(cli_out))
+                          "--distance-range", "1.3,1.6", "--fix", "j1.a", "--out", str(cli_out))
     assert code == 0, stderr
-    r = hapticcal.plan(MECA, "position", 12, pool=200, refine_passes=0, seed=2, out=str(py_out))
+    r = hapticcal.plan(MECA, "position", 12, pool=200, refine_passes=0, seed=2,
+                       distance_range=[1.3, 1.6], fix=["j1.a"], out=str(py_out))
     files = same_folders(cli_out, py_out)
     assert "plan.csv" in files and "plan.json" in files
     assert json.loads((cli_out / "plan.json").read_text()) == r["plan"]
+    with pytest.raises(ValueError, match="distance_range: expected 2 numbers"):
+        hapticcal.plan(MECA, "position", 12, distance_range=[0.2], out=str(py_out))
 
 
 def test_simulate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):

@@ -1,6 +1,7 @@
 #include "hapticcal/jobs/plan_job.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -14,34 +15,7 @@
 #include "hapticcal/study/paper.hpp"
 
 namespace hapticcal {
-namespace {
-
-// "A,B,..." as `count` finite numbers, or InputError naming the option.
-std::vector<double> numbers(const std::string& text, size_t count, const std::string& option) {
-  std::vector<double> out;
-  for (const std::string& part : split_columns(text)) {
-    try {
-      size_t used = 0;
-      const double v = std::stod(part, &used);
-      if (used != part.size() || !std::isfinite(v)) throw std::invalid_argument("");
-      out.push_back(v);
-    } catch (const std::exception&) {
-      throw InputError(
-          fmt::format("{} '{}': '{}' is not a number", option, printable(text), printable(part)));
-    }
-  }
-  if (out.size() != count) {
-    throw InputError(fmt::format("{} '{}': expected {} comma-separated numbers", option,
-                                 printable(text), count));
-  }
-  return out;
-}
-
-std::vector<std::string> list(const std::string& text) {
-  return text.empty() ? std::vector<std::string>{} : split_columns(text);
-}
-
-}  // namespace
+namespace {}  // namespace
 
 PlanSetup prepare_plan(const PlanRequest& o) {
   PlanSetup setup;
@@ -68,28 +42,37 @@ PlanSetup prepare_plan(const PlanRequest& o) {
   options.seed = o.seed;
   if (o.pool > 0) options.pool = o.pool;
   if (o.refine_passes >= 0) options.refine_passes = o.refine_passes;
-  if (!o.distance_range.empty()) {
-    const std::vector<double> v = numbers(o.distance_range, 2, "--distance-range");
+  const auto finite = [](const auto& values, const char* option) {
+    for (double v : values) {
+      if (!std::isfinite(v))
+        throw InputError(fmt::format("{}: {} is not a finite number", option, v));
+    }
+  };
+  if (o.distance_range) {
+    const std::array<double, 2>& v = *o.distance_range;
+    finite(v, "--distance-range");
     if (!(v[0] >= 0 && v[0] < v[1])) {
-      throw InputError(fmt::format("--distance-range '{}': expected 0 <= MIN < MAX",
-                                   printable(o.distance_range)));
+      throw InputError(
+          fmt::format("--distance-range '{},{}': expected 0 <= MIN < MAX", v[0], v[1]));
     }
     options.constraints.min_distance = v[0];
     options.constraints.max_distance = v[1];
   }
-  if (!o.box.empty()) {
-    const std::vector<double> v = numbers(o.box, 6, "--box");
+  if (o.box) {
+    const std::array<double, 6>& v = *o.box;
+    finite(v, "--box");
     for (int k = 0; k < 3; ++k) {
-      if (!(v[2 * k] < v[2 * k + 1]))
-        throw InputError(
-            fmt::format("--box '{}': each MIN must be below its MAX", printable(o.box)));
+      if (!(v[2 * k] < v[2 * k + 1])) {
+        throw InputError(fmt::format("--box '{}': each MIN must be below its MAX",
+                                     fmt::join(v.begin(), v.end(), ",")));
+      }
     }
-    options.constraints.box = std::array<double, 6>{v[0], v[1], v[2], v[3], v[4], v[5]};
+    options.constraints.box = v;
   }
   if (!o.candidates.empty()) {
     if (options.constraints.any())
       throw InputError("--distance-range / --box: apply to random candidates, not to --candidates");
-    const Log log = read_log(o.candidates, list(o.columns));
+    const Log log = read_log(o.candidates, o.columns);
     if (log.q.cols() != model.dof()) {
       throw InputError(o.candidates, log.line.empty() ? 1 : log.line.front(), "q",
                        fmt::format("the log has {} joint readings a row, the model {} joints",
@@ -112,8 +95,8 @@ PlanSetup prepare_plan(const PlanRequest& o) {
   setup.analysis = options.candidates.size()
                        ? options.candidates
                        : random_readings(model, 300, options.seed ^ 0x5eed, options.constraints);
-  setup.fix = list(o.fix);
-  setup.free = list(o.free);
+  setup.fix = o.fix;
+  setup.free = o.free;
   setup.user_candidates = options.candidates.size() > 0;
   return setup;
 }

@@ -1,11 +1,13 @@
-// `hapticcal plan` as a request of strings and numbers (the command line's and
-// the Python module's options): checked and resolved into a PlanProblem's
+// `hapticcal plan` as a typed request (the command line's and the Python
+// module's options): checked and resolved into a PlanProblem's
 // inputs, and the plan's files (plan.csv, plan.json, the report) written.
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,8 +18,14 @@
 namespace hapticcal {
 
 struct PlanRequest {
-  std::string model, measurement, candidates, columns, criterion = "i";
-  std::string tip, root, distance_range, box, fix, free;
+  std::string model, measurement, candidates, criterion = "i";
+  std::vector<std::string> columns;  // the candidates log's, if it has no header line
+  std::string tip, root;
+  std::vector<std::string> fix, free;  // as calibrate's
+  // Random candidates only where the tool point is [MIN, MAX] m from the origin
+  // of the measurement frame, and inside the box [x0, x1, y0, y1, z0, z1] m.
+  std::optional<std::array<double, 2>> distance_range;
+  std::optional<std::array<double, 6>> box;
   int poses = 0, pool = 0;  // pool 0: PlanOptions' default
   unsigned long long seed = 1;
   double sigma = 0, sigma_e = 0;  // 0: the defaults (kPaperSigmaMPaper or kPlanSigmaPosition)
