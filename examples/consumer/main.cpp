@@ -1,7 +1,7 @@
 // Loads a device file and prints the tool point and Jacobian at home: what a
 // controller linking hapticcal does at start-up.
-#include <hapticcal/model_io/device.hpp>
 #include <hapticcal/kinematics/kinematics.hpp>
+#include <hapticcal/model_io/device.hpp>
 #include <iostream>
 
 int main(int argc, char** argv) {

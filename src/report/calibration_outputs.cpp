@@ -1,9 +1,8 @@
 #include "hapticcal/report/calibration_outputs.hpp"
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/model_io/device.hpp"
-
-#include "hapticcal/core/error.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/report/results_json.hpp"

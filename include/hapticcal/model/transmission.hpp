@@ -19,18 +19,18 @@ namespace hapticcal {
 // constant c between an external encoder's zero and the joint: a nuisance of
 // step 1, stored for the record and never part of error().
 struct Capstan {
-  double ratio = 1.0;          // R, input drum turns per output turn
+  double ratio = 1.0;  // R, input drum turns per output turn
   // D [m], the paper's "drum distance". In eq. (1)'s eccentricity terms it acts
   // as the output drum's pitch radius (tests/capstan_geometry_test.cpp derives
   // it from the drums' geometry): given the distance between the axes instead,
   // r_out and r_in are identified scaled by D / (that radius).
   double drum_distance = 0.0;
-  double offset = 0.0;         // c [rad]
-  double ratio_error = 0.0;    // Re
-  double r_out = 0.0;          // output drum eccentricity [m]
-  double beta_out = 0.0;       // its phase [rad]
-  double r_in = 0.0;           // input drum eccentricity [m]
-  double beta_in = 0.0;        // its phase [rad]
+  double offset = 0.0;       // c [rad]
+  double ratio_error = 0.0;  // Re
+  double r_out = 0.0;        // output drum eccentricity [m]
+  double beta_out = 0.0;     // its phase [rad]
+  double r_in = 0.0;         // input drum eccentricity [m]
+  double beta_in = 0.0;      // its phase [rad]
   static constexpr int kNumParameters = 5;
 };
 
