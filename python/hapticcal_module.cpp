@@ -94,7 +94,7 @@ std::optional<std::array<double, N>> fixed_numbers(const std::optional<Numbers>&
     }
   }
   if (v.size() != N) throw InputError(fmt::format("{}: expected {} numbers", keyword, N));
-  std::array<double, N> out;
+  std::array<double, N> out{};
   std::copy(v.begin(), v.end(), out.begin());
   return out;
 }

@@ -45,7 +45,7 @@ std::array<double, N> numbers(const std::string& text, const std::string& option
     throw InputError(
         fmt::format("{} '{}': expected {} comma-separated numbers", option, printable(text), N));
   }
-  std::array<double, N> a;
+  std::array<double, N> a{};
   std::copy(out.begin(), out.end(), a.begin());
   return a;
 }

@@ -27,14 +27,8 @@ namespace {
 constexpr std::uint64_t kStructuralSeed = 20130601;  // synthetic poses of the structural analysis
 constexpr int kStructuralPoses = 400;
 
-using detail::CompressedMeasurementCost;
-using detail::measurement_rows;
-using detail::MeasurementCost;
 using detail::names_of;
-using detail::position_rss;
 using detail::predicted_values;
-using detail::residuals_at;
-using detail::RowMatrix;
 using detail::rows_of;
 using detail::RowsOf;
 using detail::Stack;

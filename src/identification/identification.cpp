@@ -108,7 +108,6 @@ namespace {
 
 using detail::CompressedMeasurementCost;
 using detail::measurement_cost;
-using detail::measurement_rows;
 using detail::MeasurementCost;
 using detail::position_rss;
 using detail::residuals_at;

@@ -24,17 +24,12 @@
 namespace hapticcal {
 namespace {
 
-using detail::CompressedMeasurementCost;
 using detail::measurement_cost;
 using detail::measurement_rms;
-using detail::measurement_rows;
-using detail::MeasurementCost;
 using detail::position_rss;
 using detail::residuals_at;
 using detail::RowMatrix;
-using detail::rows_of;
 using detail::RowsOf;
-using detail::Stack;
 using detail::stack;
 
 }  // namespace

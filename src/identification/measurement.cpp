@@ -22,15 +22,24 @@ bool columns_in_log(const MeasurementTraits& t, const Log& log) {
   return t.distance_column && log.has_distance;
 }
 
-// The tool point's rows: p - measured (a position, a fixture sample's raw rows).
-void point_rows(const ChainStructure& s, const ChainConstants<double>& constants,
-                const double* params, const double* joint, const double* measured, double* residual,
-                Eigen::Ref<Eigen::MatrixXd> J) {
-  Eigen::Matrix<double, 3, Eigen::Dynamic> J_p;
-  const Eigen::Vector3d p = position_parameter_jacobian(s, constants, params, joint, J_p);
-  for (int k = 0; k < 3; ++k) residual[k] = p[k] - measured[k];
-  J = J_p;
-}
+// A kind whose residual rows are the tool point's, p - measured: a position,
+// and a fixture sample's raw rows.
+class ToolPointKind : public MeasurementKind {
+ public:
+  using MeasurementKind::MeasurementKind;
+  void rows(const ChainStructure& s, const ChainConstants<double>& constants, const double* params,
+            const double* joint, const double* measured, double, double* residual,
+            Eigen::Ref<Eigen::MatrixXd> J) const override {
+    Eigen::Matrix<double, 3, Eigen::Dynamic> J_p;
+    const Eigen::Vector3d p = position_parameter_jacobian(s, constants, params, joint, J_p);
+    for (int k = 0; k < 3; ++k) residual[k] = p[k] - measured[k];
+    J = J_p;
+  }
+  void joint_rows(const Frame<double>&, const Jacobian6<double>& J_tool_q, double,
+                  Eigen::Ref<Eigen::MatrixXd> rows) const override {
+    rows = J_tool_q.topRows<3>();
+  }
+};
 
 // A cable encoder (paper eq. 5): |p|, plus its zero d0 while step 2 estimates
 // it ("instrument.zero").
@@ -70,29 +79,20 @@ class Distance : public MeasurementKind {
 };
 
 // A laser tracker: p, 3 rows.
-class Position : public MeasurementKind {
+class Position : public ToolPointKind {
  public:
   Position()
-      : MeasurementKind({.name = "position",
-                         .plural = "positions",
-                         .dimension = 3,
-                         .width = 3,
-                         .length_rows = 3,
-                         .own_frame = true,
-                         .position_columns = true,
-                         .error_title = "Position error per sample, before and after calibration",
-                         .error_axis = "|p_model - p_measured| [mm]"}) {}
+      : ToolPointKind({.name = "position",
+                       .plural = "positions",
+                       .dimension = 3,
+                       .width = 3,
+                       .length_rows = 3,
+                       .own_frame = true,
+                       .position_columns = true,
+                       .error_title = "Position error per sample, before and after calibration",
+                       .error_axis = "|p_model - p_measured| [mm]"}) {}
   void predict(const Frame<double>& tool, double* values) const override {
     for (int k = 0; k < 3; ++k) values[k] = tool.p[k];
-  }
-  void rows(const ChainStructure& s, const ChainConstants<double>& constants, const double* params,
-            const double* joint, const double* measured, double, double* residual,
-            Eigen::Ref<Eigen::MatrixXd> J) const override {
-    point_rows(s, constants, params, joint, measured, residual, J);
-  }
-  void joint_rows(const Frame<double>&, const Jacobian6<double>& J_tool_q, double,
-                  Eigen::Ref<Eigen::MatrixXd> rows) const override {
-    rows = J_tool_q.topRows<3>();
   }
 };
 
@@ -144,9 +144,9 @@ class Pose : public MeasurementKind {
 // A fixture: the tool point at a fixed, unknown point (socket) or on a fixed,
 // unknown plane per label; no measured values. Its raw rows are the tool point
 // (fixture_residuals makes the fit's rows).
-class FixtureKind : public MeasurementKind {
+class FixtureKind : public ToolPointKind {
  public:
-  using MeasurementKind::MeasurementKind;
+  using ToolPointKind::ToolPointKind;
   void from_log(const Log&, int, double* values) const override {
     for (int k = 0; k < 3; ++k) values[k] = 0;  // the raw rows are the tool point itself
   }
@@ -158,15 +158,6 @@ class FixtureKind : public MeasurementKind {
   }
   void predict(const Frame<double>&, double* values) const override {
     for (int k = 0; k < 3; ++k) values[k] = 0;  // nothing measured
-  }
-  void rows(const ChainStructure& s, const ChainConstants<double>& constants, const double* params,
-            const double* joint, const double* measured, double, double* residual,
-            Eigen::Ref<Eigen::MatrixXd> J) const override {
-    point_rows(s, constants, params, joint, measured, residual, J);
-  }
-  void joint_rows(const Frame<double>&, const Jacobian6<double>& J_tool_q, double,
-                  Eigen::Ref<Eigen::MatrixXd> rows) const override {
-    rows = J_tool_q.topRows<3>();
   }
 };
 

@@ -137,10 +137,10 @@ std::string plan_json(const PlanRequest& o, const PlanSetup& setup, const PlanPr
   return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
-int write_plan_files(const std::string& dir, const PlanRequest& request, const PlanSetup& setup,
-                     const PlanProblem& problem, const Plan& plan, std::string& note) {
+int write_plan_files(const std::string& dir, const std::string& json, const PlanProblem& problem,
+                     const Plan& plan, std::string& note) {
   write_file_atomically(dir + "/plan.csv", plan_to_csv(plan.readings));
-  write_file_atomically(dir + "/plan.json", plan_json(request, setup, problem, plan));
+  write_file_atomically(dir + "/plan.json", json);
   return write_report(plan_report(problem, plan), dir, note);
 }
 
@@ -159,8 +159,7 @@ PlanJob run_plan_job(const PlanRequest& request, const std::string& out,
   if (started) started(setup, *job.problem);
   job.plan = plan_poses(*job.problem, setup.options);
   job.json = plan_json(request, setup, *job.problem, job.plan);
-  job.figures =
-      write_plan_files(job.out->dir(), request, setup, *job.problem, job.plan, job.report_note);
+  job.figures = write_plan_files(job.out->dir(), job.json, *job.problem, job.plan, job.report_note);
   job.out->commit();
   return job;
 }

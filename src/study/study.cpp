@@ -84,19 +84,19 @@ double rotation_angle(const Eigen::Matrix3d& R) { return Eigen::AngleAxisd(R).an
 // The scenario's measurement of `poses` poses of `model`: a fixture's points
 // (its sockets, the tool point at each) or plane contacts (its planes), the
 // poses shared out among them; else the instrument's readings at uniform poses
-// or at `readings`. The fixture's noise is the position sd.
-Log simulated_log(const Scenario& sc, const DeviceModel& model, int poses,
-                  const Eigen::MatrixXd& readings, std::uint64_t seed) {
+// or at `readings`, with `noise` (a fixture's: its position sd).
+Log simulated_log(const Scenario& sc, const SimulationNoise& noise, const DeviceModel& model,
+                  int poses, const Eigen::MatrixXd& readings, std::uint64_t seed) {
   const MeasurementTraits& kind = traits(sc.measurement);
   if (kind.fixture && kind.label_points) {
     return simulate_fixture_log(model, sc.sockets, poses / static_cast<int>(sc.sockets.size()),
-                                sc.noise.sigma_position, seed);
+                                noise.sigma_position, seed);
   }
   if (kind.fixture) {
     return simulate_plane_log(model, sc.planes, poses / static_cast<int>(sc.planes.size()),
-                              sc.noise.sigma_position, seed);
+                              noise.sigma_position, seed);
   }
-  return simulate_measurement_log(model, sc.measurement, poses, readings, sc.noise, seed);
+  return simulate_measurement_log(model, sc.measurement, poses, readings, noise, seed);
 }
 
 }  // namespace
@@ -187,9 +187,7 @@ std::vector<int> identifiable_slots(const DeviceModel& nominal, const Scenario& 
   exact.sigma_ext = exact.sigma_distance = exact.sigma_position = exact.sigma_orientation = 0;
   CalibrationOptions options;
   options.fix = fix;
-  Scenario exact_sc = sc;  // its measurement without noise
-  exact_sc.noise = exact;
-  const Log log = simulated_log(exact_sc, nominal, kPoses, {}, kSeed);
+  const Log log = simulated_log(sc, exact, nominal, kPoses, {}, kSeed);
   if (traits(type).label_points && known) options.point_distances = socket_distances(sockets);
   const KinematicProblem problem = kinematic_problem(nominal, log, {}, options);
   std::vector<int> slots =
@@ -274,8 +272,8 @@ std::uint64_t trial_seed(std::uint64_t study_seed, int trial) {
 TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string& out) {
   TrialResult t;
   t.seed = seed;
-  Log ident = simulated_log(sc, sc.actual, sc.identification_poses, sc.identification_readings,
-                            trial_seed(seed, 0));
+  Log ident = simulated_log(sc, sc.noise, sc.actual, sc.identification_poses,
+                            sc.identification_readings, trial_seed(seed, 0));
   SimulationNoise exact = sc.noise;
   exact.sigma_position = 0;  // a perfect tracker: validation scores against the truth
   Log val = simulate_log(sc.actual, sc.validation_poses, exact, trial_seed(seed, 1), true, true);

@@ -69,9 +69,10 @@ PlanJob run_plan_job(const PlanRequest& request, const std::string& out,
                      const std::function<void(const PlanSetup&, const PlanProblem&)>& started = {},
                      const std::function<void(const std::string&)>& progress = {});
 
-// Writes plan.csv, plan.json and report.html with its figures into `dir`;
-// returns the number of figures drawn and sets `note` as write_report does.
-int write_plan_files(const std::string& dir, const PlanRequest& request, const PlanSetup& setup,
-                     const PlanProblem& problem, const Plan& plan, std::string& note);
+// Writes plan.csv, plan.json (its text `json`, plan_json's) and report.html
+// with its figures into `dir`; returns the number of figures drawn and sets
+// `note` as write_report does.
+int write_plan_files(const std::string& dir, const std::string& json, const PlanProblem& problem,
+                     const Plan& plan, std::string& note);
 
 }  // namespace hapticcal
