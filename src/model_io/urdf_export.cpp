@@ -45,9 +45,8 @@ bool is_identity(const std::array<double, 6>& pose) {
   return std::all_of(pose.begin(), pose.end(), [](double v) { return v == 0; });
 }
 
-std::string num(double v) { return fmt::format("{}", v); }
 std::string triple(double a, double b, double c) {
-  return fmt::format("{} {} {}", num(a), num(b), num(c));
+  return fmt::format("{} {} {}", a, b, c);  // shortest round-trip text
 }
 std::string xyz_text(const std::array<double, 6>& v) { return triple(v[0], v[1], v[2]); }
 std::string rpy_text(const std::array<double, 6>& v) { return triple(v[3], v[4], v[5]); }
@@ -221,7 +220,7 @@ void write_joint(std::string& out, const std::string& name, const std::string& t
     out += fmt::format("    <axis xyz=\"{}\"/>\n", triple(axis[0], axis[1], axis[2]));
     if (!link->continuous()) {
       out += fmt::format("    <limit lower=\"{}\" upper=\"{}\" effort=\"0\" velocity=\"0\"/>\n",
-                         num(link->lower), num(link->upper));
+                         link->lower, link->upper);
     }
   }
   out += "  </joint>\n";
