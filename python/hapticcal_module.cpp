@@ -163,7 +163,8 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
                       bool keep_all, int folds, const std::optional<Names>& columns, bool force,
                       std::optional<int> polynomial_order, double dependency_tolerance,
                       const std::string& loss, bool strict, const Text& tip_arg,
-                      const Text& root_arg, const Text& out_arg) {
+                      const Text& root_arg, const Text& out_arg, bool select,
+                      const std::optional<Names>& tolerance, std::optional<double> prior_scale) {
   // The command line's job (jobs/calibrate_job.hpp), from keywords.
   CalibrateRequest request;
   request.tip = text(tip_arg);
@@ -190,6 +191,9 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
   if (polynomial_order && *polynomial_order > 0) options.polynomial_order = polynomial_order;
   options.dependency_tolerance = dependency_tolerance;
   options.keep_all = keep_all;
+  options.select = select;
+  for (const std::string& item : names(tolerance)) add_tolerance(options.tolerances, item);
+  if (prior_scale) options.tolerances.scale = prior_scale;
   options.folds = folds;
   options.loss = robust_loss(loss);
   options.strict = strict;
@@ -468,6 +472,7 @@ PYBIND11_MODULE(hapticcal, m) {
         "keep_all"_a = false, "folds"_a = 5, "columns"_a = py::none(), "force"_a = false,
         "polynomial_order"_a = py::none(), "dependency_tolerance"_a = 1e-6, "loss"_a = "cauchy",
         "strict"_a = false, "tip"_a = py::none(), "root"_a = py::none(), "out"_a = py::none(),
+        "select"_a = false, "tolerance"_a = py::none(), "prior_scale"_a = py::none(),
         "hapticcal calibrate: the two-step identification of a log. Does not raise when the "
         "calibration is not usable (the command line's exit 3): .usable is False, .model None.");
   m.def("evaluate", &evaluate, "model"_a, "log"_a, py::kw_only(), "columns"_a = py::none(),

@@ -64,8 +64,9 @@ TEST(Fixture, MukcaPandaHeldOutPlacements) {
       // Angles are reported in (-pi, pi] of nominal: the default fit on front
       // and right turned panda_joint7.pitch by 10.99 rad, a -1.58 rad turn.
       for (const ParameterEstimate& e : r.kinematics.parameters) {
-        if (e.unit == ParameterUnit::kAngle)
+        if (e.unit == ParameterUnit::kAngle) {
           EXPECT_LE(std::abs(e.value - e.nominal), M_PI) << e.name;
+        }
       }
       const Log test = mukca_log({held_out});
       const std::vector<PointDistance> known = socket_distances({held_out});

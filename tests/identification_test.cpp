@@ -232,10 +232,26 @@ TEST(Identification, DegenerateInputGivesAClearErrorOrARankDeficientResult) {
         << e.what();
   }
 
-  // A joint that never moves.
+  // A joint that never moves: least squares and the significance cut are
+  // rank-deficient; the default's tolerance prior holds what it leaves unexcited.
   Log stuck = good;
   stuck.q.col(4).setConstant(0.1);
-  const CalibrationResult s = calibrate(nominal, stuck, {});
+  const CalibrationResult held = calibrate(nominal, stuck, {});
+  EXPECT_EQ(held.status, CalibrationStatus::kConverged) << held.status_reason;
+  EXPECT_TRUE(held.kinematics.prior.used);
+  int by_prior = 0;
+  for (const ParameterEstimate& e : held.kinematics.parameters) {
+    EXPECT_FALSE(e.reason.starts_with("not excited")) << e.name;
+    if (e.set_by_prior) {
+      ++by_prior;
+      EXPECT_LT(e.data_share, 0.5) << e.name;
+      EXPECT_NEAR(e.value, e.nominal, 3 * e.prior_sd) << e.name;
+    }
+  }
+  EXPECT_GT(by_prior, 0);
+  CalibrationOptions least_squares;
+  least_squares.keep_all = true;
+  const CalibrationResult s = calibrate(nominal, stuck, least_squares);
   EXPECT_TRUE(s.kinematics.rank_deficient);
   EXPECT_EQ(s.status, CalibrationStatus::kRankDeficient);
   EXPECT_NE(s.status_reason.find("do not excite"), std::string::npos) << s.status_reason;

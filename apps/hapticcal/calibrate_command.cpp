@@ -50,8 +50,19 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
                         "Fixture file (YAML): known positions (points) and distances of the "
                         "log's fixture points");
   calibrate->add_flag("--keep-all", o.keep_all,
-                      "No model selection: fit every identifiable parameter the data excite, "
-                      "even those they do not support");
+                      "Plain least squares: fit every identifiable parameter the data excite, "
+                      "without the tolerance prior");
+  calibrate->add_flag("--select", o.select,
+                      "The significance cut instead of the tolerance prior: hold parameters "
+                      "whose change is below the 5 % family-wise threshold (plain least "
+                      "squares on the rest)");
+  calibrate->add_option("--tolerance", o.tolerances,
+                        "A tolerance of the prior, NAME=SD in SI units: length (default 0.0005 "
+                        "m), angle (0.005 rad) or a parameter, e.g. j2.a=0.001 (repeatable)");
+  calibrate
+      ->add_option("--prior-scale", o.prior_scale,
+                   "The common scale of the tolerances (default: the one of highest evidence)")
+      ->check(within(1e-6, 1e6));
   calibrate
       ->add_option("--folds", o.folds,
                    "K of the K-fold cross-validated (held-out) RMS by pose (default 5; 0: none)")
@@ -102,6 +113,9 @@ int run_calibrate(const CalibrateOptions& o) {
   if (o.polynomial_order > 0) options.polynomial_order = o.polynomial_order;
   options.dependency_tolerance = o.tolerance;
   options.keep_all = o.keep_all;
+  options.select = o.select;
+  for (const std::string& item : o.tolerances) hapticcal::add_tolerance(options.tolerances, item);
+  if (o.prior_scale > 0) options.tolerances.scale = o.prior_scale;
   options.folds = o.folds;
   options.loss = hapticcal::robust_loss(o.loss);
   options.strict = o.strict;

@@ -20,7 +20,9 @@ struct CalibrateOptions {
   std::vector<std::string> point_distance;
   std::string model, log, columns, out = "hapticcal-out/calibrate", fix, free;
   ChainOptions chain;
-  bool no_transmission = false, force = false, keep_all = false, strict = false;
+  bool no_transmission = false, force = false, keep_all = false, select = false, strict = false;
+  std::vector<std::string> tolerances;  // NAME=SD
+  double prior_scale = 0;               // 0: by the evidence
   std::string loss = "cauchy";
   int samples = 0, folds = 5;
   unsigned long long seed = 1;

@@ -16,9 +16,9 @@ namespace {
 // A fixture file states a few facts, not a data set: its size is bounded
 // before YAML sees it, and so are its entries.
 constexpr size_t kMaxFixtureEntries = 10000;
-constexpr size_t kMaxLabel = 64;  // as a log's point label
+constexpr size_t kMaxFixtureLabel = 64;  // as a log's point label
 
-class Reader : public detail::YamlReader {
+class FixtureReader : public detail::YamlReader {
  public:
   using YamlReader::YamlReader;
 
@@ -26,8 +26,9 @@ class Reader : public detail::YamlReader {
   std::string label(const YAML::Node& node, const std::string& key) const {
     const std::string text = string(node, key);
     if (text.empty()) fail(node, key, "empty label");
-    if (text.size() > kMaxLabel)
-      fail(node, key, fmt::format("a label of {} characters: at most {}", text.size(), kMaxLabel));
+    if (text.size() > kMaxFixtureLabel)
+      fail(node, key,
+           fmt::format("a label of {} characters: at most {}", text.size(), kMaxFixtureLabel));
     if (const std::string problem = text_problem(text); !problem.empty())
       fail(node, key, "label " + problem);
     return text;
@@ -54,7 +55,7 @@ Fixture parse_fixture(const std::string& text, const std::string& origin) {
     throw InputError(origin, e.mark.is_null() ? 0 : e.mark.line + 1, "", "YAML: " + e.msg);
   }
   if (!root || root.IsNull()) throw InputError(origin, 0, "", "empty fixture file");
-  const Reader r(origin);
+  const FixtureReader r(origin);
   r.check_keys(root, "", {"points", "distances"});
   Fixture out;
   if (const YAML::Node points = root["points"]) {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <random>
@@ -18,22 +19,22 @@
 #include "hapticcal/identification/log_fit.hpp"
 #include "hapticcal/identification/registration.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "identification/calibration_run.hpp"
 #include "identification/measurement_cost.hpp"
+#include "identification/prior.hpp"
 #include "identification/solver_options.hpp"
 #include "identification/stack.hpp"
 
 namespace hapticcal {
 namespace {
 
-constexpr int kDefaultFolds = 5;
-constexpr int kIterations = 100;  // Levenberg-Marquardt's limit
-constexpr int kFixtureIterations =
-    500;  // for fixture points and planes  // model selection when cross-validation is off
-
 using detail::beta_left_out_reason;
+using detail::CalibrationRun;
 using detail::check_encoder_readings;
 using detail::check_joint_limits;
 using detail::check_reach;
+using detail::kFixtureIterations;
+using detail::kIterations;
 using detail::measurement_cost;
 using detail::measurement_rms;
 using detail::names_of;
@@ -211,43 +212,24 @@ void check_options(const CalibrationOptions& options) {
   if (options.sigma && !(*options.sigma > 0 && std::isfinite(*options.sigma))) {
     throw InputError("--sigma must be a positive number of metres");
   }
+  if (options.keep_all && options.select) {
+    throw InputError(
+        "--keep-all and --select exclude each other (plain least squares or the "
+        "significance cut)");
+  }
+  const Tolerances& t = options.tolerances;
+  const auto positive = [](double v) { return v > 0 && std::isfinite(v); };
+  if (!positive(t.length) || !positive(t.angle)) {
+    throw InputError("--tolerance length=... and angle=... must be positive numbers (m, rad)");
+  }
+  for (const auto& [name, value] : t.by_name) {
+    if (!positive(value)) {
+      throw InputError(
+          fmt::format("--tolerance {}={}: not a positive number (SI)", printable(name), value));
+    }
+  }
+  if (t.scale && !positive(*t.scale)) throw InputError("--prior-scale must be a positive number");
 }
-
-// One calibration on its way through the stages: what each stage leaves for
-// the next.
-struct CalibrationRun {
-  const DeviceModel& nominal;
-  const Log& log;
-  const CalibrationOptions& options;
-  CalibrationResult& result;
-  KinematicFit& fit;
-  Log poses;                 // one row a pose: repeats averaged
-  std::vector<int> repeats;  // per pose
-  int m = 0;                 // poses
-  DeviceModel model;         // step 1's transmissions; after step 2 the calibrated model
-  // Step 2's parameter vector at the start: the nominal, with the instrument's
-  // zero (at 0) if step 2 estimates it.
-  DeviceModel step2_nominal;
-  std::vector<std::string> fix;  // options.fix less instrument.zero
-  KinematicProblem problem;
-  std::vector<int> candidates;
-  std::vector<int> identified;
-  std::map<int, std::string> reason;  // held candidates: why
-  std::vector<int> held_by_selection;
-  Eigen::VectorXd scale;          // per slot, from the identifiability analysis
-  Eigen::VectorXd plain_weights;  // before the robust reweighting
-  KinematicSolution solution;
-  Stack data;                       // residuals and Jacobian at the solution
-  std::map<int, std::string> name;  // slot -> parameter name
-  int iterations = kIterations;
-  Eigen::VectorXd p;  // the solution, angles wrapped to the start's period
-  Eigen::MatrixXd covariance;
-
-  CalibrationRun(const DeviceModel& nominal_, const Log& log_, const CalibrationOptions& options_,
-                 CalibrationResult& result_)
-      : nominal(nominal_), log(log_), options(options_), result(result_), fit(result_.kinematics) {}
-  RowsOf kind() const { return rows_of(problem); }
-};
 
 // The poses of the fit: a sample of the log's (--samples), repeats of a pose
 // averaged (one pose, one row of the fit).
@@ -261,7 +243,7 @@ void prepare_poses(CalibrationRun& run) {
   }
   run.poses = average_repeats(run.log, run.result.poses);
   run.m = run.poses.rows;
-  KinematicFit& fit = run.fit;
+  KinematicFit& fit = run.fit();
   fit.type = measurement_type(run.log);
   fit.poses = run.m;
   fit.rows = std::accumulate(run.repeats.begin(), run.repeats.end(), 0);
@@ -277,7 +259,7 @@ void prepare_poses(CalibrationRun& run) {
 // --fix instrument.zero (or options.instrument_zero false): no slot at all.
 // (Other logs have no such parameter: fixing it is refused as unknown.)
 void offer_instrument_zero(CalibrationRun& run) {
-  const bool distances = traits(run.fit.type).zero && run.options.instrument_zero;
+  const bool distances = traits(run.fit().type).zero && run.options.instrument_zero;
   run.fix = run.options.fix;
   const auto fixed_zero = std::find(run.fix.begin(), run.fix.end(), "instrument.zero");
   const bool zero_fixed = distances && fixed_zero != run.fix.end();
@@ -309,7 +291,7 @@ void check_enough_rows(const CalibrationRun& run, std::size_t parameters, const 
 // (check_reach). Sets fit.rms_before.
 void check_nominal(CalibrationRun& run) {
   const int m = run.m;
-  const int d = traits(run.fit.type).dimension;
+  const int d = traits(run.fit().type).dimension;
   const ChainStructure s = run.model.structure();
   const RowsOf kind = run.kind();
   const PreparedModel prepared_nominal(run.nominal);
@@ -343,11 +325,11 @@ void check_nominal(CalibrationRun& run) {
     throw InputError(run.log.origin, run.log.line[culprit], "",
                      "the nominal model's error on this row is not finite: a value is too large");
   }
-  run.fit.rms_before = measurement_rms(position_rss(r0, kind), run.fit.rows);
+  run.fit().rms_before = measurement_rms(position_rss(r0, kind), run.fit().rows);
   DeviceModel registered = run.step2_nominal;  // the nominal in the registered frame, if it was
   registered.base = run.problem.model.base;
   check_reach(s, registered, nominal_joints, kind, run.problem.measured, run.problem.weights,
-              run.fit.rows, run.problem.compressed, run.fit.rms_before, run.options.force,
+              run.fit().rows, run.problem.compressed, run.fit().rms_before, run.options.force,
               run.result.notes);
 }
 
@@ -356,8 +338,9 @@ void check_nominal(CalibrationRun& run) {
 void build_problem(CalibrationRun& run) {
   run.problem = kinematic_problem(run.model, run.poses, run.repeats, run.options);
   run.candidates = candidate_slots(run.model, run.fix, run.options.free);
+  run.tolerance = detail::slot_tolerances(run.model, run.options.tolerances);
   if (run.m < 2) check_enough_rows(run, run.candidates.size(), "candidate");
-  KinematicFit& fit = run.fit;
+  KinematicFit& fit = run.fit();
   fit.frame_registered = register_measurement_frame(run.problem, run.candidates, run.result.notes);
   run.problem.frame_unknown =
       measurement_frame_unknown(run.problem, run.candidates, fit.frame_registered);
@@ -374,7 +357,7 @@ void identify_and_solve(CalibrationRun& run) {
   run.identified = analysis.identified;
   run.reason = analysis.reason;
   run.scale = analysis.scale;
-  KinematicFit& fit = run.fit;
+  KinematicFit& fit = run.fit();
   fit.rank_deficient = analysis.rank_deficient;
   check_enough_rows(
       run,
@@ -398,82 +381,15 @@ void identify_and_solve(CalibrationRun& run) {
   for (const ParameterInfo& pi : run.model.parameter_info()) run.name[pi.slot] = pi.name;
 }
 
-// The fit again with the parameters the selection held back at their start: from
-// the full fit, a few iterations (none if the selection kept nothing).
-KinematicSolution refit_selected(const CalibrationRun& run, const ModelSelection& selection,
-                                 const std::vector<int>& held) {
-  const Eigen::VectorXd start = run.problem.model.kinematic_parameters();
-  KinematicSolution refit;
-  if (selection.kept.empty()) {
-    // The data support no change from the model: it stays as it is.
-    refit.parameters = start;
-    refit.termination = SolveTermination::kConverged;
-    refit.message = "model selection: no parameter changed";
-    return refit;
-  }
-  KinematicProblem warm = run.problem;
-  Eigen::VectorXd from = run.solution.parameters;
-  for (int slot : held) from[slot] = start[slot];
-  warm.model.set_kinematic_parameters(from);
-  return solve_kinematics(warm, selection.kept, run.iterations);
-}
-
-// Model selection: hold what the data do not support, and fit again.
-void select_parameters(CalibrationRun& run) {
-  KinematicFit& fit = run.fit;
-  const int selection_folds = run.options.folds >= 2 ? run.options.folds : kDefaultFolds;
-  if (run.options.keep_all) {
-    fit.selection_note = "off (--keep-all)";
-    return;
-  }
-  if (run.solution.termination != SolveTermination::kConverged) {
-    fit.selection_note = "skipped: the fit of every identifiable parameter did not converge";
-    return;
-  }
-  if (run.problem.compressed) {
-    fit.selection_note = "skipped: the log is too long for per-pose fits (compressed Jacobian)";
-    run.result.notes.push_back("model selection " + fit.selection_note);
-    return;
-  }
-  const ModelSelection selection =
-      detail::select_model(run.problem, run.identified, run.solution.parameters, run.data,
-                           run.options.selection_alpha, selection_folds, run.options.seed);
-  fit.model_selection = true;
-  fit.selection_folds = std::min(selection_folds, run.m);
-  fit.selection_path = selection.path;
-  if (selection.kept.size() >= run.identified.size()) return;
-  std::vector<int> held;
-  for (const auto& [slot, why] : selection.reason) held.push_back(slot);
-  const KinematicSolution refit = refit_selected(run, selection, held);
-  if (refit.termination != SolveTermination::kConverged) {
-    fit.model_selection = false;
-    fit.selection_note =
-        "its re-fit did not converge (" + refit.message + "): every identifiable parameter kept";
-    run.result.notes.push_back("model selection: " + fit.selection_note);
-    return;
-  }
-  run.identified = selection.kept;
-  run.solution = refit;
-  run.held_by_selection = held;
-  for (const auto& [slot, why] : selection.reason) run.reason[slot] = why;
-  run.data = stack(run.model.structure(), run.solution.parameters, run.problem.joints, run.kind(),
-                   run.problem.measured, run.problem.weights);
-  run.result.notes.push_back(fmt::format(
-      "model selection held {} of the {} identifiable parameters at nominal (not supported "
-      "by these data; --keep-all keeps them): {}",
-      held.size(), fit.structurally_identified, names_of(held, run.name)));
-}
-
 // Cross-validation (--folds), the solver's outcome, and the calibrated model:
 // angles are periodic, so a step that went round (a real fit turned a flange's
 // pitch by 11 rad) is the same model with the deviation in (-pi, pi].
 void finish_solution(CalibrationRun& run) {
-  KinematicFit& fit = run.fit;
+  KinematicFit& fit = run.fit();
   const KinematicSolution& solution = run.solution;
   fit.identified = static_cast<int>(run.identified.size());
   if (run.options.folds >= 2 && solution.termination == SolveTermination::kConverged) {
-    const CrossValidation cv = detail::cross_validate(run.problem, run.identified, run.data,
-                                                      run.options.folds, run.options.seed);
+    const CrossValidation cv = held_out(run);
     fit.cv_rms = cv.rms;
     fit.cv_folds = cv.folds;
     fit.cv_note = cv.note;
@@ -507,21 +423,27 @@ void finish_solution(CalibrationRun& run) {
 
 // Uncertainty, conditioning and observability of the identified parameters.
 void fit_statistics(CalibrationRun& run) {
-  KinematicFit& fit = run.fit;
+  KinematicFit& fit = run.fit();
   const Stack& data = run.data;
   const int k = static_cast<int>(run.identified.size());
-  Eigen::MatrixXd Ji(data.J.rows(), k), Js(data.J.rows(), k);
+  // With the tolerance prior its rows below the measurements' (k of them, zero
+  // for a free parameter): the posterior covariance; the residual's freedom
+  // less the effective parameters.
+  const bool prior = run.prior_weight.size() > 0;
+  const Eigen::Index rows = data.J.rows() + (prior ? k : 0);
+  Eigen::MatrixXd Ji = Eigen::MatrixXd::Zero(rows, k), Js(rows, k);
   for (int c = 0; c < k; ++c) {
-    Ji.col(c) = data.J.col(run.identified[c]);
+    Ji.col(c).head(data.J.rows()) = data.J.col(run.identified[c]);
+    if (prior) Ji(data.J.rows() + c, c) = run.prior_weight[run.identified[c]];
     Js.col(c) = Ji.col(c) / run.scale[run.identified[c]];
   }
+  const double parameters = prior ? run.fit().prior.effective_parameters : k;
   // Each eliminated fixture point or plane is 3 unknowns the projection took out.
-  const Eigen::Index dof_residual = data.residuals - k - run.problem.labels.unknowns();
+  const double dof_residual =
+      static_cast<double>(data.residuals - run.problem.labels.unknowns()) - parameters;
   fit.sigma_given = run.options.sigma.has_value();
   fit.sigma =
-      run.options.sigma
-          ? *run.options.sigma
-          : std::sqrt(data.rss / static_cast<double>(std::max<Eigen::Index>(dof_residual, 1)));
+      run.options.sigma ? *run.options.sigma : std::sqrt(data.rss / std::max(dof_residual, 1.0));
   // From the eigen-decomposition of the small normal matrices J^T J: the
   // covariance sigma^2 (J^T J)^-1, and the singular values of the scaled J.
   run.covariance = parameter_covariance(Ji, fit.sigma);
@@ -555,6 +477,11 @@ ParameterEstimate parameter_estimate(const CalibrationRun& run, const ParameterI
     const int c = static_cast<int>(it - identified.begin());
     e.identifiable = true;
     e.sd = std::sqrt(covariance(c, c));
+    if (run.prior_weight.size() && std::isfinite(run.tolerance[pi.slot])) {
+      e.prior_sd = run.fit().prior.scale * run.tolerance[pi.slot];
+      e.data_share = run.data_share[pi.slot];
+      e.set_by_prior = e.data_share < 0.5;
+    }
     // An unknown frame, a marker's offset and an instrument's zero are the
     // set-up's, not the robot's.
     const int dof = run.model.dof();
@@ -587,7 +514,7 @@ ParameterEstimate parameter_estimate(const CalibrationRun& run, const ParameterI
 // The notes on the outcome, the calibrated model (without the instrument's
 // zero: the instrument's, not the device's), the suspect-fit checks and the status.
 void conclude(CalibrationRun& run) {
-  KinematicFit& fit = run.fit;
+  KinematicFit& fit = run.fit();
   CalibrationResult& result = run.result;
   DeviceModel& model = run.model;
   if (run.problem.frame_unknown) result.notes.push_back(setup_change_note(run.nominal, model));
@@ -621,25 +548,24 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options) {
   check_log_fits(log, nominal);
   check_options(options);
-  CalibrationResult result;
-  CalibrationRun run(nominal, log, options, result);
-  check_joint_limits(log, nominal, options.force, result.notes);
+  CalibrationRun run(nominal, log, options);
+  check_joint_limits(log, nominal, options.force, run.result.notes);
   check_encoder_readings(log);
   prepare_poses(run);
   // Step 1: transmissions from the external encoders.
   run.model = nominal;
-  result.transmissions = fit_transmissions(run.model, run.poses, options, result.notes);
+  run.result.transmissions = fit_transmissions(run.model, run.poses, options, run.result.notes);
   offer_instrument_zero(run);
   // Step 2: kinematic parameters from the compensated readings.
   build_problem(run);
   identify_and_solve(run);
-  select_parameters(run);
+  choose_parameters(run);
   finish_solution(run);
   fit_statistics(run);
   for (const ParameterInfo& pi : run.model.parameter_info())
-    run.fit.parameters.push_back(parameter_estimate(run, pi));
+    run.fit().parameters.push_back(parameter_estimate(run, pi));
   conclude(run);
-  return result;
+  return std::move(run.result);
 }
 
 }  // namespace hapticcal

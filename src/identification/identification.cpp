@@ -11,6 +11,7 @@
 #include <cstring>
 #include <functional>
 #include <map>
+#include <memory>
 #include <numeric>
 #include <random>
 #include <unordered_map>
@@ -118,7 +119,7 @@ using detail::Stack;
 using detail::stack;
 
 // The used rows of the log as measured values (the family's width a row).
-RowMatrix measured_values(const Log& log, const std::vector<int>& rows, const RowsOf& kind) {
+RowMatrix pose_measurements(const Log& log, const std::vector<int>& rows, const RowsOf& kind) {
   RowMatrix out(rows.size(), traits(kind.type).width);
   for (size_t i = 0; i < rows.size(); ++i) {
     hapticcal::measured_values(kind.type, log, rows[i], out.row(i).data());
@@ -352,7 +353,7 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   }
   std::vector<int> pose_index(m);
   std::iota(pose_index.begin(), pose_index.end(), 0);
-  problem.measured = measured_values(poses, pose_index, RowsOf{problem.type});
+  problem.measured = pose_measurements(poses, pose_index, RowsOf{problem.type});
   if (is_fixture(problem.type)) {
     problem.labels = fixture_labels(problem.type, poses, pose_index, options.point_distances,
                                     options.known_points);
@@ -424,6 +425,42 @@ const char* to_string(SolveTermination termination) {
   return "?";
 }
 
+namespace {
+
+// The tolerance prior's rows: w_j (x_j - c_j) for every slot j of positive weight.
+class PriorCost : public ceres::CostFunction {
+ public:
+  PriorCost(const Eigen::VectorXd& weight, const Eigen::VectorXd& centre)
+      : weight_(weight), centre_(centre) {
+    for (int j = 0; j < weight.size(); ++j) {
+      if (weight[j] > 0) rows_.push_back(j);
+    }
+    set_num_residuals(static_cast<int>(rows_.size()));
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(weight.size()));
+  }
+  bool empty() const { return rows_.empty(); }
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const int n = static_cast<int>(weight_.size());
+    for (size_t i = 0; i < rows_.size(); ++i) {
+      const int j = rows_[i];
+      residuals[i] = weight_[j] * (parameters[0][j] - centre_[j]);
+      if (jacobians && jacobians[0]) {
+        double* row = jacobians[0] + i * n;
+        std::fill(row, row + n, 0.0);
+        row[j] = weight_[j];
+      }
+    }
+    return true;
+  }
+
+ private:
+  Eigen::VectorXd weight_, centre_;
+  std::vector<int> rows_;
+};
+
+}  // namespace
+
 KinematicSolution solve_kinematics(const KinematicProblem& problem,
                                    const std::vector<int>& identified, int max_iterations) {
   const ChainStructure s = problem.model.structure();
@@ -443,6 +480,10 @@ KinematicSolution solve_kinematics(const KinematicProblem& problem,
   lm.AddResidualBlock(measurement_cost(s, problem.joints, rows_of(problem), problem.measured,
                                        problem.weights, problem.compressed),
                       nullptr, out.parameters.data());
+  if (problem.prior_weight.size() == s.num_slots()) {
+    auto prior = std::make_unique<PriorCost>(problem.prior_weight, problem.prior_centre);
+    if (!prior->empty()) lm.AddResidualBlock(prior.release(), nullptr, out.parameters.data());
+  }
   if (!constant.empty()) {
     lm.SetManifold(out.parameters.data(), new ceres::SubsetManifold(s.num_slots(), constant));
   }

@@ -15,7 +15,7 @@ namespace {
 
 using detail::CapstanCost;
 
-double rms(const Eigen::VectorXd& r) { return std::sqrt(r.squaredNorm() / r.size()); }
+double residual_rms(const Eigen::VectorXd& r) { return std::sqrt(r.squaredNorm() / r.size()); }
 
 // Standard deviations sqrt(diag(s^2 (A^T A)^-1)) with s^2 the residual variance,
 // through the SVD of A (robust when A is ill-conditioned).
@@ -87,7 +87,7 @@ void fit_capstan(const Capstan& nominal, const Eigen::VectorXd& q, const Eigen::
   cost->Evaluate(params, r.data(), jacobian);
   fit.value = Eigen::Map<const Eigen::VectorXd>(p.data(), 5);
   fit.offset = p[5];
-  fit.rms_after = rms(r);
+  fit.rms_after = residual_rms(r);
   const Eigen::VectorXd sd = standard_deviations(Jr, r.squaredNorm() / std::max(n - 6, 1));
   fit.sd = sd.head(5);
   fit.offset_sd = sd[5];
@@ -120,7 +120,7 @@ void fit_polynomial(int order, const Eigen::VectorXd& q, const Eigen::VectorXd& 
   fit.message = "linear least squares";
   fit.offset = x[0];
   fit.value = x.tail(order);
-  fit.rms_after = rms(r);
+  fit.rms_after = residual_rms(r);
   const Eigen::VectorXd sd = standard_deviations(A, r.squaredNorm() / std::max(n - order - 1, 1));
   fit.offset_sd = sd[0];
   fit.sd = sd.tail(order);
@@ -148,7 +148,7 @@ Transmission fit_transmission(const DeviceModel& model, int joint, const Eigen::
     throw InputError(fmt::format("ext{}: the external encoder never moves", joint + 1));
   }
   const double mean = target.mean();
-  fit.rms_before = rms(target.array() - mean);
+  fit.rms_before = residual_rms(target.array() - mean);
   Transmission fitted;
   if (const auto* c = std::get_if<Capstan>(&link.transmission.model())) {
     fit.kind = TransmissionKind::kCapstan;

@@ -15,7 +15,7 @@ namespace hapticcal {
 namespace {
 
 // A model file: a URDF with the request's chain, a device file as it is.
-DeviceModel load(const EvaluateRequest& request, const std::string& path) {
+DeviceModel load_evaluated_model(const EvaluateRequest& request, const std::string& path) {
   return is_urdf_path(path) ? load_model(path, request.tip, request.root) : load_model(path);
 }
 
@@ -35,14 +35,15 @@ void check_chain_used(const EvaluateRequest& request) {
 EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   check_chain_used(request);
   EvaluateJob job;
-  job.model = request.given ? *request.given : load(request, request.model);
+  job.model = request.given ? *request.given : load_evaluated_model(request, request.model);
   const Log log = read_log(request.log, request.columns);
   job.rows = log.rows;
   const Fixture known = fixture_facts(request.fixture, request.point_distances);
   const bool referenced = request.given_reference || !request.reference.empty();
   if (referenced) {
-    const DeviceModel reference =
-        request.given_reference ? *request.given_reference : load(request, request.reference);
+    const DeviceModel reference = request.given_reference
+                                      ? *request.given_reference
+                                      : load_evaluated_model(request, request.reference);
     job.comparison = compare_to_reference(job.model, reference, log, known.distances, known.points,
                                           request.registration);
     job.evaluation = job.comparison->model;

@@ -29,7 +29,7 @@ std::string force_csv(const ForceRun& run) {
 }
 
 // A model file: a URDF with the request's chain, a device file as it is.
-DeviceModel load(const ForceRequest& request, const std::string& path) {
+DeviceModel load_force_model(const ForceRequest& request, const std::string& path) {
   return is_urdf_path(path) ? load_model(path, request.tip, request.root) : load_model(path);
 }
 
@@ -46,9 +46,9 @@ ForceJob run_force_job(const ForceRequest& request) {
     }
   }
   ForceJob job;
-  job.actual = load(request, request.actual);
-  const DeviceModel nominal = load(request, request.nominal);
-  const DeviceModel calibrated = load(request, request.calibrated);
+  job.actual = load_force_model(request, request.actual);
+  const DeviceModel nominal = load_force_model(request, request.nominal);
+  const DeviceModel calibrated = load_force_model(request, request.calibrated);
   ForceScenario sc = request.scenario;
   if (request.lock >= 0) sc.locked_joint = request.lock - 1;  // 0 -> kNoLock
   sc.locked_joint = resolved_locked_joint(sc, job.actual.dof());

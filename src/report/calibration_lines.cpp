@@ -14,7 +14,9 @@ std::string kinematic_row(const ParameterEstimate& e) {
   const double f = u.scale;
   return fmt::format("  {:<12} {:>12.4f} {:>12.4f} {:>10.4f} +- {:<9.4f} {:<4}  {:>6.3f} {}",
                      e.name, e.nominal * f, e.value * f, (e.value - e.nominal) * f, e.sd * f,
-                     u.unit, e.max_correlation, e.max_correlation_with);
+                     u.unit, e.max_correlation, e.max_correlation_with) +
+         (e.set_by_prior ? fmt::format("  set by the prior (data share {:.2f})", e.data_share)
+                         : std::string());
 }
 
 // A warning line a flagged pose, at most kShownOutliers, then how many more.
@@ -107,8 +109,20 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
         "  model selection: {} of {} identifiable parameters kept (5 % family-wise significance; "
         "--keep-all keeps them all)",
         k.identified, k.structurally_identified));
+  } else if (k.prior.used) {
+    out.push_back(fmt::format(
+        "  tolerance prior: scale {:.3g} of the tolerances ({}), {:.1f} effective parameters of "
+        "the {} estimated (--select: the significance cut; --keep-all: least squares)",
+        k.prior.scale, k.prior.scale_given ? "given" : "highest evidence",
+        k.prior.effective_parameters, k.prior.fitted));
   } else if (!k.selection_note.empty()) {
     out.push_back(fmt::format("  model selection: {}", k.selection_note));
+  }
+  if (!k.choice.empty()) {
+    out.push_back(
+        fmt::format("  kept: the {} (lowest held-out RMS of the prior, the "
+                    "significance cut and least squares)",
+                    k.choice));
   }
   outlier_lines(k.robust, out);
   for (const std::string& reason : k.suspect.reasons) {

@@ -145,7 +145,7 @@ std::string inline_svg(const std::string& svg) {
   return start == std::string::npos ? std::string() : svg.substr(start);
 }
 
-bool is_number(const std::string& cell) {
+bool is_numeric_cell(const std::string& cell) {
   if (cell == "-") return true;  // a number that does not apply
   char* end = nullptr;
   std::strtod(cell.c_str(), &end);
@@ -221,7 +221,7 @@ std::string html_table(const std::vector<std::string>& header,
     out += "<tr>";
     for (const std::string& cell : row) {
       // Numbers align right, text left (a reason, a name).
-      out += (is_number(cell) ? "<td class=\"n\">" : "<td>") + html_escape(cell) + "</td>";
+      out += (is_numeric_cell(cell) ? "<td class=\"n\">" : "<td>") + html_escape(cell) + "</td>";
     }
     out += "</tr>\n";
   }

@@ -57,6 +57,28 @@ nlohmann::ordered_json selection_json(const KinematicFit& k, const CalibrationOp
   return selection;
 }
 
+// The tolerance prior: its tolerances, the scale and weight chosen, the
+// effective parameters and the evidence curve (log10 lambda, log evidence).
+nlohmann::ordered_json prior_json(const PriorFit& prior, const Tolerances& t) {
+  using json = nlohmann::ordered_json;
+  json curve = json::array();
+  for (const auto& [x, value] : prior.curve) curve.push_back({x, value});
+  return json{{"used", prior.used},
+              {"note", prior.note},
+              {"tolerance_length", t.length},
+              {"tolerance_angle", t.angle},
+              {"tolerances", t.by_name},
+              {"scale", number_or_null(prior.scale)},
+              {"scale_source", prior.scale_given ? "given" : "evidence"},
+              {"lambda", prior.lambda},
+              {"sigma", number_or_null(prior.sigma)},
+              {"log_evidence", number_or_null(prior.log_evidence)},
+              {"effective_parameters", prior.effective_parameters},
+              {"fitted", prior.fitted},
+              {"rounds", prior.rounds},
+              {"evidence_curve", curve}};
+}
+
 // The outlier test: its rule and settings.
 nlohmann::ordered_json robust_json(const RobustFit& robust, const CalibrationOptions& options) {
   return {{"loss", to_string(robust.loss)},
@@ -119,6 +141,8 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
                            {"seed", options.seed},
                            {"note", k.cv_note}};
   j["model_selection"] = selection_json(k, options);
+  j["prior"] = prior_json(k.prior, options.tolerances);
+  j["parameter_choice"] = k.choice;
   j["robust"] = robust_json(k.robust, options);
   j["outliers"] = outliers_json(k.robust);
   const SuspectFit& suspect = k.suspect;
@@ -149,6 +173,11 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
       p["max_correlation"] = e.max_correlation;
       p["max_correlation_with"] = e.max_correlation_with;
       p["large_change"] = e.large_change;
+      if (std::isfinite(e.prior_sd)) {
+        p["prior_sd"] = e.prior_sd;
+        p["data_share"] = e.data_share;
+        p["set_by_prior"] = e.set_by_prior;
+      }
     } else {
       p["reason"] = e.reason;
       p["held_by_selection"] = e.held_by_selection;

@@ -15,7 +15,7 @@
 namespace hapticcal {
 namespace {
 
-constexpr int kIterations = 100;  // Levenberg-Marquardt's limit
+constexpr int kRegistrationIterations = 100;  // Levenberg-Marquardt's limit
 
 std::array<double, 6> pose_of(const Frame<double>& T) {
   const Eigen::Vector3d rpy = matrix_rpy(T.R);
@@ -90,7 +90,7 @@ void refine(const ChainStructure& s, Eigen::VectorXd& p, const std::vector<Eigen
                            p.data());
   problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
   ceres::Solver::Summary summary;
-  ceres::Solve(detail::levenberg_marquardt(kIterations), &problem, &summary);
+  ceres::Solve(detail::levenberg_marquardt(kRegistrationIterations), &problem, &summary);
 }
 
 FrameFit frame_fit(const DeviceModel& model, const DeviceModel& fitted, RegisterWhat what,

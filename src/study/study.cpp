@@ -27,7 +27,7 @@
 namespace hapticcal {
 namespace {
 
-double rms(const std::vector<double>& v) {
+double rms_of_values(const std::vector<double>& v) {
   double s = 0;
   for (double x : v) s += x * x;
   return v.empty() ? 0 : std::sqrt(s / v.size());
@@ -313,10 +313,10 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
     orientation_before.push_back(rotation_angle(Ta.R.transpose() * Tb.R));
     orientation_after.push_back(rotation_angle(Ta.R.transpose() * Tc.R));
   }
-  t.position_rms_before = rms(position_before);
-  t.position_rms_after = rms(position_after);
-  t.orientation_rms_before = rms(orientation_before);
-  t.orientation_rms_after = rms(orientation_after);
+  t.position_rms_before = rms_of_values(position_before);
+  t.position_rms_after = rms_of_values(position_after);
+  t.orientation_rms_before = rms_of_values(orientation_before);
+  t.orientation_rms_after = rms_of_values(orientation_after);
   t.distance_rms_before = distance_rms(sc.nominal, val);
   t.distance_rms_after = distance_rms(t.full.calibrated, val);
   t.crlb_variance = crlb(sc, ident, t.full);

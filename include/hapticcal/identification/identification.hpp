@@ -75,6 +75,14 @@ struct ParameterEstimate {
   // Structurally identifiable and excited, but held at nominal by the model
   // selection (reason says why).
   bool held_by_selection = false;
+  // The tolerance prior (CalibrationOptions::tolerances): this parameter's prior
+  // sd (scale x tolerance; NaN: free, a set-up parameter, or no prior), the share
+  // of its estimate the data determine (1 - posterior / prior variance in the
+  // linearised problem: 1 where the prior does not bind, 0 where the data do
+  // not see it), and whether the prior rather than the data set it (share < 1/2).
+  double prior_sd = std::numeric_limits<double>::quiet_NaN();
+  double data_share = std::numeric_limits<double>::quiet_NaN();
+  bool set_by_prior = false;
   // The identified value moved more than kLargeChangeLength (metres) or
   // kLargeChangeAngle (rad) from nominal: plausible for a base pose, suspicious
   // for a link.
@@ -146,6 +154,26 @@ struct SuspectFit {
 // suspect (README: clean Meca500 sets give 15-20x, a tracker bumped 3 mm 670x).
 constexpr double kSuspectRepeatabilityRatio = 100;
 
+// The tolerance prior of step 2 as fitted (README "Tolerance prior").
+struct PriorFit {
+  bool used = false;
+  std::string note;  // why it was not used ("" if it was)
+  // The tolerances' common scale: the evidence's choice, or the given one.
+  double scale = std::numeric_limits<double>::quiet_NaN();
+  bool scale_given = false;
+  double lambda = 0;  // (noise sd / scale)^2: the weight of the prior's rows
+  // The noise sd at the evidence's optimum [m], and the profile log evidence there.
+  double sigma = std::numeric_limits<double>::quiet_NaN();
+  double log_evidence = std::numeric_limits<double>::quiet_NaN();
+  // Parameters the data pay for (the sum of the data shares, free ones 1 each)
+  // of the `fitted` estimated.
+  double effective_parameters = 0;
+  int fitted = 0;
+  int rounds = 0;  // evidence + MAP solve rounds
+  // The profile log evidence over log10(lambda), for a figure.
+  std::vector<std::pair<double, double>> curve;
+};
+
 struct KinematicFit {
   MeasurementType type = MeasurementType::kDistance;
   int rows = 0;   // log rows used
@@ -192,12 +220,36 @@ struct KinematicFit {
   std::string termination;  // Ceres's report
   RobustFit robust;         // the outlier test and reweighting
   SuspectFit suspect;       // whether the fit should be trusted
+  PriorFit prior;           // the tolerance prior (the default)
+  // What the default kept by its cross-validated RMS: "tolerance prior",
+  // "significance cut" or "least squares"; "" when not compared (an option
+  // chose, or nothing could be cross-validated).
+  std::string choice;
 };
 
 // The distance instrument's zero the fit identified ("instrument.zero"; 0 if it
 // was not estimated or was held): what the instrument's readings carry beyond
 // the device's |p|, and what `calibrated` (which leaves it out) does not predict.
 double identified_instrument_zero(const KinematicFit& fit);
+
+// The tolerance prior's widths (README "Tolerance prior"): a link parameter's
+// change from nominal is a priori normal with sd scale x its tolerance; the base,
+// the tool and an instrument's zero (the set-up's, not manufactured) are free.
+// Defaults from ISO 2768-m general tolerances (lengths of 120-400 mm +-0.5 mm;
+// angles with legs of 50-120 mm +-0 deg 20', 5.8 mrad, rounded to 5 mrad).
+struct Tolerances {
+  double length = 0.5e-3;  // m
+  double angle = 5e-3;     // rad
+  // Per dotted parameter name (SI), over the family's.
+  std::map<std::string, double> by_name;
+  // The common scale of the tolerances; none: the one of highest evidence.
+  std::optional<double> scale;
+};
+
+// One --tolerance item, NAME=SD in SI units: "length" and "angle" set a family's
+// tolerance, a dotted parameter name ("j2.a") its own. Throws InputError for
+// other text or a value that is not a positive number.
+void add_tolerance(Tolerances& tolerances, const std::string& item);
 
 struct CalibrationOptions {
   bool transmissions = true;            // false: the paper's kinematic-only calibration
@@ -214,10 +266,14 @@ struct CalibrationOptions {
   // size; beyond, step 2 works on its R factor, accumulated pose block by pose
   // block (the same fit to rounding, memory independent of the log's length).
   std::size_t max_jacobian_bytes = std::size_t{256} << 20;
-  // Model selection (on by default): identifiable parameters the data do not
-  // support are held at nominal (see calibrate). true: keep every structurally
-  // identifiable, excited parameter (the behaviour before model selection).
+  // What step 2 changes. The default: every identifiable parameter, each pulled
+  // toward nominal by its tolerance (the tolerance prior, MAP). keep_all: every
+  // structurally identifiable, excited parameter by plain least squares. select:
+  // the significance cut (model selection): identifiable parameters the data do
+  // not support are held at nominal (the default before the prior).
   bool keep_all = false;
+  bool select = false;
+  Tolerances tolerances;
   // Known distances between fixture points (--point-distance A:B=METRES).
   std::vector<PointDistance> point_distances;
   // Known positions of fixture points in the measurement frame (a fixture file's
@@ -281,6 +337,9 @@ struct KinematicProblem {
   double rotation_scale = 1;            // m/rad of a pose's rotation rows: the length scale
   bool compressed = false;              // the Jacobian too large: work on its R factor
   FixtureLabels labels;                 // fixture points or planes: the poses' labels
+  // The tolerance prior's rows in solve_kinematics, per slot: weight
+  // sqrt(lambda) / tolerance (0: none) and centre (the nominal); empty: none.
+  Eigen::VectorXd prior_weight, prior_centre;
   // Positions or poses in a frame of their own (a tracker's, a mocap system's)
   // with the base a free pose: the base is that frame, identified first
   // (measurement_frame_unknown).

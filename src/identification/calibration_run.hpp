@@ -1,0 +1,69 @@
+// Internal: one calibration on its way through the stages of calibrate
+// (calibrate.cpp), and the stage that chooses what step 2 changes
+// (parameter_choice.cpp).
+#pragma once
+
+#include <Eigen/Core>
+#include <limits>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "hapticcal/identification/identification.hpp"
+#include "identification/stack.hpp"
+
+namespace hapticcal::detail {
+
+constexpr int kDefaultFolds = 5;         // of the model selection when cross-validation is off
+constexpr int kIterations = 100;         // Levenberg-Marquardt's limit
+constexpr int kFixtureIterations = 500;  // for fixture points and planes
+
+// One calibration on its way through the stages: what each stage leaves for
+// the next.
+struct CalibrationRun {
+  const DeviceModel& nominal;
+  const Log& log;
+  const CalibrationOptions& options;
+  // Owned: a copy of the run (the choice between the prior, the significance cut
+  // and least squares tries each on one) is a whole calibration of its own.
+  CalibrationResult result;
+  Log poses;                 // one row a pose: repeats averaged
+  std::vector<int> repeats;  // per pose
+  int m = 0;                 // poses
+  DeviceModel model;         // step 1's transmissions; after step 2 the calibrated model
+  // Step 2's parameter vector at the start: the nominal, with the instrument's
+  // zero (at 0) if step 2 estimates it.
+  DeviceModel step2_nominal;
+  std::vector<std::string> fix;  // options.fix less instrument.zero
+  KinematicProblem problem;
+  std::vector<int> candidates;
+  std::vector<int> identified;
+  std::map<int, std::string> reason;  // held candidates: why
+  std::vector<int> held_by_selection;
+  Eigen::VectorXd scale;          // per slot, from the identifiability analysis
+  Eigen::VectorXd plain_weights;  // before the robust reweighting
+  KinematicSolution solution;
+  Stack data;                       // residuals and Jacobian at the solution
+  std::map<int, std::string> name;  // slot -> parameter name
+  int iterations = kIterations;
+  Eigen::VectorXd p;  // the solution, angles wrapped to the start's period
+  Eigen::MatrixXd covariance;
+  Eigen::VectorXd tolerance;     // per slot: the prior's (infinite: free)
+  Eigen::VectorXd prior_weight;  // per slot: sqrt(lambda) / tolerance; empty: no prior
+  Eigen::VectorXd data_share;    // per slot, with the prior
+
+  CalibrationRun(const DeviceModel& nominal_, const Log& log_, const CalibrationOptions& options_)
+      : nominal(nominal_), log(log_), options(options_) {}
+  KinematicFit& fit() { return result.kinematics; }
+  const KinematicFit& fit() const { return result.kinematics; }
+  RowsOf kind() const { return rows_of(problem); }
+};
+
+// What step 2 changes (--keep-all, --select, or the default's choice between
+// the tolerance prior, the significance cut and least squares).
+void choose_parameters(CalibrationRun& run);
+// The K-fold cross-validated RMS of the run's fit, with the prior's rows if it
+// has them (NaN with the reason if it cannot be computed).
+CrossValidation held_out(const CalibrationRun& run);
+
+}  // namespace hapticcal::detail
