@@ -160,6 +160,16 @@ TEST(TolerancePrior, ToleranceItemsAreCheckedAndNamed) {
   }
   t.by_name["j9.zz"] = 1e-3;
   EXPECT_THROW(detail::slot_tolerances(testing::meca500(), t), InputError);
+  // Finite but beyond the evidence's range (1e160 m once looped for ever): refused.
+  const Log log = testing::meca500_log("cal", testing::kMeca500Sets[0]);
+  for (const char* item : {"length=1e160", "angle=1e-20", "j2.a=5000"}) {
+    CalibrationOptions o;
+    add_tolerance(o.tolerances, item);
+    EXPECT_THROW(calibrate(testing::meca500(), log, o), InputError) << item;
+  }
+  CalibrationOptions huge;
+  huge.tolerances.scale = 1e300;
+  EXPECT_THROW(calibrate(testing::meca500(), log, huge), InputError);
 }
 
 // The real Meca500 (laser tracker; each set's validation log held out). Issue

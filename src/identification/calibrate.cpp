@@ -218,17 +218,21 @@ void check_options(const CalibrationOptions& options) {
         "significance cut)");
   }
   const Tolerances& t = options.tolerances;
-  const auto positive = [](double v) { return v > 0 && std::isfinite(v); };
+  // A tolerance or scale is positive and within 1e-9..1e3 (m, rad): beyond, the
+  // evidence's sums would leave double's range.
+  const auto positive = [](double v) { return v >= 1e-9 && v <= 1e3; };
   if (!positive(t.length) || !positive(t.angle)) {
-    throw InputError("--tolerance length=... and angle=... must be positive numbers (m, rad)");
+    throw InputError("--tolerance length=... and angle=... must be in [1e-9, 1000] (m, rad)");
   }
   for (const auto& [name, value] : t.by_name) {
     if (!positive(value)) {
       throw InputError(
-          fmt::format("--tolerance {}={}: not a positive number (SI)", printable(name), value));
+          fmt::format("--tolerance {}={}: not in [1e-9, 1000] (SI)", printable(name), value));
     }
   }
-  if (t.scale && !positive(*t.scale)) throw InputError("--prior-scale must be a positive number");
+  if (t.scale && !(*t.scale >= 1e-6 && *t.scale <= 1e6)) {
+    throw InputError("--prior-scale must be in [1e-6, 1e6]");
+  }
 }
 
 // The poses of the fit: a sample of the log's (--samples), repeats of a pose
@@ -421,6 +425,13 @@ void finish_solution(CalibrationRun& run) {
                       fit.rows);
 }
 
+// The factor of the prior's rows in the covariance: 1, or with --sigma the
+// given sigma over the evidence's.
+double prior_row_scale(const CalibrationRun& run) {
+  const PriorFit& prior = run.fit().prior;
+  return run.options.sigma && prior.sigma > 0 ? *run.options.sigma / prior.sigma : 1.0;
+}
+
 // Uncertainty, conditioning and observability of the identified parameters.
 void fit_statistics(CalibrationRun& run) {
   KinematicFit& fit = run.fit();
@@ -434,7 +445,10 @@ void fit_statistics(CalibrationRun& run) {
   Eigen::MatrixXd Ji = Eigen::MatrixXd::Zero(rows, k), Js(rows, k);
   for (int c = 0; c < k; ++c) {
     Ji.col(c).head(data.J.rows()) = data.J.col(run.identified[c]);
-    if (prior) Ji(data.J.rows() + c, c) = run.prior_weight[run.identified[c]];
+    // With --sigma the prior's rows are sigma / (scale t), not the evidence's
+    // sigma / (scale t): the covariance is then sigma^2 (J^T J + ...)^-1.
+    if (prior)
+      Ji(data.J.rows() + c, c) = run.prior_weight[run.identified[c]] * prior_row_scale(run);
     Js.col(c) = Ji.col(c) / run.scale[run.identified[c]];
   }
   const double parameters = prior ? run.fit().prior.effective_parameters : k;
@@ -447,8 +461,10 @@ void fit_statistics(CalibrationRun& run) {
   // From the eigen-decomposition of the small normal matrices J^T J: the
   // covariance sigma^2 (J^T J)^-1, and the singular values of the scaled J.
   run.covariance = parameter_covariance(Ji, fit.sigma);
-  const Conditioning scaled_conditioning =
-      conditioning(Js, static_cast<double>(fit.rows) * traits(fit.type).dimension);
+  // The data's conditioning: the measurements' rows only (the prior's would
+  // make a parameter the data do not see look well conditioned).
+  const Conditioning scaled_conditioning = conditioning(
+      Js.topRows(data.J.rows()), static_cast<double>(fit.rows) * traits(fit.type).dimension);
   fit.condition_number = scaled_conditioning.condition_number;
   fit.observability = scaled_conditioning.observability;
   fit.correlation.resize(k, k);

@@ -52,10 +52,20 @@ void apply_prior(CalibrationRun& run) {
     if (why.rfind("not excited", 0) == 0 && std::isfinite(run.tolerance[slot]))
       slots.push_back(slot);
   }
+  // The start's angles within pi of nominal: a fit that went round (an 11 rad
+  // flange pitch on the MUKCa Panda) is the same model, and the prior measures
+  // the change from nominal.
+  KinematicSolution start = run.solution;
+  const Eigen::VectorXd centre = run.problem.model.kinematic_parameters();
+  for (const ParameterInfo& pi : run.problem.model.parameter_info()) {
+    if (pi.unit != ParameterUnit::kAngle) continue;
+    start.parameters[pi.slot] =
+        centre[pi.slot] + std::remainder(start.parameters[pi.slot] - centre[pi.slot], 2 * M_PI);
+  }
   std::string why_not;
   const double rows = static_cast<double>(run.data.residuals - run.problem.labels.unknowns());
   std::optional<detail::PriorSolution> map =
-      detail::solve_with_prior(run.problem, slots, run.tolerance, run.solution, run.data, rows,
+      detail::solve_with_prior(run.problem, slots, run.tolerance, start, run.data, rows,
                                run.options.tolerances.scale, run.iterations, why_not);
   if (!map) {
     prior.note = "not applied: " + why_not;
@@ -173,6 +183,11 @@ void choose_parameters(CalibrationRun& run) {
   }
   CalibrationRun prior = run;
   apply_prior(prior);
+  if (!prior.fit().prior.used) {  // it says why in a note; least squares stays
+    run.result.notes = prior.result.notes;
+    fit.prior = prior.fit().prior;
+    return;
+  }
   const double cv_prior =
       run.options.folds >= 2 ? held_out(prior).rms : std::numeric_limits<double>::quiet_NaN();
   if (!std::isfinite(cv_prior)) {
@@ -188,6 +203,7 @@ void choose_parameters(CalibrationRun& run) {
       "significance cut, {:.4f} mm by least squares",
       cv_prior * 1e3, cv_cut * 1e3, cv_plain * 1e3);
   if (below(cv_cut, cv_prior) && below(cv_cut, cv_plain)) {
+    fit.selection_note.clear();
     select_parameters(run);
     fit.choice = "significance cut";
   } else if (below(cv_plain, cv_prior)) {

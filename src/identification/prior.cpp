@@ -148,8 +148,11 @@ std::optional<PriorChoice> choose_prior(const Stack& at, const std::vector<int>&
   };
   PriorChoice out;
   const double centre = std::log10(model.curvature());
+  if (!std::isfinite(centre)) return std::nullopt;  // tolerances beyond double's range
   double best = centre - kGridDecades, best_value = -std::numeric_limits<double>::infinity();
-  for (double x = centre - kGridDecades; x <= centre + kGridDecades + 1e-9; x += kGridStep) {
+  const int points = static_cast<int>(2 * kGridDecades / kGridStep);
+  for (int i = 0; i <= points; ++i) {
+    const double x = centre - kGridDecades + i * kGridStep;
     const double value = evidence(x);
     if (std::isfinite(value)) out.curve.emplace_back(x, value);
     if (value > best_value) {
@@ -179,7 +182,9 @@ std::optional<PriorChoice> choose_prior(const Stack& at, const std::vector<int>&
   const LinearModel::Solution s = model.solve(out.lambda);
   if (!s.ok) return std::nullopt;
   out.log_evidence = model.profile(out.lambda, s);
-  out.sigma = std::sqrt((s.data_rss + out.lambda * s.prior_rss) / model.noise_rows());
+  // A given scale's sigma is its fixed point's (lambda = sigma^2 / scale^2).
+  out.sigma = scale ? *scale * std::sqrt(out.lambda)
+                    : std::sqrt((s.data_rss + out.lambda * s.prior_rss) / model.noise_rows());
   out.scale = scale ? *scale : out.sigma / std::sqrt(out.lambda);
   out.data_share = s.data_share;
   out.effective = s.data_share.sum();
@@ -275,8 +280,9 @@ std::optional<PriorSolution> solve_with_prior(const KinematicProblem& problem,
           "no residual freedom is left)";
       return std::nullopt;
     }
-    const bool settled =
-        round > 0 && std::abs(std::log(choice->lambda / previous)) < kLambdaSettled;
+    // Settled: the solution is that of the previous lambda, and so are the
+    // figures reported with it.
+    if (round > 0 && std::abs(std::log(choice->lambda / previous)) < kLambdaSettled) break;
     out.fit.scale = choice->scale;
     out.fit.sigma = choice->sigma;
     out.fit.log_evidence = choice->log_evidence;
@@ -284,7 +290,6 @@ std::optional<PriorSolution> solve_with_prior(const KinematicProblem& problem,
     out.fit.curve = choice->curve;
     out.data_share = Eigen::VectorXd::Constant(s.num_slots(), kNaN);
     out.data_share(columns) = choice->data_share;
-    if (settled) break;
     previous = choice->lambda;
     out.fit.lambda = choice->lambda;
     out.weight = Eigen::VectorXd::Zero(s.num_slots());
