@@ -113,8 +113,7 @@ void set_status(CalibrationResult& result, const std::vector<int>& identified) {
   std::string unexcited, transmissions_failed;
   for (const ParameterEstimate& e : fit.parameters) {
     finite = finite && (!e.identifiable || std::isfinite(e.sd));
-    if (e.reason.rfind("not excited", 0) == 0)
-      unexcited += (unexcited.empty() ? "" : ", ") + e.name;
+    if (detail::unexcited(e.reason)) unexcited += (unexcited.empty() ? "" : ", ") + e.name;
   }
   for (const TransmissionFit& t : result.transmissions) {
     finite = finite && t.value.allFinite() && std::isfinite(t.offset) && std::isfinite(t.rms_after);
@@ -363,12 +362,11 @@ void identify_and_solve(CalibrationRun& run) {
   run.scale = analysis.scale;
   KinematicFit& fit = run.fit();
   fit.rank_deficient = analysis.rank_deficient;
-  check_enough_rows(
-      run,
-      run.identified.size() +
-          std::count_if(run.reason.begin(), run.reason.end(),
-                        [](const auto& r) { return r.second.rfind("not excited", 0) == 0; }),
-      "identifiable");
+  check_enough_rows(run,
+                    run.identified.size() +
+                        std::count_if(run.reason.begin(), run.reason.end(),
+                                      [](const auto& r) { return detail::unexcited(r.second); }),
+                    "identifiable");
   fit.structurally_identified = static_cast<int>(run.identified.size());
   // A fixture problem's cost is flat along motions its unknown points nearly
   // absorb: Levenberg-Marquardt needs more steps (the MUKCa Panda: up to 130).
@@ -409,12 +407,8 @@ void finish_solution(CalibrationRun& run) {
   } else if (!fit.converged) {
     run.result.notes.push_back("step 2 did not converge: " + solution.message);
   }
-  run.p = solution.parameters;
-  const Eigen::VectorXd start = run.problem.model.kinematic_parameters();
-  for (const ParameterInfo& pi : run.problem.model.parameter_info()) {
-    if (pi.unit != ParameterUnit::kAngle) continue;
-    run.p[pi.slot] = start[pi.slot] + std::remainder(run.p[pi.slot] - start[pi.slot], 2 * M_PI);
-  }
+  run.p = detail::angles_near(run.problem.model, solution.parameters,
+                              run.problem.model.kinematic_parameters());
   const ChainStructure s = run.model.structure();
   run.model = run.problem.model;
   run.model.set_kinematic_parameters(run.p);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <limits>
 #include <map>
 #include <string>
@@ -58,6 +59,22 @@ struct CalibrationRun {
   const KinematicFit& fit() const { return result.kinematics; }
   RowsOf kind() const { return rows_of(problem); }
 };
+
+// Whether a held candidate's reason is that these poses do not excite it
+// (identifiability.cpp): identifiable in general, unseen by this log.
+inline bool unexcited(const std::string& reason) { return reason.rfind("not excited", 0) == 0; }
+
+// `parameters` with every angle within pi of `centre`'s (angles are periodic: a
+// step that went round, an 11 rad flange pitch of a real fit, is the same model).
+inline Eigen::VectorXd angles_near(const DeviceModel& model, Eigen::VectorXd parameters,
+                                   const Eigen::VectorXd& centre) {
+  for (const ParameterInfo& pi : model.parameter_info()) {
+    if (pi.unit != ParameterUnit::kAngle) continue;
+    parameters[pi.slot] =
+        centre[pi.slot] + std::remainder(parameters[pi.slot] - centre[pi.slot], 2 * M_PI);
+  }
+  return parameters;
+}
 
 // What step 2 changes (--keep-all, --select, or the default's choice between
 // the tolerance prior, the significance cut and least squares).

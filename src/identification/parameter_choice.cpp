@@ -49,19 +49,12 @@ void apply_prior(CalibrationRun& run) {
   }
   std::vector<int> slots = run.identified;
   for (const auto& [slot, why] : run.reason) {
-    if (why.rfind("not excited", 0) == 0 && std::isfinite(run.tolerance[slot]))
-      slots.push_back(slot);
+    if (unexcited(why) && std::isfinite(run.tolerance[slot])) slots.push_back(slot);
   }
-  // The start's angles within pi of nominal: a fit that went round (an 11 rad
-  // flange pitch on the MUKCa Panda) is the same model, and the prior measures
-  // the change from nominal.
+  // The start's angles within pi of nominal: the prior measures the change from it.
   KinematicSolution start = run.solution;
-  const Eigen::VectorXd centre = run.problem.model.kinematic_parameters();
-  for (const ParameterInfo& pi : run.problem.model.parameter_info()) {
-    if (pi.unit != ParameterUnit::kAngle) continue;
-    start.parameters[pi.slot] =
-        centre[pi.slot] + std::remainder(start.parameters[pi.slot] - centre[pi.slot], 2 * M_PI);
-  }
+  start.parameters =
+      angles_near(run.problem.model, start.parameters, run.problem.model.kinematic_parameters());
   std::string why_not;
   const double rows = static_cast<double>(run.data.residuals - run.problem.labels.unknowns());
   std::optional<detail::PriorSolution> map =
@@ -79,9 +72,8 @@ void apply_prior(CalibrationRun& run) {
   run.prior_weight = map->weight;
   run.data_share = map->data_share;
   prior = map->fit;
-  run.fit().rank_deficient = std::any_of(run.reason.begin(), run.reason.end(), [](const auto& r) {
-    return r.second.rfind("not excited", 0) == 0;
-  });
+  run.fit().rank_deficient = std::any_of(run.reason.begin(), run.reason.end(),
+                                         [](const auto& r) { return unexcited(r.second); });
   std::vector<int> by_prior;
   for (int slot : slots) {
     if (run.data_share[slot] < 0.5) by_prior.push_back(slot);
@@ -174,10 +166,10 @@ void choose_parameters(CalibrationRun& run) {
   fit.selection_note = "off: the tolerance prior (--select: the significance cut)";
   // Parameters these poses do not excite: only the prior can hold them (least
   // squares and the cut would be rank-deficient).
-  const bool unexcited = std::any_of(run.reason.begin(), run.reason.end(), [&](const auto& r) {
-    return r.second.rfind("not excited", 0) == 0 && std::isfinite(run.tolerance[r.first]);
+  const bool any_unexcited = std::any_of(run.reason.begin(), run.reason.end(), [&](const auto& r) {
+    return unexcited(r.second) && std::isfinite(run.tolerance[r.first]);
   });
-  if (unexcited) {
+  if (any_unexcited) {
     apply_prior(run);
     return;
   }
