@@ -37,8 +37,15 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
       ->check(within(1e-12, 1, "m"));
   calibrate
       ->add_option("--polynomial-order", o.polynomial_order,
-                   "Order of polynomial transmissions (default: the device file's, else 10)")
+                   "Order of polynomial transmissions, exactly (refused where the samples do "
+                   "not support it, 3 a coefficient); default: the order of least generalised "
+                   "cross-validation error up to the device file's (else 10)")
       ->check(whole_number(1, 30));
+  calibrate
+      ->add_option("--encoder-resolution", o.encoder_resolution,
+                   "The external encoders' count [rad]: a step-1 fit that predicts left-out "
+                   "samples worse than 2 counts is flagged (suspect)")
+      ->check(within(1e-12, 1, "rad"));
   calibrate->add_option("--fix", o.fix, "Kinematic parameters held at nominal, e.g. j1.a,j2.d");
   calibrate->add_option("--free", o.free,
                         "Parameters added to the candidates, e.g. j2.beta (a beta is one by "
@@ -111,6 +118,7 @@ int run_calibrate(const CalibrateOptions& o) {
   options.seed = o.seed;
   if (o.sigma > 0) options.sigma = o.sigma;
   if (o.polynomial_order > 0) options.polynomial_order = o.polynomial_order;
+  if (o.encoder_resolution > 0) options.encoder_resolution = o.encoder_resolution;
   options.dependency_tolerance = o.tolerance;
   options.keep_all = o.keep_all;
   options.select = o.select;

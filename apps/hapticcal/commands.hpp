@@ -28,6 +28,7 @@ struct CalibrateOptions {
   unsigned long long seed = 1;
   double sigma = 0;
   int polynomial_order = 0;
+  double encoder_resolution = 0;  // 0: not given
   double tolerance = 1e-6;
 };
 CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& options);

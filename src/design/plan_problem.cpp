@@ -32,7 +32,22 @@ Eigen::MatrixXd tip_rows(const Eigen::MatrixXd& G, int d) {
   return out;
 }
 
+// step_one_model for one transmission (chains stage by stage).
+void cap_order(Transmission& t, int order) {
+  if (auto* p = std::get_if<Polynomial>(&t.model())) {
+    if (p->order() > order) p->coefficients.resize(order + 1);
+  } else if (auto* chain = std::get_if<Chain>(&t.model())) {
+    for (Transmission& stage : chain->stages) cap_order(stage, order);
+  }
+}
+
 }  // namespace
+
+DeviceModel step_one_model(DeviceModel model, int samples) {
+  const int order = std::max(1, samples / kStepOneSamplesPerParameter - 1);
+  for (Link& l : model.links) cap_order(l.transmission, order);
+  return model;
+}
 
 PlanProblem::PlanProblem(const DeviceModel& model, MeasurementType type, double sigma_m,
                          double sigma_e, const Eigen::MatrixXd& analysis,

@@ -176,6 +176,52 @@ void name_outliers(RobustFit& robust, const Log& log, const std::vector<std::vec
 }
 
 // --strict: a suspect fit is unusable.
+// Whether link parameter `slot` trades with the set-up (README "Step 2's
+// plausibility check"): a parameter of the first joint while the base is free,
+// of the last while the tool is (the frame's and the marker's neighbours).
+bool next_to_setup(const CalibrationRun& run, const ParameterInfo& info) {
+  const auto free_in = [&](int joint) {
+    for (int slot : run.identified) {
+      if (run.model.parameter_info()[slot].joint == joint) return true;
+    }
+    return false;
+  };
+  return (info.joint == 0 && free_in(-1)) ||
+         (info.joint == run.model.dof() - 1 && free_in(run.model.dof()));
+}
+
+// The default's plausibility check: a converged fit whose link parameter (not
+// next to the set-up) moved beyond kImplausiblePriorSds sds of its stated prior
+// (its tolerance) is unusable; the worst such parameter is the reason.
+void refuse_implausible(CalibrationRun& run) {
+  CalibrationResult& result = run.result;
+  KinematicFit& fit = run.fit();
+  if (!std::isfinite(run.prior_scale)) return;  // no prior: --keep-all, --select
+  const Eigen::VectorXd start = run.step2_nominal.kinematic_parameters();
+  const std::vector<ParameterInfo> info = run.model.parameter_info();
+  int worst = -1;
+  fit.most_moved_sds = 0;
+  for (int slot : run.identified) {
+    if (!std::isfinite(run.tolerance[slot]) || next_to_setup(run, info[slot])) continue;
+    const double sds = std::abs(run.p[slot] - start[slot]) / run.tolerance[slot];
+    if (sds > fit.most_moved_sds) {
+      worst = slot;
+      fit.most_moved_sds = sds;
+    }
+  }
+  if (worst >= 0) fit.most_moved = run.name.at(worst);
+  if (result.status != CalibrationStatus::kConverged || fit.most_moved_sds <= kImplausiblePriorSds)
+    return;
+  const DisplayUnit u = display_unit(info[worst].unit);
+  result.status = CalibrationStatus::kImplausible;
+  result.status_reason = fmt::format(
+      "{} moved {:.4g} {}, {:.0f} times its tolerance {:.4g} {} (the limit is {:g}): not a "
+      "deviation of this device; check step 1, the model and the log (or state its tolerance "
+      "with --tolerance {}=...)",
+      run.name.at(worst), (run.p[worst] - start[worst]) * u.scale, u.unit, fit.most_moved_sds,
+      run.tolerance[worst] * u.scale, u.unit, kImplausiblePriorSds, run.name.at(worst));
+}
+
 void refuse_suspect(CalibrationResult& result, bool strict) {
   const SuspectFit& suspect = result.kinematics.suspect;
   if (!strict || !suspect.suspect || result.status != CalibrationStatus::kConverged) return;
@@ -210,6 +256,10 @@ void check_options(const CalibrationOptions& options) {
   }
   if (options.sigma && !(*options.sigma > 0 && std::isfinite(*options.sigma))) {
     throw InputError("--sigma must be a positive number of metres");
+  }
+  if (options.encoder_resolution &&
+      !(*options.encoder_resolution > 0 && *options.encoder_resolution <= 1)) {
+    throw InputError("--encoder-resolution must be a positive number of radians, at most 1");
   }
   if (options.keep_all && options.select) {
     throw InputError(
@@ -250,7 +300,9 @@ void prepare_poses(CalibrationRun& run) {
   fit.type = measurement_type(run.log);
   fit.poses = run.m;
   fit.rows = std::accumulate(run.repeats.begin(), run.repeats.end(), 0);
-  fit.repeatability = repeatability(run.log, run.result.poses, run.poses, RowsOf{fit.type});
+  fit.repeatability = encoders_only(run.log)
+                          ? std::numeric_limits<double>::quiet_NaN()
+                          : repeatability(run.log, run.result.poses, run.poses, RowsOf{fit.type});
   if (run.log.has_position && run.log.has_distance) {
     run.result.notes.push_back("the log has positions and distances: positions are used");
   }
@@ -544,8 +596,48 @@ void conclude(CalibrationRun& run) {
     nominal_in_frame.base = run.problem.model.base;
     fit.suspect = check_suspect(fit, run.problem, nominal_in_frame, run.poses, run.plain_weights);
   }
+  // A step-1 model that does not predict its encoder to the counts.
+  for (const TransmissionFit& t : result.transmissions) {
+    if (!t.flagged) continue;
+    fit.suspect.suspect = true;
+    fit.suspect.reasons.push_back(
+        step_one_flag_reason(t, run.model, *run.options.encoder_resolution));
+  }
   set_status(result, run.identified);
+  refuse_implausible(run);
   refuse_suspect(result, run.options.strict);
+}
+
+// A log of external encoders only: step 1 is the calibration. The kinematic
+// parameters stay the model's; usable when every transmission fit converged.
+CalibrationResult conclude_step_one(CalibrationRun& run) {
+  CalibrationResult& result = run.result;
+  result.step_one_only = true;
+  result.calibrated = run.model;
+  result.notes.insert(result.notes.begin(),
+                      "the log has external encoders and no measurements: step 1 "
+                      "(transmissions) alone; the kinematic parameters are the model's");
+  for (const TransmissionFit& t : result.transmissions) {
+    if (!t.converged || !t.value.allFinite() || !std::isfinite(t.rms_after)) {
+      result.status =
+          t.converged ? CalibrationStatus::kNumericalFailure : CalibrationStatus::kNotConverged;
+      result.status_reason =
+          fmt::format("step 1: the transmission fit of {} {}", run.model.links[t.joint].name,
+                      t.converged ? "is not finite" : "did not converge");
+      return std::move(result);
+    }
+  }
+  result.status_reason =
+      fmt::format("step 1 alone: {} transmission{} fitted", result.transmissions.size(),
+                  result.transmissions.size() == 1 ? "" : "s");
+  for (const TransmissionFit& t : result.transmissions) {
+    if (t.flagged && run.options.strict) {
+      result.status = CalibrationStatus::kSuspect;
+      result.status_reason = "suspect fit (--strict): " +
+                             step_one_flag_reason(t, run.model, *run.options.encoder_resolution);
+    }
+  }
+  return std::move(result);
 }
 
 }  // namespace
@@ -556,7 +648,8 @@ void conclude(CalibrationRun& run) {
 // information of the fit.
 CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options) {
-  check_log_fits(log, nominal);
+  const bool step_one_only = options.transmissions && encoders_only(log);
+  check_log_fits(log, nominal, !step_one_only);
   check_options(options);
   CalibrationRun run(nominal, log, options);
   check_joint_limits(log, nominal, options.force, run.result.notes);
@@ -565,6 +658,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   // Step 1: transmissions from the external encoders.
   run.model = nominal;
   run.result.transmissions = fit_transmissions(run.model, run.poses, options, run.result.notes);
+  if (step_one_only) return conclude_step_one(run);
   offer_instrument_zero(run);
   // Step 2: kinematic parameters from the compensated readings.
   build_problem(run);

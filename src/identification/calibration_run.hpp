@@ -52,6 +52,9 @@ struct CalibrationRun {
   Eigen::VectorXd tolerance;     // per slot: the prior's (infinite: free)
   Eigen::VectorXd prior_weight;  // per slot: sqrt(lambda) / tolerance; empty: no prior
   Eigen::VectorXd data_share;    // per slot, with the prior
+  // The tolerances' scale the evidence chose, whichever fit was kept (NaN: the
+  // prior was not fitted): the yardstick of the plausibility check.
+  double prior_scale = std::numeric_limits<double>::quiet_NaN();
 
   CalibrationRun(const DeviceModel& nominal_, const Log& log_, const CalibrationOptions& options_)
       : nominal(nominal_), log(log_), options(options_) {}

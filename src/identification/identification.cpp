@@ -215,6 +215,8 @@ const char* to_string(CalibrationStatus status) {
       return "suspect";
     case CalibrationStatus::kRankDeficient:
       return "rank-deficient";
+    case CalibrationStatus::kImplausible:
+      return "implausible";
   }
   return "unknown";
 }
@@ -303,6 +305,15 @@ void set_scales(KinematicProblem& problem) {
 
 }  // namespace
 
+std::string step_one_flag_reason(const TransmissionFit& fit, const DeviceModel& model,
+                                 double resolution) {
+  return fmt::format(
+      "step 1: {}'s {} predicts left-out samples of ext{} to {:.4f} mrad, {:.1f} counts of the "
+      "encoder's {:.4f} mrad (the limit is {:g}): the model does not capture this transmission",
+      model.links[fit.joint].name, fit.model_choice, fit.joint + 1, fit.held_out_rms * 1e3,
+      fit.held_out_rms / resolution, resolution * 1e3, kStepOneResolutionFactor);
+}
+
 std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& poses,
                                                const CalibrationOptions& options,
                                                std::vector<std::string>& notes) {
@@ -320,10 +331,30 @@ std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& po
     const bool declared = !model.links[j].transmission.is_none();
     Transmission fitted =
         fit_transmission(model, j, poses.q.col(j), poses.ext.col(j), options.polynomial_order, tf);
+    const std::string& name = model.links[j].name;
     if (!declared) {
       notes.push_back(fmt::format(
-          "{} has no transmission in the model: a polynomial of order {} was fitted to ext{}",
-          model.links[j].name, tf.value.size(), j + 1));
+          "{} has no transmission in the model: a polynomial of order {} was fitted to ext{}", name,
+          tf.value.size(), j + 1));
+    }
+    const int kept = static_cast<int>(tf.value.size());
+    if (tf.kind == TransmissionKind::kPolynomial && kept < tf.requested_order) {
+      const int supported = tf.n / kStepOneSamplesPerParameter - 1;
+      notes.push_back(fmt::format(
+          "{}: step 1 kept a polynomial of order {} (leave-one-out {:.4f} mrad), not {}: {}", name,
+          kept, tf.held_out_rms * 1e3, tf.requested_order,
+          supported < tf.requested_order
+              ? fmt::format("{} samples support order {} at most ({} a coefficient)", tf.n,
+                            supported, kStepOneSamplesPerParameter)
+              : std::string("the higher orders predicted left-out samples worse")));
+    } else if (tf.kind == TransmissionKind::kCapstan && tf.model_choice != "eccentric drums") {
+      notes.push_back(fmt::format("{}: step 1 kept the capstan with {} (leave-one-out {:.4f} mrad)",
+                                  name, tf.model_choice, tf.held_out_rms * 1e3));
+    }
+    if (options.encoder_resolution &&
+        tf.held_out_rms > kStepOneResolutionFactor * *options.encoder_resolution) {
+      tf.flagged = true;
+      notes.push_back(step_one_flag_reason(tf, model, *options.encoder_resolution));
     }
     if (!tf.converged) {
       notes.push_back(fmt::format("{}: the transmission fit did not converge: {}",

@@ -10,15 +10,22 @@
 
 namespace hapticcal {
 
-void check_log_fits(const Log& log, const DeviceModel& model) {
+bool encoders_only(const Log& log) {
+  const std::vector<MeasurementType> kinds = measurement_types();
+  return std::none_of(kinds.begin(), kinds.end(),
+                      [&](MeasurementType t) { return kind_of(t).in_log(log); }) &&
+         std::find(log.has_ext.begin(), log.has_ext.end(), true) != log.has_ext.end();
+}
+
+void check_log_fits(const Log& log, const DeviceModel& model, bool measurements) {
   if (log.dof() != model.dof()) {
     throw InputError(log.origin, 0, "",
                      fmt::format("the log has {} joint columns but the model '{}' has {} joints",
                                  log.dof(), model.name, model.dof()));
   }
   const std::vector<MeasurementType> kinds = measurement_types();
-  if (std::none_of(kinds.begin(), kinds.end(),
-                   [&](MeasurementType t) { return kind_of(t).in_log(log); })) {
+  if (measurements && std::none_of(kinds.begin(), kinds.end(),
+                                   [&](MeasurementType t) { return kind_of(t).in_log(log); })) {
     throw InputError(log.origin, 0, "",
                      "no measurements: the log has neither a distance, x, y, z, a point nor a "
                      "plane column");

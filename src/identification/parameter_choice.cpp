@@ -72,6 +72,7 @@ void apply_prior(CalibrationRun& run) {
   run.prior_weight = map->weight;
   run.data_share = map->data_share;
   prior = map->fit;
+  run.prior_scale = prior.scale;
   run.fit().rank_deficient = std::any_of(run.reason.begin(), run.reason.end(),
                                          [](const auto& r) { return unexcited(r.second); });
   std::vector<int> by_prior;
@@ -175,6 +176,7 @@ void choose_parameters(CalibrationRun& run) {
   }
   CalibrationRun prior = run;
   apply_prior(prior);
+  run.prior_scale = prior.prior_scale;
   if (!prior.fit().prior.used) {  // it says why in a note; least squares stays
     run.result.notes = prior.result.notes;
     fit.prior = prior.fit().prior;

@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/identification.hpp"
@@ -54,77 +56,216 @@ std::array<double, 6> capstan_start(const Capstan& c, const Eigen::VectorXd& q,
   return {Re, ro, bo, ri, bi, x[0] + x[3] + x[5]};
 }
 
-void fit_capstan(const Capstan& nominal, const Eigen::VectorXd& q, const Eigen::VectorXd& target,
-                 TransmissionFit& fit, Transmission& fitted) {
-  std::array<double, 6> p = capstan_start(nominal, q, target);
+// Leave-one-out RMS of a least-squares fit with design (or Jacobian) A and
+// residuals r (PRESS, Allen 1974): each sample's residual had it been left
+// out, r_i / (1 - h_ii), h_ii the leverage (the hat matrix's diagonal, from a
+// thin QR of A). For a nonlinear fit, the same at the solution (linearised).
+// Infinite where a sample alone fixes a parameter (h_ii = 1).
+double leave_one_out_rms(const Eigen::MatrixXd& A, const Eigen::VectorXd& r) {
+  const Eigen::Index n = A.rows(), p = A.cols();
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(A);
+  const Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(n, p);
+  double sum = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double h = Q.row(i).squaredNorm();
+    if (h > 1 - 1e-9) return INFINITY;
+    sum += std::pow(r[i] / (1 - h), 2);
+  }
+  return std::sqrt(sum / static_cast<double>(n));
+}
+
+// Generalised cross-validation (Golub, Heath & Wahba 1979): the leave-one-out
+// error with every sample at the mean leverage p / n, RMS(r) / (1 - p / n).
+// Step 1 chooses by it, not by PRESS: one sample of leverage near 1 (a reading
+// alone at the end of a joint's range) makes PRESS explode for every model
+// that can bend there, and the choice fall to an order that cannot follow the
+// transmission (a random 30-pose design: order 3 instead of 9, the calibrated
+// distances 2.5 times worse).
+double generalised_cv_rms(const Eigen::VectorXd& r, Eigen::Index parameters) {
+  const double n = static_cast<double>(r.size());
+  if (static_cast<double>(parameters) >= n) return INFINITY;
+  return std::sqrt(r.squaredNorm() / n) / (1 - static_cast<double>(parameters) / n);
+}
+
+// The most coefficients (the encoder zero c included) n samples support.
+int supported_parameters(int n) { return n / kStepOneSamplesPerParameter; }
+
+// A capstan's variants, from eq. (1) whole to the ratio error alone: which of
+// the eccentricities [ro, bo] (slots 1, 2) and [ri, bi] (3, 4) are kept.
+struct CapstanVariant {
+  const char* label;
+  bool outer, inner;
+};
+constexpr CapstanVariant kCapstanVariants[] = {{"eccentric drums", true, true},
+                                               {"eccentric output drum", true, false},
+                                               {"eccentric input drum", false, true},
+                                               {"ratio error only", false, false}};
+
+struct CapstanSolve {
+  std::array<double, 6> p{};
+  Eigen::VectorXd r;
+  Eigen::MatrixXd J;  // the kept parameters' columns
+  std::vector<int> kept;
+  bool converged = false;
+  std::string message;
+};
+
+CapstanSolve solve_capstan(const Capstan& nominal, const Eigen::VectorXd& q,
+                           const Eigen::VectorXd& target, const CapstanVariant& variant) {
+  CapstanSolve out;
+  out.p = capstan_start(nominal, q, target);
+  std::vector<int> held;
+  for (int k = 1; k <= 4; ++k) {
+    if (!(k <= 2 ? variant.outer : variant.inner)) held.push_back(k);
+  }
+  for (int k : held) out.p[k] = 0;
   auto* cost = new CapstanCost(nominal, q, target);
   ceres::Problem problem;
-  problem.AddResidualBlock(cost, nullptr, p.data());
+  problem.AddResidualBlock(cost, nullptr, out.p.data());
+  if (!held.empty()) problem.SetManifold(out.p.data(), new ceres::SubsetManifold(6, held));
   // Keep the eccentricities below the drum distance (eq. 1 needs |r| < D).
   for (int k : {1, 3}) {
-    problem.SetParameterLowerBound(p.data(), k, -0.99 * nominal.drum_distance);
-    problem.SetParameterUpperBound(p.data(), k, 0.99 * nominal.drum_distance);
+    problem.SetParameterLowerBound(out.p.data(), k, -0.99 * nominal.drum_distance);
+    problem.SetParameterUpperBound(out.p.data(), k, 0.99 * nominal.drum_distance);
   }
   ceres::Solver::Summary summary;
   ceres::Solve(detail::levenberg_marquardt(200), &problem, &summary);
-  fit.converged = summary.termination_type == ceres::CONVERGENCE;
-  fit.message = summary.message;
+  out.converged = summary.termination_type == ceres::CONVERGENCE;
+  out.message = summary.message;
   // A negative radius is the same drum with the phase turned by pi.
   for (int k : {1, 3}) {
-    if (p[k] < 0) {
-      p[k] = -p[k];
-      p[k + 1] += M_PI;
+    if (out.p[k] < 0) {
+      out.p[k] = -out.p[k];
+      out.p[k + 1] += M_PI;
     }
-    p[k + 1] = std::remainder(p[k + 1], 2 * M_PI);
+    out.p[k + 1] = std::remainder(out.p[k + 1], 2 * M_PI);
   }
-  const Capstan c = cost->with(p.data());
-  fitted = Transmission(c);
   const int n = static_cast<int>(q.size());
-  Eigen::VectorXd r(n);
+  out.r.resize(n);
   Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> Jr(n, 6);
   double* jacobian[] = {Jr.data()};
-  const double* params[] = {p.data()};
-  cost->Evaluate(params, r.data(), jacobian);
-  fit.value = Eigen::Map<const Eigen::VectorXd>(p.data(), 5);
-  fit.offset = p[5];
-  fit.rms_after = residual_rms(r);
-  const Eigen::VectorXd sd = standard_deviations(Jr, r.squaredNorm() / std::max(n - 6, 1));
-  fit.sd = sd.head(5);
-  fit.offset_sd = sd[5];
+  const double* params[] = {out.p.data()};
+  cost->Evaluate(params, out.r.data(), jacobian);
+  for (int k = 0; k < 6; ++k) {
+    if (std::find(held.begin(), held.end(), k) == held.end()) out.kept.push_back(k);
+  }
+  out.J.resize(n, static_cast<Eigen::Index>(out.kept.size()));
+  for (size_t c = 0; c < out.kept.size(); ++c)
+    out.J.col(static_cast<Eigen::Index>(c)) = Jr.col(out.kept[c]);
+  return out;
 }
 
-void fit_polynomial(int order, const Eigen::VectorXd& q, const Eigen::VectorXd& target,
+// Eq. (1) by Levenberg-Marquardt in each variant the samples support (at
+// least kStepOneSamplesPerParameter a parameter); the one of least
+// generalised cross-validation error is kept (the held eccentricities stay
+// zero, sd 0).
+void fit_capstan(const Capstan& nominal, const Eigen::VectorXd& q, const Eigen::VectorXd& target,
+                 TransmissionFit& fit, Transmission& fitted) {
+  const int n = static_cast<int>(q.size());
+  std::optional<CapstanSolve> best;
+  double best_gcv = INFINITY;
+  for (const CapstanVariant& variant : kCapstanVariants) {
+    const int parameters = 2 + 2 * variant.outer + 2 * variant.inner;
+    if (parameters > supported_parameters(n) && parameters > 2) continue;
+    CapstanSolve s = solve_capstan(nominal, q, target, variant);
+    const double loo = leave_one_out_rms(s.J, s.r);
+    const double gcv = generalised_cv_rms(s.r, parameters);
+    fit.candidates.push_back({variant.label, parameters, loo, gcv});
+    if (!best || gcv < best_gcv) {
+      best = std::move(s);
+      best_gcv = gcv;
+      fit.held_out_rms = loo;
+      fit.model_choice = variant.label;
+    }
+  }
+  const CapstanSolve& s = *best;
+  fit.converged = s.converged;
+  fit.message = s.message;
+  const Capstan c = CapstanCost(nominal, q, target).with(s.p.data());
+  fitted = Transmission(c);
+  fit.value = Eigen::Map<const Eigen::VectorXd>(s.p.data(), 5);
+  fit.offset = s.p[5];
+  fit.rms_after = residual_rms(s.r);
+  const Eigen::Index kept = s.J.cols();
+  const Eigen::VectorXd sd =
+      standard_deviations(s.J, s.r.squaredNorm() / std::max<double>(n - kept, 1));
+  Eigen::VectorXd all = Eigen::VectorXd::Zero(6);
+  for (Eigen::Index c = 0; c < kept; ++c) all[s.kept[c]] = sd[c];
+  fit.sd = all.head(5);
+  fit.offset_sd = all[5];
+}
+
+// The polynomial of each order from 1 to `order` the samples support (at least
+// kStepOneSamplesPerParameter a coefficient, c included), by linear least
+// squares in a Chebyshev basis on the sampled range; the order of least
+// generalised cross-validation error is kept. `exact` (--polynomial-order):
+// that order alone, refused if the samples do not support it.
+void fit_polynomial(int order, bool exact, const Eigen::VectorXd& q, const Eigen::VectorXd& target,
                     TransmissionFit& fit, Transmission& fitted) {
+  const int n = static_cast<int>(q.size());
+  const int top = std::min(order, supported_parameters(n) - 1);
+  if (exact && top < order) {
+    throw InputError(fmt::format(
+        "--polynomial-order {}: j{}'s {} samples support order {} at most (step 1 needs at least "
+        "{} samples a coefficient, the encoder zero counted)",
+        order, fit.joint + 1, n, std::max(top, 0), kStepOneSamplesPerParameter));
+  }
+  if (top < 1) {
+    throw InputError(fmt::format(
+        "j{}: {} samples support no polynomial (step 1 needs at least {} samples a coefficient, "
+        "the encoder zero counted: {} for order 1)",
+        fit.joint + 1, n, kStepOneSamplesPerParameter, 2 * kStepOneSamplesPerParameter));
+  }
   Polynomial poly;
   poly.basis = PolynomialBasis::kChebyshev;
   poly.lower = q.minCoeff();
   poly.upper = q.maxCoeff();
-  poly.coefficients.assign(order + 1, 0.0);
+  poly.coefficients.assign(top + 1, 0.0);
   const Transmission basis(poly);
-  const int n = static_cast<int>(q.size());
-  Eigen::MatrixXd A(n, order + 1);  // columns: c, then P_k(q) - P_k(0)
-  Eigen::VectorXd row(order);
+  Eigen::MatrixXd A(n, top + 1);  // columns: c, then P_k(q) - P_k(0)
+  Eigen::VectorXd row(top);
   for (int i = 0; i < n; ++i) {
     basis.parameter_jacobian(q[i], row.data());
     A(i, 0) = 1.0;
-    A.block(i, 1, 1, order) = row.transpose();
+    A.block(i, 1, 1, top) = row.transpose();
   }
-  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
-  if (qr.rank() < order + 1) {
-    throw InputError(fmt::format("j{}: {} distinct readings cannot fix a polynomial of order {}",
-                                 fit.joint + 1, qr.rank(), order));
+  int chosen = 0;
+  double best_gcv = INFINITY;
+  Eigen::VectorXd x;
+  for (int k = exact ? top : 1; k <= top; ++k) {
+    const auto Ak = A.leftCols(k + 1);
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Ak);
+    if (qr.rank() < k + 1) {
+      if (k == 1) {
+        throw InputError(fmt::format("j{}: {} distinct readings cannot fix a polynomial of order 1",
+                                     fit.joint + 1, qr.rank()));
+      }
+      break;  // the readings cannot fix more coefficients
+    }
+    const Eigen::VectorXd xk = qr.solve(target);
+    const Eigen::VectorXd rk = Ak * xk - target;
+    const double loo = leave_one_out_rms(Ak, rk), gcv = generalised_cv_rms(rk, k + 1);
+    fit.candidates.push_back({fmt::format("order {}", k), k + 1, loo, gcv});
+    if (chosen == 0 || gcv < best_gcv) {
+      chosen = k;
+      x = xk;
+      best_gcv = gcv;
+      fit.held_out_rms = loo;
+      fit.model_choice = fmt::format("order {}", k);
+    }
   }
-  const Eigen::VectorXd x = qr.solve(target);
-  const Eigen::VectorXd r = A * x - target;
+  const auto Ac = A.leftCols(chosen + 1);
+  const Eigen::VectorXd r = Ac * x - target;
   fit.converged = true;
   fit.message = "linear least squares";
   fit.offset = x[0];
-  fit.value = x.tail(order);
+  fit.value = x.tail(chosen);
   fit.rms_after = residual_rms(r);
-  const Eigen::VectorXd sd = standard_deviations(A, r.squaredNorm() / std::max(n - order - 1, 1));
+  const Eigen::VectorXd sd = standard_deviations(Ac, r.squaredNorm() / std::max(n - chosen - 1, 1));
   fit.offset_sd = sd[0];
-  fit.sd = sd.tail(order);
-  for (int k = 1; k <= order; ++k) poly.coefficients[k] = x[k];
+  fit.sd = sd.tail(chosen);
+  poly.coefficients.assign(chosen + 1, 0.0);
+  for (int k = 1; k <= chosen; ++k) poly.coefficients[k] = x[k];
   fitted = Transmission(poly);
   fit.monomial = monomial_coefficients(poly);
 }
@@ -160,9 +301,10 @@ Transmission fit_transmission(const DeviceModel& model, int joint, const Eigen::
     const int n = order ? *order : (p ? p->order() : 10);
     if (n < 1 || n > 30) throw InputError(fmt::format("polynomial order {} (use 1 to 30)", n));
     fit.kind = TransmissionKind::kPolynomial;
-    fit.nominal = Eigen::VectorXd::Zero(n);
-    if (p && p->order() == n) fit.nominal = link.transmission.parameters();
-    fit_polynomial(n, q, target, fit, fitted);
+    fit.requested_order = n;
+    fit_polynomial(n, order.has_value(), q, target, fit, fitted);
+    fit.nominal = Eigen::VectorXd::Zero(fit.value.size());
+    if (p && p->order() == fit.value.size()) fit.nominal = link.transmission.parameters();
   } else {
     throw InputError(
         fmt::format("{}: a {} transmission cannot be identified (only one parallelogram length is, "

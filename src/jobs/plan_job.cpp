@@ -154,7 +154,9 @@ PlanJob run_plan_job(const PlanRequest& request, const std::string& out,
   PlanSetup& setup = job.setup;
   job.out = std::make_unique<OutputSet>(out, "plan");
   if (progress) setup.options.progress = progress;
-  job.problem = std::make_unique<PlanProblem>(setup.model, setup.type, setup.sigma, setup.sigma_e,
+  // The transmissions step 1 can fit from the planned poses.
+  job.problem = std::make_unique<PlanProblem>(step_one_model(setup.model, request.poses),
+                                              setup.type, setup.sigma, setup.sigma_e,
                                               setup.analysis, setup.fix, setup.free);
   if (started) started(setup, *job.problem);
   job.plan = plan_poses(*job.problem, setup.options);

@@ -50,9 +50,10 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
     for (const TransmissionFit& t : r.transmissions) {
       const std::string& link = nominal.links[t.joint].name;
       out.push_back(fmt::format(
-          "  {} {} ({} samples): RMS of ext - q - c {:.4f} mrad before, {:.4f} mrad after{}", link,
-          to_string(t.kind), t.n, t.rms_before * 1e3, t.rms_after * 1e3,
-          t.converged ? "" : " (did not converge)"));
+          "  {} {} ({} samples): RMS of ext - q - c {:.4f} mrad before, {:.4f} mrad after, {:.4f} "
+          "mrad on left-out samples ({}){}{}",
+          link, to_string(t.kind), t.n, t.rms_before * 1e3, t.rms_after * 1e3, t.held_out_rms * 1e3,
+          t.model_choice, t.flagged ? " FLAGGED" : "", t.converged ? "" : " (did not converge)"));
       if (t.kind == TransmissionKind::kCapstan) {
         const char* labels[] = {"Re", "ro", "bo", "ri", "bi"};
         for (int k = 0; k < 5; ++k) {
@@ -70,6 +71,10 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
       out.push_back(fmt::format("    c (encoder zero, nuisance) {:.6f} +- {:.6f} mrad",
                                 t.offset * 1e3, t.offset_sd * 1e3));
     }
+  }
+  if (r.step_one_only) {
+    for (const std::string& note : r.notes) out.push_back("note: " + note);
+    return out;
   }
   const KinematicFit& k = r.kinematics;
   out.push_back(fmt::format("Step 2: kinematic parameters from {} ({} rows) (paper Table 5)",
@@ -117,6 +122,12 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
         k.prior.effective_parameters, k.prior.fitted));
   } else if (!k.selection_note.empty()) {
     out.push_back(fmt::format("  model selection: {}", k.selection_note));
+  }
+  if (!k.most_moved.empty()) {
+    out.push_back(fmt::format(
+        "  plausibility: the link parameter that moved most (the first joint's and the last's "
+        "aside while the base and the tool are free) is {}, {:.1f} tolerances (limit {:g})",
+        k.most_moved, k.most_moved_sds, kImplausiblePriorSds));
   }
   if (!k.choice.empty()) {
     out.push_back(

@@ -143,18 +143,8 @@ std::string outlier_table(const RobustFit& robust) {
          html_table({"log lines", "residual [mm]", "residual [robust sd]", "weight [1]"}, rows);
 }
 
-// The outcome first, with what the terminal prints: status, RMS before and
-// after, held-out error, solver, step 1, notes and warnings.
-Outcome calibration_outcome(const CalibrationResult& result, const DeviceModel& nominal) {
-  const KinematicFit& k = result.kinematics;
-  const bool usable = result.status == CalibrationStatus::kConverged;
-  Outcome o;
-  o.usable = usable;
-  o.status = fmt::format("{} ({}){}", to_string(result.status), result.status_reason,
-                         usable ? ""
-                                : ": this calibration is not usable; no new calibrated.yaml was "
-                                  "written");
-  const std::string measured = traits(k.type).name;
+// The kinematic fit's lines of the outcome box.
+void kinematic_headlines(const KinematicFit& k, const std::string& measured, Outcome& o) {
   o.headline.push_back(fmt::format("RMS {} error: {:.4f} mm before, {:.4f} mm after (training)",
                                    measured, k.rms_before * 1e3, k.rms_after * 1e3));
   o.headline.push_back(
@@ -172,11 +162,31 @@ Outcome calibration_outcome(const CalibrationResult& result, const DeviceModel& 
           : "",
       k.condition_number, k.sigma * 1e3, k.sigma_given ? "given" : "residual estimate",
       k.converged ? "converged" : "NOT converged", k.iterations));
+}
+
+// The outcome first, with what the terminal prints: status, RMS before and
+// after, held-out error, solver, step 1, notes and warnings.
+Outcome calibration_outcome(const CalibrationResult& result, const DeviceModel& nominal) {
+  const KinematicFit& k = result.kinematics;
+  const bool usable = result.status == CalibrationStatus::kConverged;
+  Outcome o;
+  o.usable = usable;
+  o.status = fmt::format("{} ({}){}", to_string(result.status), result.status_reason,
+                         usable ? ""
+                                : ": this calibration is not usable; no new calibrated.yaml was "
+                                  "written");
+  const std::string measured = traits(k.type).name;
+  if (result.step_one_only) {
+    o.headline.push_back("step 1 alone: the log has external encoders and no measurements");
+  } else {
+    kinematic_headlines(k, measured, o);
+  }
   for (const TransmissionFit& t : result.transmissions) {
     o.headline.push_back(fmt::format(
-        "step 1, {} {} ({} samples): RMS of ext - q - c {:.4f} mrad before, {:.4f} mrad after{}; "
-        "encoder zero c {:.6f} +- {:.6f} mrad",
-        nominal.links[t.joint].name, to_string(t.kind), t.n, t.rms_before * 1e3, t.rms_after * 1e3,
+        "step 1, {} {} ({} samples, {}): RMS of ext - q - c {:.4f} mrad before, {:.4f} mrad "
+        "after, {:.4f} mrad on left-out samples{}{}; encoder zero c {:.6f} +- {:.6f} mrad",
+        nominal.links[t.joint].name, to_string(t.kind), t.n, t.model_choice, t.rms_before * 1e3,
+        t.rms_after * 1e3, t.held_out_rms * 1e3, t.flagged ? " (FLAGGED)" : "",
         t.converged ? "" : " (did not converge)", t.offset * 1e3, t.offset_sd * 1e3));
   }
   for (const ParameterEstimate& e : k.parameters) {
@@ -248,6 +258,28 @@ FigureSpec errors_per_sample(const KinematicFit& k, const Log& log, const Evalua
   return residuals;
 }
 
+// The summary as the terminal printed it (calibration_lines), folded.
+std::string terminal_section(const CalibrationResult& result, const DeviceModel& nominal) {
+  std::string terminal;
+  for (const std::string& line : calibration_lines(result, nominal)) terminal += line + "\n";
+  return "<details><summary>The summary as the terminal printed it</summary>\n<pre>" +
+         html_escape(terminal) + "</pre></details>\n";
+}
+
+// A log of external encoders only: step 1's tables and figures.
+void step_one_report(const CalibrationResult& result, const DeviceModel& nominal, const Log& log,
+                     Report& report) {
+  transmission_section(result, nominal, report);
+  std::vector<int> plotted_rows;
+  const size_t stride = detail::plot_stride(result.rows.size());
+  for (size_t i = 0; i < result.rows.size(); i += stride) plotted_rows.push_back(result.rows[i]);
+  for (const TransmissionFit& t : result.transmissions) {
+    transmission_figures(t, nominal.links[t.joint].name, log, plotted_rows,
+                         result.calibrated.links[t.joint].transmission, nullptr, report.figures);
+  }
+  report.sections.push_back(terminal_section(result, nominal));
+}
+
 }  // namespace
 
 Report calibration_report(const CalibrationResult& result, const DeviceModel& nominal,
@@ -258,6 +290,10 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   report.title =
       fmt::format("hapticcal calibrate: {} on {}", nominal.name, detail::display_path(log.origin));
   report.outcome = calibration_outcome(result, nominal);
+  if (result.step_one_only) {
+    step_one_report(result, nominal, log, report);
+    return report;
+  }
   const std::string repeats =
       k.rows > k.poses ? fmt::format(" ({} poses, repeats averaged; repeatability {:.4f} mm RMS)",
                                      k.poses, k.repeatability * 1e3)
@@ -292,11 +328,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   report.figures.push_back(errors_per_sample(k, log, before, after));
   if (k.correlation.size() > 0) report.figures.push_back(detail::correlation_figure(k));
   // The summary the terminal printed, from the same function (calibration_lines).
-  std::string terminal;
-  for (const std::string& line : calibration_lines(result, nominal)) terminal += line + "\n";
-  report.sections.push_back(
-      "<details><summary>The summary as the terminal printed it</summary>\n<pre>" +
-      html_escape(terminal) + "</pre></details>\n");
+  report.sections.push_back(terminal_section(result, nominal));
   return report;
 }
 

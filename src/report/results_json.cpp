@@ -124,7 +124,8 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
   j["model"] = model_path;
   j["log"] = log_path;
   j["device"] = nominal.name;
-  j["measurement"] = traits(k.type).name;
+  j["step_one_only"] = result.step_one_only;
+  j["measurement"] = result.step_one_only ? json(nullptr) : json(traits(k.type).name);
   if (traits(k.type).rotation) j["rotation_scale"] = k.rotation_scale;
   j["frame_registered"] = k.frame_registered;
   j["rows_used"] = k.rows;
@@ -153,6 +154,11 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
                   {"nominal_base_fitted_rms", number_or_null(suspect.nominal_base_fitted_rms)},
                   {"cv_ratio", number_or_null(suspect.cv_ratio)},
                   {"strict", options.strict}};
+  // The default's plausibility check (README "Step 2's plausibility check").
+  j["plausibility"] = k.most_moved.empty() ? json(nullptr)
+                                           : json{{"most_moved", k.most_moved},
+                                                  {"tolerances", k.most_moved_sds},
+                                                  {"limit", kImplausiblePriorSds}};
   j["condition_number"] = number_or_null(k.condition_number);
   j["observability"] = {{"O1", k.observability.O1},
                         {"O2", k.observability.O2},
@@ -199,8 +205,20 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
             {"rms_before", t.rms_before},
             {"rms_after", t.rms_after},
             {"offset", {{"value", t.offset}, {"sd", number_or_null(t.offset_sd)}}},
+            {"held_out_rms", number_or_null(t.held_out_rms)},
+            {"model_choice", t.model_choice},
+            {"flagged", t.flagged},
             {"converged", t.converged},
             {"message", t.message}};
+    if (t.requested_order > 0) tj["requested_order"] = t.requested_order;
+    json candidates = json::array();
+    for (const StepOneCandidate& c : t.candidates) {
+      candidates.push_back({{"model", c.label},
+                            {"parameters", c.parameters},
+                            {"held_out_rms", number_or_null(c.held_out_rms)},
+                            {"gcv_rms", number_or_null(c.gcv_rms)}});
+    }
+    tj["candidates"] = candidates;
     if (!t.monomial.empty()) tj["monomial_coefficients"] = t.monomial;
     transmissions.push_back(tj);
   }

@@ -74,6 +74,13 @@ struct PlanConstraints {
 };
 
 // The linearised two-step problem of a model and a kind of measurement.
+// The model step 1 can fit from `samples` poses: each polynomial transmission's
+// order capped at what they support (samples / kStepOneSamplesPerParameter - 1,
+// at least 1; its higher coefficients dropped), so that a plan of that many poses
+// predicts the calibration it will get. Capstans are kept whole (6 parameters
+// need 18 samples; a plan below that predicts the whole model).
+DeviceModel step_one_model(DeviceModel model, int samples);
+
 class PlanProblem {
  public:
   // `analysis`: readings (poses x dof) on which the kinematic parameters' identifiability

@@ -28,9 +28,34 @@ enum class CalibrationStatus {
   kNumericalFailure,  // a non-finite residual, parameter or standard deviation
   kRankDeficient,     // the data leave identifiable parameters unexcited
   kSuspect,           // converged, but the fit is suspect and --strict refuses it
+  // converged, but a link parameter moved beyond kImplausiblePriorSds of its
+  // tolerances: not a deviation of this device (a wrong step 1, model or log)
+  kImplausible,
 };
-// "converged", "not converged", "numerical failure", "rank-deficient", "suspect".
+// "converged", "not converged", "numerical failure", "rank-deficient", "suspect",
+// "implausible".
 const char* to_string(CalibrationStatus status);
+
+// Step 1 cannot overfit (README "Step 1"): a model is fitted only with at least
+// this many samples a parameter (the encoder zero c counted), and among the
+// models the samples support (polynomials of order 1 up to the model's; a
+// capstan with both, one or no eccentric drum) the one of least generalised
+// cross-validation error is kept; its leave-one-out error is reported.
+constexpr int kStepOneSamplesPerParameter = 3;
+// A fit whose leave-one-out RMS exceeds this many times the external encoder's
+// resolution (CalibrationOptions::encoder_resolution) is flagged: the model
+// does not predict the transmission to the encoder's counts.
+constexpr double kStepOneResolutionFactor = 2;
+
+// One model step 1 compared: its label ("order 3", "eccentric drums"), its
+// parameters (c counted), its leave-one-out RMS (PRESS) and its generalised
+// cross-validation RMS (the choice's criterion) [rad].
+struct StepOneCandidate {
+  std::string label;
+  int parameters = 0;
+  double held_out_rms = 0;
+  double gcv_rms = 0;
+};
 
 // Step 1 for one joint: ext - q = c + dtheta(q).
 struct TransmissionFit {
@@ -42,6 +67,15 @@ struct TransmissionFit {
   double offset = 0, offset_sd = 0;  // c, the external encoder's zero (nuisance)
   double rms_before = 0;             // RMS of ext - q - c: the error left by an ideal model
   double rms_after = 0;              // RMS of the fit residual
+  // Leave-one-out RMS [rad] of the model kept (PRESS; for a capstan,
+  // linearised at its fit), the models compared and the one kept; a
+  // polynomial's largest order allowed (the model's or --polynomial-order).
+  double held_out_rms = std::numeric_limits<double>::quiet_NaN();
+  std::vector<StepOneCandidate> candidates;
+  std::string model_choice;
+  int requested_order = 0;
+  // held_out_rms > kStepOneResolutionFactor x the encoder's resolution.
+  bool flagged = false;
   bool converged = true;
   std::string message;
   std::vector<double> monomial;  // polynomial: k_0..k_n in q (derived view)
@@ -88,6 +122,13 @@ struct ParameterEstimate {
   // for a link.
   bool large_change = false;
 };
+
+// A link parameter whose change from nominal exceeds this many sds of its
+// stated prior (its tolerance, Tolerances) makes the default's result unusable
+// (CalibrationStatus::kImplausible). Not checked: parameters of the first joint
+// while the base is free and of the last while the tool is (they trade with the
+// set-up: README "Step 2's plausibility check").
+constexpr double kImplausiblePriorSds = 10;
 
 // Bounds beyond which a parameter's change is flagged (ParameterEstimate::large_change).
 constexpr double kLargeChangeLength = 0.02;  // m
@@ -221,6 +262,11 @@ struct KinematicFit {
   RobustFit robust;         // the outlier test and reweighting
   SuspectFit suspect;       // whether the fit should be trusted
   PriorFit prior;           // the tolerance prior (the default)
+  // The plausibility check (kImplausiblePriorSds; the default only): the link
+  // parameter not next to the set-up that moved most, in its tolerances ("":
+  // not checked).
+  std::string most_moved;
+  double most_moved_sds = 0;
   // What the default kept by its cross-validated RMS: "tolerance prior",
   // "significance cut" or "least squares"; "" when not compared (an option
   // chose, or nothing could be cross-validated).
@@ -252,13 +298,19 @@ struct Tolerances {
 void add_tolerance(Tolerances& tolerances, const std::string& item);
 
 struct CalibrationOptions {
-  bool transmissions = true;            // false: the paper's kinematic-only calibration
-  int samples = 0;                      // 0: every row
-  std::uint64_t seed = 1;               // for samples
-  std::optional<double> sigma;          // measurement noise sd [m]
-  std::optional<int> polynomial_order;  // overrides the device file's
-  std::vector<std::string> fix, free;   // kinematic parameters by dotted name
-  double dependency_tolerance = 1e-6;   // relative residual of a column: "dependent"
+  bool transmissions = true;    // false: the paper's kinematic-only calibration
+  int samples = 0;              // 0: every row
+  std::uint64_t seed = 1;       // for samples
+  std::optional<double> sigma;  // measurement noise sd [m]
+  // The polynomial order of step 1, exactly (refused where the samples do not
+  // support it); none: the order of least generalised cross-validation error up
+  // to the device file's (10 where it has none).
+  std::optional<int> polynomial_order;
+  // The external encoders' resolution [rad] (one count): step 1 fits whose
+  // leave-one-out error exceeds kStepOneResolutionFactor counts are flagged.
+  std::optional<double> encoder_resolution;
+  std::vector<std::string> fix, free;  // kinematic parameters by dotted name
+  double dependency_tolerance = 1e-6;  // relative residual of a column: "dependent"
   // Plausibility checks that refuse a log (readings outside the joint limits,
   // a nominal error beyond kImplausibleErrorFraction of the reach) only warn.
   bool force = false;
@@ -312,6 +364,9 @@ struct CalibrationResult {
   std::vector<int> rows;                // log rows used, zero-based: the first row of each pose
   std::vector<std::vector<int>> poses;  // every row of each pose used
   std::vector<std::string> notes;       // things a user should know (one sentence each)
+  // The log had external encoders and no measurements: step 1 alone ran, and
+  // `kinematics` is empty (the calibrated model keeps the kinematic parameters).
+  bool step_one_only = false;
 };
 
 // The stages of calibrate, callable one by one.
@@ -323,6 +378,10 @@ struct CalibrationResult {
 std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& poses,
                                                const CalibrationOptions& options,
                                                std::vector<std::string>& notes);
+
+// Why a step-1 fit is flagged (TransmissionFit::flagged), one sentence.
+std::string step_one_flag_reason(const TransmissionFit& fit, const DeviceModel& model,
+                                 double resolution);
 
 // Step 2's data: the poses' compensated joint values and measured values (the
 // family's width a pose, measurement.hpp), weighted by their repeat counts.
@@ -481,8 +540,9 @@ SuspectFit check_suspect(const KinematicFit& fit, const KinematicProblem& proble
 CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options);
 
-// Step 1 for one joint from its readings and external encoder. `order` overrides
-// the polynomial order. Returns the fitted transmission (without c).
+// Step 1 for one joint from its readings and external encoder. `order` sets
+// the polynomial order (else it is chosen up to the model's). Returns the
+// fitted transmission (without c).
 Transmission fit_transmission(const DeviceModel& model, int joint, const Eigen::VectorXd& q,
                               const Eigen::VectorXd& ext, std::optional<int> order,
                               TransmissionFit& fit);

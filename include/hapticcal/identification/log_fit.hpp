@@ -9,6 +9,12 @@ namespace hapticcal {
 // Throws InputError unless the log's joint count is the model's, it holds
 // distances, positions or fixture labels to compare the model with, and each
 // joint reading's unit (an angle or a length) fits its joint's type.
-void check_log_fits(const Log& log, const DeviceModel& model);
+// With `measurements` false a log without them passes (calibrate's step 1
+// alone, on a log of external encoders).
+void check_log_fits(const Log& log, const DeviceModel& model, bool measurements = true);
+
+// A log of readings and external encoders with nothing measured: calibrate
+// runs step 1 alone on it.
+bool encoders_only(const Log& log);
 
 }  // namespace hapticcal
