@@ -165,7 +165,8 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
                       const std::string& loss, bool strict, const Text& tip_arg,
                       const Text& root_arg, const Text& out_arg, bool select,
                       const std::optional<Names>& tolerance, std::optional<double> prior_scale,
-                      std::optional<double> encoder_resolution) {
+                      std::optional<double> encoder_resolution,
+                      const std::optional<Names>& joint_errors) {
   // The command line's job (jobs/calibrate_job.hpp), from keywords.
   CalibrateRequest request;
   request.tip = text(tip_arg);
@@ -191,6 +192,7 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
   if (sigma && *sigma > 0) options.sigma = sigma;
   if (polynomial_order && *polynomial_order > 0) options.polynomial_order = polynomial_order;
   options.encoder_resolution = encoder_resolution;
+  options.joint_errors = names(joint_errors);
   options.dependency_tolerance = dependency_tolerance;
   options.keep_all = keep_all;
   options.select = select;
@@ -475,7 +477,7 @@ PYBIND11_MODULE(hapticcal, m) {
         "polynomial_order"_a = py::none(), "dependency_tolerance"_a = 1e-6, "loss"_a = "cauchy",
         "strict"_a = false, "tip"_a = py::none(), "root"_a = py::none(), "out"_a = py::none(),
         "select"_a = false, "tolerance"_a = py::none(), "prior_scale"_a = py::none(),
-        "encoder_resolution"_a = py::none(),
+        "encoder_resolution"_a = py::none(), "joint_errors"_a = py::none(),
         "hapticcal calibrate: the two-step identification of a log. Does not raise when the "
         "calibration is not usable (the command line's exit 3): .usable is False, .model None.");
   m.def("evaluate", &evaluate, "model"_a, "log"_a, py::kw_only(), "columns"_a = py::none(),

@@ -202,6 +202,69 @@ TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForEveryMeasurementTy
   }
 }
 
+// Step 2's joint-error stages (issue 25): each turning joint's angle moved by
+// harmonics of itself (frequencies 1, 2 and a motor's 10, 20) with random
+// coefficients of up to 5 mrad; the cost's Jacobian, the stage parameters'
+// columns included, against central differences, on every device and kind.
+TEST(CostJacobian, JointErrorStagesMatchCentralDifferences) {
+  std::mt19937_64 rng(20261202);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  int stages = 0;
+  for (const auto& [label, file_model] : devices()) {
+    for (const MeasurementType type : kTypes) {
+      SCOPED_TRACE(label + " " + traits(type).name);
+      DeviceModel model = perturbed(file_model, rng);
+      model.joint_errors.assign(model.dof(), Transmission());
+      for (int i = 0; i < model.dof(); ++i) {
+        if (model.links[i].prismatic()) continue;
+        Harmonic h;
+        h.frequencies = {1, 2, 10, 20};
+        for (int k = 0; k < 8; ++k) h.coefficients.push_back(5e-3 * unit(rng));
+        model.joint_errors[i] = Transmission(h);
+      }
+      const std::vector<JointErrorStage> errors = joint_error_stages(model);
+      stages += static_cast<int>(errors.size());
+      const detail::RowsOf kind{type, 0.3, nullptr, &errors};
+      const ChainStructure s = model.structure();
+      const Eigen::VectorXd params = model.kinematic_parameters();
+      ASSERT_EQ(s.errors, 8 * static_cast<int>(errors.size()));
+      const int poses = 20;
+      std::vector<Eigen::VectorXd> joints;
+      detail::RowMatrix measured(poses, traits(type).width);
+      for (int i = 0; i < poses; ++i) {
+        joints.push_back(random_readings(model, rng));
+        measure(type, forward_kinematics(s, params.data(), joints[i].data()), rng,
+                measured.row(i).data());
+      }
+      const detail::MeasurementCost cost(s, joints, kind, measured);
+      std::vector<std::string> names(s.num_slots());
+      for (const ParameterInfo& info : model.parameter_info()) names[info.slot] = info.name;
+      const DerivativeCheck c =
+          check_cost_jacobian(cost, params, Eigen::VectorXd::Constant(params.size(), 1e-6), names);
+      EXPECT_LT(c.max_error, 1e-7) << c.worst;
+      // The moved angle is the folded transmission's: a device whose links carry
+      // the stages as transmissions predicts the same rows without them.
+      DeviceModel folded = model;
+      for (int i = 0; i < model.dof(); ++i) {
+        if (!model.joint_errors[i].is_none()) folded.links[i].transmission = model.joint_errors[i];
+      }
+      folded.joint_errors.clear();
+      const Eigen::VectorXd r = evaluate_cost(cost, params).r;
+      const ChainStructure fs = folded.structure();
+      const Eigen::VectorXd fp = folded.kinematic_parameters();
+      for (int i = 0; i < poses; ++i) {
+        const Eigen::VectorXd moved = folded.compensate(joints[i]);
+        Eigen::MatrixXd J(kind.dimension(), fs.num_slots());
+        Eigen::VectorXd ri(kind.dimension());
+        detail::measurement_rows(fs, chain_constants(fs, fp.data()), fp.data(), moved.data(),
+                                 detail::RowsOf{type, 0.3}, measured.row(i).data(), ri.data(), J);
+        EXPECT_LT((ri - r.segment(i * kind.dimension(), kind.dimension())).norm(), 1e-12) << i;
+      }
+    }
+  }
+  EXPECT_GE(stages, 30);
+}
+
 // The standard deviations fit_transmission reports for a capstan (s^2 (J^T J)^-1
 // with the analytic Jacobian) are what the estimates actually scatter by: over
 // 500 seeded simulations of the paper's capstans 1-3 (Table 2, R = 10, D = 5 mm)

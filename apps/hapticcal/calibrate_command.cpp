@@ -47,6 +47,11 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
                    "samples worse than 2 counts is flagged (suspect)")
       ->check(within(1e-12, 1, "rad"));
   calibrate->add_option("--fix", o.fix, "Kinematic parameters held at nominal, e.g. j1.a,j2.d");
+  calibrate->add_option(
+      "--joint-errors", o.joint_errors,
+      "Joint-error families fitted with the geometry: harmonic (first and second harmonic of each "
+      "joint's angle, and of its motor's through a capstan); the calibration without them is run "
+      "for comparison");
   calibrate->add_option("--free", o.free,
                         "Parameters added to the candidates, e.g. j2.beta (a beta is one by "
                         "default only where neighbouring joint axes are parallel)");
@@ -128,6 +133,7 @@ int run_calibrate(const CalibrateOptions& o) {
   options.loss = hapticcal::robust_loss(o.loss);
   options.strict = o.strict;
   options.fix = names(o.fix);
+  options.joint_errors = names(o.joint_errors);
   options.free = names(o.free);
   const hapticcal::CalibrateJob job = hapticcal::run_calibrate_job(request);
   for (const std::string& line : job.lines) fmt::print("{}\n", line);

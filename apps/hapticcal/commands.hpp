@@ -18,7 +18,7 @@ namespace hapticcal::cli {
 struct CalibrateOptions {
   std::string fixture;
   std::vector<std::string> point_distance;
-  std::string model, log, columns, out = "hapticcal-out/calibrate", fix, free;
+  std::string model, log, columns, out = "hapticcal-out/calibrate", fix, free, joint_errors;
   ChainOptions chain;
   bool no_transmission = false, force = false, keep_all = false, select = false, strict = false;
   std::vector<std::string> tolerances;  // NAME=SD

@@ -2,6 +2,7 @@
 // and the fit's statistics, composed of the public stages.
 #include <ceres/ceres.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -33,12 +34,17 @@ using detail::CalibrationRun;
 using detail::check_encoder_readings;
 using detail::check_joint_limits;
 using detail::check_reach;
+using detail::compare_without_joint_errors;
+using detail::conclude_step_one;
+using detail::fold_joint_errors;
 using detail::kFixtureIterations;
 using detail::kIterations;
 using detail::measurement_cost;
 using detail::measurement_rms;
 using detail::names_of;
+using detail::offer_joint_errors;
 using detail::position_rss;
+using detail::refuse_implausible;
 using detail::residuals_at;
 using detail::rows_of;
 using detail::RowsOf;
@@ -176,52 +182,6 @@ void name_outliers(RobustFit& robust, const Log& log, const std::vector<std::vec
 }
 
 // --strict: a suspect fit is unusable.
-// Whether link parameter `slot` trades with the set-up (README "Step 2's
-// plausibility check"): a parameter of the first joint while the base is free,
-// of the last while the tool is (the frame's and the marker's neighbours).
-bool next_to_setup(const CalibrationRun& run, const ParameterInfo& info) {
-  const auto free_in = [&](int joint) {
-    for (int slot : run.identified) {
-      if (run.model.parameter_info()[slot].joint == joint) return true;
-    }
-    return false;
-  };
-  return (info.joint == 0 && free_in(-1)) ||
-         (info.joint == run.model.dof() - 1 && free_in(run.model.dof()));
-}
-
-// The default's plausibility check: a converged fit whose link parameter (not
-// next to the set-up) moved beyond kImplausiblePriorSds sds of its stated prior
-// (its tolerance) is unusable; the worst such parameter is the reason.
-void refuse_implausible(CalibrationRun& run) {
-  CalibrationResult& result = run.result;
-  KinematicFit& fit = run.fit();
-  if (!std::isfinite(run.prior_scale)) return;  // no prior: --keep-all, --select
-  const Eigen::VectorXd start = run.step2_nominal.kinematic_parameters();
-  const std::vector<ParameterInfo> info = run.model.parameter_info();
-  int worst = -1;
-  fit.most_moved_sds = 0;
-  for (int slot : run.identified) {
-    if (!std::isfinite(run.tolerance[slot]) || next_to_setup(run, info[slot])) continue;
-    const double sds = std::abs(run.p[slot] - start[slot]) / run.tolerance[slot];
-    if (sds > fit.most_moved_sds) {
-      worst = slot;
-      fit.most_moved_sds = sds;
-    }
-  }
-  if (worst >= 0) fit.most_moved = run.name.at(worst);
-  if (result.status != CalibrationStatus::kConverged || fit.most_moved_sds <= kImplausiblePriorSds)
-    return;
-  const DisplayUnit u = display_unit(info[worst].unit);
-  result.status = CalibrationStatus::kImplausible;
-  result.status_reason = fmt::format(
-      "{} moved {:.4g} {}, {:.0f} times its tolerance {:.4g} {} (the limit is {:g}): not a "
-      "deviation of this device; check step 1, the model and the log (or state its tolerance "
-      "with --tolerance {}=...)",
-      run.name.at(worst), (run.p[worst] - start[worst]) * u.scale, u.unit, fit.most_moved_sds,
-      run.tolerance[worst] * u.scale, u.unit, kImplausiblePriorSds, run.name.at(worst));
-}
-
 void refuse_suspect(CalibrationResult& result, bool strict) {
   const SuspectFit& suspect = result.kinematics.suspect;
   if (!strict || !suspect.suspect || result.status != CalibrationStatus::kConverged) return;
@@ -260,6 +220,12 @@ void check_options(const CalibrationOptions& options) {
   if (options.encoder_resolution &&
       !(*options.encoder_resolution > 0 && *options.encoder_resolution <= 1)) {
     throw InputError("--encoder-resolution must be a positive number of radians, at most 1");
+  }
+  for (const std::string& family : options.joint_errors) {
+    if (family != "harmonic") {
+      throw InputError(fmt::format("--joint-errors: '{}' is not a joint-error family (harmonic)",
+                                   printable(family)));
+    }
   }
   if (options.keep_all && options.select) {
     throw InputError(
@@ -586,10 +552,13 @@ void conclude(CalibrationRun& run) {
         "identify; see the parameters marked 'not excited'");
   }
   if (model.instrument_zero) {
-    const ParameterEstimate& zero = fit.parameters.back();
+    const ParameterEstimate& zero =
+        *std::find_if(fit.parameters.begin(), fit.parameters.end(),
+                      [](const ParameterEstimate& e) { return e.name == "instrument.zero"; });
     if (zero.identifiable) result.notes.push_back(instrument_zero_note(zero));
     model.instrument_zero.reset();
   }
+  fold_joint_errors(model);
   result.calibrated = model;
   if (fit.converged) {
     DeviceModel nominal_in_frame = run.step2_nominal;
@@ -606,38 +575,6 @@ void conclude(CalibrationRun& run) {
   set_status(result, run.identified);
   refuse_implausible(run);
   refuse_suspect(result, run.options.strict);
-}
-
-// A log of external encoders only: step 1 is the calibration. The kinematic
-// parameters stay the model's; usable when every transmission fit converged.
-CalibrationResult conclude_step_one(CalibrationRun& run) {
-  CalibrationResult& result = run.result;
-  result.step_one_only = true;
-  result.calibrated = run.model;
-  result.notes.insert(result.notes.begin(),
-                      "the log has external encoders and no measurements: step 1 "
-                      "(transmissions) alone; the kinematic parameters are the model's");
-  for (const TransmissionFit& t : result.transmissions) {
-    if (!t.converged || !t.value.allFinite() || !std::isfinite(t.rms_after)) {
-      result.status =
-          t.converged ? CalibrationStatus::kNumericalFailure : CalibrationStatus::kNotConverged;
-      result.status_reason =
-          fmt::format("step 1: the transmission fit of {} {}", run.model.links[t.joint].name,
-                      t.converged ? "is not finite" : "did not converge");
-      return std::move(result);
-    }
-  }
-  result.status_reason =
-      fmt::format("step 1 alone: {} transmission{} fitted", result.transmissions.size(),
-                  result.transmissions.size() == 1 ? "" : "s");
-  for (const TransmissionFit& t : result.transmissions) {
-    if (t.flagged && run.options.strict) {
-      result.status = CalibrationStatus::kSuspect;
-      result.status_reason = "suspect fit (--strict): " +
-                             step_one_flag_reason(t, run.model, *run.options.encoder_resolution);
-    }
-  }
-  return std::move(result);
 }
 
 }  // namespace
@@ -660,6 +597,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   run.result.transmissions = fit_transmissions(run.model, run.poses, options, run.result.notes);
   if (step_one_only) return conclude_step_one(run);
   offer_instrument_zero(run);
+  offer_joint_errors(run);
   // Step 2: kinematic parameters from the compensated readings.
   build_problem(run);
   identify_and_solve(run);
@@ -669,6 +607,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   for (const ParameterInfo& pi : run.model.parameter_info())
     run.fit().parameters.push_back(parameter_estimate(run, pi));
   conclude(run);
+  if (!options.joint_errors.empty()) compare_without_joint_errors(nominal, log, options, run);
   return std::move(run.result);
 }
 

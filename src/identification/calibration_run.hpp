@@ -63,6 +63,20 @@ struct CalibrationRun {
   RowsOf kind() const { return rows_of(problem); }
 };
 
+// Stages of calibrate issue 25 added (plausibility.cpp, joint_errors.cpp).
+// The default's plausibility check: a link parameter (not next to the set-up)
+// moved beyond kImplausiblePriorSds tolerances makes the result implausible.
+void refuse_implausible(CalibrationRun& run);
+// A log of external encoders only: step 1 is the calibration.
+CalibrationResult conclude_step_one(CalibrationRun& run);
+// The joint-error stages of options.joint_errors on run.model and step2_nominal.
+void offer_joint_errors(CalibrationRun& run);
+// The fitted stages folded into the links' transmissions; joint_errors cleared.
+void fold_joint_errors(DeviceModel& model);
+// The same calibration without the joint errors: its CV RMS and a note.
+void compare_without_joint_errors(const DeviceModel& nominal, const Log& log,
+                                  const CalibrationOptions& options, CalibrationRun& run);
+
 // Whether a held candidate's reason is that these poses do not excite it
 // (identifiability.cpp): identifiable in general, unseen by this log.
 inline bool unexcited(const std::string& reason) { return reason.rfind("not excited", 0) == 0; }

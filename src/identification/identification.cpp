@@ -368,12 +368,32 @@ std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& po
   return fits;
 }
 
+std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model) {
+  std::vector<JointErrorStage> stages;
+  const ChainStructure s = model.structure();
+  int slot = s.errors_slot();
+  for (int i = 0; i < static_cast<int>(model.joint_errors.size()); ++i) {
+    const Transmission& stage = model.joint_errors[i];
+    if (stage.is_none()) continue;
+    const Link& l = model.links[i];
+    if (l.prismatic() || stage.kind() != TransmissionKind::kHarmonic) {
+      throw InputError(
+          fmt::format("{}: a joint-error stage must be harmonics of a turning joint", l.name));
+    }
+    const int column = s.link_slot(i) + (l.dh_parameters() ? kLinkTheta : kOriginOffset);
+    stages.push_back({i, slot, column, stage});
+    slot += stage.num_parameters();
+  }
+  return stages;
+}
+
 KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
                                    const std::vector<int>& repeats,
                                    const CalibrationOptions& options) {
   check_log_fits(poses, model);
   KinematicProblem problem;
   problem.model = model;
+  problem.joint_errors = joint_error_stages(model);
   problem.type = measurement_type(poses);
   const int m = poses.rows;
   const PreparedModel prepared(model);

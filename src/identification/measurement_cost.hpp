@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <Eigen/QR>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <utility>
 #include <vector>
@@ -25,6 +26,7 @@ struct RowsOf {
   MeasurementType type = MeasurementType::kDistance;
   double rotation_scale = 1;              // metres per radian of a pose's rotation rows
   const FixtureLabels* labels = nullptr;  // a fixture problem's (fixture points or planes)
+  const std::vector<JointErrorStage>* errors = nullptr;  // step 2's joint-error stages
   int dimension() const { return traits(type).dimension; }
   // Residual rows of `poses` poses: a fixture problem's include its known distances.
   int rows(int poses) const {
@@ -32,12 +34,33 @@ struct RowsOf {
   }
 };
 
+// The rows of one pose and their Jacobian; with joint-error stages
+// (JointErrorStage) the joint values moved by them first, and each stage
+// parameter's column its feature times its joint value's column.
 inline void measurement_rows(const ChainStructure& s, const ChainConstants<double>& constants,
                              const double* params, const double* joint, const RowsOf& kind,
                              const double* measured, double* residual,
                              Eigen::Ref<Eigen::MatrixXd> J) {
-  hapticcal::measurement_rows(kind.type, s, constants, params, joint, measured, kind.rotation_scale,
-                              residual, J);
+  if (!kind.errors) {
+    hapticcal::measurement_rows(kind.type, s, constants, params, joint, measured,
+                                kind.rotation_scale, residual, J);
+    return;
+  }
+  constexpr int kMaxFeatures = 2 * static_cast<int>(Harmonic::kMaxFrequencies);
+  std::array<double, kMaxDof> moved;
+  std::copy(joint, joint + s.dof, moved.begin());
+  std::array<std::array<double, kMaxFeatures>, kMaxDof> phi;
+  for (const JointErrorStage& e : *kind.errors) {
+    e.stage.parameter_jacobian(joint[e.link], phi[e.link].data());
+    for (int k = 0; k < e.stage.num_parameters(); ++k)
+      moved[e.link] += params[e.slot + k] * phi[e.link][k];
+  }
+  hapticcal::measurement_rows(kind.type, s, constants, params, moved.data(), measured,
+                              kind.rotation_scale, residual, J);
+  for (const JointErrorStage& e : *kind.errors) {
+    for (int k = 0; k < e.stage.num_parameters(); ++k)
+      J.col(e.slot + k) = phi[e.link][k] * J.col(e.joint_column);
+  }
 }
 
 // A pose's rows times its weight (the square root of its repeat count: an

@@ -247,6 +247,8 @@ Eigen::VectorXd slot_tolerances(const DeviceModel& model, const Tolerances& t) {
       unused.erase(pi.name);
     } else if (pi.joint >= 0 && pi.joint < model.dof()) {
       out[pi.slot] = pi.unit == ParameterUnit::kAngle ? t.angle : t.length;
+    } else if (pi.joint == joint_error_block(model.dof())) {
+      out[pi.slot] = t.harmonic;
     }
   }
   if (!unused.empty()) {

@@ -77,7 +77,8 @@ double position_rss(const Eigen::VectorXd& r, const RowsOf& kind);
 // The rows of a problem: its measurement type, rotation scale and fixture labels.
 inline RowsOf rows_of(const KinematicProblem& problem) {
   return {problem.type, problem.rotation_scale,
-          is_fixture(problem.type) ? &problem.labels : nullptr};
+          is_fixture(problem.type) ? &problem.labels : nullptr,
+          problem.joint_errors.empty() ? nullptr : &problem.joint_errors};
 }
 
 // select_model and cross_validate (identification.hpp) at a fit whose stack

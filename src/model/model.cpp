@@ -62,6 +62,7 @@ ChainStructure DeviceModel::structure() const {
   }
   s.tool = slot;
   s.instrument = instrument_zero ? 1 : 0;
+  for (const Transmission& e : joint_errors) s.errors += e.num_parameters();
   return s;
 }
 
@@ -81,6 +82,12 @@ Eigen::VectorXd DeviceModel::kinematic_parameters() const {
   }
   for (int k = 0; k < kPoseSlots; ++k) p[s.tool_slot() + k] = tool[k];
   if (instrument_zero) p[s.instrument_slot()] = *instrument_zero;
+  int e = s.errors_slot();
+  for (const Transmission& stage : joint_errors) {
+    const Eigen::VectorXd v = stage.parameters();
+    p.segment(e, v.size()) = v;
+    e += static_cast<int>(v.size());
+  }
   return p;
 }
 
@@ -104,6 +111,11 @@ void DeviceModel::set_kinematic_parameters(const Eigen::VectorXd& p) {
   }
   for (int k = 0; k < kPoseSlots; ++k) tool[k] = p[s.tool_slot() + k];
   if (instrument_zero) instrument_zero = p[s.instrument_slot()];
+  int e = s.errors_slot();
+  for (Transmission& stage : joint_errors) {
+    stage.set_parameters(p.data() + e);
+    e += stage.num_parameters();
+  }
 }
 
 std::vector<ParameterInfo> DeviceModel::parameter_info() const {
@@ -141,6 +153,12 @@ std::vector<ParameterInfo> DeviceModel::parameter_info() const {
   }
   if (instrument_zero)
     info.push_back({"instrument.zero", s.instrument_slot(), U::kLength, dof() + 1, 0});
+  int e = s.errors_slot();
+  for (int i = 0; i < static_cast<int>(joint_errors.size()); ++i) {
+    for (const std::string& name : joint_errors[i].parameter_names()) {
+      info.push_back({links[i].name + "." + name, e++, U::kAngle, joint_error_block(dof()), i});
+    }
+  }
   return info;
 }
 

@@ -125,14 +125,15 @@ void polynomial_jacobian(const Polynomial& poly, double q, double* J) {
 }  // namespace
 
 const char* to_string(TransmissionKind kind) {
-  static const char* const kNames[] = {"none", "capstan", "parallelogram", "polynomial", "chain"};
+  static const char* const kNames[] = {"none",       "capstan", "parallelogram",
+                                       "polynomial", "chain",   "harmonic"};
   return kNames[static_cast<int>(kind)];
 }
 
 std::optional<TransmissionKind> transmission_kind_named(const std::string& name) {
   for (TransmissionKind k :
        {TransmissionKind::kNone, TransmissionKind::kCapstan, TransmissionKind::kParallelogram,
-        TransmissionKind::kPolynomial, TransmissionKind::kChain}) {
+        TransmissionKind::kPolynomial, TransmissionKind::kChain, TransmissionKind::kHarmonic}) {
     if (name == to_string(k)) return k;
   }
   return std::nullopt;
@@ -159,6 +160,9 @@ double Transmission::error(double q) const {
       for (const Transmission& stage : chain.stages) x += stage.error(x);
       return x - q;
     }
+    double operator()(const Harmonic& h) const {
+      return harmonic_error(h, h.coefficients.data(), q);
+    }
   };
   return std::visit(Visitor{q}, model_);
 }
@@ -170,6 +174,15 @@ double Transmission::derivative(double q) const {
     double operator()(const Capstan& c) const { return capstan_derivative(c, q); }
     double operator()(const Parallelogram& P) const { return parallelogram_derivative(P, q); }
     double operator()(const Polynomial& poly) const { return polynomial_derivative(poly, q); }
+    double operator()(const Harmonic& h) const {
+      double d = 0;
+      for (size_t i = 0; i < h.frequencies.size(); ++i) {
+        const double f = h.frequencies[i];
+        d += f * (h.coefficients[2 * i] * std::cos(f * q) -
+                  h.coefficients[2 * i + 1] * std::sin(f * q));
+      }
+      return d;
+    }
     double operator()(const Chain& chain) const {
       double x = q, product = 1;
       for (const Transmission& stage : chain.stages) {
@@ -188,6 +201,7 @@ int Transmission::num_parameters() const {
     int operator()(const Capstan&) const { return Capstan::kNumParameters; }
     int operator()(const Parallelogram&) const { return Parallelogram::kNumParameters; }
     int operator()(const Polynomial& poly) const { return std::max(poly.order(), 0); }
+    int operator()(const Harmonic& h) const { return static_cast<int>(2 * h.frequencies.size()); }
     int operator()(const Chain& chain) const {
       int n = 0;
       for (const Transmission& stage : chain.stages) n += stage.num_parameters();
@@ -209,6 +223,14 @@ std::vector<std::string> Transmission::parameter_names() const {
     std::vector<std::string> operator()(const Polynomial& poly) const {
       std::vector<std::string> names;
       for (int k = 1; k <= poly.order(); ++k) names.push_back(fmt::format("c{}", k));
+      return names;
+    }
+    std::vector<std::string> operator()(const Harmonic& h) const {
+      std::vector<std::string> names;
+      for (double f : h.frequencies) {
+        names.push_back(fmt::format("sin{:g}", f));
+        names.push_back(fmt::format("cos{:g}", f));
+      }
       return names;
     }
     std::vector<std::string> operator()(const Chain& chain) const {
@@ -237,6 +259,10 @@ Eigen::VectorXd Transmission::parameters() const {
     Eigen::VectorXd operator()(const Polynomial& poly) const {
       if (poly.order() < 1) return {};
       return Eigen::Map<const Eigen::VectorXd>(poly.coefficients.data() + 1, poly.order());
+    }
+    Eigen::VectorXd operator()(const Harmonic& h) const {
+      return Eigen::Map<const Eigen::VectorXd>(h.coefficients.data(),
+                                               static_cast<Eigen::Index>(h.coefficients.size()));
     }
     Eigen::VectorXd operator()(const Chain& chain) const {
       std::vector<double> all;
@@ -270,6 +296,9 @@ void Transmission::set_parameters(const double* v) {
     void operator()(Polynomial& poly) const {
       for (int k = 1; k <= poly.order(); ++k) poly.coefficients[k] = v[k - 1];
     }
+    void operator()(Harmonic& h) const {
+      std::copy(v, v + h.coefficients.size(), h.coefficients.begin());
+    }
     void operator()(Chain& chain) const {
       const double* p = v;
       for (Transmission& stage : chain.stages) {
@@ -289,6 +318,13 @@ void Transmission::parameter_jacobian(double q, double* J) const {
     void operator()(const Capstan& c) const { capstan_jacobian(c, q, J); }
     void operator()(const Parallelogram& P) const { parallelogram_jacobian(P, q, J); }
     void operator()(const Polynomial& poly) const { polynomial_jacobian(poly, q, J); }
+    void operator()(const Harmonic& h) const {
+      for (size_t i = 0; i < h.frequencies.size(); ++i) {
+        const double u = h.frequencies[i] * q;
+        J[2 * i] = std::sin(u);
+        J[2 * i + 1] = std::cos(u) - 1;
+      }
+    }
     void operator()(const Chain& chain) const {
       // Stage k moves x_{k+1} by d e_k; later stages scale that by (1 + e_j'(x_j)).
       const size_t n = chain.stages.size();
@@ -336,6 +372,24 @@ std::string Transmission::check(double lower, double upper) const {
       if (poly.coefficients.empty()) return "coefficients must not be empty";
       if (poly.basis == PolynomialBasis::kChebyshev && !(poly.lower < poly.upper))
         return "domain must have lower < upper";
+      return {};
+    }
+    std::string operator()(const Harmonic& h) const {
+      if (h.frequencies.empty()) return "frequencies must not be empty";
+      if (h.frequencies.size() > Harmonic::kMaxFrequencies)
+        return fmt::format("at most {} frequencies", Harmonic::kMaxFrequencies);
+      if (h.coefficients.size() != 2 * h.frequencies.size())
+        return "sin and cos need one coefficient a frequency";
+      for (size_t i = 0; i < h.frequencies.size(); ++i) {
+        const double f = h.frequencies[i];
+        if (!(f > 0 && f <= 1000)) return "frequencies must be in (0, 1000]";
+        for (size_t k = 0; k < i; ++k) {
+          if (h.frequencies[k] == f) return fmt::format("frequency {:g} given twice", f);
+        }
+      }
+      for (double c : h.coefficients) {
+        if (!(std::abs(c) <= 1)) return "coefficients must be within 1 rad";
+      }
       return {};
     }
     std::string operator()(const Chain& chain) const {

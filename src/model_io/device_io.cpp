@@ -102,8 +102,26 @@ class Reader : public detail::YamlReader {
       }
       return Transmission(chain);
     }
+    if (kind == TransmissionKind::kHarmonic) {
+      check_keys(node, path, {"type", "frequencies", "sin", "cos"});
+      const YAML::Node f = require(node, path, "frequencies");
+      if (f.IsSequence() && f.size() > Harmonic::kMaxFrequencies) {
+        fail(f, join(path, "frequencies"),
+             fmt::format("{} frequencies: at most {}", f.size(), Harmonic::kMaxFrequencies));
+      }
+      Harmonic h;
+      h.frequencies = numbers(f, join(path, "frequencies"), -1);
+      const size_t n = h.frequencies.size();
+      // The coefficients default to none (zero), as a capstan's error terms.
+      std::vector<double> s(n, 0.0), c(n, 0.0);
+      if (node["sin"]) s = numbers(node["sin"], join(path, "sin"), static_cast<int>(n));
+      if (node["cos"]) c = numbers(node["cos"], join(path, "cos"), static_cast<int>(n));
+      for (size_t i = 0; i < n; ++i) h.coefficients.insert(h.coefficients.end(), {s[i], c[i]});
+      return Transmission(h);
+    }
     fail(node["type"], join(path, "type"),
-         fmt::format("'{}' is not a transmission (capstan, parallelogram, polynomial, chain)",
+         fmt::format("'{}' is not a transmission (capstan, parallelogram, polynomial, chain, "
+                     "harmonic)",
                      printable(type)));
   }
 
@@ -320,6 +338,15 @@ std::string transmission_text(const Transmission& t) {
       return fmt::format("{{type: polynomial, basis: {}, domain: [{}, {}], coefficients: {}}}",
                          p.basis == PolynomialBasis::kChebyshev ? "chebyshev" : "monomial",
                          num(p.lower), num(p.upper), numbers_text(p.coefficients));
+    }
+    std::string operator()(const Harmonic& h) const {
+      std::vector<double> s, c;
+      for (size_t i = 0; i < h.frequencies.size(); ++i) {
+        s.push_back(h.coefficients[2 * i]);
+        c.push_back(h.coefficients[2 * i + 1]);
+      }
+      return fmt::format("{{type: harmonic, frequencies: {}, sin: {}, cos: {}}}",
+                         numbers_text(h.frequencies), numbers_text(s), numbers_text(c));
     }
     std::string operator()(const Chain& chain) const {
       std::string out = "{type: chain, stages: [";

@@ -109,6 +109,31 @@ nlohmann::ordered_json outliers_json(const RobustFit& robust) {
   return outliers;
 }
 
+// The checks of a fit: suspect, what the joint-error families bought (README
+// "Joint errors in step 2"), the default's plausibility (README "Step 2's
+// plausibility check").
+void checks_json(const KinematicFit& k, const CalibrationOptions& options,
+                 nlohmann::ordered_json& j) {
+  using json = nlohmann::ordered_json;
+  const SuspectFit& suspect = k.suspect;
+  j["suspect"] = {{"suspect", suspect.suspect},
+                  {"reasons", suspect.reasons},
+                  {"repeatability_ratio", number_or_null(suspect.repeatability_ratio)},
+                  {"repeatability_limit", suspect.repeatability_limit},
+                  {"nominal_base_fitted_rms", number_or_null(suspect.nominal_base_fitted_rms)},
+                  {"cv_ratio", number_or_null(suspect.cv_ratio)},
+                  {"strict", options.strict}};
+  j["joint_errors"] = k.joint_error_families.empty()
+                          ? json(nullptr)
+                          : json{{"families", k.joint_error_families},
+                                 {"cv_rms", number_or_null(k.cv_rms)},
+                                 {"cv_rms_without", number_or_null(k.cv_rms_without_joint_errors)}};
+  j["plausibility"] = k.most_moved.empty() ? json(nullptr)
+                                           : json{{"most_moved", k.most_moved},
+                                                  {"tolerances", k.most_moved_sds},
+                                                  {"limit", kImplausiblePriorSds}};
+}
+
 }  // namespace
 
 std::string calibration_json(const CalibrationResult& result, const DeviceModel& nominal,
@@ -146,19 +171,7 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
   j["parameter_choice"] = k.choice;
   j["robust"] = robust_json(k.robust, options);
   j["outliers"] = outliers_json(k.robust);
-  const SuspectFit& suspect = k.suspect;
-  j["suspect"] = {{"suspect", suspect.suspect},
-                  {"reasons", suspect.reasons},
-                  {"repeatability_ratio", number_or_null(suspect.repeatability_ratio)},
-                  {"repeatability_limit", suspect.repeatability_limit},
-                  {"nominal_base_fitted_rms", number_or_null(suspect.nominal_base_fitted_rms)},
-                  {"cv_ratio", number_or_null(suspect.cv_ratio)},
-                  {"strict", options.strict}};
-  // The default's plausibility check (README "Step 2's plausibility check").
-  j["plausibility"] = k.most_moved.empty() ? json(nullptr)
-                                           : json{{"most_moved", k.most_moved},
-                                                  {"tolerances", k.most_moved_sds},
-                                                  {"limit", kImplausiblePriorSds}};
+  checks_json(k, options, j);
   j["condition_number"] = number_or_null(k.condition_number);
   j["observability"] = {{"O1", k.observability.O1},
                         {"O2", k.observability.O2},

@@ -262,6 +262,11 @@ struct KinematicFit {
   RobustFit robust;         // the outlier test and reweighting
   SuspectFit suspect;       // whether the fit should be trusted
   PriorFit prior;           // the tolerance prior (the default)
+  // The joint-error families fitted (CalibrationOptions::joint_errors) and the
+  // cross-validated RMS [m] of the same calibration without them (NaN: not run
+  // or not computed): what the families bought on held-out poses.
+  std::vector<std::string> joint_error_families;
+  double cv_rms_without_joint_errors = std::numeric_limits<double>::quiet_NaN();
   // The plausibility check (kImplausiblePriorSds; the default only): the link
   // parameter not next to the set-up that moved most, in its tolerances ("":
   // not checked).
@@ -286,6 +291,9 @@ double identified_instrument_zero(const KinematicFit& fit);
 struct Tolerances {
   double length = 0.5e-3;  // m
   double angle = 5e-3;     // rad
+  // A joint-error harmonic's amplitude (CalibrationOptions::joint_errors): a
+  // gear's or capstan's transmission error, ~0.1-1 mrad (the paper's drums).
+  double harmonic = 1e-3;  // rad
   // Per dotted parameter name (SI), over the family's.
   std::map<std::string, double> by_name;
   // The common scale of the tolerances; none: the one of highest evidence.
@@ -332,6 +340,13 @@ struct CalibrationOptions {
   // `points`): those labels are not eliminated, and the base pose becomes visible.
   std::vector<KnownPoint> known_points;
   double selection_alpha = 0.05;  // family-wise significance level of the model selection
+  // Joint-error families step 2 fits with the geometry from the measurements
+  // (README "Joint errors in step 2"): "harmonic", the first and second harmonic
+  // of each turning joint's angle, and of its motor's where a capstan gives the
+  // ratio. They enter the tolerance prior (Tolerances::harmonic) and the
+  // identifiability analysis, are folded into the calibrated model's
+  // transmissions, and the same calibration without them is run for comparison.
+  std::vector<std::string> joint_errors;
   // K of the K-fold cross-validated RMS (poses, repeats together, in K folds);
   // 0: no cross-validation.
   int folds = 5;
@@ -383,6 +398,23 @@ std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& po
 std::string step_one_flag_reason(const TransmissionFit& fit, const DeviceModel& model,
                                  double resolution);
 
+// One link's step-2 joint-error stage (DeviceModel::joint_errors) as the
+// residual rows use it: the joint value v the kinematics turn by becomes
+// v + sum_k p_k phi_k(v), phi the stage's parameter_jacobian (a Harmonic's
+// sines and cosines: linear in p), so each parameter's Jacobian column is
+// phi_k(v) times the column of the joint value: the DH / MDH theta's, a URDF
+// joint's offset's (both add to v).
+struct JointErrorStage {
+  int link = 0;
+  int slot = 0;          // first slot of its parameters
+  int joint_column = 0;  // the slot whose column is d rows / d joint value
+  Transmission stage;
+};
+// The stages of a model's joint_errors (none for a link without one). Throws
+// InputError for a stage on a prismatic joint or one not linear in its
+// parameters (only a Harmonic is).
+std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model);
+
 // Step 2's data: the poses' compensated joint values and measured values (the
 // family's width a pose, measurement.hpp), weighted by their repeat counts.
 struct KinematicProblem {
@@ -403,6 +435,8 @@ struct KinematicProblem {
   // with the base a free pose: the base is that frame, identified first
   // (measurement_frame_unknown).
   bool frame_unknown = false;
+  // The model's joint-error stages (joint_error_stages).
+  std::vector<JointErrorStage> joint_errors;
 };
 // From the poses (a log, one row a pose) and each pose's repeat count (empty:
 // one each).

@@ -80,6 +80,8 @@ struct Link {
 //   tool: x, y, z, roll, pitch, yaw (6)
 //   instrument: zero (1), only while step 2 estimates a distance instrument's
 //     zero with the device (DeviceModel::instrument_zero)
+//   joint errors: each link's step-2 joint-error stage's parameters, in link
+//     order, only while step 2 estimates them (DeviceModel::joint_errors)
 constexpr int kLinkA = 0, kLinkAlpha = 1, kLinkD = 2, kLinkTheta = 3, kLinkBeta = 4;
 constexpr int kLinkSlots = 5;
 constexpr int kOriginX = 0, kOriginRoll = 3, kOriginPitch = 4, kOriginYaw = 5, kOriginOffset = 6;
@@ -102,10 +104,12 @@ struct ChainStructure {
   std::array<JointStructure, kMaxDof> joints{};
   int tool = 0;        // first slot of the tool block
   int instrument = 0;  // slots of the instrument block after the tool (0 or 1)
+  int errors = 0;      // slots of the joint-error block after the instrument
 
   int base_slots() const { return base_kind == BaseKind::kDh ? 4 : kPoseSlots; }
-  int num_slots() const { return tool + kPoseSlots + instrument; }
+  int num_slots() const { return tool + kPoseSlots + instrument + errors; }
   int instrument_slot() const { return tool + kPoseSlots; }
+  int errors_slot() const { return tool + kPoseSlots + instrument; }
   int link_slot(int i) const { return joints[i].slot; }  // i zero-based
   int tool_slot() const { return tool; }
 };
@@ -113,9 +117,11 @@ struct ChainStructure {
 enum class ParameterUnit { kLength, kAngle };
 
 // One kinematic parameter: its stable dotted name ("base.a", "j3.alpha",
-// "tool.x", "panda_joint2.roll", "instrument.zero"), its slot in the flat
-// vector, and its place: joint -1 is the base, dof the tool, dof + 1 the
-// instrument; element is its index in the block.
+// "tool.x", "panda_joint2.roll", "instrument.zero", "j2.sin1"), its slot in the
+// flat vector, and its place: joint -1 is the base, dof the tool, dof + 1 the
+// instrument, joint_error_block(dof) a joint-error stage's; element is its index
+// in the block (a joint error's: its link).
+inline int joint_error_block(int dof) { return dof + 2; }
 struct ParameterInfo {
   std::string name;
   int slot = 0;
@@ -136,6 +142,13 @@ struct DeviceModel {
   // distance logs); it is the instrument's, not the device's: device files and
   // a calibrated model have none.
   std::optional<double> instrument_zero;
+  // Step 2's joint-error stages (issue 25), one a link (none: no stage; a
+  // Harmonic): errors of the joint angle the geometry cannot express, fitted
+  // with it from the measurements (no external encoder). Present only in the
+  // problems of step 2 that estimate them; calibrate folds them into the
+  // links' transmissions (the angle v the kinematics turn by becomes
+  // v + stage(v)), so device files and calibrated models have none.
+  std::vector<Transmission> joint_errors;
 
   bool base_is_pose() const { return base_kind == BaseKind::kPose; }
   int dof() const { return static_cast<int>(links.size()); }

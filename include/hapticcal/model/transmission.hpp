@@ -53,11 +53,23 @@ struct Polynomial {
   int order() const { return static_cast<int>(coefficients.size()) - 1; }
 };
 
+// Harmonics of the angle that a gear or drive adds (issue 25; the paper's
+// capstan eccentricity generalised): for frequencies f_i (error cycles a turn of
+// the angle: 1 and 2 for the first and second harmonic of the output, R and 2R
+// for the motor's through a drive of ratio R),
+//   dtheta(q) = sum_i s_i sin(f_i q) + c_i (cos(f_i q) - 1),
+// referenced to home and linear in the parameters [s_1, c_1, s_2, c_2, ...].
+struct Harmonic {
+  std::vector<double> frequencies;
+  std::vector<double> coefficients;  // s_1, c_1, s_2, c_2, ...: two a frequency
+  static constexpr size_t kMaxFrequencies = 8;
+};
+
 class Transmission;
 
 // The kinds of transmission, in the order of Transmission::Model's alternatives.
-enum class TransmissionKind { kNone, kCapstan, kParallelogram, kPolynomial, kChain };
-// "none", "capstan", "parallelogram", "polynomial", "chain" (device files).
+enum class TransmissionKind { kNone, kCapstan, kParallelogram, kPolynomial, kChain, kHarmonic };
+// "none", "capstan", "parallelogram", "polynomial", "chain", "harmonic" (device files).
 const char* to_string(TransmissionKind kind);
 std::optional<TransmissionKind> transmission_kind_named(const std::string& name);
 
@@ -69,7 +81,7 @@ struct Chain {
 // One joint's transmission: none, or one of the models above.
 class Transmission {
  public:
-  using Model = std::variant<std::monostate, Capstan, Parallelogram, Polynomial, Chain>;
+  using Model = std::variant<std::monostate, Capstan, Parallelogram, Polynomial, Chain, Harmonic>;
 
   Transmission() = default;
   Transmission(Model model) : model_(std::move(model)) {}  // NOLINT: implicit by design
@@ -78,7 +90,7 @@ class Transmission {
   Model& model() { return model_; }
   bool is_none() const { return std::holds_alternative<std::monostate>(model_); }
   TransmissionKind kind() const { return static_cast<TransmissionKind>(model_.index()); }
-  // "none", "capstan", "parallelogram", "polynomial" or "chain".
+  // "none", "capstan", "parallelogram", "polynomial", "chain" or "harmonic".
   std::string type_name() const { return to_string(kind()); }
 
   // dtheta(q), referenced to home.
@@ -171,6 +183,19 @@ T polynomial_error(const Polynomial& poly, const T* c_from_1, const T& q) {
   return polynomial_value(poly, c_from_1, q) - polynomial_value(poly, c_from_1, T(0));
 }
 
+// Harmonic error with p = [s_1, c_1, s_2, c_2, ...].
+template <typename T>
+T harmonic_error(const Harmonic& h, const T* p, const T& q) {
+  using std::cos;
+  using std::sin;
+  T sum(0);
+  for (size_t i = 0; i < h.frequencies.size(); ++i) {
+    const T u = T(h.frequencies[i]) * q;
+    sum += p[2 * i] * sin(u) + p[2 * i + 1] * (cos(u) - T(1));
+  }
+  return sum;
+}
+
 template <typename T>
 T Transmission::error(const T* params, const T& q) const {
   struct Visitor {
@@ -180,6 +205,7 @@ T Transmission::error(const T* params, const T& q) const {
     T operator()(const Capstan& c) const { return capstan_error(c, p, q); }
     T operator()(const Parallelogram&) const { return parallelogram_error(p, q); }
     T operator()(const Polynomial& poly) const { return polynomial_error(poly, p, q); }
+    T operator()(const Harmonic& h) const { return harmonic_error(h, p, q); }
     T operator()(const Chain& chain) const {
       T x = q;
       const T* stage_params = p;
