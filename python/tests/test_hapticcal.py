@@ -233,6 +233,19 @@ def test_options_reach_the_calibration():
     assert math.isnan(r.cv_rms)
 
 
+def test_issue_25_options_reach_the_calibration():
+    # The harmonic joint errors: their coefficients are parameters, and the
+    # comparison without them is in the results.
+    r = hapticcal.calibrate(MECA, CAL_LOG, samples=40, joint_errors=["harmonic"])
+    assert "j2.sin1" in r.parameters and "j6.cos2" in r.parameters
+    assert r.results["joint_errors"]["families"] == ["harmonic"]
+    assert r.results["joint_errors"]["cv_rms_without"] > 0
+    with pytest.raises(ValueError, match="not a joint-error family"):
+        hapticcal.calibrate(MECA, CAL_LOG, joint_errors=["compliance"])
+    with pytest.raises(ValueError, match="encoder-resolution"):
+        hapticcal.calibrate(MECA, CAL_LOG, encoder_resolution=-1.0)
+
+
 def test_plan_smoke(tmp_path):
     out = tmp_path / "plan"
     r = hapticcal.plan(MECA, "position", 12, pool=200, refine_passes=0, seed=2, out=str(out))
