@@ -131,6 +131,36 @@ TEST(JointErrors, HarmonicGearErrorIsRecoveredFromTrackerPositions) {
   EXPECT_EQ(evaluate(reread, val).position->rms, rms);
 }
 
+// Options naming a joint error reach the fit, and the comparison without them
+// runs (it drops those names); a calibrated model with folded harmonics can be
+// calibrated again from a log with external encoders (step 1 leaves the
+// harmonic stage out and says so).
+TEST(JointErrors, NamesInOptionsAndRecalibrationWithEncoders) {
+  const DeviceModel nominal = testing::meca500();
+  const DeviceModel actual = geared_meca500();
+  const Log cal = tracker_log(actual, 120, 4);
+  CalibrationOptions options;
+  options.joint_errors = {"harmonic"};
+  options.fix = {"j6.cos2"};
+  add_tolerance(options.tolerances, "j2.sin1=0.002");
+  const CalibrationResult r = calibrate(nominal, cal, options);
+  ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
+  EXPECT_EQ(find(r.kinematics, "j6.cos2").reason, "fixed by the user");
+  EXPECT_TRUE(std::isfinite(r.kinematics.cv_rms_without_joint_errors));
+  ASSERT_NE(r.calibrated.links[1].transmission.kind(), TransmissionKind::kNone);
+
+  // The geared truth measured with encoders on j2, j3 and j5 (its transmissions).
+  SimulationNoise noise;
+  noise.sigma_position = kNoise;
+  const Log with_ext = simulate_log(actual, 120, noise, 5, false, true);
+  ASSERT_TRUE(with_ext.has_ext[1]);
+  const CalibrationResult again = calibrate(r.calibrated, with_ext, CalibrationOptions{});
+  EXPECT_EQ(again.status, CalibrationStatus::kConverged) << again.status_reason;
+  EXPECT_TRUE(std::any_of(again.notes.begin(), again.notes.end(), [](const std::string& n) {
+    return n.rfind("j2: the model's harmonic stage", 0) == 0;
+  }));
+}
+
 TEST(JointErrors, UnknownFamilyIsRefused) {
   CalibrationOptions options;
   options.joint_errors = {"compliance"};

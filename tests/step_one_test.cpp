@@ -127,6 +127,27 @@ TEST(StepOne, FourteenSamplesKeepASmallOrderThatPredictsTheEncoder) {
   EXPECT_LT(after, 0.1 * before) << after << " " << before;
 }
 
+// --polynomial-order is exact: refused where the samples or their distinct
+// readings cannot carry it, never a crash.
+TEST(StepOne, ExactOrderTheReadingsCannotFixIsRefused) {
+  const DeviceModel nominal = testing::builtin("baser-7dof");
+  const int n = 30;
+  Eigen::VectorXd q(n), ext(n);
+  for (int i = 0; i < n; ++i) {
+    q[i] = 0.3 * (i % 3) - 0.3;  // three distinct readings
+    ext[i] = q[i] + 1e-3 * q[i] * q[i];
+  }
+  TransmissionFit fit;
+  EXPECT_THROW(fit_transmission(nominal, 3, q, ext, 3, fit), InputError);
+  EXPECT_THROW(fit_transmission(nominal, 3, q, ext, 12, fit), InputError);  // 30 support 9
+  TransmissionFit two;
+  fit_transmission(nominal, 3, q, ext, 2, two);  // three readings fix order 2 and c
+  EXPECT_EQ(two.value.size(), 2);
+  // A capstan needs 6 samples for its ratio error and zero.
+  TransmissionFit few;
+  EXPECT_THROW(fit_transmission(nominal, 0, q.head(5), ext.head(5), std::nullopt, few), InputError);
+}
+
 TEST(StepOne, AFitThatDoesNotPredictTheEncoderIsFlagged) {
   const DeviceModel nominal = testing::builtin("baser-7dof");
   const DeviceModel actual = smooth_j4_device();

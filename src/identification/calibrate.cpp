@@ -513,8 +513,8 @@ ParameterEstimate parameter_estimate(const CalibrationRun& run, const ParameterI
     // An unknown frame, a marker's offset and an instrument's zero are the
     // set-up's, not the robot's.
     const int dof = run.model.dof();
-    const bool setup =
-        (run.problem.frame_unknown && (pi.joint < 0 || pi.joint == dof)) || pi.joint > dof;
+    const bool setup = (run.problem.frame_unknown && (pi.joint < 0 || pi.joint == dof)) ||
+                       pi.joint == dof + 1;  // the instrument's zero
     e.large_change =
         !setup && std::abs(e.value - e.nominal) >
                       (e.unit == ParameterUnit::kAngle ? kLargeChangeAngle : kLargeChangeLength);
@@ -558,7 +558,7 @@ void conclude(CalibrationRun& run) {
     if (zero.identifiable) result.notes.push_back(instrument_zero_note(zero));
     model.instrument_zero.reset();
   }
-  fold_joint_errors(model);
+  const std::string unfoldable = fold_joint_errors(model);
   result.calibrated = model;
   if (fit.converged) {
     DeviceModel nominal_in_frame = run.step2_nominal;
@@ -573,6 +573,10 @@ void conclude(CalibrationRun& run) {
         step_one_flag_reason(t, run.model, *run.options.encoder_resolution));
   }
   set_status(result, run.identified);
+  if (!unfoldable.empty() && result.status == CalibrationStatus::kConverged) {
+    result.status = CalibrationStatus::kImplausible;
+    result.status_reason = unfoldable;
+  }
   refuse_implausible(run);
   refuse_suspect(result, run.options.strict);
 }

@@ -53,7 +53,7 @@ struct CalibrationRun {
   Eigen::VectorXd prior_weight;  // per slot: sqrt(lambda) / tolerance; empty: no prior
   Eigen::VectorXd data_share;    // per slot, with the prior
   // The tolerances' scale the evidence chose, whichever fit was kept (NaN: the
-  // prior was not fitted): the yardstick of the plausibility check.
+  // prior was not fitted: the plausibility check is the default's only).
   double prior_scale = std::numeric_limits<double>::quiet_NaN();
 
   CalibrationRun(const DeviceModel& nominal_, const Log& log_, const CalibrationOptions& options_)
@@ -72,7 +72,8 @@ CalibrationResult conclude_step_one(CalibrationRun& run);
 // The joint-error stages of options.joint_errors on run.model and step2_nominal.
 void offer_joint_errors(CalibrationRun& run);
 // The fitted stages folded into the links' transmissions; joint_errors cleared.
-void fold_joint_errors(DeviceModel& model);
+// Returns why a stage cannot be a transmission ("" if every one can).
+std::string fold_joint_errors(DeviceModel& model);
 // The same calibration without the joint errors: its CV RMS and a note.
 void compare_without_joint_errors(const DeviceModel& nominal, const Log& log,
                                   const CalibrationOptions& options, CalibrationRun& run);
@@ -86,7 +87,8 @@ inline bool unexcited(const std::string& reason) { return reason.rfind("not exci
 inline Eigen::VectorXd angles_near(const DeviceModel& model, Eigen::VectorXd parameters,
                                    const Eigen::VectorXd& centre) {
   for (const ParameterInfo& pi : model.parameter_info()) {
-    if (pi.unit != ParameterUnit::kAngle) continue;
+    // Angles are periodic; a joint error's coefficients are not.
+    if (pi.unit != ParameterUnit::kAngle || pi.joint == joint_error_block(model.dof())) continue;
     parameters[pi.slot] =
         centre[pi.slot] + std::remainder(parameters[pi.slot] - centre[pi.slot], 2 * M_PI);
   }

@@ -415,7 +415,9 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   if (kind.labels || problem.frame_unknown) {
     const auto links = std::stable_partition(order.begin(), order.end(), is_base);
     if (problem.frame_unknown) {
-      std::stable_partition(links, order.end(), [&](int slot) { return slot >= s.tool_slot(); });
+      std::stable_partition(links, order.end(), [&](int slot) {
+        return slot >= s.tool_slot() && slot < s.tool_slot() + kPoseSlots;
+      });
     }
   }
   // Planes, and points without a known distance, cannot see the robot's size

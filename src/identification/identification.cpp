@@ -327,6 +327,27 @@ std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& po
   }
   for (int j = 0; j < model.dof(); ++j) {
     if (!poses.has_ext[j]) continue;
+    // A harmonic stage an earlier step 2 fitted (--joint-errors): the external
+    // encoder now sees the whole transmission error, so step 1 fits the link's
+    // own model without it.
+    Transmission& own = model.links[j].transmission;
+    if (const Chain* chain = std::get_if<Chain>(&own.model());
+        own.kind() == TransmissionKind::kHarmonic ||
+        (chain && chain->stages.back().kind() == TransmissionKind::kHarmonic)) {
+      notes.push_back(fmt::format(
+          "{}: the model's harmonic stage (an earlier step 2's joint errors) is left out: ext{} "
+          "measures the whole transmission",
+          model.links[j].name, j + 1));
+      if (!chain) {
+        own = Transmission();
+      } else if (chain->stages.size() == 2) {
+        own = Transmission(chain->stages.front());
+      } else {
+        Chain shorter = *chain;
+        shorter.stages.pop_back();
+        own = Transmission(shorter);
+      }
+    }
     TransmissionFit tf;
     const bool declared = !model.links[j].transmission.is_none();
     Transmission fitted =

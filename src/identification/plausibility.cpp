@@ -16,15 +16,17 @@ namespace {
 // Whether link parameter `slot` trades with the set-up (README "Step 2's
 // plausibility check"): a parameter of the first joint while the base is free,
 // of the last while the tool is (the frame's and the marker's neighbours).
-bool next_to_setup(const CalibrationRun& run, const ParameterInfo& info) {
+// `info`: step 2's parameters (the problem's model: instrument and joint-error
+// slots included).
+bool next_to_setup(const CalibrationRun& run, const std::vector<ParameterInfo>& info, int slot) {
   const auto free_in = [&](int joint) {
-    for (int slot : run.identified) {
-      if (run.model.parameter_info()[slot].joint == joint) return true;
+    for (int s : run.identified) {
+      if (info[s].joint == joint) return true;
     }
     return false;
   };
-  return (info.joint == 0 && free_in(-1)) ||
-         (info.joint == run.model.dof() - 1 && free_in(run.model.dof()));
+  const int dof = run.problem.model.dof();
+  return (info[slot].joint == 0 && free_in(-1)) || (info[slot].joint == dof - 1 && free_in(dof));
 }
 
 }  // namespace
@@ -37,11 +39,14 @@ void refuse_implausible(CalibrationRun& run) {
   KinematicFit& fit = run.fit();
   if (!std::isfinite(run.prior_scale)) return;  // no prior: --keep-all, --select
   const Eigen::VectorXd start = run.step2_nominal.kinematic_parameters();
-  const std::vector<ParameterInfo> info = run.model.parameter_info();
+  // Step 2's layout: run.model has lost the instrument and the joint errors by now.
+  const std::vector<ParameterInfo> info = run.problem.model.parameter_info();
+  const int dof = run.problem.model.dof();
   int worst = -1;
   fit.most_moved_sds = 0;
   for (int slot : run.identified) {
-    if (!std::isfinite(run.tolerance[slot]) || next_to_setup(run, info[slot])) continue;
+    const bool link = info[slot].joint >= 0 && info[slot].joint < dof;
+    if (!link || !std::isfinite(run.tolerance[slot]) || next_to_setup(run, info, slot)) continue;
     const double sds = std::abs(run.p[slot] - start[slot]) / run.tolerance[slot];
     if (sds > fit.most_moved_sds) {
       worst = slot;
@@ -84,10 +89,13 @@ CalibrationResult conclude_step_one(CalibrationRun& run) {
       fmt::format("step 1 alone: {} transmission{} fitted", result.transmissions.size(),
                   result.transmissions.size() == 1 ? "" : "s");
   for (const TransmissionFit& t : result.transmissions) {
-    if (t.flagged && run.options.strict) {
+    if (!t.flagged) continue;
+    const std::string why = step_one_flag_reason(t, run.model, *run.options.encoder_resolution);
+    result.kinematics.suspect.suspect = true;
+    result.kinematics.suspect.reasons.push_back(why);
+    if (run.options.strict && result.status == CalibrationStatus::kConverged) {
       result.status = CalibrationStatus::kSuspect;
-      result.status_reason = "suspect fit (--strict): " +
-                             step_one_flag_reason(t, run.model, *run.options.encoder_resolution);
+      result.status_reason = "suspect fit (--strict): " + why;
     }
   }
   return std::move(result);

@@ -162,16 +162,25 @@ CapstanSolve solve_capstan(const Capstan& nominal, const Eigen::VectorXd& q,
 void fit_capstan(const Capstan& nominal, const Eigen::VectorXd& q, const Eigen::VectorXd& target,
                  TransmissionFit& fit, Transmission& fitted) {
   const int n = static_cast<int>(q.size());
+  if (supported_parameters(n) < 2) {
+    throw InputError(fmt::format(
+        "j{}: {} samples support no capstan model (step 1 needs at least {} samples a parameter: "
+        "{} for the ratio error and the encoder zero)",
+        fit.joint + 1, n, kStepOneSamplesPerParameter, 2 * kStepOneSamplesPerParameter));
+  }
   std::optional<CapstanSolve> best;
   double best_gcv = INFINITY;
   for (const CapstanVariant& variant : kCapstanVariants) {
     const int parameters = 2 + 2 * variant.outer + 2 * variant.inner;
-    if (parameters > supported_parameters(n) && parameters > 2) continue;
+    if (parameters > supported_parameters(n)) continue;
     CapstanSolve s = solve_capstan(nominal, q, target, variant);
     const double loo = leave_one_out_rms(s.J, s.r);
     const double gcv = generalised_cv_rms(s.r, parameters);
     fit.candidates.push_back({variant.label, parameters, loo, gcv});
-    if (!best || gcv < best_gcv) {
+    // A converged, finite fit over one that is not; then the least GCV.
+    const bool usable = s.converged && std::isfinite(gcv);
+    const bool best_usable = best && best->converged && std::isfinite(best_gcv);
+    if (!best || (usable && !best_usable) || (usable == best_usable && gcv < best_gcv)) {
       best = std::move(s);
       best_gcv = gcv;
       fit.held_out_rms = loo;
@@ -236,9 +245,10 @@ void fit_polynomial(int order, bool exact, const Eigen::VectorXd& q, const Eigen
     const auto Ak = A.leftCols(k + 1);
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Ak);
     if (qr.rank() < k + 1) {
-      if (k == 1) {
-        throw InputError(fmt::format("j{}: {} distinct readings cannot fix a polynomial of order 1",
-                                     fit.joint + 1, qr.rank()));
+      if (chosen == 0) {
+        throw InputError(
+            fmt::format("j{}: {} distinct readings cannot fix a polynomial of order {}",
+                        fit.joint + 1, qr.rank(), k));
       }
       break;  // the readings cannot fix more coefficients
     }

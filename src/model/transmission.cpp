@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <unsupported/Eigen/AutoDiff>
@@ -227,9 +228,12 @@ std::vector<std::string> Transmission::parameter_names() const {
     }
     std::vector<std::string> operator()(const Harmonic& h) const {
       std::vector<std::string> names;
+      // A dot would split the dotted name: 13.3 is "13p3".
       for (double f : h.frequencies) {
-        names.push_back(fmt::format("sin{:g}", f));
-        names.push_back(fmt::format("cos{:g}", f));
+        std::string text = fmt::format("{:g}", f);
+        std::replace(text.begin(), text.end(), '.', 'p');
+        names.push_back("sin" + text);
+        names.push_back("cos" + text);
       }
       return names;
     }

@@ -73,7 +73,10 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
     }
   }
   if (r.step_one_only) {
-    for (const std::string& note : r.notes) out.push_back("note: " + note);
+    for (const std::string& reason : r.kinematics.suspect.reasons)
+      out.push_back("warning: suspect fit: " + reason);
+    for (const std::string& note : r.notes)
+      out.push_back((note.rfind("warning: ", 0) == 0 ? "" : "note: ") + note);
     return out;
   }
   const KinematicFit& k = r.kinematics;

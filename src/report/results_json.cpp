@@ -159,9 +159,13 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
   j["samples"] = options.samples;
   j["seed"] = options.seed;
   j["transmission_step"] = options.transmissions;
-  j["sigma"] = {{"value", k.sigma}, {"source", k.sigma_given ? "given" : "residual"}};
-  j["rms_before"] = k.rms_before;
-  j["rms_after"] = k.rms_after;
+  j["sigma"] = result.step_one_only
+                   ? json(nullptr)
+                   : json{{"value", k.sigma}, {"source", k.sigma_given ? "given" : "residual"}};
+  // Step 1 alone fits no kinematics: no measurement error to report.
+  const auto measured = [&](double v) { return result.step_one_only ? json(nullptr) : json(v); };
+  j["rms_before"] = measured(k.rms_before);
+  j["rms_after"] = measured(k.rms_after);
   j["cross_validation"] = {{"folds", k.cv_folds},
                            {"rms", number_or_null(k.cv_rms)},
                            {"seed", options.seed},
