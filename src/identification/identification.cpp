@@ -331,22 +331,13 @@ std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& po
     // encoder now sees the whole transmission error, so step 1 fits the link's
     // own model without it.
     Transmission& own = model.links[j].transmission;
-    if (const Chain* chain = std::get_if<Chain>(&own.model());
-        own.kind() == TransmissionKind::kHarmonic ||
-        (chain && chain->stages.back().kind() == TransmissionKind::kHarmonic)) {
+    if (Transmission stripped = without_trailing_harmonic(own);
+        stripped.kind() != own.kind() || stripped.num_parameters() != own.num_parameters()) {
       notes.push_back(fmt::format(
           "{}: the model's harmonic stage (an earlier step 2's joint errors) is left out: ext{} "
           "measures the whole transmission",
           model.links[j].name, j + 1));
-      if (!chain) {
-        own = Transmission();
-      } else if (chain->stages.size() == 2) {
-        own = Transmission(chain->stages.front());
-      } else {
-        Chain shorter = *chain;
-        shorter.stages.pop_back();
-        own = Transmission(shorter);
-      }
+      own = std::move(stripped);
     }
     TransmissionFit tf;
     const bool declared = !model.links[j].transmission.is_none();

@@ -408,6 +408,16 @@ std::string Transmission::check(double lower, double upper) const {
   return std::visit(Visitor{lower, upper}, model_);
 }
 
+Transmission without_trailing_harmonic(const Transmission& t) {
+  if (t.kind() == TransmissionKind::kHarmonic) return Transmission();
+  const auto* chain = std::get_if<Chain>(&t.model());
+  if (!chain || chain->stages.back().kind() != TransmissionKind::kHarmonic) return t;
+  if (chain->stages.size() == 2) return chain->stages.front();
+  Chain shorter = *chain;
+  shorter.stages.pop_back();
+  return Transmission(shorter);
+}
+
 std::vector<double> monomial_coefficients(const Polynomial& poly) {
   const int n = poly.order();
   std::vector<double> k(std::max(n + 1, 0), 0.0);

@@ -275,7 +275,8 @@ void step_one_report(const CalibrationResult& result, const DeviceModel& nominal
   for (size_t i = 0; i < result.rows.size(); i += stride) plotted_rows.push_back(result.rows[i]);
   for (const TransmissionFit& t : result.transmissions) {
     transmission_figures(t, nominal.links[t.joint].name, log, plotted_rows,
-                         result.calibrated.links[t.joint].transmission, nullptr, report.figures);
+                         without_trailing_harmonic(result.calibrated.links[t.joint].transmission),
+                         nullptr, report.figures);
   }
   report.sections.push_back(terminal_section(result, nominal));
 }
@@ -315,7 +316,8 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
     plotted_rows.push_back(result.rows[i]);
   for (const TransmissionFit& t : result.transmissions) {
     transmission_figures(t, nominal.links[t.joint].name, log, plotted_rows,
-                         result.calibrated.links[t.joint].transmission, nullptr, report.figures);
+                         without_trailing_harmonic(result.calibrated.links[t.joint].transmission),
+                         nullptr, report.figures);
   }
   // The calibrated model leaves the instrument's zero out: its errors are of
   // the readings less the zero (what rms_after measures).

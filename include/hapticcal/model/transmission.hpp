@@ -219,6 +219,11 @@ T Transmission::error(const T* params, const T& q) const {
   return std::visit(Visitor{params, q}, model_);
 }
 
+// The transmission without a harmonic stage at its end (a bare Harmonic: none;
+// a chain ending in one: its other stages): what step 1 fits and plots of a
+// link whose model carries an earlier step 2's joint errors. Unchanged otherwise.
+Transmission without_trailing_harmonic(const Transmission& t);
+
 // Monomial coefficients k_0..k_n of a polynomial in q (a derived view of a
 // Chebyshev fit, for printing as the paper does).
 std::vector<double> monomial_coefficients(const Polynomial& poly);
