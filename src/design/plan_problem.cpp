@@ -44,7 +44,7 @@ void cap_order(Transmission& t, int order) {
 }  // namespace
 
 DeviceModel step_one_model(DeviceModel model, int samples) {
-  const int order = std::max(1, samples / kStepOneSamplesPerParameter - 1);
+  const int order = std::max(1, step_one_supported_order(samples));
   for (Link& l : model.links) cap_order(l.transmission, order);
   return model;
 }

@@ -58,16 +58,6 @@ class CapstanCost : public ceres::CostFunction {
     return {std::atan2(y, x), D * su / den, (r * D * cu - r * r) / den};
   }
 
-  Capstan with(const double* p) const {
-    Capstan c = constants_;
-    c.ratio_error = p[0];
-    c.r_out = p[1];
-    c.beta_out = p[2];
-    c.r_in = p[3];
-    c.beta_in = p[4];
-    return c;
-  }
-
  private:
   Capstan constants_;
   Eigen::VectorXd q_, target_;

@@ -351,7 +351,7 @@ std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& po
     }
     const int kept = static_cast<int>(tf.value.size());
     if (tf.kind == TransmissionKind::kPolynomial && kept < tf.requested_order) {
-      const int supported = tf.n / kStepOneSamplesPerParameter - 1;
+      const int supported = step_one_supported_order(tf.n);
       notes.push_back(fmt::format(
           "{}: step 1 kept a polynomial of order {} (leave-one-out {:.4f} mrad), not {}: {}", name,
           kept, tf.held_out_rms * 1e3, tf.requested_order,

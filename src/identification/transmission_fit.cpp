@@ -114,9 +114,11 @@ CapstanSolve solve_capstan(const Capstan& nominal, const Eigen::VectorXd& q,
                            const Eigen::VectorXd& target, const CapstanVariant& variant) {
   CapstanSolve out;
   out.p = capstan_start(nominal, q, target);
+  // Slots 1, 2 the output drum's, 3, 4 the input drum's; 0 (Re) and 5 (c) always.
   std::vector<int> held;
-  for (int k = 1; k <= 4; ++k) {
-    if (!(k <= 2 ? variant.outer : variant.inner)) held.push_back(k);
+  for (int k = 0; k < 6; ++k) {
+    const bool kept = k == 0 || k == 5 || (k <= 2 ? variant.outer : variant.inner);
+    (kept ? out.kept : held).push_back(k);
   }
   for (int k : held) out.p[k] = 0;
   auto* cost = new CapstanCost(nominal, q, target);
@@ -146,9 +148,6 @@ CapstanSolve solve_capstan(const Capstan& nominal, const Eigen::VectorXd& q,
   double* jacobian[] = {Jr.data()};
   const double* params[] = {out.p.data()};
   cost->Evaluate(params, out.r.data(), jacobian);
-  for (int k = 0; k < 6; ++k) {
-    if (std::find(held.begin(), held.end(), k) == held.end()) out.kept.push_back(k);
-  }
   out.J.resize(n, static_cast<Eigen::Index>(out.kept.size()));
   for (size_t c = 0; c < out.kept.size(); ++c)
     out.J.col(static_cast<Eigen::Index>(c)) = Jr.col(out.kept[c]);
@@ -190,8 +189,8 @@ void fit_capstan(const Capstan& nominal, const Eigen::VectorXd& q, const Eigen::
   const CapstanSolve& s = *best;
   fit.converged = s.converged;
   fit.message = s.message;
-  const Capstan c = CapstanCost(nominal, q, target).with(s.p.data());
-  fitted = Transmission(c);
+  fitted = Transmission(nominal);
+  fitted.set_parameters(s.p.data());  // [Re, ro, bo, ri, bi]; c (p[5]) is the fit's
   fit.value = Eigen::Map<const Eigen::VectorXd>(s.p.data(), 5);
   fit.offset = s.p[5];
   fit.rms_after = residual_rms(s.r);
@@ -212,7 +211,7 @@ void fit_capstan(const Capstan& nominal, const Eigen::VectorXd& q, const Eigen::
 void fit_polynomial(int order, bool exact, const Eigen::VectorXd& q, const Eigen::VectorXd& target,
                     TransmissionFit& fit, Transmission& fitted) {
   const int n = static_cast<int>(q.size());
-  const int top = std::min(order, supported_parameters(n) - 1);
+  const int top = std::min(order, step_one_supported_order(n));
   if (exact && top < order) {
     throw InputError(fmt::format(
         "--polynomial-order {}: j{}'s {} samples support order {} at most (step 1 needs at least "
@@ -261,7 +260,7 @@ void fit_polynomial(int order, bool exact, const Eigen::VectorXd& q, const Eigen
       x = xk;
       best_gcv = gcv;
       fit.held_out_rms = loo;
-      fit.model_choice = fmt::format("order {}", k);
+      fit.model_choice = fit.candidates.back().label;
     }
   }
   const auto Ac = A.leftCols(chosen + 1);

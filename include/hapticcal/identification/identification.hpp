@@ -42,6 +42,11 @@ const char* to_string(CalibrationStatus status);
 // capstan with both, one or no eccentric drum) the one of least generalised
 // cross-validation error is kept; its leave-one-out error is reported.
 constexpr int kStepOneSamplesPerParameter = 3;
+// The highest polynomial order `samples` samples support under that rule (the
+// encoder zero counted; below 1: none): step 1's cap, its notes' and plan's.
+constexpr int step_one_supported_order(int samples) {
+  return samples / kStepOneSamplesPerParameter - 1;
+}
 // A fit whose leave-one-out RMS exceeds this many times the external encoder's
 // resolution (CalibrationOptions::encoder_resolution) is flagged: the model
 // does not predict the transmission to the encoder's counts.
