@@ -149,6 +149,20 @@ constexpr MeasurementType kTypes[] = {MeasurementType::kDistance, MeasurementTyp
 // by up to 0.05 m or rad from the file's), random readings and measurements
 // off the prediction by up to 1 mm. Steps 1e-6 (m or rad); tolerance 1e-7
 // relative to 1 + |numeric|.
+// `poses` random readings of `model` and a measurement of `type` of each (measure).
+template <typename Rng>
+void measure_poses(const DeviceModel& model, MeasurementType type, int poses, Rng& rng,
+                   std::vector<Eigen::VectorXd>& joints, detail::RowMatrix& measured) {
+  const ChainStructure s = model.structure();
+  const Eigen::VectorXd params = model.kinematic_parameters();
+  measured.resize(poses, traits(type).width);
+  for (int i = 0; i < poses; ++i) {
+    joints.push_back(random_readings(model, rng));
+    measure(type, forward_kinematics(s, params.data(), joints[i].data()), rng,
+            measured.row(i).data());
+  }
+}
+
 TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForEveryMeasurementType) {
   std::mt19937_64 rng(20240611);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
@@ -163,12 +177,8 @@ TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForEveryMeasurementTy
         const Eigen::VectorXd params = model.kinematic_parameters();
         const int poses = 20;
         std::vector<Eigen::VectorXd> joints;
-        detail::RowMatrix measured(poses, traits(type).width);
-        for (int i = 0; i < poses; ++i) {
-          joints.push_back(random_readings(model, rng));
-          measure(type, forward_kinematics(s, params.data(), joints[i].data()), rng,
-                  measured.row(i).data());
-        }
+        detail::RowMatrix measured;
+        measure_poses(model, type, poses, rng, joints, measured);
         // Weighted rows (repeated poses) on odd trials.
         Eigen::VectorXd weights;
         if (trial % 2 == 1) weights = Eigen::VectorXd::LinSpaced(poses, 1.0, 2.0);
@@ -230,12 +240,8 @@ TEST(CostJacobian, JointErrorStagesMatchCentralDifferences) {
       ASSERT_EQ(s.errors, 8 * static_cast<int>(errors.size()));
       const int poses = 20;
       std::vector<Eigen::VectorXd> joints;
-      detail::RowMatrix measured(poses, traits(type).width);
-      for (int i = 0; i < poses; ++i) {
-        joints.push_back(random_readings(model, rng));
-        measure(type, forward_kinematics(s, params.data(), joints[i].data()), rng,
-                measured.row(i).data());
-      }
+      detail::RowMatrix measured;
+      measure_poses(model, type, poses, rng, joints, measured);
       const detail::MeasurementCost cost(s, joints, kind, measured);
       std::vector<std::string> names(s.num_slots());
       for (const ParameterInfo& info : model.parameter_info()) names[info.slot] = info.name;

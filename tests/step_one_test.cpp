@@ -65,6 +65,17 @@ double refit_leave_one_out(const Eigen::VectorXd& q, const Eigen::VectorXd& targ
   return std::sqrt(sum / n);
 }
 
+// `hapticcal calibrate` of the built-in device on `log`, written into a fresh
+// `dir` as log.csv, with --out dir/out.
+testing::CliResult calibrate_cli(const Log& log, const std::string& dir) {
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  write_file_atomically(dir + "/log.csv", log_to_csv(log));
+  return testing::run_cli("calibrate --model " +
+                          testing::source_path("data/devices/baser-7dof.yaml") + " --log " + dir +
+                          "/log.csv --out " + dir + "/out");
+}
+
 TEST(StepOne, LeaveOneOutIsTheRefitsAndPicksTheOrderOfTheTruth) {
   const DeviceModel nominal = testing::builtin("baser-7dof");
   std::mt19937_64 rng(11);
@@ -195,12 +206,7 @@ TEST(StepOne, EncoderOnlyLogRunsStepOneAlone) {
   }
 
   const std::string dir = ::testing::TempDir() + "/step_one_only";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  write_file_atomically(dir + "/encoders.csv", log_to_csv(log));
-  const auto cli =
-      testing::run_cli("calibrate --model " + testing::source_path("data/devices/baser-7dof.yaml") +
-                       " --log " + dir + "/encoders.csv --out " + dir + "/out");
+  const auto cli = calibrate_cli(log, dir);
   ASSERT_EQ(cli.exit_code, 0) << cli.err;
   EXPECT_NE(cli.out.find("step 1 (transmissions) alone"), std::string::npos) << cli.out;
   EXPECT_EQ(cli.out.find("Step 2"), std::string::npos) << cli.out;
@@ -251,12 +257,7 @@ TEST(StepOne, ForgedStepOneLogIsImplausibleAndExits3) {
       << bad.status_reason;
 
   const std::string dir = ::testing::TempDir() + "/forged_step_one";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  write_file_atomically(dir + "/forged.csv", log_to_csv(forged));
-  const auto cli =
-      testing::run_cli("calibrate --model " + testing::source_path("data/devices/baser-7dof.yaml") +
-                       " --log " + dir + "/forged.csv --out " + dir + "/out");
+  const auto cli = calibrate_cli(forged, dir);
   EXPECT_EQ(cli.exit_code, 3) << cli.out << cli.err;
   EXPECT_NE((cli.out + cli.err).find("implausible"), std::string::npos) << cli.out << cli.err;
   EXPECT_FALSE(std::filesystem::exists(dir + "/out/calibrated.yaml"));
