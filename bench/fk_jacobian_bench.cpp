@@ -2,8 +2,10 @@
 // calibrated 7-DOF model (transmissions included) against orocos KDL's
 // ChainFkSolverPos_recursive + ChainJntToJacSolver on the same chain. KDL has no
 // transmissions, so it is handed the compensated joint angles: it does less work.
-// The same for a Panda-like 7-DOF in URDF origin + axis geometry. And the 7-DOF
-// through the C runtime (hapticcal/runtime.h), against the library's call.
+// The same for a Panda-like 7-DOF in URDF origin + axis geometry and for the
+// 7-DOF with coupled joints and with joint compliance (KDL handed the deflected
+// angles). And the 7-DOF through the C runtime
+// (hapticcal/runtime.h), against the library's call.
 #include <unistd.h>
 
 #include <filesystem>
@@ -45,6 +47,31 @@ DeviceModel calibrated_panda_like() {
   Polynomial& p = std::get<Polynomial>(m.links[3].transmission.model());
   p.lower = m.links[3].lower;
   p.upper = m.links[3].upper;
+  return m;
+}
+
+// The calibrated 7-DOF with its joints coupled as haptic devices couple them
+// (issue 25): joint 3 read relative to joint 2, as a PHANToM's parallelogram
+// (theta3 = u3 - u2), and joint 4 moved by both, as the dVRK MTM's
+// actuator-to-joint map (theta4 = u4 + 0.6697 (u2 - u3)).
+DeviceModel coupled_7dof() {
+  DeviceModel m = calibrated_7dof();
+  m.coupling = Eigen::MatrixXd::Identity(m.dof(), m.dof());
+  m.coupling(2, 1) = -1;
+  m.coupling(3, 1) = 0.6697;
+  m.coupling(3, 2) = -0.6697;
+  return m;
+}
+
+// The calibrated 7-DOF with joint compliance (issue 25): each link a lumped
+// 1 kg at its frame's origin and k = 5e-4 rad/N m on every joint, so that the
+// prepared path forms the gravity torques and deflects the joints.
+DeviceModel compliant_7dof() {
+  DeviceModel m = calibrated_7dof();
+  for (Link& l : m.links) {
+    l.mass = 1.0;
+    l.compliance = 5e-4;
+  }
   return m;
 }
 
@@ -134,19 +161,38 @@ void BM_FkJacobian_PandaLike_KDL(benchmark::State& state) {
   fk_jacobian_kdl(state, calibrated_panda_like());
 }
 
+void BM_FkJacobian_Coupled_Hapticcal(benchmark::State& state) {
+  fk_jacobian_hapticcal(state, coupled_7dof());
+}
+void BM_FkJacobian_Coupled_KDL(benchmark::State& state) { fk_jacobian_kdl(state, coupled_7dof()); }
+
+void BM_FkJacobian_Compliant_Hapticcal(benchmark::State& state) {
+  fk_jacobian_hapticcal(state, compliant_7dof());
+}
+void BM_FkJacobian_Compliant_KDL(benchmark::State& state) {
+  fk_jacobian_kdl(state, compliant_7dof());
+}
+
 BENCHMARK(BM_FkJacobian_Hapticcal);
 BENCHMARK(BM_Runtime_FkJacobian);
 BENCHMARK(BM_FkJacobian_KDL);
 BENCHMARK(BM_FkJacobian_PandaLike_Hapticcal);
 BENCHMARK(BM_FkJacobian_PandaLike_KDL);
+BENCHMARK(BM_FkJacobian_Coupled_Hapticcal);
+BENCHMARK(BM_FkJacobian_Coupled_KDL);
+BENCHMARK(BM_FkJacobian_Compliant_Hapticcal);
+BENCHMARK(BM_FkJacobian_Compliant_KDL);
 
 }  // namespace
 
 int main(int argc, char** argv) {
   return hapticcal::bench::ratio_main(
       argc, argv,
-      hapticcal::bench::Pairs{
-          {"BM_FkJacobian_Hapticcal", "BM_FkJacobian_KDL"},
-          {"BM_Runtime_FkJacobian", "BM_FkJacobian_Hapticcal"},
-          {"BM_FkJacobian_PandaLike_Hapticcal", "BM_FkJacobian_PandaLike_KDL"}});
+      hapticcal::bench::Pairs{{"BM_FkJacobian_Hapticcal", "BM_FkJacobian_KDL"},
+                              {"BM_Runtime_FkJacobian", "BM_FkJacobian_Hapticcal"},
+                              {"BM_FkJacobian_PandaLike_Hapticcal", "BM_FkJacobian_PandaLike_KDL"},
+                              {"BM_FkJacobian_Coupled_Hapticcal", "BM_FkJacobian_Coupled_KDL"},
+                              {"BM_FkJacobian_Coupled_Hapticcal", "BM_FkJacobian_Hapticcal"},
+                              {"BM_FkJacobian_Compliant_Hapticcal", "BM_FkJacobian_Compliant_KDL"},
+                              {"BM_FkJacobian_Compliant_Hapticcal", "BM_FkJacobian_Hapticcal"}});
 }

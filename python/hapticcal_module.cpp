@@ -417,7 +417,25 @@ void bind_model(py::module_& m) {
           [](const Model& s, const Eigen::VectorXd& q) {
             return s.model.compensate(readings(s, q));
           },
-          "q"_a, "q + dtheta(q): the readings through the transmission models")
+          "q"_a,
+          "The joint values q + dtheta(q): the readings through the transmission models (a "
+          "coupled model: C (q + dtheta(q)))")
+      .def(
+          "reading_jacobian",
+          [](const Model& s, const Eigen::VectorXd& q) {
+            return Eigen::MatrixXd(s.model.reading_jacobian(readings(s, q)));
+          },
+          "q"_a,
+          "d theta / d q = C diag(1 + dtheta'(q)) (dof x dof): jacobian(q) @ reading_jacobian(q) "
+          "is the Jacobian w.r.t. the readings, its transpose maps a wrench to the actuators")
+      .def_property_readonly(
+          "coupling",
+          [](const Model& s) {
+            return s.model.coupled()
+                       ? Eigen::MatrixXd(s.model.coupling)
+                       : Eigen::MatrixXd(Eigen::MatrixXd::Identity(s.model.dof(), s.model.dof()));
+          },
+          "C of theta = C (q + dtheta(q)) (the identity for an uncoupled model)")
       .def(
           "parameters", [](const Model& s) { return parameters(s.model); },
           "The kinematic parameters by dotted name (j1.a, tool.x, ...)")

@@ -271,6 +271,61 @@ TEST(CostJacobian, JointErrorStagesMatchCentralDifferences) {
   EXPECT_GE(stages, 30);
 }
 
+// The compliance family's stages (issue 25, item 2a): one parameter k a joint,
+// its column the joint's gravity torque (fixed at the start's geometry) times
+// the joint value's, against central differences; and the fitted k, made the
+// links' compliance, predicts the same rows through DeviceModel::compensate.
+TEST(CostJacobian, ComplianceStagesMatchCentralDifferences) {
+  std::mt19937_64 rng(20261203);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  int stages = 0;
+  for (const auto& [label, file_model] : devices()) {
+    for (const MeasurementType type : kTypes) {
+      SCOPED_TRACE(label + " " + traits(type).name);
+      DeviceModel model = perturbed(file_model, rng);
+      for (Link& l : model.links) {
+        l.transmission = Transmission();
+        l.mass = 1 + unit(rng);
+        l.com = 0.05 * Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
+        l.compliance = 1e-3 * unit(rng);
+      }
+      model.coupling.resize(0, 0);
+      model.fitted_compliance.assign(model.dof(), true);
+      const std::vector<JointErrorStage> errors = joint_error_stages(model);
+      stages += static_cast<int>(errors.size());
+      ASSERT_EQ(static_cast<int>(errors.size()), model.dof());
+      const detail::RowsOf kind{type, 0.3, nullptr, &errors};
+      const ChainStructure s = model.structure();
+      const Eigen::VectorXd params = model.kinematic_parameters();
+      ASSERT_EQ(s.compliance, model.dof());
+      const int poses = 20;
+      std::vector<Eigen::VectorXd> joints;
+      detail::RowMatrix measured;
+      measure_poses(model, type, poses, rng, joints, measured);
+      const detail::MeasurementCost cost(s, joints, kind, measured);
+      std::vector<std::string> names(s.num_slots());
+      for (const ParameterInfo& info : model.parameter_info()) names[info.slot] = info.name;
+      const DerivativeCheck c =
+          check_cost_jacobian(cost, params, Eigen::VectorXd::Constant(params.size(), 1e-6), names);
+      EXPECT_LT(c.max_error, 1e-7) << c.worst;
+      DeviceModel folded = model;
+      folded.fitted_compliance.clear();
+      const Eigen::VectorXd r = evaluate_cost(cost, params).r;
+      const ChainStructure fs = folded.structure();
+      const Eigen::VectorXd fp = folded.kinematic_parameters();
+      for (int i = 0; i < poses; ++i) {
+        const Eigen::VectorXd moved = folded.compensate(joints[i]);
+        Eigen::MatrixXd J(kind.dimension(), fs.num_slots());
+        Eigen::VectorXd ri(kind.dimension());
+        detail::measurement_rows(fs, chain_constants(fs, fp.data()), fp.data(), moved.data(),
+                                 detail::RowsOf{type, 0.3}, measured.row(i).data(), ri.data(), J);
+        EXPECT_LT((ri - r.segment(i * kind.dimension(), kind.dimension())).norm(), 1e-12) << i;
+      }
+    }
+  }
+  EXPECT_GE(stages, 30);
+}
+
 // The standard deviations fit_transmission reports for a capstan (s^2 (J^T J)^-1
 // with the analytic Jacobian) are what the estimates actually scatter by: over
 // 500 seeded simulations of the paper's capstans 1-3 (Table 2, R = 10, D = 5 mm)

@@ -393,7 +393,8 @@ TEST(SimulateAnyForce, SixJointDeviceNeedsNoLockAndLockingOneIsRefused) {
   locked.insert(locked.end(), {"--lock", "3", "--out", dir + "/f3"});
   const testing::CliResult refused = testing::run_cli(locked);
   EXPECT_EQ(refused.exit_code, 2);
-  EXPECT_NE(refused.err.find("needs 6 joints after locking"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("needs 6 actuated joints after locking"), std::string::npos)
+      << refused.err;
   EXPECT_NE(refused.err.find("lock none (--lock 0)"), std::string::npos) << refused.err;
   EXPECT_FALSE(fs::exists(dir + "/f3"));
   fs::remove_all(dir);

@@ -465,8 +465,9 @@ TEST(Urdf, MalformedInputGivesOneLineErrors) {
   expect_input_error([&] { load_urdf(dir + "floating-in-chain.urdf", "tip"); },
                      {"floating-in-chain.urdf:7:", "'free_flyer'", "floating"});
   expect_input_error([&] { load_urdf(dir + "mimic-in-chain.urdf", "l2"); },
-                     {"mimic-in-chain.urdf:13:", "'j2'", "mimic"});
-  // The mimic joint is fine where it is not in the chain.
+                     {"mimic-in-chain.urdf:13:", "'j2'", "mimic", "'j0'", "not a movable joint"});
+  // A mimic joint on the chain is a passive coupled joint (coupling_test.cpp);
+  // one off the chain is ignored.
   EXPECT_EQ(load_urdf(dir + "mimic-in-chain.urdf", "l1").dof(), 1);
   const std::string limit = "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/>";
   auto joint = [&](const std::string& name, const std::string& inside) {

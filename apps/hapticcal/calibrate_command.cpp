@@ -50,8 +50,9 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
   calibrate->add_option(
       "--joint-errors", o.joint_errors,
       "Joint-error families fitted with the geometry: harmonic (first and second harmonic of each "
-      "joint's angle, and of its motor's through a capstan); the calibration without them is run "
-      "for comparison");
+      "joint's angle, and of its motor's through a capstan), compliance (each joint's deflection "
+      "k tau under the gravity torque of the model's masses); the calibration without them is "
+      "run for comparison");
   calibrate->add_option("--free", o.free,
                         "Parameters added to the candidates, e.g. j2.beta (a beta is one by "
                         "default only where neighbouring joint axes are parallel)");

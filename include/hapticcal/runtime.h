@@ -12,7 +12,10 @@
  *   values a device file's transmissions take as q), n = hapticcal_dof values.
  * - joint values theta = r + dtheta(r): the compensated readings, without the
  *   joint offsets (DeviceModel::compensate). The transmission of joint i
- *   depends on reading i alone, so d theta / d r is diagonal.
+ *   depends on reading i alone, so d theta / d r is diagonal, unless the model
+ *   couples its joints (a device file's `coupling`, a URDF <mimic>): then
+ *   theta = C (r + dtheta(r)) and d theta / d r = C diag(1 + dtheta'(r)); a
+ *   passive joint's own reading is unused (its torque is 0).
  * - T_meas_tool: the tool frame in the measurement frame, a 4 x 4 homogeneous
  *   transform, 16 doubles row-major: T[4 * row + col]; T[3], T[7], T[11] are
  *   the tool point p_meas [m]; the last row is 0 0 0 1.
@@ -80,8 +83,8 @@ HAPTICCAL_RUNTIME_API void hapticcal_free(hapticcal_model* model);
 /* The number of joints n, or -1 if model is NULL. */
 HAPTICCAL_RUNTIME_API int hapticcal_dof(const hapticcal_model* model);
 
-/* joints[i] = theta_i = r_i + dtheta_i(r_i) for the n readings. joints may be
- * readings (in place). */
+/* joints[i] = theta_i = r_i + dtheta_i(r_i) for the n readings (coupled:
+ * sum_k C_ik (r_k + dtheta_k(r_k))). joints may be readings (in place). */
 HAPTICCAL_RUNTIME_API hapticcal_status hapticcal_compensate(const hapticcal_model* model,
                                                             const double* readings, double* joints);
 

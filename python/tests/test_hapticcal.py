@@ -166,6 +166,32 @@ def test_jacobian_matches_central_differences(which, eccentric):
         assert np.allclose(J_tool[3:], R.T @ J[3:], atol=1e-12)
 
 
+def test_coupled_model_jacobian_through_the_readings():
+    """A coupled model (examples/coupled: joint 4 passive, theta4 = -(u2 + u3)):
+    coupling as written, jacobian @ reading_jacobian against central differences
+    of forward in the readings."""
+    m = hapticcal.load_model(str(SOURCE / "examples" / "coupled" / "level-arm.yaml"))
+    C = m.coupling
+    assert C.shape == (7, 7) and C[3, 1] == -1 and C[3, 2] == -1 and C[3, 3] == 0
+    rng = np.random.default_rng(3)
+    h = 1e-6
+    for _ in range(5):
+        q = rng.uniform(-1.0, 1.0, m.dof)
+        theta = m.compensate(q)
+        assert abs(theta[3] + theta[1] + theta[2]) < 1e-15
+        Jq = m.jacobian(q) @ m.reading_jacobian(q)
+        numeric = np.zeros((6, m.dof))
+        for i in range(m.dof):
+            dq = np.zeros(m.dof)
+            dq[i] = h
+            Tp, Tm = m.forward(q + dq), m.forward(q - dq)
+            numeric[:3, i] = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
+            numeric[3:, i] = rotation_vector(Tp[:3, :3] @ Tm[:3, :3].T) / (2 * h)
+        assert np.max(np.abs(numeric - Jq)) < 1e-7
+        assert np.all(Jq[:, 3] == 0)  # the passive joint's reading moves nothing
+    assert np.array_equal(hapticcal.load_model(MECA).coupling, np.eye(6))
+
+
 def test_transmissions_make_compensate_differ_from_q(eccentric):
     m = hapticcal.load_model(eccentric)
     q = np.full(m.dof, 0.3)
@@ -241,7 +267,11 @@ def test_issue_25_options_reach_the_calibration():
     assert r.results["joint_errors"]["families"] == ["harmonic"]
     assert r.results["joint_errors"]["cv_rms_without"] > 0
     with pytest.raises(ValueError, match="not a joint-error family"):
-        hapticcal.calibrate(MECA, CAL_LOG, joint_errors=["compliance"])
+        hapticcal.calibrate(MECA, CAL_LOG, joint_errors=["backlash"])
+    # Compliance on a model without masses: each link a lumped 1 kg, said so.
+    c = hapticcal.calibrate(MECA, CAL_LOG, joint_errors=["compliance"])
+    assert "j2.k" in c.parameters
+    assert any("lumped 1 kg" in n for n in c.notes)
     with pytest.raises(ValueError, match="encoder-resolution"):
         hapticcal.calibrate(MECA, CAL_LOG, encoder_resolution=-1.0)
 

@@ -222,9 +222,10 @@ void check_options(const CalibrationOptions& options) {
     throw InputError("--encoder-resolution must be a positive number of radians, at most 1");
   }
   for (const std::string& family : options.joint_errors) {
-    if (family != "harmonic") {
-      throw InputError(fmt::format("--joint-errors: '{}' is not a joint-error family (harmonic)",
-                                   printable(family)));
+    if (family != "harmonic" && family != "compliance") {
+      throw InputError(
+          fmt::format("--joint-errors: '{}' is not a joint-error family (harmonic, compliance)",
+                      printable(family)));
     }
   }
   if (options.keep_all && options.select) {
@@ -261,6 +262,7 @@ void prepare_poses(CalibrationRun& run) {
     run.repeats.push_back(static_cast<int>(all_poses[g].size()));
   }
   run.poses = average_repeats(run.log, run.result.poses);
+  encoders_at_readings(run.nominal, run.poses, run.result.notes);
   run.m = run.poses.rows;
   KinematicFit& fit = run.fit();
   fit.type = measurement_type(run.log);

@@ -4,6 +4,7 @@
 
 #include <ceres/ceres.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -284,6 +285,44 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
   return out;
 }
 
+void encoders_at_readings(const DeviceModel& model, Log& poses, std::vector<std::string>& notes) {
+  if (!model.coupled() || poses.ext.cols() != model.dof()) return;
+  const int n = model.dof();
+  std::vector<int> measured;
+  for (int i = 0; i < n; ++i) {
+    if (poses.has_ext[i]) measured.push_back(i);
+  }
+  if (measured.empty()) return;
+  Eigen::MatrixXd CA(measured.size(), n);  // C's rows of the joints with an encoder
+  for (size_t a = 0; a < measured.size(); ++a) CA.row(a) = model.coupling.row(measured[a]);
+  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> solver(CA.transpose());
+  Eigen::MatrixXd ext = Eigen::MatrixXd::Zero(poses.rows, n);
+  std::vector<bool> has(n, false);
+  std::vector<std::string> unseen;
+  for (int k = 0; k < n; ++k) {
+    if (!model.reading_used(k)) continue;
+    const Eigen::VectorXd e = Eigen::VectorXd::Unit(n, k);
+    const Eigen::VectorXd w = solver.solve(e);
+    if ((CA.transpose() * w - e).norm() > 1e-9) {
+      if (!model.links[k].transmission.is_none()) unseen.push_back(model.links[k].name);
+      continue;
+    }
+    has[k] = true;
+    for (size_t a = 0; a < measured.size(); ++a) ext.col(k) += w[a] * poses.ext.col(measured[a]);
+  }
+  poses.ext = ext;
+  poses.has_ext = has;
+  notes.push_back(
+      "coupled joints: step 1 fits each reading's transmission to the external encoders' joint "
+      "angles mapped back through the coupling");
+  if (!unseen.empty()) {
+    notes.push_back(
+        fmt::format("coupled joints: the external encoders do not determine the reading of {}: its "
+                    "transmission is not fitted in step 1",
+                    fmt::join(unseen, ", ")));
+  }
+}
+
 namespace {
 
 // The length scale of the problem's current model and poses.
@@ -393,8 +432,17 @@ std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model) {
           fmt::format("{}: a joint-error stage must be harmonics of a turning joint", l.name));
     }
     const int column = s.link_slot(i) + (l.dh_parameters() ? kLinkTheta : kOriginOffset);
-    stages.push_back({i, slot, column, stage});
+    stages.push_back({i, slot, column, stage, nullptr});
     slot += stage.num_parameters();
+  }
+  std::shared_ptr<const GravityModel> gravity;  // the torques at the start's geometry
+  slot = s.compliance_slot();
+  for (int i = 0; i < model.dof(); ++i) {
+    if (!model.compliance_fitted(i)) continue;
+    if (!gravity) gravity = std::make_shared<const GravityModel>(model);
+    const Link& l = model.links[i];
+    const int value = !l.dh_parameters() ? kOriginOffset : l.prismatic() ? kLinkD : kLinkTheta;
+    stages.push_back({i, slot++, s.link_slot(i) + value, Transmission(), gravity});
   }
   return stages;
 }

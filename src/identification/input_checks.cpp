@@ -44,6 +44,13 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
   constexpr double kSlack = 1e-9;  // rad or m: rounding in the log
   for (int j = 0; j < model.dof(); ++j) {
     const Link& link = model.links[j];
+    if (!model.reading_used(j)) {
+      notes.push_back(
+          fmt::format("{} is passive: its angle follows the coupling, and its reading "
+                      "(q{}) is not used",
+                      link.name, j + 1));
+      continue;
+    }
     int out = 0;
     double largest = 0;
     for (int r = 0; r < log.rows; ++r) {

@@ -13,16 +13,25 @@
 
 namespace hapticcal::detail {
 
-// The joint-error families of step 2 (CalibrationOptions::joint_errors): each
-// turning joint gets a Harmonic stage of its angle's first and second harmonic,
-// and its motor's where a capstan (alone or in a chain) gives the ratio R.
-void offer_joint_errors(CalibrationRun& run) {
-  if (run.options.joint_errors.empty()) return;
-  run.fit().joint_error_families = run.options.joint_errors;
+namespace {
+
+// "harmonic": each turning joint gets a Harmonic stage of its angle's first and
+// second harmonic, and its motor's where a capstan (alone or in a chain) gives
+// the ratio R.
+void offer_harmonics(CalibrationRun& run) {
   std::vector<Transmission> stages(run.model.dof());
+  std::vector<std::string> coupled;
   for (int i = 0; i < run.model.dof(); ++i) {
     const Link& l = run.model.links[i];
     if (l.prismatic()) continue;
+    // A stage is folded into the link's transmission, on its reading: only
+    // where the joint's angle is its own reading alone and no other joint's uses it.
+    const DeviceModel& m = run.model;
+    if (m.coupled() && (m.coupling.row(i) != Eigen::RowVectorXd::Unit(m.dof(), i) ||
+                        m.coupling.col(i) != Eigen::VectorXd::Unit(m.dof(), i))) {
+      coupled.push_back(l.name);
+      continue;
+    }
     Harmonic h;
     h.frequencies = {1, 2};
     const Transmission& t = l.transmission;
@@ -38,8 +47,58 @@ void offer_joint_errors(CalibrationRun& run) {
     h.coefficients.assign(2 * h.frequencies.size(), 0.0);
     stages[i] = Transmission(h);
   }
+  if (!coupled.empty()) {
+    run.result.notes.push_back(fmt::format(
+        "--joint-errors: no harmonic stage on the coupled joint(s) {} (a stage acts on the "
+        "joint's own reading, which the coupling mixes with others)",
+        fmt::join(coupled, ", ")));
+  }
   run.model.joint_errors = stages;
   run.step2_nominal.joint_errors = stages;
+}
+
+// "compliance": every joint's compliance k is a step-2 parameter (its gravity
+// torque the feature). Without masses in the model each link is a lumped 1 kg
+// at its frame's origin, written into the calibrated model (k then absorbs the
+// scale of the true masses).
+void offer_compliance(CalibrationRun& run) {
+  DeviceModel& m = run.model;
+  if (!(m.gravity.norm() > 0)) {
+    throw InputError(
+        "--joint-errors compliance: the model's gravity is zero, so no joint is loaded: give the "
+        "device file's gravity: [gx, gy, gz] (base frame, m/s^2)");
+  }
+  bool masses = false;
+  for (const Link& l : m.links) masses = masses || l.mass > 0;
+  if (!masses) {
+    for (DeviceModel* model : {&run.model, &run.step2_nominal}) {
+      for (Link& l : model->links) {
+        l.mass = 1.0;
+        l.com.setZero();
+      }
+    }
+    run.result.notes.push_back(
+        "--joint-errors compliance: the model gives no masses: each link is a lumped 1 kg at its "
+        "frame's origin (written into the calibrated model), so each k is in rad per N m of that "
+        "model, not of the device's own torques");
+  }
+  run.model.fitted_compliance.assign(m.dof(), true);
+  run.step2_nominal.fitted_compliance.assign(m.dof(), true);
+}
+
+bool has_family(const CalibrationOptions& options, const char* family) {
+  return std::find(options.joint_errors.begin(), options.joint_errors.end(), family) !=
+         options.joint_errors.end();
+}
+
+}  // namespace
+
+// The joint-error families of step 2 (CalibrationOptions::joint_errors).
+void offer_joint_errors(CalibrationRun& run) {
+  if (run.options.joint_errors.empty()) return;
+  run.fit().joint_error_families = run.options.joint_errors;
+  if (has_family(run.options, "harmonic")) offer_harmonics(run);
+  if (has_family(run.options, "compliance")) offer_compliance(run);
 }
 
 // The joint-error stages as fitted, folded into the calibrated model's
@@ -59,6 +118,7 @@ std::string fold_joint_errors(DeviceModel& model) {
     t = t.is_none() ? stage : Transmission(Chain{{t, stage}});
   }
   model.joint_errors.clear();
+  model.fitted_compliance.clear();  // each fitted k is the link's compliance now
   return refused;
 }
 
@@ -72,7 +132,8 @@ void compare_without_joint_errors(const DeviceModel& nominal, const Log& log,
   std::set<std::string> names;
   const std::vector<ParameterInfo> info = run.problem.model.parameter_info();
   for (const ParameterInfo& p : info) {
-    if (p.joint == joint_error_block(run.problem.model.dof())) names.insert(p.name);
+    const int dof = run.problem.model.dof();
+    if (p.joint == joint_error_block(dof) || p.joint == compliance_block(dof)) names.insert(p.name);
   }
   const auto named = [&](const std::string& n) { return names.count(n) > 0; };
   std::erase_if(plain.fix, named);

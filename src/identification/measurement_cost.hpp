@@ -47,19 +47,27 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
     return;
   }
   constexpr int kMaxFeatures = 2 * static_cast<int>(Harmonic::kMaxFrequencies);
-  std::array<double, kMaxDof> moved;
+  std::array<double, kMaxDof> moved, tau;
   std::copy(joint, joint + s.dof, moved.begin());
-  std::array<std::array<double, kMaxFeatures>, kMaxDof> phi;
-  for (const JointErrorStage& e : *kind.errors) {
-    e.stage.parameter_jacobian(joint[e.link], phi[e.link].data());
-    for (int k = 0; k < e.stage.num_parameters(); ++k)
-      moved[e.link] += params[e.slot + k] * phi[e.link][k];
+  // Features by stage (a link may have a harmonic and a compliance stage).
+  std::array<std::array<double, kMaxFeatures>, 2 * kMaxDof> phi;
+  bool torques = false;
+  for (size_t k = 0; k < kind.errors->size(); ++k) {
+    const JointErrorStage& e = (*kind.errors)[k];
+    if (e.gravity) {
+      if (!torques) e.gravity->torques(joint, tau.data());
+      torques = true;
+      phi[k][0] = tau[e.link];
+    } else {
+      e.stage.parameter_jacobian(joint[e.link], phi[k].data());
+    }
+    for (int c = 0; c < e.count(); ++c) moved[e.link] += params[e.slot + c] * phi[k][c];
   }
   hapticcal::measurement_rows(kind.type, s, constants, params, moved.data(), measured,
                               kind.rotation_scale, residual, J);
-  for (const JointErrorStage& e : *kind.errors) {
-    for (int k = 0; k < e.stage.num_parameters(); ++k)
-      J.col(e.slot + k) = phi[e.link][k] * J.col(e.joint_column);
+  for (size_t k = 0; k < kind.errors->size(); ++k) {
+    const JointErrorStage& e = (*kind.errors)[k];
+    for (int c = 0; c < e.count(); ++c) J.col(e.slot + c) = phi[k][c] * J.col(e.joint_column);
   }
 }
 

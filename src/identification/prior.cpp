@@ -249,6 +249,8 @@ Eigen::VectorXd slot_tolerances(const DeviceModel& model, const Tolerances& t) {
       out[pi.slot] = pi.unit == ParameterUnit::kAngle ? t.angle : t.length;
     } else if (pi.joint == joint_error_block(model.dof())) {
       out[pi.slot] = t.harmonic;
+    } else if (pi.joint == compliance_block(model.dof())) {
+      out[pi.slot] = t.compliance;
     }
   }
   if (!unused.empty()) {

@@ -60,7 +60,12 @@ TwoStepJacobians two_step_jacobians(const DeviceModel& model, MeasurementType ty
       t.transmission.parameter_jacobian(readings(r, t.joint), e.data());
       st.encoder.row(r).head(np) = e.transpose();
       st.encoder(r, np) = 1.0;
-      st.measurement.middleRows(r * d, d) = out.joint.block(r * d, t.joint, d, 1) * e.transpose();
+      // d theta / d u_k: column k of a coupling's C (reading k moves every joint that uses it).
+      const Eigen::MatrixXd column =
+          model.coupled()
+              ? Eigen::MatrixXd(out.joint.block(r * d, 0, d, n) * model.coupling.col(t.joint))
+              : Eigen::MatrixXd(out.joint.block(r * d, t.joint, d, 1));
+      st.measurement.middleRows(r * d, d) = column * e.transpose();
     }
     out.step_one.push_back(std::move(st));
   }

@@ -51,7 +51,7 @@ ForceJob run_force_job(const ForceRequest& request) {
   const DeviceModel calibrated = load_force_model(request, request.calibrated);
   ForceScenario sc = request.scenario;
   if (request.lock >= 0) sc.locked_joint = request.lock - 1;  // 0 -> kNoLock
-  sc.locked_joint = resolved_locked_joint(sc, job.actual.dof());
+  sc.locked_joint = resolved_locked_joint(sc, job.actual);
   job.out = std::make_unique<OutputSet>(request.out, "force");
   if (request.posture) {
     sc.posture = Eigen::Map<const Eigen::VectorXd>(

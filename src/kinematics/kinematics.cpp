@@ -1,6 +1,7 @@
 #include "hapticcal/kinematics/kinematics.hpp"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 
 #include "kinematics/fast_math.hpp"
 
@@ -43,10 +44,174 @@ PreparedModel::PreparedModel(const DeviceModel& model) : structure_(model.struct
     all_mdh = all_mdh && j.geometry == Geometry::kMdh && !j.prismatic();
   }
   path_ = all_dh ? Path::kDh : all_mdh ? Path::kMdh : Path::kGeneric;
+  if (model.compliant()) gravity_ = std::make_shared<const GravityModel>(model);
+  if (model.coupled()) {
+    for (int i = 0; i < structure_.dof; ++i) {
+      for (int k = 0; k < structure_.dof; ++k) {
+        if (model.coupling(i, k) != 0) coupling_.push_back({i, k, model.coupling(i, k)});
+      }
+    }
+  }
 }
 
 void PreparedModel::compensate(const double* q, double* joint) const {
-  for (int i = 0; i < structure_.dof; ++i) joint[i] = q[i] + transmissions_[i].error(q[i]);
+  rigid_joints(q, joint);
+  if (gravity_) deflect(joint);
+}
+
+void PreparedModel::rigid_joints(const double* q, double* joint) const {
+  const int n = structure_.dof;
+  if (coupling_.empty() && !gravity_) {
+    for (int i = 0; i < n; ++i) joint[i] = q[i] + transmissions_[i].error(q[i]);
+    return;
+  }
+  std::array<double, kMaxDof> u;  // each reading through its own transmission
+  transmission_errors(q, u.data());
+  for (int k = 0; k < n; ++k) u[k] += q[k];
+  if (coupling_.empty()) {
+    std::copy(u.begin(), u.begin() + n, joint);
+  } else {
+    for (int i = 0; i < n; ++i) joint[i] = 0;
+    for (const CouplingTerm& t : coupling_) joint[t.joint] += t.coefficient * u[t.reading];
+  }
+}
+
+// The gravity torques from the prepared chain's frames at the undeflected
+// joint values (the same frames as forward_kinematics'), then joint += k tau.
+void PreparedModel::deflect(double* joint) const {
+  std::array<Frame<double>, kMaxDof + 1> frames;
+  chain_from_joints(joint, frames.data());
+  std::array<double, kMaxDof> tau;
+  const GravityModel& g = *gravity_;
+  gravity_torques(structure_, frames.data(), g.mass.data(), g.com.data(), g.gravity, tau.data());
+  for (int i = 0; i < structure_.dof; ++i) joint[i] += g.compliance[i] * tau[i];
+}
+
+void PreparedModel::transmission_errors(const double* q, double* error) const {
+  const int n = structure_.dof;
+  const int m = 2 * static_cast<int>(capstan_joints_.size());
+  std::array<double, 2 * kMaxDof> x, s, c, t, at;
+  for (int j = 0; j < m / 2; ++j) {
+    const int i = capstan_joints_[j];
+    x[2 * j] = q[i];
+    x[2 * j + 1] = transmissions_[i].ratio() * q[i];
+  }
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // x[0, m) is written above
+#endif
+  sincos_batch(x.data(), s.data(), c.data(), m);
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
+  for (int j = 0; j < m / 2; ++j) {
+    transmissions_[capstan_joints_[j]].capstan_tangents(s[2 * j], c[2 * j], s[2 * j + 1],
+                                                        c[2 * j + 1], t[2 * j], t[2 * j + 1]);
+  }
+  atan_batch(t.data(), at.data(), m);
+  for (int i = 0, j = 0; i < n; ++i) {
+    if (j < m / 2 && capstan_joints_[j] == i) {
+      error[i] = transmissions_[i].capstan_error(q[i], at[2 * j], at[2 * j + 1]);
+      ++j;
+    } else {
+      error[i] = transmissions_[i].error(q[i]);
+    }
+  }
+}
+
+void PreparedModel::reading_jacobian(const double* q, double* J_joint_reading) const {
+  const int n = structure_.dof;
+  if (gravity_) {  // the deflection's slope by central differences
+    const double h = 1e-6;
+    std::array<double, kMaxDof> q_step, plus, minus;
+    std::copy(q, q + n, q_step.begin());
+    for (int k = 0; k < n; ++k) {
+      q_step[k] = q[k] + h;
+      compensate(q_step.data(), plus.data());
+      q_step[k] = q[k] - h;
+      compensate(q_step.data(), minus.data());
+      q_step[k] = q[k];
+      for (int i = 0; i < n; ++i) J_joint_reading[k * n + i] = (plus[i] - minus[i]) / (2 * h);
+    }
+    return;
+  }
+  std::fill(J_joint_reading, J_joint_reading + n * n, 0.0);
+  if (coupling_.empty()) {
+    for (int i = 0; i < n; ++i) J_joint_reading[i * n + i] = 1 + transmissions_[i].derivative(q[i]);
+    return;
+  }
+  for (const CouplingTerm& t : coupling_) {
+    J_joint_reading[t.reading * n + t.joint] +=
+        t.coefficient * (1 + transmissions_[t.reading].derivative(q[t.reading]));
+  }
+}
+
+void PreparedModel::joint_angles(const double* joint, double* cos_theta, double* sin_theta,
+                                 double* length) const {
+  const int n = structure_.dof;
+  std::array<double, kMaxDof> x, s, c;
+  std::array<int, kMaxDof> slot;
+  int used = 0;
+  for (int i = 0; i < n; ++i) {
+    if (structure_.joints[i].prismatic()) continue;
+    x[used] = joint[i] + links_[i].offset;
+    slot[i] = used++;
+  }
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // x[0, used) is written above
+#endif
+  sincos_batch(x.data(), s.data(), c.data(), used);
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
+  for (int i = 0; i < n; ++i) {
+    if (structure_.joints[i].prismatic()) {
+      cos_theta[i] = links_[i].cos_theta;
+      sin_theta[i] = links_[i].sin_theta;
+      length[i] = joint[i] + links_[i].offset;
+    } else {
+      cos_theta[i] = c[slot[i]];
+      sin_theta[i] = s[slot[i]];
+      length[i] = links_[i].d;
+    }
+  }
+}
+
+Frame<double> PreparedModel::chain_from_joints(const double* joint, Frame<double>* frames) const {
+  std::array<double, kMaxDof> cos_theta, sin_theta, length;
+  joint_angles(joint, cos_theta.data(), sin_theta.data(), length.data());
+  return compose(cos_theta.data(), sin_theta.data(), length.data(), frames);
+}
+
+// A compliant model's chain: the undeflected chain's frames give the gravity
+// torques; each joint then turns by its small deflection k tau, its cosine and
+// sine turned from the undeflected ones (no second batch of sines), and the
+// chain is composed again.
+Frame<double> PreparedModel::compliant_chain(const double* q, Frame<double>* frames) const {
+  const int n = structure_.dof;
+  std::array<double, kMaxDof> joint, cos_theta, sin_theta, length, tau;
+  rigid_joints(q, joint.data());
+  joint_angles(joint.data(), cos_theta.data(), sin_theta.data(), length.data());
+  compose(cos_theta.data(), sin_theta.data(), length.data(), frames);
+  const GravityModel& g = *gravity_;
+  gravity_torques(structure_, frames, g.mass.data(), g.com.data(), g.gravity, tau.data());
+  for (int i = 0; i < n; ++i) {
+    const double turn = g.compliance[i] * tau[i];
+    if (structure_.joints[i].prismatic()) {
+      length[i] += turn;
+    } else if (std::abs(turn) <= 0.1) {
+      double st, ct;
+      small_angle_sincos(turn, st, ct);
+      const double c = cos_theta[i] * ct - sin_theta[i] * st;
+      sin_theta[i] = sin_theta[i] * ct + cos_theta[i] * st;
+      cos_theta[i] = c;
+    } else {
+      cos_theta[i] = std::cos(joint[i] + turn + links_[i].offset);
+      sin_theta[i] = std::sin(joint[i] + turn + links_[i].offset);
+    }
+  }
+  return compose(cos_theta.data(), sin_theta.data(), length.data(), frames);
 }
 
 // The transcendental functions of all joints are evaluated in one batch: sin
@@ -54,6 +219,12 @@ void PreparedModel::compensate(const double* q, double* joint) const {
 // joints; then the arc tangents of eq. (1). A capstan joint's angle
 // theta = q + (error + offset) is turned from (cos q, sin q) by that small angle.
 Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const {
+  if (gravity_) return compliant_chain(q, frames);
+  if (!coupling_.empty()) {
+    std::array<double, kMaxDof> joint;
+    compensate(q, joint.data());
+    return chain_from_joints(joint.data(), frames);
+  }
   const int n = structure_.dof;
   const int m = 2 * static_cast<int>(capstan_joints_.size());
   std::array<double, 2 * kMaxDof> x, s, c, t, at;  // first m + (n - m / 2) entries used
@@ -114,7 +285,12 @@ Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const
       sin_theta[i] = std::sin(q[i] + turn);
     }
   }
+  return compose(cos_theta.data(), sin_theta.data(), length.data(), frames);
+}
 
+Frame<double> PreparedModel::compose(const double* cos_theta, const double* sin_theta,
+                                     const double* length, Frame<double>* frames) const {
+  const int n = structure_.dof;
   frames[0] = base_;
   if (path_ == Path::kGeneric) {
     for (int i = 0; i < n; ++i) {
@@ -179,12 +355,6 @@ Frame<double> PreparedModel::forward_jacobian(const double* q, JacobianFrame exp
   return forward_jacobian(q, expressed_in, J.data());
 }
 
-void PreparedModel::joint_derivative(const double* q, double* J_joint_reading_diagonal) const {
-  for (int i = 0; i < structure_.dof; ++i) {
-    J_joint_reading_diagonal[i] = 1 + transmissions_[i].derivative(q[i]);
-  }
-}
-
 Frame<double> PreparedModel::forward_jacobian(const double* q, JacobianFrame expressed_in,
                                               double* J_col_major) const {
   std::array<Frame<double>, kMaxDof + 1> frames;
@@ -227,6 +397,7 @@ ReachResult reach(const PreparedModel& model, const Eigen::VectorXd& q, const To
   ReachResult out;
   out.q = q;
   Jacobian6<double> J(6, model.dof());
+  Eigen::MatrixXd J_joint_reading(model.dof(), model.dof());
   auto error_at = [&](const Eigen::Vector3d& p) {
     return target.plane ? std::abs(target.offset - target.normal.dot(p))
                         : (target.point - p).norm();
@@ -235,6 +406,10 @@ ReachResult reach(const PreparedModel& model, const Eigen::VectorXd& q, const To
     const Eigen::Vector3d p =
         model.forward_jacobian(out.q.data(), JacobianFrame::kMeasurement, J).p;
     if (error_at(p) < options.tolerance) break;
+    if (model.coupled()) {  // the steps are in the readings: J d theta / d q
+      model.reading_jacobian(out.q.data(), J_joint_reading.data());
+      J = (J * J_joint_reading).eval();
+    }
     if (target.plane) {
       const Eigen::RowVectorXd a = target.normal.transpose() * J.topRows<3>();
       out.q += a.transpose() *

@@ -1,6 +1,9 @@
 #include "hapticcal/model/model.hpp"
 
+#include <fmt/format.h>
+
 #include <cassert>
+#include <cmath>
 
 namespace hapticcal {
 namespace {
@@ -63,6 +66,7 @@ ChainStructure DeviceModel::structure() const {
   s.tool = slot;
   s.instrument = instrument_zero ? 1 : 0;
   for (const Transmission& e : joint_errors) s.errors += e.num_parameters();
+  for (int i = 0; i < dof(); ++i) s.compliance += compliance_fitted(i) ? 1 : 0;
   return s;
 }
 
@@ -87,6 +91,9 @@ Eigen::VectorXd DeviceModel::kinematic_parameters() const {
     const Eigen::VectorXd v = stage.parameters();
     p.segment(e, v.size()) = v;
     e += static_cast<int>(v.size());
+  }
+  for (int i = 0, k = s.compliance_slot(); i < dof(); ++i) {
+    if (compliance_fitted(i)) p[k++] = links[i].compliance;
   }
   return p;
 }
@@ -115,6 +122,9 @@ void DeviceModel::set_kinematic_parameters(const Eigen::VectorXd& p) {
   for (Transmission& stage : joint_errors) {
     stage.set_parameters(p.data() + e);
     e += stage.num_parameters();
+  }
+  for (int i = 0, k = s.compliance_slot(); i < dof(); ++i) {
+    if (compliance_fitted(i)) links[i].compliance = p[k++];
   }
 }
 
@@ -159,14 +169,50 @@ std::vector<ParameterInfo> DeviceModel::parameter_info() const {
       info.push_back({links[i].name + "." + name, e++, U::kAngle, joint_error_block(dof()), i});
     }
   }
+  for (int i = 0, k = s.compliance_slot(); i < dof(); ++i) {
+    if (compliance_fitted(i))
+      info.push_back({links[i].name + ".k", k++, U::kAngle, compliance_block(dof()), i});
+  }
   return info;
 }
 
-Eigen::VectorXd DeviceModel::compensate(const Eigen::VectorXd& q) const {
-  assert(q.size() == dof());
-  Eigen::VectorXd joint(dof());
-  for (int i = 0; i < dof(); ++i) joint[i] = q[i] + links[i].transmission.error(q[i]);
-  return joint;
+// DeviceModel::compensate and reading_jacobian: kinematics/compliance.cpp
+// (the gravity torques of joint compliance need the kinematics).
+
+bool DeviceModel::compliant() const {
+  for (int i = 0; i < dof(); ++i) {
+    if (links[i].compliance != 0 && !compliance_fitted(i)) return true;
+  }
+  return false;
+}
+
+std::string coupling_problem(const Eigen::MatrixXd& coupling, const std::vector<Link>& links) {
+  const int n = static_cast<int>(links.size());
+  if (coupling.size() == 0) return {};
+  if (coupling.rows() != n || coupling.cols() != n) {
+    return fmt::format("{} x {} for {} joints", coupling.rows(), coupling.cols(), n);
+  }
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < n; ++k) {
+      const double c = coupling(i, k);
+      if (!std::isfinite(c) || std::abs(c) > kMaxCouplingCoefficient) {
+        return fmt::format("{}'s coefficient of {}: {} is not a number of magnitude at most {}",
+                           links[i].name, links[k].name, c, kMaxCouplingCoefficient);
+      }
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    if (!coupling.row(i).any()) return fmt::format("{} uses no reading", links[i].name);
+  }
+  for (int k = 0; k < n; ++k) {
+    if (!coupling.col(k).any() && !links[k].transmission.is_none()) {
+      return fmt::format(
+          "{} is passive (no joint uses its reading), so its transmission acts on nothing",
+          links[k].name);
+    }
+  }
+  if (coupling.isIdentity(0)) return "the identity (no coupling): leave it out";
+  return {};
 }
 
 }  // namespace hapticcal

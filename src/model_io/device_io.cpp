@@ -184,13 +184,13 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
     link.geometry = r.geometry(node["geometry"], join(path, "geometry"), file.v2);
   }
   if (!link.dh_parameters()) {
-    r.check_keys(
-        node, path,
-        {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission"});
+    r.check_keys(node, path,
+                 {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission",
+                  "coupling", "mass", "compliance"});
   } else if (file.v2) {
-    r.check_keys(
-        node, path,
-        {"name", "geometry", "type", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
+    r.check_keys(node, path,
+                 {"name", "geometry", "type", "a", "alpha", "d", "theta", "beta", "limits",
+                  "transmission", "coupling", "mass", "compliance"});
   } else {
     r.check_keys(node, path,
                  {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
@@ -230,7 +230,48 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
     link.transmission =
         r.transmission(node["transmission"], join(path, "transmission"), link.lower, link.upper);
   }
+  if (node["mass"]) {  // {m: kg, com: [x, y, z]} in the link's frame
+    const YAML::Node mass = node["mass"];
+    const std::string key = join(path, "mass");
+    r.check_keys(mass, key, {"m", "com"});
+    link.mass = r.number(mass, key, "m");
+    const auto com = r.numbers(r.require(mass, key, "com"), join(key, "com"), 3);
+    link.com = Eigen::Vector3d(com[0], com[1], com[2]);
+  }
+  if (node["compliance"]) link.compliance = r.number(node["compliance"], join(path, "compliance"));
   return link;
+}
+
+// The links' `coupling` maps (version 2), {reading link's name: coefficient},
+// into model.coupling once every link is read; a link without one uses its own
+// reading alone.
+void read_coupling(const Reader& r, const YAML::Node& links, DeviceModel& model) {
+  const int n = model.dof();
+  Eigen::MatrixXd C = Eigen::MatrixXd::Identity(n, n);
+  int first = -1;  // the first link with a coupling: where a problem of the whole C is told
+  for (int i = 0; i < n; ++i) {
+    const YAML::Node node = links[i]["coupling"];
+    if (!node) continue;
+    const std::string path = fmt::format("links[{}].coupling", i);
+    if (!node.IsMap() || node.size() == 0) {
+      r.fail(node, path, "expected a map {link name: coefficient, ...} of at least one reading");
+    }
+    if (first < 0) first = i;
+    C.row(i).setZero();
+    for (const auto& entry : node) {
+      const std::string name = r.string(entry.first, path);
+      const std::string key = join(path, name);
+      int k = 0;
+      while (k < n && model.links[k].name != name) ++k;
+      if (k == n) r.fail(entry.first, key, fmt::format("'{}' is not a link", printable(name)));
+      C(i, k) = r.number(entry.second, key);
+    }
+  }
+  if (first < 0) return;
+  if (const std::string why = coupling_problem(C, model.links); !why.empty()) {
+    r.fail(links[first]["coupling"], fmt::format("links[{}].coupling", first), why);
+  }
+  model.coupling = C;
 }
 
 constexpr size_t kMaxLinkName = 64;     // bytes
@@ -288,6 +329,17 @@ std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) 
   if (!(link.lower < link.upper)) {
     return {key + ".limits",
             fmt::format("lower {} must be below upper {}", link.lower, link.upper)};
+  }
+  if (!(link.mass >= 0 && link.mass <= kMaxLinkMass)) {
+    return {key + ".mass", fmt::format("m must be in [0, {}] kg", kMaxLinkMass)};
+  }
+  if (!link.com.allFinite() || link.com.norm() > kMaxComDistance) {
+    return {key + ".mass", fmt::format("com must be finite, within {} m", kMaxComDistance)};
+  }
+  if (!(std::abs(link.compliance) <= kMaxCompliance)) {
+    return {key + ".compliance",
+            fmt::format("{} is not a compliance of magnitude at most {} rad/N m", link.compliance,
+                        kMaxCompliance)};
   }
   const std::string why = link.transmission.check(link.lower, link.upper);
   if (!why.empty()) return {key + ".transmission", why};
@@ -370,7 +422,7 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
   }
   const Reader r(origin);
   if (!root || root.IsNull()) throw InputError(origin, 0, "", "empty device file");
-  r.check_keys(root, "", {"format", "name", "convention", "base", "links", "tool"});
+  r.check_keys(root, "", {"format", "name", "convention", "base", "links", "tool", "gravity"});
   const std::string format = r.string(r.require(root, "", "format"), "format");
   if (format != kFormat && format != kFormat2) {
     r.fail(root["format"], "format",
@@ -400,7 +452,16 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
       r.fail(at, key, why);
     }
   }
+  read_coupling(r, links, model);
 
+  if (root["gravity"]) {  // in the base frame [m/s^2]
+    if (!v2) r.fail(root["gravity"], "gravity", "belongs to format hapticcal-device/2");
+    const auto g = r.numbers(root["gravity"], "gravity", 3);
+    model.gravity = Eigen::Vector3d(g[0], g[1], g[2]);
+    if (!(model.gravity.norm() <= kMaxGravity)) {
+      r.fail(root["gravity"], "gravity", fmt::format("longer than {} m/s^2", kMaxGravity));
+    }
+  }
   if (root["tool"]) {
     const YAML::Node tool = root["tool"];
     r.check_keys(tool, "tool", {"pose"});
@@ -430,6 +491,10 @@ std::string check_device(const DeviceModel& model) {
     const auto [key, why] = check_link(model, i);
     if (!why.empty()) return key + ": " + why;
   }
+  if (const std::string why = coupling_problem(model.coupling, model.links); !why.empty()) {
+    return "coupling: " + why;
+  }
+  if (!(model.gravity.norm() <= kMaxGravity)) return "gravity: not finite or too long";
   return {};
 }
 
@@ -441,6 +506,9 @@ std::string device_to_yaml(const DeviceModel& model) {
   for (const Link& l : model.links) {
     uniform = uniform && l.geometry == first && !l.prismatic() && !l.continuous();
   }
+  bool masses = false;  // masses, compliance and gravity are version 2's, like a coupling
+  for (const Link& l : model.links) masses = masses || l.mass != 0 || l.compliance != 0;
+  uniform = uniform && !model.coupled() && !masses;
   auto geometry_name = [](Geometry g) { return traits(g).name; };
   out += fmt::format("format: {}\n", uniform ? kFormat : kFormat2);
   out += fmt::format("name: {}\n", quoted(model.name));
@@ -476,6 +544,25 @@ std::string device_to_yaml(const DeviceModel& model) {
     if (!l.transmission.is_none()) {
       out += fmt::format("    transmission: {}\n", transmission_text(l.transmission));
     }
+    const int i = static_cast<int>(&l - model.links.data());
+    if (model.coupled() && model.coupling.row(i) != Eigen::RowVectorXd::Unit(model.dof(), i)) {
+      std::string terms;
+      for (int k = 0; k < model.dof(); ++k) {
+        if (model.coupling(i, k) == 0) continue;
+        terms += fmt::format("{}{}: {}", terms.empty() ? "" : ", ", quoted(model.links[k].name),
+                             num(model.coupling(i, k)));
+      }
+      out += fmt::format("    coupling: {{{}}}\n", terms);
+    }
+    if (l.mass != 0) {
+      out += fmt::format("    mass: {{m: {}, com: [{}, {}, {}]}}\n", num(l.mass), num(l.com[0]),
+                         num(l.com[1]), num(l.com[2]));
+    }
+    if (l.compliance != 0) out += fmt::format("    compliance: {}\n", num(l.compliance));
+  }
+  if (masses) {
+    const Eigen::Vector3d& g = model.gravity;
+    out += fmt::format("gravity: [{}, {}, {}]\n", num(g[0]), num(g[1]), num(g[2]));
   }
   const auto& t = model.tool;
   out += fmt::format("tool:\n  pose: {{xyz: [{}, {}, {}], rpy: [{}, {}, {}]}}\n", num(t[0]),

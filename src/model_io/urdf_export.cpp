@@ -184,9 +184,9 @@ JointSplit split_joint(const Link& l) {
   return s;
 }
 
-// The transmission entries of device_to_yaml's text, one per link (empty: none),
-// so that the comments hold exactly what a device file would.
-std::vector<std::string> transmission_yaml(const DeviceModel& model) {
+// The `key` entries ("transmission", "coupling") of device_to_yaml's text, one
+// per link (empty: none), so that the comments hold exactly what a device file would.
+std::vector<std::string> link_yaml(const DeviceModel& model, std::string_view key) {
   std::vector<std::string> out;
   const std::string yaml = device_to_yaml(model);
   size_t pos = 0;
@@ -198,9 +198,9 @@ std::vector<std::string> transmission_yaml(const DeviceModel& model) {
     if (line == "links:") in_links = true;
     if (in_links && line.starts_with("  - name:")) out.emplace_back();
     if (in_links && !line.starts_with(" ") && line != "links:") in_links = false;
-    constexpr std::string_view kKey = "    transmission: ";
-    if (in_links && line.starts_with(kKey) && !out.empty()) {
-      out.back() = std::string(line.substr(kKey.size()));
+    const std::string prefix = fmt::format("    {}: ", key);
+    if (in_links && line.starts_with(prefix) && !out.empty()) {
+      out.back() = std::string(line.substr(prefix.size()));
     }
     pos = eol + 1;
   }
@@ -210,7 +210,8 @@ std::vector<std::string> transmission_yaml(const DeviceModel& model) {
 
 void write_joint(std::string& out, const std::string& name, const std::string& type,
                  const std::string& parent, const std::string& child, const Frame<double>& origin,
-                 const Link* link, const Eigen::Vector3d& axis = Eigen::Vector3d::UnitZ()) {
+                 const Link* link, const Eigen::Vector3d& axis = Eigen::Vector3d::UnitZ(),
+                 const std::string& extra = "") {
   const std::array<double, 6> pose = pose_of(origin);
   out += fmt::format("  <joint name=\"{}\" type=\"{}\">\n", xml_escaped(name), type);
   out += fmt::format("    <parent link=\"{}\"/>\n", xml_escaped(parent));
@@ -223,6 +224,7 @@ void write_joint(std::string& out, const std::string& name, const std::string& t
                          link->lower, link->upper);
     }
   }
+  out += extra;
   out += "  </joint>\n";
 }
 
@@ -236,7 +238,8 @@ std::string device_to_urdf(const DeviceModel& model) {
   const Eigen::VectorXd params = model.kinematic_parameters();
   const Frame<double> base = base_frame(s, params.data());
   const Frame<double> tool = tool_frame(s, params.data());
-  const std::vector<std::string> transmissions = transmission_yaml(model);
+  const std::vector<std::string> transmissions = link_yaml(model, "transmission");
+  const std::vector<std::string> couplings = link_yaml(model, "coupling");
 
   std::set<std::string> joint_names;
   for (const Link& l : model.links) joint_names.insert(l.name);
@@ -265,8 +268,26 @@ std::string device_to_urdf(const DeviceModel& model) {
           "device file): {} -->\n",
           comment_safe(l.name), comment_safe(transmissions[i]));
     }
+    std::string mimic;
+    if (!couplings[i].empty()) {
+      // A passive joint that follows one other reading is a URDF mimic joint
+      // (the offsets are folded into the origins: the mimic's offset is 0).
+      const Eigen::RowVectorXd row = model.coupling.row(i);
+      int k = 0;
+      row.cwiseAbs().maxCoeff(&k);
+      if ((row.array() != 0).count() == 1 && k != static_cast<int>(i) &&
+          !model.reading_used(static_cast<int>(i))) {
+        mimic = fmt::format("    <mimic joint=\"{}\" multiplier=\"{}\" offset=\"0\"/>\n",
+                            xml_escaped(model.links[k].name), row[k]);
+      } else {
+        out += fmt::format(
+            "  <!-- hapticcal: joint {}'s value is a combination of readings, which URDF cannot "
+            "express (as in a device file): coupling: {} -->\n",
+            comment_safe(l.name), comment_safe(couplings[i]));
+      }
+    }
     const char* type = to_string(l.type);
-    write_joint(out, l.name, type, parent, child, post * split.pre, &l, split.axis);
+    write_joint(out, l.name, type, parent, child, post * split.pre, &l, split.axis, mimic);
     post = split.post;
     parent = child;
   }

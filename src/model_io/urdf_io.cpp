@@ -327,6 +327,77 @@ void check_chain_model(const UrdfChain& chain, const std::string& origin) {
   throw InputError(origin, line, "", why);
 }
 
+// The <inertial> mass of joint j's child link, at its centre (in the child's
+// frame, which is `in_link` in the frame of the chain's last movable joint),
+// lumped into that joint's link (joint compliance's gravity torques): links
+// before the first movable joint carry nothing the joints feel.
+void add_inertial(const urdf::ModelInterface& urdf, const urdf::Joint& j,
+                  const Frame<double>& in_link, const std::string& origin, int line,
+                  DeviceModel& model) {
+  const urdf::LinkConstSharedPtr child = urdf.getLink(j.child_link_name);
+  if (!child || !child->inertial || model.links.empty()) return;
+  const double m = child->inertial->mass;
+  const urdf::Vector3& c = child->inertial->origin.position;
+  if (!std::isfinite(m) || m < 0 || m > kMaxLinkMass || !std::isfinite(c.x) ||
+      !std::isfinite(c.y) || !std::isfinite(c.z)) {
+    throw InputError(origin, line, fmt::format("link '{}'", printable(child->name, 80)),
+                     fmt::format("<inertial>: a mass in [0, {}] kg and a finite origin are needed",
+                                 kMaxLinkMass));
+  }
+  if (m == 0) return;
+  Link& link = model.links.back();
+  const Eigen::Vector3d at = in_link.R * Eigen::Vector3d(c.x, c.y, c.z) + in_link.p;
+  const double total = link.mass + m;
+  link.com = (link.mass * link.com + m * at) / total;
+  link.mass = total;
+}
+
+// A mimic joint of the chain: its link index, its line and name, and what it mimics.
+struct ChainMimic {
+  int link;
+  int line;
+  std::string name;
+  urdf::JointMimic mimic;
+};
+
+// A mimic joint's value is multiplier * (the mimicked joint's) + offset: a
+// passive joint coupled to one reading (DeviceModel::coupling row
+// multiplier at the mimicked joint's column, the offset added to its own).
+void couple_mimics(const std::vector<ChainMimic>& mimics, const std::string& origin,
+                   DeviceModel& model) {
+  if (mimics.empty()) return;
+  const int n = model.dof();
+  Eigen::MatrixXd C = Eigen::MatrixXd::Identity(n, n);
+  for (const ChainMimic& m : mimics) {
+    int k = 0;
+    while (k < n && model.links[k].name != m.mimic.joint_name) ++k;
+    auto fail = [&](const std::string& why) {
+      throw InputError(
+          origin, m.line, joint_key(m.name),
+          fmt::format("its <mimic> of '{}': {}", printable(m.mimic.joint_name, 80), why));
+    };
+    if (k == n) fail("not a movable joint of the chain");
+    for (const ChainMimic& other : mimics) {
+      if (other.link == k) fail("itself a mimic joint (mimic the joint it follows instead)");
+    }
+    if (!std::isfinite(m.mimic.multiplier) || !std::isfinite(m.mimic.offset) ||
+        std::abs(m.mimic.multiplier) > kMaxCouplingCoefficient || m.mimic.multiplier == 0) {
+      fail(
+          fmt::format("multiplier {} and offset {}: a multiplier of magnitude in (0, {}] "
+                      "and a finite offset are needed",
+                      m.mimic.multiplier, m.mimic.offset, kMaxCouplingCoefficient));
+    }
+    C.row(m.link).setZero();
+    C(m.link, k) = m.mimic.multiplier;
+    model.links[m.link].offset += m.mimic.offset;
+  }
+  if (const std::string why = coupling_problem(C, model.links); !why.empty()) {
+    throw InputError(origin, mimics.front().line, joint_key(mimics.front().name),
+                     "<mimic>: " + why);
+  }
+  model.coupling = C;
+}
+
 }  // namespace
 
 UrdfChain read_chain(const std::string& text, const std::string& origin, const std::string& tip,
@@ -374,11 +445,13 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
   bool folding = false;
   std::vector<Frame<double>> fixed_origins;
   std::vector<int> fixed_elements;
+  std::vector<ChainMimic> mimics;
   for (const auto& j : joints) {
     const int line = chain.doc.joint_line(j->name);
     const std::array<double, 6> o = joint_origin(*j, chain.doc);
     if (j->type == urdf::Joint::FIXED) {
       fold = fold * frame_of(o);
+      add_inertial(*urdf, *j, fold, origin, line, model);
       folding = true;
       fixed_origins.push_back(frame_of(o));
       fixed_elements.push_back(chain.doc.joint_index(j->name));
@@ -394,12 +467,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
                                    "revolute, continuous, prismatic and fixed joints)",
                                    type, printable(chain.root, 80), printable(chain.tip, 80)));
     }
-    if (j->mimic) {
-      throw InputError(origin, line, joint_key(j->name),
-                       fmt::format("a mimic joint (of '{}') cannot be in the chain: its value is "
-                                   "not a reading of its own",
-                                   printable(j->mimic->joint_name, 80)));
-    }
+    if (j->mimic) mimics.push_back({model.dof(), line, j->name, *j->mimic});
     Link link;
     link.name = j->name;
     link.geometry = Geometry::kOrigin;
@@ -420,6 +488,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
       link.upper = j->limits->upper;
     }
     model.links.push_back(std::move(link));
+    add_inertial(*urdf, *j, Frame<double>::Identity(), origin, line, model);
     chain.folded.push_back(fold);
     chain.joint_elements.push_back(chain.doc.joint_index(j->name));
     fold = Frame<double>::Identity();
@@ -428,6 +497,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
     fixed_elements.clear();
   }
   if (folding) model.tool = pose_of(fold);
+  couple_mimics(mimics, origin, model);
   chain.tool_origins = std::move(fixed_origins);
   chain.tool_elements = std::move(fixed_elements);
   check_chain_model(chain, origin);

@@ -148,14 +148,21 @@ hapticcal_status hapticcal_joint_torques(const hapticcal_model* model, const dou
   try {
     const hapticcal::PreparedModel& m = model->prepared;
     std::array<double, 6 * kMaxDof> J;
-    std::array<double, kMaxDof> J_joint_reading;  // the diagonal of d theta / d r
+    std::array<double, kMaxDof * kMaxDof> J_joint_reading;  // d theta / d r, column-major
+    std::array<double, kMaxDof> tau;                        // J^T F
+    const int n = m.dof();
     m.forward_jacobian(readings, expressed_in, J.data());
-    m.joint_derivative(readings, J_joint_reading.data());
-    for (int i = 0; i < m.dof(); ++i) {
+    m.reading_jacobian(readings, J_joint_reading.data());
+    for (int i = 0; i < n; ++i) {
       const double* column = J.data() + 6 * i;
-      double tau = 0;  // (J^T F)_i
-      for (int k = 0; k < 6; ++k) tau += column[k] * wrench[k];
-      torques[i] = J_joint_reading[i] * tau;
+      tau[i] = 0;
+      for (int k = 0; k < 6; ++k) tau[i] += column[k] * wrench[k];
+    }
+    for (int r = 0; r < n; ++r) {  // (d theta / d r)^T tau: column r of d theta / d r
+      const double* column = J_joint_reading.data() + n * r;
+      double sum = 0;
+      for (int i = 0; i < n; ++i) sum += column[i] * tau[i];
+      torques[r] = sum;
     }
     return HAPTICCAL_OK;
   } catch (...) {

@@ -14,11 +14,12 @@
 namespace hapticcal {
 namespace {
 
-// J^T (handle frame, locked joint removed) times diag(d theta / d q) for the
-// model at readings q: maps a handle wrench to joint-side motor torques.
+// The handle Jacobian with respect to the actuated readings,
+// J_q = J (d theta / d q) (handle frame; the locked reading and a coupled
+// model's unused readings removed): J_q^T maps a handle wrench to the
+// actuators' torques (through a coupling's C^T).
 struct Statics {
-  Eigen::Matrix<double, 6, 6> J;  // 6 x 6 geometric Jacobian, handle frame
-  Eigen::Matrix<double, 6, 1> D;  // d theta / d q of the kept joints
+  Eigen::Matrix<double, 6, 6> Jq;
 };
 
 Statics statics(const DeviceModel& model, const ForceScenario& sc, const char* which) {
@@ -27,18 +28,17 @@ Statics statics(const DeviceModel& model, const ForceScenario& sc, const char* w
   prepared.forward_jacobian(sc.posture.data(), JacobianFrame::kTool, J);
   int locked = ForceScenario::kNoLock;
   try {
-    locked = resolved_locked_joint(sc, model.dof());
+    locked = resolved_locked_joint(sc, model);
   } catch (const InputError& e) {
     throw InputError(fmt::format("{}: {}", which, e.what()));
   }
+  const Eigen::Matrix<double, 6, Eigen::Dynamic> Jq = J * model.reading_jacobian(sc.posture);
   Statics s;
-  for (int i = 0, c = 0; i < model.dof(); ++i) {
-    if (i == locked) continue;
-    s.J.col(c) = J.col(i);
-    s.D[c] = 1 + model.links[i].transmission.derivative(sc.posture[i]);
-    ++c;
+  for (int k = 0, c = 0; k < model.dof(); ++k) {
+    if (k == locked || !model.reading_used(k)) continue;
+    s.Jq.col(c++) = Jq.col(k);
   }
-  const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(s.J);
+  const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(s.Jq);
   const double ratio = svd.singularValues()[5] / svd.singularValues()[0];
   // Below 1e-2 a joint-torque error reaches the wrench amplified over 100 times.
   if (!(ratio > 1e-2)) {
@@ -53,21 +53,33 @@ Statics statics(const DeviceModel& model, const ForceScenario& sc, const char* w
 
 }  // namespace
 
-int resolved_locked_joint(const ForceScenario& sc, int dof) {
+int resolved_locked_joint(const ForceScenario& sc, const DeviceModel& model) {
+  const int dof = model.dof();
+  int actuated = 0;  // readings some joint uses
+  for (int k = 0; k < dof; ++k) actuated += model.reading_used(k) ? 1 : 0;
   int locked = sc.locked_joint;
-  if (locked == ForceScenario::kLockRedundant) locked = dof == 7 ? 2 : ForceScenario::kNoLock;
+  if (locked == ForceScenario::kLockRedundant) {
+    locked = actuated == 7 ? 2 : ForceScenario::kNoLock;
+    if (locked >= 0 && !model.reading_used(locked)) locked = ForceScenario::kNoLock;
+  }
   if (locked >= dof || locked < ForceScenario::kNoLock) {
     throw InputError(
         fmt::format("joint {} cannot be locked: the device has {} joints", locked + 1, dof));
   }
-  const int kept = dof - (locked >= 0 ? 1 : 0);
+  if (locked >= 0 && !model.reading_used(locked)) {
+    throw InputError(
+        fmt::format("joint {} cannot be locked: it is passive (no joint uses its "
+                    "reading; the coupling drives it)",
+                    locked + 1));
+  }
+  const int kept = actuated - (locked >= 0 ? 1 : 0);
   if (kept != 6) {
     throw InputError(fmt::format(
-        "the force study needs 6 joints after locking (a 6 x 6 handle Jacobian): the device has "
-        "{} joints{}, so {} remain; {}",
-        dof, locked >= 0 ? fmt::format(" with joint {} locked", locked + 1) : "", kept,
+        "the force study needs 6 actuated joints after locking (a 6 x 6 handle Jacobian): the "
+        "device has {} actuated joints{}, so {} remain; {}",
+        actuated, locked >= 0 ? fmt::format(" with joint {} locked", locked + 1) : "", kept,
         kept > 6 ? "lock one with --lock J (a 7-joint device)"
-        : dof == 6
+        : actuated == 6
             ? "lock none (--lock 0)"
             : "a device of fewer than 6 joints cannot render a 6-D wrench at a fixed handle"));
   }
@@ -90,10 +102,8 @@ Eigen::Matrix<double, 6, 6> rendering_map(const DeviceModel& actual, const Devic
   }
   const Statics a = statics(actual, sc, "actual device"),
                 m = statics(controller, sc, "controller model");
-  // tau_theta,actual = D_a^-1 D_m J_m^T F = J_a^T W.
-  const Eigen::Matrix<double, 6, 1> scale = m.D.cwiseQuotient(a.D);
-  const Eigen::Matrix<double, 6, 6> torques = scale.asDiagonal() * m.J.transpose();
-  return a.J.transpose().partialPivLu().solve(torques);
+  // The actuators apply tau_q = J_q,m^T F; the device renders W with J_q,a^T W = tau_q.
+  return a.Jq.transpose().partialPivLu().solve(m.Jq.transpose());
 }
 
 double stable_gain_limit(const DeviceModel& actual, const DeviceModel& controller,
@@ -148,7 +158,7 @@ ForceStudy run_force_study(const DeviceModel& actual, const DeviceModel& nominal
   ForceScenario& sc = study.scenario;
   study.default_posture = sc.posture.size() == 0;
   if (study.default_posture) sc.posture = default_posture(actual);
-  sc.locked_joint = resolved_locked_joint(sc, actual.dof());
+  sc.locked_joint = resolved_locked_joint(sc, actual);
   study.stable_gain_limit = force_study_gain_limit(actual, nominal, calibrated, sc);
   if (!(std::abs(sc.gain) < study.stable_gain_limit)) {
     throw InputError(fmt::format(

@@ -86,6 +86,33 @@ void simulated_measurement(const Frame<double>& T_meas_tool, const Columns& c,
   }
 }
 
+// The joints a simulated external encoder is on: those whose angle a
+// transmission acts on (coupled: whose row uses a reading with a transmission).
+std::vector<bool> encoder_joints(const DeviceModel& actual) {
+  const int n = actual.dof();
+  std::vector<bool> has(n, false);
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < n; ++k) {
+      const double c = actual.coupled() ? actual.coupling(i, k) : (i == k ? 1.0 : 0.0);
+      if (c != 0 && !actual.links[k].transmission.is_none()) has[i] = true;
+    }
+  }
+  return has;
+}
+
+// Row r's external encoder columns at readings q: each joint's angle without
+// its offset (DeviceModel::compensate), the encoder's own zero 1e-3 (j + 1)
+// rad and noise; the draws in joint order.
+template <typename Rng>
+void simulated_encoders(const DeviceModel& actual, const Eigen::VectorXd& q, double sigma_ext,
+                        Rng& rng, std::normal_distribution<double>& gauss, Log& log, int r) {
+  if (std::find(log.has_ext.begin(), log.has_ext.end(), true) == log.has_ext.end()) return;
+  const Eigen::VectorXd theta = actual.compensate(q);
+  for (int j = 0; j < actual.dof(); ++j) {
+    if (log.has_ext[j]) log.ext(r, j) = theta[j] + 1e-3 * (j + 1) + sigma_ext * gauss(rng);
+  }
+}
+
 template <typename Draw>
 Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, std::uint64_t seed,
             const Columns& columns, Draw draw) {
@@ -101,7 +128,7 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
   log.q.resize(poses, n);
   log.ext.setZero(poses, n);
   log.has_ext.resize(n);
-  for (int j = 0; j < n; ++j) log.has_ext[j] = !actual.links[j].transmission.is_none();
+  log.has_ext = encoder_joints(actual);
   log.has_distance = distance;
   log.has_position = position;
   if (distance) log.distance.resize(poses);
@@ -111,13 +138,8 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
   for (int r = 0; r < poses; ++r) {
     log.line.push_back(r + 2);
     draw(r, rng, log.q);
-    for (int j = 0; j < n; ++j) {
-      if (!log.has_ext[j]) continue;
-      const double q = log.q(r, j);
-      log.ext(r, j) =
-          q + actual.links[j].transmission.error(q) + 1e-3 * (j + 1) + noise.sigma_ext * gauss(rng);
-    }
     const Eigen::VectorXd q = log.q.row(r).transpose();
+    simulated_encoders(actual, q, noise.sigma_ext, rng, gauss, log, r);
     const Frame<double> T_meas_tool = prepared.forward(q.data());
     for (int j = 0; j < n; ++j) {
       log.q(r, j) = quantized_reading(q[j], ratio[j], noise.motor_counts_per_rev);
@@ -204,7 +226,7 @@ Log contact_log(const DeviceModel& actual, const std::vector<std::string>& label
   log.q.resize(log.rows, n);
   log.ext.setZero(log.rows, n);
   log.has_ext.assign(n, false);
-  for (int j = 0; encoders && j < n; ++j) log.has_ext[j] = !actual.links[j].transmission.is_none();
+  if (encoders) log.has_ext = encoder_joints(actual);
   (planes ? log.has_plane : log.has_point) = true;
   int row = 0;
   for (size_t l = 0; l < labels.size(); ++l) {
@@ -229,12 +251,7 @@ Log contact_log(const DeviceModel& actual, const std::vector<std::string>& label
         throw InputError(fmt::format("{} '{}' cannot be reached within the joint limits of {}",
                                      planes ? "plane" : "socket", labels[l], actual.name));
       }
-      for (int j = 0; encoders && j < n; ++j) {
-        if (!log.has_ext[j]) continue;
-        const double qj = log.q(row, j);
-        log.ext(row, j) =
-            qj + actual.links[j].transmission.error(qj) + 1e-3 * (j + 1) + sigma_ext * gauss(rng);
-      }
+      simulated_encoders(actual, log.q.row(row).transpose(), sigma_ext, rng, gauss, log, row);
       log.label.push_back(labels[l]);
       log.line.push_back(row + 2);
       ++row;

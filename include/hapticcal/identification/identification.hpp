@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -299,6 +300,8 @@ struct Tolerances {
   // A joint-error harmonic's amplitude (CalibrationOptions::joint_errors): a
   // gear's or capstan's transmission error, ~0.1-1 mrad (the paper's drums).
   double harmonic = 1e-3;  // rad
+  // A joint compliance (--joint-errors compliance): 1 mrad per N m.
+  double compliance = 1e-3;  // rad / N m
   // Per dotted parameter name (SI), over the family's.
   std::map<std::string, double> by_name;
   // The common scale of the tolerances; none: the one of highest evidence.
@@ -409,11 +412,17 @@ std::string step_one_flag_reason(const TransmissionFit& fit, const DeviceModel& 
 // sines and cosines: linear in p), so each parameter's Jacobian column is
 // phi_k(v) times the column of the joint value: the DH / MDH theta's, a URDF
 // joint's offset's (both add to v).
+// A compliance stage (gravity set) has one parameter, the link's k, and its
+// feature is the link's gravity torque at the pose's joint values, formed from
+// the nominal geometry and masses (fixed in step 2).
+struct GravityModel;  // kinematics.hpp
 struct JointErrorStage {
   int link = 0;
   int slot = 0;          // first slot of its parameters
   int joint_column = 0;  // the slot whose column is d rows / d joint value
   Transmission stage;
+  std::shared_ptr<const GravityModel> gravity;
+  int count() const { return gravity ? 1 : stage.num_parameters(); }
 };
 // The stages of a model's joint_errors (none for a link without one). Throws
 // InputError for a stage on a prismatic joint or one not linear in its
@@ -608,6 +617,13 @@ std::vector<std::vector<int>> repeated_poses(const Log& log);
 // One row per group: the joint readings of its first row, the external
 // encoders and measurements averaged over the group.
 Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups);
+// A coupled model's external encoders measure joint angles, theta = C u + c
+// (u_k = q_k + dtheta_k(q_k), each reading through its own transmission);
+// step 1 fits each reading's transmission, so poses.ext's column k becomes u_k
+// + a constant: sum_i w_i ext_i over the joints A with an encoder, where
+// C[A, :]^T w = e_k has an exact solution (has_ext[k] false where none does,
+// with a note). Unchanged for an uncoupled model.
+void encoders_at_readings(const DeviceModel& model, Log& poses, std::vector<std::string>& notes);
 
 // Draws `samples` distinct row indices of `rows` (all if samples <= 0 or >= rows),
 // reproducibly for a seed on every platform; sorted.

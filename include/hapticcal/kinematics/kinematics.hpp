@@ -11,6 +11,7 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include "hapticcal/model/frame.hpp"
@@ -393,6 +394,29 @@ T distance_parameter_jacobian(const ChainStructure& s, const T* params, const T*
   return delta;
 }
 
+// Gravity torques of the links' masses (joint compliance, issue 25) from the
+// frames of forward_kinematics: tau_i = a_i . ((S_i - M_i o_i) x g) for a
+// turning joint with axis a_i through o_i, M_i a_i . g for a sliding one, M_i
+// and S_i the mass and first moment of links i..n (link j's centre com_j in
+// frame j + 1), g `gravity` (base frame) turned into the measurement frame.
+void gravity_torques(const ChainStructure& s, const Frame<double>* frames, const double* mass,
+                     const Eigen::Vector3d* com, const Eigen::Vector3d& gravity, double* tau);
+
+// A model's masses and compliances, prepared: the gravity torques at joint
+// values (compensated, without offsets) and the deflection joint += k tau
+// (compliance as compensate applies it: 0 for a link whose k step 2 fits).
+struct GravityModel {
+  explicit GravityModel(const DeviceModel& model);
+  void torques(const double* joint, double* tau) const;
+  void deflect(double* joint) const;
+
+  ChainStructure structure;
+  ChainConstants<double> constants;
+  Eigen::Vector3d gravity;
+  std::array<double, kMaxDof> mass{}, compliance{};
+  std::array<Eigen::Vector3d, kMaxDof> com;
+};
+
 // The calibrated model in the form a 1 kHz controller uses: transmissions and
 // constant link terms prepared once; no allocation per call.
 class PreparedModel {
@@ -400,7 +424,8 @@ class PreparedModel {
   explicit PreparedModel(const DeviceModel& model);
 
   int dof() const { return structure_.dof; }
-  // q + dtheta(q) for the readings q (n values).
+  // The joint values q + dtheta(q) for the readings q (n values); coupled:
+  // C (q + dtheta(q)) (DeviceModel::coupling).
   void compensate(const double* q, double* joint) const;
   // T_meas_tool from the readings q.
   Frame<double> forward(const double* q) const;
@@ -411,19 +436,44 @@ class PreparedModel {
   // column by column (Jacobian6's storage). Allocates nothing.
   Frame<double> forward_jacobian(const double* q, JacobianFrame expressed_in,
                                  double* J_col_major) const;
-  // d theta_i / d q_i = 1 + dtheta_i'(q_i) for the readings q. compensate maps
-  // each reading to its own joint (no transmission couples joints), so the
-  // Jacobian J_joint_reading is diagonal: this writes its n diagonal values.
-  void joint_derivative(const double* q, double* J_joint_reading_diagonal) const;
+  // d theta / d q = C diag(1 + dtheta_k'(q_k)) at the readings q: n x n,
+  // column-major (diagonal unless the model is coupled). Allocates nothing.
+  void reading_jacobian(const double* q, double* J_joint_reading_col_major) const;
+  bool coupled() const { return !coupling_.empty(); }
+  bool compliant() const { return gravity_ != nullptr; }
 
  private:
   Frame<double> chain(const double* q, Frame<double>* frames) const;
+  // dtheta_k(q_k) of every reading, the capstans' sines, cosines and arc
+  // tangents in batches (the coupled path's compensation).
+  void transmission_errors(const double* q, double* error) const;
+  // The joint values without a compliant model's deflection.
+  void rigid_joints(const double* q, double* joint) const;
+  // joint += k tau(joint) (a compliant model).
+  void deflect(double* joint) const;
+  Frame<double> compliant_chain(const double* q, Frame<double>* frames) const;
+  // Each joint's cos and sin of theta and its length from joint values.
+  void joint_angles(const double* joint, double* cos_theta, double* sin_theta,
+                    double* length) const;
+  // The chain from joint values (compensated, without offsets): the coupled path.
+  Frame<double> chain_from_joints(const double* joint, Frame<double>* frames) const;
+  // The frames from each joint's cos and sin of theta and its length (d of a
+  // revolute joint; d + q of a prismatic one).
+  Frame<double> compose(const double* cos_theta, const double* sin_theta, const double* length,
+                        Frame<double>* frames) const;
 
   ChainStructure structure_;
   Frame<double> base_, tool_;
   std::vector<LinkConstants<double>> links_;
   std::vector<PreparedTransmission> transmissions_;
   std::vector<int> capstan_joints_;  // revolute joints whose transmission is a capstan
+  // A coupled model's C as (joint, reading, coefficient) terms, row by row; empty: C = I.
+  struct CouplingTerm {
+    int joint, reading;
+    double coefficient;
+  };
+  std::vector<CouplingTerm> coupling_;
+  std::shared_ptr<const GravityModel> gravity_;  // a compliant model's; else null
   // kDh / kMdh: every joint revolute with that geometry (the register recursion);
   // else per joint through compose_link.
   enum class Path { kDh, kMdh, kGeneric } path_ = Path::kGeneric;
@@ -458,8 +508,9 @@ struct ReachResult {
 // Readings near `q` that put `model`'s tool point on `target`: damped least
 // squares on the position Jacobian, q += A^T (A A^T + lambda I)^-1 e, with e
 // the error (target - p, or c - n . p for a plane) and A its rows of J_p (for a
-// plane n^T J_p). The Jacobian is w.r.t. the compensated angles, near enough
-// for the steps. Joint limits are not imposed: the caller checks them.
+// plane n^T J_p). The Jacobian is w.r.t. the compensated angles (through a
+// coupling's C, ignoring the transmissions' slopes), near enough for the steps. Joint limits are
+// not imposed: the caller checks them.
 ReachResult reach(const PreparedModel& model, const Eigen::VectorXd& q, const ToolTarget& target,
                   const ReachOptions& options = {});
 

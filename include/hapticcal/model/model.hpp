@@ -13,6 +13,14 @@
 namespace hapticcal {
 
 constexpr int kMaxDof = 32;
+// The largest magnitude of a coupling coefficient (DeviceModel::coupling).
+constexpr double kMaxCouplingCoefficient = 100.0;
+// Bounds of a link's mass [kg], its centre's distance from the link frame [m],
+// a joint compliance [rad/N m; m/N] and gravity [m/s^2] (device files, URDF).
+constexpr double kMaxLinkMass = 1e4;
+constexpr double kMaxComDistance = 100.0;
+constexpr double kMaxCompliance = 1.0;
+constexpr double kMaxGravity = 100.0;
 
 // How a joint's constant geometry is given.
 // Standard DH with the Hayati beta (paper eq. 3):
@@ -65,6 +73,14 @@ struct Link {
   double offset = 0.0;
   double lower = 0.0, upper = 0.0;  // joint limits on q [rad; m for prismatic joints]
   Transmission transmission;
+  // Joint compliance (issue 25): the mass of the body the joint moves up to the
+  // next joint [kg] and its centre in the link's frame (the frame after A_i)
+  // [m], from which the gravity torques tau are formed; the joint's compliance
+  // k [rad/N m; m/N for a prismatic joint]: the joint value v the kinematics
+  // turn by becomes v + k tau(v), tau from the undeflected chain.
+  double mass = 0.0;
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();
+  double compliance = 0.0;
 
   bool prismatic() const { return type == JointType::kPrismatic; }
   // Turns without limits (a URDF continuous joint).
@@ -105,11 +121,13 @@ struct ChainStructure {
   int tool = 0;        // first slot of the tool block
   int instrument = 0;  // slots of the instrument block after the tool (0 or 1)
   int errors = 0;      // slots of the joint-error block after the instrument
+  int compliance = 0;  // slots of the compliance block after the joint errors
 
   int base_slots() const { return base_kind == BaseKind::kDh ? 4 : kPoseSlots; }
-  int num_slots() const { return tool + kPoseSlots + instrument + errors; }
+  int num_slots() const { return tool + kPoseSlots + instrument + errors + compliance; }
   int instrument_slot() const { return tool + kPoseSlots; }
   int errors_slot() const { return tool + kPoseSlots + instrument; }
+  int compliance_slot() const { return errors_slot() + errors; }
   int link_slot(int i) const { return joints[i].slot; }  // i zero-based
   int tool_slot() const { return tool; }
 };
@@ -122,6 +140,8 @@ enum class ParameterUnit { kLength, kAngle };
 // instrument, joint_error_block(dof) a joint-error stage's; element is its index
 // in the block (a joint error's: its link).
 inline int joint_error_block(int dof) { return dof + 2; }
+// A compliance parameter's block ("j2.k"): element is its link.
+inline int compliance_block(int dof) { return dof + 3; }
 struct ParameterInfo {
   std::string name;
   int slot = 0;
@@ -149,6 +169,23 @@ struct DeviceModel {
   // links' transmissions (the angle v the kinematics turn by becomes
   // v + stage(v)), so device files and calibrated models have none.
   std::vector<Transmission> joint_errors;
+  // Coupled joints (issue 25): the joint values are a linear map of the
+  // readings, each first through its own link's transmission,
+  //   theta_i = sum_k C_ik (q_k + dtheta_k(q_k)) (+ the joint offset, as always):
+  // a passive joint driven by others (its own reading unused: column k of C is
+  // zero), J2/J3 drive coupling, a parallelogram's relative reading, an
+  // actuator-to-joint matrix. dof x dof; empty means C = I (each joint its own
+  // reading), which is every uncoupled model.
+  Eigen::MatrixXd coupling;
+  // Gravity in the base frame (frame 0, after the base transform) [m/s^2]: what
+  // the links' masses weigh for joint compliance.
+  Eigen::Vector3d gravity{0.0, 0.0, -9.81};
+  // Step 2's compliance parameters (issue 25): the links whose compliance k is
+  // estimated with the geometry, one slot each after the joint errors ("j2.k"),
+  // the slot being the link's own compliance. Present only in the problems of
+  // step 2 that estimate them: while a link's k is a parameter, compensate
+  // leaves its deflection to the fit (JointErrorStage).
+  std::vector<bool> fitted_compliance;
 
   bool base_is_pose() const { return base_kind == BaseKind::kPose; }
   int dof() const { return static_cast<int>(links.size()); }
@@ -161,9 +198,29 @@ struct DeviceModel {
   std::vector<ParameterInfo> parameter_info() const;
 
   // Joint values theta_i = q_i + dtheta_i(q_i) + offset_i are formed by the
-  // kinematics; this returns q_i + dtheta_i(q_i), the value without the offset.
+  // kinematics; this returns q_i + dtheta_i(q_i), the value without the offset
+  // (coupled: C (q + dtheta(q))).
   Eigen::VectorXd compensate(const Eigen::VectorXd& q) const;
+  // d theta / d q = C diag(1 + dtheta_k'(q_k)), dof x dof.
+  Eigen::MatrixXd reading_jacobian(const Eigen::VectorXd& q) const;
+
+  bool coupled() const { return coupling.size() != 0; }
+  // Some joint deflects under gravity in compensate (a compliance that is not
+  // step 2's parameter).
+  bool compliant() const;
+  bool compliance_fitted(int i) const {
+    return i < static_cast<int>(fitted_compliance.size()) && fitted_compliance[i];
+  }
+  // Whether some joint's value depends on reading k (false: a passive joint's
+  // own reading, which nothing uses).
+  bool reading_used(int k) const { return !coupled() || coupling.col(k).any(); }
 };
+
+// Why `coupling` cannot be the coupling of a model with these links, or empty:
+// dof x dof, finite, |C_ik| <= 100, every joint using some reading, no
+// transmission on an unused reading. A C equal to the identity is refused too
+// (it is written as no coupling).
+std::string coupling_problem(const Eigen::MatrixXd& coupling, const std::vector<Link>& links);
 
 // The parameter names of a joint's block, in slot order ("a", ..., "offset").
 const std::vector<std::string>& block_names(Geometry geometry);

@@ -37,15 +37,18 @@ struct ForceRun {
   double transverse_rms = 0;                // RMS of sqrt(Fx^2 + Fy^2) [N]
 };
 
-// The locked joint (zero-based, or kNoLock) for a device of `dof` joints:
-// kLockRedundant resolved. Throws InputError, saying what the study needs,
-// unless 6 joints remain (the handle Jacobian must be 6 x 6).
-int resolved_locked_joint(const ForceScenario& scenario, int dof);
+// The locked joint (zero-based, or kNoLock) for `model`: kLockRedundant
+// resolved (joint 3 of a device of 7 actuated joints). Throws InputError,
+// saying what the study needs, unless 6 actuated joints remain (the handle
+// Jacobian must be 6 x 6; a coupled model's passive joints are not actuated).
+int resolved_locked_joint(const ForceScenario& scenario, const DeviceModel& model);
 
 // The static map from the commanded to the rendered wrench with the handle
-// fixed: W = J_a^-T D_a^-1 D_m J_m^T F_cmd, J in the handle frame with the
-// locked joint removed, D = diag(d theta / d q) of the transmissions. Throws
-// InputError if the posture is singular for either model.
+// fixed: W = J_q,a^-T J_q,m^T F_cmd, J_q = J d theta / d q the handle Jacobian
+// w.r.t. the actuated readings (handle frame, locked reading removed; d theta /
+// d q = C diag(1 + dtheta') carries the transmissions and a coupling: the
+// actuators' torques are C^T-mapped). Throws InputError if the posture is
+// singular for either model.
 Eigen::Matrix<double, 6, 6> rendering_map(const DeviceModel& actual, const DeviceModel& controller,
                                           const ForceScenario& scenario);
 
