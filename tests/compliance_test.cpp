@@ -199,5 +199,32 @@ TEST(Compliance, JointComplianceIsRecoveredFromTrackerPositions) {
   EXPECT_TRUE(r.calibrated.fitted_compliance.empty());
 }
 
+// A device file that states its compliance and masses is its own truth here:
+// fitting k from it starts at the stated deflection (counted once: the
+// nominal residual is the noise), and the simulated external encoders read the
+// drive's angle, so step 1 fits no deflection into the transmissions.
+TEST(Compliance, StatedComplianceIsCountedOnceAndStepOneSeesNoDeflection) {
+  DeviceModel truth = compliant_arm();
+  Capstan c;
+  c.ratio = 10;
+  c.drum_distance = 0.01;
+  truth.links[1].transmission = Transmission(c);  // step 1 on the loaded shoulder
+  SimulationNoise noise;
+  noise.sigma_position = 10e-6;
+  noise.sigma_ext = 1e-6;
+  const Log cal = simulate_log(truth, 200, noise, 5, false, true);
+  ASSERT_TRUE(cal.has_ext[1]);
+  CalibrationOptions options;
+  options.joint_errors = {"compliance"};
+  const CalibrationResult r = calibrate(truth, cal, options);
+  ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
+  EXPECT_LT(r.kinematics.rms_before, 2 * std::sqrt(3.0) * 10e-6) << r.kinematics.rms_before;
+  std::mt19937_64 rng(6);
+  for (int k = 0; k < 100; ++k) {
+    const double q = testing::random_readings(truth, rng)[1];
+    EXPECT_LT(std::abs(r.calibrated.links[1].transmission.error(q)), 2e-5) << q;
+  }
+}
+
 }  // namespace
 }  // namespace hapticcal

@@ -262,7 +262,7 @@ void prepare_poses(CalibrationRun& run) {
     run.repeats.push_back(static_cast<int>(all_poses[g].size()));
   }
   run.poses = average_repeats(run.log, run.result.poses);
-  encoders_at_readings(run.nominal, run.poses, run.result.notes);
+  if (run.options.transmissions) encoders_at_readings(run.nominal, run.poses, run.result.notes);
   run.m = run.poses.rows;
   KinematicFit& fit = run.fit();
   fit.type = measurement_type(run.log);
@@ -317,7 +317,8 @@ void check_nominal(CalibrationRun& run) {
   const int d = traits(run.fit().type).dimension;
   const ChainStructure s = run.model.structure();
   const RowsOf kind = run.kind();
-  const PreparedModel prepared_nominal(run.nominal);
+  // step2_nominal: its compensate leaves a fitted compliance to the stages (kind).
+  const PreparedModel prepared_nominal(run.step2_nominal);
   std::vector<Eigen::VectorXd> nominal_joints(m, Eigen::VectorXd(run.model.dof()));
   for (int i = 0; i < m; ++i) {
     const Eigen::VectorXd qi = run.poses.q.row(i).transpose();

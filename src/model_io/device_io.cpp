@@ -448,6 +448,8 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
     if (!why.empty()) {
       const YAML::Node at = key.ends_with(".transmission") ? node["transmission"]
                             : key.ends_with(".name")       ? node["name"]
+                            : key.ends_with(".mass")       ? node["mass"]
+                            : key.ends_with(".compliance") ? node["compliance"]
                                                            : node;
       r.fail(at, key, why);
     }

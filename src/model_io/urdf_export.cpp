@@ -240,6 +240,8 @@ std::string device_to_urdf(const DeviceModel& model) {
   const Frame<double> tool = tool_frame(s, params.data());
   const std::vector<std::string> transmissions = link_yaml(model, "transmission");
   const std::vector<std::string> couplings = link_yaml(model, "coupling");
+  const std::vector<std::string> masses = link_yaml(model, "mass");
+  const std::vector<std::string> compliances = link_yaml(model, "compliance");
 
   std::set<std::string> joint_names;
   for (const Link& l : model.links) joint_names.insert(l.name);
@@ -267,6 +269,17 @@ std::string device_to_urdf(const DeviceModel& model) {
           "  <!-- hapticcal: joint {} has a transmission, which URDF cannot express (as in a "
           "device file): {} -->\n",
           comment_safe(l.name), comment_safe(transmissions[i]));
+    }
+    if (!compliances[i].empty()) {
+      out += fmt::format(
+          "  <!-- hapticcal: joint {} deflects under gravity, which URDF cannot express (as in a "
+          "device file): compliance: {}, mass: {}, gravity: [{}, {}, {}] -->\n",
+          comment_safe(l.name), comment_safe(compliances[i]),
+          comment_safe(masses[i].empty() ? "0" : masses[i]), model.gravity[0], model.gravity[1],
+          model.gravity[2]);
+    } else if (!masses[i].empty()) {
+      out += fmt::format("  <!-- hapticcal: link {} carries mass: {} -->\n", comment_safe(l.name),
+                         comment_safe(masses[i]));
     }
     std::string mimic;
     if (!couplings[i].empty()) {

@@ -58,9 +58,11 @@ int resolved_locked_joint(const ForceScenario& sc, const DeviceModel& model) {
   int actuated = 0;  // readings some joint uses
   for (int k = 0; k < dof; ++k) actuated += model.reading_used(k) ? 1 : 0;
   int locked = sc.locked_joint;
-  if (locked == ForceScenario::kLockRedundant) {
-    locked = actuated == 7 ? 2 : ForceScenario::kNoLock;
-    if (locked >= 0 && !model.reading_used(locked)) locked = ForceScenario::kNoLock;
+  if (locked == ForceScenario::kLockRedundant) {  // the third actuated reading
+    locked = ForceScenario::kNoLock;
+    for (int k = 0, seen = 0; actuated == 7 && k < dof && locked < 0; ++k) {
+      if (model.reading_used(k) && ++seen == 3) locked = k;
+    }
   }
   if (locked >= dof || locked < ForceScenario::kNoLock) {
     throw InputError(

@@ -100,15 +100,23 @@ std::vector<bool> encoder_joints(const DeviceModel& actual) {
   return has;
 }
 
+// The model an external encoder reads: step 1 fits transmissions, so its
+// encoders measure the joint angle the drive sets, before a joint's elastic
+// deflection under gravity (without the links' compliance).
+DeviceModel encoder_model(DeviceModel actual) {
+  for (Link& l : actual.links) l.compliance = 0;
+  return actual;
+}
+
 // Row r's external encoder columns at readings q: each joint's angle without
-// its offset (DeviceModel::compensate), the encoder's own zero 1e-3 (j + 1)
+// its offset (encoder_model's compensate), the encoder's own zero 1e-3 (j + 1)
 // rad and noise; the draws in joint order.
 template <typename Rng>
-void simulated_encoders(const DeviceModel& actual, const Eigen::VectorXd& q, double sigma_ext,
+void simulated_encoders(const DeviceModel& encoders, const Eigen::VectorXd& q, double sigma_ext,
                         Rng& rng, std::normal_distribution<double>& gauss, Log& log, int r) {
   if (std::find(log.has_ext.begin(), log.has_ext.end(), true) == log.has_ext.end()) return;
-  const Eigen::VectorXd theta = actual.compensate(q);
-  for (int j = 0; j < actual.dof(); ++j) {
+  const Eigen::VectorXd theta = encoders.compensate(q);
+  for (int j = 0; j < encoders.dof(); ++j) {
     if (log.has_ext[j]) log.ext(r, j) = theta[j] + 1e-3 * (j + 1) + sigma_ext * gauss(rng);
   }
 }
@@ -121,6 +129,7 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
   std::normal_distribution<double> gauss(0.0, 1.0);
   const int n = actual.dof();
   const PreparedModel prepared(actual);
+  const DeviceModel ext_model = encoder_model(actual);
   const std::vector<double> ratio = drive_ratios(actual);
   Log log;
   log.origin = "simulated";
@@ -139,7 +148,7 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
     log.line.push_back(r + 2);
     draw(r, rng, log.q);
     const Eigen::VectorXd q = log.q.row(r).transpose();
-    simulated_encoders(actual, q, noise.sigma_ext, rng, gauss, log, r);
+    simulated_encoders(ext_model, q, noise.sigma_ext, rng, gauss, log, r);
     const Frame<double> T_meas_tool = prepared.forward(q.data());
     for (int j = 0; j < n; ++j) {
       log.q(r, j) = quantized_reading(q[j], ratio[j], noise.motor_counts_per_rev);
@@ -219,6 +228,7 @@ Log contact_log(const DeviceModel& actual, const std::vector<std::string>& label
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   const PreparedModel prepared(actual);
+  const DeviceModel ext_model = encoder_model(actual);
   const int n = actual.dof();
   Log log;
   log.origin = planes ? "simulated plane contacts" : "simulated fixture";
@@ -251,7 +261,7 @@ Log contact_log(const DeviceModel& actual, const std::vector<std::string>& label
         throw InputError(fmt::format("{} '{}' cannot be reached within the joint limits of {}",
                                      planes ? "plane" : "socket", labels[l], actual.name));
       }
-      simulated_encoders(actual, log.q.row(row).transpose(), sigma_ext, rng, gauss, log, row);
+      simulated_encoders(ext_model, log.q.row(row).transpose(), sigma_ext, rng, gauss, log, row);
       log.label.push_back(labels[l]);
       log.line.push_back(row + 2);
       ++row;
