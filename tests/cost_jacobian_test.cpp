@@ -212,6 +212,38 @@ TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForEveryMeasurementTy
   }
 }
 
+// A model's step-2 joint-error stages (`errors`) in the cost of 20 measured
+// poses: their columns against central differences, and `folded` (the stages
+// made part of the model) predicting the same rows through its compensate.
+template <typename Rng>
+void expect_stage_rows(const DeviceModel& model, const DeviceModel& folded, MeasurementType type,
+                       const std::vector<JointErrorStage>& errors, Rng& rng) {
+  const detail::RowsOf kind{type, 0.3, nullptr, &errors};
+  const ChainStructure s = model.structure();
+  const Eigen::VectorXd params = model.kinematic_parameters();
+  const int poses = 20;
+  std::vector<Eigen::VectorXd> joints;
+  detail::RowMatrix measured;
+  measure_poses(model, type, poses, rng, joints, measured);
+  const detail::MeasurementCost cost(s, joints, kind, measured);
+  std::vector<std::string> names(s.num_slots());
+  for (const ParameterInfo& info : model.parameter_info()) names[info.slot] = info.name;
+  const DerivativeCheck c =
+      check_cost_jacobian(cost, params, Eigen::VectorXd::Constant(params.size(), 1e-6), names);
+  EXPECT_LT(c.max_error, 1e-7) << c.worst;
+  const Eigen::VectorXd r = evaluate_cost(cost, params).r;
+  const ChainStructure fs = folded.structure();
+  const Eigen::VectorXd fp = folded.kinematic_parameters();
+  for (int i = 0; i < poses; ++i) {
+    const Eigen::VectorXd moved = folded.compensate(joints[i]);
+    Eigen::MatrixXd J(kind.dimension(), fs.num_slots());
+    Eigen::VectorXd ri(kind.dimension());
+    detail::measurement_rows(fs, chain_constants(fs, fp.data()), fp.data(), moved.data(),
+                             detail::RowsOf{type, 0.3}, measured.row(i).data(), ri.data(), J);
+    EXPECT_LT((ri - r.segment(i * kind.dimension(), kind.dimension())).norm(), 1e-12) << i;
+  }
+}
+
 // Step 2's joint-error stages (issue 25): each turning joint's angle moved by
 // harmonics of itself (frequencies 1, 2 and a motor's 10, 20) with random
 // coefficients of up to 5 mrad; the cost's Jacobian, the stage parameters'
@@ -234,20 +266,7 @@ TEST(CostJacobian, JointErrorStagesMatchCentralDifferences) {
       }
       const std::vector<JointErrorStage> errors = joint_error_stages(model);
       stages += static_cast<int>(errors.size());
-      const detail::RowsOf kind{type, 0.3, nullptr, &errors};
-      const ChainStructure s = model.structure();
-      const Eigen::VectorXd params = model.kinematic_parameters();
-      ASSERT_EQ(s.errors, 8 * static_cast<int>(errors.size()));
-      const int poses = 20;
-      std::vector<Eigen::VectorXd> joints;
-      detail::RowMatrix measured;
-      measure_poses(model, type, poses, rng, joints, measured);
-      const detail::MeasurementCost cost(s, joints, kind, measured);
-      std::vector<std::string> names(s.num_slots());
-      for (const ParameterInfo& info : model.parameter_info()) names[info.slot] = info.name;
-      const DerivativeCheck c =
-          check_cost_jacobian(cost, params, Eigen::VectorXd::Constant(params.size(), 1e-6), names);
-      EXPECT_LT(c.max_error, 1e-7) << c.worst;
+      ASSERT_EQ(model.structure().errors, 8 * static_cast<int>(errors.size()));
       // The moved angle is the folded transmission's: a device whose links carry
       // the stages as transmissions predicts the same rows without them.
       DeviceModel folded = model;
@@ -255,17 +274,7 @@ TEST(CostJacobian, JointErrorStagesMatchCentralDifferences) {
         if (!model.joint_errors[i].is_none()) folded.links[i].transmission = model.joint_errors[i];
       }
       folded.joint_errors.clear();
-      const Eigen::VectorXd r = evaluate_cost(cost, params).r;
-      const ChainStructure fs = folded.structure();
-      const Eigen::VectorXd fp = folded.kinematic_parameters();
-      for (int i = 0; i < poses; ++i) {
-        const Eigen::VectorXd moved = folded.compensate(joints[i]);
-        Eigen::MatrixXd J(kind.dimension(), fs.num_slots());
-        Eigen::VectorXd ri(kind.dimension());
-        detail::measurement_rows(fs, chain_constants(fs, fp.data()), fp.data(), moved.data(),
-                                 detail::RowsOf{type, 0.3}, measured.row(i).data(), ri.data(), J);
-        EXPECT_LT((ri - r.segment(i * kind.dimension(), kind.dimension())).norm(), 1e-12) << i;
-      }
+      expect_stage_rows(model, folded, type, errors, rng);
     }
   }
   EXPECT_GE(stages, 30);
@@ -294,33 +303,10 @@ TEST(CostJacobian, ComplianceStagesMatchCentralDifferences) {
       const std::vector<JointErrorStage> errors = joint_error_stages(model);
       stages += static_cast<int>(errors.size());
       ASSERT_EQ(static_cast<int>(errors.size()), model.dof());
-      const detail::RowsOf kind{type, 0.3, nullptr, &errors};
-      const ChainStructure s = model.structure();
-      const Eigen::VectorXd params = model.kinematic_parameters();
-      ASSERT_EQ(s.compliance, model.dof());
-      const int poses = 20;
-      std::vector<Eigen::VectorXd> joints;
-      detail::RowMatrix measured;
-      measure_poses(model, type, poses, rng, joints, measured);
-      const detail::MeasurementCost cost(s, joints, kind, measured);
-      std::vector<std::string> names(s.num_slots());
-      for (const ParameterInfo& info : model.parameter_info()) names[info.slot] = info.name;
-      const DerivativeCheck c =
-          check_cost_jacobian(cost, params, Eigen::VectorXd::Constant(params.size(), 1e-6), names);
-      EXPECT_LT(c.max_error, 1e-7) << c.worst;
+      ASSERT_EQ(model.structure().compliance, model.dof());
       DeviceModel folded = model;
       folded.fitted_compliance.clear();
-      const Eigen::VectorXd r = evaluate_cost(cost, params).r;
-      const ChainStructure fs = folded.structure();
-      const Eigen::VectorXd fp = folded.kinematic_parameters();
-      for (int i = 0; i < poses; ++i) {
-        const Eigen::VectorXd moved = folded.compensate(joints[i]);
-        Eigen::MatrixXd J(kind.dimension(), fs.num_slots());
-        Eigen::VectorXd ri(kind.dimension());
-        detail::measurement_rows(fs, chain_constants(fs, fp.data()), fp.data(), moved.data(),
-                                 detail::RowsOf{type, 0.3}, measured.row(i).data(), ri.data(), J);
-        EXPECT_LT((ri - r.segment(i * kind.dimension(), kind.dimension())).norm(), 1e-12) << i;
-      }
+      expect_stage_rows(model, folded, type, errors, rng);
     }
   }
   EXPECT_GE(stages, 30);

@@ -133,6 +133,18 @@ def eccentric(tmp_path_factory):
     return str(path)
 
 
+def numeric_jacobian(m, q, h):
+    """The tool's velocity Jacobian w.r.t. the readings q by central differences of forward."""
+    numeric = np.zeros((6, m.dof))
+    for i in range(m.dof):
+        dq = np.zeros(m.dof)
+        dq[i] = h
+        Tp, Tm = m.forward(q + dq), m.forward(q - dq)
+        numeric[:3, i] = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
+        numeric[3:, i] = rotation_vector(Tp[:3, :3] @ Tm[:3, :3].T) / (2 * h)
+    return numeric
+
+
 @pytest.mark.parametrize("which", ["meca500", "builtin", "eccentric"])
 def test_jacobian_matches_central_differences(which, eccentric):
     m = hapticcal.load_model({"meca500": MECA, "builtin": BUILTIN, "eccentric": eccentric}[which])
@@ -147,13 +159,7 @@ def test_jacobian_matches_central_differences(which, eccentric):
         assert J.shape == (6, m.dof)
         # The Jacobian is w.r.t. the joint values: through the transmissions'
         # compensation, d theta / d q by central differences too.
-        numeric = np.zeros((6, m.dof))
-        for i in range(m.dof):
-            dq = np.zeros(m.dof)
-            dq[i] = h
-            Tp, Tm = m.forward(q + dq), m.forward(q - dq)
-            numeric[:3, i] = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
-            numeric[3:, i] = rotation_vector(Tp[:3, :3] @ Tm[:3, :3].T) / (2 * h)
+        numeric = numeric_jacobian(m, q, h)
         dtheta = np.array(
             [
                 (m.compensate(q + h * e)[i] - m.compensate(q - h * e)[i]) / (2 * h)
@@ -180,13 +186,7 @@ def test_coupled_model_jacobian_through_the_readings():
         theta = m.compensate(q)
         assert abs(theta[3] + theta[1] + theta[2]) < 1e-15
         Jq = m.jacobian(q) @ m.reading_jacobian(q)
-        numeric = np.zeros((6, m.dof))
-        for i in range(m.dof):
-            dq = np.zeros(m.dof)
-            dq[i] = h
-            Tp, Tm = m.forward(q + dq), m.forward(q - dq)
-            numeric[:3, i] = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
-            numeric[3:, i] = rotation_vector(Tp[:3, :3] @ Tm[:3, :3].T) / (2 * h)
+        numeric = numeric_jacobian(m, q, h)
         assert np.max(np.abs(numeric - Jq)) < 1e-7
         assert np.all(Jq[:, 3] == 0)  # the passive joint's reading moves nothing
     assert np.array_equal(hapticcal.load_model(MECA).coupling, np.eye(6))

@@ -17,6 +17,34 @@ inline V3 operator*(double a, const V3& v) { return {a * v.x, a * v.y, a * v.z};
 inline V3 operator+(const V3& u, const V3& v) { return {u.x + v.x, u.y + v.y, u.z + v.z}; }
 inline V3 operator-(const V3& u, const V3& v) { return {u.x - v.x, u.y - v.y, u.z - v.z}; }
 
+// sincos_batch of x[0, n), which the caller has written: GCC cannot follow
+// that through the std::array and warns of an uninitialised read.
+inline void sincos_written(const double* x, double* s, double* c, int n) {
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+  sincos_batch(x, s, c, n);
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
+}
+
+// (c, s), the cosine and sine of an angle, turned by `turn`: a small-angle
+// rotation for |turn| <= 0.1, else afresh from the turned angle `turned`.
+inline void turn_angle(double turn, double turned, double& c, double& s) {
+  if (std::abs(turn) <= 0.1) {
+    double st, ct;
+    small_angle_sincos(turn, st, ct);
+    const double c0 = c;
+    c = c0 * ct - s * st;
+    s = s * ct + c0 * st;
+  } else {
+    c = std::cos(turned);
+    s = std::sin(turned);
+  }
+}
+
 }  // namespace
 
 Eigen::Vector3d matrix_rpy(const Eigen::Matrix3d& R) {
@@ -96,14 +124,7 @@ void PreparedModel::transmission_errors(const double* q, double* error) const {
     x[2 * j] = q[i];
     x[2 * j + 1] = transmissions_[i].ratio() * q[i];
   }
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // x[0, m) is written above
-#endif
-  sincos_batch(x.data(), s.data(), c.data(), m);
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic pop
-#endif
+  sincos_written(x.data(), s.data(), c.data(), m);
   for (int j = 0; j < m / 2; ++j) {
     transmissions_[capstan_joints_[j]].capstan_tangents(s[2 * j], c[2 * j], s[2 * j + 1],
                                                         c[2 * j + 1], t[2 * j], t[2 * j + 1]);
@@ -157,14 +178,7 @@ void PreparedModel::joint_angles(const double* joint, double* cos_theta, double*
     x[used] = joint[i] + links_[i].offset;
     slot[i] = used++;
   }
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // x[0, used) is written above
-#endif
-  sincos_batch(x.data(), s.data(), c.data(), used);
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic pop
-#endif
+  sincos_written(x.data(), s.data(), c.data(), used);
   for (int i = 0; i < n; ++i) {
     if (structure_.joints[i].prismatic()) {
       cos_theta[i] = links_[i].cos_theta;
@@ -200,15 +214,8 @@ Frame<double> PreparedModel::compliant_chain(const double* q, Frame<double>* fra
     const double turn = g.compliance[i] * tau[i];
     if (structure_.joints[i].prismatic()) {
       length[i] += turn;
-    } else if (std::abs(turn) <= 0.1) {
-      double st, ct;
-      small_angle_sincos(turn, st, ct);
-      const double c = cos_theta[i] * ct - sin_theta[i] * st;
-      sin_theta[i] = sin_theta[i] * ct + cos_theta[i] * st;
-      cos_theta[i] = c;
     } else {
-      cos_theta[i] = std::cos(joint[i] + turn + links_[i].offset);
-      sin_theta[i] = std::sin(joint[i] + turn + links_[i].offset);
+      turn_angle(turn, joint[i] + turn + links_[i].offset, cos_theta[i], sin_theta[i]);
     }
   }
   return compose(cos_theta.data(), sin_theta.data(), length.data(), frames);
@@ -245,14 +252,7 @@ Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const
     x[used] = q[i] + transmissions_[i].error(q[i]) + links_[i].offset;
     slot[i] = used++;
   }
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // x[0, used) is written above
-#endif
-  sincos_batch(x.data(), s.data(), c.data(), used);
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic pop
-#endif
+  sincos_written(x.data(), s.data(), c.data(), used);
   for (int j = 0; j < m / 2; ++j) {
     transmissions_[capstan_joints_[j]].capstan_tangents(s[2 * j], c[2 * j], s[2 * j + 1],
                                                         c[2 * j + 1], t[2 * j], t[2 * j + 1]);
@@ -275,15 +275,9 @@ Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const
     const int i = capstan_joints_[j];
     const double turn =
         transmissions_[i].capstan_error(q[i], at[2 * j], at[2 * j + 1]) + links_[i].offset;
-    double st, ct;
-    if (std::abs(turn) <= 0.1) {
-      small_angle_sincos(turn, st, ct);
-      cos_theta[i] = c[2 * j] * ct - s[2 * j] * st;
-      sin_theta[i] = s[2 * j] * ct + c[2 * j] * st;
-    } else {  // a large offset: evaluate the angle afresh
-      cos_theta[i] = std::cos(q[i] + turn);
-      sin_theta[i] = std::sin(q[i] + turn);
-    }
+    cos_theta[i] = c[2 * j];
+    sin_theta[i] = s[2 * j];
+    turn_angle(turn, q[i] + turn, cos_theta[i], sin_theta[i]);  // a large offset: afresh
   }
   return compose(cos_theta.data(), sin_theta.data(), length.data(), frames);
 }
