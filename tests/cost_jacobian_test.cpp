@@ -163,6 +163,14 @@ void measure_poses(const DeviceModel& model, MeasurementType type, int poses, Rn
   }
 }
 
+// Each slot's parameter name ("slot k" for one without), for the derivative checks' reports.
+std::vector<std::string> slot_names(const DeviceModel& model) {
+  std::vector<std::string> names(model.structure().num_slots());
+  for (size_t k = 0; k < names.size(); ++k) names[k] = "slot " + std::to_string(k);
+  for (const ParameterInfo& info : model.parameter_info()) names[info.slot] = info.name;
+  return names;
+}
+
 TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForEveryMeasurementType) {
   std::mt19937_64 rng(20240611);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
@@ -184,11 +192,8 @@ TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForEveryMeasurementTy
         if (trial % 2 == 1) weights = Eigen::VectorXd::LinSpaced(poses, 1.0, 2.0);
         const detail::MeasurementCost cost(s, joints, kind, measured, weights);
         ASSERT_EQ(cost.num_residuals(), poses * d);
-        std::vector<std::string> names(s.num_slots());
-        for (int k = 0; k < s.num_slots(); ++k) names[k] = "slot " + std::to_string(k);
-        for (const ParameterInfo& info : model.parameter_info()) names[info.slot] = info.name;
         const DerivativeCheck c = check_cost_jacobian(
-            cost, params, Eigen::VectorXd::Constant(params.size(), 1e-6), names);
+            cost, params, Eigen::VectorXd::Constant(params.size(), 1e-6), slot_names(model));
         EXPECT_LT(c.max_error, 1e-7) << c.worst;
         // The residuals are predicted - measured.
         const Evaluation e =
@@ -226,10 +231,8 @@ void expect_stage_rows(const DeviceModel& model, const DeviceModel& folded, Meas
   detail::RowMatrix measured;
   measure_poses(model, type, poses, rng, joints, measured);
   const detail::MeasurementCost cost(s, joints, kind, measured);
-  std::vector<std::string> names(s.num_slots());
-  for (const ParameterInfo& info : model.parameter_info()) names[info.slot] = info.name;
-  const DerivativeCheck c =
-      check_cost_jacobian(cost, params, Eigen::VectorXd::Constant(params.size(), 1e-6), names);
+  const DerivativeCheck c = check_cost_jacobian(
+      cost, params, Eigen::VectorXd::Constant(params.size(), 1e-6), slot_names(model));
   EXPECT_LT(c.max_error, 1e-7) << c.worst;
   const Eigen::VectorXd r = evaluate_cost(cost, params).r;
   const ChainStructure fs = folded.structure();
