@@ -17,6 +17,7 @@
 #include "hapticcal/runtime.h"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/simulation.hpp"
+#include "support/held_out.hpp"
 #include "support/kdl_chain.hpp"
 #include "support/run_cli.hpp"
 #include "support/test_models.hpp"
@@ -145,13 +146,6 @@ TEST(Compliance, DeflectionMatchesTheEnergyGradientAndKdl) {
   hapticcal_free(runtime);
 }
 
-const ParameterEstimate* find(const KinematicFit& k, const std::string& name) {
-  for (const ParameterEstimate& e : k.parameters) {
-    if (e.name == name) return &e;
-  }
-  return nullptr;
-}
-
 // Acceptance: geometric-only leaves more than 3 times the noise on held-out
 // poses; with the compliance family the held-out error is within 10 % of the
 // noise floor and each k within 3 sd of the truth.
@@ -161,12 +155,7 @@ TEST(Compliance, JointComplianceIsRecoveredFromTrackerPositions) {
   DeviceModel actual = testing::perturbed(nominal, rng, 5e-4);
   const DeviceModel loaded = compliant_arm();
   for (int i = 0; i < actual.dof(); ++i) actual.links[i].compliance = loaded.links[i].compliance;
-  constexpr double kNoise = 10e-6;
-  SimulationNoise noise;
-  noise.sigma_position = kNoise;
-  const Log cal = simulate_log(actual, 300, noise, 1, false, true);
-  const Log val = simulate_log(actual, 300, noise, 2, false, true);
-  const double floor = evaluate(actual, val).position->rms;
+  const auto [cal, val, floor] = testing::held_out_study(actual, 300, 10e-6, 1);
 
   const CalibrationResult geometric = calibrate(nominal, cal, CalibrationOptions{});
   ASSERT_EQ(geometric.status, CalibrationStatus::kConverged) << geometric.status_reason;
@@ -183,7 +172,7 @@ TEST(Compliance, JointComplianceIsRecoveredFromTrackerPositions) {
               geometric_rms * 1e3, rms * 1e3, floor * 1e3);
   int identified = 0;
   for (int i = 0; i < actual.dof(); ++i) {
-    const ParameterEstimate* e = find(r.kinematics, actual.links[i].name + ".k");
+    const ParameterEstimate* e = testing::find_parameter(r.kinematics, actual.links[i].name + ".k");
     ASSERT_NE(e, nullptr) << i;
     std::printf("  %s: %.3e (truth %.1e) sd %.1e %s\n", e->name.c_str(), e->value,
                 actual.links[i].compliance, e->sd, e->reason.c_str());

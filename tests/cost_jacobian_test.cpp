@@ -220,16 +220,25 @@ TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForEveryMeasurementTy
 // A model's step-2 joint-error stages (`errors`) in the cost of 20 measured
 // poses: their columns against central differences, and `folded` (the stages
 // made part of the model) predicting the same rows through its compensate.
+// The poses' values are readings, the cost's joint values those of the model
+// `start` the stages were made from (step_two_joints) when one is given, else
+// the readings themselves.
 template <typename Rng>
 void expect_stage_rows(const DeviceModel& model, const DeviceModel& folded, MeasurementType type,
-                       const std::vector<JointErrorStage>& errors, Rng& rng) {
+                       const std::vector<JointErrorStage>& errors, Rng& rng,
+                       const DeviceModel* start = nullptr) {
   const detail::RowsOf kind{type, 0.3, nullptr, &errors};
   const ChainStructure s = model.structure();
   const Eigen::VectorXd params = model.kinematic_parameters();
   const int poses = 20;
-  std::vector<Eigen::VectorXd> joints;
+  std::vector<Eigen::VectorXd> readings;
   detail::RowMatrix measured;
-  measure_poses(model, type, poses, rng, joints, measured);
+  measure_poses(model, type, poses, rng, readings, measured);
+  std::vector<Eigen::VectorXd> joints = readings;
+  if (start) {
+    const PreparedModel prepared(*start);
+    for (Eigen::VectorXd& joint : joints) joint = step_two_joints(prepared, *start, joint);
+  }
   const detail::MeasurementCost cost(s, joints, kind, measured);
   const DerivativeCheck c = check_cost_jacobian(
       cost, params, Eigen::VectorXd::Constant(params.size(), 1e-6), slot_names(model));
@@ -238,7 +247,7 @@ void expect_stage_rows(const DeviceModel& model, const DeviceModel& folded, Meas
   const ChainStructure fs = folded.structure();
   const Eigen::VectorXd fp = folded.kinematic_parameters();
   for (int i = 0; i < poses; ++i) {
-    const Eigen::VectorXd moved = folded.compensate(joints[i]);
+    const Eigen::VectorXd moved = folded.compensate(readings[i]);
     Eigen::MatrixXd J(kind.dimension(), fs.num_slots());
     Eigen::VectorXd ri(kind.dimension());
     detail::measurement_rows(fs, chain_constants(fs, fp.data()), fp.data(), moved.data(),
@@ -310,6 +319,38 @@ TEST(CostJacobian, ComplianceStagesMatchCentralDifferences) {
       DeviceModel folded = model;
       folded.fitted_compliance.clear();
       expect_stage_rows(model, folded, type, errors, rng);
+    }
+  }
+  EXPECT_GE(stages, 30);
+}
+
+// The coupling family's stages (--joint-errors coupling): each declared
+// coefficient C_ik between two joints a parameter, its column the reading u_k
+// (through its own transmission) times joint i's value column, against central
+// differences; the fitted coefficients, made the model's coupling, predict the
+// same rows through DeviceModel::compensate.
+TEST(CostJacobian, CouplingStagesMatchCentralDifferences) {
+  std::mt19937_64 rng(20261204);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  int stages = 0;
+  for (const auto& [label, file_model] : devices()) {
+    for (const MeasurementType type : kTypes) {
+      SCOPED_TRACE(label + " " + traits(type).name);
+      DeviceModel start = perturbed(file_model, rng);
+      const int n = start.dof();
+      start.coupling = Eigen::MatrixXd::Identity(n, n);
+      for (int i = 1; i < n; ++i) start.coupling(i, i - 1) = unit(rng);
+      start.coupling(0, n - 1) = unit(rng);
+      for (int i = 0; i < n; ++i) start.fitted_coupling.push_back({i, (i + n - 1) % n});
+      const std::vector<JointErrorStage> errors = joint_error_stages(start);
+      stages += static_cast<int>(errors.size());
+      ASSERT_EQ(static_cast<int>(errors.size()), n);
+      ASSERT_EQ(start.structure().coupling, n);
+      DeviceModel model = start;
+      for (const auto& [i, k] : start.fitted_coupling) model.coupling(i, k) += 0.05 * unit(rng);
+      DeviceModel folded = model;
+      folded.fitted_coupling.clear();
+      expect_stage_rows(model, folded, type, errors, rng, &start);
     }
   }
   EXPECT_GE(stages, 30);

@@ -222,10 +222,10 @@ void check_options(const CalibrationOptions& options) {
     throw InputError("--encoder-resolution must be a positive number of radians, at most 1");
   }
   for (const std::string& family : options.joint_errors) {
-    if (family != "harmonic" && family != "compliance") {
-      throw InputError(
-          fmt::format("--joint-errors: '{}' is not a joint-error family (harmonic, compliance)",
-                      printable(family)));
+    if (family != "harmonic" && family != "compliance" && family != "coupling") {
+      throw InputError(fmt::format(
+          "--joint-errors: '{}' is not a joint-error family (harmonic, compliance, coupling)",
+          printable(family)));
     }
   }
   if (options.keep_all && options.select) {
@@ -262,7 +262,11 @@ void prepare_poses(CalibrationRun& run) {
     run.repeats.push_back(static_cast<int>(all_poses[g].size()));
   }
   run.poses = average_repeats(run.log, run.result.poses);
-  if (run.options.transmissions) encoders_at_readings(run.nominal, run.poses, run.result.notes);
+  if (run.options.transmissions) {
+    const std::vector<std::string>& families = run.options.joint_errors;
+    encoders_at_readings(run.nominal, run.poses, run.result.notes,
+                         std::find(families.begin(), families.end(), "coupling") != families.end());
+  }
   run.m = run.poses.rows;
   KinematicFit& fit = run.fit();
   fit.type = measurement_type(run.log);
@@ -319,10 +323,10 @@ void check_nominal(CalibrationRun& run) {
   const RowsOf kind = run.kind();
   // step2_nominal: its compensate leaves a fitted compliance to the stages (kind).
   const PreparedModel prepared_nominal(run.step2_nominal);
-  std::vector<Eigen::VectorXd> nominal_joints(m, Eigen::VectorXd(run.model.dof()));
+  std::vector<Eigen::VectorXd> nominal_joints(m);
   for (int i = 0; i < m; ++i) {
-    const Eigen::VectorXd qi = run.poses.q.row(i).transpose();
-    prepared_nominal.compensate(qi.data(), nominal_joints[i].data());
+    nominal_joints[i] =
+        step_two_joints(prepared_nominal, run.step2_nominal, run.poses.q.row(i).transpose());
   }
   const Eigen::VectorXd r0 =
       residuals_at(s, run.step2_nominal.kinematic_parameters(), nominal_joints, kind,

@@ -268,8 +268,9 @@ std::vector<Eigen::VectorXd> consistent_joints(const ChainStructure& s, const Ei
       if (e.norm() < 1e-13) break;
       geometric_jacobian(s, frames.data(), tool, JacobianFrame::kMeasurement, J);
       const Eigen::MatrixXd Jp = J.topRows<3>();
-      joints[i] += Jp.transpose() *
-                   (Jp * Jp.transpose() + 1e-10 * Eigen::Matrix3d::Identity()).ldlt().solve(e);
+      joints[i].head(s.dof) +=
+          Jp.transpose() *
+          (Jp * Jp.transpose() + 1e-10 * Eigen::Matrix3d::Identity()).ldlt().solve(e);
     }
   }
   return joints;
@@ -355,13 +356,14 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   // On synthetic poses over the joint limits (structural) and on the data.
   std::mt19937_64 rng(kStructuralSeed);
   std::vector<Eigen::VectorXd> synthetic(kStructuralPoses);
+  const PreparedModel prepared(model);
   for (Eigen::VectorXd& qs : synthetic) {
     Eigen::VectorXd reading(model.dof());
     for (int j = 0; j < model.dof(); ++j) {
       reading[j] =
           std::uniform_real_distribution<double>(model.links[j].lower, model.links[j].upper)(rng);
     }
-    qs = model.compensate(reading);
+    qs = step_two_joints(prepared, model, reading);
   }
   // A fixture's rows change with the residual itself (p_i - m_L turns with the
   // robot): at the data, directions that only turn or stretch the residuals look

@@ -285,14 +285,32 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
   return out;
 }
 
-void encoders_at_readings(const DeviceModel& model, Log& poses, std::vector<std::string>& notes) {
+void encoders_at_readings(const DeviceModel& model, Log& poses, std::vector<std::string>& notes,
+                          bool fitted_coupling) {
   if (!model.coupled() || poses.ext.cols() != model.dof()) return;
   const int n = model.dof();
   std::vector<int> measured;
+  std::vector<std::string> left_out;
   for (int i = 0; i < n; ++i) {
-    if (poses.has_ext[i]) measured.push_back(i);
+    if (!poses.has_ext[i]) continue;
+    Eigen::RowVectorXd others = model.coupling.row(i);
+    others[i] = 0;
+    if (fitted_coupling && others.any()) {
+      left_out.push_back(model.links[i].name);
+    } else {
+      measured.push_back(i);
+    }
   }
-  if (measured.empty()) return;
+  if (!left_out.empty()) {
+    notes.push_back(fmt::format(
+        "--joint-errors coupling: the external encoder(s) of {} are left out of step 1 (their "
+        "joint angles use the coupling coefficients step 2 fits)",
+        fmt::join(left_out, ", ")));
+  }
+  if (measured.empty()) {
+    poses.has_ext.assign(n, false);
+    return;
+  }
   Eigen::MatrixXd CA(measured.size(), n);  // C's rows of the joints with an encoder
   for (size_t a = 0; a < measured.size(); ++a) CA.row(a) = model.coupling.row(measured[a]);
   const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> solver(CA.transpose());
@@ -444,7 +462,24 @@ std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model) {
     const int value = !l.dh_parameters() ? kOriginOffset : l.prismatic() ? kLinkD : kLinkTheta;
     stages.push_back({i, slot++, s.link_slot(i) + value, Transmission(), gravity});
   }
+  slot = s.coupling_slot();
+  for (const auto& [i, k] : model.fitted_coupling) {
+    const Link& l = model.links[i];
+    const int value = !l.dh_parameters() ? kOriginOffset : l.prismatic() ? kLinkD : kLinkTheta;
+    stages.push_back(
+        {i, slot++, s.link_slot(i) + value, Transmission(), nullptr, k, model.coupling(i, k)});
+  }
   return stages;
+}
+
+Eigen::VectorXd step_two_joints(const PreparedModel& prepared, const DeviceModel& model,
+                                const Eigen::VectorXd& q) {
+  const int n = model.dof();
+  Eigen::VectorXd joint(model.fitted_coupling.empty() ? n : 2 * n);
+  prepared.compensate(q.data(), joint.data());
+  if (model.fitted_coupling.empty()) return joint;
+  for (int k = 0; k < n; ++k) joint[n + k] = q[k] + model.links[k].transmission.error(q[k]);
+  return joint;
 }
 
 KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
@@ -457,11 +492,9 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   problem.type = measurement_type(poses);
   const int m = poses.rows;
   const PreparedModel prepared(model);
-  problem.joints.assign(m, Eigen::VectorXd(model.dof()));
-  for (int i = 0; i < m; ++i) {
-    const Eigen::VectorXd qi = poses.q.row(i).transpose();
-    prepared.compensate(qi.data(), problem.joints[i].data());
-  }
+  problem.joints.resize(m);
+  for (int i = 0; i < m; ++i)
+    problem.joints[i] = step_two_joints(prepared, model, poses.q.row(i).transpose());
   std::vector<int> pose_index(m);
   std::iota(pose_index.begin(), pose_index.end(), 0);
   problem.measured = pose_measurements(poses, pose_index, RowsOf{problem.type});

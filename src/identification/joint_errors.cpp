@@ -86,6 +86,32 @@ void offer_compliance(CalibrationRun& run) {
   run.step2_nominal.fitted_compliance.assign(m.dof(), true);
 }
 
+// "coupling": each coefficient C_ik (i != k) the model's coupling declares is a
+// step-2 parameter (the reading u_k its feature): a drive's coupling ratio, a
+// passive joint's share of the joints that drive it. The diagonal is each
+// joint's own scale, a transmission's (step 1), and a zero stays zero.
+void offer_coupling(CalibrationRun& run) {
+  const DeviceModel& m = run.model;
+  if (!m.coupled()) {
+    throw InputError(
+        "--joint-errors coupling: the model has no coupled joints (give the device file's "
+        "coupling, or a URDF's <mimic>)");
+  }
+  std::vector<std::array<int, 2>> entries;
+  for (int i = 0; i < m.dof(); ++i) {
+    for (int k = 0; k < m.dof(); ++k) {
+      if (i != k && m.coupling(i, k) != 0) entries.push_back({i, k});
+    }
+  }
+  if (entries.empty()) {
+    throw InputError(
+        "--joint-errors coupling: the model's coupling has no coefficient between two joints "
+        "(only the diagonal, which the transmissions scale)");
+  }
+  run.model.fitted_coupling = entries;
+  run.step2_nominal.fitted_coupling = entries;
+}
+
 bool has_family(const CalibrationOptions& options, const char* family) {
   return std::find(options.joint_errors.begin(), options.joint_errors.end(), family) !=
          options.joint_errors.end();
@@ -99,6 +125,7 @@ void offer_joint_errors(CalibrationRun& run) {
   run.fit().joint_error_families = run.options.joint_errors;
   if (has_family(run.options, "harmonic")) offer_harmonics(run);
   if (has_family(run.options, "compliance")) offer_compliance(run);
+  if (has_family(run.options, "coupling")) offer_coupling(run);
 }
 
 // The joint-error stages as fitted, folded into the calibrated model's
@@ -118,7 +145,14 @@ std::string fold_joint_errors(DeviceModel& model) {
     t = t.is_none() ? stage : Transmission(Chain{{t, stage}});
   }
   model.joint_errors.clear();
-  model.fitted_compliance.clear();  // each fitted k is the link's compliance now
+  model.fitted_compliance.clear();       // each fitted k is the link's compliance now
+  if (!model.fitted_coupling.empty()) {  // the fitted coefficients are the coupling now
+    model.fitted_coupling.clear();
+    if (const std::string why = coupling_problem(model.coupling, model.links);
+        !why.empty() && refused.empty()) {
+      refused = "the coupling as fitted is no coupling: " + why;
+    }
+  }
   return refused;
 }
 
@@ -133,7 +167,7 @@ void compare_without_joint_errors(const DeviceModel& nominal, const Log& log,
   const std::vector<ParameterInfo> info = run.problem.model.parameter_info();
   for (const ParameterInfo& p : info) {
     const int dof = run.problem.model.dof();
-    if (p.joint == joint_error_block(dof) || p.joint == compliance_block(dof)) names.insert(p.name);
+    if (joint_error_parameter(p.joint, dof)) names.insert(p.name);
   }
   const auto named = [&](const std::string& n) { return names.count(n) > 0; };
   std::erase_if(plain.fix, named);

@@ -49,11 +49,16 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
   constexpr int kMaxFeatures = 2 * static_cast<int>(Harmonic::kMaxFrequencies);
   std::array<double, kMaxDof> moved, tau;
   std::copy(joint, joint + s.dof, moved.begin());
-  // Features by stage (a link may have a harmonic and a compliance stage).
+  // Features by stage (a link may have a harmonic and a compliance stage; the
+  // coupling stages, after them, read theirs from `joint`).
   std::array<std::array<double, kMaxFeatures>, 2 * kMaxDof> phi;
   bool torques = false;
   for (size_t k = 0; k < kind.errors->size(); ++k) {
     const JointErrorStage& e = (*kind.errors)[k];
+    if (e.reading >= 0) {  // the reading's value, after the dof joint values
+      moved[e.link] += (params[e.slot] - e.nominal) * joint[s.dof + e.reading];
+      continue;
+    }
     if (e.gravity) {
       if (!torques) e.gravity->torques(joint, tau.data());
       torques = true;
@@ -67,6 +72,10 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
                               kind.rotation_scale, residual, J);
   for (size_t k = 0; k < kind.errors->size(); ++k) {
     const JointErrorStage& e = (*kind.errors)[k];
+    if (e.reading >= 0) {
+      J.col(e.slot) = joint[s.dof + e.reading] * J.col(e.joint_column);
+      continue;
+    }
     for (int c = 0; c < e.count(); ++c) J.col(e.slot + c) = phi[k][c] * J.col(e.joint_column);
   }
 }

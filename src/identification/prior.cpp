@@ -251,6 +251,8 @@ Eigen::VectorXd slot_tolerances(const DeviceModel& model, const Tolerances& t) {
       out[pi.slot] = t.harmonic;
     } else if (pi.joint == compliance_block(model.dof())) {
       out[pi.slot] = t.compliance;
+    } else if (pi.joint == coupling_block(model.dof())) {
+      out[pi.slot] = t.coupling;
     }
   }
   if (!unused.empty()) {

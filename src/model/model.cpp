@@ -67,6 +67,7 @@ ChainStructure DeviceModel::structure() const {
   s.instrument = instrument_zero ? 1 : 0;
   for (const Transmission& e : joint_errors) s.errors += e.num_parameters();
   for (int i = 0; i < dof(); ++i) s.compliance += compliance_fitted(i) ? 1 : 0;
+  s.coupling = static_cast<int>(fitted_coupling.size());
   return s;
 }
 
@@ -95,6 +96,8 @@ Eigen::VectorXd DeviceModel::kinematic_parameters() const {
   for (int i = 0, k = s.compliance_slot(); i < dof(); ++i) {
     if (compliance_fitted(i)) p[k++] = links[i].compliance;
   }
+  for (int c = 0; c < s.coupling; ++c)
+    p[s.coupling_slot() + c] = coupling(fitted_coupling[c][0], fitted_coupling[c][1]);
   return p;
 }
 
@@ -126,6 +129,8 @@ void DeviceModel::set_kinematic_parameters(const Eigen::VectorXd& p) {
   for (int i = 0, k = s.compliance_slot(); i < dof(); ++i) {
     if (compliance_fitted(i)) links[i].compliance = p[k++];
   }
+  for (int c = 0; c < s.coupling; ++c)
+    coupling(fitted_coupling[c][0], fitted_coupling[c][1]) = p[s.coupling_slot() + c];
 }
 
 std::vector<ParameterInfo> DeviceModel::parameter_info() const {
@@ -172,6 +177,11 @@ std::vector<ParameterInfo> DeviceModel::parameter_info() const {
   for (int i = 0, k = s.compliance_slot(); i < dof(); ++i) {
     if (compliance_fitted(i))
       info.push_back({links[i].name + ".k", k++, U::kAngle, compliance_block(dof()), i});
+  }
+  for (int c = 0; c < s.coupling; ++c) {
+    const auto [i, k] = fitted_coupling[c];
+    info.push_back({links[i].name + ".c_" + links[k].name, s.coupling_slot() + c, U::kAngle,
+                    coupling_block(dof()), c});
   }
   return info;
 }

@@ -302,6 +302,8 @@ struct Tolerances {
   double harmonic = 1e-3;  // rad
   // A joint compliance (--joint-errors compliance): 1 mrad per N m.
   double compliance = 1e-3;  // rad / N m
+  // A coupling coefficient (--joint-errors coupling): a drive's ratio to 1 %.
+  double coupling = 1e-2;
   // Per dotted parameter name (SI), over the family's.
   std::map<std::string, double> by_name;
   // The common scale of the tolerances; none: the one of highest evidence.
@@ -351,7 +353,8 @@ struct CalibrationOptions {
   // Joint-error families step 2 fits with the geometry from the measurements
   // (README "Joint errors in step 2"): "harmonic", the first and second harmonic
   // of each turning joint's angle, and of its motor's where a capstan gives the
-  // ratio. They enter the tolerance prior (Tolerances::harmonic) and the
+  // ratio; "compliance", each joint's k; "coupling", the coupling's
+  // coefficients between joints. They enter the tolerance prior (Tolerances::harmonic) and the
   // identifiability analysis, are folded into the calibrated model's
   // transmissions, and the same calibration without them is run for comparison.
   std::vector<std::string> joint_errors;
@@ -415,19 +418,33 @@ std::string step_one_flag_reason(const TransmissionFit& fit, const DeviceModel& 
 // A compliance stage (gravity set) has one parameter, the link's k, and its
 // feature is the link's gravity torque at the pose's joint values, formed from
 // the nominal geometry and masses (fixed in step 2).
+// A coupling stage (reading >= 0) has one parameter, the coefficient C_ik of
+// the joint's value on reading k (DeviceModel::fitted_coupling); its feature is
+// the reading through its own transmission, u_k = q_k + dtheta_k(q_k), which
+// the problem's joint values carry after the dof values (step_two_joints), and
+// the joint value moves by (C_ik - nominal) u_k: the values were formed with
+// the nominal coefficient.
 struct GravityModel;  // kinematics.hpp
+class PreparedModel;  // kinematics.hpp
 struct JointErrorStage {
   int link = 0;
   int slot = 0;          // first slot of its parameters
   int joint_column = 0;  // the slot whose column is d rows / d joint value
   Transmission stage;
   std::shared_ptr<const GravityModel> gravity;
-  int count() const { return gravity ? 1 : stage.num_parameters(); }
+  int reading = -1;    // a coupling stage's reading k
+  double nominal = 0;  // a coupling stage's C_ik in the joint values
+  int count() const { return gravity || reading >= 0 ? 1 : stage.num_parameters(); }
 };
 // The stages of a model's joint_errors (none for a link without one). Throws
 // InputError for a stage on a prismatic joint or one not linear in its
 // parameters (only a Harmonic is).
 std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model);
+// A pose's joint values in step 2 from its readings q: model.compensate(q),
+// and after them, while coupling coefficients are fitted (fitted_coupling),
+// each reading through its own transmission (the coupling stages' features).
+Eigen::VectorXd step_two_joints(const PreparedModel& prepared, const DeviceModel& model,
+                                const Eigen::VectorXd& q);
 
 // Step 2's data: the poses' compensated joint values and measured values (the
 // family's width a pose, measurement.hpp), weighted by their repeat counts.
@@ -622,8 +639,12 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
 // step 1 fits each reading's transmission, so poses.ext's column k becomes u_k
 // + a constant: sum_i w_i ext_i over the joints A with an encoder, where
 // C[A, :]^T w = e_k has an exact solution (has_ext[k] false where none does,
-// with a note). Unchanged for an uncoupled model.
-void encoders_at_readings(const DeviceModel& model, Log& poses, std::vector<std::string>& notes);
+// with a note). Unchanged for an uncoupled model. fitted_coupling (--joint-errors
+// coupling): the encoders of joints whose angle uses another joint's reading are
+// left out (their C rows are what step 2 fits: mapped back through the nominal
+// C, a coefficient's error would enter a transmission), with a note.
+void encoders_at_readings(const DeviceModel& model, Log& poses, std::vector<std::string>& notes,
+                          bool fitted_coupling = false);
 
 // Draws `samples` distinct row indices of `rows` (all if samples <= 0 or >= rows),
 // reproducibly for a seed on every platform; sorted.

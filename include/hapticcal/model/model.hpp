@@ -122,12 +122,14 @@ struct ChainStructure {
   int instrument = 0;  // slots of the instrument block after the tool (0 or 1)
   int errors = 0;      // slots of the joint-error block after the instrument
   int compliance = 0;  // slots of the compliance block after the joint errors
+  int coupling = 0;    // slots of the coupling block after the compliance
 
   int base_slots() const { return base_kind == BaseKind::kDh ? 4 : kPoseSlots; }
-  int num_slots() const { return tool + kPoseSlots + instrument + errors + compliance; }
+  int num_slots() const { return coupling_slot() + coupling; }
   int instrument_slot() const { return tool + kPoseSlots; }
   int errors_slot() const { return tool + kPoseSlots + instrument; }
   int compliance_slot() const { return errors_slot() + errors; }
+  int coupling_slot() const { return compliance_slot() + compliance; }
   int link_slot(int i) const { return joints[i].slot; }  // i zero-based
   int tool_slot() const { return tool; }
 };
@@ -142,6 +144,12 @@ enum class ParameterUnit { kLength, kAngle };
 inline int joint_error_block(int dof) { return dof + 2; }
 // A compliance parameter's block ("j2.k"): element is its link.
 inline int compliance_block(int dof) { return dof + 3; }
+// A coupling coefficient's block ("j1.c_j3", C_ik of joint i on reading k):
+// element is its index in DeviceModel::fitted_coupling.
+inline int coupling_block(int dof) { return dof + 4; }
+// Whether a parameter is a joint error's (a stage's, a compliance, a coupling
+// coefficient): not a length or a periodic angle of the geometry.
+inline bool joint_error_parameter(int joint, int dof) { return joint >= joint_error_block(dof); }
 struct ParameterInfo {
   std::string name;
   int slot = 0;
@@ -186,6 +194,12 @@ struct DeviceModel {
   // step 2 that estimate them: while a link's k is a parameter, compensate
   // leaves its deflection to the fit (JointErrorStage).
   std::vector<bool> fitted_compliance;
+  // Step 2's coupling coefficients (issue 25): the entries (joint i, reading k)
+  // of `coupling` estimated with the geometry, one slot each after the
+  // compliances ("j1.c_j3"), the slot being the coefficient C_ik itself.
+  // Present only in the problems of step 2 that estimate them
+  // (--joint-errors coupling); the fitted values are the calibrated coupling.
+  std::vector<std::array<int, 2>> fitted_coupling;
 
   bool base_is_pose() const { return base_kind == BaseKind::kPose; }
   int dof() const { return static_cast<int>(links.size()); }
