@@ -62,6 +62,33 @@ TEST(LogIo, ErrorsNameFileLineAndColumn) {
   }
 }
 
+// dir<i> (issue 25, backlash): the side joint i approached the pose from, -1, 0
+// or +1, no unit, of a joint the log has; anything else names line and column.
+TEST(LogIo, DirectionColumnsHoldTheApproachSide) {
+  const Log log = parse_log("q1,q2,dir2,x,y,z\n0,0,1,0,0,0\n0,1,-1,0,0,0\n0,2,0,0,0,0\n", "d.csv");
+  EXPECT_TRUE(log.directed(1));
+  EXPECT_FALSE(log.directed(0));
+  EXPECT_EQ(log.direction.col(1), Eigen::Vector3d(1, -1, 0));
+  EXPECT_EQ(log.direction.col(0), Eigen::Vector3d::Zero());
+  EXPECT_EQ(parse_log(log_to_csv(log), "again.csv").direction, log.direction);
+  const auto message = [](const std::string& text) {
+    try {
+      parse_log(text, "bad.csv");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message("q1,dir1,distance\n0,1,1\n0,0.5,1\n"),
+            "bad.csv:3: dir1: 0.5: a direction is -1, 0 or +1 (the side the joint approached "
+            "the pose from)");
+  EXPECT_EQ(message("q1,dir1,distance\n0,nan,1\n").rfind("bad.csv:2: dir1: ", 0), 0u);
+  EXPECT_EQ(message("q1,dir1[deg],distance\n0,1,1\n").rfind("bad.csv:1: dir1[deg]: unit", 0), 0u);
+  EXPECT_EQ(message("q1,dir2,distance\n0,1,1\n"),
+            "bad.csv:1: dir2: no joint 2 (the log has q1..q1)");
+  EXPECT_EQ(message("q1,dir,distance\n0,1,1\n").rfind("bad.csv:1: dir: unknown column", 0), 0u);
+}
+
 // A double anywhere in the finite range: random sign, mantissa and binary
 // exponent from the subnormals (2^-1074) to the largest (just under 2^1024).
 double random_finite(std::mt19937_64& rng) {

@@ -52,8 +52,8 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
       "Joint-error families fitted with the geometry: harmonic (first and second harmonic of each "
       "joint's angle, and of its motor's through a capstan), compliance (each joint's deflection "
       "k tau under the gravity torque of the model's masses), coupling (the coupling's "
-      "coefficients "
-      "between joints); the calibration without them is run for comparison");
+      "coefficients between joints), backlash (an offset per approach direction, from the log's "
+      "dir<i> columns); the calibration without them is run for comparison");
   calibrate->add_option("--free", o.free,
                         "Parameters added to the candidates, e.g. j2.beta (a beta is one by "
                         "default only where neighbouring joint axes are parallel)");

@@ -267,7 +267,7 @@ def test_issue_25_options_reach_the_calibration():
     assert r.results["joint_errors"]["families"] == ["harmonic"]
     assert r.results["joint_errors"]["cv_rms_without"] > 0
     with pytest.raises(ValueError, match="not a joint-error family"):
-        hapticcal.calibrate(MECA, CAL_LOG, joint_errors=["backlash"])
+        hapticcal.calibrate(MECA, CAL_LOG, joint_errors=["gear-play"])
     # Compliance on a model without masses: each link a lumped 1 kg, said so.
     c = hapticcal.calibrate(MECA, CAL_LOG, joint_errors=["compliance"])
     assert "j2.k" in c.parameters

@@ -14,7 +14,7 @@
 namespace hapticcal::detail {
 namespace {
 
-constexpr int kQuantities = static_cast<int>(Quantity::kPlane) + 1;
+constexpr int kQuantities = static_cast<int>(Quantity::kDirection) + 1;
 
 constexpr std::string_view kQuaternionLetters = "wxyz", kRotationVectorLetters = "xyz";
 
@@ -26,8 +26,8 @@ int component_index(const std::string& base, char prefix, std::string_view lette
 }
 
 constexpr const char* kExpectedColumns =
-    "unknown column (expected q<i>, ext<i>, distance, x, y, z, qw, qx, qy, qz, rx, ry, rz, t, "
-    "point, plane or _)";
+    "unknown column (expected q<i>, ext<i>, dir<i>, distance, x, y, z, qw, qx, qy, qz, rx, ry, "
+    "rz, t, point, plane or _)";
 
 bool ascii_letter(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
 bool ascii_digit(char c) { return c >= '0' && c <= '9'; }
@@ -124,7 +124,7 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
   }
   Column c;
   c.name = printable(spec);  // messages quote it
-  const bool indexed = base == "q" || base == "ext";
+  const bool indexed = base == "q" || base == "ext" || base == "dir";
   if (base == "_" && index.empty() && unit.empty()) return c;
   if (indexed != !index.empty()) {
     throw InputError(origin, line, c.name, kExpectedColumns);
@@ -134,7 +134,14 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
     const int i = std::stoi(index);
     if (i < 1) throw InputError(origin, line, c.name, "joint numbers start at 1");
     c.joint = i - 1;
-    c.quantity = base == "q" ? Quantity::kJoint : Quantity::kExternal;
+    c.quantity = base == "q"     ? Quantity::kJoint
+                 : base == "ext" ? Quantity::kExternal
+                                 : Quantity::kDirection;
+    if (c.quantity == Quantity::kDirection && !unit.empty()) {
+      throw InputError(
+          origin, line, c.name,
+          fmt::format("unit '{}': a direction column holds -1, 0 or +1", printable(unit)));
+    }
   } else if (base == "distance") {
     c.quantity = Quantity::kDistance;
   } else if (base == "x") {
@@ -263,7 +270,8 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
     }
   }
   for (const Column& c : columns) {
-    if (c.quantity == Quantity::kExternal && c.joint >= dof) {
+    if ((c.quantity == Quantity::kExternal || c.quantity == Quantity::kDirection) &&
+        c.joint >= dof) {
       throw InputError(origin, line, c.name,
                        fmt::format("no joint {} (the log has q1..q{})", c.joint + 1, dof));
     }

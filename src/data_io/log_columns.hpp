@@ -28,8 +28,9 @@ enum class Quantity {
   kRx,
   kRy,
   kRz,
-  kPoint,  // a label: the fixture point the tool point is at
-  kPlane   // a label: the plane the tool point touches
+  kPoint,     // a label: the fixture point the tool point is at
+  kPlane,     // a label: the plane the tool point touches
+  kDirection  // dir<i>: the side joint i approached the pose from (-1, 0, +1)
 };
 
 inline bool is_quaternion(Quantity q) { return q >= Quantity::kQw && q <= Quantity::kQz; }

@@ -201,6 +201,8 @@ Log zero_log(Table& table, const std::string& origin) {
   log.q.setZero(log.rows, dof);
   log.ext.setZero(log.rows, dof);
   log.has_ext.assign(dof, false);
+  log.direction.setZero(log.rows, dof);
+  log.has_direction.assign(dof, false);
   log.q_unit.assign(dof, ReadingUnit::kNone);
   log.q_column.assign(dof, "");
   log.ext_unit.assign(dof, ReadingUnit::kNone);
@@ -226,6 +228,9 @@ Log zero_log(Table& table, const std::string& origin) {
         log.has_ext[c.joint] = true;
         log.ext_unit[c.joint] = c.unit;
         log.ext_column[c.joint] = c.name;
+        break;
+      case Quantity::kDirection:
+        log.has_direction[c.joint] = true;
         break;
       case Quantity::kJoint:
         log.q_unit[c.joint] = c.unit;
@@ -260,6 +265,15 @@ void fill_values(Log& log, const Table& table) {
           break;
         case Quantity::kExternal:
           log.ext(r, c.joint) = v;
+          break;
+        case Quantity::kDirection:
+          if (v != -1 && v != 0 && v != 1) {
+            throw InputError(log.origin, log.line[r], c.name,
+                             fmt::format("{}: a direction is -1, 0 or +1 (the side the joint "
+                                         "approached the pose from)",
+                                         v));
+          }
+          log.direction(r, c.joint) = v;
           break;
         case Quantity::kDistance:
           log.distance[r] = v;
@@ -339,6 +353,9 @@ std::string log_to_csv(const Log& log) {
   for (int j = 0; j < log.dof(); ++j) {
     if (log.has_ext[j]) header.push_back(fmt::format("ext{}", j + 1));
   }
+  for (int j = 0; j < log.dof(); ++j) {
+    if (log.directed(j)) header.push_back(fmt::format("dir{}", j + 1));
+  }
   if (log.has_distance) header.push_back("distance");
   if (log.has_position) header.insert(header.end(), {"x", "y", "z"});
   if (log.has_orientation) header.insert(header.end(), {"qw", "qx", "qy", "qz"});
@@ -355,6 +372,9 @@ std::string log_to_csv(const Log& log) {
     for (int j = 0; j < log.dof(); ++j) put(log.q(r, j));
     for (int j = 0; j < log.dof(); ++j) {
       if (log.has_ext[j]) put(log.ext(r, j));
+    }
+    for (int j = 0; j < log.dof(); ++j) {
+      if (log.directed(j)) put(log.direction(r, j));
     }
     if (log.has_distance) put(log.distance[r]);
     if (log.has_position) {

@@ -222,10 +222,12 @@ void check_options(const CalibrationOptions& options) {
     throw InputError("--encoder-resolution must be a positive number of radians, at most 1");
   }
   for (const std::string& family : options.joint_errors) {
-    if (family != "harmonic" && family != "compliance" && family != "coupling") {
-      throw InputError(fmt::format(
-          "--joint-errors: '{}' is not a joint-error family (harmonic, compliance, coupling)",
-          printable(family)));
+    if (family != "harmonic" && family != "compliance" && family != "coupling" &&
+        family != "backlash") {
+      throw InputError(
+          fmt::format("--joint-errors: '{}' is not a joint-error family (harmonic, compliance, "
+                      "coupling, backlash)",
+                      printable(family)));
     }
   }
   if (options.keep_all && options.select) {
@@ -263,9 +265,12 @@ void prepare_poses(CalibrationRun& run) {
   }
   run.poses = average_repeats(run.log, run.result.poses);
   if (run.options.transmissions) {
+    // Step 2 fits the coupling's coefficients (not a step-1-only log's run).
     const std::vector<std::string>& families = run.options.joint_errors;
-    encoders_at_readings(run.nominal, run.poses, run.result.notes,
-                         std::find(families.begin(), families.end(), "coupling") != families.end());
+    const bool coupling_fitted =
+        !encoders_only(run.log) &&
+        std::find(families.begin(), families.end(), "coupling") != families.end();
+    encoders_at_readings(run.nominal, run.poses, run.result.notes, coupling_fitted);
   }
   run.m = run.poses.rows;
   KinematicFit& fit = run.fit();
@@ -326,7 +331,8 @@ void check_nominal(CalibrationRun& run) {
   std::vector<Eigen::VectorXd> nominal_joints(m);
   for (int i = 0; i < m; ++i) {
     nominal_joints[i] =
-        step_two_joints(prepared_nominal, run.step2_nominal, run.poses.q.row(i).transpose());
+        step_two_joints(prepared_nominal, run.step2_nominal, run.poses.q.row(i).transpose(),
+                        direction_row(run.poses, i));
   }
   const Eigen::VectorXd r0 =
       residuals_at(s, run.step2_nominal.kinematic_parameters(), nominal_joints, kind,

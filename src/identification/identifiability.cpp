@@ -344,6 +344,29 @@ void record_verdicts(const KinematicProblem& problem, const RankFindings& f,
   }
 }
 
+// The rank test's synthetic poses: readings uniform over the joint limits
+// (seeded), each joint with a fitted backlash approached from either side,
+// formed into step 2's joint values through the model's coupling.
+std::vector<Eigen::VectorXd> structural_joints(const DeviceModel& model) {
+  std::mt19937_64 rng(kStructuralSeed);
+  std::vector<Eigen::VectorXd> synthetic(kStructuralPoses);
+  const PreparedModel prepared(model);
+  for (Eigen::VectorXd& qs : synthetic) {
+    Eigen::VectorXd reading(model.dof());
+    for (int j = 0; j < model.dof(); ++j) {
+      reading[j] =
+          std::uniform_real_distribution<double>(model.links[j].lower, model.links[j].upper)(rng);
+    }
+    Eigen::RowVectorXd direction;
+    if (!model.fitted_backlash.empty()) {
+      direction.setZero(model.dof());
+      for (int j : model.fitted_backlash) direction[j] = rng() % 2 ? 1.0 : -1.0;
+    }
+    qs = step_two_joints(prepared, model, reading, direction);
+  }
+  return synthetic;
+}
+
 }  // namespace
 
 IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
@@ -354,17 +377,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   const Eigen::VectorXd p0 = model.kinematic_parameters();
   const RowsOf kind = rows_of(problem);
   // On synthetic poses over the joint limits (structural) and on the data.
-  std::mt19937_64 rng(kStructuralSeed);
-  std::vector<Eigen::VectorXd> synthetic(kStructuralPoses);
-  const PreparedModel prepared(model);
-  for (Eigen::VectorXd& qs : synthetic) {
-    Eigen::VectorXd reading(model.dof());
-    for (int j = 0; j < model.dof(); ++j) {
-      reading[j] =
-          std::uniform_real_distribution<double>(model.links[j].lower, model.links[j].upper)(rng);
-    }
-    qs = step_two_joints(prepared, model, reading);
-  }
+  const std::vector<Eigen::VectorXd> synthetic = structural_joints(model);
   // A fixture's rows change with the residual itself (p_i - m_L turns with the
   // robot): at the data, directions that only turn or stretch the residuals look
   // identifiable, with an information that is the noise's. The rank test runs

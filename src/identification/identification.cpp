@@ -226,10 +226,14 @@ std::vector<std::vector<int>> repeated_poses(const Log& log) {
   std::vector<std::vector<int>> groups;
   std::unordered_map<std::string, int> index;
   index.reserve(static_cast<size_t>(log.rows));
-  std::string key(sizeof(double) * static_cast<size_t>(log.dof()), '\0');
+  // The readings, and the approach directions: a pose reached from the other
+  // side is another pose (its backlash differs).
+  const int directions = log.any_direction() ? log.dof() : 0;
+  std::string key(sizeof(double) * static_cast<size_t>(log.dof() + directions), '\0');
   for (int r = 0; r < log.rows; ++r) {
-    for (int j = 0; j < log.dof(); ++j) {
-      const double v = log.q(r, j) + 0.0;  // -0.0 and 0.0 are one reading
+    for (int j = 0; j < log.dof() + directions; ++j) {
+      // -0.0 and 0.0 are one reading
+      const double v = (j < log.dof() ? log.q(r, j) : log.direction(r, j - log.dof())) + 0.0;
       std::memcpy(key.data() + sizeof(double) * j, &v, sizeof(double));
     }
     // A fixture log's rows are one pose only at one label.
@@ -247,6 +251,7 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
   out.origin = log.origin;
   out.rows = static_cast<int>(groups.size());
   out.has_ext = log.has_ext;
+  out.has_direction = log.has_direction;
   out.has_distance = log.has_distance;
   out.has_position = log.has_position;
   out.has_time = log.has_time;
@@ -254,6 +259,7 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
   out.has_point = log.has_point;
   out.has_plane = log.has_plane;
   out.q.resize(out.rows, log.dof());
+  out.direction = Eigen::MatrixXd::Zero(out.rows, log.any_direction() ? log.dof() : 0);
   out.ext = Eigen::MatrixXd::Zero(out.rows, log.ext.cols());
   if (log.has_distance) out.distance = Eigen::VectorXd::Zero(out.rows);
   if (log.has_position) out.position = Eigen::MatrixXd::Zero(out.rows, 3);
@@ -265,6 +271,7 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
     const std::vector<int>& rows = groups[g];
     const int first = rows.front();
     out.q.row(g) = log.q.row(first);
+    if (log.any_direction()) out.direction.row(g) = log.direction.row(first);  // one per group
     if (!log.label.empty()) out.label.push_back(log.label[static_cast<size_t>(first)]);
     out.line.push_back(first < static_cast<int>(log.line.size()) ? log.line[first] : 0);
     if (log.has_time) out.t[g] = log.t[first];
@@ -307,7 +314,15 @@ void encoders_at_readings(const DeviceModel& model, Log& poses, std::vector<std:
         "joint angles use the coupling coefficients step 2 fits)",
         fmt::join(left_out, ", ")));
   }
-  if (measured.empty()) {
+  if (measured.empty()) {  // every encoder left out
+    for (int k = 0; k < n; ++k) {
+      if (model.reading_used(k) && !model.links[k].transmission.is_none()) {
+        notes.push_back(fmt::format(
+            "coupled joints: no external encoder is left to determine the reading of {}: its "
+            "transmission is not fitted in step 1",
+            model.links[k].name));
+      }
+    }
     poses.has_ext.assign(n, false);
     return;
   }
@@ -437,6 +452,15 @@ std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& po
   return fits;
 }
 
+// The slot whose Jacobian column is d rows / d joint i's value: a DH / MDH
+// theta (d for a sliding joint), a URDF joint's offset.
+int joint_value_column(const DeviceModel& model, const ChainStructure& s, int i) {
+  const Link& l = model.links[i];
+  return s.link_slot(i) + (!l.dh_parameters() ? kOriginOffset
+                           : l.prismatic()    ? kLinkD
+                                              : kLinkTheta);
+}
+
 std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model) {
   std::vector<JointErrorStage> stages;
   const ChainStructure s = model.structure();
@@ -458,28 +482,46 @@ std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model) {
   for (int i = 0; i < model.dof(); ++i) {
     if (!model.compliance_fitted(i)) continue;
     if (!gravity) gravity = std::make_shared<const GravityModel>(model);
-    const Link& l = model.links[i];
-    const int value = !l.dh_parameters() ? kOriginOffset : l.prismatic() ? kLinkD : kLinkTheta;
-    stages.push_back({i, slot++, s.link_slot(i) + value, Transmission(), gravity});
+    stages.push_back({i, slot++, joint_value_column(model, s, i), Transmission(), gravity});
   }
   slot = s.coupling_slot();
   for (const auto& [i, k] : model.fitted_coupling) {
-    const Link& l = model.links[i];
-    const int value = !l.dh_parameters() ? kOriginOffset : l.prismatic() ? kLinkD : kLinkTheta;
-    stages.push_back(
-        {i, slot++, s.link_slot(i) + value, Transmission(), nullptr, k, model.coupling(i, k)});
+    stages.push_back({i, slot++, joint_value_column(model, s, i), Transmission(), nullptr,
+                      s.dof + k, model.coupling(i, k)});
+  }
+  slot = s.backlash_slot();
+  const int directions = s.dof + (model.fitted_coupling.empty() ? 0 : s.dof);
+  for (const int i : model.fitted_backlash) {
+    stages.push_back({i, slot++, joint_value_column(model, s, i), Transmission(), nullptr,
+                      directions + i, model.links[i].backlash});
   }
   return stages;
 }
 
 Eigen::VectorXd step_two_joints(const PreparedModel& prepared, const DeviceModel& model,
-                                const Eigen::VectorXd& q) {
+                                const Eigen::VectorXd& q,
+                                const Eigen::Ref<const Eigen::RowVectorXd>& direction) {
   const int n = model.dof();
-  Eigen::VectorXd joint(model.fitted_coupling.empty() ? n : 2 * n);
+  const bool coupling = !model.fitted_coupling.empty();
+  const bool backlash = !model.fitted_backlash.empty();
+  Eigen::VectorXd joint(n * (1 + (coupling ? 1 : 0) + (backlash ? 1 : 0)));
   prepared.compensate(q.data(), joint.data());
-  if (model.fitted_coupling.empty()) return joint;
-  for (int k = 0; k < n; ++k) joint[n + k] = q[k] + model.links[k].transmission.error(q[k]);
+  model.apply_backlash(direction, joint.head(n));
+  int at = n;
+  if (coupling) {
+    for (int k = 0; k < n; ++k) joint[at + k] = q[k] + model.links[k].transmission.error(q[k]);
+    at += n;
+  }
+  if (backlash) {
+    joint.segment(at, n).setZero();
+    if (direction.size() == n) joint.segment(at, n) = direction.transpose();
+  }
   return joint;
+}
+
+Eigen::RowVectorXd direction_row(const Log& log, int r) {
+  if (!log.any_direction()) return {};
+  return log.direction.row(r);
 }
 
 KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
@@ -494,7 +536,8 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   const PreparedModel prepared(model);
   problem.joints.resize(m);
   for (int i = 0; i < m; ++i)
-    problem.joints[i] = step_two_joints(prepared, model, poses.q.row(i).transpose());
+    problem.joints[i] =
+        step_two_joints(prepared, model, poses.q.row(i).transpose(), direction_row(poses, i));
   std::vector<int> pose_index(m);
   std::iota(pose_index.begin(), pose_index.end(), 0);
   problem.measured = pose_measurements(poses, pose_index, RowsOf{problem.type});

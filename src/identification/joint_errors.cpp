@@ -112,6 +112,25 @@ void offer_coupling(CalibrationRun& run) {
   run.step2_nominal.fitted_coupling = entries;
 }
 
+// "backlash": each joint whose log column dir<i> says from which side it
+// approached its poses gets a backlash b (the joint value moves by b s, s the
+// side): half the dead band of a gear or a cable, seen only where the same
+// joint arrives from both sides.
+void offer_backlash(CalibrationRun& run) {
+  const Log& poses = run.poses;
+  std::vector<int> joints;
+  for (int i = 0; i < run.model.dof(); ++i) {
+    if (poses.directed(i) && poses.direction.col(i).any()) joints.push_back(i);
+  }
+  if (joints.empty()) {
+    throw InputError(
+        "--joint-errors backlash: the log says for no joint from which side it approached its "
+        "poses (give dir<i> columns: +1 moving up in q, -1 moving down)");
+  }
+  run.model.fitted_backlash = joints;
+  run.step2_nominal.fitted_backlash = joints;
+}
+
 bool has_family(const CalibrationOptions& options, const char* family) {
   return std::find(options.joint_errors.begin(), options.joint_errors.end(), family) !=
          options.joint_errors.end();
@@ -126,6 +145,7 @@ void offer_joint_errors(CalibrationRun& run) {
   if (has_family(run.options, "harmonic")) offer_harmonics(run);
   if (has_family(run.options, "compliance")) offer_compliance(run);
   if (has_family(run.options, "coupling")) offer_coupling(run);
+  if (has_family(run.options, "backlash")) offer_backlash(run);
 }
 
 // The joint-error stages as fitted, folded into the calibrated model's
@@ -146,6 +166,7 @@ std::string fold_joint_errors(DeviceModel& model) {
   }
   model.joint_errors.clear();
   model.fitted_compliance.clear();       // each fitted k is the link's compliance now
+  model.fitted_backlash.clear();         // likewise each backlash
   if (!model.fitted_coupling.empty()) {  // the fitted coefficients are the coupling now
     model.fitted_coupling.clear();
     if (const std::string why = coupling_problem(model.coupling, model.links);

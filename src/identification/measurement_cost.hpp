@@ -50,13 +50,13 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
   std::array<double, kMaxDof> moved, tau;
   std::copy(joint, joint + s.dof, moved.begin());
   // Features by stage (a link may have a harmonic and a compliance stage; the
-  // coupling stages, after them, read theirs from `joint`).
+  // coupling and backlash stages, after them, read theirs from `joint`).
   std::array<std::array<double, kMaxFeatures>, 2 * kMaxDof> phi;
   bool torques = false;
   for (size_t k = 0; k < kind.errors->size(); ++k) {
     const JointErrorStage& e = (*kind.errors)[k];
-    if (e.reading >= 0) {  // the reading's value, after the dof joint values
-      moved[e.link] += (params[e.slot] - e.nominal) * joint[s.dof + e.reading];
+    if (e.feature >= 0) {  // a value after the dof joint values
+      moved[e.link] += (params[e.slot] - e.nominal) * joint[e.feature];
       continue;
     }
     if (e.gravity) {
@@ -72,8 +72,8 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
                               kind.rotation_scale, residual, J);
   for (size_t k = 0; k < kind.errors->size(); ++k) {
     const JointErrorStage& e = (*kind.errors)[k];
-    if (e.reading >= 0) {
-      J.col(e.slot) = joint[s.dof + e.reading] * J.col(e.joint_column);
+    if (e.feature >= 0) {
+      J.col(e.slot) = joint[e.feature] * J.col(e.joint_column);
       continue;
     }
     for (int c = 0; c < e.count(); ++c) J.col(e.slot + c) = phi[k][c] * J.col(e.joint_column);

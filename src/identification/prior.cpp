@@ -253,6 +253,8 @@ Eigen::VectorXd slot_tolerances(const DeviceModel& model, const Tolerances& t) {
       out[pi.slot] = t.compliance;
     } else if (pi.joint == coupling_block(model.dof())) {
       out[pi.slot] = t.coupling;
+    } else if (pi.joint == backlash_block(model.dof())) {
+      out[pi.slot] = t.backlash;
     }
   }
   if (!unused.empty()) {

@@ -228,8 +228,8 @@ SuspectFit check_suspect(const KinematicFit& fit, const KinematicProblem& proble
     base_only.weights = weights;
     const PreparedModel prepared(nominal_in_frame);
     for (int i = 0; i < poses.rows; ++i) {
-      const Eigen::VectorXd qi = poses.q.row(i).transpose();
-      prepared.compensate(qi.data(), base_only.joints[i].data());
+      base_only.joints[i] = step_two_joints(prepared, nominal_in_frame, poses.q.row(i).transpose(),
+                                            direction_row(poses, i));
     }
     const ChainStructure s = nominal_in_frame.structure();
     std::vector<int> base_slots;

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 
@@ -68,6 +69,7 @@ ChainStructure DeviceModel::structure() const {
   for (const Transmission& e : joint_errors) s.errors += e.num_parameters();
   for (int i = 0; i < dof(); ++i) s.compliance += compliance_fitted(i) ? 1 : 0;
   s.coupling = static_cast<int>(fitted_coupling.size());
+  s.backlash = static_cast<int>(fitted_backlash.size());
   return s;
 }
 
@@ -98,6 +100,8 @@ Eigen::VectorXd DeviceModel::kinematic_parameters() const {
   }
   for (int c = 0; c < s.coupling; ++c)
     p[s.coupling_slot() + c] = coupling(fitted_coupling[c][0], fitted_coupling[c][1]);
+  for (int c = 0; c < s.backlash; ++c)
+    p[s.backlash_slot() + c] = links[fitted_backlash[c]].backlash;
   return p;
 }
 
@@ -131,6 +135,8 @@ void DeviceModel::set_kinematic_parameters(const Eigen::VectorXd& p) {
   }
   for (int c = 0; c < s.coupling; ++c)
     coupling(fitted_coupling[c][0], fitted_coupling[c][1]) = p[s.coupling_slot() + c];
+  for (int c = 0; c < s.backlash; ++c)
+    links[fitted_backlash[c]].backlash = p[s.backlash_slot() + c];
 }
 
 std::vector<ParameterInfo> DeviceModel::parameter_info() const {
@@ -183,11 +189,33 @@ std::vector<ParameterInfo> DeviceModel::parameter_info() const {
     info.push_back({links[i].name + ".c_" + links[k].name, s.coupling_slot() + c, U::kAngle,
                     coupling_block(dof()), c});
   }
+  for (int c = 0; c < s.backlash; ++c) {
+    const int i = fitted_backlash[c];
+    info.push_back({links[i].name + ".backlash", s.backlash_slot() + c,
+                    links[i].prismatic() ? U::kLength : U::kAngle, backlash_block(dof()), i});
+  }
   return info;
 }
 
 // DeviceModel::compensate and reading_jacobian: kinematics/compliance.cpp
 // (the gravity torques of joint compliance need the kinematics).
+
+void DeviceModel::apply_backlash(const Eigen::Ref<const Eigen::RowVectorXd>& direction,
+                                 Eigen::Ref<Eigen::VectorXd> joint,
+                                 const std::vector<int>& except) const {
+  if (direction.size() == 0) return;
+  for (int i = 0; i < dof(); ++i) {
+    if (std::find(except.begin(), except.end(), i) == except.end())
+      joint[i] += links[i].backlash * direction[i];
+  }
+}
+
+bool DeviceModel::has_backlash() const {
+  for (const Link& l : links) {
+    if (l.backlash != 0) return true;
+  }
+  return false;
+}
 
 bool DeviceModel::compliant() const {
   for (int i = 0; i < dof(); ++i) {

@@ -186,11 +186,11 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
   if (!link.dh_parameters()) {
     r.check_keys(node, path,
                  {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission",
-                  "coupling", "mass", "compliance"});
+                  "coupling", "mass", "compliance", "backlash"});
   } else if (file.v2) {
     r.check_keys(node, path,
                  {"name", "geometry", "type", "a", "alpha", "d", "theta", "beta", "limits",
-                  "transmission", "coupling", "mass", "compliance"});
+                  "transmission", "coupling", "mass", "compliance", "backlash"});
   } else {
     r.check_keys(node, path,
                  {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
@@ -239,6 +239,7 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
     link.com = Eigen::Vector3d(com[0], com[1], com[2]);
   }
   if (node["compliance"]) link.compliance = r.number(node["compliance"], join(path, "compliance"));
+  if (node["backlash"]) link.backlash = r.number(node["backlash"], join(path, "backlash"));
   return link;
 }
 
@@ -340,6 +341,11 @@ std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) 
     return {key + ".compliance",
             fmt::format("{} is not a compliance of magnitude at most {} rad/N m", link.compliance,
                         kMaxCompliance)};
+  }
+  if (!(std::abs(link.backlash) <= kMaxBacklash)) {
+    return {key + ".backlash",
+            fmt::format("{} is not a backlash of magnitude at most {} {}", link.backlash,
+                        kMaxBacklash, link.prismatic() ? "m" : "rad")};
   }
   const std::string why = link.transmission.check(link.lower, link.upper);
   if (!why.empty()) return {key + ".transmission", why};
@@ -450,6 +456,7 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
                             : key.ends_with(".name")       ? node["name"]
                             : key.ends_with(".mass")       ? node["mass"]
                             : key.ends_with(".compliance") ? node["compliance"]
+                            : key.ends_with(".backlash")   ? node["backlash"]
                                                            : node;
       r.fail(at, key, why);
     }
@@ -508,9 +515,11 @@ std::string device_to_yaml(const DeviceModel& model) {
   for (const Link& l : model.links) {
     uniform = uniform && l.geometry == first && !l.prismatic() && !l.continuous();
   }
-  bool masses = false;  // masses, compliance and gravity are version 2's, like a coupling
+  bool masses = false;    // masses, compliance and gravity are version 2's, like a coupling
+  bool backlash = false;  // version 2's too
   for (const Link& l : model.links) masses = masses || l.mass != 0 || l.compliance != 0;
-  uniform = uniform && !model.coupled() && !masses;
+  for (const Link& l : model.links) backlash = backlash || l.backlash != 0;
+  uniform = uniform && !model.coupled() && !masses && !backlash;
   auto geometry_name = [](Geometry g) { return traits(g).name; };
   out += fmt::format("format: {}\n", uniform ? kFormat : kFormat2);
   out += fmt::format("name: {}\n", quoted(model.name));
@@ -561,6 +570,7 @@ std::string device_to_yaml(const DeviceModel& model) {
                          num(l.com[1]), num(l.com[2]));
     }
     if (l.compliance != 0) out += fmt::format("    compliance: {}\n", num(l.compliance));
+    if (l.backlash != 0) out += fmt::format("    backlash: {}\n", num(l.backlash));
   }
   if (masses) {
     const Eigen::Vector3d& g = model.gravity;

@@ -242,6 +242,7 @@ std::string device_to_urdf(const DeviceModel& model) {
   const std::vector<std::string> couplings = link_yaml(model, "coupling");
   const std::vector<std::string> masses = link_yaml(model, "mass");
   const std::vector<std::string> compliances = link_yaml(model, "compliance");
+  const std::vector<std::string> backlashes = link_yaml(model, "backlash");
 
   std::set<std::string> joint_names;
   for (const Link& l : model.links) joint_names.insert(l.name);
@@ -280,6 +281,12 @@ std::string device_to_urdf(const DeviceModel& model) {
     } else if (!masses[i].empty()) {
       out += fmt::format("  <!-- hapticcal: link {} carries mass: {} -->\n", comment_safe(l.name),
                          comment_safe(masses[i]));
+    }
+    if (!backlashes[i].empty()) {
+      out += fmt::format(
+          "  <!-- hapticcal: joint {} has backlash, which URDF cannot express (as in a device "
+          "file): backlash: {} -->\n",
+          comment_safe(l.name), comment_safe(backlashes[i]));
     }
     std::string mimic;
     if (!couplings[i].empty()) {

@@ -114,9 +114,21 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
   if (log.has_position) ev.position_error.resize(log.rows);
   if (log.has_orientation) ev.orientation_error.resize(log.rows);
   Eigen::VectorXd q(model.dof());
+  // A backlash moves the joint values by the side each joint came from.
+  const bool backlash = model.has_backlash() && log.any_direction();
+  const ChainStructure s = model.structure();
+  const Eigen::VectorXd params = model.kinematic_parameters();
+  const ChainConstants<double> constants = chain_constants(s, params.data());
   for (int r = 0; r < log.rows; ++r) {
     q = log.q.row(r).transpose();
-    const Frame<double> tool = prepared.forward(q.data());
+    Frame<double> tool;
+    if (backlash) {
+      Eigen::VectorXd joint = model.compensate(q);
+      model.apply_backlash(log.direction.row(r), joint);
+      tool = forward_kinematics(s, constants, joint.data());
+    } else {
+      tool = prepared.forward(q.data());
+    }
     const Eigen::Vector3d& p = tool.p;
     if (log.has_point || log.has_plane) {
       if (!p.allFinite()) {

@@ -145,6 +145,7 @@ RegisteredModel register_for_evaluation(const DeviceModel& model, const Log& log
   const ChainConstants<double> constants = chain_constants(s, p.data());
   for (int r = 0; r < log.rows; ++r) {
     joints[r] = m.compensate(log.q.row(r).transpose());
+    if (log.any_direction()) m.apply_backlash(log.direction.row(r), joints[r]);
     measured_values(type, log, r, measured.row(r).data());
     a.col(r) = forward_kinematics(s, constants, joints[r].data()).p;
     b.col(r) = log.position.row(r).transpose();

@@ -144,12 +144,33 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
   if (position) log.position.resize(poses, 3);
   log.has_orientation = columns.orientation;
   if (columns.orientation) log.orientation.resize(poses, 4);
+  // A joint with backlash approaches each pose from a side drawn at random,
+  // written as its dir<i> column (the encoders read the drive's side).
+  const bool backlash = actual.has_backlash();
+  if (backlash) {
+    log.direction.setZero(poses, n);
+    log.has_direction.assign(n, false);
+    for (int j = 0; j < n; ++j) log.has_direction[j] = actual.links[j].backlash != 0;
+  }
+  const ChainStructure s = actual.structure();
+  const Eigen::VectorXd params = actual.kinematic_parameters();
+  const ChainConstants<double> constants = chain_constants(s, params.data());
   for (int r = 0; r < poses; ++r) {
     log.line.push_back(r + 2);
     draw(r, rng, log.q);
     const Eigen::VectorXd q = log.q.row(r).transpose();
     simulated_encoders(ext_model, q, noise.sigma_ext, rng, gauss, log, r);
-    const Frame<double> T_meas_tool = prepared.forward(q.data());
+    Frame<double> T_meas_tool;
+    if (backlash) {
+      for (int j = 0; j < n; ++j) {
+        if (log.has_direction[j]) log.direction(r, j) = rng() % 2 ? 1.0 : -1.0;
+      }
+      Eigen::VectorXd joint = actual.compensate(q);
+      actual.apply_backlash(log.direction.row(r), joint);
+      T_meas_tool = forward_kinematics(s, constants, joint.data());
+    } else {
+      T_meas_tool = prepared.forward(q.data());
+    }
     for (int j = 0; j < n; ++j) {
       log.q(r, j) = quantized_reading(q[j], ratio[j], noise.motor_counts_per_rev);
     }

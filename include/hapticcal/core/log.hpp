@@ -25,9 +25,14 @@ struct Log {
   std::vector<std::string> ext_column;
   Eigen::MatrixXd ext;        // rows x dof, external encoders [rad]; columns without one are 0
   std::vector<bool> has_ext;  // per joint
-  Eigen::VectorXd distance;   // [m], if has_distance
-  Eigen::MatrixXd position;   // rows x 3 [m], if has_position
-  Eigen::VectorXd t;          // [s], if has_time
+  // dir<i> columns: the side joint i approached the pose from (+1 moving up
+  // in q, -1 moving down, 0 not known); rows x dof, 0 where a joint has none.
+  // The feature of a backlash (Link::backlash, --joint-errors backlash).
+  Eigen::MatrixXd direction;
+  std::vector<bool> has_direction;  // per joint
+  Eigen::VectorXd distance;         // [m], if has_distance
+  Eigen::MatrixXd position;         // rows x 3 [m], if has_position
+  Eigen::VectorXd t;                // [s], if has_time
   // rows x 4 unit quaternions (w, x, y, z) of the tool in the measurement frame, if
   // has_orientation (which needs has_position: a pose is position and orientation).
   Eigen::MatrixXd orientation;
@@ -43,6 +48,14 @@ struct Log {
   std::map<std::string, Eigen::MatrixXd> columns;
   std::vector<int> line;  // source line of each row
   int dof() const { return static_cast<int>(q.cols()); }
+  bool directed(int joint) const {
+    return joint < static_cast<int>(has_direction.size()) && has_direction[joint];
+  }
+  bool any_direction() const {
+    for (bool d : has_direction)
+      if (d) return true;
+    return false;
+  }
 };
 
 }  // namespace hapticcal

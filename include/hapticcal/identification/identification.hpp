@@ -304,6 +304,8 @@ struct Tolerances {
   double compliance = 1e-3;  // rad / N m
   // A coupling coefficient (--joint-errors coupling): a drive's ratio to 1 %.
   double coupling = 1e-2;
+  // A backlash (--joint-errors backlash): 1 mrad (1 mm for a sliding joint).
+  double backlash = 1e-3;  // rad; m
   // Per dotted parameter name (SI), over the family's.
   std::map<std::string, double> by_name;
   // The common scale of the tolerances; none: the one of highest evidence.
@@ -354,9 +356,10 @@ struct CalibrationOptions {
   // (README "Joint errors in step 2"): "harmonic", the first and second harmonic
   // of each turning joint's angle, and of its motor's where a capstan gives the
   // ratio; "compliance", each joint's k; "coupling", the coupling's
-  // coefficients between joints. They enter the tolerance prior (Tolerances::harmonic) and the
-  // identifiability analysis, are folded into the calibrated model's
-  // transmissions, and the same calibration without them is run for comparison.
+  // coefficients between joints; "backlash", an offset per approach direction
+  // (the log's dir<i>). They enter the tolerance prior (Tolerances) and the
+  // identifiability analysis, are folded into the calibrated model, and the
+  // same calibration without them is run for comparison.
   std::vector<std::string> joint_errors;
   // K of the K-fold cross-validated RMS (poses, repeats together, in K folds);
   // 0: no cross-validation.
@@ -418,12 +421,14 @@ std::string step_one_flag_reason(const TransmissionFit& fit, const DeviceModel& 
 // A compliance stage (gravity set) has one parameter, the link's k, and its
 // feature is the link's gravity torque at the pose's joint values, formed from
 // the nominal geometry and masses (fixed in step 2).
-// A coupling stage (reading >= 0) has one parameter, the coefficient C_ik of
-// the joint's value on reading k (DeviceModel::fitted_coupling); its feature is
-// the reading through its own transmission, u_k = q_k + dtheta_k(q_k), which
-// the problem's joint values carry after the dof values (step_two_joints), and
-// the joint value moves by (C_ik - nominal) u_k: the values were formed with
-// the nominal coefficient.
+// A coupling or a backlash stage (feature >= 0) has one parameter p whose
+// feature x the problem's joint values carry after the dof values
+// (step_two_joints): the joint value moves by (p - nominal) x, the values
+// having been formed with the nominal p. A coupling stage's p is C_ik, the
+// joint's coefficient on reading k (DeviceModel::fitted_coupling), x the
+// reading through its own transmission, u_k = q_k + dtheta_k(q_k); a
+// backlash stage's p is the link's backlash, x the side the joint approached
+// the pose from (the log's dir<i>: +1, -1, 0).
 struct GravityModel;  // kinematics.hpp
 class PreparedModel;  // kinematics.hpp
 struct JointErrorStage {
@@ -432,19 +437,25 @@ struct JointErrorStage {
   int joint_column = 0;  // the slot whose column is d rows / d joint value
   Transmission stage;
   std::shared_ptr<const GravityModel> gravity;
-  int reading = -1;    // a coupling stage's reading k
-  double nominal = 0;  // a coupling stage's C_ik in the joint values
-  int count() const { return gravity || reading >= 0 ? 1 : stage.num_parameters(); }
+  int feature = -1;    // a coupling or backlash stage's index in the joint values
+  double nominal = 0;  // its parameter's value in the joint values
+  int count() const { return gravity || feature >= 0 ? 1 : stage.num_parameters(); }
 };
 // The stages of a model's joint_errors (none for a link without one). Throws
 // InputError for a stage on a prismatic joint or one not linear in its
 // parameters (only a Harmonic is).
 std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model);
-// A pose's joint values in step 2 from its readings q: model.compensate(q),
-// and after them, while coupling coefficients are fitted (fitted_coupling),
-// each reading through its own transmission (the coupling stages' features).
+// A pose's joint values in step 2 from its readings q and approach directions
+// (a log row's, dof values, or none): model.compensate(q) with the links'
+// backlash; after them, while coupling coefficients are fitted
+// (fitted_coupling), each reading through its own transmission, and while
+// backlash is (fitted_backlash), the directions (0 where none): the coupling
+// and backlash stages' features.
 Eigen::VectorXd step_two_joints(const PreparedModel& prepared, const DeviceModel& model,
-                                const Eigen::VectorXd& q);
+                                const Eigen::VectorXd& q,
+                                const Eigen::Ref<const Eigen::RowVectorXd>& direction);
+// Row r of the log's approach directions (dof values), or none.
+Eigen::RowVectorXd direction_row(const Log& log, int r);
 
 // Step 2's data: the poses' compensated joint values and measured values (the
 // family's width a pose, measurement.hpp), weighted by their repeat counts.
@@ -628,11 +639,12 @@ std::optional<int> parallel_axis_partner(const DeviceModel& model, int link);
 std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std::string>& fix,
                                  const std::vector<std::string>& free);
 
-// Rows with bit-identical joint readings, grouped: the poses of a log in order
-// of first appearance, each the list of its rows.
+// Rows with bit-identical joint readings (and approach directions, if the log
+// has any), grouped: the poses of a log in order of first appearance, each the
+// list of its rows.
 std::vector<std::vector<int>> repeated_poses(const Log& log);
-// One row per group: the joint readings of its first row, the external
-// encoders and measurements averaged over the group.
+// One row per group: the joint readings and directions of its first row, the
+// external encoders and measurements averaged over the group.
 Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups);
 // A coupled model's external encoders measure joint angles, theta = C u + c
 // (u_k = q_k + dtheta_k(q_k), each reading through its own transmission);

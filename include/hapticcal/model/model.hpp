@@ -21,6 +21,8 @@ constexpr double kMaxLinkMass = 1e4;
 constexpr double kMaxComDistance = 100.0;
 constexpr double kMaxCompliance = 1.0;
 constexpr double kMaxGravity = 100.0;
+// The largest magnitude of a backlash [rad; m] (Link::backlash).
+constexpr double kMaxBacklash = 0.1;
 
 // How a joint's constant geometry is given.
 // Standard DH with the Hayati beta (paper eq. 3):
@@ -81,6 +83,12 @@ struct Link {
   double mass = 0.0;
   Eigen::Vector3d com = Eigen::Vector3d::Zero();
   double compliance = 0.0;
+  // Backlash (issue 25): the joint value v becomes v + backlash s, s the side
+  // the joint approached the pose from (+1 moving up in q, -1 down, 0 not
+  // known: a log's dir<i> column); half the dead band [rad; m]. Applied where
+  // the direction is known (evaluate, calibrate, simulate: apply_backlash);
+  // compensate, the runtime and Python have no direction and leave it out.
+  double backlash = 0.0;
 
   bool prismatic() const { return type == JointType::kPrismatic; }
   // Turns without limits (a URDF continuous joint).
@@ -123,13 +131,15 @@ struct ChainStructure {
   int errors = 0;      // slots of the joint-error block after the instrument
   int compliance = 0;  // slots of the compliance block after the joint errors
   int coupling = 0;    // slots of the coupling block after the compliance
+  int backlash = 0;    // slots of the backlash block after the coupling
 
   int base_slots() const { return base_kind == BaseKind::kDh ? 4 : kPoseSlots; }
-  int num_slots() const { return coupling_slot() + coupling; }
+  int num_slots() const { return backlash_slot() + backlash; }
   int instrument_slot() const { return tool + kPoseSlots; }
   int errors_slot() const { return tool + kPoseSlots + instrument; }
   int compliance_slot() const { return errors_slot() + errors; }
   int coupling_slot() const { return compliance_slot() + compliance; }
+  int backlash_slot() const { return coupling_slot() + coupling; }
   int link_slot(int i) const { return joints[i].slot; }  // i zero-based
   int tool_slot() const { return tool; }
 };
@@ -147,8 +157,10 @@ inline int compliance_block(int dof) { return dof + 3; }
 // A coupling coefficient's block ("j1.c_j3", C_ik of joint i on reading k):
 // element is its index in DeviceModel::fitted_coupling.
 inline int coupling_block(int dof) { return dof + 4; }
+// A backlash's block ("j2.backlash"): element is its link.
+inline int backlash_block(int dof) { return dof + 5; }
 // Whether a parameter is a joint error's (a stage's, a compliance, a coupling
-// coefficient): not a length or a periodic angle of the geometry.
+// coefficient, a backlash): not a length or a periodic angle of the geometry.
 inline bool joint_error_parameter(int joint, int dof) { return joint >= joint_error_block(dof); }
 struct ParameterInfo {
   std::string name;
@@ -200,6 +212,11 @@ struct DeviceModel {
   // Present only in the problems of step 2 that estimate them
   // (--joint-errors coupling); the fitted values are the calibrated coupling.
   std::vector<std::array<int, 2>> fitted_coupling;
+  // Step 2's backlash parameters (issue 25): the links whose backlash is
+  // estimated with the geometry, one slot each after the coupling
+  // ("j2.backlash"), the slot being the link's own backlash. Present only in
+  // the problems of step 2 that estimate them (--joint-errors backlash).
+  std::vector<int> fitted_backlash;
 
   bool base_is_pose() const { return base_kind == BaseKind::kPose; }
   int dof() const { return static_cast<int>(links.size()); }
@@ -219,6 +236,11 @@ struct DeviceModel {
   Eigen::MatrixXd reading_jacobian(const Eigen::VectorXd& q) const;
 
   bool coupled() const { return coupling.size() != 0; }
+  // joint_i += backlash_i direction_i (direction: a log row's, dof values or
+  // none); the links in `except` (step 2's fitted ones) left out.
+  void apply_backlash(const Eigen::Ref<const Eigen::RowVectorXd>& direction,
+                      Eigen::Ref<Eigen::VectorXd> joint, const std::vector<int>& except = {}) const;
+  bool has_backlash() const;
   // Some joint deflects under gravity in compensate (a compliance that is not
   // step 2's parameter).
   bool compliant() const;

@@ -31,7 +31,8 @@ double quantized_reading(double q, double ratio, double counts);
 // A log of `poses` readings drawn uniformly within the joint limits, with
 // ext<i> = q_i + dtheta_i(q_i) + c_i + noise for the joints with a transmission
 // (c_i = encoder zeros: 1, 2, 3 ... mrad), and the distance and/or position of
-// the actual device's tool point with noise. Reproducible for a seed.
+// the actual device's tool point with noise. Reproducible for a seed. A joint
+// with backlash approaches each pose from a random side (its dir<i> column).
 Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& noise,
                  std::uint64_t seed, bool distance = true, bool position = false);
 
