@@ -498,6 +498,29 @@ TEST(Hostile, MessagesAreOnePrintableLine) {
   if (bom.exit_code == 2) EXPECT_NE(bom.err.find("\\xef\\xbb\\xbf"), std::string::npos) << bom.err;
 }
 
+// The simulation study has no approach sides (its validation, trajectories and
+// fixtures): a scenario's device with backlash is refused, naming the link.
+TEST(Hostile, SimulateRefusesADeviceWithBacklash) {
+  const std::string dir = scratch("simulate_backlash");
+  std::string device = testing::slurp(source_path("data/devices/baser-7dof.yaml"));
+  const size_t format = device.find("hapticcal-device/1");
+  ASSERT_NE(format, std::string::npos);
+  device.replace(format, 18, "hapticcal-device/2");
+  const size_t at = device.find("limits: [");
+  ASSERT_NE(at, std::string::npos);
+  const size_t end = device.find(']', at) + 1;
+  device.insert(end, "\n    backlash: 1e-3");
+  const std::string path = write(dir + "/play.yaml", device);
+  const std::string scenario =
+      write(dir + "/scenario.yaml", "format: hapticcal-scenario/1\ndevice: " + path +
+                                        "\nmeasurement: position\nposes: {identification: 40, "
+                                        "validation: 10}\n");
+  const ChildRun r =
+      run({"simulate", "--scenario", scenario, "--trials", "1", "--out", dir + "/sim"});
+  expect_refused(r, "the simulation study does not model backlash", "backlash");
+  EXPECT_NE(r.err.find("links[0].backlash"), std::string::npos) << r.err;
+}
+
 // E2: a scenario's device with limits of +-1e308 overflowed simulate's own log
 // into inf, and the failure named a staging file that was gone.
 TEST(Hostile, SimulateRefusesLimitsItCannotDrawFrom) {

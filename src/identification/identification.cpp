@@ -222,13 +222,13 @@ const char* to_string(CalibrationStatus status) {
   return "unknown";
 }
 
-std::vector<std::vector<int>> repeated_poses(const Log& log) {
+std::vector<std::vector<int>> repeated_poses(const Log& log, bool by_direction) {
   std::vector<std::vector<int>> groups;
   std::unordered_map<std::string, int> index;
   index.reserve(static_cast<size_t>(log.rows));
   // The readings, and the approach directions: a pose reached from the other
   // side is another pose (its backlash differs).
-  const int directions = log.any_direction() ? log.dof() : 0;
+  const int directions = by_direction && log.any_direction() ? log.dof() : 0;
   std::string key(sizeof(double) * static_cast<size_t>(log.dof() + directions), '\0');
   for (int r = 0; r < log.rows; ++r) {
     for (int j = 0; j < log.dof() + directions; ++j) {
@@ -314,8 +314,8 @@ void encoders_at_readings(const DeviceModel& model, Log& poses, std::vector<std:
         "joint angles use the coupling coefficients step 2 fits)",
         fmt::join(left_out, ", ")));
   }
-  if (measured.empty()) {  // every encoder left out
-    for (int k = 0; k < n; ++k) {
+  if (measured.empty()) {  // every encoder left out (or none given)
+    for (int k = 0; k < n && !left_out.empty(); ++k) {
       if (model.reading_used(k) && !model.links[k].transmission.is_none()) {
         notes.push_back(fmt::format(
             "coupled joints: no external encoder is left to determine the reading of {}: its "

@@ -78,7 +78,8 @@ PlanSetup prepare_plan(const PlanRequest& o) {
                        fmt::format("the log has {} joint readings a row, the model {} joints",
                                    log.q.cols(), model.dof()));
     }
-    const std::vector<std::vector<int>> groups = repeated_poses(log);
+    // Candidates are readings: a side of approach makes none new.
+    const std::vector<std::vector<int>> groups = repeated_poses(log, /*by_direction=*/false);
     options.candidates.resize(static_cast<Eigen::Index>(groups.size()), model.dof());
     for (size_t g = 0; g < groups.size(); ++g)
       options.candidates.row(static_cast<Eigen::Index>(g)) = log.q.row(groups[g].front());

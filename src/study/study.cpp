@@ -385,6 +385,12 @@ void check_simulated_limits(const Scenario& sc) {
   for (const DeviceModel* m : {&sc.actual, &sc.nominal}) {
     for (int i = 0; i < m->dof(); ++i) {
       const Link& l = m->links[i];
+      // The study's validation, trajectories and fixtures have no approach sides.
+      if (l.backlash != 0) {
+        throw InputError(sc.device_path, 0, fmt::format("links[{}].backlash", i),
+                         "the simulation study does not model backlash (calibrate and evaluate "
+                         "do, from a log's dir<i> columns)");
+      }
       if (std::abs(l.lower) <= kWidest && std::abs(l.upper) <= kWidest) continue;
       throw InputError(sc.device_path, 0, fmt::format("links[{}].limits", i),
                        fmt::format("[{}, {}]: a simulation draws readings within the limits; at "

@@ -640,9 +640,9 @@ std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std
                                  const std::vector<std::string>& free);
 
 // Rows with bit-identical joint readings (and approach directions, if the log
-// has any), grouped: the poses of a log in order of first appearance, each the
-// list of its rows.
-std::vector<std::vector<int>> repeated_poses(const Log& log);
+// has any and by_direction), grouped: the poses of a log in order of first
+// appearance, each the list of its rows.
+std::vector<std::vector<int>> repeated_poses(const Log& log, bool by_direction = true);
 // One row per group: the joint readings and directions of its first row, the
 // external encoders and measurements averaged over the group.
 Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups);
