@@ -123,7 +123,8 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
     q = log.q.row(r).transpose();
     Frame<double> tool;
     if (backlash) {
-      Eigen::VectorXd joint = model.compensate(q);
+      Eigen::VectorXd joint(model.dof());
+      prepared.compensate(q.data(), joint.data());
       model.apply_backlash(log.direction.row(r), joint);
       tool = forward_kinematics(s, constants, joint.data());
     } else {
