@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
 
@@ -130,11 +132,38 @@ TEST(CliErrors, EditDistanceIsLevenshtein) {
   EXPECT_EQ(did_you_mean("abc", {"xyzuvw"}), "");
 }
 
+// Built-in devices by name (issue 26, item 1): `hapticcal devices` lists them,
+// a name loads the device's file wherever a model file is taken (a file of
+// that name in the folder wins), and convert writes one as URDF.
+TEST(CliErrors, BuiltInDevicesAreListedAndUsableByName) {
+  const testing::CliResult list = testing::run_cli("devices");
+  EXPECT_EQ(list.exit_code, 0) << list.err;
+  EXPECT_NE(list.out.find("baser-7dof             7 joints"), std::string::npos) << list.out;
+  EXPECT_NE(list.out.find("phantom-premium-1.5    6 joints"), std::string::npos) << list.out;
+  for (const BuiltinDevice& d : builtin_devices()) {
+    const DeviceModel by_name = load_model(d.name);
+    const DeviceModel by_file = load_device(d.path);
+    EXPECT_EQ(by_name.kinematic_parameters(), by_file.kinematic_parameters()) << d.name;
+  }
+  EXPECT_EQ(resolve_model_path("baser-7dof"), builtin_device_path());
+  EXPECT_THROW(load_model("no-such-device"), InputError);
+  const std::string dir = testing::fresh_folder("builtin_by_name");
+  const testing::CliResult converted =
+      testing::run_cli_in(dir, {"convert", "phantom-premium-1.5", "phantom.urdf"});
+  EXPECT_EQ(converted.exit_code, 0) << converted.err;
+  EXPECT_EQ(load_model(dir + "/phantom.urdf").dof(), 6);
+  // A file of a built-in's name is the user's: it is read, not the built-in.
+  std::ofstream(dir + "/baser-7dof") << "not a device\n";
+  const testing::CliResult own = testing::run_cli_in(dir, {"convert", "baser-7dof", "b.urdf"});
+  EXPECT_EQ(own.exit_code, 2) << own.out;
+}
+
 TEST(CliErrors, BareCommandPointsToHelp) {
   const testing::CliResult r = testing::run_cli(std::vector<std::string>{});
   testing::expect_input_error(r, "");
   EXPECT_EQ(r.err,
-            "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, convert); see "
+            "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, convert, "
+            "devices); see "
             "hapticcal --help\n");
 }
 

@@ -79,4 +79,8 @@ CLI::App* add_convert_command(CLI::App& app, ConvertOptions& options);
 // kExitBadInput, with a line on stderr, when the files are not a pair to convert.
 int run_convert(const ConvertOptions& options);
 
+// `hapticcal devices`: the built-in devices, usable by name as a model.
+CLI::App* add_devices_command(CLI::App& app);
+int run_devices();
+
 }  // namespace hapticcal::cli

@@ -7,6 +7,7 @@
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/jobs/force_job.hpp"
 #include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "terminal.hpp"
 
@@ -42,6 +43,20 @@ int run_convert(const ConvertOptions& o) {
     std::string names;
     for (const hapticcal::Link& l : job.model.links) names += (names.empty() ? "" : " ") + l.name;
     fmt::print("wrote {} ({}, {} joints: {})\n", o.out, job.model.name, job.model.dof(), names);
+  }
+  return 0;
+}
+
+CLI::App* add_devices_command(CLI::App& app) {
+  return app.add_subcommand("devices",
+                            "List the built-in devices: each name works wherever a model file "
+                            "does (--model NAME, convert NAME out.urdf)");
+}
+
+int run_devices() {
+  for (const hapticcal::BuiltinDevice& d : hapticcal::builtin_devices()) {
+    const hapticcal::DeviceModel m = hapticcal::load_device(d.path);
+    fmt::print("{:<22} {} joints  {}\n{:<22} {}\n", d.name, m.dof(), d.description, "", d.path);
   }
   return 0;
 }

@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   CLI::App* convert = hapticcal::cli::add_convert_command(app, conv);
   hapticcal::cli::PlanCommandOptions plan_options;
   CLI::App* plan = hapticcal::cli::add_plan_command(app, plan_options);
+  CLI::App* devices = hapticcal::cli::add_devices_command(app);
 
   try {
     app.parse(argc, argv);
@@ -45,7 +46,7 @@ int main(int argc, char** argv) {
     if (dynamic_cast<const CLI::RequiredError*>(&e) && app.get_subcommands().empty()) {
       hapticcal::cli::say(stderr,
                           "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, "
-                          "convert); see hapticcal --help\n");
+                          "convert, devices); see hapticcal --help\n");
       return kExitBadInput;
     }
     // One line, whatever the argument held (a newline, a control byte).
@@ -65,6 +66,7 @@ int main(int argc, char** argv) {
     if (*force) code = hapticcal::cli::run_force(fo);
     if (*convert) code = hapticcal::cli::run_convert(conv);
     if (*plan) code = hapticcal::cli::run_plan(plan_options);
+    if (*devices) code = hapticcal::cli::run_devices();
   } catch (const hapticcal::InputError& e) {
     hapticcal::finish_if_interrupted();
     hapticcal::cli::say(stderr, "hapticcal: {}\n", e.what());

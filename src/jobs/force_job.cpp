@@ -78,7 +78,9 @@ ForceJob run_force_job(const ForceRequest& request) {
   return job;
 }
 
-ConvertJob run_convert_job(const ConvertRequest& request) {
+ConvertJob run_convert_job(const ConvertRequest& given) {
+  ConvertRequest request = given;
+  request.in = resolve_model_path(given.in);  // a built-in device's name: its file
   for (const std::string* path : {&request.in, &request.out}) {
     if (!is_urdf_path(*path) && !is_yaml_path(*path)) {
       throw InputError(

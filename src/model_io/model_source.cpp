@@ -31,7 +31,8 @@ bool is_yaml_path(const std::string& path) {
   return ext == ".yaml" || ext == ".yml";
 }
 
-DeviceModel load_model(const std::string& path, const std::string& tip, const std::string& root) {
+DeviceModel load_model(const std::string& given, const std::string& tip, const std::string& root) {
+  const std::string path = resolve_model_path(given);
   if (is_urdf_path(path)) return load_urdf(path, tip, root);
   if (!tip.empty() || !root.empty()) {
     throw InputError(path, 0, tip.empty() ? "--root" : "--tip",
@@ -48,6 +49,34 @@ std::string builtin_device_path() {
   const fs::path installed =
       exe.parent_path().parent_path() / "share/hapticcal/devices/baser-7dof.yaml";
   return !ec && fs::exists(installed) ? installed.string() : std::string(HAPTICCAL_DEFAULT_DEVICE);
+}
+
+std::vector<BuiltinDevice> builtin_devices() {
+  const std::filesystem::path folder = std::filesystem::path(builtin_device_path()).parent_path();
+  struct Entry {
+    const char* name;
+    const char* description;
+  };
+  // The files' own comments give each number's source.
+  constexpr Entry kDevices[] = {
+      {"baser-7dof",
+       "the 7-DOF capstan-driven haptic device of Baser & Konukseven (2013), the paper's"},
+      {"phantom-premium-1.5", "the 6-DOF PHANToM Premium 1.5 (Cavusoglu et al. 2002)"},
+  };
+  std::vector<BuiltinDevice> out;
+  for (const Entry& e : kDevices) {
+    out.push_back({e.name, e.description, (folder / (std::string(e.name) + ".yaml")).string()});
+  }
+  return out;
+}
+
+std::string resolve_model_path(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec)) return path;
+  for (const BuiltinDevice& d : builtin_devices()) {
+    if (d.name == path) return d.path;
+  }
+  return path;
 }
 
 }  // namespace hapticcal

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "hapticcal/model/model.hpp"
 
@@ -14,12 +15,27 @@ bool is_urdf_path(const std::string& path);
 bool is_yaml_path(const std::string& path);
 
 // A URDF (by is_urdf_path) through load_urdf(path, tip, root), anything else
-// through load_device; a tip or root with a device file is an InputError.
+// through load_device; a tip or root with a device file is an InputError. A
+// built-in device's name (builtin_devices) where no such file exists loads that
+// device's file (resolve_model_path).
 DeviceModel load_model(const std::string& path, const std::string& tip = "",
                        const std::string& root = "");
 
 // The built-in 7-DOF device file: the source tree's in a build, else the one
 // installed beside the executable (PREFIX/share/hapticcal/devices).
 std::string builtin_device_path();
+
+// A device shipped with hapticcal (data/devices), usable by name wherever a
+// model file is (`--model phantom-premium-1.5`).
+struct BuiltinDevice {
+  std::string name;         // e.g. "baser-7dof"
+  std::string description;  // one line, with its source
+  std::string path;         // its device file
+};
+// The built-in devices, in the folder of builtin_device_path().
+std::vector<BuiltinDevice> builtin_devices();
+// `path` itself if a file of that name exists or no built-in device has that
+// name, else that device's file.
+std::string resolve_model_path(const std::string& path);
 
 }  // namespace hapticcal
