@@ -498,6 +498,17 @@ TEST(Hostile, MessagesAreOnePrintableLine) {
   if (bom.exit_code == 2) EXPECT_NE(bom.err.find("\\xef\\xbb\\xbf"), std::string::npos) << bom.err;
 }
 
+// One simulate trial of a position scenario on the device file `text`, written
+// as dir/name.
+ChildRun simulate_device(const std::string& dir, const std::string& name, const std::string& text) {
+  const std::string path = write(dir + "/" + name, text);
+  const std::string scenario =
+      write(dir + "/scenario.yaml", "format: hapticcal-scenario/1\ndevice: " + path +
+                                        "\nmeasurement: position\nposes: {identification: 40, "
+                                        "validation: 10}\n");
+  return run({"simulate", "--scenario", scenario, "--trials", "1", "--out", dir + "/sim"});
+}
+
 // The simulation study has no approach sides (its validation, trajectories and
 // fixtures): a scenario's device with backlash is refused, naming the link.
 TEST(Hostile, SimulateRefusesADeviceWithBacklash) {
@@ -510,13 +521,7 @@ TEST(Hostile, SimulateRefusesADeviceWithBacklash) {
   ASSERT_NE(at, std::string::npos);
   const size_t end = device.find(']', at) + 1;
   device.insert(end, "\n    backlash: 1e-3");
-  const std::string path = write(dir + "/play.yaml", device);
-  const std::string scenario =
-      write(dir + "/scenario.yaml", "format: hapticcal-scenario/1\ndevice: " + path +
-                                        "\nmeasurement: position\nposes: {identification: 40, "
-                                        "validation: 10}\n");
-  const ChildRun r =
-      run({"simulate", "--scenario", scenario, "--trials", "1", "--out", dir + "/sim"});
+  const ChildRun r = simulate_device(dir, "play.yaml", device);
   expect_refused(r, "the simulation study does not model backlash", "backlash");
   EXPECT_NE(r.err.find("links[0].backlash"), std::string::npos) << r.err;
 }
@@ -529,13 +534,7 @@ TEST(Hostile, SimulateRefusesLimitsItCannotDrawFrom) {
   const size_t at = device.find("limits: [");
   ASSERT_NE(at, std::string::npos);
   device.replace(at, device.find(']', at) + 1 - at, "limits: [-1e308, 1e308]");
-  const std::string path = write(dir + "/wide.yaml", device);
-  const std::string scenario =
-      write(dir + "/scenario.yaml", "format: hapticcal-scenario/1\ndevice: " + path +
-                                        "\nmeasurement: position\nposes: {identification: 40, "
-                                        "validation: 10}\n");
-  const ChildRun r =
-      run({"simulate", "--scenario", scenario, "--trials", "1", "--out", dir + "/sim"});
+  const ChildRun r = simulate_device(dir, "wide.yaml", device);
   expect_refused(r, "a simulation draws readings within the limits", "limits +-1e308");
   EXPECT_NE(r.err.find("wide.yaml"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find(".tmp-"), std::string::npos) << r.err;  // no staging file named

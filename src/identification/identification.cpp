@@ -473,8 +473,7 @@ std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model) {
       throw InputError(
           fmt::format("{}: a joint-error stage must be harmonics of a turning joint", l.name));
     }
-    const int column = s.link_slot(i) + (l.dh_parameters() ? kLinkTheta : kOriginOffset);
-    stages.push_back({i, slot, column, stage, nullptr});
+    stages.push_back({i, slot, joint_value_column(model, s, i), stage, nullptr});
     slot += stage.num_parameters();
   }
   std::shared_ptr<const GravityModel> gravity;  // the torques at the start's geometry

@@ -2,7 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <algorithm>
 #include <cassert>
 #include <cmath>
 
@@ -201,13 +200,9 @@ std::vector<ParameterInfo> DeviceModel::parameter_info() const {
 // (the gravity torques of joint compliance need the kinematics).
 
 void DeviceModel::apply_backlash(const Eigen::Ref<const Eigen::RowVectorXd>& direction,
-                                 Eigen::Ref<Eigen::VectorXd> joint,
-                                 const std::vector<int>& except) const {
+                                 Eigen::Ref<Eigen::VectorXd> joint) const {
   if (direction.size() == 0) return;
-  for (int i = 0; i < dof(); ++i) {
-    if (std::find(except.begin(), except.end(), i) == except.end())
-      joint[i] += links[i].backlash * direction[i];
-  }
+  for (int i = 0; i < dof(); ++i) joint[i] += links[i].backlash * direction[i];
 }
 
 bool DeviceModel::has_backlash() const {

@@ -515,11 +515,9 @@ std::string device_to_yaml(const DeviceModel& model) {
   for (const Link& l : model.links) {
     uniform = uniform && l.geometry == first && !l.prismatic() && !l.continuous();
   }
-  bool masses = false;    // masses, compliance and gravity are version 2's, like a coupling
-  bool backlash = false;  // version 2's too
+  bool masses = false;  // masses, compliance, gravity and backlash are version 2's, like a coupling
   for (const Link& l : model.links) masses = masses || l.mass != 0 || l.compliance != 0;
-  for (const Link& l : model.links) backlash = backlash || l.backlash != 0;
-  uniform = uniform && !model.coupled() && !masses && !backlash;
+  uniform = uniform && !model.coupled() && !masses && !model.has_backlash();
   auto geometry_name = [](Geometry g) { return traits(g).name; };
   out += fmt::format("format: {}\n", uniform ? kFormat : kFormat2);
   out += fmt::format("name: {}\n", quoted(model.name));

@@ -237,9 +237,9 @@ struct DeviceModel {
 
   bool coupled() const { return coupling.size() != 0; }
   // joint_i += backlash_i direction_i (direction: a log row's, dof values or
-  // none); the links in `except` (step 2's fitted ones) left out.
+  // none).
   void apply_backlash(const Eigen::Ref<const Eigen::RowVectorXd>& direction,
-                      Eigen::Ref<Eigen::VectorXd> joint, const std::vector<int>& except = {}) const;
+                      Eigen::Ref<Eigen::VectorXd> joint) const;
   bool has_backlash() const;
   // Some joint deflects under gravity in compensate (a compliance that is not
   // step 2's parameter).
