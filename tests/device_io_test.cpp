@@ -40,7 +40,7 @@ void expect_bit_identical(const DeviceModel& a, const DeviceModel& b) {
 }
 
 TEST(DeviceIo, BuiltinDevicesLoadAndPassTheirChecks) {
-  for (const char* name : {"baser-7dof", "phantom-premium-1.5"}) {
+  for (const char* name : {"baser-7dof", "phantom-premium-1.5", "geomagic-touch", "dvrk-mtm"}) {
     const DeviceModel m = testing::builtin(name);
     EXPECT_EQ(check_device(m), "") << name;
   }

@@ -62,6 +62,9 @@ std::vector<BuiltinDevice> builtin_devices() {
       {"baser-7dof",
        "the 7-DOF capstan-driven haptic device of Baser & Konukseven (2013), the paper's"},
       {"phantom-premium-1.5", "the 6-DOF PHANToM Premium 1.5 (Cavusoglu et al. 2002)"},
+      {"geomagic-touch",
+       "the Geomagic Touch / PHANToM Omni in its driver's frame (Ubitrack; Harders et al. 2009)"},
+      {"dvrk-mtm", "the da Vinci Research Kit's master (MTM right; sawIntuitiveResearchKit)"},
   };
   std::vector<BuiltinDevice> out;
   for (const Entry& e : kDevices) {

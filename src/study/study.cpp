@@ -189,9 +189,11 @@ std::vector<int> identifiable_slots(const DeviceModel& nominal, const Scenario& 
   options.fix = fix;
   const Log log = simulated_log(sc, exact, nominal, kPoses, {}, kSeed);
   if (traits(type).label_points && known) options.point_distances = socket_distances(sockets);
-  const KinematicProblem problem = kinematic_problem(nominal, log, {}, options);
-  std::vector<int> slots =
-      analyze_identifiability(problem, candidate_slots(nominal, fix, {})).identified;
+  KinematicProblem problem = kinematic_problem(nominal, log, {}, options);
+  const std::vector<int> candidates = candidate_slots(nominal, fix, {});
+  // As calibrate orders them: a tracker's frame unknown, the base first.
+  problem.frame_unknown = measurement_frame_unknown(problem, candidates, false);
+  std::vector<int> slots = analyze_identifiability(problem, candidates).identified;
   std::sort(slots.begin(), slots.end());
   return slots;
 }
