@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "hapticcal/core/log.hpp"
+#include "hapticcal/identification/clock.hpp"
 #include "hapticcal/identification/information.hpp"
 #include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/model/model.hpp"
@@ -396,6 +397,8 @@ struct CalibrationResult {
   // The log had external encoders and no measurements: step 1 alone ran, and
   // `kinematics` is empty (the calibrated model keeps the kinematic parameters).
   bool step_one_only = false;
+  // Two streams on two clocks (calibrate_streams): the clock's estimate.
+  std::optional<ClockEstimate> clock;
 };
 
 // The stages of calibrate, callable one by one.

@@ -1,0 +1,278 @@
+// Two streams on two clocks (identification/stream.hpp): the readings between
+// their samples, the checks of a pair of streams and the coarse search of the
+// clocks' offset.
+#include "hapticcal/identification/stream.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+
+namespace hapticcal {
+namespace {
+
+// The coarse search's grid step [s] and the speeds' smoothing (a centred box
+// of this many grid steps, the same on both streams so that it adds no lag).
+constexpr double kGridStep = 0.01;
+constexpr int kSmoothing = 5;
+// An offset is a candidate only where the streams share at least this share
+// of the shorter one's valid speeds (and kMinPairs): a short overlap can
+// correlate by chance.
+constexpr double kMinOverlapShare = 0.5;
+constexpr int kMinPairs = 100;
+
+double median_step(const Eigen::VectorXd& t) {
+  std::vector<double> dt(static_cast<size_t>(t.size() - 1));
+  for (Eigen::Index i = 0; i + 1 < t.size(); ++i) dt[static_cast<size_t>(i)] = t[i + 1] - t[i];
+  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
+  return dt[dt.size() / 2];
+}
+
+void check_times(const Log& log, const char* role) {
+  if (!log.has_time) {
+    throw InputError(log.origin, 0, "t",
+                     fmt::format("the {} log has no time column t: each stream needs its own "
+                                 "clock's time [s] (or [ms]) to be aligned",
+                                 role));
+  }
+  if (log.rows < 2 * kSmoothing) {
+    throw InputError(log.origin, log.rows > 0 ? log.line.front() : 0, "t",
+                     fmt::format("the {} stream has {} samples; a stream needs at least {}", role,
+                                 log.rows, 2 * kSmoothing));
+  }
+  for (int r = 1; r < log.rows; ++r) {
+    if (!(log.t[r] > log.t[r - 1])) {
+      throw InputError(
+          log.origin, log.line[static_cast<size_t>(r)], "t",
+          fmt::format("time {} s does not follow {} s of line {}: a stream's times must increase",
+                      log.t[r], log.t[r - 1], log.line[static_cast<size_t>(r - 1)]));
+    }
+  }
+}
+
+// Smoothed speeds on a uniform grid (NaN where not known) from positions
+// given at the grid's times (NaN where not known).
+std::vector<double> grid_speeds(const std::vector<Eigen::Vector3d>& p, double h) {
+  const size_t n = p.size();
+  std::vector<double> v(n, std::nan("")), out(n, std::nan(""));
+  for (size_t i = 1; i + 1 < n; ++i) v[i] = (p[i + 1] - p[i - 1]).norm() / (2 * h);
+  const int half = kSmoothing / 2;
+  for (size_t i = half; i + half < n; ++i) {
+    double sum = 0;
+    for (int k = -half; k <= half; ++k) sum += v[i + static_cast<size_t>(k)];
+    out[i] = sum / kSmoothing;  // NaN if any is
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector3d> device_grid_positions(const DeviceModel& nominal, const Log& device,
+                                                   double t0, size_t n) {
+  const ReadingInterpolator readings(device);
+  const PreparedModel prepared(nominal);
+  Eigen::VectorXd q(device.dof());
+  std::vector<Eigen::Vector3d> p(n, Eigen::Vector3d::Constant(std::nan("")));
+  for (size_t i = 0; i < n; ++i) {
+    if (readings.at(t0 + static_cast<double>(i) * kGridStep, q.data()))
+      p[i] = prepared.forward(q.data()).p;
+  }
+  return p;
+}
+
+// The tracker's positions on the grid, linear between samples, none across a gap.
+std::vector<Eigen::Vector3d> tracker_grid_positions(const Log& tracker, double t0, size_t n) {
+  const double gap = ReadingInterpolator::kGapFactor * median_step(tracker.t);
+  std::vector<Eigen::Vector3d> p(n, Eigen::Vector3d::Constant(std::nan("")));
+  Eigen::Index k = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const double t = t0 + static_cast<double>(i) * kGridStep;
+    while (k + 1 < tracker.rows && tracker.t[k + 1] < t) ++k;
+    if (k + 1 >= tracker.rows || t < tracker.t[k]) continue;
+    const double h = tracker.t[k + 1] - tracker.t[k];
+    if (h > gap) continue;
+    const double s = (t - tracker.t[k]) / h;
+    p[i] =
+        (1 - s) * tracker.position.row(k).transpose() + s * tracker.position.row(k + 1).transpose();
+  }
+  return p;
+}
+
+struct Correlation {
+  double r = -2;
+  int pairs = 0;
+};
+
+// Pearson correlation of a[i + lag] and b[i] over the pairs both know.
+Correlation correlate(const std::vector<double>& a, const std::vector<double>& b, long lag) {
+  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+  int n = 0;
+  const long lo = std::max(0L, -lag),
+             hi = std::min<long>(static_cast<long>(b.size()), static_cast<long>(a.size()) - lag);
+  for (long j = lo; j < hi; ++j) {
+    const double x = a[static_cast<size_t>(j + lag)], y = b[static_cast<size_t>(j)];
+    if (std::isnan(x) || std::isnan(y)) continue;
+    sa += x, sb += y, saa += x * x, sbb += y * y, sab += x * y;
+    ++n;
+  }
+  Correlation c;
+  c.pairs = n;
+  if (n < 2) return c;
+  const double cov = sab - sa * sb / n, va = saa - sa * sa / n, vb = sbb - sb * sb / n;
+  c.r = va > 0 && vb > 0 ? cov / std::sqrt(va * vb) : 0;
+  return c;
+}
+
+int known(const std::vector<double>& v) {
+  return static_cast<int>(
+      std::count_if(v.begin(), v.end(), [](double x) { return !std::isnan(x); }));
+}
+
+}  // namespace
+
+ReadingInterpolator::ReadingInterpolator(const Log& device) : log_(device) {
+  t_.assign(device.t.data(), device.t.data() + device.t.size());
+  median_dt_ = median_step(device.t);
+  max_gap_ = kGapFactor * median_dt_;
+}
+
+bool ReadingInterpolator::at(double t, double* q, double* ext) const {
+  const size_t n = t_.size();
+  if (!(t >= t_.front() && t <= t_.back())) return false;
+  size_t k = static_cast<size_t>(std::upper_bound(t_.begin(), t_.end(), t) - t_.begin());
+  k = std::min(k == 0 ? 0 : k - 1, n - 2);
+  const double h = t_[k + 1] - t_[k];
+  if (h > max_gap_) return false;
+  // The slope at a sample: the chord of its neighbours, one-sided at an end or a gap.
+  const auto slope = [&](const Eigen::MatrixXd& y, Eigen::Index c, size_t i) {
+    const size_t lo = i > 0 && t_[i] - t_[i - 1] <= max_gap_ ? i - 1 : i;
+    const size_t hi = i + 1 < n && t_[i + 1] - t_[i] <= max_gap_ ? i + 1 : i;
+    const auto a = static_cast<Eigen::Index>(lo), b = static_cast<Eigen::Index>(hi);
+    return (y(b, c) - y(a, c)) / (t_[hi] - t_[lo]);
+  };
+  const double s = (t - t_[k]) / h, s2 = s * s, s3 = s2 * s;
+  const double h00 = 2 * s3 - 3 * s2 + 1, h10 = s3 - 2 * s2 + s, h01 = -2 * s3 + 3 * s2,
+               h11 = s3 - s2;
+  const auto a = static_cast<Eigen::Index>(k);
+  const auto value = [&](const Eigen::MatrixXd& y, Eigen::Index c) {
+    return h00 * y(a, c) + h10 * h * slope(y, c, k) + h01 * y(a + 1, c) +
+           h11 * h * slope(y, c, k + 1);
+  };
+  for (int j = 0; j < log_.dof(); ++j) q[j] = value(log_.q, j);
+  if (ext) {
+    for (int j = 0; j < log_.dof(); ++j)
+      ext[j] = log_.has_ext[static_cast<size_t>(j)] ? value(log_.ext, j) : 0.0;
+  }
+  return true;
+}
+
+void check_streams(const Log& device, const Log& tracker) {
+  check_times(device, "device");
+  check_times(tracker, "tracker");
+  if (device.dof() == 0) {
+    throw InputError(device.origin, 0, "q1",
+                     "the device log has no joint readings q<i>: the readings come from the "
+                     "device's stream, the positions from the tracker's");
+  }
+  if (!tracker.has_position) {
+    throw InputError(tracker.origin, 0, "x",
+                     "the tracker log has no positions x, y, z: the tracker's stream gives the "
+                     "measurements, the device's the readings");
+  }
+  if (device.has_position || device.has_distance) {
+    throw InputError(device.origin, 0, device.has_position ? "x" : "distance",
+                     "the device log has measurements: with --tracker they come from the tracker "
+                     "log only");
+  }
+}
+
+std::pair<double, double> coarse_clock_offset(const DeviceModel& nominal, const Log& device,
+                                              const Log& tracker, double range) {
+  const double d0 = device.t[0], t0 = tracker.t[0];
+  const auto count = [](double span) { return static_cast<size_t>(span / kGridStep) + 1; };
+  const std::vector<double> a = grid_speeds(
+      device_grid_positions(nominal, device, d0, count(device.t[device.rows - 1] - d0)), kGridStep);
+  const std::vector<double> b = grid_speeds(
+      tracker_grid_positions(tracker, t0, count(tracker.t[tracker.rows - 1] - t0)), kGridStep);
+  // Tracker grid j (time t0 + j h) against device grid j + k: offset d0 - t0 + k h.
+  const double base = d0 - t0;
+  const long k_lo = static_cast<long>(std::ceil((-range - base) / kGridStep));
+  const long k_hi = static_cast<long>(std::floor((range - base) / kGridStep));
+  const int needed =
+      std::max(kMinPairs, static_cast<int>(kMinOverlapShare * std::min(known(a), known(b))));
+  std::vector<double> r(static_cast<size_t>(std::max(0L, k_hi - k_lo + 1)), -2);
+  long best = -1;
+  for (long k = k_lo; k <= k_hi; ++k) {
+    const Correlation c = correlate(a, b, k);
+    if (c.pairs < needed) continue;
+    const auto i = static_cast<size_t>(k - k_lo);
+    r[i] = c.r;
+    if (best < 0 || c.r > r[static_cast<size_t>(best)]) best = static_cast<long>(i);
+  }
+  if (best < 0) {
+    throw InputError(
+        tracker.origin, tracker.line.front(), "t",
+        fmt::format("no overlap between the clocks: the device stream covers {:.6g} to {:.6g} s, "
+                    "the tracker's {:.6g} to {:.6g} s, and no offset within +-{:g} s makes them "
+                    "share {} samples of motion (widen the search with --clock-search)",
+                    device.t[0], device.t[device.rows - 1], tracker.t[0],
+                    tracker.t[tracker.rows - 1], range, needed));
+  }
+  const auto i = static_cast<size_t>(best);
+  double shift = 0;
+  if (i > 0 && i + 1 < r.size() && r[i - 1] > -2 && r[i + 1] > -2) {
+    const double curvature = r[i - 1] - 2 * r[i] + r[i + 1];
+    if (curvature < 0) shift = 0.5 * (r[i - 1] - r[i + 1]) / curvature;
+  }
+  return {base + (static_cast<double>(k_lo + best) + shift) * kGridStep, r[i]};
+}
+
+Log readings_at_tracker(const ReadingInterpolator& readings, const Log& device, const Log& tracker,
+                        const std::vector<int>& samples, const StreamClock& clock,
+                        std::vector<int>& kept) {
+  const int n = device.dof();
+  Log out;
+  out.origin = tracker.origin;
+  out.q_unit = device.q_unit;
+  out.q_column = device.q_column;
+  out.ext_unit = device.ext_unit;
+  out.ext_column = device.ext_column;
+  out.has_ext = device.has_ext;
+  out.has_direction.assign(static_cast<size_t>(n), false);
+  out.has_position = true;
+  out.has_orientation = tracker.has_orientation;
+  out.has_time = true;
+  const auto m = static_cast<Eigen::Index>(samples.size());
+  out.q.resize(m, n);
+  out.ext.setZero(m, n);
+  out.direction.setZero(m, n);
+  out.position.resize(m, 3);
+  out.t.resize(m);
+  if (tracker.has_orientation) out.orientation.resize(m, 4);
+  kept.clear();
+  Eigen::VectorXd q(n), ext(n);
+  Eigen::Index row = 0;
+  for (const int r : samples) {
+    const double t = clock.device_time(tracker.t[r]);
+    if (!readings.at(t, q.data(), ext.data())) continue;
+    out.q.row(row) = q.transpose();
+    out.ext.row(row) = ext.transpose();
+    out.position.row(row) = tracker.position.row(r);
+    if (tracker.has_orientation) out.orientation.row(row) = tracker.orientation.row(r);
+    out.t[row] = tracker.t[r];
+    out.line.push_back(tracker.line[static_cast<size_t>(r)]);
+    kept.push_back(r);
+    ++row;
+  }
+  out.rows = static_cast<int>(row);
+  out.q.conservativeResize(row, n);
+  out.ext.conservativeResize(row, n);
+  out.direction.conservativeResize(row, n);
+  out.position.conservativeResize(row, 3);
+  out.t.conservativeResize(row);
+  if (tracker.has_orientation) out.orientation.conservativeResize(row, 4);
+  return out;
+}
+
+}  // namespace hapticcal

@@ -1,0 +1,262 @@
+// Two streams on two clocks (identification/stream.hpp): the kinematics and
+// the clock estimated together, by variable projection.
+#include <fmt/format.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/identification/stream.hpp"
+#include "hapticcal/identification/two_step.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+
+namespace hapticcal {
+namespace {
+
+// The clock has converged when a step moves it by less than this anywhere in
+// the session [s].
+constexpr double kClockTolerance = 1e-7;
+// ... or by less than this share of its sd.
+constexpr double kClockSds = 0.01;
+// The residual curve of the report: this many offsets over +-max(kCurveMin,
+// kCurveSds sd) about the estimate, on at most kCurveSamples samples.
+constexpr int kCurvePoints = 81;
+constexpr double kCurveMin = 0.02, kCurveSds = 10;
+constexpr int kCurveSamples = 2000;
+
+// The tracker rows the fit may use at a clock: those whose device time the
+// readings cover, the fastest (above the speed quantile) left out, then at most
+// max_fit_samples spread evenly.
+std::vector<int> fit_rows(const DeviceModel& nominal, const ReadingInterpolator& readings,
+                          const Log& device, const Log& tracker, const StreamClock& clock,
+                          const StreamOptions& options, ClockEstimate& estimate) {
+  const PreparedModel prepared(nominal);
+  const int n = device.dof();
+  const double dt = 0.5 * readings.median_interval();
+  Eigen::VectorXd a(n), b(n);
+  std::vector<int> rows;
+  std::vector<double> speed;
+  estimate.dropped_gap = 0;
+  int outside = 0;
+  for (int r = 0; r < tracker.rows; ++r) {
+    const double t = clock.device_time(tracker.t[r]);
+    if (t < readings.begin() || t > readings.end()) {
+      ++outside;
+      continue;
+    }
+    if (!readings.at(t - dt, a.data()) || !readings.at(t + dt, b.data())) {
+      ++estimate.dropped_gap;
+      continue;
+    }
+    rows.push_back(r);
+    speed.push_back((prepared.forward(b.data()).p - prepared.forward(a.data()).p).norm() /
+                    (2 * dt));
+  }
+  estimate.overlapping = static_cast<int>(rows.size()) + estimate.dropped_gap;
+  std::vector<double> sorted = speed;
+  const auto q = static_cast<size_t>(options.speed_quantile * static_cast<double>(sorted.size()));
+  std::vector<int> slow;
+  if (q < sorted.size()) {
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(q), sorted.end());
+    const double limit = sorted[q];
+    for (size_t i = 0; i < rows.size(); ++i)
+      if (speed[i] <= limit) slow.push_back(rows[i]);
+  } else {
+    slow = rows;
+  }
+  estimate.dropped_speed = static_cast<int>(rows.size() - slow.size());
+  const auto m = std::min(slow.size(), static_cast<size_t>(std::max(options.max_fit_samples, 1)));
+  std::vector<int> out;
+  for (size_t i = 0; i < m; ++i) out.push_back(slow[i * slow.size() / m]);
+  return out;
+}
+
+// The identified kinematic slots of a fit.
+std::vector<int> identified_slots(const KinematicFit& fit, int slots) {
+  std::vector<int> out;
+  for (const ParameterEstimate& e : fit.parameters) {
+    if (e.slot < slots && std::find(fit.identified_names.begin(), fit.identified_names.end(),
+                                    e.name) != fit.identified_names.end())
+      out.push_back(e.slot);
+  }
+  return out;
+}
+
+struct ClockStep {
+  Eigen::VectorXd step;        // offset [s] (, drift)
+  Eigen::MatrixXd covariance;  // of the clock parameters
+};
+
+// The Gauss-Newton step of the clock at a fitted model: the residuals'
+// columns over the clock (the predicted point's velocity, times the tracker
+// time since the reference for the drift), projected off the identified
+// kinematic columns.
+ClockStep clock_step(const CalibrationResult& fit, const ReadingInterpolator& readings,
+                     const Log& poses, const StreamClock& clock, bool drift) {
+  const DeviceModel& model = fit.calibrated;
+  const PreparedModel prepared(model);
+  const int n = model.dof(), c = drift ? 2 : 1;
+  const Eigen::Index m = poses.rows;
+  const double dt = 0.5 * readings.median_interval();
+  Eigen::MatrixXd G(3 * m, c);
+  Eigen::VectorXd e(3 * m);
+  Eigen::VectorXd q(n), a(n), b(n);
+  for (Eigen::Index r = 0; r < m; ++r) {
+    q = poses.q.row(r).transpose();
+    const double t = clock.device_time(poses.t[r]);
+    readings.at(t - dt, a.data());
+    readings.at(t + dt, b.data());
+    const Eigen::Vector3d v =
+        (prepared.forward(b.data()).p - prepared.forward(a.data()).p) / (2 * dt);
+    e.segment<3>(3 * r) = poses.position.row(r).transpose() - prepared.forward(q.data()).p;
+    G.block(3 * r, 0, 3, 1) = v;
+    if (drift) G.block(3 * r, 1, 3, 1) = v * (poses.t[r] - clock.reference);
+  }
+  const std::vector<int> slots = identified_slots(fit.kinematics, model.structure().num_slots());
+  if (!slots.empty()) {
+    const Eigen::MatrixXd J =
+        two_step_jacobians(model, MeasurementType::kPosition, 1.0, slots, {}, poses.q).kinematic;
+    // J x with x the least-squares (basic) solution is G's projection on J's
+    // range, rank-deficient or not.
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(J);
+    G -= J * qr.solve(G);
+  }
+  const Eigen::MatrixXd N = G.transpose() * G;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(N);
+  ClockStep out;
+  out.step = ldlt.solve(G.transpose() * e);
+  const double sigma = fit.kinematics.sigma;
+  out.covariance = sigma * sigma * ldlt.solve(Eigen::MatrixXd::Identity(c, c));
+  return out;
+}
+
+// RMS position residual of a model against the offset about the estimate.
+std::vector<std::pair<double, double>> residual_curve(const DeviceModel& model,
+                                                      const ReadingInterpolator& readings,
+                                                      const Log& device, const Log& tracker,
+                                                      const std::vector<int>& rows,
+                                                      const ClockEstimate& estimate) {
+  std::vector<int> sample;
+  const size_t m = std::min(rows.size(), static_cast<size_t>(kCurveSamples));
+  for (size_t i = 0; i < m; ++i) sample.push_back(rows[i * rows.size() / m]);
+  const double half =
+      std::max(kCurveMin, kCurveSds * (std::isnan(estimate.offset_sd) ? 0 : estimate.offset_sd));
+  const PreparedModel prepared(model);
+  Eigen::VectorXd q(device.dof());
+  std::vector<std::pair<double, double>> out;
+  for (int k = 0; k < kCurvePoints; ++k) {
+    StreamClock clock = estimate.clock;
+    clock.offset += half * (2.0 * k / (kCurvePoints - 1) - 1);
+    double sum = 0;
+    int count = 0;
+    for (const int r : sample) {
+      if (!readings.at(clock.device_time(tracker.t[r]), q.data())) continue;
+      sum += (tracker.position.row(r).transpose() - prepared.forward(q.data()).p).squaredNorm();
+      ++count;
+    }
+    if (count > 0) out.emplace_back(clock.offset, std::sqrt(sum / count));
+  }
+  return out;
+}
+
+}  // namespace
+
+StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& device,
+                                    const Log& tracker, const CalibrationOptions& options,
+                                    const StreamOptions& stream) {
+  check_streams(device, tracker);
+  if (device.dof() != nominal.dof()) {
+    throw InputError(device.origin, 0, "q",
+                     fmt::format("the device log has {} joint readings; the model has {} joints",
+                                 device.dof(), nominal.dof()));
+  }
+  const auto progress = [&](const std::string& stage, double share) {
+    if (stream.progress) stream.progress(stage, share);
+  };
+  StreamCalibration out;
+  ClockEstimate& estimate = out.clock;
+  estimate.search_range = stream.search_range;
+  estimate.drift_fitted = stream.drift;
+  estimate.device_rows = device.rows;
+  estimate.tracker_rows = tracker.rows;
+  progress("clock search", 0);
+  const auto [coarse, correlation] =
+      coarse_clock_offset(nominal, device, tracker, stream.search_range);
+  estimate.coarse_offset = coarse;
+  estimate.coarse_correlation = correlation;
+  estimate.clock = {coarse, 0, tracker.t[0]};
+  progress("clock search", 1);
+
+  const ReadingInterpolator readings(device);
+  // The inner fits: plain least squares, no cross-validation, no reweighting.
+  CalibrationOptions inner = options;
+  inner.keep_all = true;
+  inner.select = false;
+  inner.folds = 0;
+  inner.loss = RobustLoss::kNone;
+  inner.joint_errors.clear();
+  const int c = stream.drift ? 2 : 1;
+  std::vector<int> kept;
+  // The samples are chosen once, at the coarse offset: a set that changed with
+  // the clock would move the estimate by a share of its sd at every step.
+  const std::vector<int> rows =
+      fit_rows(nominal, readings, device, tracker, estimate.clock, stream, estimate);
+  for (int it = 0; it < stream.max_iterations; ++it) {
+    progress("clock and kinematics", static_cast<double>(it) / stream.max_iterations);
+    out.poses = readings_at_tracker(readings, device, tracker, rows, estimate.clock, kept);
+    const CalibrationResult fit = calibrate(nominal, out.poses, inner);
+    if (fit.status != CalibrationStatus::kConverged) {
+      out.result = fit;
+      out.result.status_reason =
+          "the fit at the clock's estimate did not converge: " + fit.status_reason;
+      out.result.clock = estimate;
+      return out;
+    }
+    const ClockStep step = clock_step(fit, readings, out.poses, estimate.clock, stream.drift);
+    estimate.clock.offset += step.step[0];
+    if (stream.drift) estimate.clock.drift += step.step[1];
+    estimate.offset_sd = std::sqrt(step.covariance(0, 0));
+    if (stream.drift) estimate.drift_sd = std::sqrt(step.covariance(1, 1));
+    estimate.iterations = it + 1;
+    const double span = tracker.t[tracker.rows - 1] - tracker.t[0];
+    const double moved = std::abs(step.step[0]) + (c == 2 ? std::abs(step.step[1]) * span : 0.0);
+    if (std::getenv("HAPTICCAL_DEBUG_STREAM"))
+      fmt::print(stderr, "clock step {}: offset {:.7f} s (+{:.3g}), drift {:.4g}, sd {:.3g}\n", it,
+                 estimate.clock.offset, step.step[0], estimate.clock.drift, estimate.offset_sd);
+    if (moved < std::max(kClockTolerance, kClockSds * estimate.offset_sd)) {
+      estimate.converged = true;
+      break;
+    }
+  }
+  progress("clock and kinematics", 1);
+  out.poses = readings_at_tracker(readings, device, tracker, rows, estimate.clock, kept);
+  estimate.fit_samples = out.poses.rows;
+  progress("final fit", 0);
+  out.result = calibrate(nominal, out.poses, options);
+  progress("final fit", 1);
+  if (out.result.status == CalibrationStatus::kConverged && !estimate.converged) {
+    out.result.status = CalibrationStatus::kNotConverged;
+    out.result.status_reason = fmt::format(
+        "the clock's offset did not settle in {} iterations (its last step was above {:g} s)",
+        stream.max_iterations, kClockTolerance);
+  }
+  estimate.curve = residual_curve(out.result.calibrated, readings, device, tracker, kept, estimate);
+  out.result.notes.push_back(fmt::format(
+      "clocks: the speeds correlate best ({:.3f}) at an offset of {:.4f} s (searched +-{:g} s); "
+      "fitted: offset {:.4f} ms +- {:.4f} ms{}, after {} step(s); {} of {} tracker samples within "
+      "the device stream, {} in its gaps, {} faster than the {:g} % quantile left out, {} fitted",
+      correlation, coarse, stream.search_range, 1e3 * estimate.clock.offset,
+      1e3 * estimate.offset_sd,
+      stream.drift ? fmt::format(", drift {:.3f} ppm +- {:.3f} ppm", 1e6 * estimate.clock.drift,
+                                 1e6 * estimate.drift_sd)
+                   : std::string(),
+      estimate.iterations, estimate.overlapping, tracker.rows, estimate.dropped_gap,
+      estimate.dropped_speed, 100 * stream.speed_quantile, estimate.fit_samples));
+  out.result.clock = estimate;
+  return out;
+}
+
+}  // namespace hapticcal

@@ -1,0 +1,141 @@
+// A simulated hand-guided session on two clocks (study/session.hpp).
+#include "hapticcal/study/session.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <vector>
+
+#include "hapticcal/kinematics/kinematics.hpp"
+
+namespace hapticcal {
+namespace {
+
+constexpr int kSinusoids = 5;
+constexpr double kSpread = 2.5;
+
+// Each reading a sum of sinusoids within `coverage` of its half range about
+// the middle of its limits: smooth, bounded, and wandering over the workspace.
+class HandMotion {
+ public:
+  HandMotion(const DeviceModel& model, const SessionOptions& o, std::mt19937_64& rng) {
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (const Link& l : model.links) {
+      Joint j;
+      j.centre = (l.lower + l.upper) / 2;
+      j.half = o.coverage * (l.upper - l.lower) / 2;
+      double total = 0;
+      for (int k = 0; k < kSinusoids; ++k) {
+        j.frequency[k] = 0.05 + (o.max_frequency_hz - 0.05) * unit(rng);
+        j.phase[k] = 2 * std::numbers::pi * unit(rng);
+        j.amplitude[k] = 0.2 + unit(rng);
+        total += j.amplitude[k];
+      }
+      for (double& a : j.amplitude) a /= total;
+      joints_.push_back(j);
+    }
+  }
+  void at(double t, double* q) const {
+    for (size_t i = 0; i < joints_.size(); ++i) {
+      const Joint& j = joints_[i];
+      double v = 0;
+      for (int k = 0; k < kSinusoids; ++k)
+        v += j.amplitude[k] * std::sin(2 * std::numbers::pi * j.frequency[k] * t + j.phase[k]);
+      // A smooth saturation spreads the sum (RMS about a third of its bound)
+      // over the range, as a hand sweeping the workspace does.
+      q[i] = j.centre + j.half * std::tanh(kSpread * v) / std::tanh(kSpread);
+    }
+  }
+
+ private:
+  struct Joint {
+    double centre = 0, half = 0;
+    double frequency[kSinusoids], phase[kSinusoids], amplitude[kSinusoids];
+  };
+  std::vector<Joint> joints_;
+};
+
+Log empty_log(const DeviceModel& model, const char* origin, Eigen::Index rows, bool readings) {
+  Log log;
+  log.origin = origin;
+  const int n = readings ? model.dof() : 0;
+  log.q.resize(rows, n);
+  log.ext.resize(0, n);
+  log.direction.resize(0, n);
+  log.has_ext.assign(static_cast<size_t>(n), false);
+  log.has_direction.assign(static_cast<size_t>(n), false);
+  log.q_unit.assign(static_cast<size_t>(n), ReadingUnit::kNone);
+  for (int j = 0; j < n; ++j) log.q_column.push_back("q" + std::to_string(j + 1));
+  log.has_time = true;
+  log.t.resize(rows);
+  return log;
+}
+
+}  // namespace
+
+Session simulate_session(const DeviceModel& actual, const SessionOptions& o, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const HandMotion motion(actual, o, rng);
+  const int n = actual.dof();
+  Session s;
+  s.clock = {o.clock_offset, o.clock_drift, o.tracker_start};
+
+  // The device: its clock is the session's time; a stamp's jitter is its error.
+  const auto rows = static_cast<Eigen::Index>(std::floor(o.seconds * o.device_rate_hz)) + 1;
+  s.device = empty_log(actual, "simulated device stream", rows, true);
+  double last = -1;
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    const double t = static_cast<double>(r) / o.device_rate_hz;
+    Eigen::VectorXd q(n);
+    motion.at(t, q.data());
+    s.device.q.row(r) = q.transpose();
+    const double stamp = std::max(t + o.device_jitter * gauss(rng), last + 1e-3 / o.device_rate_hz);
+    s.device.t[r] = last = stamp;
+    s.device.line.push_back(static_cast<int>(r) + 2);
+  }
+  s.device.rows = static_cast<int>(rows);
+
+  // The tracker: its clock ticks at its rate from tracker_start; a sample's
+  // instant (device time) follows from the clocks, plus the stamp's jitter.
+  const PreparedModel prepared(actual);
+  std::vector<double> stamps;
+  std::vector<Eigen::Vector3d> points;
+  const double period = 1 / o.tracker_rate_hz;
+  // Dropouts start at random with the rate that loses dropout_share of the time.
+  const double start_rate = o.dropout_share / std::max(o.dropout_seconds, 1e-9);
+  double occluded_until = -1;
+  Eigen::VectorXd q(n);
+  for (long j = 0;; ++j) {
+    const double stamp = o.tracker_start + static_cast<double>(j) * period;
+    const double instant = s.clock.device_time(stamp) + o.tracker_jitter * gauss(rng);
+    if (instant > o.seconds) break;
+    if (instant < 0) continue;
+    if (o.dropout_share > 0 && unit(rng) < start_rate * period)
+      occluded_until = instant + o.dropout_seconds * -std::log(1 - unit(rng));
+    if (instant < occluded_until) {
+      ++s.dropped;
+      continue;
+    }
+    motion.at(instant, q.data());
+    Eigen::Vector3d p = prepared.forward(q.data()).p;
+    for (int k = 0; k < 3; ++k) p[k] += o.sigma_position * gauss(rng);
+    stamps.push_back(stamp);
+    points.push_back(p);
+  }
+  const auto m = static_cast<Eigen::Index>(stamps.size());
+  s.tracker = empty_log(actual, "simulated tracker stream", m, false);
+  s.tracker.has_position = true;
+  s.tracker.position.resize(m, 3);
+  for (Eigen::Index r = 0; r < m; ++r) {
+    s.tracker.t[r] = stamps[static_cast<size_t>(r)];
+    s.tracker.position.row(r) = points[static_cast<size_t>(r)].transpose();
+    s.tracker.line.push_back(static_cast<int>(r) + 2);
+  }
+  s.tracker.rows = static_cast<int>(m);
+  return s;
+}
+
+}  // namespace hapticcal
