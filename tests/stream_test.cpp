@@ -7,13 +7,19 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <random>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/session.hpp"
 #include "hapticcal/study/simulation.hpp"
+#include "run_cli.hpp"
 #include "test_models.hpp"
 
 namespace hapticcal {
@@ -238,6 +244,112 @@ TEST(Stream, ClocksThatDoNotOverlapAreRefused) {
     EXPECT_NE(std::string(e.what()).find("no overlap between the clocks"), std::string::npos)
         << e.what();
   }
+}
+
+// A 40-second session's two files in a fresh folder.
+std::string session_files(const std::string& name) {
+  const std::string dir = testing::fresh_folder("stream_" + name);
+  const TouchSetUp set = touch_set_up(5);
+  SessionOptions o;
+  o.seconds = 40;
+  const Session session = simulate_session(set.actual, o, 13);
+  std::ofstream(dir + "/device.csv") << log_to_csv(session.device);
+  std::ofstream(dir + "/tracker.csv") << log_to_csv(session.tracker);
+  return dir;
+}
+
+// calibrate --tracker: the clock on the terminal, in results.json and in the
+// report (a figure of the residual against the offset).
+TEST(StreamCli, CalibrateWithATrackerReportsTheClock) {
+  const std::string dir = session_files("cli");
+  const testing::CliResult r =
+      testing::run_cli({"calibrate", "--model", "geomagic-touch", "--log", dir + "/device.csv",
+                        "--tracker", dir + "/tracker.csv", "--clock-drift", "--out", dir + "/out"});
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find("Clocks: device time = tracker time + offset + drift"), std::string::npos)
+      << r.out;
+  const auto j = nlohmann::json::parse(read_file(dir + "/out/results.json"));
+  EXPECT_NEAR(j["clock"]["offset"].get<double>(), 0.0373, 5e-4);
+  EXPECT_TRUE(j["clock"]["drift_fitted"].get<bool>());
+  EXPECT_GT(j["clock"]["residual_against_offset"].size(), 10u);
+  EXPECT_TRUE(std::filesystem::exists(dir + "/out/figures/clock_offset.svg"));
+  EXPECT_NE(read_file(dir + "/out/report.html").find("<h2>Clocks</h2>"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+// Malformed streams: exit 2, one line naming the file (and line) and column.
+TEST(StreamCli, MalformedStreamsExitTwoWithOneLine) {
+  const std::string dir = session_files("malformed");
+  const std::string device = dir + "/device.csv", tracker = dir + "/tracker.csv";
+  const auto run = [&](const std::string& d, const std::string& t) {
+    return testing::run_cli({"calibrate", "--model", "geomagic-touch", "--log", d, "--tracker", t,
+                             "--out", dir + "/out"});
+  };
+  const auto edit = [&](const std::string& from, const std::string& name, int line,
+                        const std::string& text) {
+    std::ifstream in(from);
+    std::ofstream out(dir + "/" + name);
+    std::string l;
+    for (int k = 1; std::getline(in, l); ++k) out << (k == line ? text : l) << "\n";
+    return dir + "/" + name;
+  };
+  // Times that go back.
+  testing::expect_input_error(run(device, edit(tracker, "back.csv", 30, "0.1,0,0,0")),
+                              "back.csv:30: t: time 0.1 s does not follow");
+  // No overlap between the clocks within the search range.
+  std::ifstream in(tracker);
+  std::ofstream late(dir + "/late.csv");
+  std::string line;
+  std::getline(in, line);
+  late << line << "\n";
+  while (std::getline(in, line)) {
+    const size_t comma = line.find(',');
+    late << std::stod(line.substr(0, comma)) + 500 << line.substr(comma) << "\n";
+  }
+  late.close();
+  testing::expect_input_error(run(device, dir + "/late.csv"), "no overlap between the clocks");
+  // A NaN time.
+  testing::expect_input_error(run(device, edit(tracker, "nan.csv", 12, "nan,0,0,0")),
+                              "nan.csv:12: t: 'nan' is not");
+  // A time column in the tracker's log but not in the device's.
+  const Log d = read_log(device);
+  Log untimed = d;
+  untimed.has_time = false;
+  std::ofstream(dir + "/untimed.csv") << log_to_csv(untimed);
+  testing::expect_input_error(run(dir + "/untimed.csv", tracker),
+                              "untimed.csv: t: the device log has no time column t");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
+  std::filesystem::remove_all(dir);
+}
+
+// simulate with a session: both streams written, the study scores the
+// offset-aware calibration against the offset-blind one.
+TEST(StreamCli, SimulatedSessionScoresOffsetAwareAgainstBlind) {
+  const std::string dir = testing::fresh_folder("stream_simulate");
+  std::ofstream(dir + "/s.yaml")
+      << "format: hapticcal-scenario/1\ndevice: "
+      << testing::source_path("data/devices/geomagic-touch.yaml")
+      << "\nmeasurement: position\nposes: {validation: 100}\nnoise: {sigma_m: 1.0e-4}\n"
+         "random_deviations: {lengths: 5.0e-4, angles: 5.0e-3}\n"
+         "session: {seconds: 60, clock_offset: 0.0373, clock_drift_ppm: 20}\n";
+  const testing::CliResult r =
+      testing::run_cli({"simulate", "--scenario", dir + "/s.yaml", "--out", dir + "/out"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("Clocks: offset"), std::string::npos) << r.out;
+  for (const char* f : {"device.csv", "tracker.csv", "validation.csv", "calibrated.yaml",
+                        "calibrated-offset-blind.yaml", "actual.yaml"})
+    EXPECT_TRUE(std::filesystem::exists(dir + "/out/" + f)) << f;
+  const auto j = nlohmann::json::parse(read_file(dir + "/out/results.json"));
+  EXPECT_LT(std::abs(j["estimate"]["offset_error"].get<double>()), 2e-4);
+  EXPECT_GT(j["validation"]["position_rms_offset_blind"].get<double>(),
+            3 * j["validation"]["position_rms_offset_aware"].get<double>());
+  // A session needs positions: refused before anything is written.
+  std::ofstream(dir + "/bad.yaml") << "format: hapticcal-scenario/1\nmeasurement: distance\n"
+                                      "session: {seconds: 60}\n";
+  testing::expect_input_error(
+      testing::run_cli({"simulate", "--scenario", dir + "/bad.yaml", "--out", dir + "/bad"}),
+      "session: a hand-guided session is measured by a tracker's positions");
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

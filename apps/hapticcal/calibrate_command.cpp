@@ -1,7 +1,9 @@
 // `hapticcal calibrate`: the two-step identification (paper Fig. 6) of a log,
 // its summary on the terminal and its output set.
 #include <fmt/format.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -11,6 +13,7 @@
 #include "hapticcal/jobs/calibrate_job.hpp"
 #include "number_options.hpp"
 #include "output_summary.hpp"
+#include "terminal.hpp"
 
 namespace hapticcal::cli {
 
@@ -22,7 +25,20 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
                    "calibrated.urdf is written too)")
       ->required();
   add_chain_options(calibrate, o.chain);
-  calibrate->add_option("--log", o.log, "Measurement log (CSV)")->required();
+  calibrate
+      ->add_option("--log", o.log,
+                   "Measurement log (CSV); with --tracker the device's stream (t, q<i>)")
+      ->required();
+  calibrate->add_option("--tracker", o.tracker,
+                        "A tracker's stream (CSV: t and x, y, z, on its own clock): the clocks' "
+                        "offset is estimated with the kinematics, the readings interpolated at "
+                        "the tracker's samples");
+  calibrate
+      ->add_option("--clock-search", o.clock_search,
+                   "With --tracker: the clocks' offset is searched within +-SECONDS (default 10)")
+      ->check(within(1e-3, 3600, "s"));
+  calibrate->add_flag("--clock-drift", o.clock_drift,
+                      "With --tracker: estimate the clocks' drift (rate difference) too");
   calibrate->add_flag("--no-transmission", o.no_transmission,
                       "Skip step 1: kinematic-only calibration");
   calibrate
@@ -108,6 +124,19 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
   return calibrate;
 }
 
+namespace {
+
+// A stage's bar on standard error (a terminal only): "[####    ] clock search".
+void progress_bar(const std::string& stage, double share) {
+  constexpr int kWidth = 30;
+  const int filled = static_cast<int>(kWidth * std::clamp(share, 0.0, 1.0));
+  say(stderr, "\r[{}{}] {:<24}", std::string(static_cast<size_t>(filled), '#'),
+      std::string(static_cast<size_t>(kWidth - filled), ' '), stage);
+  if (share >= 1) say(stderr, "\n");
+}
+
+}  // namespace
+
 int run_calibrate(const CalibrateOptions& o) {
   hapticcal::CalibrateRequest request;
   request.model = o.model;
@@ -137,6 +166,10 @@ int run_calibrate(const CalibrateOptions& o) {
   options.fix = names(o.fix);
   options.joint_errors = names(o.joint_errors);
   options.free = names(o.free);
+  request.tracker = o.tracker;
+  request.stream.search_range = o.clock_search;
+  request.stream.drift = o.clock_drift;
+  if (!o.tracker.empty() && isatty(2)) request.stream.progress = progress_bar;
   const hapticcal::CalibrateJob job = hapticcal::run_calibrate_job(request);
   for (const std::string& line : job.lines) fmt::print("{}\n", line);
   fmt::print("{}", report_said(job.written.figures, job.written.report_note, o.out));

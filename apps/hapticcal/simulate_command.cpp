@@ -205,6 +205,11 @@ int run_simulate(const SimulateOptions& o) {
     if (k == n) hapticcal::cli::say(stderr, "\n");
   };
   const hapticcal::SimulateJob job = hapticcal::run_simulate_job(request);
+  if (job.session) {
+    for (const std::string& line : job.session->lines) fmt::print("{}\n", line);
+    fmt::print("{}", hapticcal::cli::output_summary(*job.out, o.out));
+    return 0;
+  }
   print_study(job.scenario, job.result);
   fmt::print("{}", report_said(job.figures, job.report_note, o.out));
   fmt::print("{}", hapticcal::cli::output_summary(*job.out, o.out));

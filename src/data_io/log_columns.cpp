@@ -258,7 +258,14 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
     ++count[static_cast<int>(c.quantity)];
     if (c.quantity == Quantity::kJoint) dof = std::max(dof, c.joint + 1);
   }
-  if (dof == 0) throw InputError(origin, line, "q1", "missing: a log needs joint columns q1..qn");
+  // A tracker's stream (calibrate --tracker) is times and positions alone.
+  const bool tracker_stream =
+      count[static_cast<int>(Quantity::kTime)] == 1 && count[static_cast<int>(Quantity::kX)] == 1 &&
+      count[static_cast<int>(Quantity::kY)] == 1 && count[static_cast<int>(Quantity::kZ)] == 1;
+  if (dof == 0 && !tracker_stream) {
+    throw InputError(origin, line, "q1",
+                     "missing: a log needs joint columns q1..qn (a tracker's stream: t, x, y, z)");
+  }
   if (count[static_cast<int>(Quantity::kJoint)] != dof) {
     for (int i = 0; i < dof; ++i) {
       bool found = false;

@@ -328,11 +328,13 @@ void normalise_orientations(Log& log, const std::vector<Column>& columns) {
 
 }  // namespace
 
-Log parse_log(const std::string& text, const std::string& origin,
-              const std::vector<std::string>& column_names) {
-  Table table = read_table(text, origin, column_names);
+namespace {
+
+// The log of a table read; the table's values are released once copied.
+Log log_of_table(Table& table, const std::string& origin) {
   Log log = zero_log(table, origin);
   fill_values(log, table);
+  std::vector<double>().swap(table.values);
   if (log.has_point || log.has_plane) log.label = std::move(table.labels);
   if (log.has_orientation) normalise_orientations(log, table.columns);
   if (log.has_distance) {
@@ -343,6 +345,14 @@ Log parse_log(const std::string& text, const std::string& origin,
     }
   }
   return log;
+}
+
+}  // namespace
+
+Log parse_log(const std::string& text, const std::string& origin,
+              const std::vector<std::string>& column_names) {
+  Table table = read_table(text, origin, column_names);
+  return log_of_table(table, origin);
 }
 
 std::string log_to_csv(const Log& log) {
@@ -393,7 +403,10 @@ std::string log_to_csv(const Log& log) {
 }
 
 Log read_log(const std::string& path, const std::vector<std::string>& columns) {
-  return parse_log(read_file(path, FileKind::kLog), path, columns);
+  std::string text = read_file(path, FileKind::kLog);
+  Table table = read_table(text, path, columns);
+  std::string().swap(text);  // a one-hour stream's text is 0.5 GB: gone before the log is made
+  return log_of_table(table, path);
 }
 
 }  // namespace hapticcal

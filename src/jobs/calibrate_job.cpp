@@ -3,6 +3,7 @@
 
 #include <memory>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/data_io/fixture.hpp"
@@ -24,13 +25,25 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
     job.nominal = urdf ? parse_urdf(urdf_text, request.model, request.tip, request.root)
                        : load_model(request.model, request.tip, request.root);
   }
-  const Log log = read_log(request.log, request.columns);
+  if (!request.tracker.empty() && (!request.fixture.empty() || !request.point_distances.empty())) {
+    throw InputError(request.tracker, 0, "--tracker",
+                     "a tracker's stream measures positions: it takes no fixture points");
+  }
+  Log log = read_log(request.log, request.columns);
+  const Log tracker = request.tracker.empty() ? Log() : read_log(request.tracker);
   if (request.out) job.out = std::make_unique<OutputSet>(*request.out, "calibrate");
   CalibrationOptions options = request.options;
   Fixture fixture = fixture_facts(request.fixture, request.point_distances);
   options.point_distances = std::move(fixture.distances);
   options.known_points = std::move(fixture.points);
-  job.result = calibrate(job.nominal, log, options);
+  if (request.tracker.empty()) {
+    job.result = calibrate(job.nominal, log, options);
+  } else {
+    StreamCalibration streams =
+        calibrate_streams(job.nominal, log, tracker, options, request.stream);
+    job.result = std::move(streams.result);
+    log = std::move(streams.poses);  // the static log the fit read (the reports' rows)
+  }
   if (job.out) {
     job.written = write_calibration_outputs(
         *job.out, job.result, job.nominal, log, options,

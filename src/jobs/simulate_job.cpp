@@ -33,6 +33,12 @@ SimulateJob run_simulate_job(const SimulateRequest& request) {
                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   if (request.started) request.started(sc, std::min(threads, sc.trials));
   job.out = std::make_unique<OutputSet>(request.out, "simulate");
+  if (sc.session) {
+    job.session = run_session_study(sc, job.out->dir());
+    job.results_json = job.session->json;
+    job.out->commit();
+    return job;
+  }
   job.result = run_study(sc, job.out->dir(), threads, request.progress);
   job.results_json = study_json(sc, job.result);
   write_file_atomically(job.out->dir() + "/results.json", job.results_json);

@@ -41,6 +41,20 @@ void outlier_lines(const RobustFit& robust, std::vector<std::string>& out) {
   }
 }
 
+// Two streams' clocks, one line.
+std::string clock_line(const ClockEstimate& c) {
+  return fmt::format(
+      "Clocks: device time = tracker time + offset{}; offset {:.4f} ms +- {:.4f} ms{} ({}; "
+      "coarse {:.1f} ms, speed correlation {:.3f}, searched +-{:g} s)",
+      c.drift_fitted ? " + drift (tracker time - first stamp)" : "", 1e3 * c.clock.offset,
+      1e3 * c.offset_sd,
+      c.drift_fitted
+          ? fmt::format(", drift {:.3f} ppm +- {:.3f} ppm", 1e6 * c.clock.drift, 1e6 * c.drift_sd)
+          : std::string(),
+      c.converged ? fmt::format("{} steps", c.iterations) : "NOT settled", 1e3 * c.coarse_offset,
+      c.coarse_correlation, c.search_range);
+}
+
 }  // namespace
 
 std::vector<std::string> calibration_lines(const CalibrationResult& r, const DeviceModel& nominal) {
@@ -79,6 +93,7 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
       out.push_back((note.rfind("warning: ", 0) == 0 ? "" : "note: ") + note);
     return out;
   }
+  if (r.clock) out.push_back(clock_line(*r.clock));
   const KinematicFit& k = r.kinematics;
   out.push_back(fmt::format("Step 2: kinematic parameters from {} ({} rows) (paper Table 5)",
                             traits(k.type).plural, k.rows));

@@ -136,6 +136,32 @@ void checks_json(const KinematicFit& k, const CalibrationOptions& options,
 
 }  // namespace
 
+// Two streams' clocks (calibrate --tracker): SI (s; the drift dimensionless).
+nlohmann::ordered_json clock_json(const ClockEstimate& c) {
+  using json = nlohmann::ordered_json;
+  json curve = json::array();
+  for (const auto& [offset, rms] : c.curve) curve.push_back({offset, rms});
+  return {{"model", "device time = tracker time + offset + drift (tracker time - reference)"},
+          {"offset", c.clock.offset},
+          {"offset_sd", number_or_null(c.offset_sd)},
+          {"drift", c.clock.drift},
+          {"drift_sd", c.drift_fitted ? number_or_null(c.drift_sd) : json(nullptr)},
+          {"drift_fitted", c.drift_fitted},
+          {"reference", c.clock.reference},
+          {"converged", c.converged},
+          {"iterations", c.iterations},
+          {"coarse_offset", c.coarse_offset},
+          {"coarse_correlation", c.coarse_correlation},
+          {"search_range", c.search_range},
+          {"device_rows", c.device_rows},
+          {"tracker_rows", c.tracker_rows},
+          {"overlapping", c.overlapping},
+          {"dropped_in_gaps", c.dropped_gap},
+          {"dropped_fast", c.dropped_speed},
+          {"fit_samples", c.fit_samples},
+          {"residual_against_offset", curve}};
+}
+
 std::string calibration_json(const CalibrationResult& result, const DeviceModel& nominal,
                              const std::string& model_path, const std::string& log_path,
                              const CalibrationOptions& options) {
@@ -241,6 +267,7 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
   }
   j["parameters"] = params;
   j["transmissions"] = transmissions;
+  if (result.clock) j["clock"] = clock_json(*result.clock);
   j["notes"] = result.notes;
   // Paths are bytes on Linux: invalid UTF-8 is replaced, never a throw.
   return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";

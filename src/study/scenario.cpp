@@ -82,7 +82,7 @@ ScenarioFile parse_scenario_file(const std::string& path) {
   r.check_keys(root, "",
                {"format", "device", "tip", "root", "seed", "trials", "poses", "trajectory", "noise",
                 "deviations", "random_deviations", "transmissions", "measurement", "calibration",
-                "sockets", "socket_distances", "planes"});
+                "sockets", "socket_distances", "planes", "session"});
   const std::string format = r.string(r.require(root, "", "format"), "format");
   if (format != "hapticcal-scenario/1") {
     r.fail(root["format"], "format",
@@ -471,6 +471,56 @@ void read_deviations(const ScenarioFile& file, Scenario& sc) {
   }
 }
 
+// session: a hand-guided session on two clocks (study/session.hpp), measured
+// by a tracker's positions (measurement: position).
+void read_session(const ScenarioFile& file, Scenario& sc) {
+  const ScenarioReader& r = file.r;
+  const YAML::Node node = file.root["session"];
+  if (!node) return;
+  r.check_keys(node, "session",
+               {"seconds", "device_rate_hz", "tracker_rate_hz", "clock_offset", "clock_drift_ppm",
+                "tracker_start", "device_jitter", "tracker_jitter", "dropout_share",
+                "dropout_seconds", "max_frequency_hz", "search_range", "fit_drift"});
+  if (sc.measurement != MeasurementType::kPosition) {
+    r.fail(node, "session",
+           "a hand-guided session is measured by a tracker's positions: give "
+           "measurement: position");
+  }
+  SessionOptions o;
+  const auto value = [&](const char* key, double lo, double hi, double fallback) {
+    if (!node[key]) return fallback;
+    const std::string name = std::string("session.") + key;
+    const double v = r.number(node[key], name);
+    if (!(v >= lo && v <= hi))
+      r.fail(node[key], name, fmt::format("expected [{:g}, {:g}]", lo, hi));
+    return v;
+  };
+  o.seconds = value("seconds", 1, 7200, o.seconds);
+  o.device_rate_hz = value("device_rate_hz", 10, 10000, o.device_rate_hz);
+  o.tracker_rate_hz = value("tracker_rate_hz", 1, 10000, o.tracker_rate_hz);
+  if (o.seconds * o.device_rate_hz > kMaxTrajectorySamples)
+    r.fail(node, "session.seconds",
+           fmt::format("more than {:g} device samples", kMaxTrajectorySamples));
+  o.clock_offset = value("clock_offset", -1e6, 1e6, o.clock_offset);
+  o.clock_drift = 1e-6 * value("clock_drift_ppm", -1e4, 1e4, 1e6 * o.clock_drift);
+  o.tracker_start = value("tracker_start", -1e6, 1e6, o.tracker_start);
+  o.device_jitter = value("device_jitter", 0, 1, o.device_jitter);
+  o.tracker_jitter = value("tracker_jitter", 0, 1, o.tracker_jitter);
+  o.dropout_share = value("dropout_share", 0, 0.5, o.dropout_share);
+  o.dropout_seconds = value("dropout_seconds", 0, 60, o.dropout_seconds);
+  o.max_frequency_hz = value("max_frequency_hz", 0.1, 10, o.max_frequency_hz);
+  sc.session = o;
+  sc.session_search_range = value("search_range", 1e-3, 3600, sc.session_search_range);
+  if (node["fit_drift"]) {
+    const YAML::Node f = node["fit_drift"];
+    if (!f.IsScalar() || (f.Scalar() != "true" && f.Scalar() != "false"))
+      r.fail(f, "session.fit_drift", "expected true or false");
+    sc.session_fit_drift = f.Scalar() == "true";
+  } else {
+    sc.session_fit_drift = o.clock_drift != 0;
+  }
+}
+
 }  // namespace
 
 Scenario load_scenario(const std::string& path, const std::string& default_device_path,
@@ -489,6 +539,7 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
   read_trajectory(file, sc);
   read_noise(file, sc);
   read_deviations(file, sc);
+  read_session(file, sc);
   detail::check_simulated_limits(sc);
   assign_truth(sc, path);
   return sc;

@@ -9,6 +9,7 @@
 
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/stream.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/report/calibration_outputs.hpp"
 
@@ -29,6 +30,11 @@ struct CalibrateRequest {
   std::optional<std::string> out;
   // Everything else; its point_distances and known_points are the fixture's.
   CalibrationOptions options;
+  // A tracker's stream on its own clock (--tracker): `log` is then the
+  // device's stream (t and readings), and the clocks are estimated with the
+  // kinematics (identification/stream.hpp).
+  std::string tracker;
+  StreamOptions stream;
 };
 
 struct CalibrateJob {

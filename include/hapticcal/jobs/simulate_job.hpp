@@ -29,6 +29,7 @@ struct SimulateRequest {
 struct SimulateJob {
   Scenario scenario;
   StudyResult result;
+  std::optional<SessionStudy> session;  // a hand-guided session's study instead
   std::string results_json;
   std::unique_ptr<OutputSet> out;  // committed
   int figures = 0;                 // drawn into its report

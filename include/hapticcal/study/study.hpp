@@ -11,9 +11,11 @@
 #include <string>
 #include <vector>
 
+#include "hapticcal/identification/clock.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/study/paper.hpp"
+#include "hapticcal/study/session.hpp"
 #include "hapticcal/study/simulation.hpp"
 
 namespace hapticcal {
@@ -88,6 +90,12 @@ struct Scenario {
   std::string sigma_m_formula = "paper";
   std::uint64_t seed = 1;
   int trials = 1;
+  // session: a hand-guided session on two clocks instead of static poses
+  // (run_session_study): the streams, the clocks' search and whether the drift
+  // is fitted (default: when the session has one).
+  std::optional<SessionOptions> session;
+  double session_search_range = 10;
+  bool session_fit_drift = false;
 
   // The paper's comparisons apply (its Table 2/3 I % column, its Fig. 10
   // percentages): the paper's device with the paper's truth, measured by distance.
@@ -96,6 +104,26 @@ struct Scenario {
            traits(measurement).distance_column;
   }
 };
+
+// A hand-guided session's study (Scenario::session): the streams written to
+// `dir` (device.csv, tracker.csv, validation.csv, nominal.yaml, actual.yaml),
+// calibrated offset-aware (calibrated.yaml) and offset-blind
+// (calibrated-offset-blind.yaml), scored on held-out static poses
+// (results.json).
+struct SessionStudy {
+  StreamClock truth;
+  ClockEstimate clock;
+  CalibrationStatus status = CalibrationStatus::kConverged;
+  std::string status_reason;
+  int device_rows = 0, tracker_rows = 0, dropped = 0;
+  // Held-out position RMS [m] against the validation log (with its noise), and
+  // the distance from the truth's tool point.
+  double rms_nominal = 0, rms_aware = 0, rms_blind = 0;
+  double truth_aware = 0, truth_blind = 0;
+  std::vector<std::string> lines;  // the terminal's
+  std::string json;                // results.json as written
+};
+SessionStudy run_session_study(const Scenario& scenario, const std::string& dir);
 
 // Whether `model` is the paper's built-in device (the same name, joint count,
 // base kind and kinematic parameters as builtin_device_path()'s; limits and

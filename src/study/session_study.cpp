@@ -1,0 +1,147 @@
+// `simulate` of a hand-guided session (issue 26, item 3): the two streams
+// written as a real session would leave them, calibrated offset-aware (the
+// clocks estimated) and offset-blind (each stamp read as device time), and
+// scored on held-out static poses.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/data_io/log.hpp"
+#include "hapticcal/identification/stream.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
+#include "hapticcal/study/study.hpp"
+
+namespace hapticcal {
+namespace {
+
+// RMS distance between a model's predicted tool point and a log's positions.
+double position_rms(const DeviceModel& model, const Log& log) {
+  const PreparedModel prepared(model);
+  double sum = 0;
+  for (int r = 0; r < log.rows; ++r) {
+    const Eigen::VectorXd q = log.q.row(r).transpose();
+    sum += (log.position.row(r).transpose() - prepared.forward(q.data()).p).squaredNorm();
+  }
+  return std::sqrt(sum / std::max(log.rows, 1));
+}
+
+// RMS distance between two models' tool points at a log's readings.
+double model_distance(const DeviceModel& a, const DeviceModel& b, const Log& log) {
+  const PreparedModel pa(a), pb(b);
+  double sum = 0;
+  for (int r = 0; r < log.rows; ++r) {
+    const Eigen::VectorXd q = log.q.row(r).transpose();
+    sum += (pa.forward(q.data()).p - pb.forward(q.data()).p).squaredNorm();
+  }
+  return std::sqrt(sum / std::max(log.rows, 1));
+}
+
+}  // namespace
+
+SessionStudy run_session_study(const Scenario& sc, const std::string& dir) {
+  const SessionOptions& o = *sc.session;
+  SessionStudy out;
+  const Session session = simulate_session(sc.actual, o, sc.seed);
+  out.truth = session.clock;
+  out.device_rows = session.device.rows;
+  out.tracker_rows = session.tracker.rows;
+  out.dropped = session.dropped;
+  write_file_atomically(dir + "/device.csv", log_to_csv(session.device));
+  write_file_atomically(dir + "/tracker.csv", log_to_csv(session.tracker));
+  save_device(sc.nominal, dir + "/nominal.yaml");
+  save_device(sc.actual, dir + "/actual.yaml");
+  SimulationNoise noise = sc.noise;
+  const Log validation =
+      simulate_measurement_log(sc.actual, MeasurementType::kPosition, sc.validation_poses,
+                               Eigen::MatrixXd(), noise, sc.seed + 1);
+  write_file_atomically(dir + "/validation.csv", log_to_csv(validation));
+
+  // As calibrate --tracker reads them: the files, not the memory.
+  const Log device = read_log(dir + "/device.csv"), tracker = read_log(dir + "/tracker.csv");
+  CalibrationOptions options;
+  options.transmissions = false;
+  options.fix = sc.fix;
+  StreamOptions stream;
+  stream.search_range = sc.session_search_range;
+  stream.drift = sc.session_fit_drift;
+  const StreamCalibration aware = calibrate_streams(sc.nominal, device, tracker, options, stream);
+  out.clock = aware.clock;
+  out.status = aware.result.status;
+  out.status_reason = aware.result.status_reason;
+  // Offset-blind: the same samples, each tracker stamp read as device time.
+  std::vector<int> rows, kept;
+  const int m = std::min(stream.max_fit_samples, tracker.rows);
+  for (int i = 0; i < m; ++i)
+    rows.push_back(static_cast<int>(static_cast<long>(i) * tracker.rows / m));
+  const ReadingInterpolator readings(device);
+  const Log blind_poses = readings_at_tracker(readings, device, tracker, rows, StreamClock{}, kept);
+  CalibrationOptions forced = options;
+  forced.force = true;  // the blind fit's errors look implausible: that is the point
+  CalibrationResult blind;
+  if (blind_poses.rows > 0) blind = calibrate(sc.nominal, blind_poses, forced);
+  save_device(aware.result.calibrated, dir + "/calibrated.yaml");
+  save_device(blind.calibrated, dir + "/calibrated-offset-blind.yaml");
+
+  out.rms_nominal = position_rms(sc.nominal, validation);
+  out.rms_aware = position_rms(aware.result.calibrated, validation);
+  out.rms_blind = position_rms(blind.calibrated, validation);
+  out.truth_aware = model_distance(aware.result.calibrated, sc.actual, validation);
+  out.truth_blind = model_distance(blind.calibrated, sc.actual, validation);
+
+  using json = nlohmann::ordered_json;
+  const ClockEstimate& c = out.clock;
+  json j;
+  j["format"] = "hapticcal-results/1";
+  j["device"] = sc.nominal.name;
+  j["seed"] = sc.seed;
+  j["session"] = {{"seconds", o.seconds},
+                  {"device_rate_hz", o.device_rate_hz},
+                  {"tracker_rate_hz", o.tracker_rate_hz},
+                  {"device_rows", out.device_rows},
+                  {"tracker_rows", out.tracker_rows},
+                  {"dropped_samples", out.dropped},
+                  {"sigma_position", noise.sigma_position}};
+  j["truth"] = {{"offset", out.truth.offset}, {"drift", out.truth.drift}};
+  j["estimate"] = {{"status", to_string(out.status)},
+                   {"offset", c.clock.offset},
+                   {"offset_sd", c.offset_sd},
+                   {"offset_error", c.clock.offset - out.truth.offset},
+                   {"drift", c.clock.drift},
+                   {"drift_sd", c.drift_fitted ? json(c.drift_sd) : json(nullptr)},
+                   {"drift_error", c.clock.drift - out.truth.drift},
+                   {"coarse_offset", c.coarse_offset},
+                   {"fit_samples", c.fit_samples},
+                   {"iterations", c.iterations}};
+  j["validation"] = {{"poses", validation.rows},
+                     {"position_rms_nominal", out.rms_nominal},
+                     {"position_rms_offset_aware", out.rms_aware},
+                     {"position_rms_offset_blind", out.rms_blind},
+                     {"truth_distance_offset_aware", out.truth_aware},
+                     {"truth_distance_offset_blind", out.truth_blind}};
+  out.json = j.dump(2) + "\n";
+  write_file_atomically(dir + "/results.json", out.json);
+
+  out.lines.push_back(fmt::format(
+      "Session: {:g} s of hand-guided motion, device {} rows at {:g} Hz, tracker {} rows at {:g} "
+      "Hz ({} lost to dropouts), noise {:.3g} mm",
+      o.seconds, out.device_rows, o.device_rate_hz, out.tracker_rows, o.tracker_rate_hz,
+      out.dropped, 1e3 * noise.sigma_position));
+  out.lines.push_back(fmt::format(
+      "Clocks: offset {:.4f} ms +- {:.4f} (truth {:.4f} ms){}; {}", 1e3 * c.clock.offset,
+      1e3 * c.offset_sd, 1e3 * out.truth.offset,
+      c.drift_fitted ? fmt::format(", drift {:.3f} ppm +- {:.3f} (truth {:.3f} ppm)",
+                                   1e6 * c.clock.drift, 1e6 * c.drift_sd, 1e6 * out.truth.drift)
+                     : std::string(),
+      to_string(out.status)));
+  out.lines.push_back(fmt::format(
+      "Validation ({} static poses): position RMS nominal {:.4f} mm, offset-aware {:.4f} mm, "
+      "offset-blind {:.4f} mm ({:.1f}x); against the truth {:.4f} mm and {:.4f} mm",
+      validation.rows, 1e3 * out.rms_nominal, 1e3 * out.rms_aware, 1e3 * out.rms_blind,
+      out.rms_blind / out.rms_aware, 1e3 * out.truth_aware, 1e3 * out.truth_blind));
+  return out;
+}
+
+}  // namespace hapticcal
