@@ -10,6 +10,7 @@
 #include "commands.hpp"
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/markers.hpp"
 #include "hapticcal/jobs/calibrate_job.hpp"
 #include "number_options.hpp"
 #include "output_summary.hpp"
@@ -37,6 +38,10 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
       ->add_option("--clock-search", o.clock_search,
                    "With --tracker: the clocks' offset is searched within +-SECONDS (default 10)")
       ->check(within(1e-3, 3600, "s"));
+  calibrate->add_option("--markers", o.markers,
+                        "A log of several markers on one rigid body (x1, y1, z1, x2, ...): their "
+                        "positions in the tool frame, X1,Y1,Z1,X2,... [m] (default: estimated "
+                        "from the log)");
   calibrate->add_flag("--clock-drift", o.clock_drift,
                       "With --tracker: estimate the clocks' drift (rate difference) too");
   calibrate->add_flag("--no-transmission", o.no_transmission,
@@ -166,6 +171,8 @@ int run_calibrate(const CalibrateOptions& o) {
   options.fix = names(o.fix);
   options.joint_errors = names(o.joint_errors);
   options.free = names(o.free);
+  if (!o.markers.empty())
+    options.marker_body = hapticcal::parse_marker_body(o.markers, "--markers");
   request.tracker = o.tracker;
   request.stream.search_range = o.clock_search;
   request.stream.drift = o.clock_drift;

@@ -31,6 +31,7 @@ struct CalibrateOptions {
   double encoder_resolution = 0;  // 0: not given
   double tolerance = 1e-6;
   std::string tracker;        // a tracker's stream on its own clock
+  std::string markers;        // X1,Y1,Z1,...: a marker body in the tool frame
   double clock_search = 10;   // s
   bool clock_drift = false;
 };
@@ -48,6 +49,7 @@ struct EvaluateOptions {
   ChainOptions chain;
   bool json = false;
   bool out_given = false;  // --json writes no files unless --out is given
+  std::string markers;     // X1,Y1,Z1,...: a marker body in the tool frame
 };
 CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& options);
 // register_given and out_given are set from the parsed command first.

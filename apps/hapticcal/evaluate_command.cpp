@@ -9,6 +9,7 @@
 
 #include "commands.hpp"
 #include "hapticcal/core/output_set.hpp"
+#include "hapticcal/identification/markers.hpp"
 #include "hapticcal/jobs/evaluate_job.hpp"
 #include "output_summary.hpp"
 #include "terminal.hpp"
@@ -20,6 +21,10 @@ CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& o) {
   evaluate->add_option("--model", o.model, "Device file (YAML) or URDF (.urdf)")->required();
   add_chain_options(evaluate, o.chain);
   evaluate->add_option("--log", o.log, "Measurement log (CSV)")->required();
+  evaluate->add_option("--markers", o.markers,
+                       "A log of several markers on one rigid body: their positions in the tool "
+                       "frame, X1,Y1,Z1,X2,... [m] (calibrate's results.json markers; default: "
+                       "estimated from the log)");
   evaluate->add_flag("--json", o.json,
                      "Print one JSON object (metres); writes no files unless --out is given");
   evaluate->add_option("--out", o.out,
@@ -50,6 +55,8 @@ int run_evaluate(const EvaluateOptions& o) {
   request.tip = o.chain.tip;
   request.root = o.chain.root;
   request.log = o.log;
+  if (!o.markers.empty())
+    request.marker_body = hapticcal::parse_marker_body(o.markers, "--markers");
   request.columns = names(o.columns);
   request.fixture = o.fixture;
   request.point_distances = o.point_distance;

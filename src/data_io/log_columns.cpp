@@ -14,7 +14,9 @@
 namespace hapticcal::detail {
 namespace {
 
-constexpr int kQuantities = static_cast<int>(Quantity::kDirection) + 1;
+constexpr int kQuantities = static_cast<int>(Quantity::kMarkerZ) + 1;
+// Markers on one rigid body at most (a marker body carries 3 to 8).
+constexpr int kMaxMarkers = 32;
 
 constexpr std::string_view kQuaternionLetters = "wxyz", kRotationVectorLetters = "xyz";
 
@@ -26,8 +28,8 @@ int component_index(const std::string& base, char prefix, std::string_view lette
 }
 
 constexpr const char* kExpectedColumns =
-    "unknown column (expected q<i>, ext<i>, dir<i>, distance, x, y, z, qw, qx, qy, qz, rx, ry, "
-    "rz, t, point, plane or _)";
+    "unknown column (expected q<i>, ext<i>, dir<i>, distance, x, y, z, x<k>, y<k>, z<k>, qw, qx, "
+    "qy, qz, rx, ry, rz, t, point, plane or _)";
 
 bool ascii_letter(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
 bool ascii_digit(char c) { return c >= '0' && c <= '9'; }
@@ -124,19 +126,32 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
   }
   Column c;
   c.name = printable(spec);  // messages quote it
-  const bool indexed = base == "q" || base == "ext" || base == "dir";
+  const bool marker = (base == "x" || base == "y" || base == "z") && !index.empty();
+  const bool indexed = base == "q" || base == "ext" || base == "dir" || marker;
   if (base == "_" && index.empty() && unit.empty()) return c;
   if (indexed != !index.empty()) {
     throw InputError(origin, line, c.name, kExpectedColumns);
   }
   if (indexed) {
-    if (index.size() > 3) throw InputError(origin, line, c.name, "joint number too large");
+    const char* what = marker ? "marker" : "joint";
+    if (index.size() > 3)
+      throw InputError(origin, line, c.name, fmt::format("{} number too large", what));
     const int i = std::stoi(index);
-    if (i < 1) throw InputError(origin, line, c.name, "joint numbers start at 1");
+    if (i < 1) throw InputError(origin, line, c.name, fmt::format("{} numbers start at 1", what));
     c.joint = i - 1;
-    c.quantity = base == "q"     ? Quantity::kJoint
-                 : base == "ext" ? Quantity::kExternal
-                                 : Quantity::kDirection;
+    if (marker) {
+      if (i > kMaxMarkers) {
+        throw InputError(origin, line, c.name,
+                         fmt::format("more than {} markers on one body", kMaxMarkers));
+      }
+      c.quantity = base == "x"   ? Quantity::kMarkerX
+                   : base == "y" ? Quantity::kMarkerY
+                                 : Quantity::kMarkerZ;
+    } else {
+      c.quantity = base == "q"     ? Quantity::kJoint
+                   : base == "ext" ? Quantity::kExternal
+                                   : Quantity::kDirection;
+    }
     if (c.quantity == Quantity::kDirection && !unit.empty()) {
       throw InputError(
           origin, line, c.name,
@@ -243,6 +258,53 @@ bool looks_like_header(const std::vector<std::string>& fields) {
   return known;
 }
 
+// Markers x<k>, y<k>, z<k>: each with all three, numbered 1..K without gaps, not
+// beside a single x, y, z, and not in a fixture log.
+void check_marker_columns(const std::vector<Column>& columns, const std::vector<int>& count,
+                          const std::string& origin, int line) {
+  const int xs = count[static_cast<int>(Quantity::kMarkerX)];
+  if (xs + count[static_cast<int>(Quantity::kMarkerY)] +
+          count[static_cast<int>(Quantity::kMarkerZ)] ==
+      0)
+    return;
+  int markers = 0;
+  for (const Column& c : columns) {
+    if (c.quantity == Quantity::kMarkerX || c.quantity == Quantity::kMarkerY ||
+        c.quantity == Quantity::kMarkerZ)
+      markers = std::max(markers, c.joint + 1);
+  }
+  for (int k = 0; k < markers; ++k) {
+    const std::pair<Quantity, char> kinds[] = {
+        {Quantity::kMarkerX, 'x'}, {Quantity::kMarkerY, 'y'}, {Quantity::kMarkerZ, 'z'}};
+    for (const std::pair<Quantity, char>& kind : kinds) {
+      const bool found = std::any_of(columns.begin(), columns.end(), [&](const Column& c) {
+        return c.quantity == kind.first && c.joint == k;
+      });
+      if (!found) {
+        throw InputError(origin, line, fmt::format("{}{}", kind.second, k + 1),
+                         fmt::format("missing: markers need x, y, z each, numbered 1..{} without "
+                                     "gaps",
+                                     markers));
+      }
+    }
+  }
+  const int single = count[static_cast<int>(Quantity::kX)] + count[static_cast<int>(Quantity::kY)] +
+                     count[static_cast<int>(Quantity::kZ)];
+  if (single != 0) {
+    throw InputError(origin, line, "x",
+                     "a log holds one point (x, y, z) or numbered markers (x1, y1, z1, ...), not "
+                     "both");
+  }
+  for (const Quantity q :
+       {Quantity::kPoint, Quantity::kPlane, Quantity::kDistance, Quantity::kQw, Quantity::kRx}) {
+    if (count[static_cast<int>(q)] != 0) {
+      throw InputError(origin, line, "x1",
+                       "markers are a rigid body's pose in themselves: no distance, orientation "
+                       "or fixture label beside them");
+    }
+  }
+}
+
 // Checks the set of columns as a whole; returns the number of joints.
 int check_columns(const std::vector<Column>& columns, const std::string& origin, int line) {
   int dof = 0;
@@ -283,6 +345,7 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
                        fmt::format("no joint {} (the log has q1..q{})", c.joint + 1, dof));
     }
   }
+  check_marker_columns(columns, count, origin, line);
   const int xyz = count[static_cast<int>(Quantity::kX)] + count[static_cast<int>(Quantity::kY)] +
                   count[static_cast<int>(Quantity::kZ)];
   if (xyz != 0 && xyz != 3) {

@@ -28,9 +28,12 @@ enum class Quantity {
   kRx,
   kRy,
   kRz,
-  kPoint,     // a label: the fixture point the tool point is at
-  kPlane,     // a label: the plane the tool point touches
-  kDirection  // dir<i>: the side joint i approached the pose from (-1, 0, +1)
+  kPoint,      // a label: the fixture point the tool point is at
+  kPlane,      // a label: the plane the tool point touches
+  kDirection,  // dir<i>: the side joint i approached the pose from (-1, 0, +1)
+  kMarkerX,    // x<k>, y<k>, z<k>: marker k of a rigid body (Column::joint = k - 1)
+  kMarkerY,
+  kMarkerZ
 };
 
 inline bool is_quaternion(Quantity q) { return q >= Quantity::kQw && q <= Quantity::kQz; }

@@ -236,6 +236,9 @@ Log zero_log(Table& table, const std::string& origin) {
         log.q_unit[c.joint] = c.unit;
         log.q_column[c.joint] = c.name;
         break;
+      case Quantity::kMarkerX:
+        log.marker_count = std::max(log.marker_count, c.joint + 1);
+        break;
       default:
         log.has_orientation =
             log.has_orientation || is_quaternion(c.quantity) || is_rotation_vector(c.quantity);
@@ -245,6 +248,7 @@ Log zero_log(Table& table, const std::string& origin) {
   if (log.has_distance) log.distance.setZero(log.rows);
   if (log.has_position) log.position.setZero(log.rows, 3);
   if (log.has_time) log.t.setZero(log.rows);
+  if (log.marker_count > 0) log.markers.setZero(log.rows, 3 * log.marker_count);
   // The rotation vectors, if given, in the first three columns until
   // normalise_orientations converts them.
   if (log.has_orientation) log.orientation.setZero(log.rows, 4);
@@ -300,6 +304,12 @@ void fill_values(Log& log, const Table& table) {
         case Quantity::kRy:
         case Quantity::kRz:
           log.orientation(r, static_cast<int>(c.quantity) - static_cast<int>(Quantity::kRx)) = v;
+          break;
+        case Quantity::kMarkerX:
+        case Quantity::kMarkerY:
+        case Quantity::kMarkerZ:
+          log.markers(r, 3 * c.joint + static_cast<int>(c.quantity) -
+                             static_cast<int>(Quantity::kMarkerX)) = v;
           break;
         case Quantity::kSkip:
         case Quantity::kPoint:
@@ -369,6 +379,9 @@ std::string log_to_csv(const Log& log) {
   if (log.has_distance) header.push_back("distance");
   if (log.has_position) header.insert(header.end(), {"x", "y", "z"});
   if (log.has_orientation) header.insert(header.end(), {"qw", "qx", "qy", "qz"});
+  for (int k = 1; k <= log.marker_count; ++k) {
+    for (const char* c : {"x", "y", "z"}) header.push_back(fmt::format("{}{}", c, k));
+  }
   if (log.has_point || log.has_plane) header.push_back(log.has_point ? "point" : "plane");
   for (size_t k = 0; k < header.size(); ++k) out += (k ? "," : "") + header[k];
   out += '\n';
@@ -393,6 +406,7 @@ std::string log_to_csv(const Log& log) {
     if (log.has_orientation) {
       for (int k = 0; k < 4; ++k) put(log.orientation(r, k));
     }
+    for (int k = 0; k < 3 * log.marker_count; ++k) put(log.markers(r, k));
     if (log.has_point || log.has_plane) {
       fmt::format_to(std::back_inserter(row), "{}{}", row.size() ? "," : "", log.label[r]);
     }

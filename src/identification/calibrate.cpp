@@ -18,6 +18,7 @@
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/log_fit.hpp"
+#include "hapticcal/identification/markers.hpp"
 #include "hapticcal/identification/registration.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "identification/calibration_run.hpp"
@@ -600,8 +601,20 @@ void conclude(CalibrationRun& run) {
 // (kinematic_problem, register_measurement_frame), analyze_identifiability,
 // solve_kinematics with the robust reweighting, the model selection, and the
 // information of the fit.
-CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
+CalibrationResult calibrate(const DeviceModel& nominal, const Log& marked,
                             const CalibrationOptions& options) {
+  // Markers of one rigid body: the body's poses (markers.hpp).
+  std::optional<MarkerPoses> markers;
+  if (marked.marker_count > 0) markers = markers_to_poses(marked, options.marker_body);
+  const Log& log = markers ? markers->poses : marked;
+  if (markers) {
+    CalibrationOptions as_poses = options;
+    as_poses.marker_body = markers->body;
+    CalibrationResult r = calibrate(nominal, log, as_poses);
+    r.notes.insert(r.notes.begin(), markers->note);
+    r.marker_body = markers->body;
+    return r;
+  }
   const bool step_one_only = options.transmissions && encoders_only(log);
   check_log_fits(log, nominal, !step_one_only);
   check_options(options);

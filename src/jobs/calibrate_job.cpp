@@ -8,6 +8,7 @@
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/data_io/fixture.hpp"
 #include "hapticcal/data_io/log.hpp"
+#include "hapticcal/identification/markers.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/report/calibration_lines.hpp"
@@ -38,6 +39,8 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
   options.known_points = std::move(fixture.points);
   if (request.tracker.empty()) {
     job.result = calibrate(job.nominal, log, options);
+    // A marker log is reported as the body's poses it was fitted to.
+    if (log.marker_count > 0) log = markers_to_poses(log, job.result.marker_body).poses;
   } else {
     StreamCalibration streams =
         calibrate_streams(job.nominal, log, tracker, options, request.stream);

@@ -7,6 +7,7 @@
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/data_io/fixture.hpp"
 #include "hapticcal/data_io/log.hpp"
+#include "hapticcal/identification/markers.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/report/results_json.hpp"
@@ -36,7 +37,8 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   check_chain_used(request);
   EvaluateJob job;
   job.model = request.given ? *request.given : load_evaluated_model(request, request.model);
-  const Log log = read_log(request.log, request.columns);
+  Log log = read_log(request.log, request.columns);
+  if (log.marker_count > 0) log = markers_to_poses(log, request.marker_body).poses;
   job.rows = log.rows;
   const Fixture known = fixture_facts(request.fixture, request.point_distances);
   const bool referenced = request.given_reference || !request.reference.empty();

@@ -268,6 +268,13 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
   j["parameters"] = params;
   j["transmissions"] = transmissions;
   if (result.clock) j["clock"] = clock_json(*result.clock);
+  if (result.marker_body.cols() > 0) {
+    json markers = json::array();
+    for (Eigen::Index k = 0; k < result.marker_body.cols(); ++k)
+      markers.push_back(
+          {result.marker_body(0, k), result.marker_body(1, k), result.marker_body(2, k)});
+    j["markers"] = markers;  // in the tool frame [m]: --markers X1,Y1,Z1,... for evaluate
+  }
   j["notes"] = result.notes;
   // Paths are bytes on Linux: invalid UTF-8 is replaced, never a throw.
   return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";

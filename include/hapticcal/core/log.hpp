@@ -36,6 +36,11 @@ struct Log {
   // rows x 4 unit quaternions (w, x, y, z) of the tool in the measurement frame, if
   // has_orientation (which needs has_position: a pose is position and orientation).
   Eigen::MatrixXd orientation;
+  // Several markers of one rigid body (columns x1, y1, z1, x2, ...): rows x 3
+  // marker_count, each marker's x, y, z in the measurement frame [m]
+  // (markers_to_poses turns them into poses of the body).
+  Eigen::MatrixXd markers;
+  int marker_count = 0;
   bool has_distance = false, has_position = false, has_time = false;
   bool has_orientation = false;
   // Fixture logs: each row's label (has_point: the fixed point the tool point is

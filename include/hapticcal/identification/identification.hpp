@@ -376,6 +376,10 @@ struct CalibrationOptions {
   // parameter of the device; reported, and left out of the calibrated model.
   // false: the instrument's zero is known (a simulation's).
   bool instrument_zero = true;
+  // A log of several markers on one rigid body (x1, y1, z1, ...): their
+  // positions in the tool frame (3 x K, m); empty: estimated from the log
+  // (markers_to_poses).
+  Eigen::Matrix3Xd marker_body;
 };
 
 // A log whose nominal RMS error exceeds this fraction of the device's reach
@@ -399,6 +403,8 @@ struct CalibrationResult {
   bool step_one_only = false;
   // Two streams on two clocks (calibrate_streams): the clock's estimate.
   std::optional<ClockEstimate> clock;
+  // A marker log's body as used (given or estimated), 3 x K [m]; empty: none.
+  Eigen::Matrix3Xd marker_body;
 };
 
 // The stages of calibrate, callable one by one.

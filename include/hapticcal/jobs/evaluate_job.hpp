@@ -25,6 +25,8 @@ struct EvaluateRequest {
   std::vector<std::string> point_distances;  // "A:B=METRES"
   std::optional<RegisterWhat> registration;  // --register
   std::optional<std::string> out;            // the output folder; none: nothing written
+  // A marker log's body (3 x K in the tool frame, m; --markers); empty: estimated.
+  Eigen::Matrix3Xd marker_body;
 };
 
 struct EvaluateJob {

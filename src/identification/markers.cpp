@@ -1,0 +1,136 @@
+// Markers of one rigid body as its poses (identification/markers.hpp).
+#include "hapticcal/identification/markers.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/identification/registration.hpp"
+
+namespace hapticcal {
+namespace {
+
+constexpr int kProcrustesRounds = 5;
+
+Eigen::Matrix3Xd row_markers(const Log& log, int r) {
+  Eigen::Matrix3Xd m(3, log.marker_count);
+  for (int k = 0; k < log.marker_count; ++k)
+    m.col(k) = log.markers.row(r).segment<3>(3 * k).transpose();
+  return m;
+}
+
+// The mean shape of the rows' markers (each row registered onto the running
+// mean), in a frame of its own: the centroid at the origin, the axes its
+// principal axes (largest spread first; signs fixed by the first markers).
+Eigen::Matrix3Xd estimated_body(const Log& log) {
+  Eigen::Matrix3Xd mean = row_markers(log, 0);
+  mean.colwise() -= mean.rowwise().mean();
+  for (int round = 0; round < kProcrustesRounds; ++round) {
+    Eigen::Matrix3Xd sum = Eigen::Matrix3Xd::Zero(3, log.marker_count);
+    for (int r = 0; r < log.rows; ++r) {
+      const Registration reg = register_points(row_markers(log, r), mean);
+      sum += (reg.R * row_markers(log, r)).colwise() + reg.t;
+    }
+    mean = sum / log.rows;
+    mean.colwise() -= mean.rowwise().mean();
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(mean, Eigen::ComputeFullU);
+  Eigen::Matrix3d U = svd.matrixU();
+  // Deterministic signs: marker 1 on +x, marker 2 on +y's side; right-handed.
+  if (U.col(0).dot(mean.col(0)) < 0) U.col(0) *= -1;
+  if (U.col(1).dot(mean.col(1)) < 0) U.col(1) *= -1;
+  U.col(2) = U.col(0).cross(U.col(1));
+  return U.transpose() * mean;
+}
+
+}  // namespace
+
+MarkerPoses markers_to_poses(const Log& log, const Eigen::Matrix3Xd& body) {
+  if (log.marker_count < 3) {
+    throw InputError(log.origin, 0, "x1",
+                     fmt::format("{} marker(s): a rigid body's pose needs at least 3 (a single "
+                                 "point is x, y, z)",
+                                 log.marker_count));
+  }
+  if (body.cols() != 0 && body.cols() != log.marker_count) {
+    throw InputError(
+        log.origin, 0, "--markers",
+        fmt::format("the body has {} markers; the log has {}", body.cols(), log.marker_count));
+  }
+  MarkerPoses out;
+  out.estimated = body.cols() == 0;
+  try {
+    out.body = out.estimated ? estimated_body(log) : body;
+  } catch (const InputError& e) {
+    throw InputError(log.origin, log.line.front(), "x1", e.what());
+  }
+  Log& p = out.poses;
+  p = log;
+  p.markers.resize(0, 0);
+  p.marker_count = 0;
+  p.has_position = p.has_orientation = true;
+  p.position.resize(log.rows, 3);
+  p.orientation.resize(log.rows, 4);
+  std::vector<double> rms(static_cast<size_t>(log.rows));
+  for (int r = 0; r < log.rows; ++r) {
+    Registration reg;
+    try {
+      reg = register_points(out.body, row_markers(log, r));
+    } catch (const InputError& e) {
+      throw InputError(log.origin, log.line[static_cast<size_t>(r)], "x1", e.what());
+    }
+    const Eigen::Quaterniond q(reg.R);
+    p.position.row(r) = reg.t.transpose();
+    p.orientation.row(r) << q.w(), q.x(), q.y(), q.z();
+    rms[static_cast<size_t>(r)] = reg.rms;
+  }
+  std::nth_element(rms.begin(), rms.begin() + static_cast<std::ptrdiff_t>(rms.size() / 2),
+                   rms.end());
+  out.fit_rms = rms[rms.size() / 2];
+  out.note = fmt::format(
+      "markers: {} on one rigid body, {}; each row's pose the best fit of the body onto its "
+      "markers (median RMS {:.4f} mm){}",
+      log.marker_count,
+      out.estimated ? "their positions on the body estimated from the log (the body frame: "
+                      "their centroid and principal axes)"
+                    : "their positions on the body given (the body frame is the tool frame)",
+      1e3 * out.fit_rms,
+      out.estimated ? ": the tool pose is the body frame's; give the same body (--markers, as "
+                      "results.json's markers) to evaluate new logs"
+                    : "");
+  return out;
+}
+
+Eigen::Matrix3Xd parse_marker_body(const std::string& text, const std::string& option) {
+  std::vector<double> v;
+  size_t start = 0;
+  while (start <= text.size()) {
+    const size_t comma = text.find(',', start);
+    const std::string field =
+        text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    char* end = nullptr;
+    const double x = std::strtod(field.c_str(), &end);
+    if (field.empty() || end != field.c_str() + field.size() || !std::isfinite(x) ||
+        std::abs(x) > 10) {
+      throw InputError(
+          fmt::format("{}: '{}' is not a marker coordinate in metres (|x| <= 10)", option, field));
+    }
+    v.push_back(x);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  if (v.size() % 3 != 0 || v.size() < 9) {
+    throw InputError(fmt::format("{}: {} numbers; give X, Y, Z of each of at least 3 markers",
+                                 option, v.size()));
+  }
+  Eigen::Matrix3Xd body(3, static_cast<Eigen::Index>(v.size() / 3));
+  for (size_t i = 0; i < v.size(); ++i)
+    body(static_cast<Eigen::Index>(i % 3), static_cast<Eigen::Index>(i / 3)) = v[i];
+  return body;
+}
+
+}  // namespace hapticcal
