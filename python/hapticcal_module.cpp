@@ -25,6 +25,7 @@
 #include "hapticcal/data_io/fixture.hpp"
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/markers.hpp"
 #include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/jobs/evaluate_job.hpp"
 #include "hapticcal/jobs/force_job.hpp"
@@ -166,9 +167,15 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
                       const Text& root_arg, const Text& out_arg, bool select,
                       const std::optional<Names>& tolerance, std::optional<double> prior_scale,
                       std::optional<double> encoder_resolution,
-                      const std::optional<Names>& joint_errors) {
+                      const std::optional<Names>& joint_errors, const Text& tracker_arg,
+                      double clock_search, bool clock_drift, const Text& markers_arg) {
   // The command line's job (jobs/calibrate_job.hpp), from keywords.
   CalibrateRequest request;
+  request.tracker = text(tracker_arg);
+  request.stream.search_range = clock_search;
+  request.stream.drift = clock_drift;
+  if (!text(markers_arg).empty())
+    request.options.marker_body = parse_marker_body(text(markers_arg), "markers");
   request.tip = text(tip_arg);
   request.root = text(root_arg);
   if (const auto* m = std::get_if<Model>(&model_arg)) {
@@ -496,6 +503,8 @@ PYBIND11_MODULE(hapticcal, m) {
         "strict"_a = false, "tip"_a = py::none(), "root"_a = py::none(), "out"_a = py::none(),
         "select"_a = false, "tolerance"_a = py::none(), "prior_scale"_a = py::none(),
         "encoder_resolution"_a = py::none(), "joint_errors"_a = py::none(),
+        "tracker"_a = py::none(), "clock_search"_a = 10.0, "clock_drift"_a = false,
+        "markers"_a = py::none(),
         "hapticcal calibrate: the two-step identification of a log. Does not raise when the "
         "calibration is not usable (the command line's exit 3): .usable is False, .model None.");
   m.def("evaluate", &evaluate, "model"_a, "log"_a, py::kw_only(), "columns"_a = py::none(),

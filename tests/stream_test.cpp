@@ -228,6 +228,39 @@ TEST(Stream, SeveralSecondsOfLagAreFound) {
   EXPECT_NEAR(fit.clock.clock.offset, 6.4, 2e-4);
 }
 
+// Careless streams: microseconds read as seconds, a handle that never moved, a
+// tracker with orientations; each refused with its reason.
+TEST(Stream, CarelessStreamsAreRefusedWithTheirReason) {
+  const TouchSetUp set = touch_set_up(6);
+  SessionOptions o;
+  o.seconds = 30;
+  const Session session = simulate_session(set.actual, o, 14);
+  Log ms = session.device;
+  ms.t *= 1e6;  // microseconds read as seconds: 1000 s a sample
+  try {
+    check_streams(ms, session.tracker);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("is t in seconds?"), std::string::npos) << e.what();
+  }
+  Log still = session.device;
+  for (int r = 0; r < still.rows; ++r) still.q.row(r) = session.device.q.row(0);
+  Log resting = session.tracker;
+  for (int r = 0; r < resting.rows; ++r)
+    resting.position.row(r) = session.tracker.position.row(0) + 1e-4 * Eigen::RowVector3d::Random();
+  try {
+    coarse_clock_offset(set.nominal, still, resting, 10);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("the handle hardly moved"), std::string::npos) << e.what();
+  }
+  Log posed = session.tracker;
+  posed.has_orientation = true;
+  posed.orientation = Eigen::MatrixXd::Zero(posed.rows, 4);
+  posed.orientation.col(0).setOnes();
+  EXPECT_THROW(check_streams(session.device, posed), InputError);
+}
+
 // A tracker whose clock reads 1000 s at the session's start shares no time
 // with the device's within +-10 s: refused, naming the spans.
 TEST(Stream, ClocksThatDoNotOverlapAreRefused) {

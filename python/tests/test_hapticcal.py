@@ -553,3 +553,28 @@ def test_the_library_refuses_what_the_command_line_refuses(tmp_path):
         hapticcal.plan(MECA, "position", 12, pool=10**9, out=str(tmp_path / "plan"))
     with pytest.raises(ValueError, match="NUL byte"):
         hapticcal.load_model(MECA + "\x00junk")
+
+
+def test_calibrate_two_streams_and_markers(tmp_path):
+    """Issue 26: calibrate(tracker=...) estimates the clocks as --tracker does."""
+    scenario = tmp_path / "session.yaml"
+    scenario.write_text(
+        "format: hapticcal-scenario/1\n"
+        f"device: {SOURCE / 'data' / 'devices' / 'geomagic-touch.yaml'}\n"
+        "measurement: position\nposes: {validation: 50}\nnoise: {sigma_m: 1.0e-4}\n"
+        "random_deviations: {lengths: 5.0e-4, angles: 5.0e-3}\n"
+        "session: {seconds: 40, clock_offset: 0.0373, clock_drift_ppm: 20}\n"
+    )
+    code, _, stderr = cli("simulate", "--scenario", str(scenario), "--out", str(tmp_path / "sim"))
+    assert code == 0, stderr
+    r = hapticcal.calibrate(
+        "geomagic-touch",
+        str(tmp_path / "sim" / "device.csv"),
+        tracker=str(tmp_path / "sim" / "tracker.csv"),
+        clock_drift=True,
+    )
+    assert r.usable, r.status_reason
+    assert abs(r.results["clock"]["offset"] - 0.0373) < 2e-4
+    assert r.results["clock"]["drift_fitted"] is True
+    with pytest.raises(ValueError):
+        hapticcal.calibrate("geomagic-touch", str(tmp_path / "sim" / "device.csv"), markers="1,2")

@@ -4,7 +4,6 @@
 #include <fmt/format.h>
 
 #include <Eigen/Geometry>
-#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 
@@ -24,8 +23,8 @@ Eigen::Matrix3Xd row_markers(const Log& log, int r) {
 }
 
 // The mean shape of the rows' markers (each row registered onto the running
-// mean), in a frame of its own: the centroid at the origin, the axes its
-// principal axes (largest spread first; signs fixed by the first markers).
+// mean), in a frame of its own: the centroid at the origin, x toward marker 1,
+// z normal to the plane of the centroid and markers 1 and 2.
 Eigen::Matrix3Xd estimated_body(const Log& log) {
   Eigen::Matrix3Xd mean = row_markers(log, 0);
   mean.colwise() -= mean.rowwise().mean();
@@ -38,12 +37,20 @@ Eigen::Matrix3Xd estimated_body(const Log& log) {
     mean = sum / log.rows;
     mean.colwise() -= mean.rowwise().mean();
   }
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(mean, Eigen::ComputeFullU);
-  Eigen::Matrix3d U = svd.matrixU();
-  // Deterministic signs: marker 1 on +x, marker 2 on +y's side; right-handed.
-  if (U.col(0).dot(mean.col(0)) < 0) U.col(0) *= -1;
-  if (U.col(1).dot(mean.col(1)) < 0) U.col(1) *= -1;
-  U.col(2) = U.col(0).cross(U.col(1));
+  // Axes anchored on the markers, not the principal axes (a symmetric body's
+  // are arbitrary): x toward marker 1, z normal to the plane of markers 1 and 2.
+  Eigen::Matrix3d U;
+  const Eigen::Vector3d x = mean.col(0).normalized();
+  const Eigen::Vector3d z = mean.col(0).cross(mean.col(1)).normalized();
+  if (!(mean.col(0).norm() > 0) || !z.allFinite() ||
+      !(mean.col(0).cross(mean.col(1)).norm() > 1e-6 * mean.col(0).norm() * mean.col(1).norm())) {
+    throw InputError(
+        "markers 1 and 2 lie on a line through the body's centroid: give the body "
+        "(--markers)");
+  }
+  U.col(0) = x;
+  U.col(2) = z;
+  U.col(1) = z.cross(x);
   return U.transpose() * mean;
 }
 
@@ -96,7 +103,7 @@ MarkerPoses markers_to_poses(const Log& log, const Eigen::Matrix3Xd& body) {
       "markers (median RMS {:.4f} mm){}",
       log.marker_count,
       out.estimated ? "their positions on the body estimated from the log (the body frame: "
-                      "their centroid and principal axes)"
+                      "their centroid, x toward marker 1, z normal to markers 1 and 2)"
                     : "their positions on the body given (the body frame is the tool frame)",
       1e3 * out.fit_rms,
       out.estimated ? ": the tool pose is the body frame's; give the same body (--markers, as "

@@ -23,6 +23,12 @@ constexpr int kSmoothing = 5;
 // correlate by chance.
 constexpr double kMinOverlapShare = 0.5;
 constexpr int kMinPairs = 100;
+// A stream may span at most this many grid steps a sample (a 1 Hz tracker: 100).
+constexpr double kMaxGridPerSample = 1000;
+// The coarse search's work (offsets x grid points) at most: about 5 s.
+constexpr double kMaxSearchWork = 4e9;
+// Below this correlation of the speeds the streams do not show the same motion.
+constexpr double kMinCorrelation = 0.3;
 
 double median_step(const Eigen::VectorXd& t) {
   std::vector<double> dt(static_cast<size_t>(t.size() - 1));
@@ -42,6 +48,15 @@ void check_times(const Log& log, const char* role) {
     throw InputError(log.origin, log.rows > 0 ? log.line.front() : 0, "t",
                      fmt::format("the {} stream has {} samples; a stream needs at least {}", role,
                                  log.rows, 2 * kSmoothing));
+  }
+  // A stream's span in grid steps, against its samples: a time in other units
+  // (milliseconds read as seconds) would ask for a grid of billions.
+  const double span = log.t[log.rows - 1] - log.t[0];
+  if (!std::isfinite(span) || span / kGridStep > kMaxGridPerSample * log.rows + 1e5) {
+    throw InputError(log.origin, log.line.back(), "t",
+                     fmt::format("the {} stream's {} samples span {:g} s: more than {:g} s a "
+                                 "sample (is t in seconds? [ms] reads milliseconds)",
+                                 role, log.rows, span, kMaxGridPerSample * kGridStep));
   }
   for (int r = 1; r < log.rows; ++r) {
     if (!(log.t[r] > log.t[r - 1])) {
@@ -132,6 +147,9 @@ int known(const std::vector<double>& v) {
 }  // namespace
 
 ReadingInterpolator::ReadingInterpolator(const Log& device) : log_(device) {
+  if (device.rows < 2 || device.t.size() != device.rows) {
+    throw InputError(device.origin, 0, "t", "a stream to interpolate needs times and 2 samples");
+  }
   t_.assign(device.t.data(), device.t.data() + device.t.size());
   median_dt_ = median_step(device.t);
   max_gap_ = kGapFactor * median_dt_;
@@ -180,6 +198,11 @@ void check_streams(const Log& device, const Log& tracker) {
                      "the tracker log has no positions x, y, z: the tracker's stream gives the "
                      "measurements, the device's the readings");
   }
+  if (tracker.has_orientation || tracker.marker_count > 0) {
+    throw InputError(tracker.origin, 0, tracker.has_orientation ? "qw" : "x1",
+                     "a tracker's stream is fitted on positions (t, x, y, z): orientations and "
+                     "marker bodies are not aligned in time yet");
+  }
   if (device.has_position || device.has_distance) {
     throw InputError(device.origin, 0, device.has_position ? "x" : "distance",
                      "the device log has measurements: with --tracker they come from the tracker "
@@ -201,6 +224,16 @@ std::pair<double, double> coarse_clock_offset(const DeviceModel& nominal, const 
   const long k_hi = static_cast<long>(std::floor((range - base) / kGridStep));
   const int needed =
       std::max(kMinPairs, static_cast<int>(kMinOverlapShare * std::min(known(a), known(b))));
+  const double work = static_cast<double>(std::max(0L, k_hi - k_lo + 1)) *
+                      static_cast<double>(std::min(a.size(), b.size()));
+  if (work > kMaxSearchWork) {
+    throw InputError(
+        tracker.origin, tracker.line.front(), "t",
+        fmt::format("searching +-{:g} s for the clocks' offset over a {:.0f} s "
+                    "stream is {:.2g} products (at most {:.2g}): give a smaller "
+                    "--clock-search",
+                    range, static_cast<double>(b.size()) * kGridStep, work, kMaxSearchWork));
+  }
   std::vector<double> r(static_cast<size_t>(std::max(0L, k_hi - k_lo + 1)), -2);
   long best = -1;
   for (long k = k_lo; k <= k_hi; ++k) {
@@ -220,6 +253,14 @@ std::pair<double, double> coarse_clock_offset(const DeviceModel& nominal, const 
                     tracker.t[tracker.rows - 1], range, needed));
   }
   const auto i = static_cast<size_t>(best);
+  if (!(r[i] >= kMinCorrelation)) {
+    throw InputError(
+        tracker.origin, tracker.line.front(), "t",
+        fmt::format("the tool point's speed in the two streams correlates at most "
+                    "{:.3f} (at an offset of {:.3f} s; at least {:g} is needed): "
+                    "the handle hardly moved, or the streams are not of one session",
+                    r[i], base + static_cast<double>(k_lo + best) * kGridStep, kMinCorrelation));
+  }
   double shift = 0;
   if (i > 0 && i + 1 < r.size() && r[i - 1] > -2 && r[i + 1] > -2) {
     const double curvature = r[i - 1] - 2 * r[i] + r[i + 1];
@@ -255,6 +296,9 @@ Log readings_at_tracker(const ReadingInterpolator& readings, const Log& device, 
   Eigen::Index row = 0;
   for (const int r : samples) {
     const double t = clock.device_time(tracker.t[r]);
+    // The velocity (the clock's column) needs readings half an interval either side.
+    const double h = 0.5 * readings.median_interval();
+    if (!readings.at(t - h, q.data()) || !readings.at(t + h, q.data())) continue;
     if (!readings.at(t, q.data(), ext.data())) continue;
     out.q.row(row) = q.transpose();
     out.ext.row(row) = ext.transpose();

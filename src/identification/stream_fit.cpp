@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
@@ -40,13 +41,9 @@ std::vector<int> fit_rows(const DeviceModel& nominal, const ReadingInterpolator&
   std::vector<int> rows;
   std::vector<double> speed;
   estimate.dropped_gap = 0;
-  int outside = 0;
   for (int r = 0; r < tracker.rows; ++r) {
     const double t = clock.device_time(tracker.t[r]);
-    if (t < readings.begin() || t > readings.end()) {
-      ++outside;
-      continue;
-    }
+    if (t < readings.begin() || t > readings.end()) continue;
     if (!readings.at(t - dt, a.data()) || !readings.at(t + dt, b.data())) {
       ++estimate.dropped_gap;
       continue;
@@ -125,8 +122,16 @@ ClockStep clock_step(const CalibrationResult& fit, const ReadingInterpolator& re
     G -= J * qr.solve(G);
   }
   const Eigen::MatrixXd N = G.transpose() * G;
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(N);
   ClockStep out;
+  // The clock's columns gone (no motion left once the geometry took its share):
+  // no step and no sd.
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(N);
+  if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 1e-12 * N.trace())) {
+    out.step = Eigen::VectorXd::Zero(c);
+    out.covariance = Eigen::MatrixXd::Constant(c, c, std::nan(""));
+    return out;
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(N);
   out.step = ldlt.solve(G.transpose() * e);
   const double sigma = fit.kinematics.sigma;
   out.covariance = sigma * sigma * ldlt.solve(Eigen::MatrixXd::Identity(c, c));
@@ -197,6 +202,7 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   inner.select = false;
   inner.folds = 0;
   inner.loss = RobustLoss::kNone;
+  inner.samples = 0;  // the clock's step uses every sample the fit does
   inner.joint_errors.clear();
   const int c = stream.drift ? 2 : 1;
   std::vector<int> kept;
@@ -216,6 +222,15 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
       return out;
     }
     const ClockStep step = clock_step(fit, readings, out.poses, estimate.clock, stream.drift);
+    if (std::isnan(step.covariance(0, 0))) {
+      out.result = fit;
+      out.result.status = CalibrationStatus::kRankDeficient;
+      out.result.status_reason =
+          "the motion does not determine the clocks' offset (the velocity's columns vanish "
+          "once the geometry is fitted)";
+      out.result.clock = estimate;
+      return out;
+    }
     estimate.clock.offset += step.step[0];
     if (stream.drift) estimate.clock.drift += step.step[1];
     estimate.offset_sd = std::sqrt(step.covariance(0, 0));

@@ -30,6 +30,11 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
     throw InputError(request.tracker, 0, "--tracker",
                      "a tracker's stream measures positions: it takes no fixture points");
   }
+  if (!request.tracker.empty() && request.options.marker_body.cols() > 0) {
+    throw InputError(request.tracker, 0, "--markers",
+                     "a tracker's stream is fitted on positions: markers are not aligned in "
+                     "time yet");
+  }
   Log log = read_log(request.log, request.columns);
   const Log tracker = request.tracker.empty() ? Log() : read_log(request.tracker);
   if (request.out) job.out = std::make_unique<OutputSet>(*request.out, "calibrate");

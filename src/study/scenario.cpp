@@ -501,6 +501,9 @@ void read_session(const ScenarioFile& file, Scenario& sc) {
   if (o.seconds * o.device_rate_hz > kMaxTrajectorySamples)
     r.fail(node, "session.seconds",
            fmt::format("more than {:g} device samples", kMaxTrajectorySamples));
+  if (o.seconds * o.tracker_rate_hz > kMaxTrajectorySamples)
+    r.fail(node, "session.tracker_rate_hz",
+           fmt::format("more than {:g} tracker samples", kMaxTrajectorySamples));
   o.clock_offset = value("clock_offset", -1e6, 1e6, o.clock_offset);
   o.clock_drift = 1e-6 * value("clock_drift_ppm", -1e4, 1e4, 1e6 * o.clock_drift);
   o.tracker_start = value("tracker_start", -1e6, 1e6, o.tracker_start);

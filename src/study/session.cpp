@@ -7,6 +7,7 @@
 #include <random>
 #include <vector>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
@@ -75,6 +76,10 @@ Log empty_log(const DeviceModel& model, const char* origin, Eigen::Index rows, b
 }  // namespace
 
 Session simulate_session(const DeviceModel& actual, const SessionOptions& o, std::uint64_t seed) {
+  if (!(o.clock_drift > -0.5 && o.clock_drift < 0.5) || !(o.tracker_rate_hz > 0) ||
+      !(o.device_rate_hz > 0) || !(o.seconds > 0)) {
+    throw InputError("simulate_session: rates and seconds must be positive and |drift| < 0.5");
+  }
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -108,7 +113,11 @@ Session simulate_session(const DeviceModel& actual, const SessionOptions& o, std
   const double start_rate = o.dropout_share / std::max(o.dropout_seconds, 1e-9);
   double occluded_until = -1;
   Eigen::VectorXd q(n);
-  for (long j = 0;; ++j) {
+  // The first sample at or after the session's start, in closed form (a clock
+  // far from the device's need not be walked through).
+  const double first =
+      std::ceil(-(o.tracker_start + o.clock_offset) / (period * (1 + o.clock_drift)));
+  for (long j = static_cast<long>(std::max(0.0, first - 2));; ++j) {
     const double stamp = o.tracker_start + static_cast<double>(j) * period;
     const double instant = s.clock.device_time(stamp) + o.tracker_jitter * gauss(rng);
     if (instant > o.seconds) break;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/stream.hpp"
@@ -42,7 +43,8 @@ double model_distance(const DeviceModel& a, const DeviceModel& b, const Log& log
 }  // namespace
 
 SessionStudy run_session_study(const Scenario& sc, const std::string& dir) {
-  const SessionOptions& o = *sc.session;
+  SessionOptions o = *sc.session;
+  o.sigma_position = sc.noise.sigma_position;
   SessionStudy out;
   const Session session = simulate_session(sc.actual, o, sc.seed);
   out.truth = session.clock;
@@ -69,6 +71,10 @@ SessionStudy run_session_study(const Scenario& sc, const std::string& dir) {
   stream.drift = sc.session_fit_drift;
   const StreamCalibration aware = calibrate_streams(sc.nominal, device, tracker, options, stream);
   out.clock = aware.clock;
+  // The truth at the estimate's reference (the first sample kept), where the
+  // offset is compared.
+  out.truth.offset += out.truth.drift * (out.clock.clock.reference - out.truth.reference);
+  out.truth.reference = out.clock.clock.reference;
   out.status = aware.result.status;
   out.status_reason = aware.result.status_reason;
   // Offset-blind: the same samples, each tracker stamp read as device time.
@@ -80,8 +86,14 @@ SessionStudy run_session_study(const Scenario& sc, const std::string& dir) {
   const Log blind_poses = readings_at_tracker(readings, device, tracker, rows, StreamClock{}, kept);
   CalibrationOptions forced = options;
   forced.force = true;  // the blind fit's errors look implausible: that is the point
-  CalibrationResult blind;
-  if (blind_poses.rows > 0) blind = calibrate(sc.nominal, blind_poses, forced);
+  if (blind_poses.rows < 10) {
+    throw InputError(
+        fmt::format("the session's tracker samples fall outside the device's "
+                    "stream at their own stamps ({} within it): no offset-blind "
+                    "calibration to compare",
+                    blind_poses.rows));
+  }
+  const CalibrationResult blind = calibrate(sc.nominal, blind_poses, forced);
   save_device(aware.result.calibrated, dir + "/calibrated.yaml");
   save_device(blind.calibrated, dir + "/calibrated-offset-blind.yaml");
 
@@ -104,7 +116,8 @@ SessionStudy run_session_study(const Scenario& sc, const std::string& dir) {
                   {"tracker_rows", out.tracker_rows},
                   {"dropped_samples", out.dropped},
                   {"sigma_position", noise.sigma_position}};
-  j["truth"] = {{"offset", out.truth.offset}, {"drift", out.truth.drift}};
+  j["truth"] = {
+      {"offset", out.truth.offset}, {"drift", out.truth.drift}, {"reference", out.truth.reference}};
   j["estimate"] = {{"status", to_string(out.status)},
                    {"offset", c.clock.offset},
                    {"offset_sd", c.offset_sd},

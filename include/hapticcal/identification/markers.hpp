@@ -2,7 +2,8 @@
 // x2, ... columns turned into the body's poses, so that positions alone
 // identify the tool's orientation. The body's marker positions are given (in
 // the tool frame: the body frame is the tool frame) or estimated from the log
-// (their mean shape; the body frame its centroid and principal axes, and the
+// (their mean shape; the body frame its centroid, x toward marker 1, z normal to
+// markers 1 and 2; and the
 // tool pose then takes the body's place on the device).
 #pragma once
 
