@@ -260,11 +260,12 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   }
   estimate.curve = residual_curve(out.result.calibrated, readings, device, tracker, kept, estimate);
   out.result.notes.push_back(fmt::format(
-      "clocks: the speeds correlate best ({:.3f}) at an offset of {:.4f} s (searched +-{:g} s); "
+      "clocks of {} and {}: the speeds correlate best ({:.3f}) at an offset of {:.4f} s "
+      "(searched +-{:g} s); "
       "fitted: offset {:.4f} ms +- {:.4f} ms{}, after {} step(s); {} of {} tracker samples within "
       "the device stream, {} in its gaps, {} faster than the {:g} % quantile left out, {} fitted",
-      correlation, coarse, stream.search_range, 1e3 * estimate.clock.offset,
-      1e3 * estimate.offset_sd,
+      device.origin, tracker.origin, correlation, coarse, stream.search_range,
+      1e3 * estimate.clock.offset, 1e3 * estimate.offset_sd,
       stream.drift ? fmt::format(", drift {:.3f} ppm +- {:.3f} ppm", 1e6 * estimate.clock.drift,
                                  1e6 * estimate.drift_sd)
                    : std::string(),
