@@ -30,9 +30,9 @@ struct CalibrateOptions {
   int polynomial_order = 0;
   double encoder_resolution = 0;  // 0: not given
   double tolerance = 1e-6;
-  std::string tracker;        // a tracker's stream on its own clock
-  std::string markers;        // X1,Y1,Z1,...: a marker body in the tool frame
-  double clock_search = 10;   // s
+  std::string tracker;       // a tracker's stream on its own clock
+  std::string markers;       // X1,Y1,Z1,...: a marker body in the tool frame
+  double clock_search = 10;  // s
   bool clock_drift = false;
 };
 CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& options);

@@ -601,18 +601,16 @@ void conclude(CalibrationRun& run) {
 // (kinematic_problem, register_measurement_frame), analyze_identifiability,
 // solve_kinematics with the robust reweighting, the model selection, and the
 // information of the fit.
-CalibrationResult calibrate(const DeviceModel& nominal, const Log& marked,
+CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options) {
-  // Markers of one rigid body: the body's poses (markers.hpp).
-  std::optional<MarkerPoses> markers;
-  if (marked.marker_count > 0) markers = markers_to_poses(marked, options.marker_body);
-  const Log& log = markers ? markers->poses : marked;
-  if (markers) {
+  // Markers of one rigid body: the body's poses (markers.hpp), fitted as a pose log.
+  if (log.marker_count > 0) {
+    const MarkerPoses markers = markers_to_poses(log, options.marker_body);
     CalibrationOptions as_poses = options;
-    as_poses.marker_body = markers->body;
-    CalibrationResult r = calibrate(nominal, log, as_poses);
-    r.notes.insert(r.notes.begin(), markers->note);
-    r.marker_body = markers->body;
+    as_poses.marker_body = markers.body;
+    CalibrationResult r = calibrate(nominal, markers.poses, as_poses);
+    r.notes.insert(r.notes.begin(), markers.note);
+    r.marker_body = markers.body;
     return r;
   }
   const bool step_one_only = options.transmissions && encoders_only(log);

@@ -296,10 +296,9 @@ Log readings_at_tracker(const ReadingInterpolator& readings, const Log& device, 
   Eigen::Index row = 0;
   for (const int r : samples) {
     const double t = clock.device_time(tracker.t[r]);
-    // The velocity (the clock's column) needs readings half an interval either side.
-    const double h = 0.5 * readings.median_interval();
-    if (!readings.at(t - h, q.data()) || !readings.at(t + h, q.data())) continue;
-    if (!readings.at(t, q.data(), ext.data())) continue;
+    // The velocity (the clock's column) needs readings either side.
+    if (!readings.around(t, q.data(), ext.data()) || !readings.at(t, q.data(), ext.data()))
+      continue;
     out.q.row(row) = q.transpose();
     out.ext.row(row) = ext.transpose();
     out.position.row(row) = tracker.position.row(r);

@@ -28,6 +28,16 @@ constexpr int kCurvePoints = 81;
 constexpr double kCurveMin = 0.02, kCurveSds = 10;
 constexpr int kCurveSamples = 2000;
 
+// The tool point's velocity at device time t [m/s], central differences over
+// ReadingInterpolator::around (a and b: buffers of dof values); false where the
+// readings do not reach.
+bool tool_velocity(const PreparedModel& model, const ReadingInterpolator& readings, double t,
+                   Eigen::VectorXd& a, Eigen::VectorXd& b, Eigen::Vector3d& v) {
+  if (!readings.around(t, a.data(), b.data())) return false;
+  v = (model.forward(b.data()).p - model.forward(a.data()).p) / readings.median_interval();
+  return true;
+}
+
 // The tracker rows the fit may use at a clock: those whose device time the
 // readings cover, the fastest (above the speed quantile) left out, then at most
 // max_fit_samples spread evenly.
@@ -36,21 +46,20 @@ std::vector<int> fit_rows(const DeviceModel& nominal, const ReadingInterpolator&
                           const StreamOptions& options, ClockEstimate& estimate) {
   const PreparedModel prepared(nominal);
   const int n = device.dof();
-  const double dt = 0.5 * readings.median_interval();
   Eigen::VectorXd a(n), b(n);
+  Eigen::Vector3d v;
   std::vector<int> rows;
   std::vector<double> speed;
   estimate.dropped_gap = 0;
   for (int r = 0; r < tracker.rows; ++r) {
     const double t = clock.device_time(tracker.t[r]);
     if (t < readings.begin() || t > readings.end()) continue;
-    if (!readings.at(t - dt, a.data()) || !readings.at(t + dt, b.data())) {
+    if (!tool_velocity(prepared, readings, t, a, b, v)) {
       ++estimate.dropped_gap;
       continue;
     }
     rows.push_back(r);
-    speed.push_back((prepared.forward(b.data()).p - prepared.forward(a.data()).p).norm() /
-                    (2 * dt));
+    speed.push_back(v.norm());
   }
   estimate.overlapping = static_cast<int>(rows.size()) + estimate.dropped_gap;
   std::vector<double> sorted = speed;
@@ -97,17 +106,14 @@ ClockStep clock_step(const CalibrationResult& fit, const ReadingInterpolator& re
   const PreparedModel prepared(model);
   const int n = model.dof(), c = drift ? 2 : 1;
   const Eigen::Index m = poses.rows;
-  const double dt = 0.5 * readings.median_interval();
   Eigen::MatrixXd G(3 * m, c);
   Eigen::VectorXd e(3 * m);
   Eigen::VectorXd q(n), a(n), b(n);
+  Eigen::Vector3d v;
   for (Eigen::Index r = 0; r < m; ++r) {
     q = poses.q.row(r).transpose();
-    const double t = clock.device_time(poses.t[r]);
-    readings.at(t - dt, a.data());
-    readings.at(t + dt, b.data());
-    const Eigen::Vector3d v =
-        (prepared.forward(b.data()).p - prepared.forward(a.data()).p) / (2 * dt);
+    // readings_at_tracker kept only samples with readings either side at this clock.
+    if (!tool_velocity(prepared, readings, clock.device_time(poses.t[r]), a, b, v)) v.setZero();
     e.segment<3>(3 * r) = poses.position.row(r).transpose() - prepared.forward(q.data()).p;
     G.block(3 * r, 0, 3, 1) = v;
     if (drift) G.block(3 * r, 1, 3, 1) = v * (poses.t[r] - clock.reference);

@@ -4,40 +4,23 @@
 // scored on held-out static poses.
 #include <fmt/format.h>
 
-#include <cmath>
 #include <nlohmann/json.hpp>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/stream.hpp"
-#include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/identification/two_step.hpp"
 #include "hapticcal/model_io/device.hpp"
+#include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/study.hpp"
 
 namespace hapticcal {
 namespace {
 
-// RMS distance between a model's predicted tool point and a log's positions.
+// RMS position error [m] of a model on a log (evaluate's).
 double position_rms(const DeviceModel& model, const Log& log) {
-  const PreparedModel prepared(model);
-  double sum = 0;
-  for (int r = 0; r < log.rows; ++r) {
-    const Eigen::VectorXd q = log.q.row(r).transpose();
-    sum += (log.position.row(r).transpose() - prepared.forward(q.data()).p).squaredNorm();
-  }
-  return std::sqrt(sum / std::max(log.rows, 1));
-}
-
-// RMS distance between two models' tool points at a log's readings.
-double model_distance(const DeviceModel& a, const DeviceModel& b, const Log& log) {
-  const PreparedModel pa(a), pb(b);
-  double sum = 0;
-  for (int r = 0; r < log.rows; ++r) {
-    const Eigen::VectorXd q = log.q.row(r).transpose();
-    sum += (pa.forward(q.data()).p - pb.forward(q.data()).p).squaredNorm();
-  }
-  return std::sqrt(sum / std::max(log.rows, 1));
+  return evaluate(model, log).position->rms;
 }
 
 }  // namespace
@@ -100,8 +83,11 @@ SessionStudy run_session_study(const Scenario& sc, const std::string& dir) {
   out.rms_nominal = position_rms(sc.nominal, validation);
   out.rms_aware = position_rms(aware.result.calibrated, validation);
   out.rms_blind = position_rms(blind.calibrated, validation);
-  out.truth_aware = model_distance(aware.result.calibrated, sc.actual, validation);
-  out.truth_blind = model_distance(blind.calibrated, sc.actual, validation);
+  // The same readings with the truth's tool points, without noise.
+  Log truth = validation;
+  truth.position = predicted_measurements(sc.actual, MeasurementType::kPosition, validation.q);
+  out.truth_aware = position_rms(aware.result.calibrated, truth);
+  out.truth_blind = position_rms(blind.calibrated, truth);
 
   using json = nlohmann::ordered_json;
   const ClockEstimate& c = out.clock;

@@ -52,6 +52,12 @@ class ReadingInterpolator {
   // The readings (dof values) and external encoders at time t; false outside
   // the log or in a gap.
   bool at(double t, double* q, double* ext = nullptr) const;
+  // The readings half a median interval before and after t (what a velocity at
+  // t is differenced over); false where either is missing.
+  bool around(double t, double* before, double* after) const {
+    const double h = 0.5 * median_dt_;
+    return at(t - h, before) && at(t + h, after);
+  }
   double begin() const { return t_.front(); }
   double end() const { return t_.back(); }
   double median_interval() const { return median_dt_; }
