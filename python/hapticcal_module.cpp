@@ -231,9 +231,26 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
                  "identifiable"_a = e.identifiable, "reason"_a = e.reason);
   }
   c.notes = result.notes;
+  if (job.tree) {
+    // A tree (tip "A,B"): its parameters, each tip's RMS combined; its
+    // calibrated model is the URDF written into out (no single-chain Model).
+    const auto combined = [](const std::vector<double>& rms) {
+      double sum = 0;
+      for (double r : rms) sum += r * r;
+      return rms.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(rms.size()));
+    };
+    c.rms_before = combined(job.tree->rms_before);
+    c.rms_after = combined(job.tree->rms_after);
+    for (const ParameterEstimate& e : job.tree->parameters) {
+      c.parameters[py::str(e.name)] =
+          py::dict("value"_a = e.value, "nominal"_a = e.nominal, "sd"_a = e.sd,
+                   "identifiable"_a = e.identifiable, "reason"_a = e.reason);
+    }
+    c.notes = job.tree->notes;
+  }
   c.lines = job.lines;
   c.results = parsed(json);
-  if (c.usable) c.model = Model{result.calibrated, "", "", ""};
+  if (c.usable && !job.tree) c.model = Model{result.calibrated, "", "", ""};
   return c;
 }
 

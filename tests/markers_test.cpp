@@ -40,18 +40,7 @@ Log marker_log(const DeviceModel& truth, const Eigen::Matrix3Xd& markers, int ro
   std::normal_distribution<double> gauss(0.0, sigma);
   const PreparedModel prepared(truth);
   const int n = truth.dof(), k = static_cast<int>(markers.cols());
-  Log log;
-  log.origin = "markers.csv";
-  log.rows = rows;
-  log.q.resize(rows, n);
-  log.ext.setZero(rows, n);
-  log.direction.setZero(rows, n);
-  log.has_ext.assign(static_cast<size_t>(n), false);
-  log.has_direction.assign(static_cast<size_t>(n), false);
-  log.q_unit.assign(static_cast<size_t>(n), ReadingUnit::kNone);
-  log.q_column.assign(static_cast<size_t>(n), "q");
-  log.marker_count = k;
-  log.markers.resize(rows, 3 * k);
+  Log log = testing::blank_marker_log("markers.csv", rows, n, k);
   for (int r = 0; r < rows; ++r) {
     const Eigen::VectorXd q = testing::random_readings(truth, rng);
     log.q.row(r) = q.transpose();
@@ -60,7 +49,6 @@ Log marker_log(const DeviceModel& truth, const Eigen::Matrix3Xd& markers, int ro
       const Eigen::Vector3d p = T.R * markers.col(m) + T.p;
       for (int c = 0; c < 3; ++c) log.markers(r, 3 * m + c) = p[c] + gauss(rng);
     }
-    log.line.push_back(r + 2);
   }
   return log;
 }

@@ -67,7 +67,12 @@ int run_evaluate(const EvaluateOptions& o) {
   if (o.json) {
     fmt::print("{}\n", job.json);
   } else {
-    fmt::print("model: {} ({}, {} joints)\n", o.model, job.model.name, job.model.dof());
+    if (job.tips.empty()) {
+      fmt::print("model: {} ({}, {} joints)\n", o.model, job.model.name, job.model.dof());
+    } else {
+      fmt::print("model: {} ({}, a tree of {} tips: {})\n", o.model, job.model.name,
+                 job.tips.size(), fmt::join(job.tips, ", "));
+    }
     fmt::print("log:   {} ({} rows)\n", o.log, job.evaluation.n);
     for (const std::string& line : job.lines) fmt::print("{}\n", line);
   }

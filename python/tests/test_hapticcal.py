@@ -578,3 +578,35 @@ def test_calibrate_two_streams_and_markers(tmp_path):
     assert r.results["clock"]["drift_fitted"] is True
     with pytest.raises(ValueError):
         hapticcal.calibrate("geomagic-touch", str(tmp_path / "sim" / "device.csv"), markers="1,2")
+
+
+TWO_ARM = str(SOURCE / "examples" / "two-arm" / "two_arm.urdf")
+
+
+def test_calibrate_a_tree_of_two_tips(tmp_path):
+    """calibrate(tip="A,B") on a URDF fits both hands at once (issue 26): points from the nominal
+    chains (Model.forward) in a frame moved by a known pose are fitted to rounding (the frame
+    registered); the shared torso joints
+    are one parameter each, used by both tips; no single-chain Model comes back."""
+    left = hapticcal.load_model(TWO_ARM, tip="left_hand")
+    right = hapticcal.load_model(TWO_ARM, tip="right_hand")
+    rng = np.random.default_rng(5)
+    frame = np.eye(4)
+    frame[:3, 3] = [0.4, -0.2, 0.9]
+    rows = []
+    for _ in range(120):
+        q = rng.uniform(-1.3, 1.3, 11)
+        pl = (frame @ left.forward(q[[0, 1, 2, 3, 4, 5, 6]]))[:3, 3]
+        pr = (frame @ right.forward(q[[0, 1, 2, 7, 8, 9, 10]]))[:3, 3]
+        rows.append(",".join(f"{v:.17g}" for v in [*q, *pl, *pr]))
+    header = ",".join([f"q{i}" for i in range(1, 12)] + ["x1", "y1", "z1", "x2", "y2", "z2"])
+    (tmp_path / "tree.csv").write_text(header + "\n" + "\n".join(rows) + "\n")
+    c = hapticcal.calibrate(TWO_ARM, str(tmp_path / "tree.csv"), tip="left_hand,right_hand",
+                            out=str(tmp_path / "out"))
+    assert c.usable, c.status_reason
+    assert c.model is None
+    assert c.results["frame_registered"] and c.rms_after < 1e-9
+    assert c.results["tree"]["tips"] == ["left_hand", "right_hand"]
+    assert c.results["parameters"]["torso_pitch.x"]["tips"] == ["left_hand", "right_hand"]
+    assert c.parameters["base.x"]["value"] == pytest.approx(0.4, abs=1e-9)
+    assert (tmp_path / "out" / "calibrated.urdf").exists()

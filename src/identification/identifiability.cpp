@@ -34,17 +34,14 @@ using detail::RowsOf;
 using detail::Stack;
 using detail::stack;
 
-// One candidate's fate in the greedy rank test.
-struct Verdict {
-  enum Kind { kIdentified, kNoEffect, kDependent } kind = kIdentified;
-  std::vector<int> on;  // slots it depends on
-};
+using Verdict = detail::RankVerdict;
 
-// Greedy rank test in priority order on scale-free (unit) columns: a column
-// with no effect, or whose part outside the span of the columns accepted before
-// it is below `tolerance` of its norm, is held.
-std::map<int, Verdict> rank_test(const Eigen::MatrixXd& J, const std::vector<int>& order,
-                                 double tolerance) {
+}  // namespace
+
+namespace detail {
+
+std::map<int, RankVerdict> rank_test(const Eigen::MatrixXd& J, const std::vector<int>& order,
+                                     double tolerance) {
   std::map<int, Verdict> out;
   double largest = 0;
   for (int slot : order) largest = std::max(largest, J.col(slot).norm());
@@ -82,6 +79,12 @@ std::map<int, Verdict> rank_test(const Eigen::MatrixXd& J, const std::vector<int
   }
   return out;
 }
+
+}  // namespace detail
+
+namespace {
+
+using detail::rank_test;
 
 // Greedy holds the last dependent column in order, which may carry a dependency
 // only faintly (its unit column is the others' combination with coefficients

@@ -48,6 +48,16 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
                  const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
                  const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
                  bool compressed, double rms_before, bool force, std::vector<std::string>& notes);
+// One candidate's fate in the greedy rank test (identifiability.cpp).
+struct RankVerdict {
+  enum Kind { kIdentified, kNoEffect, kDependent } kind = kIdentified;
+  std::vector<int> on;  // slots it depends on
+};
+// Greedy rank test in priority order on scale-free (unit) columns: a column
+// with no effect, or whose part outside the span of the columns accepted before
+// it is below `tolerance` of its norm, is held.
+std::map<int, RankVerdict> rank_test(const Eigen::MatrixXd& J, const std::vector<int>& order,
+                                     double tolerance);
 // Why a beta is not a candidate (identifiability.cpp).
 std::string beta_left_out_reason(const DeviceModel& model, int link);
 

@@ -16,7 +16,24 @@
 
 namespace hapticcal {
 
+std::vector<std::string> tip_names(const std::string& tip) {
+  std::vector<std::string> out;
+  if (tip.empty()) return out;
+  size_t from = 0;
+  for (size_t comma = tip.find(','); comma != std::string::npos; comma = tip.find(',', from)) {
+    out.push_back(tip.substr(from, comma - from));
+    from = comma + 1;
+  }
+  out.push_back(tip.substr(from));
+  for (const std::string& name : out) {
+    if (name.empty()) throw InputError("--tip: an empty tip name in '" + tip + "'");
+  }
+  return out;
+}
+
 CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
+  if (const std::vector<std::string> tips = tip_names(request.tip); tips.size() > 1)
+    return run_tree_calibrate_job(request, tips);
   CalibrateJob job;
   const bool urdf = !request.model.empty() && is_urdf_path(request.model);
   const std::string urdf_text = urdf ? read_file(request.model, FileKind::kUrdf) : std::string();

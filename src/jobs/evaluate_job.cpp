@@ -3,12 +3,17 @@
 
 #include <fmt/format.h>
 
+#include <nlohmann/json.hpp>
+
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/data_io/fixture.hpp"
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/markers.hpp"
+#include "hapticcal/identification/tree.hpp"
+#include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/model_io/model_source.hpp"
+#include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/report/results_json.hpp"
 
@@ -31,10 +36,91 @@ void check_chain_used(const EvaluateRequest& request) {
                                request.tip.empty() ? "--root" : "--tip"));
 }
 
+// The tree of a URDF path at these tips.
+DeviceTree evaluated_tree(const EvaluateRequest& request, const std::string& path,
+                          const std::vector<std::string>& tips) {
+  if (!is_urdf_path(path))
+    throw InputError(path, 0, "--tip", "several tips (a tree) need URDF models");
+  return load_tree(path, tips, request.root);
+}
+
+// Each tip of a tree evaluated on its chain's log (the log's x<k> its point).
+EvaluateJob tree_evaluate_job(const EvaluateRequest& request,
+                              const std::vector<std::string>& tips) {
+  if (request.given || request.given_reference || !request.fixture.empty() ||
+      !request.point_distances.empty() || request.registration || request.marker_body.cols() > 0)
+    throw InputError(request.model, 0, "--tip",
+                     "a tree is evaluated on its tips' points alone (no fixture, --register, "
+                     "markers or models in memory)");
+  EvaluateJob job;
+  const DeviceTree tree = evaluated_tree(request, request.model, tips);
+  std::optional<DeviceTree> reference;
+  if (!request.reference.empty()) reference = evaluated_tree(request, request.reference, tips);
+  const Log log = read_log(request.log, request.columns);
+  tree_position_rms(tree, log);  // the log's joints and points checked against the tree
+  job.rows = log.rows;
+  job.tips = tips;
+  nlohmann::ordered_json json;
+  json["tree"] = {{"name", tree.name}, {"tips", tips}, {"joints", tree.joints}};
+  for (size_t c = 0; c < tips.size(); ++c) {
+    const int chain = static_cast<int>(c);
+    const Log part = chain_log(tree, log, chain);
+    std::optional<EvaluationComparison> cmp;
+    Evaluation e;
+    if (reference) {
+      cmp = compare_to_reference(tree.chains[c], reference->chains[c], part, {}, {}, {});
+      e = cmp->model;
+    } else {
+      e = evaluate(tree.chains[c], part, {}, {});
+    }
+    json["tips"][tips[c]] =
+        nlohmann::ordered_json::parse(evaluation_json(cmp ? &*cmp : nullptr, e));
+    job.lines.push_back(fmt::format("tip {} (x{}, y{}, z{}):", tips[c], c + 1, c + 1, c + 1));
+    for (const std::string& line : evaluation_lines(cmp ? &*cmp : nullptr, e, request.reference))
+      job.lines.push_back("  " + line);
+    job.tip_evaluations.push_back(e);
+    job.tip_comparisons.push_back(cmp);
+  }
+  job.model = tree.chains[0];
+  job.evaluation = job.tip_evaluations[0];
+  job.json = json.dump();
+  if (!request.out) return job;
+  job.out = std::make_unique<OutputSet>(*request.out, "evaluate");
+  write_file_atomically(job.out->dir() + "/results.json", job.json + "\n");
+  // One report: each tip's evaluation report in turn, its figures by tip.
+  Report report;
+  for (size_t c = 0; c < tips.size(); ++c) {
+    Report tip =
+        evaluation_report(tree.chains[c], request.model, chain_log(tree, log, static_cast<int>(c)),
+                          job.tip_evaluations[c],
+                          job.tip_comparisons[c] ? &job.tip_comparisons[c]->reference : nullptr,
+                          request.reference, {});
+    if (c == 0) {
+      report.title = fmt::format("hapticcal evaluate: {}, a tree of {} tips ({}), on {}", tree.name,
+                                 tips.size(), fmt::join(tips, ", "), log.origin);
+      report.outcome = tip.outcome;
+      report.outcome.headline = job.lines;
+    }
+    report.sections.push_back(fmt::format("<h2>Tip {} (x{}, y{}, z{})</h2>\n", html_escape(tips[c]),
+                                          c + 1, c + 1, c + 1));
+    report.sections.insert(report.sections.end(), tip.sections.begin(), tip.sections.end());
+    for (FigureSpec& f : tip.figures) {
+      f.name += "_" + std::to_string(c + 1);
+      f.title = tips[c] + ": " + f.title;
+      report.figures.push_back(std::move(f));
+    }
+  }
+  job.figures = write_report(report, job.out->dir(), job.report_note);
+  job.out->commit();
+  return job;
+}
+
 }  // namespace
 
 EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   check_chain_used(request);
+  if (const std::vector<std::string> tips = tip_names(request.tip); tips.size() > 1)
+    return tree_evaluate_job(request, tips);
   EvaluateJob job;
   job.model = request.given ? *request.given : load_evaluated_model(request, request.model);
   Log log = read_log(request.log, request.columns);

@@ -29,6 +29,25 @@ inline std::string real_data_path(const std::string& relative) {
   return std::string(HAPTICCAL_SOURCE_DIR) + "/data/real/" + relative;
 }
 
+// A log of `rows` rows of `dof` readings (to be filled) and `markers` points
+// (x1, y1, z1, ...), no encoders or directions; the lines from 2 on.
+inline Log blank_marker_log(const std::string& origin, int rows, int dof, int markers) {
+  Log log;
+  log.origin = origin;
+  log.rows = rows;
+  log.q.resize(rows, dof);
+  log.ext.setZero(rows, dof);
+  log.direction.setZero(rows, dof);
+  log.has_ext.assign(static_cast<size_t>(dof), false);
+  log.has_direction.assign(static_cast<size_t>(dof), false);
+  log.q_unit.assign(static_cast<size_t>(dof), ReadingUnit::kNone);
+  log.q_column.assign(static_cast<size_t>(dof), "q");
+  log.marker_count = markers;
+  log.markers.resize(rows, 3 * markers);
+  for (int r = 0; r < rows; ++r) log.line.push_back(r + 2);
+  return log;
+}
+
 inline DeviceModel builtin(const std::string& name) {
   return load_device(source_path("data/devices/" + name + ".yaml"));
 }

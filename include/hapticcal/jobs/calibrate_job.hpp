@@ -10,6 +10,7 @@
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/stream.hpp"
+#include "hapticcal/identification/tree.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/report/calibration_outputs.hpp"
 
@@ -20,7 +21,9 @@ struct CalibrateRequest {
   // A model in memory (Python's Model) instead of reading `model`, which then
   // only names it (results.json) and, a URDF, is the base of calibrated.urdf.
   std::optional<DeviceModel> nominal;
-  std::string tip, root;                     // a URDF's chain ("": its own)
+  // A URDF's chain ("": its own); several tips, comma-separated, are a tree
+  // (identification/tree.hpp), fitted at once.
+  std::string tip, root;
   std::string log;                           // the measurement log
   std::vector<std::string> columns;          // the log's columns, if it has no header line
   std::string fixture;                       // a fixture file ("": none)
@@ -44,6 +47,9 @@ struct CalibrateJob {
   CalibrationOutputs written;      // what write_calibration_outputs did
   std::string results_json;        // as written (or as it would be into a fresh folder)
   std::vector<std::string> lines;  // the summary (calibration_lines)
+  // Several tips (a tree): its fit; `result` then carries only the status,
+  // `nominal` the first chain, and the set holds calibrated.urdf and results.json.
+  std::optional<TreeCalibration> tree;
   bool usable() const { return result.status == CalibrationStatus::kConverged; }
 };
 
@@ -51,5 +57,11 @@ struct CalibrateJob {
 // and the log, calibrates, and with `out` writes the output set
 // (write_calibration_outputs). Throws InputError for bad input.
 CalibrateJob run_calibrate_job(const CalibrateRequest& request);
+// The same for a tree (request.tip naming these tips): InputError for a model
+// that is not a URDF, a tracker's stream, a fixture or a marker body.
+CalibrateJob run_tree_calibrate_job(const CalibrateRequest& request,
+                                    const std::vector<std::string>& tips);
+// The tips of a --tip value: its comma-separated names (one: a chain).
+std::vector<std::string> tip_names(const std::string& tip);
 
 }  // namespace hapticcal

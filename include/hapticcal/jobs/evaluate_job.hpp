@@ -39,6 +39,12 @@ struct EvaluateJob {
   std::unique_ptr<OutputSet> out;                  // with an output folder: committed
   int figures = 0;                                 // drawn into its report
   std::string report_note;                         // write_report's note, or empty
+  // Several tips (--tip A,B on a URDF: a tree): each tip's evaluation on its
+  // point (x<k>), in the order of tips; `model` and `evaluation` are then the
+  // first tip's.
+  std::vector<std::string> tips;
+  std::vector<Evaluation> tip_evaluations;
+  std::vector<std::optional<EvaluationComparison>> tip_comparisons;
 };
 
 // --tip / --root given without a URDF among the models is bad input, as every

@@ -1,0 +1,96 @@
+// Several tips on one tree (issue 26): the chains root -> tip of one URDF (two
+// hands on a shared torso, two tools on one base), measured together (a log's
+// x1, y1, z1 at the first tip, x2, y2, z2 at the second, ...) and fitted as one
+// problem, in which a joint the chains share is one set of parameters.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "hapticcal/core/log.hpp"
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/model/model.hpp"
+
+namespace hapticcal {
+
+// The tree's parameters are the chains' by name: the base (every chain's: one
+// root, one measurement frame), each movable joint once (its URDF name), and a
+// tool a tip ("<tip>.tool.x"). Its joints, in order of first appearance over
+// the tips (the first chain's, then the second's that are new, ...), are a
+// log's q1..qN.
+struct DeviceTree {
+  std::string name;
+  std::vector<std::string> tips;
+  std::vector<DeviceModel> chains;          // one a tip, in the order of tips
+  std::vector<std::string> joints;          // the tree's movable joints
+  std::vector<std::vector<int>> joint_of;   // chain c's link j: its tree joint
+  std::vector<ParameterInfo> parameters;    // slot k is the tree's k-th value
+  std::vector<std::vector<int>> slot_of;    // chain c's slot: its tree slot
+  std::vector<std::vector<int>> chains_of;  // tree slot: the chains that use it
+
+  int dof() const { return static_cast<int>(joints.size()); }
+  int num_slots() const { return static_cast<int>(parameters.size()); }
+  // The tree's parameter vector (gathered from the chains) and its inverse.
+  Eigen::VectorXd values() const;
+  void set_values(const Eigen::VectorXd& values);
+  // Chain c's part of a tree parameter vector.
+  Eigen::VectorXd chain_values(const Eigen::VectorXd& values, int chain) const;
+  // Chain c's readings of a tree reading (dof values).
+  Eigen::VectorXd chain_reading(const Eigen::VectorXd& reading, int chain) const;
+};
+
+// The tree of these chains, chain c ending at tips[c]. InputError (one line)
+// for fewer than two chains, a tip named twice, chains that do not start from
+// one base, a joint two chains share with different geometry or limits or not
+// on their common path from the root, or a chain with joint-error stages,
+// coupling, compliance or backlash (single-chain features, not yet on trees).
+DeviceTree make_tree(std::vector<DeviceModel> chains, const std::vector<std::string>& tips);
+// The chains root -> tip of a URDF, one a tip (load_urdf).
+DeviceTree load_tree(const std::string& path, const std::vector<std::string>& tips,
+                     const std::string& root = "");
+
+// Chain c's log: its readings (the tree's columns of its joints) and its tip's
+// point (the tree log's marker c) as positions.
+Log chain_log(const DeviceTree& tree, const Log& log, int chain);
+
+// A tree's calibration: the fit of every tip's points at once.
+struct TreeCalibration {
+  CalibrationStatus status = CalibrationStatus::kConverged;
+  std::string status_reason;
+  DeviceTree calibrated;
+  // Every tree parameter, in tree slot order: identified or held (why).
+  std::vector<ParameterEstimate> parameters;
+  int identified = 0;
+  int poses = 0;
+  double condition_number = 0;  // of the identified, column-scaled Jacobian
+  double sigma = 0;             // m: used for the standard deviations
+  double length_scale = 1;      // m: angle columns are divided by it
+  bool frame_registered = false;
+  bool rank_deficient = false;
+  int iterations = 0;
+  std::string termination;
+  // RMS position error [m] a tip, of the nominal tree (in the registered frame,
+  // if registered) and of the calibrated one.
+  std::vector<double> rms_before, rms_after;
+  // Each pose's position error [m] a tip, before and after (the report's figure).
+  std::vector<Eigen::VectorXd> errors_before, errors_after;
+  std::vector<std::string> notes;
+};
+
+// Levenberg-Marquardt (Ceres) over the parameters the tips' points identify:
+// the structural rank test on synthetic readings over the joint limits, then
+// the data's, in the order base -> tools -> joints where the measurement frame
+// is unknown (calibrate's rule) and joints -> tools -> base otherwise. Plain
+// least squares (no tolerance prior, no model selection). Uses of options:
+// fix (tree names), force, sigma, dependency_tolerance. InputError for a log
+// that does not fit the tree: its joint count, no x1..xK for K tips, external
+// encoders, distances or orientations, readings outside the limits (unless
+// forced).
+TreeCalibration calibrate_tree(const DeviceTree& nominal, const Log& log,
+                               const CalibrationOptions& options);
+
+// The RMS position error [m] of each tip of the tree over the log (x1..xK).
+std::vector<double> tree_position_rms(const DeviceTree& tree, const Log& log);
+
+}  // namespace hapticcal

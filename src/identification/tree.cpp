@@ -1,0 +1,303 @@
+// Several tips on one tree (identification/tree.hpp): the tree's parameters
+// from its chains', and one fit of every tip's points.
+#include "hapticcal/identification/tree.hpp"
+
+#include <ceres/ceres.h>
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <random>
+
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/identification/registration.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/urdf.hpp"
+#include "identification/solver_options.hpp"
+#include "identification/stack.hpp"
+#include "identification/tree_internal.hpp"
+
+namespace hapticcal {
+namespace {
+
+constexpr std::uint64_t kTreeStructuralSeed = 20261203;  // synthetic readings of the rank test
+constexpr int kTreeStructuralPoses = 400;
+
+// A tree parameter's name: the chain's, but a tool's carries its tip.
+std::string tree_name(const ParameterInfo& p, int dof, const std::string& tip) {
+  return p.joint == dof ? tip + "." + p.name : p.name;
+}
+
+// Why a chain cannot be part of a tree, or empty.
+std::string single_chain_feature(const DeviceModel& m) {
+  if (!m.joint_errors.empty()) return "joint-error stages";
+  if (m.coupled()) return "a coupling";
+  if (m.compliant()) return "joint compliance";
+  if (m.has_backlash()) return "backlash";
+  if (m.instrument_zero) return "an instrument zero";
+  return "";
+}
+
+bool same_joint(const Link& a, const Link& b) {
+  return a.geometry == b.geometry && a.type == b.type && a.a == b.a && a.alpha == b.alpha &&
+         a.d == b.d && a.theta == b.theta && a.beta == b.beta && a.origin == b.origin &&
+         a.axis == b.axis && a.offset == b.offset && a.lower == b.lower && a.upper == b.upper;
+}
+
+}  // namespace
+
+namespace detail {
+
+TreeStack tree_stack(const DeviceTree& tree, const TreeData& data, const Eigen::VectorXd& values,
+                     bool jacobian) {
+  TreeStack out;
+  Eigen::Index rows = 0;
+  for (const auto& j : data.joints) rows += 3 * static_cast<Eigen::Index>(j.size());
+  out.r.resize(rows);
+  if (jacobian) out.J.setZero(rows, tree.num_slots());
+  Eigen::Index at = 0;
+  for (size_t c = 0; c < tree.chains.size(); ++c) {
+    const Stack st = stack(data.s[c], tree.chain_values(values, static_cast<int>(c)),
+                           data.joints[c], tree_rows(), data.measured[c], data.weights[c]);
+    out.r.segment(at, st.r.size()) = st.r;
+    out.rss.push_back(st.rss);
+    if (jacobian) {
+      for (Eigen::Index k = 0; k < st.J.cols(); ++k)
+        out.J.block(at, tree.slot_of[c][static_cast<size_t>(k)], st.J.rows(), 1) += st.J.col(k);
+    }
+    at += st.r.size();
+  }
+  return out;
+}
+
+namespace {
+
+// One Ceres cost over the tree's vector: each chain's cost at its part of it.
+class TreeCost : public ceres::CostFunction {
+ public:
+  TreeCost(const DeviceTree& tree, const TreeData& data) : tree_(tree) {
+    int rows = 0;
+    for (size_t c = 0; c < tree.chains.size(); ++c) {
+      costs_.emplace_back(measurement_cost(data.s[c], data.joints[c], tree_rows(), data.measured[c],
+                                           data.weights[c], false));
+      rows += costs_.back()->num_residuals();
+    }
+    set_num_residuals(rows);
+    mutable_parameter_block_sizes()->push_back(tree.num_slots());
+  }
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const Eigen::Map<const Eigen::VectorXd> values(parameters[0], tree_.num_slots());
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    std::optional<Eigen::Map<RowMajor>> J;
+    if (jacobians && jacobians[0]) {
+      J.emplace(jacobians[0], num_residuals(), tree_.num_slots());
+      J->setZero();
+    }
+    int at = 0;
+    for (size_t c = 0; c < costs_.size(); ++c) {
+      const Eigen::VectorXd v = tree_.chain_values(values, static_cast<int>(c));
+      const double* block = v.data();
+      const int n = costs_[c]->num_residuals();
+      RowMajor Jc(n, v.size());
+      double* jc = Jc.data();
+      if (!costs_[c]->Evaluate(&block, residuals + at, J ? &jc : nullptr)) return false;
+      if (J) {
+        for (Eigen::Index k = 0; k < Jc.cols(); ++k)
+          J->block(at, tree_.slot_of[c][static_cast<size_t>(k)], n, 1) += Jc.col(k);
+      }
+      at += n;
+    }
+    return true;
+  }
+
+ private:
+  const DeviceTree& tree_;
+  std::vector<std::unique_ptr<ceres::CostFunction>> costs_;
+};
+
+}  // namespace
+
+ceres::CostFunction* tree_cost(const DeviceTree& tree, const TreeData& data) {
+  return new TreeCost(tree, data);
+}
+
+// Random tree readings over the joint limits, each chain's joint values.
+std::vector<std::vector<Eigen::VectorXd>> tree_synthetic_joints(const DeviceTree& tree) {
+  std::mt19937_64 rng(kTreeStructuralSeed);
+  std::vector<std::vector<Eigen::VectorXd>> out(tree.chains.size());
+  Eigen::VectorXd reading(tree.dof());
+  for (int i = 0; i < kTreeStructuralPoses; ++i) {
+    for (int j = 0; j < tree.dof(); ++j) {
+      double lower = 0, upper = 0;
+      for (size_t k = 0; k < tree.chains.size(); ++k) {
+        for (size_t l = 0; l < tree.joint_of[k].size(); ++l) {
+          if (tree.joint_of[k][l] == j) {
+            lower = tree.chains[k].links[l].lower;
+            upper = tree.chains[k].links[l].upper;
+          }
+        }
+      }
+      reading[j] = std::uniform_real_distribution<double>(lower, upper)(rng);
+    }
+    for (size_t c = 0; c < tree.chains.size(); ++c)
+      out[c].push_back(tree.chains[c].compensate(tree.chain_reading(reading, static_cast<int>(c))));
+  }
+  return out;
+}
+
+}  // namespace detail
+
+Eigen::VectorXd DeviceTree::values() const {
+  Eigen::VectorXd out(num_slots());
+  for (size_t c = 0; c < chains.size(); ++c) {
+    const Eigen::VectorXd v = chains[c].kinematic_parameters();
+    for (Eigen::Index k = 0; k < v.size(); ++k) out[slot_of[c][static_cast<size_t>(k)]] = v[k];
+  }
+  return out;
+}
+
+void DeviceTree::set_values(const Eigen::VectorXd& values) {
+  for (size_t c = 0; c < chains.size(); ++c)
+    chains[c].set_kinematic_parameters(chain_values(values, static_cast<int>(c)));
+}
+
+Eigen::VectorXd DeviceTree::chain_values(const Eigen::VectorXd& values, int chain) const {
+  const std::vector<int>& map = slot_of[static_cast<size_t>(chain)];
+  Eigen::VectorXd out(static_cast<Eigen::Index>(map.size()));
+  for (size_t k = 0; k < map.size(); ++k) out[static_cast<Eigen::Index>(k)] = values[map[k]];
+  return out;
+}
+
+Eigen::VectorXd DeviceTree::chain_reading(const Eigen::VectorXd& reading, int chain) const {
+  const std::vector<int>& map = joint_of[static_cast<size_t>(chain)];
+  Eigen::VectorXd out(static_cast<Eigen::Index>(map.size()));
+  for (size_t k = 0; k < map.size(); ++k) out[static_cast<Eigen::Index>(k)] = reading[map[k]];
+  return out;
+}
+
+DeviceTree make_tree(std::vector<DeviceModel> chains, const std::vector<std::string>& tips) {
+  if (chains.size() < 2 || chains.size() != tips.size())
+    throw InputError("a tree needs two tips or more, one chain each");
+  DeviceTree tree;
+  tree.name = chains[0].name;
+  tree.tips = tips;
+  std::map<std::string, int> joint_index, slot_index;
+  for (size_t c = 0; c < chains.size(); ++c) {
+    const DeviceModel& m = chains[c];
+    if (std::count(tips.begin(), tips.end(), tips[c]) > 1)
+      throw InputError(fmt::format("tip '{}' is named twice", tips[c]));
+    if (const std::string f = single_chain_feature(m); !f.empty())
+      throw InputError(
+          fmt::format("the chain to tip '{}' has {}: not supported on a tree yet", tips[c], f));
+    if (m.base_kind != chains[0].base_kind || m.base != chains[0].base)
+      throw InputError(
+          fmt::format("the chain to tip '{}' does not start from the first's base", tips[c]));
+    std::vector<int> joints;
+    bool branched = false;
+    for (int j = 0; j < m.dof(); ++j) {
+      const Link& link = m.links[static_cast<size_t>(j)];
+      const auto found = joint_index.find(link.name);
+      if (found == joint_index.end()) {
+        branched = true;
+        joint_index[link.name] = tree.dof();
+        tree.joints.push_back(link.name);
+        joints.push_back(tree.dof() - 1);
+        continue;
+      }
+      // A shared joint: on the common path from the root, the same joint.
+      const DeviceModel& first = chains[0];
+      const bool on_path = !branched && j < first.dof() && first.links[j].name == link.name;
+      bool same = false;
+      for (size_t k = 0; k < c; ++k) {
+        for (size_t l = 0; l < tree.joint_of[k].size(); ++l) {
+          if (tree.joint_of[k][l] == found->second)
+            same = same_joint(chains[k].links[l], link) && static_cast<int>(l) == j;
+        }
+      }
+      if (!on_path || !same)
+        throw InputError(fmt::format(
+            "joint '{}' of the chain to tip '{}' is not the one its other chains share "
+            "(another place on the path from the root, another geometry or other limits)",
+            link.name, tips[c]));
+      joints.push_back(found->second);
+    }
+    tree.joint_of.push_back(joints);
+    std::vector<int> slots;
+    for (const ParameterInfo& p : m.parameter_info()) {
+      ParameterInfo t = p;
+      t.name = tree_name(p, m.dof(), tips[c]);
+      const auto [it, added] = slot_index.emplace(t.name, tree.num_slots());
+      if (added) {
+        t.slot = tree.num_slots();
+        t.joint = p.joint < 0          ? -1
+                  : p.joint == m.dof() ? -2 - static_cast<int>(c)
+                                       : joints[p.joint];
+        tree.parameters.push_back(t);
+        tree.chains_of.emplace_back();
+      }
+      tree.chains_of[static_cast<size_t>(it->second)].push_back(static_cast<int>(c));
+      slots.push_back(it->second);
+    }
+    tree.slot_of.push_back(slots);
+  }
+  tree.chains = std::move(chains);
+  return tree;
+}
+
+DeviceTree load_tree(const std::string& path, const std::vector<std::string>& tips,
+                     const std::string& root) {
+  std::vector<DeviceModel> chains;
+  for (const std::string& tip : tips) chains.push_back(load_urdf(path, tip, root));
+  return make_tree(std::move(chains), tips);
+}
+
+Log chain_log(const DeviceTree& tree, const Log& log, int chain) {
+  const std::vector<int>& joints = tree.joint_of[static_cast<size_t>(chain)];
+  Log out;
+  out.origin = log.origin;
+  out.rows = log.rows;
+  out.line = log.line;
+  const Eigen::Index n = static_cast<Eigen::Index>(joints.size());
+  out.q.resize(log.rows, n);
+  out.ext.setZero(log.rows, n);
+  out.direction.setZero(log.rows, n);
+  out.has_ext.assign(joints.size(), false);
+  out.has_direction.assign(joints.size(), false);
+  for (size_t k = 0; k < joints.size(); ++k) {
+    out.q.col(static_cast<Eigen::Index>(k)) = log.q.col(joints[k]);
+    out.q_unit.push_back(log.q_unit[static_cast<size_t>(joints[k])]);
+    out.q_column.push_back(log.q_column[static_cast<size_t>(joints[k])]);
+    out.ext_unit.push_back(ReadingUnit::kNone);
+    out.ext_column.push_back("");
+  }
+  out.position = log.markers.middleCols(3 * chain, 3);
+  out.has_position = true;
+  return out;
+}
+
+std::vector<double> tree_position_rms(const DeviceTree& tree, const Log& log) {
+  if (log.marker_count != static_cast<int>(tree.tips.size()) || log.dof() != tree.dof())
+    throw InputError(log.origin, 0, "header",
+                     fmt::format("the tree's {} tips and {} joints need q1..q{} and x1..z{}",
+                                 tree.tips.size(), tree.dof(), tree.dof(), tree.tips.size()));
+  std::vector<double> out;
+  for (size_t c = 0; c < tree.chains.size(); ++c) {
+    const DeviceModel& m = tree.chains[c];
+    const PreparedModel prepared(m);
+    double sum = 0;
+    for (int r = 0; r < log.rows; ++r) {
+      const Eigen::VectorXd q = tree.chain_reading(log.q.row(r).transpose(), static_cast<int>(c));
+      const Eigen::Vector3d p = prepared.forward(q.data()).p;
+      sum += (p - log.markers.row(r).segment<3>(3 * static_cast<Eigen::Index>(c)).transpose())
+                 .squaredNorm();
+    }
+    out.push_back(std::sqrt(sum / std::max(log.rows, 1)));
+  }
+  return out;
+}
+
+}  // namespace hapticcal
