@@ -15,6 +15,7 @@
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/data_io/log.hpp"
+#include "hapticcal/design/tree_plan.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/urdf.hpp"
@@ -68,6 +69,25 @@ Log tree_log(const DeviceTree& truth, int rows, double sigma, std::uint64_t seed
     for (int c = 0; c < k; ++c) {
       const PreparedModel prepared(truth.chains[static_cast<size_t>(c)]);
       const Eigen::VectorXd q = truth.chain_reading(log.q.row(r).transpose(), c);
+      const Eigen::Vector3d p = prepared.forward(q.data()).p;
+      for (int x = 0; x < 3; ++x) log.markers(r, 3 * c + x) = p[x] + sigma * gauss(rng);
+    }
+  }
+  return log;
+}
+
+// The tree's hands' points at these readings (noise sd `sigma` a coordinate).
+Log tree_log_at(const DeviceTree& truth, const Eigen::MatrixXd& readings, double sigma,
+                std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  const int rows = static_cast<int>(readings.rows()), k = static_cast<int>(truth.tips.size());
+  Log log = testing::blank_marker_log("tree.csv", rows, truth.dof(), k);
+  log.q = readings;
+  for (int c = 0; c < k; ++c) {
+    const PreparedModel prepared(truth.chains[static_cast<size_t>(c)]);
+    for (int r = 0; r < rows; ++r) {
+      const Eigen::VectorXd q = truth.chain_reading(readings.row(r).transpose(), c);
       const Eigen::Vector3d p = prepared.forward(q.data()).p;
       for (int x = 0; x < 3; ++x) log.markers(r, 3 * c + x) = p[x] + sigma * gauss(rng);
     }
@@ -217,6 +237,54 @@ TEST(Tree, JointFitValidatesBetterThanSeparateFits) {
   EXPECT_LT(joint_sum, apart_sum);
 }
 
+// plan --tip A,B: the planned poses predict a lower sd of the hands' points
+// than random poses, and the prediction is what calibrate_tree on simulated
+// measurements at those poses gives (Monte Carlo over noise draws, errors
+// against the truth at held-out readings), the planned design's below the
+// random one's there too.
+TEST(Tree, PlanPredictsAndBeatsRandomPoses) {
+  const DeviceTree nominal = nominal_tree();
+  TreePlanOptions options;
+  options.poses = 30;
+  options.pool = 2000;
+  options.sigma = 1e-4;
+  options.random_draws = 10;
+  const TreePlan plan = plan_tree(nominal, options);
+  ASSERT_EQ(plan.readings.rows(), 30);
+  EXPECT_LT(plan.rms_sd, plan.random_median_rms_sd);
+  // Every candidate identified or held (a URDF's joints have no beta).
+  EXPECT_EQ(static_cast<int>(plan.parameters.size() + plan.held.size()), nominal.num_slots());
+  const Eigen::MatrixXd random = tree_random_readings(nominal, 30, 77);
+  const Eigen::MatrixXd held = tree_random_readings(nominal, 300, 78);
+  const double predicted = tree_predicted_rms_sd(nominal, plan.readings, held, options.sigma);
+  const double predicted_random = tree_predicted_rms_sd(nominal, random, held, options.sigma);
+  const DeviceTree truth = truth_tree(31);
+  const Log held_truth = tree_log_at(truth, held, 0.0, 1);
+  double planned_ss = 0, random_ss = 0;
+  const int draws = 20;
+  for (int d = 0; d < draws; ++d) {
+    for (const Eigen::MatrixXd* design : {&plan.readings, &random}) {
+      const TreeCalibration fit = calibrate_tree(
+          nominal, tree_log_at(truth, *design, options.sigma, 500 + d), CalibrationOptions());
+      ASSERT_EQ(fit.status, CalibrationStatus::kConverged) << fit.status_reason;
+      // The plan's parameters are those the fit identifies.
+      EXPECT_EQ(fit.identified, static_cast<int>(plan.parameters.size()));
+      const std::vector<double> rms = tree_position_rms(fit.calibrated, held_truth);
+      (design == &plan.readings ? planned_ss : random_ss) +=
+          (rms[0] * rms[0] + rms[1] * rms[1]) / 2;
+    }
+  }
+  const double planned_mc = std::sqrt(planned_ss / draws), random_mc = std::sqrt(random_ss / draws);
+  std::printf(
+      "tree plan, RMS of a hand's point [um]: planned %.2f predicted, %.2f simulated; "
+      "random %.2f predicted, %.2f simulated (plan's random median %.2f)\n",
+      1e6 * predicted, 1e6 * planned_mc, 1e6 * predicted_random, 1e6 * random_mc,
+      1e6 * plan.random_median_rms_sd);
+  EXPECT_NEAR(planned_mc, predicted, 0.25 * predicted);
+  EXPECT_NEAR(random_mc, predicted_random, 0.25 * predicted_random);
+  EXPECT_LT(planned_mc, random_mc);
+}
+
 TEST(Tree, BadTreesAndLogsAreRefused) {
   const std::string u = two_arm_urdf();
   const DeviceModel left = parse_urdf(u, "two_arm.urdf", "left_hand");
@@ -230,6 +298,22 @@ TEST(Tree, BadTreesAndLogsAreRefused) {
   log.marker_count = 1;
   log.markers.conservativeResize(Eigen::NoChange, 3);
   EXPECT_THROW(calibrate_tree(tree, log, {}), InputError);
+  // A tip on the path to another: their tools could not both be written back.
+  EXPECT_THROW(parse_tree(u, "two_arm.urdf", {"l_fore", "left_hand"}), InputError);
+  EXPECT_THROW(parse_tree(u, "two_arm.urdf", {"left_hand", "l_fore"}), InputError);
+  EXPECT_NO_THROW(parse_tree(u, "two_arm.urdf", {"right_hand", "l_fore"}));
+  // Every parameter held: nothing to fit, a status, no crash; a held base is
+  // not registered either.
+  CalibrationOptions all;
+  for (const ParameterInfo& p : tree.parameters) all.fix.push_back(p.name);
+  const Log good = tree_log(truth_tree(2), 40, 0.0, 3);
+  const TreeCalibration none = calibrate_tree(tree, good, all);
+  EXPECT_EQ(none.status, CalibrationStatus::kRankDeficient);
+  EXPECT_FALSE(none.frame_registered);
+  EXPECT_EQ(none.rms_after, none.rms_before);
+  CalibrationOptions unknown;
+  unknown.fix = {"j1.a"};
+  EXPECT_THROW(calibrate_tree(tree, good, unknown), InputError);
   Log fewer = tree_log(truth_tree(2), 40, 0.0, 3);
   fewer.q.conservativeResize(Eigen::NoChange, 10);
   EXPECT_THROW(calibrate_tree(tree, fewer, {}), InputError);
@@ -289,8 +373,23 @@ TEST(Tree, CalibrateAndEvaluateOnTheCommandLine) {
   testing::expect_input_error(
       testing::run_cli({"evaluate", "--model", dir + "/two_arm.urdf", "--tip",
                         "left_hand,right_hand", "--log", dir + "/one.csv"}),
-      "need q1..q11 and x1..z2");
+      "2 tips (left_hand, right_hand) need the points x1, y1, z1 .. x2, y2, z2; the log has 1 "
+      "point");
   EXPECT_FALSE(std::filesystem::exists(dir + "/b"));
+  // plan --tip A,B: plan.csv holds the tree's readings, plan.json the prediction.
+  const testing::CliResult p = testing::run_cli(
+      {"plan", "--model", dir + "/two_arm.urdf", "--tip", "left_hand,right_hand", "--measurement",
+       "position", "--poses", "20", "--pool", "1000", "--out", dir + "/plan"});
+  ASSERT_EQ(p.exit_code, 0) << p.err << p.out;
+  const std::string csv = read_file(dir + "/plan/plan.csv");
+  EXPECT_EQ(csv.substr(0, csv.find('\n')), "q1,q2,q3,q4,q5,q6,q7,q8,q9,q10,q11");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 21);
+  const auto pj = nlohmann::json::parse(read_file(dir + "/plan/plan.json"));
+  EXPECT_LT(pj["predicted_rms_sd"].get<double>(), pj["random_median_rms_sd"].get<double>());
+  testing::expect_input_error(
+      testing::run_cli({"plan", "--model", dir + "/two_arm.urdf", "--tip", "left_hand,right_hand",
+                        "--measurement", "distance", "--poses", "20", "--out", dir + "/b"}),
+      "a tree's plan measures its tips' points: position");
   std::filesystem::remove_all(dir);
 }
 

@@ -15,6 +15,7 @@
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/design/plan.hpp"
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/jobs/plan_job.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/report/report.hpp"
@@ -112,6 +113,16 @@ int run_plan(const PlanCommandOptions& options) {
   if (!options.distance_range.empty())
     o.distance_range = numbers<2>(options.distance_range, "--distance-range");
   if (!options.box.empty()) o.box = numbers<6>(options.box, "--box");
+  if (const std::vector<std::string> tips = tip_names(o.tip); tips.size() > 1) {
+    const TreePlanJob job = run_tree_plan_job(o, tips, options.out);
+    for (const std::string& line : job.lines) fmt::print("{}\n", line);
+    fmt::print("report: {}/report.html ({} figures)\n", options.out, job.figures);
+    if (!job.report_note.empty()) fmt::print("note: {}\n", job.report_note);
+    fmt::print("{}", output_summary(*job.out, options.out,
+                                    fmt::format(" (plan.csv: q1..q{} in radians, path order)",
+                                                job.tree.dof())));
+    return 0;
+  }
   const bool tty = isatty(2);
   const auto started = [&](const PlanSetup& setup, const PlanProblem& problem) {
     const DeviceModel& model = setup.model;

@@ -13,6 +13,7 @@
 #include <random>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
 #include "hapticcal/identification/registration.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/urdf.hpp"
@@ -127,24 +128,13 @@ ceres::CostFunction* tree_cost(const DeviceTree& tree, const TreeData& data) {
 
 // Random tree readings over the joint limits, each chain's joint values.
 std::vector<std::vector<Eigen::VectorXd>> tree_synthetic_joints(const DeviceTree& tree) {
-  std::mt19937_64 rng(kTreeStructuralSeed);
+  const Eigen::MatrixXd readings =
+      tree_random_readings(tree, kTreeStructuralPoses, kTreeStructuralSeed);
   std::vector<std::vector<Eigen::VectorXd>> out(tree.chains.size());
-  Eigen::VectorXd reading(tree.dof());
-  for (int i = 0; i < kTreeStructuralPoses; ++i) {
-    for (int j = 0; j < tree.dof(); ++j) {
-      double lower = 0, upper = 0;
-      for (size_t k = 0; k < tree.chains.size(); ++k) {
-        for (size_t l = 0; l < tree.joint_of[k].size(); ++l) {
-          if (tree.joint_of[k][l] == j) {
-            lower = tree.chains[k].links[l].lower;
-            upper = tree.chains[k].links[l].upper;
-          }
-        }
-      }
-      reading[j] = std::uniform_real_distribution<double>(lower, upper)(rng);
-    }
+  for (Eigen::Index i = 0; i < readings.rows(); ++i) {
     for (size_t c = 0; c < tree.chains.size(); ++c)
-      out[c].push_back(tree.chains[c].compensate(tree.chain_reading(reading, static_cast<int>(c))));
+      out[c].push_back(tree.chains[c].compensate(
+          tree.chain_reading(readings.row(i).transpose(), static_cast<int>(c))));
   }
   return out;
 }
@@ -208,17 +198,16 @@ DeviceTree make_tree(std::vector<DeviceModel> chains, const std::vector<std::str
         joints.push_back(tree.dof() - 1);
         continue;
       }
-      // A shared joint: on the common path from the root, the same joint.
-      const DeviceModel& first = chains[0];
-      const bool on_path = !branched && j < first.dof() && first.links[j].name == link.name;
+      // A shared joint: before any joint of this chain's own, the same joint at
+      // the same place of an earlier chain, behind the same joints.
       bool same = false;
-      for (size_t k = 0; k < c; ++k) {
-        for (size_t l = 0; l < tree.joint_of[k].size(); ++l) {
-          if (tree.joint_of[k][l] == found->second)
-            same = same_joint(chains[k].links[l], link) && static_cast<int>(l) == j;
-        }
+      for (size_t k = 0; k < c && !same; ++k) {
+        const DeviceModel& other = chains[k];
+        same = !branched && j < other.dof() && other.links[j].name == link.name &&
+               same_joint(other.links[j], link);
+        for (int i = 0; same && i < j; ++i) same = other.links[i].name == m.links[i].name;
       }
-      if (!on_path || !same)
+      if (!same)
         throw InputError(fmt::format(
             "joint '{}' of the chain to tip '{}' is not the one its other chains share "
             "(another place on the path from the root, another geometry or other limits)",
@@ -248,11 +237,56 @@ DeviceTree make_tree(std::vector<DeviceModel> chains, const std::vector<std::str
   return tree;
 }
 
+DeviceTree parse_tree(const std::string& text, const std::string& origin,
+                      const std::vector<std::string>& tips, const std::string& root) {
+  std::vector<DeviceModel> chains;
+  for (const std::string& tip : tips) chains.push_back(parse_urdf(text, origin, tip, root));
+  DeviceTree tree = make_tree(std::move(chains), tips);
+  // A tip below another (or joined to it by fixed joints only) shares the
+  // fixed joints that carry the other's tool: calibrated_urdf could not write
+  // both tools.
+  for (size_t a = 0; a < tips.size(); ++a) {
+    for (size_t b = 0; b < tips.size(); ++b) {
+      if (a == b) continue;
+      const std::vector<int>& ja = tree.joint_of[a];
+      const std::vector<int>& jb = tree.joint_of[b];
+      if (ja.size() > jb.size() || !std::equal(ja.begin(), ja.end(), jb.begin())) continue;
+      bool joined = true;
+      try {
+        parse_urdf(text, origin, tips[b], tips[a]);
+      } catch (const InputError&) {
+        joined = false;
+      }
+      if (joined)
+        throw InputError(origin, 0, "--tip",
+                         fmt::format("tip '{}' lies on the path to tip '{}' (or is joined to it "
+                                     "by fixed joints only): give tips on separate branches",
+                                     tips[a], tips[b]));
+    }
+  }
+  return tree;
+}
+
 DeviceTree load_tree(const std::string& path, const std::vector<std::string>& tips,
                      const std::string& root) {
-  std::vector<DeviceModel> chains;
-  for (const std::string& tip : tips) chains.push_back(load_urdf(path, tip, root));
-  return make_tree(std::move(chains), tips);
+  return parse_tree(read_file(path, FileKind::kUrdf), path, tips, root);
+}
+
+Eigen::MatrixXd tree_random_readings(const DeviceTree& tree, int count, std::uint64_t seed) {
+  std::vector<std::uniform_real_distribution<double>> joint(static_cast<size_t>(tree.dof()));
+  for (size_t c = 0; c < tree.chains.size(); ++c) {
+    for (size_t l = 0; l < tree.joint_of[c].size(); ++l) {
+      const Link& link = tree.chains[c].links[l];
+      joint[static_cast<size_t>(tree.joint_of[c][l])] =
+          std::uniform_real_distribution<double>(link.lower, link.upper);
+    }
+  }
+  std::mt19937_64 rng(seed);
+  Eigen::MatrixXd out(count, tree.dof());
+  for (int i = 0; i < count; ++i) {
+    for (int j = 0; j < tree.dof(); ++j) out(i, j) = joint[static_cast<size_t>(j)](rng);
+  }
+  return out;
 }
 
 Log chain_log(const DeviceTree& tree, const Log& log, int chain) {
@@ -280,10 +314,7 @@ Log chain_log(const DeviceTree& tree, const Log& log, int chain) {
 }
 
 std::vector<double> tree_position_rms(const DeviceTree& tree, const Log& log) {
-  if (log.marker_count != static_cast<int>(tree.tips.size()) || log.dof() != tree.dof())
-    throw InputError(log.origin, 0, "header",
-                     fmt::format("the tree's {} tips and {} joints need q1..q{} and x1..z{}",
-                                 tree.tips.size(), tree.dof(), tree.dof(), tree.tips.size()));
+  check_tree_log(tree, log);
   std::vector<double> out;
   for (size_t c = 0; c < tree.chains.size(); ++c) {
     const DeviceModel& m = tree.chains[c];

@@ -21,29 +21,6 @@ namespace {
 using detail::RankVerdict;
 using detail::TreeData;
 
-// The tree's log checked: its joints, one marker a tip, positions only.
-void check_tree_log(const DeviceTree& tree, const Log& log) {
-  const auto bad = [&](const std::string& key, const std::string& why) {
-    throw InputError(log.origin, log.line.empty() ? 0 : log.line[0], key, why);
-  };
-  if (log.dof() != tree.dof())
-    bad("header", fmt::format("{} joint columns for a tree of {} joints ({})", log.dof(),
-                              tree.dof(), fmt::join(tree.joints, ", ")));
-  if (log.marker_count != static_cast<int>(tree.tips.size()))
-    bad("header", fmt::format("{} tips ({}) need the points x1, y1, z1 .. x{}, y{}, z{}; the log "
-                              "has {}",
-                              tree.tips.size(), fmt::join(tree.tips, ", "), tree.tips.size(),
-                              tree.tips.size(), tree.tips.size(),
-                              log.marker_count ? fmt::format("{} points", log.marker_count)
-                                               : std::string("none")));
-  for (bool e : log.has_ext) {
-    if (e) bad("ext", "external encoders on a tree: fit each joint's transmission on its chain");
-  }
-  if (log.has_distance || log.has_orientation || log.has_position || log.has_point || log.has_plane)
-    bad("header", "a tree's log measures its tips' points (x1, y1, z1, ...) and nothing else");
-  if (log.any_direction()) bad("dir", "approach directions on a tree: not supported yet");
-}
-
 // The rows' weights, joint values and measured points of each chain.
 TreeData tree_data(const DeviceTree& tree, const Log& log, bool force,
                    std::vector<std::string>& notes) {
@@ -86,15 +63,27 @@ void tree_points(const DeviceTree& tree, const TreeData& data, const Eigen::Vect
 // points far from the model's): the base registered onto every tip's points in
 // closed form. Returns whether it was.
 bool register_tree_frame(const DeviceTree& tree, const TreeData& data, Eigen::VectorXd& values,
-                         double length_scale, std::vector<std::string>& notes) {
+                         double length_scale, const std::vector<std::string>& fix,
+                         std::vector<std::string>& notes) {
   if (!tree.chains[0].base_is_pose()) return false;
+  for (int k = 0; k < kPoseSlots; ++k) {  // a base held (--fix) is not moved
+    if (std::count(fix.begin(), fix.end(), tree.parameters[static_cast<size_t>(k)].name))
+      return false;
+  }
   Eigen::Matrix3Xd predicted, measured;
   tree_points(tree, data, values, predicted, measured);
   const double before = std::sqrt((predicted - measured).colwise().squaredNorm().mean());
   const bool given = std::any_of(tree.chains[0].base.begin(), tree.chains[0].base.end(),
                                  [](double v) { return v != 0; });
   if (given && before < 0.01 * length_scale) return false;
-  const Registration reg = register_points(predicted, measured);
+  Registration reg;
+  try {
+    reg = register_points(predicted, measured);
+  } catch (const InputError& e) {
+    notes.push_back(std::string("the measurement frame could not be registered in closed form (") +
+                    e.what() + "): Levenberg-Marquardt starts from the model's base");
+    return false;
+  }
   const Frame<double> B =
       pose_frame(values[0], values[1], values[2], values[3], values[4], values[5]);
   const Frame<double> moved = Frame<double>{reg.R, reg.t} * B;
@@ -106,34 +95,6 @@ bool register_tree_frame(const DeviceTree& tree, const TreeData& data, Eigen::Ve
       "mm before, {:.3f} mm after)",
       tree.tips.size(), 1e3 * before, 1e3 * reg.rms));
   return true;
-}
-
-// The candidates in the rank test's order, tree slots.
-std::vector<int> tree_candidates(const DeviceTree& tree, const std::vector<std::string>& fix,
-                                 bool frame_unknown) {
-  std::vector<int> links, tools, base;
-  std::map<std::string, bool> named;
-  for (const std::string& f : fix) named[f] = false;
-  for (size_t c = 0; c < tree.chains.size(); ++c) {
-    for (int slot : candidate_slots(tree.chains[c], {}, {})) {
-      const int t = tree.slot_of[c][static_cast<size_t>(slot)];
-      const ParameterInfo& p = tree.parameters[static_cast<size_t>(t)];
-      if (named.count(p.name)) {
-        named[p.name] = true;
-        continue;
-      }
-      std::vector<int>& to = p.joint == -1 ? base : p.joint <= -2 ? tools : links;
-      if (std::find(to.begin(), to.end(), t) == to.end()) to.push_back(t);
-    }
-  }
-  for (const auto& [name, used] : named) {
-    if (!used) throw InputError(fmt::format("--fix {}: not a parameter of the tree", name));
-  }
-  std::vector<int> out;
-  for (const auto* part :
-       frame_unknown ? std::array{&base, &tools, &links} : std::array{&links, &tools, &base})
-    out.insert(out.end(), part->begin(), part->end());
-  return out;
 }
 
 // The structural and the data's rank test: the identified slots, and why the
@@ -236,11 +197,77 @@ std::vector<double> tip_rms(const DeviceTree& tree, const TreeData& data,
 
 }  // namespace
 
+void check_tree_log(const DeviceTree& tree, const Log& log) {
+  const auto bad = [&](const std::string& key, const std::string& why) {
+    throw InputError(log.origin, log.line.empty() ? 0 : log.line[0], key, why);
+  };
+  if (log.dof() != tree.dof())
+    bad("header", fmt::format("{} joint columns for a tree of {} joints ({})", log.dof(),
+                              tree.dof(), fmt::join(tree.joints, ", ")));
+  if (log.marker_count != static_cast<int>(tree.tips.size()))
+    bad("header", fmt::format("{} tips ({}) need the points x1, y1, z1 .. x{}, y{}, z{}; the log "
+                              "has {}",
+                              tree.tips.size(), fmt::join(tree.tips, ", "), tree.tips.size(),
+                              tree.tips.size(), tree.tips.size(),
+                              log.marker_count ? fmt::format("{} point{}", log.marker_count,
+                                                             log.marker_count > 1 ? "s" : "")
+                                               : std::string("none")));
+  for (bool e : log.has_ext) {
+    if (e) bad("ext", "external encoders on a tree: fit each joint's transmission on its chain");
+  }
+  if (log.has_distance || log.has_orientation || log.has_position || log.has_point || log.has_plane)
+    bad("header", "a tree's log measures its tips' points (x1, y1, z1, ...) and nothing else");
+  if (log.any_direction()) bad("dir", "approach directions on a tree: not supported yet");
+}
+
+namespace detail {
+
+// The candidates in the rank test's order, tree slots.
+std::vector<int> tree_candidates(const DeviceTree& tree, const std::vector<std::string>& fix,
+                                 bool frame_unknown) {
+  std::vector<int> links, tools, base;
+  std::map<std::string, bool> named;
+  for (const std::string& f : fix) named[f] = false;
+  for (size_t c = 0; c < tree.chains.size(); ++c) {
+    for (int slot : candidate_slots(tree.chains[c], {}, {})) {
+      const int t = tree.slot_of[c][static_cast<size_t>(slot)];
+      const ParameterInfo& p = tree.parameters[static_cast<size_t>(t)];
+      if (named.count(p.name)) {
+        named[p.name] = true;
+        continue;
+      }
+      std::vector<int>& to = p.joint == -1 ? base : p.joint <= -2 ? tools : links;
+      if (std::find(to.begin(), to.end(), t) == to.end()) to.push_back(t);
+    }
+  }
+  for (const auto& [name, used] : named) {
+    if (!used) throw InputError(fmt::format("--fix {}: not a parameter of the tree", name));
+  }
+  std::vector<int> out;
+  for (const auto* part :
+       frame_unknown ? std::array{&base, &tools, &links} : std::array{&links, &tools, &base})
+    out.insert(out.end(), part->begin(), part->end());
+  return out;
+}
+
+}  // namespace detail
+
 TreeCalibration calibrate_tree(const DeviceTree& nominal, const Log& log,
                                const CalibrationOptions& options) {
   check_tree_log(nominal, log);
-  if (!options.joint_errors.empty())
-    throw InputError("--joint-errors on a tree: not supported yet (a single chain's)");
+  if (!options.joint_errors.empty() || !options.free.empty() || options.select)
+    throw InputError(fmt::format("{} on a tree: not supported yet (a single chain's)",
+                                 !options.joint_errors.empty() ? "--joint-errors"
+                                 : options.select              ? "--select"
+                                                               : "--free"));
+  // The dense Jacobian (no compression on a tree yet) within the single chain's bound.
+  if (3.0 * log.rows * static_cast<double>(nominal.tips.size()) * nominal.num_slots() *
+          sizeof(double) >
+      static_cast<double>(options.max_jacobian_bytes))
+    throw InputError(log.origin, 0, "rows",
+                     fmt::format("{} poses are more than a tree's fit holds in memory ({} MB "
+                                 "for its Jacobian): give fewer",
+                                 log.rows, options.max_jacobian_bytes >> 20));
   TreeCalibration out;
   out.poses = log.rows;
   const TreeData data = tree_data(nominal, log, options.force, out.notes);
@@ -253,7 +280,8 @@ TreeCalibration calibrate_tree(const DeviceTree& nominal, const Log& log,
     out.length_scale =
         std::max(std::sqrt((measured.colwise() - origin).colwise().squaredNorm().mean()), 1e-3);
   }
-  out.frame_registered = register_tree_frame(nominal, data, values, out.length_scale, out.notes);
+  out.frame_registered =
+      register_tree_frame(nominal, data, values, out.length_scale, options.fix, out.notes);
   const bool frame_unknown = nominal.chains[0].base_is_pose() &&
                              (out.frame_registered || std::all_of(nominal.chains[0].base.begin(),
                                                                   nominal.chains[0].base.end(),
@@ -273,12 +301,14 @@ TreeCalibration calibrate_tree(const DeviceTree& nominal, const Log& log,
   Eigen::VectorXd scale = Eigen::VectorXd::Ones(nominal.num_slots());
   for (const ParameterInfo& p : nominal.parameters)
     if (p.unit == ParameterUnit::kAngle) scale[p.slot] = out.length_scale;
-  const std::vector<int> order = tree_candidates(nominal, options.fix, frame_unknown);
+  const std::vector<int> order = detail::tree_candidates(nominal, options.fix, frame_unknown);
   const std::vector<int> identified =
       tree_identifiable(nominal, data, values, order, scale, options.dependency_tolerance, out);
   out.identified = static_cast<int>(identified.size());
   out.calibrated = nominal;
   if (identified.empty()) {
+    out.rms_after = out.rms_before;
+    out.errors_after = out.errors_before;
     out.status = CalibrationStatus::kRankDeficient;
     out.status_reason = "no parameter of the tree is identifiable from these points";
     return out;
@@ -318,6 +348,9 @@ TreeCalibration calibrate_tree(const DeviceTree& nominal, const Log& log,
     out.status_reason = fmt::format("{} parameters of the tree identified from {} poses",
                                     out.identified, out.poses);
   }
+  out.notes.push_back(
+      "a tree is fitted by plain least squares: no tolerance prior, model selection or robust "
+      "loss yet");
   return out;
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <string>
 #include <vector>
 
 #include "hapticcal/identification/tree.hpp"
@@ -39,5 +40,11 @@ TreeStack tree_stack(const DeviceTree& tree, const TreeData& data, const Eigen::
 ceres::CostFunction* tree_cost(const DeviceTree& tree, const TreeData& data);
 // Seeded random tree readings over the joint limits: each chain's joint values.
 std::vector<std::vector<Eigen::VectorXd>> tree_synthetic_joints(const DeviceTree& tree);
+
+// The candidates (tree slots, less `fix`: tree names; InputError for an
+// unknown one) in the rank test's order: base -> tools -> joints where the
+// measurement frame is unknown, joints -> tools -> base otherwise.
+std::vector<int> tree_candidates(const DeviceTree& tree, const std::vector<std::string>& fix,
+                                 bool frame_unknown);
 
 }  // namespace hapticcal::detail

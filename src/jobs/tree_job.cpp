@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
@@ -15,6 +16,19 @@
 
 namespace hapticcal {
 namespace {
+
+// The names of a URDF text's <link name="..."> (or '...') elements.
+std::set<std::string> link_names(const std::string& text) {
+  std::set<std::string> out;
+  const std::string open = "<link name=";
+  for (size_t at = text.find(open); at != std::string::npos; at = text.find(open, at + 1)) {
+    const size_t quote = at + open.size();
+    if (quote >= text.size() || (text[quote] != '"' && text[quote] != '\'')) continue;
+    const size_t to = text.find(text[quote], quote + 1);
+    if (to != std::string::npos) out.insert(text.substr(quote + 1, to - quote - 1));
+  }
+  return out;
+}
 
 // The URDF with every chain's calibrated joints, base and tool: calibrated_urdf
 // chain by chain, the later chains read from the measurement frame the first
@@ -34,14 +48,12 @@ std::string tree_urdf(const std::string& text, const std::string& origin, const 
         note.replace(at, yaml.size(), "gives the calibrated tree");
       if (std::find(notes.begin(), notes.end(), note) == notes.end()) notes.push_back(note);
     }
-    if (c == 0 && fit.calibrated.chains[0].base != std::array<double, 6>{}) {
-      // The measurement frame's link, if the first chain wrote one: the root of the others.
-      for (const char* name : {"hapticcal_measurement"}) {
-        try {
-          parse_urdf(out, origin, fit.calibrated.tips[1], name);
-          from = name;
-        } catch (const InputError&) {
-        }
+    if (c == 0) {
+      // The measurement frame's link the first chain wrote, if it wrote one
+      // (a name of its own: unique_name): the later chains are read from it.
+      const std::set<std::string> before = link_names(text);
+      for (const std::string& link : link_names(out)) {
+        if (link.find("measurement") != std::string::npos && !before.count(link)) from = link;
       }
     }
   }
@@ -148,10 +160,7 @@ CalibrateJob run_tree_calibrate_job(const CalibrateRequest& request,
     refuse("--markers", "with several tips, x<k> is tip k's point, not a marker of one body");
   CalibrateJob job;
   const std::string text = read_file(request.model, FileKind::kUrdf);
-  std::vector<DeviceModel> chains;
-  for (const std::string& tip : tips)
-    chains.push_back(parse_urdf(text, request.model, tip, request.root));
-  const DeviceTree nominal = make_tree(std::move(chains), tips);
+  const DeviceTree nominal = parse_tree(text, request.model, tips, request.root);
   const Log log = read_log(request.log, request.columns);
   if (request.out) job.out = std::make_unique<OutputSet>(*request.out, "calibrate");
   TreeCalibration fit = calibrate_tree(nominal, log, request.options);

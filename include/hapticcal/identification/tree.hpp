@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -46,9 +47,19 @@ struct DeviceTree {
 // on their common path from the root, or a chain with joint-error stages,
 // coupling, compliance or backlash (single-chain features, not yet on trees).
 DeviceTree make_tree(std::vector<DeviceModel> chains, const std::vector<std::string>& tips);
-// The chains root -> tip of a URDF, one a tip (load_urdf).
+// The chains root -> tip of a URDF's text, one a tip (parse_urdf); InputError
+// besides make_tree's for a tip on the path to another or joined to it by
+// fixed joints only (their tools could not both be written back).
+DeviceTree parse_tree(const std::string& text, const std::string& origin,
+                      const std::vector<std::string>& tips, const std::string& root = "");
+// The same from a file.
 DeviceTree load_tree(const std::string& path, const std::vector<std::string>& tips,
                      const std::string& root = "");
+
+// `count` readings of the tree, each joint uniform within its limits
+// (seeded: the same on every platform's std::mt19937_64; the distribution's
+// arithmetic is the standard library's).
+Eigen::MatrixXd tree_random_readings(const DeviceTree& tree, int count, std::uint64_t seed);
 
 // Chain c's log: its readings (the tree's columns of its joints) and its tip's
 // point (the tree log's marker c) as positions.
@@ -83,12 +94,17 @@ struct TreeCalibration {
 // the data's, in the order base -> tools -> joints where the measurement frame
 // is unknown (calibrate's rule) and joints -> tools -> base otherwise. Plain
 // least squares (no tolerance prior, no model selection). Uses of options:
-// fix (tree names), force, sigma, dependency_tolerance. InputError for a log
-// that does not fit the tree: its joint count, no x1..xK for K tips, external
-// encoders, distances or orientations, readings outside the limits (unless
-// forced).
+// fix (tree names), force, sigma, dependency_tolerance, max_jacobian_bytes.
+// InputError for a log check_tree_log refuses, readings outside the limits
+// (unless forced), a Jacobian beyond max_jacobian_bytes, and joint errors,
+// --free or --select (single-chain features).
 TreeCalibration calibrate_tree(const DeviceTree& nominal, const Log& log,
                                const CalibrationOptions& options);
+
+// A log that does not fit the tree: InputError naming the log, for its joint
+// count, no x1..xK for K tips, external encoders, directions, distances,
+// positions or orientations besides the tips' points.
+void check_tree_log(const DeviceTree& tree, const Log& log);
 
 // The RMS position error [m] of each tip of the tree over the log (x1..xK).
 std::vector<double> tree_position_rms(const DeviceTree& tree, const Log& log);
