@@ -302,6 +302,9 @@ TEST(Tree, BadTreesAndLogsAreRefused) {
   EXPECT_THROW(parse_tree(u, "two_arm.urdf", {"l_fore", "left_hand"}), InputError);
   EXPECT_THROW(parse_tree(u, "two_arm.urdf", {"left_hand", "l_fore"}), InputError);
   EXPECT_NO_THROW(parse_tree(u, "two_arm.urdf", {"right_hand", "l_fore"}));
+  // Tips moved by the same joints (a link and one fixed below it).
+  EXPECT_THROW(parse_tree(u, "two_arm.urdf", {"l_wrist_link", "left_hand"}), InputError);
+  EXPECT_THROW(parse_tree(u, "two_arm.urdf", {"left_hand", "l_wrist_link"}), InputError);
   // Every parameter held: nothing to fit, a status, no crash; a held base is
   // not registered either.
   CalibrationOptions all;

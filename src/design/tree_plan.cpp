@@ -112,7 +112,8 @@ Scaled identify(const DeviceTree& tree, const std::vector<Eigen::MatrixXd>& rows
 // when they do not determine every parameter.
 std::optional<Eigen::MatrixXd> covariance(const std::vector<Eigen::MatrixXd>& design,
                                           double sigma) {
-  const Eigen::Index k = design[0].cols();
+  const Eigen::Index k = design.empty() ? 0 : design[0].cols();
+  if (k == 0) return {};
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(k, k);
   for (const Eigen::MatrixXd& F : design) M += F.transpose() * F;
   M /= sigma * sigma;
@@ -166,6 +167,7 @@ std::vector<int> greedy(const std::vector<Eigen::MatrixXd>& pool, int poses,
         at = static_cast<int>(i);
       }
     }
+    if (at < 0) throw InputError("plan: the criterion is not finite for any candidate pose");
     const Eigen::Index row = static_cast<Eigen::Index>(at) * r;
     const Eigen::MatrixXd Gi = G.middleRows(row, r);
     const Eigen::MatrixXd S = I + Gi * C.middleRows(row, r).transpose();
@@ -188,6 +190,8 @@ std::vector<Eigen::MatrixXd> scaled_rows(const Scaled& s,
 TreePlan plan_tree(const DeviceTree& tree, const TreePlanOptions& options) {
   if (options.poses < 1 || options.poses > 100000)
     throw InputError(fmt::format("--poses {}: expected 1 to 100000", options.poses));
+  if (options.validation_poses < 1 || options.evaluation_poses < 1)
+    throw InputError("plan: the validation and evaluation samples need a pose each at least");
   if (options.criterion != PlanCriterion::kD && options.criterion != PlanCriterion::kI)
     throw InputError("--criterion: a tree's plan is D- or I-optimal");
   TreePlan out;
@@ -195,6 +199,9 @@ TreePlan plan_tree(const DeviceTree& tree, const TreePlanOptions& options) {
   const Eigen::MatrixXd pool = tree_random_readings(tree, out.pool, options.seed);
   const std::vector<Eigen::MatrixXd> raw = pose_rows(tree, pool);
   const Scaled s = identify(tree, raw, pool, out.held);
+  if (s.slots.empty())
+    throw InputError(
+        fmt::format("{}: the tips' points identify no parameter of the tree", tree.name));
   const int rows_a_pose = 3 * static_cast<int>(tree.chains.size());
   if (options.poses * rows_a_pose < static_cast<int>(s.slots.size()))
     throw InputError(fmt::format(

@@ -244,13 +244,19 @@ DeviceTree parse_tree(const std::string& text, const std::string& origin,
   DeviceTree tree = make_tree(std::move(chains), tips);
   // A tip below another (or joined to it by fixed joints only) shares the
   // fixed joints that carry the other's tool: calibrated_urdf could not write
-  // both tools.
+  // both tools. Conservative: a tip on a fixed branch of its own beside
+  // another's path is refused too.
   for (size_t a = 0; a < tips.size(); ++a) {
     for (size_t b = 0; b < tips.size(); ++b) {
       if (a == b) continue;
       const std::vector<int>& ja = tree.joint_of[a];
       const std::vector<int>& jb = tree.joint_of[b];
       if (ja.size() > jb.size() || !std::equal(ja.begin(), ja.end(), jb.begin())) continue;
+      if (ja == jb)
+        throw InputError(origin, 0, "--tip",
+                         fmt::format("tips '{}' and '{}' are moved by the same joints: measure "
+                                     "them as markers of one body (x1, y1, z1, ...) on one tip",
+                                     tips[a], tips[b]));
       bool joined = true;
       try {
         parse_urdf(text, origin, tips[b], tips[a]);

@@ -306,6 +306,7 @@ TreeCalibration calibrate_tree(const DeviceTree& nominal, const Log& log,
       tree_identifiable(nominal, data, values, order, scale, options.dependency_tolerance, out);
   out.identified = static_cast<int>(identified.size());
   out.calibrated = nominal;
+  out.calibrated.set_values(values);  // a registered base, as the parameters report it
   if (identified.empty()) {
     out.rms_after = out.rms_before;
     out.errors_after = out.errors_before;
