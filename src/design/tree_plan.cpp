@@ -81,14 +81,8 @@ Scaled identify(const DeviceTree& tree, const std::vector<Eigen::MatrixXd>& rows
   double sum = 0;
   for (const Eigen::Vector3d& p : points) sum += (p - centre).squaredNorm();
   const double length = std::max(std::sqrt(sum / static_cast<double>(points.size())), 1e-3);
-  out.scale = Eigen::VectorXd::Ones(tree.num_slots());
-  for (const ParameterInfo& p : tree.parameters)
-    if (p.unit == ParameterUnit::kAngle) out.scale[p.slot] = length;
-  const DeviceModel& first = tree.chains[0];
-  const bool frame_unknown =
-      first.base_is_pose() &&
-      std::all_of(first.base.begin(), first.base.end(), [](double v) { return v == 0; });
-  const std::vector<int> order = detail::tree_candidates(tree, {}, frame_unknown);
+  out.scale = detail::tree_column_scale(tree, length);
+  const std::vector<int> order = detail::tree_candidates(tree, {}, detail::tree_base_unset(tree));
   Eigen::MatrixXd J(static_cast<Eigen::Index>(rows.size()) * rows[0].rows(), tree.num_slots());
   for (size_t i = 0; i < rows.size(); ++i)
     J.middleRows(static_cast<Eigen::Index>(i) * rows[0].rows(), rows[0].rows()) = rows[i];

@@ -139,6 +139,19 @@ std::vector<std::vector<Eigen::VectorXd>> tree_synthetic_joints(const DeviceTree
   return out;
 }
 
+Eigen::VectorXd tree_column_scale(const DeviceTree& tree, double length) {
+  Eigen::VectorXd scale = Eigen::VectorXd::Ones(tree.num_slots());
+  for (const ParameterInfo& p : tree.parameters)
+    if (p.unit == ParameterUnit::kAngle) scale[p.slot] = length;
+  return scale;
+}
+
+bool tree_base_unset(const DeviceTree& tree) {
+  const DeviceModel& first = tree.chains[0];
+  return first.base_is_pose() &&
+         std::all_of(first.base.begin(), first.base.end(), [](double v) { return v == 0; });
+}
+
 }  // namespace detail
 
 Eigen::VectorXd DeviceTree::values() const {

@@ -283,9 +283,7 @@ TreeCalibration calibrate_tree(const DeviceTree& nominal, const Log& log,
   out.frame_registered =
       register_tree_frame(nominal, data, values, out.length_scale, options.fix, out.notes);
   const bool frame_unknown = nominal.chains[0].base_is_pose() &&
-                             (out.frame_registered || std::all_of(nominal.chains[0].base.begin(),
-                                                                  nominal.chains[0].base.end(),
-                                                                  [](double v) { return v == 0; }));
+                             (out.frame_registered || detail::tree_base_unset(nominal));
   out.rms_before = tip_rms(nominal, data, values, out.errors_before);
   const Eigen::VectorXd start = nominal.values();
   for (const ParameterInfo& p : nominal.parameters) {
@@ -298,9 +296,7 @@ TreeCalibration calibrate_tree(const DeviceTree& nominal, const Log& log,
     e.reason = "held (not a candidate)";
     out.parameters.push_back(e);
   }
-  Eigen::VectorXd scale = Eigen::VectorXd::Ones(nominal.num_slots());
-  for (const ParameterInfo& p : nominal.parameters)
-    if (p.unit == ParameterUnit::kAngle) scale[p.slot] = out.length_scale;
+  const Eigen::VectorXd scale = detail::tree_column_scale(nominal, out.length_scale);
   const std::vector<int> order = detail::tree_candidates(nominal, options.fix, frame_unknown);
   const std::vector<int> identified =
       tree_identifiable(nominal, data, values, order, scale, options.dependency_tolerance, out);

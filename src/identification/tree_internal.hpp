@@ -41,6 +41,13 @@ ceres::CostFunction* tree_cost(const DeviceTree& tree, const TreeData& data);
 // Seeded random tree readings over the joint limits: each chain's joint values.
 std::vector<std::vector<Eigen::VectorXd>> tree_synthetic_joints(const DeviceTree& tree);
 
+// Per tree slot, what its Jacobian column is divided by: `length` [m] for an
+// angle, 1 for a length.
+Eigen::VectorXd tree_column_scale(const DeviceTree& tree, double length);
+// The base a free pose the model leaves at zero (a URDF's root): the
+// measurement frame is the tracker's, unknown to the model.
+bool tree_base_unset(const DeviceTree& tree);
+
 // The candidates (tree slots, less `fix`: tree names; InputError for an
 // unknown one) in the rank test's order: base -> tools -> joints where the
 // measurement frame is unknown, joints -> tools -> base otherwise.
