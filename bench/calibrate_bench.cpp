@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <kdl/chainjnttojacsolver.hpp>
+#include <random>
 
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/study/simulation.hpp"
@@ -26,9 +27,41 @@ void calibrate_with(benchmark::State& state, const CalibrationOptions& options) 
   }
 }
 
-// The default: the tolerance prior, the significance cut and least squares
-// each fitted and cross-validated (issue 25: at most 3x the cut's ratio).
+// The default: the model search over the estimators, the joint-error families
+// that apply (compliance, harmonic) and the instrument's zero.
 void BM_Calibrate_Default(benchmark::State& state) { calibrate_with(state, {}); }
+
+// The search over the estimators alone (no joint-error family, the zero
+// fitted): the work of the default before the model search (the prior, the cut
+// and least squares each fitted and cross-validated).
+void BM_Calibrate_Estimators(benchmark::State& state) {
+  CalibrationOptions options;
+  options.joint_errors = {"none"};
+  options.free = {"instrument.zero"};
+  calibrate_with(state, options);
+}
+
+// One model, no search (--no-search: the tolerance prior).
+void BM_Calibrate_NoSearch(benchmark::State& state) {
+  CalibrationOptions options;
+  options.search = false;
+  calibrate_with(state, options);
+}
+
+// A 700-pose tracker problem: the Meca500 with its tracker positions (10 um),
+// the geometry and gear harmonics off, calibrated by the default's search.
+void BM_Calibrate_Tracker700(benchmark::State& state) {
+  const DeviceModel nominal = testing::meca500();
+  std::mt19937_64 rng(7);
+  const DeviceModel actual = testing::perturbed(nominal, rng, 5e-4);
+  SimulationNoise noise;
+  noise.sigma_position = 10e-6;
+  const Log log = simulate_log(actual, 700, noise, 3, /*distance=*/false, /*position=*/true);
+  for (auto _ : state) {
+    CalibrationResult r = calibrate(nominal, log, CalibrationOptions{});
+    benchmark::DoNotOptimize(r.kinematics.rms_after);
+  }
+}
 
 // The significance cut alone (--select, the default before issue 25).
 void BM_Calibrate_Select(benchmark::State& state) {
@@ -74,6 +107,9 @@ void BM_Simulate_DefaultTrial(benchmark::State& state) {
 }
 
 BENCHMARK(BM_Calibrate_Default)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Calibrate_Estimators)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Calibrate_NoSearch)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Calibrate_Tracker700)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Calibrate_Select)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Simulate_DefaultTrial)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_KdlPass200_Reference)->Unit(benchmark::kMillisecond);
@@ -82,5 +118,11 @@ BENCHMARK(BM_KdlPass200_Reference)->Unit(benchmark::kMillisecond);
 
 int main(int argc, char** argv) {
   return hapticcal::bench::ratio_main(
-      argc, argv, hapticcal::bench::Pairs{{"BM_Calibrate_Default", "BM_KdlPass200_Reference"}});
+      argc, argv,
+      hapticcal::bench::Pairs{{"BM_Calibrate_Default", "BM_KdlPass200_Reference"},
+                              {"BM_Calibrate_Default", "BM_Calibrate_Estimators"},
+                              {"BM_Calibrate_Tracker700", "BM_Calibrate_Estimators"},
+                              {"BM_Calibrate_Estimators", "BM_KdlPass200_Reference"},
+                              {"BM_Calibrate_NoSearch", "BM_KdlPass200_Reference"},
+                              {"BM_Calibrate_Tracker700", "BM_KdlPass200_Reference"}});
 }

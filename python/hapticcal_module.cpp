@@ -154,21 +154,20 @@ struct Calibration {
   py::object results;  // results.json, parsed
   std::vector<std::string> notes;
   std::vector<std::string> lines;  // the command line's summary (calibration_lines)
+  py::object search;               // results.json's model_search
 };
 
-Calibration calibrate(const std::variant<Model, std::string>& model_arg,
-                      const std::string& log_path, bool no_transmission, int samples,
-                      unsigned long long seed, std::optional<double> sigma,
-                      const std::optional<Names>& fix, const std::optional<Names>& free,
-                      const std::optional<Names>& point_distance, const Text& fixture_arg,
-                      bool keep_all, int folds, const std::optional<Names>& columns, bool force,
-                      std::optional<int> polynomial_order, double dependency_tolerance,
-                      const std::string& loss, bool strict, const Text& tip_arg,
-                      const Text& root_arg, const Text& out_arg, bool select,
-                      const std::optional<Names>& tolerance, std::optional<double> prior_scale,
-                      std::optional<double> encoder_resolution,
-                      const std::optional<Names>& joint_errors, const Text& tracker_arg,
-                      double clock_search, bool clock_drift, const Text& markers_arg) {
+Calibration calibrate(
+    const std::variant<Model, std::string>& model_arg, const std::string& log_path,
+    bool no_transmission, int samples, unsigned long long seed, std::optional<double> sigma,
+    const std::optional<Names>& fix, const std::optional<Names>& free,
+    const std::optional<Names>& point_distance, const Text& fixture_arg, bool keep_all, int folds,
+    const std::optional<Names>& columns, bool force, std::optional<int> polynomial_order,
+    double dependency_tolerance, const std::string& loss, bool strict, const Text& tip_arg,
+    const Text& root_arg, const Text& out_arg, bool select, const std::optional<Names>& tolerance,
+    std::optional<double> prior_scale, std::optional<double> encoder_resolution,
+    const std::optional<Names>& joint_errors, const Text& tracker_arg, double clock_search,
+    bool clock_drift, const Text& markers_arg, bool search, bool prior, int threads) {
   // The command line's job (jobs/calibrate_job.hpp), from keywords.
   CalibrateRequest request;
   request.tracker = text(tracker_arg);
@@ -203,6 +202,10 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
   options.dependency_tolerance = dependency_tolerance;
   options.keep_all = keep_all;
   options.select = select;
+  options.prior = prior;
+  options.search = search;
+  if (threads < 0) throw InputError("threads must not be negative (0: one a core)");
+  options.threads = threads;
   for (const std::string& item : names(tolerance)) add_tolerance(options.tolerances, item);
   if (prior_scale) options.tolerances.scale = prior_scale;
   options.folds = folds;
@@ -250,6 +253,7 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
   }
   c.lines = job.lines;
   c.results = parsed(json);
+  c.search = c.results.attr("get")("model_search");
   if (c.usable && !job.tree) c.model = Model{result.calibrated, "", "", ""};
   return c;
 }
@@ -509,6 +513,9 @@ PYBIND11_MODULE(hapticcal, m) {
                     "name -> dict(value, nominal, sd, identifiable, reason)")
       .def_readonly("results", &Calibration::results, "results.json of the command line, parsed")
       .def_readonly("notes", &Calibration::notes)
+      .def_readonly("search", &Calibration::search,
+                    "The model search: every candidate with its held-out RMS [m] and standard "
+                    "error, the one kept (results.json's model_search)")
       .def_readonly("lines", &Calibration::lines,
                     "The summary the command line prints, a line each");
 
@@ -521,9 +528,11 @@ PYBIND11_MODULE(hapticcal, m) {
         "select"_a = false, "tolerance"_a = py::none(), "prior_scale"_a = py::none(),
         "encoder_resolution"_a = py::none(), "joint_errors"_a = py::none(),
         "tracker"_a = py::none(), "clock_search"_a = 10.0, "clock_drift"_a = false,
-        "markers"_a = py::none(),
-        "hapticcal calibrate: the two-step identification of a log. Does not raise when the "
-        "calibration is not usable (the command line's exit 3): .usable is False, .model None.");
+        "markers"_a = py::none(), "search"_a = true, "prior"_a = false, "threads"_a = 0,
+        "hapticcal calibrate: the two-step identification of a log, its model found by the "
+        "model search (search=False: exactly the model the other keywords name). Does not raise "
+        "when the calibration is not usable (the command line's exit 3): .usable is False, "
+        ".model None.");
   m.def("evaluate", &evaluate, "model"_a, "log"_a, py::kw_only(), "columns"_a = py::none(),
         "point_distance"_a = py::none(), "fixture"_a = py::none(), "reference"_a = py::none(),
         "tip"_a = py::none(), "root"_a = py::none(), "register"_a = py::none(),

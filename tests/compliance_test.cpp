@@ -157,10 +157,18 @@ TEST(Compliance, JointComplianceIsRecoveredFromTrackerPositions) {
   for (int i = 0; i < actual.dof(); ++i) actual.links[i].compliance = loaded.links[i].compliance;
   const auto [cal, val, floor] = testing::held_out_study(actual, 300, 10e-6, 1);
 
-  const CalibrationResult geometric = calibrate(nominal, cal, CalibrationOptions{});
+  CalibrationOptions geometry_alone;
+  geometry_alone.joint_errors = {"none"};
+  const CalibrationResult geometric = calibrate(nominal, cal, geometry_alone);
   ASSERT_EQ(geometric.status, CalibrationStatus::kConverged) << geometric.status_reason;
   const double geometric_rms = evaluate(geometric.calibrated, val).position->rms;
   EXPECT_GT(geometric_rms, 3 * floor) << geometric_rms;
+  // The default's search finds the family by itself.
+  const CalibrationResult found = calibrate(nominal, cal, {});
+  ASSERT_EQ(found.status, CalibrationStatus::kConverged) << found.status_reason;
+  const std::vector<std::string>& families = found.kinematics.joint_error_families;
+  EXPECT_NE(std::find(families.begin(), families.end(), "compliance"), families.end());
+  EXPECT_LT(evaluate(found.calibrated, val).position->rms, 1.1 * floor);
 
   CalibrationOptions options;
   options.joint_errors = {"compliance"};

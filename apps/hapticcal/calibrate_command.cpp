@@ -18,6 +18,53 @@
 
 namespace hapticcal::cli {
 
+namespace {
+
+// What step 2 fits and how: parameters held or freed, the joint-error
+// families, the estimator, the prior's tolerances, the model search.
+void add_model_options(CLI::App* c, CalibrateOptions& o) {
+  c->add_option("--fix", o.fix, "Kinematic parameters held at nominal, e.g. j1.a,j2.d");
+  c->add_option(
+      "--joint-errors", o.joint_errors,
+      "Joint-error families fitted with the geometry, instead of those the search finds: "
+      "harmonic (first and second harmonic of each joint's angle, and of its motor's through a "
+      "capstan), compliance (each joint's deflection k tau under the gravity torque of the "
+      "model's masses), coupling (the coupling's coefficients between joints), backlash (an "
+      "offset per approach direction, from the log's dir<i> columns), or none; the geometry "
+      "alone is fitted beside them for comparison");
+  c->add_option("--free", o.free,
+                "Parameters added to the candidates, e.g. j2.beta (a beta is one by "
+                "default only where neighbouring joint axes are parallel)");
+  c->add_option("--point-distance", o.point_distance,
+                "A known distance between two fixture points of the log (column point): "
+                "A:B=METRES (repeatable)");
+  c->add_option("--fixture", o.fixture,
+                "Fixture file (YAML): known positions (points) and distances of the "
+                "log's fixture points");
+  c->add_flag("--keep-all", o.keep_all,
+              "Plain least squares: fit every identifiable parameter the data excite, "
+              "without the tolerance prior (the search compares least squares only)");
+  c->add_flag("--select", o.select,
+              "The significance cut: hold parameters whose change is below the 5 % "
+              "family-wise threshold (plain least squares on the rest)");
+  c->add_flag("--prior", o.prior,
+              "The tolerance prior: each parameter pulled toward nominal by its "
+              "tolerance, at the scale of highest evidence");
+  c->add_flag("--no-search", o.no_search,
+              "Fit exactly the model the other options name instead of searching: the "
+              "joint-error families of --joint-errors (none if not given), the "
+              "instrument's zero fitted (--fix instrument.zero: held), the estimator of "
+              "--keep-all, --select or --prior (default the tolerance prior)");
+  c->add_option("--tolerance", o.tolerances,
+                "A tolerance of the prior, NAME=SD in SI units: length (default 0.0005 "
+                "m), angle (0.005 rad) or a parameter, e.g. j2.a=0.001 (repeatable)");
+  c->add_option("--prior-scale", o.prior_scale,
+                "The common scale of the tolerances (default: the one of highest evidence)")
+      ->check(within(1e-6, 1e6));
+}
+
+}  // namespace
+
 CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
   auto* calibrate = app.add_subcommand("calibrate", "Two-step identification from a log");
   calibrate
@@ -71,37 +118,7 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
                    "The external encoders' count [rad]: a step-1 fit that predicts left-out "
                    "samples worse than 2 counts is flagged (suspect)")
       ->check(within(1e-12, 1, "rad"));
-  calibrate->add_option("--fix", o.fix, "Kinematic parameters held at nominal, e.g. j1.a,j2.d");
-  calibrate->add_option(
-      "--joint-errors", o.joint_errors,
-      "Joint-error families fitted with the geometry: harmonic (first and second harmonic of each "
-      "joint's angle, and of its motor's through a capstan), compliance (each joint's deflection "
-      "k tau under the gravity torque of the model's masses), coupling (the coupling's "
-      "coefficients between joints), backlash (an offset per approach direction, from the log's "
-      "dir<i> columns); the calibration without them is run for comparison");
-  calibrate->add_option("--free", o.free,
-                        "Parameters added to the candidates, e.g. j2.beta (a beta is one by "
-                        "default only where neighbouring joint axes are parallel)");
-  calibrate->add_option("--point-distance", o.point_distance,
-                        "A known distance between two fixture points of the log (column point): "
-                        "A:B=METRES (repeatable)");
-  calibrate->add_option("--fixture", o.fixture,
-                        "Fixture file (YAML): known positions (points) and distances of the "
-                        "log's fixture points");
-  calibrate->add_flag("--keep-all", o.keep_all,
-                      "Plain least squares: fit every identifiable parameter the data excite, "
-                      "without the tolerance prior");
-  calibrate->add_flag("--select", o.select,
-                      "The significance cut instead of the tolerance prior: hold parameters "
-                      "whose change is below the 5 % family-wise threshold (plain least "
-                      "squares on the rest)");
-  calibrate->add_option("--tolerance", o.tolerances,
-                        "A tolerance of the prior, NAME=SD in SI units: length (default 0.0005 "
-                        "m), angle (0.005 rad) or a parameter, e.g. j2.a=0.001 (repeatable)");
-  calibrate
-      ->add_option("--prior-scale", o.prior_scale,
-                   "The common scale of the tolerances (default: the one of highest evidence)")
-      ->check(within(1e-6, 1e6));
+  add_model_options(calibrate, o);
   calibrate
       ->add_option("--folds", o.folds,
                    "K of the K-fold cross-validated (held-out) RMS by pose (default 5; 0: none)")
@@ -167,6 +184,8 @@ int run_calibrate(const CalibrateOptions& o) {
   options.dependency_tolerance = o.tolerance;
   options.keep_all = o.keep_all;
   options.select = o.select;
+  options.prior = o.prior;
+  options.search = !o.no_search;
   for (const std::string& item : o.tolerances) hapticcal::add_tolerance(options.tolerances, item);
   if (o.prior_scale > 0) options.tolerances.scale = o.prior_scale;
   options.folds = o.folds;

@@ -21,6 +21,7 @@ struct CalibrateOptions {
   std::string model, log, columns, out = "hapticcal-out/calibrate", fix, free, joint_errors;
   ChainOptions chain;
   bool no_transmission = false, force = false, keep_all = false, select = false, strict = false;
+  bool prior = false, no_search = false;
   std::vector<std::string> tolerances;  // NAME=SD
   double prior_scale = 0;               // 0: by the evidence
   std::string loss = "cauchy";

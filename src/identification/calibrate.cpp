@@ -35,7 +35,6 @@ using detail::CalibrationRun;
 using detail::check_encoder_readings;
 using detail::check_joint_limits;
 using detail::check_reach;
-using detail::compare_without_joint_errors;
 using detail::conclude_step_one;
 using detail::fold_joint_errors;
 using detail::kFixtureIterations;
@@ -45,7 +44,7 @@ using detail::measurement_rms;
 using detail::names_of;
 using detail::offer_joint_errors;
 using detail::position_rss;
-using detail::refuse_implausible;
+using detail::prepare_model;
 using detail::residuals_at;
 using detail::rows_of;
 using detail::RowsOf;
@@ -224,17 +223,20 @@ void check_options(const CalibrationOptions& options) {
   }
   for (const std::string& family : options.joint_errors) {
     if (family != "harmonic" && family != "compliance" && family != "coupling" &&
-        family != "backlash") {
+        family != "backlash" && family != "none") {
       throw InputError(
           fmt::format("--joint-errors: '{}' is not a joint-error family (harmonic, compliance, "
-                      "coupling, backlash)",
+                      "coupling, backlash, or none)",
                       printable(family)));
     }
+    if (family == "none" && options.joint_errors.size() > 1) {
+      throw InputError("--joint-errors: none names no family and goes alone");
+    }
   }
-  if (options.keep_all && options.select) {
+  if (options.keep_all + options.select + options.prior > 1) {
     throw InputError(
-        "--keep-all and --select exclude each other (plain least squares or the "
-        "significance cut)");
+        "--keep-all, --select and --prior exclude each other (plain least squares, the "
+        "significance cut or the tolerance prior)");
   }
   const Tolerances& t = options.tolerances;
   // A tolerance or scale is positive and within 1e-9..1e3 (m, rad): beyond, the
@@ -338,6 +340,7 @@ void check_nominal(CalibrationRun& run) {
   const Eigen::VectorXd r0 =
       residuals_at(s, run.step2_nominal.kinematic_parameters(), nominal_joints, kind,
                    run.problem.measured, run.problem.weights);
+  run.nominal_joints = nominal_joints;
   for (Eigen::Index i = 0; i < r0.size(); ++i) {
     if (std::isfinite(r0[i] * r0[i])) continue;
     if (kind.labels || i >= static_cast<Eigen::Index>(m) * d) {  // no measured value to blame
@@ -408,10 +411,7 @@ void identify_and_solve(CalibrationRun& run) {
   fit.robust = reweight_outliers(run.problem, run.identified, run.solution, run.options.loss,
                                  run.options.outlier_alpha, run.iterations);
   name_outliers(fit.robust, run.log, run.result.poses, run.result.notes);
-  // The residuals and Jacobian at the fit, for selection, cross-validation and statistics.
-  const ChainStructure s = run.model.structure();
-  run.data = stack(s, run.solution.parameters, run.problem.joints, run.kind(), run.problem.measured,
-                   run.problem.weights, run.problem.compressed);
+  detail::restack(run);
   for (const ParameterInfo& pi : run.model.parameter_info()) run.name[pi.slot] = pi.name;
 }
 
@@ -591,15 +591,48 @@ void conclude(CalibrationRun& run) {
     result.status = CalibrationStatus::kImplausible;
     result.status_reason = unfoldable;
   }
-  refuse_implausible(run);
   refuse_suspect(result, run.options.strict);
 }
 
 }  // namespace
 
-// The stages in order: step 1 (fit_transmissions), step 2's problem
+namespace detail {
+
+void step_one(CalibrationRun& run) {
+  run.checks_notes = run.result.notes.size();
+  prepare_poses(run);
+  run.model = run.nominal;
+  run.result.transmissions = fit_transmissions(run.model, run.poses, run.options, run.result.notes);
+}
+
+void restack(CalibrationRun& run) {
+  // The residuals and Jacobian at the fit, for selection, cross-validation and statistics.
+  run.data = stack(run.model.structure(), run.solution.parameters, run.problem.joints, run.kind(),
+                   run.problem.measured, run.problem.weights, run.problem.compressed);
+}
+
+void prepare_model(CalibrationRun& run) {
+  offer_instrument_zero(run);
+  offer_joint_errors(run);
+  build_problem(run);
+  identify_and_solve(run);
+}
+
+CalibrationResult conclude_model(CalibrationRun& run) {
+  finish_solution(run);
+  fit_statistics(run);
+  for (const ParameterInfo& pi : run.model.parameter_info())
+    run.fit().parameters.push_back(parameter_estimate(run, pi));
+  conclude(run);
+  return std::move(run.result);
+}
+
+}  // namespace detail
+
+// The stages in order: step 1 (fit_transmissions), then the model search
+// (search_model) or the one model the options name: step 2's problem
 // (kinematic_problem, register_measurement_frame), analyze_identifiability,
-// solve_kinematics with the robust reweighting, the model selection, and the
+// solve_kinematics with the robust reweighting, the estimator, and the
 // information of the fit.
 CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options) {
@@ -619,24 +652,16 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   CalibrationRun run(nominal, log, options);
   check_joint_limits(log, nominal, options.force, run.result.notes);
   check_encoder_readings(log);
-  prepare_poses(run);
-  // Step 1: transmissions from the external encoders.
-  run.model = nominal;
-  run.result.transmissions = fit_transmissions(run.model, run.poses, options, run.result.notes);
+  // The poses, and step 1: transmissions from the external encoders.
+  detail::step_one(run);
   if (step_one_only) return conclude_step_one(run);
-  offer_instrument_zero(run);
-  offer_joint_errors(run);
+  if (options.search) return detail::search_model(run);
   // Step 2: kinematic parameters from the compensated readings.
-  build_problem(run);
-  identify_and_solve(run);
-  choose_parameters(run);
-  finish_solution(run);
-  fit_statistics(run);
-  for (const ParameterInfo& pi : run.model.parameter_info())
-    run.fit().parameters.push_back(parameter_estimate(run, pi));
-  conclude(run);
-  if (!options.joint_errors.empty()) compare_without_joint_errors(nominal, log, options, run);
-  return std::move(run.result);
+  prepare_model(run);
+  detail::apply_estimator(run, options.keep_all ? Estimator::kLeastSquares
+                               : options.select ? Estimator::kCut
+                                                : Estimator::kPrior);
+  return detail::conclude_model(run);
 }
 
 }  // namespace hapticcal

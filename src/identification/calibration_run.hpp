@@ -24,7 +24,8 @@ constexpr int kFixtureIterations = 500;  // for fixture points and planes
 struct CalibrationRun {
   const DeviceModel& nominal;
   const Log& log;
-  const CalibrationOptions& options;
+  // A copy: the model search runs each candidate model with options of its own.
+  CalibrationOptions options;
   // Owned: a copy of the run (the choice between the prior, the significance cut
   // and least squares tries each on one) is a whole calibration of its own.
   CalibrationResult result;
@@ -41,8 +42,10 @@ struct CalibrationRun {
   std::vector<int> identified;
   std::map<int, std::string> reason;  // held candidates: why
   std::vector<int> held_by_selection;
-  Eigen::VectorXd scale;          // per slot, from the identifiability analysis
-  Eigen::VectorXd plain_weights;  // before the robust reweighting
+  Eigen::VectorXd scale;                        // per slot, from the identifiability analysis
+  std::vector<Eigen::VectorXd> nominal_joints;  // the poses' joint values by the nominal model
+  std::size_t checks_notes = 0;                 // result.notes before step 1's (the log's checks)
+  Eigen::VectorXd plain_weights;                // before the robust reweighting
   KinematicSolution solution;
   Stack data;                       // residuals and Jacobian at the solution
   std::map<int, std::string> name;  // slot -> parameter name
@@ -63,10 +66,29 @@ struct CalibrationRun {
   RowsOf kind() const { return rows_of(problem); }
 };
 
-// Stages of calibrate issue 25 added (plausibility.cpp, joint_errors.cpp).
-// The default's plausibility check: a link parameter (not next to the set-up)
-// moved beyond kImplausiblePriorSds tolerances makes the result implausible.
-void refuse_implausible(CalibrationRun& run);
+// The poses (repeats averaged, --samples drawn) and step 1 on them
+// (calibrate.cpp): run.model is then the nominal with the fitted transmissions.
+void step_one(CalibrationRun& run);
+// The stages of one model (calibrate.cpp): step 2's problem up to its
+// least-squares fit (the instrument's zero and the joint-error families the
+// options name offered, the frame registered, the nominal checked, the rank
+// test, Levenberg-Marquardt with the robust reweighting) ...
+void prepare_model(CalibrationRun& run);
+// run.data again: the residuals and Jacobian at run.solution (the search
+// releases them from the family fits it does not keep).
+void restack(CalibrationRun& run);
+// ... and, once an estimator has been applied (apply_estimator), the
+// solution's cross-validation, statistics, estimates, notes and status.
+CalibrationResult conclude_model(CalibrationRun& run);
+// The model search (model_search.cpp, README "Model search"): the candidate
+// models compared on held-out poses, the one kept concluded.
+CalibrationResult search_model(CalibrationRun& run);
+// The RMS [m] of the nominal model on the run's poses with `free` slots (the
+// set-up's: base, tool, an instrument's zero) fitted by Levenberg-Marquardt
+// (input_checks.cpp), and the fitted parameter vector.
+double nominal_rms_with(const CalibrationRun& run, const std::vector<int>& free,
+                        Eigen::VectorXd* fitted = nullptr);
+
 // A log of external encoders only: step 1 is the calibration.
 CalibrationResult conclude_step_one(CalibrationRun& run);
 // The joint-error stages of options.joint_errors on run.model and step2_nominal.
@@ -74,9 +96,12 @@ void offer_joint_errors(CalibrationRun& run);
 // The fitted stages folded into the links' transmissions; joint_errors cleared.
 // Returns why a stage cannot be a transmission ("" if every one can).
 std::string fold_joint_errors(DeviceModel& model);
-// The same calibration without the joint errors: its CV RMS and a note.
-void compare_without_joint_errors(const DeviceModel& nominal, const Log& log,
-                                  const CalibrationOptions& options, CalibrationRun& run);
+// The joint-error families that apply to the run's model and log: compliance
+// (a model with gravity), harmonic (a turning joint whose angle is its own
+// reading), coupling (coefficients between joints), backlash (the log's dir<i>).
+std::vector<std::string> applicable_families(const CalibrationRun& run);
+// Whether the model's coupling has a coefficient between two joints.
+bool coupled_between(const DeviceModel& model);
 
 // Whether a held candidate's reason is that these poses do not excite it
 // (identifiability.cpp): identifiable in general, unseen by this log.
@@ -97,9 +122,9 @@ inline Eigen::VectorXd angles_near(const DeviceModel& model, Eigen::VectorXd par
   return parameters;
 }
 
-// What step 2 changes (--keep-all, --select, or the default's choice between
-// the tolerance prior, the significance cut and least squares).
-void choose_parameters(CalibrationRun& run);
+// What step 2 changes: the tolerance prior, the significance cut or least
+// squares, from the least-squares fit of prepare_model.
+void apply_estimator(CalibrationRun& run, Estimator estimator);
 // The K-fold cross-validated RMS of the run's fit, with the prior's rows if it
 // has them (NaN with the reason if it cannot be computed).
 CrossValidation held_out(const CalibrationRun& run);

@@ -17,6 +17,7 @@
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/registration.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "identification/calibration_run.hpp"
 #include "identification/measurement_cost.hpp"
 #include "identification/solver_options.hpp"
 #include "identification/stack.hpp"
@@ -104,7 +105,7 @@ namespace {
 double rms_with_fitted(const ChainStructure& s, Eigen::VectorXd p, const std::vector<int>& free,
                        const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind,
                        const RowMatrix& measured, const Eigen::VectorXd& weights, double rows,
-                       bool compressed) {
+                       bool compressed, Eigen::VectorXd* fitted = nullptr) {
   std::vector<int> constant;
   for (int k = 0; k < s.num_slots(); ++k) {
     if (std::find(free.begin(), free.end(), k) == free.end()) constant.push_back(k);
@@ -115,6 +116,7 @@ double rms_with_fitted(const ChainStructure& s, Eigen::VectorXd p, const std::ve
   problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
   ceres::Solver::Summary summary;
   ceres::Solve(detail::levenberg_marquardt(50), &problem, &summary);
+  if (fitted) *fitted = p;
   return measurement_rms(position_rss(residuals_at(s, p, joints, kind, measured, weights), kind),
                          rows);
 }
@@ -122,6 +124,16 @@ double rms_with_fitted(const ChainStructure& s, Eigen::VectorXd p, const std::ve
 }  // namespace
 
 namespace detail {
+
+double nominal_rms_with(const CalibrationRun& run, const std::vector<int>& free,
+                        Eigen::VectorXd* fitted) {
+  DeviceModel registered = run.step2_nominal;
+  registered.base = run.problem.model.base;
+  const ChainStructure s = registered.structure();
+  return rms_with_fitted(s, registered.kinematic_parameters(), free, run.nominal_joints, run.kind(),
+                         run.problem.measured, run.problem.weights, run.fit().rows,
+                         run.problem.compressed, fitted);
+}
 
 // A nominal error beyond kImplausibleErrorFraction of the reach, even with what
 // a measurement set-up normally leaves unknown fitted - the base pose first,

@@ -140,7 +140,7 @@ bool has_family(const CalibrationOptions& options, const char* family) {
 
 // The joint-error families of step 2 (CalibrationOptions::joint_errors).
 void offer_joint_errors(CalibrationRun& run) {
-  if (run.options.joint_errors.empty()) return;
+  if (run.options.joint_errors.empty() || run.options.joint_errors.front() == "none") return;
   run.fit().joint_error_families = run.options.joint_errors;
   if (has_family(run.options, "harmonic")) offer_harmonics(run);
   if (has_family(run.options, "compliance")) offer_compliance(run);
@@ -177,39 +177,34 @@ std::string fold_joint_errors(DeviceModel& model) {
   return refused;
 }
 
-// What the joint-error families bought: the same calibration without them,
-// its cross-validated RMS beside the run's.
-void compare_without_joint_errors(const DeviceModel& nominal, const Log& log,
-                                  const CalibrationOptions& options, CalibrationRun& run) {
-  // The options without the joint errors' names (they name no parameter there).
-  CalibrationOptions plain = options;
-  plain.joint_errors.clear();
-  std::set<std::string> names;
-  const std::vector<ParameterInfo> info = run.problem.model.parameter_info();
-  for (const ParameterInfo& p : info) {
-    const int dof = run.problem.model.dof();
-    if (joint_error_parameter(p.joint, dof)) names.insert(p.name);
+bool coupled_between(const DeviceModel& m) {
+  for (int i = 0; i < m.dof() && m.coupled(); ++i) {
+    for (int k = 0; k < m.dof(); ++k) {
+      if (i != k && m.coupling(i, k) != 0) return true;
+    }
   }
-  const auto named = [&](const std::string& n) { return names.count(n) > 0; };
-  std::erase_if(plain.fix, named);
-  std::erase_if(plain.free, named);
-  std::erase_if(plain.tolerances.by_name, [&](const auto& item) { return named(item.first); });
-  KinematicFit& fit = run.fit();
-  CalibrationResult without;
-  try {
-    without = calibrate(nominal, log, plain);
-  } catch (const InputError& e) {
-    run.result.notes.push_back(
-        fmt::format("joint errors ({}): the calibration without them could not run: {}",
-                    fmt::join(options.joint_errors, ", "), e.what()));
-    return;
+  return false;
+}
+
+std::vector<std::string> applicable_families(const CalibrationRun& run) {
+  const DeviceModel& m = run.model;
+  std::vector<std::string> out;
+  if (m.gravity.norm() > 0) out.push_back("compliance");
+  bool own_reading = false;  // a turning joint whose angle is its own reading alone
+  for (int i = 0; i < m.dof(); ++i) {
+    own_reading = own_reading ||
+                  (!m.links[i].prismatic() &&
+                   (!m.coupled() || (m.coupling.row(i) == Eigen::RowVectorXd::Unit(m.dof(), i) &&
+                                     m.coupling.col(i) == Eigen::VectorXd::Unit(m.dof(), i))));
   }
-  fit.cv_rms_without_joint_errors = without.kinematics.cv_rms;
-  run.result.notes.push_back(fmt::format(
-      "joint errors ({}): held-out RMS {:.4f} mm with them, {:.4f} mm without (the geometry "
-      "alone, {})",
-      fmt::join(options.joint_errors, ", "), fit.cv_rms * 1e3, without.kinematics.cv_rms * 1e3,
-      to_string(without.status)));
+  if (own_reading) out.push_back("harmonic");
+  if (coupled_between(m)) out.push_back("coupling");
+  bool sides = false;
+  for (int i = 0; i < m.dof(); ++i) {
+    sides = sides || (run.poses.directed(i) && run.poses.direction.col(i).any());
+  }
+  if (sides) out.push_back("backlash");
+  return out;
 }
 
 }  // namespace hapticcal::detail

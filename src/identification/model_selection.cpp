@@ -10,12 +10,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <numeric>
 #include <optional>
 #include <random>
+#include <tuple>
 
 #include "hapticcal/identification/identification.hpp"
+#include "identification/held_out.hpp"
 #include "identification/measurement_cost.hpp"
 #include "identification/stack.hpp"
 
@@ -24,14 +27,9 @@ namespace {
 
 using detail::rows_of;
 using detail::RowsOf;
+using detail::solve_normal;
 
 constexpr double kInfinite = std::numeric_limits<double>::infinity();
-// A normal matrix (equilibrated to a unit diagonal) with a pivot below this is
-// singular: the poses cannot determine the parameters. A fold's normal matrix
-// is the whole one less the fold's rows, so a singular one keeps pivots of
-// rounding size (~1e-16); a Meca500 set's (condition number up to 1500 of the
-// scaled Jacobian) has pivots above 1e-7.
-constexpr double kSingularPivot = 1e-12;
 // The selection's path is followed this many models past the one kept (for
 // the record: the cross-validated error rising as supported parameters go).
 constexpr int kRecordedBeyond = 3;
@@ -44,20 +42,6 @@ Eigen::VectorXd column_scale(const KinematicProblem& problem) {
     if (pi.unit == ParameterUnit::kAngle) scale[pi.slot] = problem.length_scale;
   }
   return scale;
-}
-
-// The solution of G x = b for a symmetric positive semi-definite G, or nothing
-// if G is numerically singular.
-std::optional<Eigen::VectorXd> solve_normal(const Eigen::MatrixXd& G, const Eigen::VectorXd& b) {
-  if (G.rows() == 0) return Eigen::VectorXd();
-  const Eigen::VectorXd diagonal = G.diagonal();
-  if (!(diagonal.minCoeff() > 0)) return std::nullopt;
-  const Eigen::VectorXd e = diagonal.cwiseSqrt().cwiseInverse();
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(e.asDiagonal() * G * e.asDiagonal());
-  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > kSingularPivot)) {
-    return std::nullopt;
-  }
-  return Eigen::VectorXd(e.asDiagonal() * ldlt.solve(e.asDiagonal() * b));
 }
 
 std::vector<Eigen::Index> indices(const std::vector<int>& v) {
@@ -223,6 +207,12 @@ double student_t_tail(double t, double dof) {
 
 double significance_threshold(double alpha, int parameters, double dof) {
   if (!(dof >= 1)) return kInfinite;  // no residual freedom: nothing is significant
+  // The model search asks for the same few thresholds many times (each fold's
+  // elimination): remembered per thread.
+  thread_local std::map<std::tuple<double, int, double>, double> known;
+  const auto key = std::make_tuple(alpha, parameters, dof);
+  if (const auto it = known.find(key); it != known.end()) return it->second;
+  if (known.size() > 100000) known.clear();
   // P(|T| > t) = alpha / k, by bisection on x = nu / (nu + t^2) in (0, 1].
   const double p = alpha / std::max(parameters, 1);
   double lo = 0, hi = 1;
@@ -231,7 +221,7 @@ double significance_threshold(double alpha, int parameters, double dof) {
     (incomplete_beta(x, dof / 2, 0.5) < p ? lo : hi) = x;
   }
   const double x = 0.5 * (lo + hi);
-  return std::sqrt(dof * (1 - x) / x);
+  return known[key] = std::sqrt(dof * (1 - x) / x);
 }
 
 namespace detail {

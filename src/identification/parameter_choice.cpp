@@ -1,6 +1,6 @@
 // What step 2 changes: least squares (--keep-all), the significance cut
-// (--select, the model selection), the tolerance prior (prior.cpp), or by
-// default the one of the three that predicts held-out poses best.
+// (--select, the model selection) or the tolerance prior (prior.cpp); the
+// model search (model_search.cpp) chooses between them by held-out error.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -149,65 +149,21 @@ CrossValidation held_out(const CalibrationRun& run) {
       run.options.folds >= 2 ? run.options.folds : kDefaultFolds, run.options.seed);
 }
 
-// What step 2 changes. --keep-all: least squares; --select: the significance
-// cut. The default: the tolerance prior, the significance cut and least
-// squares are each fitted, and the one whose cross-validated RMS is lowest is
-// kept (the prior where none can be cross-validated: fixture logs, --folds 0;
-// and where the poses leave a parameter unexcited, which only the prior holds).
-void choose_parameters(CalibrationRun& run) {
+void apply_estimator(CalibrationRun& run, Estimator estimator) {
   KinematicFit& fit = run.fit();
-  if (run.options.keep_all) {
-    fit.selection_note = "off (--keep-all)";
-    return;
+  fit.estimator = estimator;
+  switch (estimator) {
+    case Estimator::kLeastSquares:
+      fit.selection_note = "off: least squares";
+      return;
+    case Estimator::kCut:
+      select_parameters(run);
+      return;
+    case Estimator::kPrior:
+      fit.selection_note = "off: the tolerance prior";
+      apply_prior(run);
+      return;
   }
-  if (run.options.select) {
-    select_parameters(run);
-    return;
-  }
-  fit.selection_note = "off: the tolerance prior (--select: the significance cut)";
-  // Parameters these poses do not excite: only the prior can hold them (least
-  // squares and the cut would be rank-deficient).
-  const bool any_unexcited = std::any_of(run.reason.begin(), run.reason.end(), [&](const auto& r) {
-    return unexcited(r.second) && std::isfinite(run.tolerance[r.first]);
-  });
-  if (any_unexcited) {
-    apply_prior(run);
-    return;
-  }
-  CalibrationRun prior = run;
-  apply_prior(prior);
-  run.prior_scale = prior.prior_scale;
-  if (!prior.fit().prior.used) {  // it says why in a note; least squares stays
-    run.result.notes = prior.result.notes;
-    fit.prior = prior.fit().prior;
-    return;
-  }
-  const double cv_prior =
-      run.options.folds >= 2 ? held_out(prior).rms : std::numeric_limits<double>::quiet_NaN();
-  if (!std::isfinite(cv_prior)) {
-    apply_prior(run);
-    return;
-  }
-  CalibrationRun cut = run;
-  select_parameters(cut);
-  const double cv_cut = held_out(cut).rms, cv_plain = held_out(run).rms;
-  const auto below = [](double a, double b) { return std::isfinite(a) && !(a >= b); };
-  const std::string figures = fmt::format(
-      "held-out RMS {:.4f} mm with the tolerance prior, {:.4f} mm with the "
-      "significance cut, {:.4f} mm by least squares",
-      cv_prior * 1e3, cv_cut * 1e3, cv_plain * 1e3);
-  if (below(cv_cut, cv_prior) && below(cv_cut, cv_plain)) {
-    fit.selection_note.clear();
-    select_parameters(run);
-    fit.choice = "significance cut";
-  } else if (below(cv_plain, cv_prior)) {
-    fit.selection_note = "off: least squares predicted held-out poses best";
-    fit.choice = "least squares";
-  } else {
-    apply_prior(run);
-    fit.choice = "tolerance prior";
-  }
-  run.result.notes.push_back(fmt::format("step 2 kept the {} ({})", fit.choice, figures));
 }
 
 }  // namespace hapticcal::detail

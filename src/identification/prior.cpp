@@ -32,40 +32,72 @@ constexpr double kLambdaSettled = 0.05;
 
 // The problem in tolerance units u: a prior column's u_j = (x_j - x0_j) / t_j,
 // a free column's u_j = (x_j - x_c,j) |J_j| (equilibrated); residuals
-// r(u) = r_c + A (u - u_c).
+// r(u) = r_c + A (u - u_c), so E_D(u) = c0 - 2 b.u + u^T H u with b = H u_c - g.
+// The free columns are eliminated once (their optimum for given prior columns:
+// u_f = H_ff^-1 (b_f - H_fp u_p)), leaving E_D = c - 2 b_s.u_p + u_p^T S u_p with
+// the Schur complement S = H_pp - H_pf H_ff^-1 H_fp, and S = V diag(d) V^T is
+// decomposed once: for each lambda the MAP u_p = (S + lambda I)^-1 b_s, E_D,
+// E_W = |u_p|^2 and log det(H + lambda P) = log det H_ff + sum log(d_i + lambda)
+// cost O(k) (MacKay 1992, the evidence of a linear model in its eigenbasis).
 class LinearModel {
  public:
-  LinearModel(const Stack& at, const std::vector<int>& slots, const Eigen::VectorXd& tolerance,
+  // From the normal equations of the columns (G = J^T J, g = J^T r, rr = |r|^2):
+  // a prior column scaled by its tolerance, a free one to unit norm.
+  LinearModel(const NormalEquations& ne, const Eigen::VectorXd& tolerance,
               const Eigen::VectorXd& deviation, double rows)
-      : k_(static_cast<int>(slots.size())), rows_(rows) {
-    Eigen::MatrixXd A(at.J.rows(), k_);
-    uc_ = Eigen::VectorXd::Zero(k_);
-    prior_ = Eigen::VectorXd::Zero(k_);
+      : k_(static_cast<int>(ne.g.size())), rows_(rows) {
+    Eigen::VectorXd units = Eigen::VectorXd::Ones(k_), uc = Eigen::VectorXd::Zero(k_);
     for (int c = 0; c < k_; ++c) {
-      const Eigen::VectorXd column = at.J.col(slots[c]);
       if (std::isfinite(tolerance[c])) {
-        A.col(c) = column * tolerance[c];
-        uc_[c] = deviation[c] / tolerance[c];
-        prior_[c] = 1;
-        ++k_prior_;
+        units[c] = tolerance[c];
+        uc[c] = deviation[c] / tolerance[c];
+        prior_.push_back(c);
       } else {
-        const double norm = column.norm();
-        A.col(c) = norm > 0 ? Eigen::VectorXd(column / norm) : column;
+        if (ne.G(c, c) > 0) units[c] = 1 / std::sqrt(ne.G(c, c));
+        free_.push_back(c);
       }
     }
-    H_ = A.transpose() * A;
-    g_ = A.transpose() * at.r;
-    rr_ = at.r.squaredNorm();
-    b_ = H_ * uc_ - g_;
+    k_prior_ = static_cast<int>(prior_.size());
+    units_ = units;
+    uc_ = uc;
+    const Eigen::MatrixXd H = units.asDiagonal() * ne.G * units.asDiagonal();
+    const Eigen::VectorXd g = units.cwiseProduct(ne.g);
+    const Eigen::VectorXd b = H * uc - g;
+    const double c0 = ne.rr - 2 * uc.dot(g) + uc.dot(H * uc);
+    const Eigen::MatrixXd Hpp = H(prior_, prior_), Hpf = H(prior_, free_);
+    Eigen::MatrixXd S = Hpp;
+    bs_ = b(prior_);
+    c_ = c0;
+    if (!free_.empty()) {
+      const Eigen::LLT<Eigen::MatrixXd> llt(H(free_, free_));
+      if (llt.info() != Eigen::Success) return;  // the free columns are singular
+      log_det_free_ = 2 * Eigen::MatrixXd(llt.matrixL()).diagonal().array().log().sum();
+      if (!std::isfinite(log_det_free_)) return;
+      Hff_ = llt;
+      bf_ = b(free_);
+      Hfp_ = Hpf.transpose();
+      const Eigen::MatrixXd X = llt.solve(Hfp_);  // H_ff^-1 H_fp
+      const Eigen::VectorXd y = llt.solve(bf_);   // H_ff^-1 b_f
+      S -= Hpf * X;
+      bs_ -= Hpf * y;
+      c_ -= bf_.dot(y);
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (S + S.transpose()));
+    if (eig.info() != Eigen::Success) return;
+    d_ = eig.eigenvalues().cwiseMax(0.0);
+    V_ = eig.eigenvectors();
+    beta_ = V_.transpose() * bs_;
+    Hpp_diagonal_ = Hpp.diagonal();
+    ok_ = true;
   }
 
+  bool ok() const { return ok_; }
   int prior_columns() const { return k_prior_; }
   // Rows the noise is estimated from: less one a free column.
   double noise_rows() const { return rows_ - (k_ - k_prior_); }
   // Mean curvature of the prior columns: where lambda starts to matter.
   double curvature() const {
-    double sum = 0;
-    for (int c = 0; c < k_; ++c) sum += prior_[c] * H_(c, c);
+    const double sum = Hpp_diagonal_.sum();
     return k_prior_ > 0 && sum > 0 ? sum / k_prior_ : 1.0;
   }
 
@@ -75,22 +107,40 @@ class LinearModel {
     double data_rss = 0;   // E_D: |r(u)|^2
     double prior_rss = 0;  // E_W: |u_prior|^2
     double log_det = 0;    // log det(H + lambda P)
-    Eigen::VectorXd data_share;
   };
   Solution solve(double lambda) const {
     Solution s;
-    const Eigen::MatrixXd M = H_ + lambda * Eigen::MatrixXd(prior_.asDiagonal());
-    const Eigen::LLT<Eigen::MatrixXd> llt(M);
-    if (llt.info() != Eigen::Success) return s;
-    const Eigen::VectorXd u = llt.solve(b_);
-    const Eigen::VectorXd v = u - uc_;
-    s.data_rss = std::max(rr_ + 2 * v.dot(g_) + v.dot(H_ * v), 0.0);
-    s.prior_rss = u.cwiseProduct(u).dot(prior_);
-    const Eigen::MatrixXd inverse = llt.solve(Eigen::MatrixXd::Identity(k_, k_));
-    s.data_share = Eigen::VectorXd::Ones(k_) - lambda * inverse.diagonal().cwiseProduct(prior_);
-    s.log_det = 2 * Eigen::MatrixXd(llt.matrixL()).diagonal().array().log().sum();
+    if (!ok_) return s;
+    const Eigen::ArrayXd shifted = d_.array() + lambda;
+    if (!(shifted.minCoeff() > 0)) return s;
+    const Eigen::ArrayXd w = beta_.array() / shifted;  // u_p in the eigenbasis
+    s.data_rss =
+        std::max(c_ - 2 * (beta_.array() * w).sum() + (d_.array() * w.square()).sum(), 0.0);
+    s.prior_rss = w.square().sum();
+    s.log_det = log_det_free_ + shifted.log().sum();
     s.ok = std::isfinite(s.log_det) && std::isfinite(s.data_rss);
     return s;
+  }
+  // Per column: 1 - lambda (H + lambda P)^-1_jj, how much the data (not the
+  // prior) determine it (1 for a free column).
+  Eigen::VectorXd data_share(double lambda) const {
+    Eigen::VectorXd share = Eigen::VectorXd::Ones(k_);
+    const Eigen::ArrayXd inverse = (d_.array() + lambda).inverse();
+    for (int i = 0; i < k_prior_; ++i) {
+      share[prior_[i]] = 1 - lambda * (V_.row(i).array().square() * inverse.transpose()).sum();
+    }
+    return share;
+  }
+  // The MAP's change of each column from the fit, in its own units.
+  Eigen::VectorXd step(double lambda) const {
+    Eigen::VectorXd u(k_);
+    const Eigen::VectorXd up = V_ * (beta_.array() / (d_.array() + lambda)).matrix();
+    u(prior_) = up;
+    if (!free_.empty()) {
+      const Eigen::VectorXd uf = Hff_.solve(bf_ - Hfp_ * up);
+      u(free_) = uf;
+    }
+    return units_.cwiseProduct(u - uc_);
   }
 
   // The log evidence of weight lambda with the noise precision beta at its
@@ -103,9 +153,12 @@ class LinearModel {
 
  private:
   int k_ = 0, k_prior_ = 0;
-  double rows_ = 0, rr_ = 0;
-  Eigen::MatrixXd H_;
-  Eigen::VectorXd g_, b_, uc_, prior_;
+  double rows_ = 0, c_ = 0, log_det_free_ = 0;
+  bool ok_ = false;
+  std::vector<Eigen::Index> prior_, free_;
+  Eigen::LLT<Eigen::MatrixXd> Hff_;
+  Eigen::MatrixXd Hfp_, V_;
+  Eigen::VectorXd units_, uc_, bs_, bf_, d_, beta_, Hpp_diagonal_;
 };
 
 // Golden-section search for the maximum of f over [a, b].
@@ -139,8 +192,20 @@ std::optional<PriorChoice> choose_prior(const Stack& at, const std::vector<int>&
                                         const Eigen::VectorXd& deviation, double rows,
                                         std::optional<double> scale) {
   if (at.r.size() == 0) return std::nullopt;  // a compressed stack
-  const LinearModel model(at, slots, tolerance, deviation, rows);
-  if (model.prior_columns() == 0 || model.noise_rows() < 1) return std::nullopt;
+  const auto columns = std::vector<Eigen::Index>(slots.begin(), slots.end());
+  NormalEquations ne;
+  const Eigen::MatrixXd J = at.J(Eigen::all, columns);
+  ne.G = J.transpose() * J;
+  ne.g = J.transpose() * at.r;
+  ne.rr = at.r.squaredNorm();
+  return choose_prior(ne, tolerance, deviation, rows, scale);
+}
+
+std::optional<PriorChoice> choose_prior(const NormalEquations& ne, const Eigen::VectorXd& tolerance,
+                                        const Eigen::VectorXd& deviation, double rows,
+                                        std::optional<double> scale) {
+  const LinearModel model(ne, tolerance, deviation, rows);
+  if (model.prior_columns() == 0 || model.noise_rows() < 1 || !model.ok()) return std::nullopt;
   const auto evidence = [&](double log_lambda) {
     const double lambda = std::pow(10.0, log_lambda);
     const LinearModel::Solution s = model.solve(lambda);
@@ -169,7 +234,8 @@ std::optional<PriorChoice> choose_prior(const Stack& at, const std::vector<int>&
     for (int i = 0; i < 200; ++i) {
       const LinearModel::Solution s = model.solve(lambda);
       if (!s.ok) return std::nullopt;
-      const double gamma = s.data_share.sum() - (slots.size() - model.prior_columns());
+      const double gamma =
+          model.data_share(lambda).sum() - (tolerance.size() - model.prior_columns());
       const double beta = std::max(model.noise_rows() - gamma, 1.0) / std::max(s.data_rss, 1e-300);
       const double next = 1 / (*scale * *scale * beta);
       const bool settled = std::abs(std::log(next / lambda)) < 1e-10;
@@ -186,8 +252,9 @@ std::optional<PriorChoice> choose_prior(const Stack& at, const std::vector<int>&
   out.sigma = scale ? *scale * std::sqrt(out.lambda)
                     : std::sqrt((s.data_rss + out.lambda * s.prior_rss) / model.noise_rows());
   out.scale = scale ? *scale : out.sigma / std::sqrt(out.lambda);
-  out.data_share = s.data_share;
-  out.effective = s.data_share.sum();
+  out.data_share = model.data_share(out.lambda);
+  out.effective = out.data_share.sum();
+  out.step = model.step(out.lambda);
   return out;
 }
 

@@ -31,6 +31,16 @@ struct PriorChoice {
   double effective = 0;  // sum of data_share: the parameters the data pay for
   // The profile log evidence over log10(lambda), for the report's figure.
   std::vector<std::pair<double, double>> curve;
+  // The MAP's change of each column from the fit (the linearised problem's).
+  Eigen::VectorXd step;
+};
+
+// The normal equations of min |r + J dx|^2 over some columns: G = J^T J,
+// g = J^T r, rr = |r|^2.
+struct NormalEquations {
+  Eigen::MatrixXd G;
+  Eigen::VectorXd g;
+  double rr = 0;
 };
 
 // Chooses lambda by maximising the evidence profiled over the noise sd (a grid
@@ -41,6 +51,11 @@ struct PriorChoice {
 // singular or there are no more rows than free columns.
 std::optional<PriorChoice> choose_prior(const Stack& at, const std::vector<int>& slots,
                                         const Eigen::VectorXd& tolerance,
+                                        const Eigen::VectorXd& deviation, double rows,
+                                        std::optional<double> scale);
+// The same on the normal equations of the columns (tolerance and deviation per
+// column of `ne`).
+std::optional<PriorChoice> choose_prior(const NormalEquations& ne, const Eigen::VectorXd& tolerance,
                                         const Eigen::VectorXd& deviation, double rows,
                                         std::optional<double> scale);
 

@@ -202,8 +202,10 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   progress("clock search", 1);
 
   const ReadingInterpolator readings(device);
-  // The inner fits: plain least squares, no cross-validation, no reweighting.
+  // The inner fits: plain least squares of one model (no search), no
+  // cross-validation, no reweighting.
   CalibrationOptions inner = options;
+  inner.search = false;
   inner.keep_all = true;
   inner.select = false;
   inner.folds = 0;

@@ -2,6 +2,7 @@
 #include "hapticcal/report/calibration_lines.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 
@@ -56,6 +57,49 @@ std::string clock_line(const ClockEstimate& c) {
 }
 
 }  // namespace
+
+// The model search's candidates (README "Model search"): the best few by
+// held-out RMS and the one kept.
+void search_lines(const ModelSearch& search, std::vector<std::string>& out) {
+  if (!search.ran) {
+    if (!search.note.empty()) out.push_back("  model search: " + search.note);
+    return;
+  }
+  out.push_back(fmt::format(
+      "  model search: {} candidates on held-out {}s ({} folds x {} shuffles, seed {}); the "
+      "nominal model with its {} fitted: {:.4f} mm",
+      search.candidates.size(), search.unit, search.folds, search.repeats, search.seed,
+      search.nominal_fitted.empty() ? "nothing" : search.nominal_fitted, search.nominal_rms * 1e3));
+  std::vector<int> order;
+  for (int i = 0; i < static_cast<int>(search.candidates.size()); ++i) {
+    if (std::isfinite(search.candidates[i].cv_rms)) order.push_back(i);
+  }
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return search.candidates[a].cv_rms < search.candidates[b].cv_rms;
+  });
+  constexpr int kShown = 5;
+  if (static_cast<int>(order.size()) > kShown) {
+    const bool kept_shown =
+        std::find(order.begin(), order.begin() + kShown, search.kept) != order.begin() + kShown;
+    order.resize(kShown);
+    if (!kept_shown && search.kept >= 0) order.push_back(search.kept);
+  }
+  out.push_back(fmt::format("    {:<4} {:<40} {:<17} {:>12} {:>10} {:>10}", "", "model",
+                            "estimator", "held-out mm", "+- mm", "parameters"));
+  for (int i : order) {
+    const SearchCandidate& c = search.candidates[i];
+    std::string model = c.families.empty()
+                            ? "geometry"
+                            : "geometry + " + fmt::format("{}", fmt::join(c.families, " + "));
+    if (c.zero) model += " + instrument zero";
+    out.push_back(fmt::format("    {:<4} {:<40} {:<17} {:>12.4f} {:>10.4f} {:>10.1f}{}",
+                              i == search.kept ? "kept" : "", model, to_string(c.estimator),
+                              c.cv_rms * 1e3, c.se * 1e3, c.parameters,
+                              !c.allowed  ? "  (reference)"
+                              : !c.usable ? "  (worse than nominal)"
+                                          : ""));
+  }
+}
 
 std::vector<std::string> calibration_lines(const CalibrationResult& r, const DeviceModel& nominal) {
   std::vector<std::string> out;
@@ -141,18 +185,7 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
   } else if (!k.selection_note.empty()) {
     out.push_back(fmt::format("  model selection: {}", k.selection_note));
   }
-  if (!k.most_moved.empty()) {
-    out.push_back(fmt::format(
-        "  plausibility: the link parameter that moved most (the first joint's and the last's "
-        "aside while the base and the tool are free) is {}, {:.1f} tolerances (limit {:g})",
-        k.most_moved, k.most_moved_sds, kImplausiblePriorSds));
-  }
-  if (!k.choice.empty()) {
-    out.push_back(
-        fmt::format("  kept: the {} (lowest held-out RMS of the prior, the "
-                    "significance cut and least squares)",
-                    k.choice));
-  }
+  search_lines(k.search, out);
   outlier_lines(k.robust, out);
   for (const std::string& reason : k.suspect.reasons) {
     out.push_back(
@@ -162,10 +195,14 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
   for (const ParameterEstimate& e : k.parameters) {
     if (!e.large_change) continue;
     const DisplayUnit u = display_unit(e.unit);
-    out.push_back(
-        fmt::format("warning: {} moved {:.4g} {} from nominal (flagged beyond {} mm / {} mrad)",
-                    e.name, (e.value - e.nominal) * u.scale, u.unit, kLargeChangeLength * 1e3,
-                    kLargeChangeAngle * 1e3));
+    out.push_back(fmt::format(
+        "note: {} moved {:.4g} {} from nominal (beyond {} mm / {} mrad){}: the held-out error "
+        "judged the model; check the move if the device should not have it",
+        e.name, (e.value - e.nominal) * u.scale, u.unit, kLargeChangeLength * 1e3,
+        kLargeChangeAngle * 1e3,
+        e.max_correlation_with.empty() ? std::string()
+                                       : fmt::format(", correlated {:+.2f} with {}",
+                                                     e.max_correlation, e.max_correlation_with)));
   }
   for (const std::string& note : r.notes) {
     out.push_back(fmt::format("{}{}", note.rfind("warning: ", 0) == 0 ? "" : "note: ", note));

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include "hapticcal/report/calibration_lines.hpp"
@@ -74,6 +75,81 @@ void selection_section(const KinematicFit& k, Report& report) {
               {"cross-validated (held-out poses)", 0, 2, "linespoints", -1, "#0072b2", 0, 1.5, 5}};
   use_log_y(f);
   f.extra = fmt::format("set arrow from {0},graph 0 to {0},graph 1 nohead dt 2", k.identified);
+  report.figures.push_back(f);
+}
+
+// A candidate of the model search in words: "geometry + compliance, zero fitted".
+std::string candidate_words(const SearchCandidate& c) {
+  std::string out = "geometry";
+  for (const std::string& f : c.families) out += " + " + f;
+  if (c.zero) out += " + instrument zero";
+  return out;
+}
+
+// The model search: every candidate's held-out RMS with its standard error,
+// the one kept, the nominal's yardstick, and what each family bought (its best
+// candidate against the geometry's best).
+void search_section(const ModelSearch& s, Report& report) {
+  if (s.candidates.empty()) return;
+  std::vector<int> order;
+  for (int i = 0; i < static_cast<int>(s.candidates.size()); ++i) order.push_back(i);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    const double x = s.candidates[a].cv_rms, y = s.candidates[b].cv_rms;
+    return std::isfinite(x) && (!std::isfinite(y) || x < y);
+  });
+  double geometry = std::numeric_limits<double>::infinity();
+  for (const SearchCandidate& c : s.candidates) {
+    if (c.families.empty() && std::isfinite(c.cv_rms)) geometry = std::min(geometry, c.cv_rms);
+  }
+  std::vector<std::vector<std::string>> rows;
+  std::vector<double> x, rms, se;
+  std::vector<std::string> tics;
+  for (int i : order) {
+    const SearchCandidate& c = s.candidates[i];
+    const bool finite = std::isfinite(c.cv_rms);
+    rows.push_back({candidate_words(c), to_string(c.estimator), finite ? f4(c.cv_rms * 1e3) : "-",
+                    finite ? f4(c.se * 1e3) : "-", fmt::format("{:.1f}", c.parameters),
+                    finite && std::isfinite(geometry) && !c.families.empty()
+                        ? fmt::format("{:+.1f} %", (c.cv_rms / geometry - 1) * 100)
+                        : "",
+                    i == s.kept       ? "kept"
+                    : !c.allowed      ? "reference"
+                    : !c.usable       ? "worse than nominal"
+                    : !c.note.empty() ? c.note
+                                      : ""});
+    if (!finite) continue;
+    x.push_back(static_cast<double>(x.size()));
+    rms.push_back(c.cv_rms * 1e3);
+    se.push_back(c.se * 1e3);
+    tics.push_back(fmt::format("{}{}", i == s.kept ? "* " : "", candidate_words(c)) + " / " +
+                   to_string(c.estimator));
+  }
+  report.sections.push_back(
+      fmt::format("<h2>Model search</h2>\n<p>{} candidate models, each scored by its held-out "
+                  "RMS [mm]: the whole estimator re-run on each fold's training {}s and its error "
+                  "on the fold's own ({} folds, {} shuffles, seed {}, over {} {}s). Kept: the "
+                  "model with the fewest joint-error families (then the instrument's zero "
+                  "held, then the fewest parameters) within one standard error of the lowest. "
+                  "The nominal model with its {} fitted: {} mm held out. \"vs geometry\": what "
+                  "a family bought against the geometry's best.</p>\n",
+                  s.candidates.size(), s.unit, s.folds, s.repeats, s.seed, s.units, s.unit,
+                  s.nominal_fitted.empty() ? "nothing" : s.nominal_fitted,
+                  std::isfinite(s.nominal_rms) ? f4(s.nominal_rms * 1e3) : "-") +
+      html_table(
+          {"model", "estimator", "held-out RMS [mm]", "+- [mm]", "parameters", "vs geometry", ""},
+          rows));
+  if (x.empty()) return;
+  FigureSpec f = figure("model_search", "Held-out RMS of each candidate model (* kept)",
+                        "candidate model", "held-out RMS [mm]", {x, rms, se});
+  f.xtics = tics;
+  f.series = {{"held-out RMS +- 1 se", 0, 1, "yerrorbars", 2, "#0072b2", 0, 1.5, 7}};
+  f.y_min = 0;
+  if (std::isfinite(s.nominal_rms) && s.nominal_rms * 1e3 < 3 * rms.back()) {
+    f.extra = fmt::format(
+        "set arrow from graph 0, first {0} to graph 1, first {0} nohead dt 2 "
+        "lc rgb 'black'\nset label 'nominal' at graph 0.01, first {0} offset 0,0.6",
+        s.nominal_rms * 1e3);
+  }
   report.figures.push_back(f);
 }
 
@@ -340,6 +416,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   report.sections.push_back(parameter_table(k));
   report.sections.push_back(held_table(k));
   selection_section(k, report);
+  search_section(k.search, report);
   if (result.clock) clock_section(*result.clock, report);
 
   const size_t pose_stride = detail::plot_stride(result.rows.size());

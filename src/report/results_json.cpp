@@ -109,9 +109,39 @@ nlohmann::ordered_json outliers_json(const RobustFit& robust) {
   return outliers;
 }
 
+// The model search (README "Model search"): every candidate compared, SI.
+nlohmann::ordered_json search_json(const ModelSearch& s) {
+  using json = nlohmann::ordered_json;
+  json candidates = json::array();
+  for (const SearchCandidate& c : s.candidates) {
+    candidates.push_back({{"families", c.families},
+                          {"instrument_zero", c.zero},
+                          {"estimator", to_string(c.estimator)},
+                          {"cv_rms", number_or_null(c.cv_rms)},
+                          {"se", number_or_null(c.se)},
+                          {"difference_se", number_or_null(c.difference_se)},
+                          {"parameters", c.parameters},
+                          {"usable", c.usable},
+                          {"allowed", c.allowed},
+                          {"note", c.note}});
+  }
+  return {{"ran", s.ran},
+          {"note", s.note},
+          {"rule", "the fewest parameters within one standard error of the lowest held-out RMS"},
+          {"folds", s.folds},
+          {"repeats", s.repeats},
+          {"seed", s.seed},
+          {"units", s.units},
+          {"unit", s.unit},
+          {"nominal_rms", number_or_null(s.nominal_rms)},
+          {"nominal_fitted", s.nominal_fitted},
+          {"best", s.best},
+          {"kept", s.kept},
+          {"candidates", candidates}};
+}
+
 // The checks of a fit: suspect, what the joint-error families bought (README
-// "Joint errors in step 2"), the default's plausibility (README "Step 2's
-// plausibility check").
+// "Joint errors in step 2"), the model search (README "Model search").
 void checks_json(const KinematicFit& k, const CalibrationOptions& options,
                  nlohmann::ordered_json& j) {
   using json = nlohmann::ordered_json;
@@ -128,10 +158,7 @@ void checks_json(const KinematicFit& k, const CalibrationOptions& options,
                           : json{{"families", k.joint_error_families},
                                  {"cv_rms", number_or_null(k.cv_rms)},
                                  {"cv_rms_without", number_or_null(k.cv_rms_without_joint_errors)}};
-  j["plausibility"] = k.most_moved.empty() ? json(nullptr)
-                                           : json{{"most_moved", k.most_moved},
-                                                  {"tolerances", k.most_moved_sds},
-                                                  {"limit", kImplausiblePriorSds}};
+  j["model_search"] = search_json(k.search);
 }
 
 }  // namespace

@@ -18,6 +18,7 @@
 #include "hapticcal/identification/clock.hpp"
 #include "hapticcal/identification/information.hpp"
 #include "hapticcal/identification/measurement.hpp"
+#include "hapticcal/identification/search.hpp"
 #include "hapticcal/model/model.hpp"
 
 namespace hapticcal {
@@ -30,8 +31,9 @@ enum class CalibrationStatus {
   kNumericalFailure,  // a non-finite residual, parameter or standard deviation
   kRankDeficient,     // the data leave identifiable parameters unexcited
   kSuspect,           // converged, but the fit is suspect and --strict refuses it
-  // converged, but a link parameter moved beyond kImplausiblePriorSds of its
-  // tolerances: not a deviation of this device (a wrong step 1, model or log)
+  // converged, but no description of the device: it predicts held-out poses
+  // worse than the nominal model with the set-up registered (a wrong step 1,
+  // model or log), or a joint error as fitted is no transmission
   kImplausible,
 };
 // "converged", "not converged", "numerical failure", "rank-deficient", "suspect",
@@ -129,13 +131,6 @@ struct ParameterEstimate {
   // for a link.
   bool large_change = false;
 };
-
-// A link parameter whose change from nominal exceeds this many sds of its
-// stated prior (its tolerance, Tolerances) makes the default's result unusable
-// (CalibrationStatus::kImplausible). Not checked: parameters of the first joint
-// while the base is free and of the last while the tool is (they trade with the
-// set-up: README "Step 2's plausibility check").
-constexpr double kImplausiblePriorSds = 10;
 
 // Bounds beyond which a parameter's change is flagged (ParameterEstimate::large_change).
 constexpr double kLargeChangeLength = 0.02;  // m
@@ -274,15 +269,14 @@ struct KinematicFit {
   // or not computed): what the families bought on held-out poses.
   std::vector<std::string> joint_error_families;
   double cv_rms_without_joint_errors = std::numeric_limits<double>::quiet_NaN();
-  // The plausibility check (kImplausiblePriorSds; the default only): the link
-  // parameter not next to the set-up that moved most, in its tolerances ("":
-  // not checked).
-  std::string most_moved;
-  double most_moved_sds = 0;
   // What the default kept by its cross-validated RMS: "tolerance prior",
   // "significance cut" or "least squares"; "" when not compared (an option
   // chose, or nothing could be cross-validated).
   std::string choice;
+  // The estimator the fit used.
+  Estimator estimator = Estimator::kPrior;
+  // The model search (calibrate's default; ran false with --no-search).
+  ModelSearch search;
 };
 
 // The distance instrument's zero the fit identified ("instrument.zero"; 0 if it
@@ -346,6 +340,18 @@ struct CalibrationOptions {
   // not support are held at nominal (the default before the prior).
   bool keep_all = false;
   bool select = false;
+  bool prior = false;  // the tolerance prior alone
+  // The model search (README "Model search"): the candidate models (estimator
+  // x joint-error families x an instrument's zero held or fitted) compared on
+  // held-out poses, the simplest within one standard error of the best kept.
+  // keep_all, select, prior, a given prior scale, joint_errors and --fix /
+  // --free instrument.zero restrict it to what they name. false: exactly the
+  // model they name (the tolerance prior where no estimator is named, the
+  // geometry alone where no family is, the instrument's zero fitted).
+  bool search = true;
+  // Threads of the model search (its family sets fitted at once); 0: one a core.
+  // The result does not depend on it.
+  int threads = 0;
   Tolerances tolerances;
   // Known distances between fixture points (--point-distance A:B=METRES).
   std::vector<PointDistance> point_distances;

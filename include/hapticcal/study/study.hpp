@@ -77,9 +77,9 @@ struct Scenario {
   Eigen::MatrixXd identification_readings;
   std::string identification_plan;  // the file they came from
   // CalibrationOptions::keep_all of the trials' calibrations. The paper's
-  // procedure identifies every identifiable parameter: its study keeps them all
-  // (calibrate's model selection off), so that its Monte Carlo compares with the
-  // full model's Cramer-Rao bound.
+  // procedure identifies every identifiable parameter by least squares, one
+  // model (calibrate's model search off), so that its Monte Carlo compares with
+  // the full model's Cramer-Rao bound; false: calibrate's default, the search.
   bool keep_all = true;
   std::vector<std::string> fix;  // CalibrationOptions::fix of the trials' calibrations
   int validation_poses = 200;
@@ -160,7 +160,7 @@ void assign_truth(Scenario& scenario, const std::string& source);
 //   poses.identification is spread over the sockets (at least 2 each) or the
 //   planes (at least 4 each)
 //   calibration: {keep_all: true | false,   CalibrationOptions::keep_all (true: the
-//                                           paper's procedure; false: model selection)
+//                                           paper's procedure; false: the model search)
 //                 fix: [DOTTED_NAME, ...]}  and ::fix (e.g. what a plan reports held,
 //                                           for plans with fewer measurements than
 //                                           calibrate's candidates)

@@ -1,0 +1,700 @@
+// The model search (README "Model search"): calibrate's candidate models -
+// an estimator (the tolerance prior, the significance cut, least squares) x
+// the joint-error families that apply x an instrument's zero held or fitted -
+// compared by their honest held-out error (held_out.hpp), the simplest within
+// one standard error of the best kept, and that one concluded. Families are
+// added forward: each round offers every family not yet in the kept set, and
+// the search stops when the kept model is not one of the new round's.
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <numeric>
+#include <set>
+#include <thread>
+#include <tuple>
+
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/identification/identification.hpp"
+#include "identification/calibration_run.hpp"
+#include "identification/held_out.hpp"
+
+namespace hapticcal {
+
+const char* to_string(Estimator estimator) {
+  switch (estimator) {
+    case Estimator::kPrior:
+      return "tolerance prior";
+    case Estimator::kCut:
+      return "significance cut";
+    case Estimator::kLeastSquares:
+      return "least squares";
+  }
+  return "?";
+}
+
+namespace detail {
+namespace {
+
+// The dimensions of the search the options leave open.
+struct SearchSpace {
+  std::vector<Estimator> estimators;
+  std::vector<bool> zero;             // the instrument's zero fitted: {true, false}, one, or none
+  bool families_fixed = false;        // --joint-errors named them
+  std::vector<std::string> families;  // the fixed set, or the pool to add from
+};
+
+bool names_it(const std::vector<std::string>& names, const char* name) {
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
+
+SearchSpace search_space(const CalibrationRun& run) {
+  const CalibrationOptions& o = run.options;
+  SearchSpace space;
+  if (o.keep_all) {
+    space.estimators = {Estimator::kLeastSquares};
+  } else if (o.select) {
+    space.estimators = {Estimator::kCut};
+  } else if (o.prior || o.tolerances.scale) {
+    space.estimators = {Estimator::kPrior};
+  } else {
+    space.estimators = {Estimator::kPrior, Estimator::kCut, Estimator::kLeastSquares};
+  }
+  if (traits(run.fit().type).zero && o.instrument_zero) {
+    if (names_it(o.fix, "instrument.zero")) {
+      space.zero = {false};
+    } else if (names_it(o.free, "instrument.zero")) {
+      space.zero = {true};
+    } else {
+      space.zero = {true, false};
+    }
+  }
+  space.families_fixed = !o.joint_errors.empty();
+  space.families = o.joint_errors.empty()             ? applicable_families(run)
+                   : o.joint_errors.front() == "none" ? std::vector<std::string>{}
+                                                      : o.joint_errors;
+  return space;
+}
+
+std::string model_words(const std::vector<std::string>& families) {
+  return families.empty() ? "geometry"
+                          : "geometry + " + fmt::format("{}", fmt::join(families, " + "));
+}
+
+// One family set's least-squares fit and the system its candidates are judged on.
+struct FamilyFit {
+  std::vector<std::string> families;
+  std::unique_ptr<CalibrationRun> run;  // the fit with the zero fitted, if it may be
+  HeldOutSystem system;
+  std::vector<int> least_squares;          // column positions: the identified parameters
+  std::vector<int> with_prior;             // and those only the prior can hold (unexcited)
+  std::vector<std::string> column_family;  // per column: its joint-error family ("": geometry)
+  // Least squares' held-out squared errors per unit (step 1's check) and the
+  // system's units (kept when the system goes).
+  Eigen::VectorXd least_squares_error;
+  size_t system_units = 0;
+  int zero_column = -1;
+  bool unexcited = false;
+};
+
+// One candidate as the search keeps it: the table's entry and its errors.
+struct Entry {
+  SearchCandidate candidate;
+  int family_fit = 0;
+  Eigen::VectorXd unit_error;  // held-out squared error per unit (empty: not computable)
+  double mse = std::numeric_limits<double>::infinity();
+};
+
+double difference_se(const Entry& a, const Entry& b, double rows);
+
+// Step 1's held-out check: refused when the geometry with its transmissions
+// predicts held-out poses worse than without them by this factor (RMS) and
+// this many standard errors: a gross failure (a forged encoder: 5.7 times),
+// not a step 1 a little worse than the model's own transmissions.
+constexpr double kStepOneMargin = 1.5;
+constexpr double kStepOneSds = 3;
+// A family fit's Jacobian of more bytes than this: the family sets are fitted
+// one at a time (each holds its own while it is judged).
+constexpr double kParallelBytes = 16e6;
+
+// A family fit once judged: its system and its stack go (restack brings the
+// stack back for the one concluded).
+void release(FamilyFit& f) {
+  f.system_units = f.system.unit_rows.size();
+  f.system = HeldOutSystem();
+  if (f.run) f.run->data = Stack();
+}
+
+// The fewest units (poses, fixture groups) the search compares on: with two,
+// each fold's fit rests on the other alone.
+constexpr int kMinUnits = 3;
+// Held-out errors this close [m] are equal (exact, noise-free data).
+constexpr double kExactFloor = 1e-9;
+constexpr double kFreeColumn = std::numeric_limits<double>::infinity();
+
+class Search {
+ public:
+  explicit Search(CalibrationRun& base) : base_(base), space_(search_space(base)) {
+    family_names();
+  }
+
+  CalibrationResult run();
+
+ private:
+  // The least-squares fit of `families` (InputError propagates for the first,
+  // the geometry alone, which every search fits); `note` says why it cannot
+  // be judged (then its system is empty).
+  FamilyFit fit_families(const std::vector<std::string>& families, bool first, std::string& note,
+                         const DeviceModel* transmissions = nullptr) const;
+  // Each candidate's held-out errors on family fit `f` (index `family_fit`).
+  std::vector<Entry> judge(const FamilyFit& f, int family_fit, bool allowed) const;
+  // A round of the forward search: each family set fitted and judged (on
+  // several threads), then added in order; `named`: the sets the options name
+  // (their bad input is bad input).
+  void round(const std::vector<std::vector<std::string>>& sets, bool named = false);
+  // The nominal model with the set-up registered: the yardstick of usability.
+  void nominal_yardstick(const CalibrationRun& geometry);
+  // Whether the geometry's least-squares fit supports an instrument's zero;
+  // if not, the zero is held in every candidate.
+  void test_zero(const FamilyFit& geometry);
+  // Step 1's own held-out check on the kept model's families: their least
+  // squares with step 1's transmissions against the same without them (the
+  // nominal's).
+  void check_step_one(const FamilyFit& kept);
+  Eigen::VectorXd least_squares_errors(const FamilyFit& f) const;
+  // The best candidate and the simplest within one standard error of it.
+  void choose();
+  CalibrationResult conclude();
+
+  // The joint-error parameters' names of every family searched, by family:
+  // options naming them (--fix, --free, --tolerance) apply to the family sets
+  // that have them.
+  void family_names();
+
+  CalibrationRun& base_;
+  SearchSpace space_;
+  std::map<std::string, std::string> family_of_;
+  bool step_one_failed_ = false;
+  Entry nominal_;    // the nominal with the set-up registered: the yardstick
+  double rows_ = 1;  // the log rows behind the poses (every system's RMS denominator)
+  ModelSearch out_;
+  FoldPlan plan_;
+  std::vector<FamilyFit> fits_;
+  std::vector<Entry> entries_;
+  std::vector<std::string> notes_;
+};
+
+void Search::family_names() {
+  if (space_.families.empty()) return;
+  CalibrationRun scratch(base_);
+  scratch.options.joint_errors = space_.families;
+  try {
+    offer_joint_errors(scratch);
+  } catch (const InputError&) {
+    return;  // the family set's own fit says why
+  }
+  const int dof = scratch.model.dof();
+  for (const ParameterInfo& pi : scratch.model.parameter_info()) {
+    if (pi.joint == joint_error_block(dof)) family_of_[pi.name] = "harmonic";
+    if (pi.joint == compliance_block(dof)) family_of_[pi.name] = "compliance";
+    if (pi.joint == coupling_block(dof)) family_of_[pi.name] = "coupling";
+    if (pi.joint == backlash_block(dof)) family_of_[pi.name] = "backlash";
+  }
+}
+
+FamilyFit Search::fit_families(const std::vector<std::string>& families, bool first,
+                               std::string& note, const DeviceModel* transmissions) const {
+  FamilyFit f;
+  f.families = families;
+  CalibrationOptions o = base_.options;
+  o.joint_errors = families.empty() ? std::vector<std::string>{"none"} : families;
+  // Names of another family's parameters name nothing in this model.
+  const auto elsewhere = [&](const std::string& name) {
+    const auto it = family_of_.find(name);
+    return it != family_of_.end() && !names_it(families, it->second.c_str());
+  };
+  std::erase_if(o.fix, elsewhere);
+  std::erase_if(o.free, elsewhere);
+  std::erase_if(o.tolerances.by_name, [&](const auto& item) { return elsewhere(item.first); });
+  if (space_.zero.size() == 2) std::erase(o.fix, "instrument.zero");
+  if (!transmissions && names_it(families, "coupling") &&
+      !names_it(base_.options.joint_errors, "coupling") && o.transmissions &&
+      !base_.result.transmissions.empty()) {
+    // Step 1 again: the encoders of joints whose angle uses another joint's
+    // reading read the coefficients this family fits (encoders_at_readings).
+    f.run = std::make_unique<CalibrationRun>(base_.nominal, base_.log, o);
+    f.run->result.notes.assign(base_.result.notes.begin(),
+                               base_.result.notes.begin() + static_cast<long>(base_.checks_notes));
+    step_one(*f.run);
+  } else {
+    f.run = std::make_unique<CalibrationRun>(base_);
+    f.run->options = o;
+    if (transmissions) f.run->model = *transmissions;  // another step 1's
+  }
+  if (first) {
+    prepare_model(*f.run);  // bad input is bad input
+  } else {
+    try {
+      prepare_model(*f.run);
+    } catch (const InputError& e) {
+      note = fmt::format("{} not compared: {}", model_words(families), e.what());
+      f.run.reset();
+      return f;
+    }
+  }
+  CalibrationRun& r = *f.run;
+  if (r.solution.termination != SolveTermination::kConverged || r.problem.compressed) {
+    note = fmt::format("{} not compared: {}", model_words(families),
+                       r.problem.compressed ? "the log is too long for per-pose fits"
+                                            : "its least-squares fit did not converge");
+    return f;
+  }
+  std::vector<int> columns = r.identified;
+  for (const auto& [slot, why] : r.reason) {
+    if (unexcited(why) && std::isfinite(r.tolerance[slot])) {
+      columns.push_back(slot);
+      f.unexcited = true;
+    }
+  }
+  const std::vector<ParameterInfo> info = r.problem.model.parameter_info();
+  const int dof = r.problem.model.dof();
+  for (size_t c = 0; c < columns.size(); ++c) {
+    (c < r.identified.size() ? f.least_squares : f.with_prior).push_back(static_cast<int>(c));
+    if (r.name.at(columns[c]) == "instrument.zero") f.zero_column = static_cast<int>(c);
+    const int block = info[columns[c]].joint;
+    f.column_family.push_back(block == joint_error_block(dof)  ? "harmonic"
+                              : block == compliance_block(dof) ? "compliance"
+                              : block == coupling_block(dof)   ? "coupling"
+                              : block == backlash_block(dof)   ? "backlash"
+                                                               : "");
+  }
+  f.with_prior.insert(f.with_prior.begin(), f.least_squares.begin(), f.least_squares.end());
+  f.system =
+      held_out_system(r.problem, r.data, columns, r.scale, r.problem.model.kinematic_parameters(),
+                      r.solution.parameters, r.tolerance);
+  return f;
+}
+
+void Search::round(const std::vector<std::vector<std::string>>& sets, bool named) {
+  std::vector<FamilyFit> fits(sets.size());
+  std::vector<std::vector<Entry>> judged(sets.size());
+  std::vector<std::string> notes(sets.size());
+  const int first = static_cast<int>(fits_.size());
+  const auto work = [&](size_t i) {
+    fits[i] = fit_families(sets[i], named, notes[i]);
+    if (notes[i].empty()) {
+      judged[i] = judge(fits[i], first + static_cast<int>(i), true);
+      fits[i].least_squares_error = least_squares_errors(fits[i]);
+    }
+    release(fits[i]);
+  };
+  // Several at once unless one fit's Jacobian is large (memory grows with each).
+  const FamilyFit& geometry = fits_.front();
+  const double bytes = 8.0 * static_cast<double>(geometry.run->problem.joints.size()) *
+                       rows_of(geometry.run->problem).dimension() *
+                       geometry.run->problem.model.structure().num_slots();
+  const size_t cores = base_.options.threads > 0
+                           ? static_cast<size_t>(base_.options.threads)
+                           : std::max(1u, std::thread::hardware_concurrency());
+  const size_t threads = std::min<size_t>(sets.size(), bytes > kParallelBytes ? 1 : cores);
+  std::atomic<size_t> next{0};
+  std::vector<std::thread> pool;
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  for (size_t t = 1; t < threads; ++t) {
+    pool.emplace_back([&] {
+      try {
+        for (size_t i; (i = next++) < sets.size();) work(i);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(failure_mutex);
+        failure = std::current_exception();
+      }
+    });
+  }
+  for (size_t i; (i = next++) < sets.size();) work(i);
+  for (std::thread& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+  for (size_t i = 0; i < sets.size(); ++i) {
+    if (!notes[i].empty()) notes_.push_back(notes[i]);
+    fits_.push_back(std::move(fits[i]));
+    for (Entry& e : judged[i]) entries_.push_back(std::move(e));
+  }
+}
+
+std::vector<Entry> Search::judge(const FamilyFit& f, int family_fit, bool allowed) const {
+  const CalibrationOptions& o = base_.options;
+  NormalEquations whole;
+  whole.G = f.system.A.transpose() * f.system.A;
+  whole.g = f.system.A.transpose() * f.system.r;
+  whole.rr = f.system.r.squaredNorm();
+  std::vector<LinearCandidate> linear;
+  std::vector<Entry> entries;
+  const std::vector<bool> zeros = space_.zero.empty() ? std::vector<bool>{false} : space_.zero;
+  for (Estimator e : space_.estimators) {
+    // Least squares and the cut cannot hold what these poses do not excite.
+    if (f.unexcited && e != Estimator::kPrior) continue;
+    for (bool zero : zeros) {
+      if (zero && f.zero_column < 0) continue;  // the rank test held it: as not fitted
+      LinearCandidate c;
+      c.estimator = e;
+      c.fitted = e == Estimator::kPrior ? f.with_prior : f.least_squares;
+      if (!zero) std::erase(c.fitted, f.zero_column);
+      const std::optional<LinearEstimate> all =
+          estimate(whole, f.system.dof_rows, f.system, c, o.selection_alpha, o.tolerances.scale);
+      // A family the cut holds whole is not in the model: another family set's
+      // (unless the options named the families: then it is the data's verdict).
+      std::set<std::string> in_model;
+      for (int column : all ? all->kept : c.fitted) {
+        if (!f.column_family[column].empty()) in_model.insert(f.column_family[column]);
+      }
+      if (!space_.families_fixed && in_model.size() != f.families.size()) continue;
+      linear.push_back(c);
+      Entry entry;
+      entry.family_fit = family_fit;
+      entry.candidate.families = f.families;
+      entry.candidate.zero = zero;
+      entry.candidate.estimator = e;
+      entry.candidate.allowed = allowed;
+      if (all) entry.candidate.parameters = all->parameters;
+      entries.push_back(entry);
+    }
+  }
+  const std::vector<Eigen::VectorXd> errors =
+      held_out_errors(f.system, linear, plan_, o.selection_alpha, o.tolerances.scale);
+  std::vector<Entry> out;
+  for (size_t c = 0; c < linear.size(); ++c) {
+    Entry& entry = entries[c];
+    entry.unit_error = errors[c];
+    if (errors[c].size() == 0) {
+      entry.candidate.note = "not computable: a fold's other poses cannot determine it";
+    } else {
+      entry.mse = errors[c].sum() / f.system.rows;
+      entry.candidate.cv_rms = std::sqrt(entry.mse);
+      const double units = static_cast<double>(errors[c].size());
+      const Eigen::ArrayXd centred = errors[c].array() - errors[c].mean();
+      const double se_mse =
+          std::sqrt(units * centred.square().sum() / std::max(units - 1, 1.0)) / f.system.rows;
+      entry.candidate.se = entry.candidate.cv_rms > 0 ? se_mse / (2 * entry.candidate.cv_rms) : 0;
+    }
+    out.push_back(std::move(entry));
+  }
+  return out;
+}
+
+void Search::nominal_yardstick(const CalibrationRun& geometry) {
+  const ChainStructure s = geometry.problem.model.structure();
+  std::vector<int> free;
+  std::vector<std::string> what;
+  // The set-up's parameters the geometry's fit identified (a candidate the
+  // rank test held would leave a fold's equations singular).
+  const auto candidate = [&](int slot) {
+    return std::find(geometry.identified.begin(), geometry.identified.end(), slot) !=
+           geometry.identified.end();
+  };
+  bool base = false, tool = false;
+  for (int k = 0; k < s.base_slots(); ++k) {
+    if (candidate(k)) free.push_back(k), base = true;
+  }
+  for (int k = 0; k < kPoseSlots; ++k) {
+    if (candidate(s.tool_slot() + k)) free.push_back(s.tool_slot() + k), tool = true;
+  }
+  if (s.instrument && candidate(s.instrument_slot())) free.push_back(s.instrument_slot());
+  if (base) what.push_back("measurement frame");
+  if (tool) what.push_back("tool");
+  if (s.instrument && candidate(s.instrument_slot())) what.push_back("instrument zero");
+  out_.nominal_fitted = fmt::format("{}", fmt::join(what, ", "));
+  Eigen::VectorXd registered;
+  nominal_rms_with(geometry, free, &registered);
+  // Its held-out error: the set-up refitted on each fold's training poses
+  // (the problem linearised at its registration), as every candidate's.
+  DeviceModel model = geometry.step2_nominal;
+  model.base = geometry.problem.model.base;
+  const Stack at = stack(model.structure(), registered, geometry.nominal_joints, geometry.kind(),
+                         geometry.problem.measured, geometry.problem.weights);
+  nominal_.family_fit = -1;
+  const HeldOutSystem system =
+      held_out_system(geometry.problem, at, free, geometry.scale, registered, registered,
+                      Eigen::VectorXd::Constant(registered.size(), kFreeColumn));
+  LinearCandidate setup;
+  setup.fitted.resize(free.size());
+  std::iota(setup.fitted.begin(), setup.fitted.end(), 0);
+  nominal_.unit_error = held_out_errors(system, {setup}, plan_, base_.options.selection_alpha,
+                                        base_.options.tolerances.scale)
+                            .front();
+  if (nominal_.unit_error.size()) nominal_.mse = nominal_.unit_error.sum() / system.rows;
+  out_.nominal_rms = std::sqrt(nominal_.mse);
+}
+
+// The held-out error cannot tell an instrument's zero from the device's
+// lengths: both predict the instrument's readings, but the calibrated model
+// leaves the zero out. Its Student t on the geometry's least-squares fit
+// decides (the significance cut's family-wise threshold over the parameters
+// fitted): a zero the data do not support is held, so that the device does
+// not carry a noise the instrument was given.
+void Search::test_zero(const FamilyFit& geometry) {
+  if (space_.zero.size() != 2 || geometry.zero_column < 0) return;
+  const HeldOutSystem& s = geometry.system;
+  const auto columns =
+      std::vector<Eigen::Index>(geometry.least_squares.begin(), geometry.least_squares.end());
+  const Eigen::MatrixXd A = s.A(Eigen::all, columns);
+  const std::optional<Eigen::MatrixXd> inverse = inverse_normal(A.transpose() * A);
+  if (!inverse) return;
+  const auto at = std::find(columns.begin(), columns.end(), geometry.zero_column) - columns.begin();
+  const double dof = s.dof_rows - static_cast<double>(columns.size());
+  const double sigma = std::sqrt(s.r.squaredNorm() / std::max(dof, 1.0));
+  const double sd = sigma * std::sqrt((*inverse)(at, at));
+  const double t = std::abs(s.back[geometry.zero_column]) / sd;
+  const double threshold =
+      significance_threshold(base_.options.selection_alpha, static_cast<int>(columns.size()), dof);
+  if (t >= threshold) return;
+  space_.zero = {false};
+  notes_.push_back(fmt::format(
+      "the instrument's zero, {:+.4f} +- {:.4f} mm ({:.2f} sd, below the threshold of {:.2f} sd), "
+      "is not supported by these data: held at 0 in every candidate (--free instrument.zero "
+      "fits it)",
+      -s.back[geometry.zero_column] * 1e3, sd * 1e3, t, threshold));
+}
+
+// A step 1 that is no description of the device (an external encoder that
+// reads another angle than its joint's) is absorbed by bending the geometry,
+// which then predicts held-out poses worse than the geometry fitted to the
+// readings through the nominal's transmissions. Refused when worse by more
+// than kStepOneMargin and kStepOneSds standard errors (paired over the units):
+// a step 1 that fits noise makes no such difference.
+// The held-out squared errors per unit of family fit `f`'s geometry and
+// families by least squares (the instrument's zero as the space's first
+// choice); empty if not computable.
+Eigen::VectorXd Search::least_squares_errors(const FamilyFit& f) const {
+  LinearCandidate c;
+  c.fitted = f.least_squares;
+  if (f.zero_column >= 0 && !space_.zero.front()) std::erase(c.fitted, f.zero_column);
+  return held_out_errors(f.system, {c}, plan_, base_.options.selection_alpha,
+                         base_.options.tolerances.scale)
+      .front();
+}
+
+void Search::check_step_one(const FamilyFit& kept) {
+  if (base_.result.transmissions.empty() || !base_.options.transmissions) return;
+  if (kept.least_squares_error.size() == 0) return;
+  std::string note;
+  const FamilyFit plain = fit_families(kept.families, false, note, &base_.nominal);
+  if (!note.empty() || plain.system.unit_rows.size() != kept.system_units) return;
+  Entry with, without;
+  with.unit_error = kept.least_squares_error;
+  without.unit_error = least_squares_errors(plain);
+  if (without.unit_error.size() == 0) return;
+  with.mse = with.unit_error.sum() / rows_;
+  without.mse = without.unit_error.sum() / rows_;
+  out_.with_step_one_rms = std::sqrt(with.mse);
+  out_.without_step_one_rms = std::sqrt(without.mse);
+  const double se = difference_se(with, without, rows_);
+  step_one_failed_ = with.mse > kStepOneMargin * kStepOneMargin * without.mse &&
+                     with.mse - without.mse > kStepOneSds * se;
+}
+
+// SE of the difference of two candidates' held-out MSE, paired over the units.
+double difference_se(const Entry& a, const Entry& b, double rows) {
+  const Eigen::ArrayXd d = (a.unit_error - b.unit_error).array();
+  const double units = static_cast<double>(d.size());
+  return std::sqrt(units * (d - d.mean()).square().sum() / std::max(units - 1, 1.0)) / rows;
+}
+
+void Search::choose() {
+  const double rows = rows_;
+  const auto eligible = [&](const Entry& e) {
+    return e.candidate.allowed && e.candidate.usable && std::isfinite(e.mse);
+  };
+  for (Entry& e : entries_) {
+    // Worse than the nominal (both held out) beyond the standard error of the
+    // difference (and a nanometre, for exact data) is unusable.
+    e.candidate.usable =
+        !std::isfinite(nominal_.mse) || !std::isfinite(e.mse) ||
+        e.mse - nominal_.mse <= difference_se(e, nominal_, rows) + kExactFloor * kExactFloor;
+  }
+  out_.best = out_.kept = -1;
+  for (int i = 0; i < static_cast<int>(entries_.size()); ++i) {
+    if (eligible(entries_[i]) && (out_.best < 0 || entries_[i].mse < entries_[out_.best].mse))
+      out_.best = i;
+  }
+  if (out_.best < 0) return;
+  const Entry& best = entries_[out_.best];
+  for (int i = 0; i < static_cast<int>(entries_.size()); ++i) {
+    Entry& e = entries_[i];
+    if (!std::isfinite(e.mse)) continue;
+    const double se = difference_se(e, best, rows);
+    e.candidate.difference_se = se / (e.candidate.cv_rms + best.candidate.cv_rms);
+    if (!eligible(e) || e.mse - best.mse > se) continue;
+    // Simpler: fewer joint-error families, then the instrument's zero held,
+    // then fewer (effective) parameters; then the lower held-out error.
+    const auto simplicity = [](const Entry& x) {
+      return std::make_tuple(x.candidate.families.size(), x.candidate.zero, x.candidate.parameters,
+                             x.mse);
+    };
+    if (out_.kept < 0 || simplicity(e) < simplicity(entries_[out_.kept])) out_.kept = i;
+  }
+}
+
+CalibrationResult Search::run() {
+  const CalibrationOptions& o = base_.options;
+  // The geometry alone first (a reference where --joint-errors names
+  // families): its problem gives the units and the yardstick.
+  const bool geometry_allowed = !space_.families_fixed || space_.families.empty();
+  std::string note;
+  fits_.push_back(fit_families({}, true, note));
+  if (!note.empty()) notes_.push_back(note);
+  const FamilyFit& geometry = fits_.front();
+  const int units = static_cast<int>(geometry.system.unit_rows.size());
+  rows_ = geometry.system.rows;
+  plan_ = fold_plan(units, o.seed);
+  if (o.folds >= 2) plan_.folds = std::min(o.folds, std::max(units, 2));
+  out_.folds = plan_.folds;
+  out_.repeats = plan_.repeats;
+  out_.seed = plan_.seed;
+  out_.units = units;
+  out_.unit = is_fixture(geometry.run->problem.type) ? "fixture group" : "pose";
+  if (!note.empty() || o.folds < 2 || units < kMinUnits) return conclude();
+  test_zero(geometry);
+  entries_ = judge(geometry, 0, geometry_allowed);
+  nominal_yardstick(*geometry.run);
+  fits_.front().least_squares_error = least_squares_errors(fits_.front());
+  release(fits_.front());
+  if (std::none_of(entries_.begin(), entries_.end(),
+                   [](const Entry& e) { return std::isfinite(e.mse); }))
+    return conclude();
+  if (space_.families_fixed) {
+    if (!space_.families.empty()) round({space_.families}, true);
+  } else {
+    std::vector<std::string> kept;
+    std::vector<std::string> pool = space_.families;
+    while (!pool.empty()) {
+      const size_t before = fits_.size();
+      std::vector<std::vector<std::string>> sets;
+      for (const std::string& family : pool) {
+        sets.push_back(kept);
+        sets.back().push_back(family);
+      }
+      round(sets);
+      choose();
+      if (out_.kept < 0 || entries_[out_.kept].family_fit < static_cast<int>(before)) break;
+      kept = fits_[entries_[out_.kept].family_fit].families;
+      std::erase_if(pool, [&](const std::string& f) { return names_it(kept, f.c_str()); });
+    }
+  }
+  choose();
+  return conclude();
+}
+
+CalibrationResult Search::conclude() {
+  // The kept candidate; if none is usable, the best allowed one, concluded and
+  // refused; if none could be compared (no held-out poses, a fixture of one
+  // group, a log too long), the one model of the options' defaults.
+  int pick = out_.kept;
+  const bool refused =
+      pick < 0 && std::any_of(entries_.begin(), entries_.end(), [](const Entry& e) {
+        return e.candidate.allowed && std::isfinite(e.mse);
+      });
+  if (refused) {
+    for (int i = 0; i < static_cast<int>(entries_.size()); ++i) {
+      if (entries_[i].candidate.allowed && std::isfinite(entries_[i].mse) &&
+          (pick < 0 || entries_[i].mse < entries_[pick].mse))
+        pick = i;
+    }
+    out_.best = pick;
+  }
+  Estimator estimator = space_.estimators.front();
+  int family_fit = 0;
+  bool zero = !space_.zero.empty() && space_.zero.front();
+  if (pick >= 0) {
+    const SearchCandidate& c = entries_[pick].candidate;
+    estimator = c.estimator;
+    family_fit = entries_[pick].family_fit;
+    zero = c.zero;
+  } else if (space_.families_fixed && !space_.families.empty()) {
+    std::string note;  // the families named, uncompared
+    fits_.push_back(fit_families(space_.families, true, note));
+    family_fit = static_cast<int>(fits_.size()) - 1;
+  }
+  FamilyFit& f = fits_[family_fit];
+  if (pick >= 0) check_step_one(f);
+  std::unique_ptr<CalibrationRun> final_run = std::move(f.run);
+  if (final_run->data.J.size() == 0) restack(*final_run);
+  if (!zero && f.zero_column >= 0) {
+    // The zero held: its own problem (no slot for it).
+    final_run = std::make_unique<CalibrationRun>(base_);
+    CalibrationOptions& o = final_run->options;
+    o.joint_errors = f.families.empty() ? std::vector<std::string>{"none"} : f.families;
+    if (!names_it(o.fix, "instrument.zero")) o.fix.push_back("instrument.zero");
+    std::erase(o.free, "instrument.zero");
+    prepare_model(*final_run);
+  }
+  apply_estimator(*final_run, estimator);
+  CalibrationResult result = conclude_model(*final_run);
+  KinematicFit& fit = result.kinematics;
+  for (const std::string& note : notes_) result.notes.push_back("model search: " + note);
+  out_.ran = pick >= 0;
+  for (const Entry& e : entries_) out_.candidates.push_back(e.candidate);
+  if (!out_.ran) {
+    std::string why = "no held-out poses";
+    for (const Entry& e : entries_) {
+      if (!e.candidate.note.empty()) why = e.candidate.note;
+    }
+    if (!notes_.empty()) why = notes_.front();
+    out_.note =
+        fmt::format("no candidate could be compared on held-out {}s ({}): the {} of the {}",
+                    out_.unit, why, to_string(estimator), model_words(fits_[family_fit].families));
+    out_.kept = -1;
+    result.notes.push_back("model search: " + out_.note);
+  } else {
+    const SearchCandidate& c = out_.candidates[pick];
+    fit.cv_rms = c.cv_rms;
+    fit.cv_folds = out_.folds;
+    fit.cv_note.clear();
+    fit.choice = to_string(c.estimator);
+    for (const SearchCandidate& g : out_.candidates) {
+      if (g.families.empty() && std::isfinite(g.cv_rms) &&
+          !(g.cv_rms >= fit.cv_rms_without_joint_errors))
+        fit.cv_rms_without_joint_errors = g.cv_rms;  // the best of the geometry alone
+    }
+    result.notes.push_back(fmt::format(
+        "model search: kept {} by the {}{} (held-out RMS {:.4f} +- {:.4f} mm, {:.1f} parameters) "
+        "of {} candidates compared on {} {}s ({} folds x {}, seed {}); the nominal model with "
+        "its {} fitted: {:.4f} mm",
+        model_words(c.families), to_string(c.estimator),
+        space_.zero.empty() ? ""
+        : c.zero            ? ", the instrument's zero fitted"
+                            : ", the instrument's zero held",
+        c.cv_rms * 1e3, c.se * 1e3, c.parameters, out_.candidates.size(), out_.units, out_.unit,
+        out_.folds, out_.repeats, out_.seed,
+        out_.nominal_fitted.empty() ? "nothing" : out_.nominal_fitted, out_.nominal_rms * 1e3));
+    if (step_one_failed_ && result.status == CalibrationStatus::kConverged) {
+      result.status = CalibrationStatus::kImplausible;
+      result.status_reason = fmt::format(
+          "step 1's transmissions make the calibration predict held-out poses worse than the "
+          "model's own: {:.4f} mm with them, {:.4f} mm without (the geometry by least squares): "
+          "check each external encoder (ext<i>) against its joint",
+          out_.with_step_one_rms * 1e3, out_.without_step_one_rms * 1e3);
+    } else if (refused && result.status == CalibrationStatus::kConverged) {
+      result.status = CalibrationStatus::kImplausible;
+      result.status_reason = fmt::format(
+          "no candidate model predicts held-out poses better than the nominal model with its {} "
+          "fitted ({:.4f} mm; the best, {}, {:.4f} mm): check step 1, the model and the log",
+          out_.nominal_fitted, out_.nominal_rms * 1e3, model_words(c.families), c.cv_rms * 1e3);
+    }
+  }
+  fit.search = out_;
+  return result;
+}
+
+}  // namespace
+
+CalibrationResult search_model(CalibrationRun& run) { return Search(run).run(); }
+
+}  // namespace detail
+}  // namespace hapticcal
