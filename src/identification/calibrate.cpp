@@ -605,17 +605,40 @@ void step_one(CalibrationRun& run) {
   run.result.transmissions = fit_transmissions(run.model, run.poses, run.options, run.result.notes);
 }
 
+void polish(CalibrationRun& run) {
+  if (run.problem.tolerance <= kTightTolerance ||
+      run.solution.termination != SolveTermination::kConverged) {
+    return;
+  }
+  run.problem.tolerance = kTightTolerance;
+  run.problem.initial = run.solution.parameters;
+  const int iterations = run.solution.iterations;
+  const KinematicSolution polished = solve_kinematics(run.problem, run.identified, run.iterations);
+  run.problem.initial.resize(0);
+  if (polished.termination != SolveTermination::kConverged) return;
+  run.solution = polished;
+  run.solution.iterations += iterations;
+  restack(run);
+}
+
 void restack(CalibrationRun& run) {
   // The residuals and Jacobian at the fit, for selection, cross-validation and statistics.
   run.data = stack(run.model.structure(), run.solution.parameters, run.problem.joints, run.kind(),
                    run.problem.measured, run.problem.weights, run.problem.compressed);
 }
 
-void prepare_model(CalibrationRun& run) {
+void prepare_model(CalibrationRun& run, const Eigen::VectorXd& initial, double tolerance) {
   offer_instrument_zero(run);
   offer_joint_errors(run);
   build_problem(run);
+  run.problem.tolerance = tolerance;
+  if (initial.size() > 0 && initial.size() <= run.problem.model.structure().num_slots()) {
+    // A nearby fit's slots, the first ones (the geometry's and the set-up's).
+    run.problem.initial = run.problem.model.kinematic_parameters();
+    run.problem.initial.head(initial.size()) = initial;
+  }
   identify_and_solve(run);
+  run.problem.initial.resize(0);
 }
 
 CalibrationResult conclude_model(CalibrationRun& run) {

@@ -73,7 +73,13 @@ void step_one(CalibrationRun& run);
 // least-squares fit (the instrument's zero and the joint-error families the
 // options name offered, the frame registered, the nominal checked, the rank
 // test, Levenberg-Marquardt with the robust reweighting) ...
-void prepare_model(CalibrationRun& run);
+// `initial`: where Levenberg-Marquardt starts its first slots (a nearby fit's);
+// `tolerance`: where it stops (solver_options.hpp).
+void prepare_model(CalibrationRun& run, const Eigen::VectorXd& initial = Eigen::VectorXd(),
+                   double tolerance = 1e-14);
+// A least-squares fit stopped at a looser tolerance, continued to the optimum
+// to rounding (the model search's kept candidate).
+void polish(CalibrationRun& run);
 // run.data again: the residuals and Jacobian at run.solution (the search
 // releases them from the family fits it does not keep).
 void restack(CalibrationRun& run);

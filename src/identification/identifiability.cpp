@@ -45,7 +45,12 @@ std::map<int, RankVerdict> rank_test(const Eigen::MatrixXd& J, const std::vector
   std::map<int, Verdict> out;
   double largest = 0;
   for (int slot : order) largest = std::max(largest, J.col(slot).norm());
-  std::vector<Eigen::VectorXd> basis;
+  // Gram-Schmidt on the unit columns accepted: basis Q and R with unit
+  // column k = sum_i R(i, k) Q_i (upper triangular), so that a dependent
+  // column's combination of the accepted ones is R^-1 Q^T of it.
+  const Eigen::Index rows = J.rows();
+  Eigen::MatrixXd basis(rows, static_cast<Eigen::Index>(order.size()));
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(basis.cols(), basis.cols());
   std::vector<int> accepted;
   for (int slot : order) {
     const double norm = J.col(slot).norm();
@@ -53,27 +58,31 @@ std::map<int, RankVerdict> rank_test(const Eigen::MatrixXd& J, const std::vector
       out[slot] = {Verdict::kNoEffect, {}};
       continue;
     }
+    const Eigen::Index k = static_cast<Eigen::Index>(accepted.size());
     Eigen::VectorXd v = J.col(slot) / norm;
+    Eigen::VectorXd c = Eigen::VectorXd::Zero(k);
     for (int pass = 0; pass < 2; ++pass) {  // Gram-Schmidt twice: orthogonal to rounding
-      for (const Eigen::VectorXd& b : basis) v -= b.dot(v) * b;
+      const Eigen::VectorXd d = basis.leftCols(k).transpose() * v;
+      v -= basis.leftCols(k) * d;
+      c += d;
     }
     const double rest = v.norm();
     if (rest < tolerance) {
       // Which accepted parameters reproduce its effect.
-      Eigen::MatrixXd A(J.rows(), accepted.size());
-      for (size_t k = 0; k < accepted.size(); ++k) A.col(k) = J.col(accepted[k]).normalized();
-      const Eigen::VectorXd x = A.colPivHouseholderQr().solve(J.col(slot) / norm);
+      const Eigen::VectorXd x = R.topLeftCorner(k, k).triangularView<Eigen::Upper>().solve(c);
       std::vector<std::pair<double, int>> weights;
-      for (size_t k = 0; k < accepted.size(); ++k) weights.push_back({std::abs(x[k]), accepted[k]});
+      for (Eigen::Index a = 0; a < k; ++a) weights.push_back({std::abs(x[a]), accepted[a]});
       std::sort(weights.rbegin(), weights.rend());
       Verdict verdict{Verdict::kDependent, {}};
-      for (size_t k = 0; k < weights.size() && k < 3; ++k) {
-        if (weights[k].first > 0.1 * weights[0].first) verdict.on.push_back(weights[k].second);
+      for (size_t a = 0; a < weights.size() && a < 3; ++a) {
+        if (weights[a].first > 0.1 * weights[0].first) verdict.on.push_back(weights[a].second);
       }
       out[slot] = verdict;
       continue;
     }
-    basis.push_back(v / rest);
+    basis.col(k) = v / rest;
+    R.col(k).head(k) = c;
+    R(k, k) = rest;
     accepted.push_back(slot);
     out[slot] = {Verdict::kIdentified, {}};
   }

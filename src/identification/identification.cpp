@@ -652,6 +652,9 @@ KinematicSolution solve_kinematics(const KinematicProblem& problem,
   const ChainStructure s = problem.model.structure();
   KinematicSolution out;
   out.parameters = problem.model.kinematic_parameters();
+  if (problem.initial.size() == out.parameters.size()) {
+    for (int slot : identified) out.parameters[slot] = problem.initial[slot];
+  }
   if (identified.empty()) {
     out.termination = SolveTermination::kNothingToSolve;
     out.message = "no parameter is identifiable from these measurements";
@@ -674,7 +677,7 @@ KinematicSolution solve_kinematics(const KinematicProblem& problem,
     lm.SetManifold(out.parameters.data(), new ceres::SubsetManifold(s.num_slots(), constant));
   }
   ceres::Solver::Summary summary;
-  ceres::Solve(detail::levenberg_marquardt(max_iterations), &lm, &summary);
+  ceres::Solve(detail::levenberg_marquardt(max_iterations, problem.tolerance), &lm, &summary);
   out.termination = summary.termination_type == ceres::CONVERGENCE ? SolveTermination::kConverged
                     : summary.termination_type == ceres::FAILURE   ? SolveTermination::kFailure
                                                                  : SolveTermination::kNoConvergence;

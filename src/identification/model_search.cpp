@@ -5,6 +5,8 @@
 // one standard error of the best kept, and that one concluded. Families are
 // added forward: each round offers every family not yet in the kept set, and
 // the search stops when the kept model is not one of the new round's.
+#include "identification/model_search.hpp"
+
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -25,6 +27,7 @@
 #include "hapticcal/identification/identification.hpp"
 #include "identification/calibration_run.hpp"
 #include "identification/held_out.hpp"
+#include "identification/solver_options.hpp"
 
 namespace hapticcal {
 
@@ -40,16 +43,7 @@ const char* to_string(Estimator estimator) {
   return "?";
 }
 
-namespace detail {
-namespace {
-
-// The dimensions of the search the options leave open.
-struct SearchSpace {
-  std::vector<Estimator> estimators;
-  std::vector<bool> zero;             // the instrument's zero fitted: {true, false}, one, or none
-  bool families_fixed = false;        // --joint-errors named them
-  std::vector<std::string> families;  // the fixed set, or the pool to add from
-};
+namespace detail::search {
 
 bool names_it(const std::vector<std::string>& names, const char* name) {
   return std::find(names.begin(), names.end(), name) != names.end();
@@ -88,42 +82,6 @@ std::string model_words(const std::vector<std::string>& families) {
                           : "geometry + " + fmt::format("{}", fmt::join(families, " + "));
 }
 
-// One family set's least-squares fit and the system its candidates are judged on.
-struct FamilyFit {
-  std::vector<std::string> families;
-  std::unique_ptr<CalibrationRun> run;  // the fit with the zero fitted, if it may be
-  HeldOutSystem system;
-  std::vector<int> least_squares;          // column positions: the identified parameters
-  std::vector<int> with_prior;             // and those only the prior can hold (unexcited)
-  std::vector<std::string> column_family;  // per column: its joint-error family ("": geometry)
-  // Least squares' held-out squared errors per unit (step 1's check) and the
-  // system's units (kept when the system goes).
-  Eigen::VectorXd least_squares_error;
-  size_t system_units = 0;
-  int zero_column = -1;
-  bool unexcited = false;
-};
-
-// One candidate as the search keeps it: the table's entry and its errors.
-struct Entry {
-  SearchCandidate candidate;
-  int family_fit = 0;
-  Eigen::VectorXd unit_error;  // held-out squared error per unit (empty: not computable)
-  double mse = std::numeric_limits<double>::infinity();
-};
-
-double difference_se(const Entry& a, const Entry& b, double rows);
-
-// Step 1's held-out check: refused when the geometry with its transmissions
-// predicts held-out poses worse than without them by this factor (RMS) and
-// this many standard errors: a gross failure (a forged encoder: 5.7 times),
-// not a step 1 a little worse than the model's own transmissions.
-constexpr double kStepOneMargin = 1.5;
-constexpr double kStepOneSds = 3;
-// A family fit's Jacobian of more bytes than this: the family sets are fitted
-// one at a time (each holds its own while it is judged).
-constexpr double kParallelBytes = 16e6;
-
 // A family fit once judged: its system and its stack go (restack brings the
 // stack back for the one concluded).
 void release(FamilyFit& f) {
@@ -131,65 +89,6 @@ void release(FamilyFit& f) {
   f.system = HeldOutSystem();
   if (f.run) f.run->data = Stack();
 }
-
-// The fewest units (poses, fixture groups) the search compares on: with two,
-// each fold's fit rests on the other alone.
-constexpr int kMinUnits = 3;
-// Held-out errors this close [m] are equal (exact, noise-free data).
-constexpr double kExactFloor = 1e-9;
-constexpr double kFreeColumn = std::numeric_limits<double>::infinity();
-
-class Search {
- public:
-  explicit Search(CalibrationRun& base) : base_(base), space_(search_space(base)) {
-    family_names();
-  }
-
-  CalibrationResult run();
-
- private:
-  // The least-squares fit of `families` (InputError propagates for the first,
-  // the geometry alone, which every search fits); `note` says why it cannot
-  // be judged (then its system is empty).
-  FamilyFit fit_families(const std::vector<std::string>& families, bool first, std::string& note,
-                         const DeviceModel* transmissions = nullptr) const;
-  // Each candidate's held-out errors on family fit `f` (index `family_fit`).
-  std::vector<Entry> judge(const FamilyFit& f, int family_fit, bool allowed) const;
-  // A round of the forward search: each family set fitted and judged (on
-  // several threads), then added in order; `named`: the sets the options name
-  // (their bad input is bad input).
-  void round(const std::vector<std::vector<std::string>>& sets, bool named = false);
-  // The nominal model with the set-up registered: the yardstick of usability.
-  void nominal_yardstick(const CalibrationRun& geometry);
-  // Whether the geometry's least-squares fit supports an instrument's zero;
-  // if not, the zero is held in every candidate.
-  void test_zero(const FamilyFit& geometry);
-  // Step 1's own held-out check on the kept model's families: their least
-  // squares with step 1's transmissions against the same without them (the
-  // nominal's).
-  void check_step_one(const FamilyFit& kept);
-  Eigen::VectorXd least_squares_errors(const FamilyFit& f) const;
-  // The best candidate and the simplest within one standard error of it.
-  void choose();
-  CalibrationResult conclude();
-
-  // The joint-error parameters' names of every family searched, by family:
-  // options naming them (--fix, --free, --tolerance) apply to the family sets
-  // that have them.
-  void family_names();
-
-  CalibrationRun& base_;
-  SearchSpace space_;
-  std::map<std::string, std::string> family_of_;
-  bool step_one_failed_ = false;
-  Entry nominal_;    // the nominal with the set-up registered: the yardstick
-  double rows_ = 1;  // the log rows behind the poses (every system's RMS denominator)
-  ModelSearch out_;
-  FoldPlan plan_;
-  std::vector<FamilyFit> fits_;
-  std::vector<Entry> entries_;
-  std::vector<std::string> notes_;
-};
 
 void Search::family_names() {
   if (space_.families.empty()) return;
@@ -238,11 +137,14 @@ FamilyFit Search::fit_families(const std::vector<std::string>& families, bool fi
     f.run->options = o;
     if (transmissions) f.run->model = *transmissions;  // another step 1's
   }
+  // Families start from the geometry's fit (the same slots first); another
+  // step 1's transmissions from the nominal.
+  const Eigen::VectorXd start = first || transmissions ? Eigen::VectorXd() : geometry_solution_;
   if (first) {
-    prepare_model(*f.run);  // bad input is bad input
+    prepare_model(*f.run, start, kSearchTolerance);  // bad input is bad input
   } else {
     try {
-      prepare_model(*f.run);
+      prepare_model(*f.run, start, kSearchTolerance);
     } catch (const InputError& e) {
       note = fmt::format("{} not compared: {}", model_words(families), e.what());
       f.run.reset();
@@ -388,124 +290,6 @@ std::vector<Entry> Search::judge(const FamilyFit& f, int family_fit, bool allowe
   return out;
 }
 
-void Search::nominal_yardstick(const CalibrationRun& geometry) {
-  const ChainStructure s = geometry.problem.model.structure();
-  std::vector<int> free;
-  std::vector<std::string> what;
-  // The set-up's parameters the geometry's fit identified (a candidate the
-  // rank test held would leave a fold's equations singular).
-  const auto candidate = [&](int slot) {
-    return std::find(geometry.identified.begin(), geometry.identified.end(), slot) !=
-           geometry.identified.end();
-  };
-  bool base = false, tool = false;
-  for (int k = 0; k < s.base_slots(); ++k) {
-    if (candidate(k)) free.push_back(k), base = true;
-  }
-  for (int k = 0; k < kPoseSlots; ++k) {
-    if (candidate(s.tool_slot() + k)) free.push_back(s.tool_slot() + k), tool = true;
-  }
-  if (s.instrument && candidate(s.instrument_slot())) free.push_back(s.instrument_slot());
-  if (base) what.push_back("measurement frame");
-  if (tool) what.push_back("tool");
-  if (s.instrument && candidate(s.instrument_slot())) what.push_back("instrument zero");
-  out_.nominal_fitted = fmt::format("{}", fmt::join(what, ", "));
-  Eigen::VectorXd registered;
-  nominal_rms_with(geometry, free, &registered);
-  // Its held-out error: the set-up refitted on each fold's training poses
-  // (the problem linearised at its registration), as every candidate's.
-  DeviceModel model = geometry.step2_nominal;
-  model.base = geometry.problem.model.base;
-  const Stack at = stack(model.structure(), registered, geometry.nominal_joints, geometry.kind(),
-                         geometry.problem.measured, geometry.problem.weights);
-  nominal_.family_fit = -1;
-  const HeldOutSystem system =
-      held_out_system(geometry.problem, at, free, geometry.scale, registered, registered,
-                      Eigen::VectorXd::Constant(registered.size(), kFreeColumn));
-  LinearCandidate setup;
-  setup.fitted.resize(free.size());
-  std::iota(setup.fitted.begin(), setup.fitted.end(), 0);
-  nominal_.unit_error = held_out_errors(system, {setup}, plan_, base_.options.selection_alpha,
-                                        base_.options.tolerances.scale)
-                            .front();
-  if (nominal_.unit_error.size()) nominal_.mse = nominal_.unit_error.sum() / system.rows;
-  out_.nominal_rms = std::sqrt(nominal_.mse);
-}
-
-// The held-out error cannot tell an instrument's zero from the device's
-// lengths: both predict the instrument's readings, but the calibrated model
-// leaves the zero out. Its Student t on the geometry's least-squares fit
-// decides (the significance cut's family-wise threshold over the parameters
-// fitted): a zero the data do not support is held, so that the device does
-// not carry a noise the instrument was given.
-void Search::test_zero(const FamilyFit& geometry) {
-  if (space_.zero.size() != 2 || geometry.zero_column < 0) return;
-  const HeldOutSystem& s = geometry.system;
-  const auto columns =
-      std::vector<Eigen::Index>(geometry.least_squares.begin(), geometry.least_squares.end());
-  const Eigen::MatrixXd A = s.A(Eigen::all, columns);
-  const std::optional<Eigen::MatrixXd> inverse = inverse_normal(A.transpose() * A);
-  if (!inverse) return;
-  const auto at = std::find(columns.begin(), columns.end(), geometry.zero_column) - columns.begin();
-  const double dof = s.dof_rows - static_cast<double>(columns.size());
-  const double sigma = std::sqrt(s.r.squaredNorm() / std::max(dof, 1.0));
-  const double sd = sigma * std::sqrt((*inverse)(at, at));
-  const double t = std::abs(s.back[geometry.zero_column]) / sd;
-  const double threshold =
-      significance_threshold(base_.options.selection_alpha, static_cast<int>(columns.size()), dof);
-  if (t >= threshold) return;
-  space_.zero = {false};
-  notes_.push_back(fmt::format(
-      "the instrument's zero, {:+.4f} +- {:.4f} mm ({:.2f} sd, below the threshold of {:.2f} sd), "
-      "is not supported by these data: held at 0 in every candidate (--free instrument.zero "
-      "fits it)",
-      -s.back[geometry.zero_column] * 1e3, sd * 1e3, t, threshold));
-}
-
-// A step 1 that is no description of the device (an external encoder that
-// reads another angle than its joint's) is absorbed by bending the geometry,
-// which then predicts held-out poses worse than the geometry fitted to the
-// readings through the nominal's transmissions. Refused when worse by more
-// than kStepOneMargin and kStepOneSds standard errors (paired over the units):
-// a step 1 that fits noise makes no such difference.
-// The held-out squared errors per unit of family fit `f`'s geometry and
-// families by least squares (the instrument's zero as the space's first
-// choice); empty if not computable.
-Eigen::VectorXd Search::least_squares_errors(const FamilyFit& f) const {
-  LinearCandidate c;
-  c.fitted = f.least_squares;
-  if (f.zero_column >= 0 && !space_.zero.front()) std::erase(c.fitted, f.zero_column);
-  return held_out_errors(f.system, {c}, plan_, base_.options.selection_alpha,
-                         base_.options.tolerances.scale)
-      .front();
-}
-
-void Search::check_step_one(const FamilyFit& kept) {
-  if (base_.result.transmissions.empty() || !base_.options.transmissions) return;
-  if (kept.least_squares_error.size() == 0) return;
-  std::string note;
-  const FamilyFit plain = fit_families(kept.families, false, note, &base_.nominal);
-  if (!note.empty() || plain.system.unit_rows.size() != kept.system_units) return;
-  Entry with, without;
-  with.unit_error = kept.least_squares_error;
-  without.unit_error = least_squares_errors(plain);
-  if (without.unit_error.size() == 0) return;
-  with.mse = with.unit_error.sum() / rows_;
-  without.mse = without.unit_error.sum() / rows_;
-  out_.with_step_one_rms = std::sqrt(with.mse);
-  out_.without_step_one_rms = std::sqrt(without.mse);
-  const double se = difference_se(with, without, rows_);
-  step_one_failed_ = with.mse > kStepOneMargin * kStepOneMargin * without.mse &&
-                     with.mse - without.mse > kStepOneSds * se;
-}
-
-// SE of the difference of two candidates' held-out MSE, paired over the units.
-double difference_se(const Entry& a, const Entry& b, double rows) {
-  const Eigen::ArrayXd d = (a.unit_error - b.unit_error).array();
-  const double units = static_cast<double>(d.size());
-  return std::sqrt(units * (d - d.mean()).square().sum() / std::max(units - 1, 1.0)) / rows;
-}
-
 void Search::choose() {
   const double rows = rows_;
   const auto eligible = [&](const Entry& e) {
@@ -552,6 +336,7 @@ CalibrationResult Search::run() {
   const FamilyFit& geometry = fits_.front();
   const int units = static_cast<int>(geometry.system.unit_rows.size());
   rows_ = geometry.system.rows;
+  geometry_solution_ = geometry.run->solution.parameters;
   plan_ = fold_plan(units, o.seed);
   if (o.folds >= 2) plan_.folds = std::min(o.folds, std::max(units, 2));
   out_.folds = plan_.folds;
@@ -634,6 +419,12 @@ CalibrationResult Search::conclude() {
     std::erase(o.free, "instrument.zero");
     prepare_model(*final_run);
   }
+  // Least squares is the fit itself: to rounding (the prior and the cut
+  // solve again from it).
+  if (estimator == Estimator::kLeastSquares) polish(*final_run);
+  // The search's held-out error is the one reported: no second cross-validation
+  // of the model kept (nor the suspect check's, which compares it).
+  if (out_.kept >= 0 || pick >= 0) final_run->options.folds = 0;
   apply_estimator(*final_run, estimator);
   CalibrationResult result = conclude_model(*final_run);
   KinematicFit& fit = result.kinematics;
@@ -692,9 +483,11 @@ CalibrationResult Search::conclude() {
   return result;
 }
 
-}  // namespace
+}  // namespace detail::search
 
-CalibrationResult search_model(CalibrationRun& run) { return Search(run).run(); }
+namespace detail {
+
+CalibrationResult search_model(CalibrationRun& run) { return search::Search(run).run(); }
 
 }  // namespace detail
 }  // namespace hapticcal

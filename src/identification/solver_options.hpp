@@ -20,7 +20,14 @@ inline void quiet_ceres() {
   (void)once;
 }
 
-inline ceres::Solver::Options levenberg_marquardt(int max_iterations) {
+// The relative change of the cost and of the parameters that ends a solve:
+// the optimum to rounding, or (the model search's candidate fits, polished
+// when one is kept) to what its held-out comparison can tell.
+constexpr double kTightTolerance = 1e-14;
+constexpr double kSearchTolerance = 1e-10;
+
+inline ceres::Solver::Options levenberg_marquardt(int max_iterations,
+                                                  double tolerance = kTightTolerance) {
   quiet_ceres();
   ceres::Solver::Options options;
   options.minimizer_type = ceres::TRUST_REGION;
@@ -28,8 +35,8 @@ inline ceres::Solver::Options levenberg_marquardt(int max_iterations) {
   options.linear_solver_type = ceres::DENSE_QR;
   options.logging_type = ceres::SILENT;
   options.max_num_iterations = max_iterations;
-  options.function_tolerance = 1e-14;
-  options.parameter_tolerance = 1e-14;
+  options.function_tolerance = tolerance;
+  options.parameter_tolerance = tolerance;
   options.gradient_tolerance = 1e-16;
   return options;
 }

@@ -494,6 +494,14 @@ struct KinematicProblem {
   bool frame_unknown = false;
   // The model's joint-error stages (joint_error_stages).
   std::vector<JointErrorStage> joint_errors;
+  // Where Levenberg-Marquardt starts (every slot), if not at the model: a
+  // nearby fit's (the model search's family sets start at the geometry's).
+  // The model stays the start of everything else (the prior's centre, what a
+  // held parameter returns to).
+  Eigen::VectorXd initial;
+  // Levenberg-Marquardt's relative tolerance of the cost and the parameters
+  // (the optimum to rounding; the model search's candidates stop sooner).
+  double tolerance = 1e-14;
 };
 // From the poses (a log, one row a pose) and each pose's repeat count (empty:
 // one each).

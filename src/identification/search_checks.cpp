@@ -1,0 +1,135 @@
+// The model search's yardsticks (model_search.hpp): what a candidate must beat
+// to be usable (the nominal model with the set-up registered, held out as the
+// candidates are), whether an instrument's zero is supported, and step 1's own
+// held-out check.
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "identification/model_search.hpp"
+#include "identification/stack.hpp"
+
+namespace hapticcal::detail::search {
+
+void Search::nominal_yardstick(const CalibrationRun& geometry) {
+  const ChainStructure s = geometry.problem.model.structure();
+  std::vector<int> free;
+  std::vector<std::string> what;
+  // The set-up's parameters the geometry's fit identified (a candidate the
+  // rank test held would leave a fold's equations singular).
+  const auto candidate = [&](int slot) {
+    return std::find(geometry.identified.begin(), geometry.identified.end(), slot) !=
+           geometry.identified.end();
+  };
+  bool base = false, tool = false;
+  for (int k = 0; k < s.base_slots(); ++k) {
+    if (candidate(k)) free.push_back(k), base = true;
+  }
+  for (int k = 0; k < kPoseSlots; ++k) {
+    if (candidate(s.tool_slot() + k)) free.push_back(s.tool_slot() + k), tool = true;
+  }
+  if (s.instrument && candidate(s.instrument_slot())) free.push_back(s.instrument_slot());
+  if (base) what.push_back("measurement frame");
+  if (tool) what.push_back("tool");
+  if (s.instrument && candidate(s.instrument_slot())) what.push_back("instrument zero");
+  out_.nominal_fitted = fmt::format("{}", fmt::join(what, ", "));
+  Eigen::VectorXd registered;
+  nominal_rms_with(geometry, free, &registered);
+  // Its held-out error: the set-up refitted on each fold's training poses
+  // (the problem linearised at its registration), as every candidate's.
+  DeviceModel model = geometry.step2_nominal;
+  model.base = geometry.problem.model.base;
+  const Stack at = stack(model.structure(), registered, geometry.nominal_joints, geometry.kind(),
+                         geometry.problem.measured, geometry.problem.weights);
+  nominal_.family_fit = -1;
+  const HeldOutSystem system =
+      held_out_system(geometry.problem, at, free, geometry.scale, registered, registered,
+                      Eigen::VectorXd::Constant(registered.size(), kFreeColumn));
+  LinearCandidate setup;
+  setup.fitted.resize(free.size());
+  std::iota(setup.fitted.begin(), setup.fitted.end(), 0);
+  nominal_.unit_error = held_out_errors(system, {setup}, plan_, base_.options.selection_alpha,
+                                        base_.options.tolerances.scale)
+                            .front();
+  if (nominal_.unit_error.size()) nominal_.mse = nominal_.unit_error.sum() / system.rows;
+  out_.nominal_rms = std::sqrt(nominal_.mse);
+}
+
+// The held-out error cannot tell an instrument's zero from the device's
+// lengths: both predict the instrument's readings, but the calibrated model
+// leaves the zero out. Its Student t on the geometry's least-squares fit
+// decides (the significance cut's family-wise threshold over the parameters
+// fitted): a zero the data do not support is held, so that the device does
+// not carry a noise the instrument was given.
+void Search::test_zero(const FamilyFit& geometry) {
+  if (space_.zero.size() != 2 || geometry.zero_column < 0) return;
+  const HeldOutSystem& s = geometry.system;
+  const auto columns =
+      std::vector<Eigen::Index>(geometry.least_squares.begin(), geometry.least_squares.end());
+  const Eigen::MatrixXd A = s.A(Eigen::all, columns);
+  const std::optional<Eigen::MatrixXd> inverse = inverse_normal(A.transpose() * A);
+  if (!inverse) return;
+  const auto at = std::find(columns.begin(), columns.end(), geometry.zero_column) - columns.begin();
+  const double dof = s.dof_rows - static_cast<double>(columns.size());
+  const double sigma = std::sqrt(s.r.squaredNorm() / std::max(dof, 1.0));
+  const double sd = sigma * std::sqrt((*inverse)(at, at));
+  const double t = std::abs(s.back[geometry.zero_column]) / sd;
+  const double threshold =
+      significance_threshold(base_.options.selection_alpha, static_cast<int>(columns.size()), dof);
+  if (t >= threshold) return;
+  space_.zero = {false};
+  notes_.push_back(fmt::format(
+      "the instrument's zero, {:+.4f} +- {:.4f} mm ({:.2f} sd, below the threshold of {:.2f} sd), "
+      "is not supported by these data: held at 0 in every candidate (--free instrument.zero "
+      "fits it)",
+      -s.back[geometry.zero_column] * 1e3, sd * 1e3, t, threshold));
+}
+
+// A step 1 that is no description of the device (an external encoder that
+// reads another angle than its joint's) is absorbed by bending the geometry,
+// which then predicts held-out poses worse than the geometry fitted to the
+// readings through the nominal's transmissions. Refused when worse by more
+// than kStepOneMargin and kStepOneSds standard errors (paired over the units):
+// a step 1 that fits noise makes no such difference.
+// The held-out squared errors per unit of family fit `f`'s geometry and
+// families by least squares (the instrument's zero as the space's first
+// choice); empty if not computable.
+Eigen::VectorXd Search::least_squares_errors(const FamilyFit& f) const {
+  LinearCandidate c;
+  c.fitted = f.least_squares;
+  if (f.zero_column >= 0 && !space_.zero.front()) std::erase(c.fitted, f.zero_column);
+  return held_out_errors(f.system, {c}, plan_, base_.options.selection_alpha,
+                         base_.options.tolerances.scale)
+      .front();
+}
+
+void Search::check_step_one(const FamilyFit& kept) {
+  if (base_.result.transmissions.empty() || !base_.options.transmissions) return;
+  if (kept.least_squares_error.size() == 0) return;
+  std::string note;
+  const FamilyFit plain = fit_families(kept.families, false, note, &base_.nominal);
+  if (!note.empty() || plain.system.unit_rows.size() != kept.system_units) return;
+  Entry with, without;
+  with.unit_error = kept.least_squares_error;
+  without.unit_error = least_squares_errors(plain);
+  if (without.unit_error.size() == 0) return;
+  with.mse = with.unit_error.sum() / rows_;
+  without.mse = without.unit_error.sum() / rows_;
+  out_.with_step_one_rms = std::sqrt(with.mse);
+  out_.without_step_one_rms = std::sqrt(without.mse);
+  const double se = difference_se(with, without, rows_);
+  step_one_failed_ = with.mse > kStepOneMargin * kStepOneMargin * without.mse &&
+                     with.mse - without.mse > kStepOneSds * se;
+}
+
+// SE of the difference of two candidates' held-out MSE, paired over the units.
+double difference_se(const Entry& a, const Entry& b, double rows) {
+  const Eigen::ArrayXd d = (a.unit_error - b.unit_error).array();
+  const double units = static_cast<double>(d.size());
+  return std::sqrt(units * (d - d.mean()).square().sum() / std::max(units - 1, 1.0)) / rows;
+}
+
+}  // namespace hapticcal::detail::search
