@@ -16,7 +16,7 @@ DEB_PACKAGES := cmake g++ make pkg-config libeigen3-dev libceres-dev libyaml-cpp
 # instrumented tree of `make test` and `make fuzz`.
 FUZZ_PACKAGES := clang libclang-rt-dev
 
-.PHONY: all deps configure build run test asan-configure bench fuzz clean
+.PHONY: all deps configure build run test asan-configure bench generalise fuzz clean
 
 all: build
 
@@ -72,6 +72,12 @@ bench: build
 	./$(BUILD)/bench/fk_jacobian_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
 	./$(BUILD)/bench/calibrate_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
 	./$(BUILD)/bench/plan_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+
+# The generalisation benchmark (README "The model search"): the model search
+# on 48 simulated robots and the shared real sets against an oracle, a table.
+generalise: configure
+	cmake --build $(BUILD) -j$(JOBS) --target generalise
+	./$(BUILD)/bench/generalise --threads $(JOBS)
 
 # libFuzzer targets of fuzz/ in the instrumented tree (see asan-configure), each
 # run for FUZZ_SECONDS on a scratch copy of the seed corpus in $(ASAN_BUILD)/corpus;

@@ -17,6 +17,7 @@
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/paper.hpp"
@@ -42,17 +43,22 @@ struct Case {
   DeviceModel nominal, truth;
   Log log;
   CalibrationOptions options;
-  std::set<std::string> truth_families;  // joint-error families the truth has
-  bool geometric = true;                 // the truth differs from nominal in geometry only
-  Log held_out;                          // noise-free, of the truth device, never fitted
-  bool distance = false;                 // scored on distances (else positions)
-  bool fixture = false;                  // scored by the held-out sockets' point deviation
-  double noise_effect = 0;               // the noise's RMS effect on one measurement [m]
+  std::set<std::string> truth_families;           // joint-error families the truth has
+  bool geometric = true;                          // the truth differs from nominal in geometry only
+  Log held_out;                                   // noise-free, of the truth device, never fitted
+  bool distance = false;                          // scored on distances (else positions)
+  bool fixture = false;                           // scored by the held-out sockets' point deviation
+  std::vector<PointDistance> held_out_distances;  // a fixture's known distances there
+  bool mean_deviation = false;  // a fixture scored by the mean point deviation (MUKCa's)
+  double noise_effect = 0;      // the noise's RMS effect on one measurement [m]
 };
 
 // The score: RMS error of `model` on the held-out poses against the truth [m].
 inline double score(const Case& c, const DeviceModel& model) {
-  if (c.fixture) return *evaluate(model, c.held_out).rms_point_deviation;
+  if (c.fixture) {
+    const Evaluation e = evaluate(model, c.held_out, c.held_out_distances);
+    return c.mean_deviation ? *e.mean_point_deviation : *e.rms_point_deviation;
+  }
   const Evaluation e = evaluate(model, c.held_out);
   return c.distance ? e.distance->rms : e.position->rms;
 }
@@ -215,6 +221,51 @@ inline Eigen::MatrixXd sweeps(const DeviceModel& m, int poses, std::mt19937_64& 
     }
   }
   return q;
+}
+
+}  // namespace hapticcal::generalise
+
+namespace hapticcal::generalise {
+
+// The shared real data sets as cases (no truth: scored on their own held-out
+// measurements): the Meca500's seven sets, each on its validation log; the
+// MUKCa Panda, each placement held out of a calibration on the other two
+// (its known socket distances given; the mean point deviation, MUKCa's KPI).
+inline std::vector<Case> real_cases() {
+  std::vector<Case> out;
+  for (const char* set : testing::kMeca500Sets) {
+    Case c;
+    c.name = std::string("real Meca500 ") + set;
+    c.nominal = testing::meca500();
+    c.truth = c.nominal;
+    c.log = testing::meca500_log("cal", set);
+    c.held_out = testing::meca500_log("val", set);
+    out.push_back(c);
+  }
+  const char* placements[] = {"back-high", "front", "right"};
+  const DeviceModel panda =
+      load_model(testing::real_data_path("mukca/panda.urdf"), "ball_link", "panda_link0");
+  const auto distances = [](const std::vector<std::string>& names) {
+    std::vector<PointDistance> d;
+    for (const std::string& p : names) d.push_back({p + "_0", p + "_1", 0.05});
+    return d;
+  };
+  for (const char* held : placements) {
+    std::vector<std::string> train;
+    for (const char* p : placements) {
+      if (std::string(p) != held) train.push_back(p);
+    }
+    Case c;
+    c.name = std::string("real MUKCa Panda, ") + held + " held out";
+    c.nominal = c.truth = panda;
+    c.log = parse_log(testing::mukca_csv(train), "mukca");
+    c.options.point_distances = distances(train);
+    c.held_out = parse_log(testing::mukca_csv({held}), "mukca");
+    c.held_out_distances = distances({held});
+    c.fixture = c.mean_deviation = true;
+    out.push_back(c);
+  }
+  return out;
 }
 
 }  // namespace hapticcal::generalise

@@ -344,6 +344,11 @@ CalibrationResult Search::run() {
   out_.seed = plan_.seed;
   out_.units = units;
   out_.unit = is_fixture(geometry.run->problem.type) ? "fixture group" : "pose";
+  if (note.empty() && (o.folds < 2 || units < kMinUnits)) {
+    notes_.push_back(o.folds < 2 ? std::string("--folds 0: no held-out poses")
+                                 : fmt::format("{} {}{} to hold out, fewer than {}", units,
+                                               out_.unit, units == 1 ? "" : "s", kMinUnits));
+  }
   if (!note.empty() || o.folds < 2 || units < kMinUnits) return conclude();
   test_zero(geometry);
   entries_ = judge(geometry, 0, geometry_allowed);
@@ -428,8 +433,10 @@ CalibrationResult Search::conclude() {
   apply_estimator(*final_run, estimator);
   CalibrationResult result = conclude_model(*final_run);
   KinematicFit& fit = result.kinematics;
-  for (const std::string& note : notes_) result.notes.push_back("model search: " + note);
   out_.ran = pick >= 0;
+  // Without a comparison the first note is the reason, in out_.note.
+  for (size_t i = out_.ran ? 0 : 1; i < notes_.size(); ++i)
+    result.notes.push_back("model search: " + notes_[i]);
   for (const Entry& e : entries_) out_.candidates.push_back(e.candidate);
   if (!out_.ran) {
     std::string why = "no held-out poses";

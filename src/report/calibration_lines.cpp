@@ -165,7 +165,11 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
                             k.converged ? "converged" : "NOT converged", k.iterations));
   out.push_back(fmt::format("  RMS residual: {:.4f} mm before, {:.4f} mm after (training)",
                             k.rms_before * 1e3, k.rms_after * 1e3));
-  if (k.cv_folds > 0 && std::isfinite(k.cv_rms)) {
+  if (k.search.ran && std::isfinite(k.cv_rms)) {
+    out.push_back(
+        fmt::format("  held-out RMS (the model search's: {} folds x {} shuffles by {}): {:.4f} mm",
+                    k.search.folds, k.search.repeats, k.search.unit, k.cv_rms * 1e3));
+  } else if (k.cv_folds > 0 && std::isfinite(k.cv_rms)) {
     out.push_back(fmt::format("  held-out RMS ({}-fold cross-validation by pose): {:.4f} mm",
                               k.cv_folds, k.cv_rms * 1e3));
   } else if (!k.cv_note.empty()) {

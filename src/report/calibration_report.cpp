@@ -102,7 +102,7 @@ void search_section(const ModelSearch& s, Report& report) {
     if (c.families.empty() && std::isfinite(c.cv_rms)) geometry = std::min(geometry, c.cv_rms);
   }
   std::vector<std::vector<std::string>> rows;
-  std::vector<double> x, rms, se;
+  std::vector<double> x, rms, se, kept;
   std::vector<std::string> tics;
   for (int i : order) {
     const SearchCandidate& c = s.candidates[i];
@@ -121,6 +121,7 @@ void search_section(const ModelSearch& s, Report& report) {
     x.push_back(static_cast<double>(x.size()));
     rms.push_back(c.cv_rms * 1e3);
     se.push_back(c.se * 1e3);
+    kept.push_back(i == s.kept ? c.cv_rms * 1e3 : std::numeric_limits<double>::quiet_NaN());
     tics.push_back(fmt::format("{}{}", i == s.kept ? "* " : "", candidate_words(c)) + " / " +
                    to_string(c.estimator));
   }
@@ -140,10 +141,13 @@ void search_section(const ModelSearch& s, Report& report) {
           rows));
   if (x.empty()) return;
   FigureSpec f = figure("model_search", "Held-out RMS of each candidate model (* kept)",
-                        "candidate model", "held-out RMS [mm]", {x, rms, se});
+                        "candidate model", "held-out RMS [mm]", {x, rms, se, kept});
   f.xtics = tics;
-  f.series = {{"held-out RMS +- 1 se", 0, 1, "yerrorbars", 2, "#0072b2", 0, 1.5, 7}};
+  f.series = {{"held-out RMS +- 1 se", 0, 1, "yerrorbars", 2, "#0072b2", 0, 1.5, 7},
+              {"kept", 0, 3, "points", -1, "#d55e00", 0, 2.5, 6}};
   f.y_min = 0;
+  f.x_min = -0.5;
+  f.x_max = static_cast<double>(x.size()) - 0.5;
   if (std::isfinite(s.nominal_rms) && s.nominal_rms * 1e3 < 3 * rms.back()) {
     f.extra = fmt::format(
         "set arrow from graph 0, first {0} to graph 1, first {0} nohead dt 2 "
