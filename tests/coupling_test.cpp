@@ -321,6 +321,135 @@ TEST(Coupling, UrdfMimicJointIsAPassiveCoupledJoint) {
   }
 }
 
+// A joint driven by several readings (a humanoid torso's passive joint,
+// theta3 = -(q1 + q2)) on a URDF: one <hapticcal_coupling> a reading under the
+// joint, which urdfdom and ROS tools ignore. Read, checked against the pose
+// composed by hand, written back and read again.
+TEST(Coupling, UrdfJointDrivenBySeveralReadings) {
+  const std::string urdf = R"(<?xml version="1.0"?>
+<robot name="torso">
+  <link name="a"/><link name="b"/><link name="c"/><link name="d"/><link name="e"/>
+  <joint name="t1" type="revolute"><parent link="a"/><child link="b"/>
+    <origin xyz="0 0 0.1" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="0" velocity="0"/></joint>
+  <joint name="t2" type="revolute"><parent link="b"/><child link="c"/>
+    <origin xyz="0 0 0.3" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="0" velocity="0"/></joint>
+  <joint name="t3" type="revolute"><parent link="c"/><child link="d"/>
+    <origin xyz="0 0 0.25" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="0" velocity="0"/>
+    <hapticcal_coupling joint="t1" multiplier="-1"/>
+    <hapticcal_coupling joint="t2" multiplier="-1"/></joint>
+  <joint name="a1" type="revolute"><parent link="d"/><child link="e"/>
+    <origin xyz="0.2 0 0.05" rpy="0 0 0"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="0" velocity="0"/></joint>
+</robot>
+)";
+  const DeviceModel m = parse_urdf(urdf, "torso.urdf", "e", "a");
+  ASSERT_TRUE(m.coupled());
+  Eigen::MatrixXd expected = Eigen::MatrixXd::Identity(4, 4);
+  expected.row(2) << -1, -1, 0, 0;
+  EXPECT_EQ(m.coupling, expected);
+  EXPECT_FALSE(m.reading_used(2));
+  // By hand: rotations about y by q1, q2, -(q1 + q2), then about z by q4.
+  auto by_hand = [](const Eigen::Vector4d& q) {
+    using T = Eigen::Affine3d;
+    const Eigen::Vector3d y = Eigen::Vector3d::UnitY(), z = Eigen::Vector3d::UnitZ();
+    const T f = T(Eigen::Translation3d(0, 0, 0.1)) * Eigen::AngleAxisd(q[0], y) *
+                Eigen::Translation3d(0, 0, 0.3) * Eigen::AngleAxisd(q[1], y) *
+                Eigen::Translation3d(0, 0, 0.25) * Eigen::AngleAxisd(-(q[0] + q[1]), y) *
+                Eigen::Translation3d(0.2, 0, 0.05) * Eigen::AngleAxisd(q[3], z);
+    return Eigen::Vector3d(f.translation());
+  };
+  const DeviceModel back = parse_urdf(device_to_urdf(m), "exported.urdf", "tool", "");
+  EXPECT_NE(device_to_urdf(m).find("<hapticcal_coupling joint=\"t2\" multiplier=\"-1\"/>"),
+            std::string::npos);
+  EXPECT_EQ(back.coupling, m.coupling);
+  const PreparedModel a(m), b(back);
+  for (const Eigen::Vector4d& q :
+       {Eigen::Vector4d(0.3, -0.4, 0.9, 0.2), Eigen::Vector4d(-0.7, 0.5, -0.1, -0.8)}) {
+    // The passive joint's own reading is unused: any value gives the same pose.
+    const Eigen::Vector3d p = a.forward(q.data()).p;
+    EXPECT_LT((p - by_hand(q)).norm(), 1e-12) << p.transpose();
+    EXPECT_LT((b.forward(q.data()).p - p).norm(), 1e-12);
+  }
+  // Mistakes, each one line naming the file, the line and the joint.
+  auto refused = [&](const std::string& from, const std::string& to, const std::string& why) {
+    std::string bad = urdf;
+    bad.replace(bad.find(from), from.size(), to);
+    try {
+      parse_urdf(bad, "torso.urdf", "e", "a");
+      ADD_FAILURE() << "accepted: " << to;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+  };
+  refused("joint=\"t2\" multiplier=\"-1\"", "joint=\"tx\" multiplier=\"-1\"",
+          "torso.urdf:14: joint 't3': <hapticcal_coupling>: 'tx' is not a movable joint");
+  refused("joint=\"t2\" multiplier=\"-1\"", "joint=\"t1\" multiplier=\"-1\"", "'t1' named twice");
+  refused("joint=\"t2\" multiplier=\"-1\"", "joint=\"t2\" multiplier=\"1e400\"",
+          "multiplier '1e400': a number of magnitude in (0, 100]");
+  refused("joint=\"t2\" multiplier=\"-1\"", "joint=\"t2\"", "needs joint=");
+  refused(
+      "<hapticcal_coupling joint=\"t1\" multiplier=\"-1\"/>",
+      "<mimic joint=\"t1\" multiplier=\"-1\"/><hapticcal_coupling joint=\"t1\" multiplier=\"-1\"/>",
+      "both <mimic> and <hapticcal_coupling>");
+}
+
+// calibrated.urdf keeps a coupling as the source wrote it: a mimic joint
+// whose origin moved (its offset folded into the origin, not counted twice), a
+// fitted coefficient of a joint driven by several readings, and a mimic joint
+// that now follows two readings; each read back gives the calibrated pose.
+TEST(Coupling, CalibratedUrdfWritesTheCouplingBack) {
+  const std::string urdf = R"(<?xml version="1.0"?>
+<robot name="torso">
+  <link name="a"/><link name="b"/><link name="c"/><link name="d"/><link name="e"/>
+  <joint name="t1" type="revolute"><parent link="a"/><child link="b"/>
+    <origin xyz="0 0 0.1" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="0" velocity="0"/></joint>
+  <joint name="t2" type="revolute"><parent link="b"/><child link="c"/>
+    <origin xyz="0 0 0.3" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="0" velocity="0"/>
+    <mimic joint="t1" multiplier="0.5" offset="0.1"/>
+  </joint>
+  <joint name="t3" type="revolute"><parent link="c"/><child link="d"/>
+    <origin xyz="0 0 0.25" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="0" velocity="0"/>
+    <hapticcal_coupling joint="t1" multiplier="-1"/>
+    <hapticcal_coupling joint="a1" multiplier="-1"/></joint>
+  <joint name="a1" type="revolute"><parent link="d"/><child link="e"/>
+    <origin xyz="0.2 0 0.05" rpy="0 0 0"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="0" velocity="0"/></joint>
+</robot>
+)";
+  const DeviceModel nominal = parse_urdf(urdf, "torso.urdf", "e", "a");
+  ASSERT_EQ(nominal.coupling(1, 0), 0.5);
+  ASSERT_EQ(nominal.coupling(2, 3), -1);
+  auto round_trip = [&](const DeviceModel& calibrated, const char* what) {
+    const std::string text = calibrated_urdf(urdf, "torso.urdf", "e", "a", calibrated, nullptr);
+    const DeviceModel back = parse_urdf(text, "calibrated.urdf", "e", "a");
+    EXPECT_EQ(back.coupling, calibrated.coupling) << what << "\n" << text;
+    const PreparedModel a(calibrated), b(back);
+    for (const Eigen::Vector4d& q :
+         {Eigen::Vector4d(0.3, -0.4, 0.9, 0.2), Eigen::Vector4d(-0.7, 0.5, -0.1, -0.8)}) {
+      EXPECT_LT((a.forward(q.data()).p - b.forward(q.data()).p).norm(), 1e-9) << what << "\n"
+                                                                              << text;
+    }
+    return text;
+  };
+  DeviceModel moved = nominal;
+  moved.links[1].origin[0] += 0.002;  // the mimic joint's origin
+  round_trip(moved, "a mimic joint moved");
+  DeviceModel fitted = nominal;
+  fitted.coupling(2, 0) = -1.02;  // a fitted coefficient
+  const std::string text = round_trip(fitted, "a coefficient fitted");
+  EXPECT_NE(text.find("<hapticcal_coupling joint=\"t1\" multiplier=\"-1.02\"/>"), std::string::npos)
+      << text;
+  DeviceModel two = nominal;
+  two.coupling(1, 3) = 0.25;  // the mimic joint now follows two readings
+  round_trip(two, "a mimic joint with a second reading");
+}
+
 // Step 1 through the coupling: a parallelogram-style relative reading (joint
 // 3 = u3 - u2, as on a PHANToM) with capstans on readings 2 and 3 and external
 // encoders on the joint angles: each reading's capstan is recovered.

@@ -208,6 +208,59 @@ std::vector<std::string> link_yaml(const DeviceModel& model, std::string_view ke
   return out;
 }
 
+// Joint i's coupling as URDF elements, one a line after `indent`: a passive
+// joint that follows one other reading is a <mimic> (offset 0: the offsets are
+// folded into the origins), any other row one <hapticcal_coupling> a reading
+// (urdf_io.cpp reads it back; other programs ignore it).
+std::string coupling_elements(const DeviceModel& model, int i, const std::string& indent) {
+  const Eigen::RowVectorXd row = model.coupling.row(i);
+  int k = 0;
+  row.cwiseAbs().maxCoeff(&k);
+  if ((row.array() != 0).count() == 1 && k != i && !model.reading_used(i)) {
+    return fmt::format("{}<mimic joint=\"{}\" multiplier=\"{}\" offset=\"0\"/>\n", indent,
+                       xml_escaped(model.links[k].name), row[k]);
+  }
+  std::string out;
+  for (int r = 0; r < row.size(); ++r) {
+    if (row[r] == 0) continue;
+    out += fmt::format("{}<hapticcal_coupling joint=\"{}\" multiplier=\"{}\"/>\n", indent,
+                       xml_escaped(model.links[r].name), row[r]);
+  }
+  return out;
+}
+
+// calibrated.urdf's coupling of joint i (whose origin, offset folded in, is
+// rewritten with it): its <mimic> and <hapticcal_coupling> elements replaced by
+// the calibrated row's, before the joint's end tag.
+void set_coupling(const std::string& text, const Document& doc, const XmlElement& joint,
+                  const DeviceModel& calibrated, int i, std::vector<Edit>& edits) {
+  for (const std::string_view name : {"mimic", "hapticcal_coupling"}) {
+    for (const XmlElement* e : doc.children(joint, name)) {
+      size_t from = e->begin, to = e->end;  // the whole line where it is alone on it
+      while (from > 0 && (text[from - 1] == ' ' || text[from - 1] == '\t')) --from;
+      size_t after = to;
+      while (after < text.size() && (text[after] == ' ' || text[after] == '\t')) ++after;
+      if ((from == 0 || text[from - 1] == '\n') && after < text.size() && text[after] == '\n') {
+        to = after + 1;
+      } else {
+        from = e->begin;
+      }
+      edits.push_back({from, to, ""});
+    }
+  }
+  const size_t close = text.rfind("</", joint.end - 1);
+  const std::string indent = indentation_at(text, joint.begin);
+  std::string added = coupling_elements(calibrated, i, indent + "  ");
+  size_t line = close;
+  while (line > 0 && (text[line - 1] == ' ' || text[line - 1] == '\t')) --line;
+  if (line > 0 && text[line - 1] == '\n') {
+    edits.push_back({line, line, added});  // the end tag on a line of its own
+  } else {
+    added.pop_back();
+    edits.push_back({close, close, "\n" + added + "\n" + indent});
+  }
+}
+
 void write_joint(std::string& out, const std::string& name, const std::string& type,
                  const std::string& parent, const std::string& child, const Frame<double>& origin,
                  const Link* link, const Eigen::Vector3d& axis = Eigen::Vector3d::UnitZ(),
@@ -288,23 +341,14 @@ std::string device_to_urdf(const DeviceModel& model) {
           "file): backlash: {} -->\n",
           comment_safe(l.name), comment_safe(backlashes[i]));
     }
-    std::string mimic;
-    if (!couplings[i].empty()) {
-      // A passive joint that follows one other reading is a URDF mimic joint
-      // (the offsets are folded into the origins: the mimic's offset is 0).
-      const Eigen::RowVectorXd row = model.coupling.row(i);
-      int k = 0;
-      row.cwiseAbs().maxCoeff(&k);
-      if ((row.array() != 0).count() == 1 && k != static_cast<int>(i) &&
-          !model.reading_used(static_cast<int>(i))) {
-        mimic = fmt::format("    <mimic joint=\"{}\" multiplier=\"{}\" offset=\"0\"/>\n",
-                            xml_escaped(model.links[k].name), row[k]);
-      } else {
-        out += fmt::format(
-            "  <!-- hapticcal: joint {}'s value is a combination of readings, which URDF cannot "
-            "express (as in a device file): coupling: {} -->\n",
-            comment_safe(l.name), comment_safe(couplings[i]));
-      }
+    const std::string mimic =
+        couplings[i].empty() ? "" : coupling_elements(model, static_cast<int>(i), "    ");
+    if (mimic.find("hapticcal_coupling") != std::string::npos) {
+      out += fmt::format(
+          "  <!-- hapticcal: joint {}'s value is a combination of readings, which <mimic> "
+          "cannot express: the hapticcal_coupling elements give it (ROS tools read the joint "
+          "as independent: publish its value) -->\n",
+          comment_safe(l.name));
     }
     const char* type = to_string(l.type);
     write_joint(out, l.name, type, parent, child, post * split.pre, &l, split.axis, mimic);
@@ -393,10 +437,22 @@ std::string calibrated_urdf(const std::string& urdf_text, const std::string& ori
   }
 
   std::vector<Edit> edits;
+  const int n_joints = nominal.dof();
+  auto row = [&](const DeviceModel& m, int i) -> Eigen::RowVectorXd {
+    return m.coupled() ? Eigen::RowVectorXd(m.coupling.row(i))
+                       : Eigen::RowVectorXd::Unit(n_joints, i);
+  };
   for (int i = 0; i < nominal.dof(); ++i) {
     const Link& c = calibrated.links[i];
     const Link& n = nominal.links[i];
-    if (c.origin == n.origin && c.offset == n.offset) continue;  // untouched text
+    const bool recoupled = row(calibrated, i) != row(nominal, i);
+    if (c.origin == n.origin && c.offset == n.offset && !recoupled) continue;  // untouched text
+    // A coupled joint's elements go with its origin: a mimic's offset is then
+    // folded into the origin (written 0), not counted twice.
+    if (recoupled || row(nominal, i) != Eigen::RowVectorXd::Unit(n_joints, i)) {
+      set_coupling(urdf_text, chain.doc, chain.doc.elements[chain.joint_elements[i]], calibrated, i,
+                   edits);
+    }
     // origin_k = F_k^-1 * O_k * motion(axis, offset_k)
     const Frame<double> unfolded =
         chain.folded[i].inverse() * frame_of(c.origin) * motion(c.axis, c.prismatic(), c.offset);

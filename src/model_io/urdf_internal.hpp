@@ -73,6 +73,15 @@ struct Document {
     }
     return nullptr;
   }
+  // Every child of `parent` named `name`, in document order.
+  std::vector<const XmlElement*> children(const XmlElement& parent, std::string_view name) const {
+    std::vector<const XmlElement*> out;
+    const int index = static_cast<int>(&parent - elements.data());
+    for (size_t k = index + 1; k < elements.size() && elements[k].begin < parent.end; ++k) {
+      if (elements[k].parent == index && elements[k].name == name) out.push_back(&elements[k]);
+    }
+    return out;
+  }
 
  private:
   const XmlElement* find(const std::map<std::string, int>& by_name, const std::string& name) const {

@@ -398,6 +398,63 @@ void couple_mimics(const std::vector<ChainMimic>& mimics, const std::string& ori
   model.coupling = C;
 }
 
+// A joint whose value is a combination of several readings, which <mimic>
+// (one joint) cannot say: under the <joint>, one element a reading,
+//   <hapticcal_coupling joint="torso_2" multiplier="-1"/>,
+// theta = sum multiplier_k q_k (+ the joint's offset); the joint's own reading
+// counts only where it names itself. Other programs ignore the element (a ROS
+// tool reads the joint as independent: its value is then the driver's to
+// publish). DeviceModel::coupling's row of the joint.
+constexpr std::string_view kCouplingElement = "hapticcal_coupling";
+
+struct ChainCoupling {
+  int link;
+  std::string name;
+  std::vector<const XmlElement*> terms;
+};
+
+void couple_readings(const std::vector<ChainCoupling>& couplings, const std::string& origin,
+                     DeviceModel& model) {
+  if (couplings.empty()) return;
+  const int n = model.dof();
+  Eigen::MatrixXd C = model.coupled() ? model.coupling : Eigen::MatrixXd::Identity(n, n);
+  for (const ChainCoupling& c : couplings) {
+    C.row(c.link).setZero();
+    std::set<int> named;
+    for (const XmlElement* e : c.terms) {
+      auto fail = [&](const std::string& why) {
+        throw InputError(origin, e->line, joint_key(c.name),
+                         fmt::format("<{}>: {}", kCouplingElement, why));
+      };
+      const XmlAttribute* joint = e->attribute("joint");
+      const XmlAttribute* multiplier = e->attribute("multiplier");
+      if (!joint || !multiplier)
+        fail("needs joint=\"<a joint of the chain>\" and multiplier=\"<c>\"");
+      int k = 0;
+      while (k < n && model.links[k].name != joint->value) ++k;
+      if (k == n)
+        fail(fmt::format("'{}' is not a movable joint of the chain", printable(joint->value, 80)));
+      if (!named.insert(k).second)
+        fail(fmt::format("'{}' named twice", printable(joint->value, 80)));
+      double v = 0;
+      const std::string& t = multiplier->value;
+      const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
+      if (ec != std::errc() || end != t.data() + t.size() || !std::isfinite(v) || v == 0 ||
+          std::abs(v) > kMaxCouplingCoefficient) {
+        fail(fmt::format("multiplier '{}': a number of magnitude in (0, {}] is needed",
+                         printable(t, 40), kMaxCouplingCoefficient));
+      }
+      C(c.link, k) = v;
+    }
+  }
+  if (const std::string why = coupling_problem(C, model.links); !why.empty()) {
+    throw InputError(origin, couplings.front().terms.front()->line,
+                     joint_key(couplings.front().name),
+                     fmt::format("<{}>: {}", kCouplingElement, why));
+  }
+  model.coupling = C;
+}
+
 }  // namespace
 
 UrdfChain read_chain(const std::string& text, const std::string& origin, const std::string& tip,
@@ -446,6 +503,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
   std::vector<Frame<double>> fixed_origins;
   std::vector<int> fixed_elements;
   std::vector<ChainMimic> mimics;
+  std::vector<ChainCoupling> couplings;
   for (const auto& j : joints) {
     const int line = chain.doc.joint_line(j->name);
     const std::array<double, 6> o = joint_origin(*j, chain.doc);
@@ -468,6 +526,15 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
                                    type, printable(chain.root, 80), printable(chain.tip, 80)));
     }
     if (j->mimic) mimics.push_back({model.dof(), line, j->name, *j->mimic});
+    if (auto terms = chain.doc.children(*chain.doc.joint(j->name), kCouplingElement);
+        !terms.empty()) {
+      if (j->mimic) {
+        throw InputError(
+            origin, terms.front()->line, joint_key(j->name),
+            fmt::format("both <mimic> and <{}>: give its readings one way", kCouplingElement));
+      }
+      couplings.push_back({model.dof(), j->name, std::move(terms)});
+    }
     Link link;
     link.name = j->name;
     link.geometry = Geometry::kOrigin;
@@ -498,6 +565,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
   }
   if (folding) model.tool = pose_of(fold);
   couple_mimics(mimics, origin, model);
+  couple_readings(couplings, origin, model);
   chain.tool_origins = std::move(fixed_origins);
   chain.tool_elements = std::move(fixed_elements);
   check_chain_model(chain, origin);
