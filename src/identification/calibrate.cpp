@@ -526,9 +526,8 @@ ParameterEstimate parameter_estimate(const CalibrationRun& run, const ParameterI
     }
     // An unknown frame, a marker's offset and an instrument's zero are the
     // set-up's, not the robot's.
-    const int dof = run.model.dof();
-    const bool setup = (run.problem.frame_unknown && (pi.joint < 0 || pi.joint == dof)) ||
-                       pi.joint == dof + 1;  // the instrument's zero
+    const bool setup =
+        (run.problem.frame_unknown && pi.setup()) || pi.block == ParameterBlock::kInstrument;
     e.large_change =
         !setup && std::abs(e.value - e.nominal) >
                       (e.unit == ParameterUnit::kAngle ? kLargeChangeAngle : kLargeChangeLength);

@@ -119,7 +119,7 @@ inline Eigen::VectorXd angles_near(const DeviceModel& model, Eigen::VectorXd par
                                    const Eigen::VectorXd& centre) {
   for (const ParameterInfo& pi : model.parameter_info()) {
     // Angles are periodic; a joint error's coefficients are not.
-    if (pi.unit != ParameterUnit::kAngle || joint_error_parameter(pi.joint, model.dof())) {
+    if (pi.unit != ParameterUnit::kAngle || pi.block == ParameterBlock::kJointError) {
       continue;
     }
     parameters[pi.slot] =

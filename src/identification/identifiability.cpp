@@ -162,7 +162,7 @@ std::optional<int> twist_partner(const DeviceModel& model, int link) {
 }
 
 bool is_beta(const DeviceModel& model, const ParameterInfo& p) {
-  return p.joint >= 0 && p.joint < model.dof() && model.links[p.joint].dh_parameters() &&
+  return p.block == ParameterBlock::kLink && model.links[p.joint].dh_parameters() &&
          p.element == kLinkBeta;
 }
 
@@ -224,18 +224,14 @@ std::vector<int> candidate_slots(const DeviceModel& model, const std::vector<std
     }
     order.push_back(p.slot);
   };
-  const int dof = model.dof();
-  for (const ParameterInfo& p : info) {
-    if (p.joint >= 0 && p.joint < dof) take(p);
-  }
-  for (const ParameterInfo& p : info) {
-    if (p.joint == dof) take(p);
-  }
-  for (const ParameterInfo& p : info) {
-    if (p.joint < 0) take(p);
-  }
-  for (const ParameterInfo& p : info) {
-    if (p.joint > dof) take(p);  // the instrument's: held in favour of the device's
+  // Links, tool, base, then the instrument's (held in favour of the device's)
+  // and the joint errors, in slot order.
+  using B = ParameterBlock;
+  for (const std::vector<B>& blocks :
+       {std::vector<B>{B::kLink}, {B::kTool}, {B::kBase}, {B::kInstrument, B::kJointError}}) {
+    for (const ParameterInfo& p : info) {
+      if (std::find(blocks.begin(), blocks.end(), p.block) != blocks.end()) take(p);
+    }
   }
   return order;
 }

@@ -99,12 +99,8 @@ void Search::family_names() {
   } catch (const InputError&) {
     return;  // the family set's own fit says why
   }
-  const int dof = scratch.model.dof();
   for (const ParameterInfo& pi : scratch.model.parameter_info()) {
-    if (pi.joint == joint_error_block(dof)) family_of_[pi.name] = "harmonic";
-    if (pi.joint == compliance_block(dof)) family_of_[pi.name] = "compliance";
-    if (pi.joint == coupling_block(dof)) family_of_[pi.name] = "coupling";
-    if (pi.joint == backlash_block(dof)) family_of_[pi.name] = "backlash";
+    if (pi.block == ParameterBlock::kJointError) family_of_[pi.name] = pi.family;
   }
 }
 
@@ -166,16 +162,10 @@ FamilyFit Search::fit_families(const std::vector<std::string>& families, bool fi
     }
   }
   const std::vector<ParameterInfo> info = r.problem.model.parameter_info();
-  const int dof = r.problem.model.dof();
   for (size_t c = 0; c < columns.size(); ++c) {
     (c < r.identified.size() ? f.least_squares : f.with_prior).push_back(static_cast<int>(c));
     if (r.name.at(columns[c]) == "instrument.zero") f.zero_column = static_cast<int>(c);
-    const int block = info[columns[c]].joint;
-    f.column_family.push_back(block == joint_error_block(dof)  ? "harmonic"
-                              : block == compliance_block(dof) ? "compliance"
-                              : block == coupling_block(dof)   ? "coupling"
-                              : block == backlash_block(dof)   ? "backlash"
-                                                               : "");
+    f.column_family.push_back(info[columns[c]].family);
   }
   f.with_prior.insert(f.with_prior.begin(), f.least_squares.begin(), f.least_squares.end());
   f.system =

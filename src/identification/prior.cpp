@@ -312,16 +312,10 @@ Eigen::VectorXd slot_tolerances(const DeviceModel& model, const Tolerances& t) {
     if (const auto it = t.by_name.find(pi.name); it != t.by_name.end()) {
       out[pi.slot] = it->second;
       unused.erase(pi.name);
-    } else if (pi.joint >= 0 && pi.joint < model.dof()) {
+    } else if (pi.block == ParameterBlock::kLink) {
       out[pi.slot] = pi.unit == ParameterUnit::kAngle ? t.angle : t.length;
-    } else if (pi.joint == joint_error_block(model.dof())) {
-      out[pi.slot] = t.harmonic;
-    } else if (pi.joint == compliance_block(model.dof())) {
-      out[pi.slot] = t.compliance;
-    } else if (pi.joint == coupling_block(model.dof())) {
-      out[pi.slot] = t.coupling;
-    } else if (pi.joint == backlash_block(model.dof())) {
-      out[pi.slot] = t.backlash;
+    } else if (pi.block == ParameterBlock::kJointError) {
+      out[pi.slot] = t.family(pi.family);
     }
   }
   if (!unused.empty()) {

@@ -140,17 +140,18 @@ void DeviceModel::set_kinematic_parameters(const Eigen::VectorXd& p) {
 
 std::vector<ParameterInfo> DeviceModel::parameter_info() const {
   using U = ParameterUnit;
+  using B = ParameterBlock;
   const ChainStructure s = structure();
   std::vector<ParameterInfo> info;
   if (base_kind == BaseKind::kDh) {
     for (int k = 0; k < 4; ++k) {
-      info.push_back(
-          {std::string("base.") + kBaseDhNames[k], k, k % 2 ? U::kAngle : U::kLength, -1, k});
+      info.push_back({std::string("base.") + kBaseDhNames[k], k, k % 2 ? U::kAngle : U::kLength, -1,
+                      k, B::kBase});
     }
   } else {
     for (int k = 0; k < 6; ++k) {
-      info.push_back(
-          {std::string("base.") + kPoseNames[k], k, k < 3 ? U::kLength : U::kAngle, -1, k});
+      info.push_back({std::string("base.") + kPoseNames[k], k, k < 3 ? U::kLength : U::kAngle, -1,
+                      k, B::kBase});
     }
   }
   for (int i = 0; i < dof(); ++i) {
@@ -169,29 +170,33 @@ std::vector<ParameterInfo> DeviceModel::parameter_info() const {
   }
   for (int k = 0; k < 6; ++k) {
     info.push_back({std::string("tool.") + kPoseNames[k], s.tool_slot() + k,
-                    k < 3 ? U::kLength : U::kAngle, dof(), k});
+                    k < 3 ? U::kLength : U::kAngle, dof(), k, B::kTool});
   }
   if (instrument_zero)
-    info.push_back({"instrument.zero", s.instrument_slot(), U::kLength, dof() + 1, 0});
+    info.push_back(
+        {"instrument.zero", s.instrument_slot(), U::kLength, dof() + 1, 0, B::kInstrument});
   int e = s.errors_slot();
   for (int i = 0; i < static_cast<int>(joint_errors.size()); ++i) {
     for (const std::string& name : joint_errors[i].parameter_names()) {
-      info.push_back({links[i].name + "." + name, e++, U::kAngle, joint_error_block(dof()), i});
+      info.push_back({links[i].name + "." + name, e++, U::kAngle, joint_error_block(dof()), i,
+                      B::kJointError, "harmonic"});
     }
   }
   for (int i = 0, k = s.compliance_slot(); i < dof(); ++i) {
     if (compliance_fitted(i))
-      info.push_back({links[i].name + ".k", k++, U::kAngle, compliance_block(dof()), i});
+      info.push_back({links[i].name + ".k", k++, U::kAngle, compliance_block(dof()), i,
+                      B::kJointError, "compliance"});
   }
   for (int c = 0; c < s.coupling; ++c) {
     const auto [i, k] = fitted_coupling[c];
     info.push_back({links[i].name + ".c_" + links[k].name, s.coupling_slot() + c, U::kAngle,
-                    coupling_block(dof()), c});
+                    coupling_block(dof()), c, B::kJointError, "coupling"});
   }
   for (int c = 0; c < s.backlash; ++c) {
     const int i = fitted_backlash[c];
     info.push_back({links[i].name + ".backlash", s.backlash_slot() + c,
-                    links[i].prismatic() ? U::kLength : U::kAngle, backlash_block(dof()), i});
+                    links[i].prismatic() ? U::kLength : U::kAngle, backlash_block(dof()), i,
+                    B::kJointError, "backlash"});
   }
   return info;
 }

@@ -12,6 +12,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "hapticcal/core/log.hpp"
@@ -305,6 +306,14 @@ struct Tolerances {
   std::map<std::string, double> by_name;
   // The common scale of the tolerances; none: the one of highest evidence.
   std::optional<double> scale;
+  // A joint-error family's (ParameterInfo::family); infinite for another.
+  double family(std::string_view name) const {
+    return name == "harmonic"     ? harmonic
+           : name == "compliance" ? compliance
+           : name == "coupling"   ? coupling
+           : name == "backlash"   ? backlash
+                                  : std::numeric_limits<double>::infinity();
+  }
 };
 
 // One --tolerance item, NAME=SD in SI units: "length" and "angle" set a family's

@@ -162,12 +162,25 @@ inline int backlash_block(int dof) { return dof + 5; }
 // Whether a parameter is a joint error's (a stage's, a compliance, a coupling
 // coefficient, a backlash): not a length or a periodic angle of the geometry.
 inline bool joint_error_parameter(int joint, int dof) { return joint >= joint_error_block(dof); }
+// What a parameter belongs to: the base (the measurement frame), a joint's
+// geometry (joint: the link), the tool, an instrument's zero, or a joint-error
+// family's (family: "harmonic", "compliance", "coupling", "backlash"). Code
+// asks this, not the block number in `joint`.
+enum class ParameterBlock { kBase, kLink, kTool, kInstrument, kJointError };
 struct ParameterInfo {
   std::string name;
   int slot = 0;
   ParameterUnit unit = ParameterUnit::kLength;
   int joint = 0;
   int element = 0;
+  ParameterBlock block = ParameterBlock::kLink;
+  const char* family = "";
+  // The set-up's (base, tool, an instrument's zero) rather than the device's
+  // links and joint errors.
+  bool setup() const {
+    return block == ParameterBlock::kBase || block == ParameterBlock::kTool ||
+           block == ParameterBlock::kInstrument;
+  }
 };
 
 struct DeviceModel {
