@@ -253,6 +253,13 @@ TEST(Tree, PlanPredictsAndBeatsRandomPoses) {
   const TreePlan plan = plan_tree(nominal, options);
   ASSERT_EQ(plan.readings.rows(), 30);
   EXPECT_LT(plan.rms_sd, plan.random_median_rms_sd);
+  // The exchange improves on the greedy start: its criterion (the validation
+  // sample's mean prediction variance) and the evaluation sample's RMS sd.
+  std::printf("tree plan: greedy %.2f um, exchange %.2f um (%d swaps in %d sweeps)\n",
+              1e6 * plan.rms_sd_greedy, 1e6 * plan.rms_sd, plan.swaps, plan.sweeps);
+  EXPECT_GT(plan.swaps, 0);
+  EXPECT_GE(plan.criterion_exchange, plan.criterion_greedy);
+  EXPECT_LE(plan.rms_sd, plan.rms_sd_greedy);
   // Every candidate identified or held (a URDF's joints have no beta).
   EXPECT_EQ(static_cast<int>(plan.parameters.size() + plan.held.size()), nominal.num_slots());
   const Eigen::MatrixXd random = tree_random_readings(nominal, 30, 77);
@@ -281,7 +288,7 @@ TEST(Tree, PlanPredictsAndBeatsRandomPoses) {
       "random %.2f predicted, %.2f simulated (plan's random median %.2f)\n",
       1e6 * predicted, 1e6 * planned_mc, 1e6 * predicted_random, 1e6 * random_mc,
       1e6 * plan.random_median_rms_sd);
-  EXPECT_NEAR(planned_mc, predicted, 0.25 * predicted);
+  EXPECT_NEAR(planned_mc, predicted, 0.10 * predicted);
   EXPECT_NEAR(random_mc, predicted_random, 0.25 * predicted_random);
   EXPECT_LT(planned_mc, random_mc);
 }

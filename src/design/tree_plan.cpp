@@ -128,48 +128,109 @@ double rms_sd(const Eigen::MatrixXd& cov, const std::vector<Eigen::MatrixXd>& ev
   return std::sqrt(sum / static_cast<double>(std::max<Eigen::Index>(n, 1)));
 }
 
-// The greedy start: each pose the candidate of the largest gain, the gains of
-// every candidate from two products of the stacked rows a step.
-std::vector<int> greedy(const std::vector<Eigen::MatrixXd>& pool, int poses,
-                        PlanCriterion criterion, const Eigen::MatrixXd& W, double sigma) {
-  const Eigen::Index k = pool[0].cols(), r = pool[0].rows();
-  Eigen::MatrixXd C(static_cast<Eigen::Index>(pool.size()) * r, k);
-  for (size_t i = 0; i < pool.size(); ++i)
-    C.middleRows(static_cast<Eigen::Index>(i) * r, r) = pool[i] / sigma;
-  const double mean_diagonal = C.squaredNorm() / static_cast<double>(pool.size() * k);
-  Eigen::MatrixXd Minv = Eigen::MatrixXd::Identity(k, k) / (1e-9 * mean_diagonal);
-  std::vector<int> chosen;
-  std::vector<bool> used(pool.size(), false);
-  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(r, r);
-  for (int n = 0; n < poses; ++n) {
-    const Eigen::MatrixXd G = C * Minv;  // each candidate's F M^-1
+// A design on the candidates' stacked rows C (over sigma): the inverse of its
+// information M (regularised by 1e-9 of the pool's mean diagonal, as the
+// greedy start begins), changed one pose at a time by Woodbury's identity.
+class TreeDesign {
+ public:
+  TreeDesign(const std::vector<Eigen::MatrixXd>& pool, PlanCriterion criterion,
+         const Eigen::MatrixXd& W, double sigma)
+      : criterion_(criterion), W_(W), r_(pool[0].rows()), used_(pool.size(), false) {
+    const Eigen::Index k = pool[0].cols();
+    C_.resize(static_cast<Eigen::Index>(pool.size()) * r_, k);
+    for (size_t i = 0; i < pool.size(); ++i)
+      C_.middleRows(static_cast<Eigen::Index>(i) * r_, r_) = pool[i] / sigma;
+    const double mean_diagonal = C_.squaredNorm() / static_cast<double>(pool.size() * k);
+    Minv_ = Eigen::MatrixXd::Identity(k, k) / (1e-9 * mean_diagonal);
+  }
+
+  // Each candidate's gain of the criterion if added (-inf: in the design):
+  // D: log det(M + F^T F) - log det M; I: the drop of trace(M^-1 W).
+  std::vector<double> gains(int also = -1) const {
+    const Eigen::MatrixXd G = C_ * Minv_;  // each candidate's F M^-1
     Eigen::MatrixXd GW;
-    if (criterion == PlanCriterion::kI) GW = G * W;
-    double best = -std::numeric_limits<double>::infinity();
-    int at = -1;
-    for (size_t i = 0; i < pool.size(); ++i) {
-      if (used[i]) continue;
-      const Eigen::Index row = static_cast<Eigen::Index>(i) * r;
-      const Eigen::MatrixXd S = I + G.middleRows(row, r) * C.middleRows(row, r).transpose();
-      // D: log det(M + F^T F) - log det M; I: the drop of trace(M^-1 W).
-      const double gain =
-          criterion == PlanCriterion::kD
+    if (criterion_ == PlanCriterion::kI) GW = G * W_;
+    const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(r_, r_);
+    std::vector<double> out(used_.size(), -std::numeric_limits<double>::infinity());
+    for (size_t i = 0; i < used_.size(); ++i) {
+      if (used_[i] && static_cast<int>(i) != also) continue;
+      const Eigen::Index row = static_cast<Eigen::Index>(i) * r_;
+      const Eigen::MatrixXd S = I + G.middleRows(row, r_) * C_.middleRows(row, r_).transpose();
+      out[i] =
+          criterion_ == PlanCriterion::kD
               ? std::log(S.determinant())
-              : S.ldlt().solve(GW.middleRows(row, r) * G.middleRows(row, r).transpose()).trace();
-      if (gain > best) {
-        best = gain;
-        at = static_cast<int>(i);
-      }
+              : S.ldlt().solve(GW.middleRows(row, r_) * G.middleRows(row, r_).transpose()).trace();
+      if (!std::isfinite(out[i])) out[i] = -std::numeric_limits<double>::infinity();
     }
-    if (at < 0) throw InputError("plan: the criterion is not finite for any candidate pose");
-    const Eigen::Index row = static_cast<Eigen::Index>(at) * r;
-    const Eigen::MatrixXd Gi = G.middleRows(row, r);
-    const Eigen::MatrixXd S = I + Gi * C.middleRows(row, r).transpose();
-    Minv -= Gi.transpose() * S.ldlt().solve(Gi);
-    used[static_cast<size_t>(at)] = true;
-    chosen.push_back(at);
+    return out;
+  }
+  void add(int i) { update(i, 1); }
+  void remove(int i) { update(i, -1); }
+  // The criterion to maximise: log det M, or -trace(M^-1 W).
+  double value() const {
+    if (criterion_ == PlanCriterion::kI) return -(Minv_ * W_).trace();
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(Minv_);
+    return -ldlt.vectorD().array().log().sum();
+  }
+
+ private:
+  // M +- F^T F: M^-1 -+ M^-1 F^T (I +- F M^-1 F^T)^-1 F M^-1.
+  void update(int i, int sign) {
+    const Eigen::MatrixXd F = C_.middleRows(static_cast<Eigen::Index>(i) * r_, r_);
+    const Eigen::MatrixXd G = F * Minv_;
+    const Eigen::MatrixXd S =
+        Eigen::MatrixXd::Identity(r_, r_) + static_cast<double>(sign) * G * F.transpose();
+    Minv_ -= static_cast<double>(sign) * G.transpose() * S.ldlt().solve(G);
+    used_[static_cast<size_t>(i)] = sign > 0;
+  }
+
+  PlanCriterion criterion_;
+  Eigen::MatrixXd W_, C_, Minv_;
+  Eigen::Index r_;
+  std::vector<bool> used_;
+};
+
+int best_of(const std::vector<double>& gains) {
+  const auto it = std::max_element(gains.begin(), gains.end());
+  if (it == gains.end() || !std::isfinite(*it))
+    throw InputError("plan: the criterion is not finite for any candidate pose");
+  return static_cast<int>(it - gains.begin());
+}
+
+// The greedy start: each pose the candidate of the largest gain.
+std::vector<int> greedy(TreeDesign& design, int poses) {
+  std::vector<int> chosen;
+  for (int n = 0; n < poses; ++n) {
+    chosen.push_back(best_of(design.gains()));
+    design.add(chosen.back());
   }
   return chosen;
+}
+
+// Fedorov's exchange, one design pose at a time: taken out, the candidate of
+// the largest gain put in its place if it gains more than the pose itself (by
+// 1e-9 relative), in sweeps until one makes no swap (at most `max_sweeps`).
+// Returns the number of swaps; `sweeps` the sweeps run.
+int exchange(TreeDesign& design, std::vector<int>& chosen, int max_sweeps, int& sweeps) {
+  int swaps = 0;
+  for (sweeps = 0; sweeps < max_sweeps;) {
+    ++sweeps;
+    int accepted = 0;
+    for (int& pose : chosen) {
+      design.remove(pose);
+      const std::vector<double> gains = design.gains(pose);
+      const int best = best_of(gains);
+      const double own = gains[static_cast<size_t>(pose)];
+      if (best != pose && gains[static_cast<size_t>(best)] > own + 1e-9 * std::abs(own)) {
+        pose = best;
+        ++accepted;
+      }
+      design.add(pose);
+    }
+    swaps += accepted;
+    if (accepted == 0) break;
+  }
+  return swaps;
 }
 
 std::vector<Eigen::MatrixXd> scaled_rows(const Scaled& s,
@@ -214,15 +275,22 @@ TreePlan plan_tree(const DeviceTree& tree, const TreePlanOptions& options) {
                                             static_cast<Eigen::Index>(s.slots.size()));
   for (const Eigen::MatrixXd& G : validation) W += G.transpose() * G;
   W /= static_cast<double>(validation.size());
-  const std::vector<int> chosen =
-      greedy(candidates, options.poses, options.criterion, W, options.sigma);
-  Eigen::MatrixXd design(options.poses, tree.dof());
-  std::vector<Eigen::MatrixXd> design_rows;
-  for (int i = 0; i < options.poses; ++i) {
-    design.row(i) = pool.row(chosen[static_cast<size_t>(i)]);
-    design_rows.push_back(candidates[static_cast<size_t>(chosen[static_cast<size_t>(i)])]);
+  TreeDesign information(candidates, options.criterion, W, options.sigma);
+  std::vector<int> chosen = greedy(information, options.poses);
+  auto rows_of = [&](const std::vector<int>& poses) {
+    std::vector<Eigen::MatrixXd> out;
+    for (int i : poses) out.push_back(candidates[static_cast<size_t>(i)]);
+    return out;
+  };
+  out.criterion_greedy = information.value();
+  if (const auto c = covariance(rows_of(chosen), options.sigma)) {
+    out.rms_sd_greedy = rms_sd(*c, evaluation);
   }
-  const std::optional<Eigen::MatrixXd> cov = covariance(design_rows, options.sigma);
+  out.swaps = exchange(information, chosen, options.max_sweeps, out.sweeps);
+  out.criterion_exchange = information.value();
+  Eigen::MatrixXd design(options.poses, tree.dof());
+  for (int i = 0; i < options.poses; ++i) design.row(i) = pool.row(chosen[static_cast<size_t>(i)]);
+  const std::optional<Eigen::MatrixXd> cov = covariance(rows_of(chosen), options.sigma);
   if (!cov)
     throw InputError(fmt::format("--poses {}: too few to determine the tree's {} parameters",
                                  options.poses, s.slots.size()));

@@ -43,6 +43,11 @@ std::string tree_plan_json(const PlanRequest& request, const DeviceTree& tree,
   j["sigma"] = options.sigma;
   j["pool"] = plan.pool;
   j["predicted_rms_sd"] = plan.rms_sd;
+  j["greedy_rms_sd"] = plan.rms_sd_greedy;
+  j["exchange"] = {{"sweeps", plan.sweeps},
+                   {"swaps", plan.swaps},
+                   {"criterion_greedy", plan.criterion_greedy},
+                   {"criterion_exchange", plan.criterion_exchange}};
   j["random_median_rms_sd"] = plan.random_median_rms_sd;
   j["random_rms_sd"] = plan.random_rms_sd;
   j["path_length"] = plan.path_length;
@@ -69,8 +74,9 @@ Report tree_plan_report(const DeviceTree& tree, const TreePlan& plan,
                     fmt::format("{:.4g}", 1e3 * plan.sd[static_cast<Eigen::Index>(i)])});
   }
   report.sections.push_back(
-      "<p>The greedy start of the plan on the tree's rows (no exchange or refinement on a tree "
-      "yet); the sd are the linearised covariance's at the nominal tree.</p>\n<h2>Predicted "
+      "<p>The greedy start and Fedorov exchange of the plan on the tree's rows (no continuous "
+      "refinement on a tree yet); the sd are the linearised covariance's at the nominal "
+      "tree.</p>\n<h2>Predicted "
       "standard deviations</h2>\n" +
       html_table({"parameter", "unit", "predicted sd"}, rows));
   std::vector<std::vector<std::string>> held;
@@ -103,8 +109,9 @@ TreePlanJob run_tree_plan_job(const PlanRequest& request, const std::vector<std:
                   job.options.poses, job.tree.name, tips.size(), fmt::join(tips, ", "),
                   job.tree.dof(), to_string(job.options.criterion), job.options.seed),
       fmt::format("  parameters: {} identifiable ({} held); sigma {:.4g} um; candidates: {} "
-                  "random poses, greedy start",
-                  p.parameters.size(), p.held.size(), 1e6 * job.options.sigma, p.pool),
+                  "random poses; greedy start {:.3f} um, exchange: {} swaps in {} sweeps",
+                  p.parameters.size(), p.held.size(), 1e6 * job.options.sigma, p.pool,
+                  1e6 * p.rms_sd_greedy, p.swaps, p.sweeps),
       fmt::format("  predicted RMS sd of a tip's point over the workspace: planned {:.3f} um, "
                   "random {} poses {:.3f} um (median of {} draws): ratio {:.3f}",
                   1e6 * p.rms_sd, job.options.poses, 1e6 * p.random_median_rms_sd,
