@@ -221,8 +221,8 @@ TEST(CostJacobian, MeasurementCostMatchesCentralDifferencesForEveryMeasurementTy
 // poses: their columns against central differences, and `folded` (the stages
 // made part of the model) predicting the same rows through its compensate.
 // The poses' values are readings, the cost's joint values those of the model
-// `start` the stages were made from (step_two_joints) when one is given, else
-// the readings themselves.
+// `start` the stages were made from (StepTwoJoints) when one is given, else
+// the readings themselves (with the stages' features after them).
 template <typename Rng>
 void expect_stage_rows(const DeviceModel& model, const DeviceModel& folded, MeasurementType type,
                        const std::vector<JointErrorStage>& errors, Rng& rng,
@@ -241,11 +241,12 @@ void expect_stage_rows(const DeviceModel& model, const DeviceModel& folded, Meas
     d.resize(model.dof());
     for (double& v : d) v = static_cast<double>(rng() % 3) - 1.0;
   }
+  // The stages' features after the joint values (StepTwoJoints).
   std::vector<Eigen::VectorXd> joints = readings;
-  if (start) {
-    const PreparedModel prepared(*start);
-    for (int i = 0; i < poses; ++i)
-      joints[i] = step_two_joints(prepared, *start, readings[i], direction[i]);
+  const StepTwoJoints step_two(start ? *start : model);
+  for (int i = 0; i < poses; ++i) {
+    joints[i] = start ? step_two(readings[i], direction[i])
+                      : step_two.with_features(readings[i], readings[i], direction[i]);
   }
   const detail::MeasurementCost cost(s, joints, kind, measured);
   const DerivativeCheck c = check_cost_jacobian(
@@ -300,10 +301,8 @@ TEST(CostJacobian, JointErrorStagesMatchCentralDifferences) {
         if (!model.joint_errors[i].is_none()) folded.links[i].transmission = model.joint_errors[i];
       }
       folded.joint_errors.clear();
-      // A coupled model's joint values are C q (step_two_joints), not the readings.
-      DeviceModel plain = model;
-      plain.joint_errors.clear();
-      expect_stage_rows(model, folded, type, errors, rng, model.coupled() ? &plain : nullptr);
+      // A coupled model's joint values are C q (StepTwoJoints), not the readings.
+      expect_stage_rows(model, folded, type, errors, rng, model.coupled() ? &model : nullptr);
     }
   }
   EXPECT_GE(stages, 30);

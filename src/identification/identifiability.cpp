@@ -358,7 +358,7 @@ void record_verdicts(const KinematicProblem& problem, const RankFindings& f,
 std::vector<Eigen::VectorXd> structural_joints(const DeviceModel& model) {
   std::mt19937_64 rng(kStructuralSeed);
   std::vector<Eigen::VectorXd> synthetic(kStructuralPoses);
-  const PreparedModel prepared(model);
+  const StepTwoJoints step_two(model);
   for (Eigen::VectorXd& qs : synthetic) {
     Eigen::VectorXd reading(model.dof());
     for (int j = 0; j < model.dof(); ++j) {
@@ -370,7 +370,7 @@ std::vector<Eigen::VectorXd> structural_joints(const DeviceModel& model) {
       direction.setZero(model.dof());
       for (int j : model.fitted_backlash) direction[j] = rng() % 2 ? 1.0 : -1.0;
     }
-    qs = step_two_joints(prepared, model, reading, direction);
+    qs = step_two(reading, direction);
   }
   return synthetic;
 }

@@ -452,77 +452,6 @@ std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& po
   return fits;
 }
 
-// The slot whose Jacobian column is d rows / d joint i's value: a DH / MDH
-// theta (d for a sliding joint), a URDF joint's offset.
-int joint_value_column(const DeviceModel& model, const ChainStructure& s, int i) {
-  const Link& l = model.links[i];
-  return s.link_slot(i) + (!l.dh_parameters() ? kOriginOffset
-                           : l.prismatic()    ? kLinkD
-                                              : kLinkTheta);
-}
-
-std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model) {
-  std::vector<JointErrorStage> stages;
-  const ChainStructure s = model.structure();
-  int slot = s.errors_slot();
-  for (int i = 0; i < static_cast<int>(model.joint_errors.size()); ++i) {
-    const Transmission& stage = model.joint_errors[i];
-    if (stage.is_none()) continue;
-    const Link& l = model.links[i];
-    if (l.prismatic() || stage.kind() != TransmissionKind::kHarmonic) {
-      throw InputError(
-          fmt::format("{}: a joint-error stage must be harmonics of a turning joint", l.name));
-    }
-    stages.push_back({i, slot, joint_value_column(model, s, i), stage, nullptr});
-    slot += stage.num_parameters();
-  }
-  std::shared_ptr<const GravityModel> gravity;  // the torques at the start's geometry
-  slot = s.compliance_slot();
-  for (int i = 0; i < model.dof(); ++i) {
-    if (!model.compliance_fitted(i)) continue;
-    if (!gravity) gravity = std::make_shared<const GravityModel>(model);
-    stages.push_back({i, slot++, joint_value_column(model, s, i), Transmission(), gravity});
-  }
-  slot = s.coupling_slot();
-  for (const auto& [i, k] : model.fitted_coupling) {
-    stages.push_back({i, slot++, joint_value_column(model, s, i), Transmission(), nullptr,
-                      s.dof + k, model.coupling(i, k)});
-  }
-  slot = s.backlash_slot();
-  const int directions = s.dof + (model.fitted_coupling.empty() ? 0 : s.dof);
-  for (const int i : model.fitted_backlash) {
-    stages.push_back({i, slot++, joint_value_column(model, s, i), Transmission(), nullptr,
-                      directions + i, model.links[i].backlash});
-  }
-  return stages;
-}
-
-Eigen::VectorXd step_two_joints(const PreparedModel& prepared, const DeviceModel& model,
-                                const Eigen::VectorXd& q,
-                                const Eigen::Ref<const Eigen::RowVectorXd>& direction) {
-  const int n = model.dof();
-  const bool coupling = !model.fitted_coupling.empty();
-  const bool backlash = !model.fitted_backlash.empty();
-  Eigen::VectorXd joint(n * (1 + (coupling ? 1 : 0) + (backlash ? 1 : 0)));
-  prepared.compensate(q.data(), joint.data());
-  model.apply_backlash(direction, joint.head(n));
-  int at = n;
-  if (coupling) {
-    for (int k = 0; k < n; ++k) joint[at + k] = q[k] + model.links[k].transmission.error(q[k]);
-    at += n;
-  }
-  if (backlash) {
-    joint.segment(at, n).setZero();
-    if (direction.size() == n) joint.segment(at, n) = direction.transpose();
-  }
-  return joint;
-}
-
-Eigen::RowVectorXd direction_row(const Log& log, int r) {
-  if (!log.any_direction()) return {};
-  return log.direction.row(r);
-}
-
 KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
                                    const std::vector<int>& repeats,
                                    const CalibrationOptions& options) {
@@ -532,11 +461,10 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   problem.joint_errors = joint_error_stages(model);
   problem.type = measurement_type(poses);
   const int m = poses.rows;
-  const PreparedModel prepared(model);
+  const StepTwoJoints step_two(model);
   problem.joints.resize(m);
   for (int i = 0; i < m; ++i)
-    problem.joints[i] =
-        step_two_joints(prepared, model, poses.q.row(i).transpose(), direction_row(poses, i));
+    problem.joints[i] = step_two(poses.q.row(i).transpose(), direction_row(poses, i));
   std::vector<int> pose_index(m);
   std::iota(pose_index.begin(), pose_index.end(), 0);
   problem.measured = pose_measurements(poses, pose_index, RowsOf{problem.type});

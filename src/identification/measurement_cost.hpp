@@ -47,36 +47,25 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
     return;
   }
   constexpr int kMaxFeatures = 2 * static_cast<int>(Harmonic::kMaxFrequencies);
-  std::array<double, kMaxDof> moved, tau;
+  std::array<double, kMaxDof> moved;
   std::copy(joint, joint + s.dof, moved.begin());
-  // Features by stage (a link may have a harmonic and a compliance stage; the
-  // coupling and backlash stages, after them, read theirs from `joint`).
-  std::array<std::array<double, kMaxFeatures>, 2 * kMaxDof> phi;
-  bool torques = false;
+  // A harmonic stage's features from its joint's value; the others' the pose's.
+  std::array<std::array<double, kMaxFeatures>, kMaxDof> formed;
+  auto features = [&](const JointErrorStage& e, size_t k) {
+    return e.feature >= 0 ? joint + e.feature : formed[k].data();
+  };
   for (size_t k = 0; k < kind.errors->size(); ++k) {
     const JointErrorStage& e = (*kind.errors)[k];
-    if (e.feature >= 0) {  // a value after the dof joint values
-      moved[e.link] += (params[e.slot] - e.nominal) * joint[e.feature];
-      continue;
-    }
-    if (e.gravity) {
-      if (!torques) e.gravity->torques(joint, tau.data());
-      torques = true;
-      phi[k][0] = tau[e.link];
-    } else {
-      e.stage.parameter_jacobian(joint[e.link], phi[k].data());
-    }
-    for (int c = 0; c < e.count(); ++c) moved[e.link] += params[e.slot + c] * phi[k][c];
+    if (e.feature < 0) e.harmonic.parameter_jacobian(joint[e.link], formed[k].data());
+    const double* x = features(e, k);
+    for (int c = 0; c < e.count; ++c) moved[e.link] += (params[e.slot + c] - e.nominal) * x[c];
   }
   hapticcal::measurement_rows(kind.type, s, constants, params, moved.data(), measured,
                               kind.rotation_scale, residual, J);
   for (size_t k = 0; k < kind.errors->size(); ++k) {
     const JointErrorStage& e = (*kind.errors)[k];
-    if (e.feature >= 0) {
-      J.col(e.slot) = joint[e.feature] * J.col(e.joint_column);
-      continue;
-    }
-    for (int c = 0; c < e.count(); ++c) J.col(e.slot + c) = phi[k][c] * J.col(e.joint_column);
+    const double* x = features(e, k);
+    for (int c = 0; c < e.count; ++c) J.col(e.slot + c) = x[c] * J.col(e.joint_column);
   }
 }
 

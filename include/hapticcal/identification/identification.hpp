@@ -18,6 +18,7 @@
 #include "hapticcal/core/log.hpp"
 #include "hapticcal/identification/clock.hpp"
 #include "hapticcal/identification/information.hpp"
+#include "hapticcal/identification/joint_errors.hpp"
 #include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/identification/search.hpp"
 #include "hapticcal/model/model.hpp"
@@ -435,51 +436,6 @@ std::vector<TransmissionFit> fit_transmissions(DeviceModel& model, const Log& po
 // Why a step-1 fit is flagged (TransmissionFit::flagged), one sentence.
 std::string step_one_flag_reason(const TransmissionFit& fit, const DeviceModel& model,
                                  double resolution);
-
-// One link's step-2 joint-error stage (DeviceModel::joint_errors) as the
-// residual rows use it: the joint value v the kinematics turn by becomes
-// v + sum_k p_k phi_k(v), phi the stage's parameter_jacobian (a Harmonic's
-// sines and cosines: linear in p), so each parameter's Jacobian column is
-// phi_k(v) times the column of the joint value: the DH / MDH theta's, a URDF
-// joint's offset's (both add to v).
-// A compliance stage (gravity set) has one parameter, the link's k, and its
-// feature is the link's gravity torque at the pose's joint values, formed from
-// the nominal geometry and masses (fixed in step 2).
-// A coupling or a backlash stage (feature >= 0) has one parameter p whose
-// feature x the problem's joint values carry after the dof values
-// (step_two_joints): the joint value moves by (p - nominal) x, the values
-// having been formed with the nominal p. A coupling stage's p is C_ik, the
-// joint's coefficient on reading k (DeviceModel::fitted_coupling), x the
-// reading through its own transmission, u_k = q_k + dtheta_k(q_k); a
-// backlash stage's p is the link's backlash, x the side the joint approached
-// the pose from (the log's dir<i>: +1, -1, 0).
-struct GravityModel;  // kinematics.hpp
-class PreparedModel;  // kinematics.hpp
-struct JointErrorStage {
-  int link = 0;
-  int slot = 0;          // first slot of its parameters
-  int joint_column = 0;  // the slot whose column is d rows / d joint value
-  Transmission stage;
-  std::shared_ptr<const GravityModel> gravity;
-  int feature = -1;    // a coupling or backlash stage's index in the joint values
-  double nominal = 0;  // its parameter's value in the joint values
-  int count() const { return gravity || feature >= 0 ? 1 : stage.num_parameters(); }
-};
-// The stages of a model's joint_errors (none for a link without one). Throws
-// InputError for a stage on a prismatic joint or one not linear in its
-// parameters (only a Harmonic is).
-std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model);
-// A pose's joint values in step 2 from its readings q and approach directions
-// (a log row's, dof values, or none): model.compensate(q) with the links'
-// backlash; after them, while coupling coefficients are fitted
-// (fitted_coupling), each reading through its own transmission, and while
-// backlash is (fitted_backlash), the directions (0 where none): the coupling
-// and backlash stages' features.
-Eigen::VectorXd step_two_joints(const PreparedModel& prepared, const DeviceModel& model,
-                                const Eigen::VectorXd& q,
-                                const Eigen::Ref<const Eigen::RowVectorXd>& direction);
-// Row r of the log's approach directions (dof values), or none.
-Eigen::RowVectorXd direction_row(const Log& log, int r);
 
 // Step 2's data: the poses' compensated joint values and measured values (the
 // family's width a pose, measurement.hpp), weighted by their repeat counts.

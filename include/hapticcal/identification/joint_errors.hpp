@@ -1,0 +1,73 @@
+// Step 2's joint-error stages: how each family's parameters move the joint
+// values in the residual rows, and a pose's step-2 values with their features.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <vector>
+
+#include "hapticcal/core/log.hpp"
+#include "hapticcal/model/model.hpp"
+
+namespace hapticcal {
+
+// One link's step-2 joint-error stage (DeviceModel::joint_errors) as the
+// residual rows use it: the joint value v the kinematics turn by becomes
+// v + sum_k p_k phi_k(v), phi the stage's parameter_jacobian (a Harmonic's
+// sines and cosines: linear in p), so each parameter's Jacobian column is
+// phi_k(v) times the column of the joint value: the DH / MDH theta's, a URDF
+// joint's offset's (both add to v).
+// Every stage has the same form: parameters p_c (slots slot .. slot + count - 1)
+// that move joint `link`'s value by sum_c (p_c - nominal) x_c, the features x_c
+// fixed per pose and carried in the pose's step-2 values after its dof joint
+// values (from index `feature` on: step_two_joints), the joint values having
+// been formed with p = nominal; each parameter's column is x_c times the joint
+// value's. A harmonic stage's x are its parameter_jacobian at the pose's joint
+// value (nominal 0), formed as the rows are (`harmonic`: many a joint, not
+// stored per pose); a compliance stage's one x the link's gravity torque at
+// the pose's joint values from the start's geometry and masses (nominal 0:
+// compensate leaves a fitted compliance to the stage); a coupling stage's p is
+// C_ik, the joint's coefficient on reading k (DeviceModel::fitted_coupling), x
+// the reading through its own transmission, u_k = q_k + dtheta_k(q_k); a
+// backlash stage's p is the link's backlash, x the side the joint approached
+// the pose from (the log's dir<i>: +1, -1, 0).
+struct GravityModel;  // kinematics.hpp
+class PreparedModel;  // kinematics.hpp
+struct JointErrorStage {
+  int link = 0;
+  int slot = 0;           // first slot of its parameters
+  int joint_column = 0;   // the slot whose column is d rows / d joint value
+  int count = 1;          // its parameters
+  int feature = -1;       // index of its first feature in a pose's step-2 values
+  double nominal = 0;     // its parameters' value in the joint values
+  Transmission harmonic;  // a harmonic stage's (feature -1): its features' source
+};
+// The stages of a model's joint_errors (none for a link without one). Throws
+// InputError for a stage on a prismatic joint or one not linear in its
+// parameters (only a Harmonic is).
+std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model);
+// A pose's values in step 2 from its readings q and approach directions (a log
+// row's, dof values, or none): model.compensate(q) with the links' backlash,
+// then each joint-error stage's features (JointErrorStage), in stage order.
+class StepTwoJoints {
+ public:
+  explicit StepTwoJoints(const DeviceModel& model);
+  ~StepTwoJoints();
+  Eigen::VectorXd operator()(const Eigen::VectorXd& q,
+                             const Eigen::Ref<const Eigen::RowVectorXd>& direction) const;
+  // The same from given joint values (the readings' q are the couplings'
+  // features).
+  Eigen::VectorXd with_features(const Eigen::VectorXd& joint, const Eigen::VectorXd& q,
+                                const Eigen::Ref<const Eigen::RowVectorXd>& direction) const;
+
+ private:
+  const DeviceModel& model_;
+  std::unique_ptr<const PreparedModel> prepared_;
+  std::unique_ptr<const GravityModel> gravity_;  // while a compliance is fitted
+  std::vector<JointErrorStage> stages_;
+  int features_ = 0;
+};
+// Row r of the log's approach directions (dof values), or none.
+Eigen::RowVectorXd direction_row(const Log& log, int r);
+
+}  // namespace hapticcal
