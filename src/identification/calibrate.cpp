@@ -22,6 +22,7 @@
 #include "hapticcal/identification/registration.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "identification/calibration_run.hpp"
+#include "identification/families/family.hpp"
 #include "identification/measurement_cost.hpp"
 #include "identification/prior.hpp"
 #include "identification/solver_options.hpp"
@@ -222,12 +223,12 @@ void check_options(const CalibrationOptions& options) {
     throw InputError("--encoder-resolution must be a positive number of radians, at most 1");
   }
   for (const std::string& family : options.joint_errors) {
-    if (family != "harmonic" && family != "compliance" && family != "coupling" &&
-        family != "backlash" && family != "none") {
-      throw InputError(
-          fmt::format("--joint-errors: '{}' is not a joint-error family (harmonic, compliance, "
-                      "coupling, backlash, or none)",
-                      printable(family)));
+    if (family != "none" && !detail::find_joint_error_family(family)) {
+      std::vector<std::string_view> names;
+      for (const detail::JointErrorFamily* f : detail::joint_error_families())
+        names.push_back(f->name());
+      throw InputError(fmt::format("--joint-errors: '{}' is not a joint-error family ({}, or none)",
+                                   printable(family), fmt::join(names, ", ")));
     }
     if (family == "none" && options.joint_errors.size() > 1) {
       throw InputError("--joint-errors: none names no family and goes alone");

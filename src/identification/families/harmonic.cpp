@@ -1,0 +1,71 @@
+// The joint-error family "harmonic" (families/family.hpp).
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "hapticcal/core/error.hpp"
+#include "identification/calibration_run.hpp"
+#include "identification/families/family.hpp"
+
+namespace hapticcal::detail {
+namespace {
+
+// "harmonic": each turning joint gets a Harmonic stage of its angle's first and
+// second harmonic, and its motor's where a capstan (alone or in a chain) gives
+// the ratio R.
+void offer_harmonics(CalibrationRun& run) {
+  std::vector<Transmission> stages(run.model.dof());
+  std::vector<std::string> coupled;
+  for (int i = 0; i < run.model.dof(); ++i) {
+    const Link& l = run.model.links[i];
+    if (l.prismatic()) continue;
+    // A stage is folded into the link's transmission, on its reading: only
+    // where the joint's angle is its own reading alone and no other joint's uses it.
+    if (!own_reading(run, i)) {
+      coupled.push_back(l.name);
+      continue;
+    }
+    Harmonic h;
+    h.frequencies = {1, 2};
+    const Transmission& t = l.transmission;
+    const Capstan* capstan = std::get_if<Capstan>(&t.model());
+    if (const auto* chain = std::get_if<Chain>(&t.model())) {
+      for (const Transmission& stage : chain->stages)
+        capstan = capstan ? capstan : std::get_if<Capstan>(&stage.model());
+    }
+    if (capstan && capstan->ratio > 2) {
+      h.frequencies.push_back(capstan->ratio);
+      h.frequencies.push_back(2 * capstan->ratio);
+    }
+    h.coefficients.assign(2 * h.frequencies.size(), 0.0);
+    stages[i] = Transmission(h);
+  }
+  if (!coupled.empty()) {
+    run.result.notes.push_back(fmt::format(
+        "--joint-errors: no harmonic stage on the coupled joint(s) {} (a stage acts on the "
+        "joint's own reading, which the coupling mixes with others)",
+        fmt::join(coupled, ", ")));
+  }
+  run.model.joint_errors = stages;
+  run.step2_nominal.joint_errors = stages;
+}
+
+class HarmonicFamily : public JointErrorFamily {
+ public:
+  std::string_view name() const override { return "harmonic"; }
+  bool applies(const CalibrationRun& run) const override {
+    for (int i = 0; i < run.model.dof(); ++i) {
+      if (!run.model.links[i].prismatic() && own_reading(run, i)) return true;
+    }
+    return false;
+  }
+  void offer(CalibrationRun& run) const override { offer_harmonics(run); }
+};
+
+}  // namespace
+
+const JointErrorFamily* harmonic_family() {
+  static const HarmonicFamily family;
+  return &family;
+}
+
+}  // namespace hapticcal::detail
