@@ -36,26 +36,9 @@ bool own_reading(const CalibrationRun& run, int i) {
 // stage whose coefficients all stayed zero is left out.
 std::string fold_joint_errors(DeviceModel& model) {
   std::string refused;
-  for (int i = 0; i < static_cast<int>(model.joint_errors.size()); ++i) {
-    const Transmission& stage = model.joint_errors[i];
-    if (stage.is_none() || stage.parameters().isZero(0)) continue;
-    if (const std::string why = stage.check(model.links[i].lower, model.links[i].upper);
-        !why.empty() && refused.empty()) {
-      refused = fmt::format("{}'s joint-error stage as fitted is no transmission: {}",
-                            model.links[i].name, why);
-    }
-    Transmission& t = model.links[i].transmission;
-    t = t.is_none() ? stage : Transmission(Chain{{t, stage}});
-  }
-  model.joint_errors.clear();
-  model.fitted_compliance.clear();       // each fitted k is the link's compliance now
-  model.fitted_backlash.clear();         // likewise each backlash
-  if (!model.fitted_coupling.empty()) {  // the fitted coefficients are the coupling now
-    model.fitted_coupling.clear();
-    if (const std::string why = coupling_problem(model.coupling, model.links);
-        !why.empty() && refused.empty()) {
-      refused = "the coupling as fitted is no coupling: " + why;
-    }
+  for (const JointErrorFamily* family : joint_error_families()) {
+    const std::string why = family->fold(model);
+    if (refused.empty()) refused = why;
   }
   return refused;
 }

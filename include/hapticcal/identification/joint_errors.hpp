@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "hapticcal/core/log.hpp"
@@ -31,8 +32,10 @@ namespace hapticcal {
 // the reading through its own transmission, u_k = q_k + dtheta_k(q_k); a
 // backlash stage's p is the link's backlash, x the side the joint approached
 // the pose from (the log's dir<i>: +1, -1, 0).
-struct GravityModel;  // kinematics.hpp
 class PreparedModel;  // kinematics.hpp
+namespace detail {
+class PoseFeatures;  // identification/families/family.hpp
+}
 struct JointErrorStage {
   int link = 0;
   int slot = 0;           // first slot of its parameters
@@ -63,9 +66,9 @@ class StepTwoJoints {
  private:
   const DeviceModel& model_;
   std::unique_ptr<const PreparedModel> prepared_;
-  std::unique_ptr<const GravityModel> gravity_;  // while a compliance is fitted
-  std::vector<JointErrorStage> stages_;
-  int features_ = 0;
+  // Each family's features of a pose and where they start in its values.
+  std::vector<std::pair<std::unique_ptr<const detail::PoseFeatures>, int>> features_;
+  int stored_ = 0;  // features a pose
 };
 // Row r of the log's approach directions (dof values), or none.
 Eigen::RowVectorXd direction_row(const Log& log, int r);

@@ -37,6 +37,33 @@ class BacklashFamily : public JointErrorFamily {
     return false;
   }
   void offer(CalibrationRun& run) const override { offer_backlash(run); }
+  void add_stages(const DeviceModel& model, const AddStage& add) const override {
+    int slot = model.structure().backlash_slot();
+    for (const int i : model.fitted_backlash) add(i, slot++, 1, model.links[i].backlash, nullptr);
+  }
+  // A backlash's feature: the side the joint approached the pose from.
+  class Sides : public PoseFeatures {
+   public:
+    explicit Sides(const DeviceModel& model) : model_(model) {}
+    void operator()(const double*, const Eigen::VectorXd&,
+                    const Eigen::Ref<const Eigen::RowVectorXd>& direction,
+                    double* out) const override {
+      for (const int i : model_.fitted_backlash)
+        *out++ = direction.size() == model_.dof() ? direction[i] : 0.0;
+    }
+
+   private:
+    const DeviceModel& model_;
+  };
+  std::unique_ptr<PoseFeatures> pose_features(const DeviceModel& model) const override {
+    if (model.fitted_backlash.empty()) return nullptr;
+    return std::make_unique<Sides>(model);
+  }
+  // Each fitted backlash is the link's now.
+  std::string fold(DeviceModel& model) const override {
+    model.fitted_backlash.clear();
+    return "";
+  }
 };
 
 }  // namespace

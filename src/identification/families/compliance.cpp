@@ -1,7 +1,10 @@
 // The joint-error family "compliance" (families/family.hpp).
 #include <fmt/format.h>
 
+#include <array>
+
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
 #include "identification/calibration_run.hpp"
 #include "identification/families/family.hpp"
 
@@ -42,6 +45,41 @@ class ComplianceFamily : public JointErrorFamily {
   std::string_view name() const override { return "compliance"; }
   bool applies(const CalibrationRun& run) const override { return run.model.gravity.norm() > 0; }
   void offer(CalibrationRun& run) const override { offer_compliance(run); }
+  void add_stages(const DeviceModel& model, const AddStage& add) const override {
+    int slot = model.structure().compliance_slot();
+    for (int i = 0; i < model.dof(); ++i) {
+      if (model.compliance_fitted(i)) add(i, slot++, 1, 0.0, nullptr);
+    }
+  }
+  // A compliance's feature: its link's gravity torque at the pose's joint
+  // values, from the start's geometry and masses.
+  class Torques : public PoseFeatures {
+   public:
+    explicit Torques(const DeviceModel& model) : model_(model), gravity_(model) {}
+    void operator()(const double* joint, const Eigen::VectorXd&,
+                    const Eigen::Ref<const Eigen::RowVectorXd>&, double* out) const override {
+      std::array<double, kMaxDof> tau;
+      gravity_.torques(joint, tau.data());
+      for (int i = 0; i < model_.dof(); ++i) {
+        if (model_.compliance_fitted(i)) *out++ = tau[i];
+      }
+    }
+
+   private:
+    const DeviceModel& model_;
+    GravityModel gravity_;
+  };
+  std::unique_ptr<PoseFeatures> pose_features(const DeviceModel& model) const override {
+    for (int i = 0; i < model.dof(); ++i) {
+      if (model.compliance_fitted(i)) return std::make_unique<Torques>(model);
+    }
+    return nullptr;
+  }
+  // Each fitted k is the link's compliance now.
+  std::string fold(DeviceModel& model) const override {
+    model.fitted_compliance.clear();
+    return "";
+  }
 };
 
 }  // namespace

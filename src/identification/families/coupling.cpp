@@ -39,6 +39,35 @@ class CouplingFamily : public JointErrorFamily {
   std::string_view name() const override { return "coupling"; }
   bool applies(const CalibrationRun& run) const override { return coupled_between(run.model); }
   void offer(CalibrationRun& run) const override { offer_coupling(run); }
+  void add_stages(const DeviceModel& model, const AddStage& add) const override {
+    int slot = model.structure().coupling_slot();
+    for (const auto& [i, k] : model.fitted_coupling)
+      add(i, slot++, 1, model.coupling(i, k), nullptr);
+  }
+  // A coefficient C_ik's feature: reading k through its own transmission.
+  class Readings : public PoseFeatures {
+   public:
+    explicit Readings(const DeviceModel& model) : model_(model) {}
+    void operator()(const double*, const Eigen::VectorXd& q,
+                    const Eigen::Ref<const Eigen::RowVectorXd>&, double* out) const override {
+      for (const auto& [i, k] : model_.fitted_coupling)
+        *out++ = q[k] + model_.links[k].transmission.error(q[k]);
+    }
+
+   private:
+    const DeviceModel& model_;
+  };
+  std::unique_ptr<PoseFeatures> pose_features(const DeviceModel& model) const override {
+    if (model.fitted_coupling.empty()) return nullptr;
+    return std::make_unique<Readings>(model);
+  }
+  // The fitted coefficients are the coupling now.
+  std::string fold(DeviceModel& model) const override {
+    if (model.fitted_coupling.empty()) return "";
+    model.fitted_coupling.clear();
+    const std::string why = coupling_problem(model.coupling, model.links);
+    return why.empty() ? "" : "the coupling as fitted is no coupling: " + why;
+  }
 };
 
 }  // namespace

@@ -5,12 +5,35 @@
 // parameters.
 #pragma once
 
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <string>
 #include <string_view>
 #include <vector>
+
+#include "hapticcal/model/model.hpp"
 
 namespace hapticcal::detail {
 
 struct CalibrationRun;
+
+// A family's features of a pose, bound to one model (StepTwoJoints): its
+// stored stages' features, in its stages' order, from the pose's joint
+// values, readings and approach sides (none: empty).
+class PoseFeatures {
+ public:
+  virtual ~PoseFeatures() = default;
+  virtual void operator()(const double* joint, const Eigen::VectorXd& q,
+                          const Eigen::Ref<const Eigen::RowVectorXd>& direction,
+                          double* out) const = 0;
+};
+
+// Adds a stage (JointErrorStage): its joint, first slot, parameters and their
+// value in the joint values; `formed`: a stage whose features the rows form
+// from the joint's value (a harmonic's), else they are stored a pose.
+using AddStage =
+    std::function<void(int link, int slot, int count, double nominal, const Transmission* formed)>;
 
 class JointErrorFamily {
  public:
@@ -23,6 +46,13 @@ class JointErrorFamily {
   // Its parameters offered on run.model and run.step2_nominal; InputError (one
   // line) where this model or log cannot have them.
   virtual void offer(CalibrationRun& run) const = 0;
+  // Its stages on a model that has its parameters (joint_error_stages).
+  virtual void add_stages(const DeviceModel& model, const AddStage& add) const = 0;
+  // Its stored features of a pose on this model (none: it stores none).
+  virtual std::unique_ptr<PoseFeatures> pose_features(const DeviceModel&) const { return nullptr; }
+  // Its fitted parameters made the model's own (the calibrated model has no
+  // step-2 parameters); why they cannot be, or "".
+  virtual std::string fold(DeviceModel& model) const = 0;
 };
 
 // Every family, in the model search's order (registry.cpp).

@@ -59,6 +59,39 @@ class HarmonicFamily : public JointErrorFamily {
     return false;
   }
   void offer(CalibrationRun& run) const override { offer_harmonics(run); }
+  void add_stages(const DeviceModel& model, const AddStage& add) const override {
+    int slot = model.structure().errors_slot();
+    for (int i = 0; i < static_cast<int>(model.joint_errors.size()); ++i) {
+      const Transmission& stage = model.joint_errors[i];
+      if (stage.is_none()) continue;
+      const Link& l = model.links[i];
+      if (l.prismatic() || stage.kind() != TransmissionKind::kHarmonic) {
+        throw InputError(
+            fmt::format("{}: a joint-error stage must be harmonics of a turning joint", l.name));
+      }
+      add(i, slot, stage.num_parameters(), 0.0, &stage);
+      slot += stage.num_parameters();
+    }
+  }
+  // Each stage as fitted folded into its link's transmission (after the
+  // link's own: the angle v becomes v + stage(v)); a stage whose coefficients
+  // all stayed zero is left out.
+  std::string fold(DeviceModel& model) const override {
+    std::string refused;
+    for (int i = 0; i < static_cast<int>(model.joint_errors.size()); ++i) {
+      const Transmission& stage = model.joint_errors[i];
+      if (stage.is_none() || stage.parameters().isZero(0)) continue;
+      if (const std::string why = stage.check(model.links[i].lower, model.links[i].upper);
+          !why.empty() && refused.empty()) {
+        refused = fmt::format("{}'s joint-error stage as fitted is no transmission: {}",
+                              model.links[i].name, why);
+      }
+      Transmission& t = model.links[i].transmission;
+      t = t.is_none() ? stage : Transmission(Chain{{t, stage}});
+    }
+    model.joint_errors.clear();
+    return refused;
+  }
 };
 
 }  // namespace
