@@ -394,6 +394,19 @@ TEST(Coupling, UrdfJointDrivenBySeveralReadings) {
       "<hapticcal_coupling joint=\"t1\" multiplier=\"-1\"/>",
       "<mimic joint=\"t1\" multiplier=\"-1\"/><hapticcal_coupling joint=\"t1\" multiplier=\"-1\"/>",
       "both <mimic> and <hapticcal_coupling>");
+  // A fixed joint has no value; a mimic of a joint driven by readings would
+  // read its reading, not its value.
+  refused("<joint name=\"a1\" type=\"revolute\">",
+          "<joint name=\"a1\" type=\"fixed\"><hapticcal_coupling joint=\"t1\" multiplier=\"1\"/>",
+          "<hapticcal_coupling> on a fixed joint");
+  refused("<joint name=\"a1\" type=\"revolute\">",
+          "<joint name=\"a1\" type=\"revolute\"><mimic joint=\"t3\" multiplier=\"1\"/>",
+          "its <mimic> of 't3', a joint driven by <hapticcal_coupling>");
+  // Numbers as urdfdom reads them: blanks and a leading +.
+  std::string plus = urdf;
+  const std::string minus_one = "joint=\"t1\" multiplier=\"-1\"";
+  plus.replace(plus.find(minus_one), minus_one.size(), "joint=\"t1\" multiplier=\" +1 \"");
+  EXPECT_EQ(parse_urdf(plus, "torso.urdf", "e", "a").coupling(2, 0), 1.0);
 }
 
 // calibrated.urdf keeps a coupling as the source wrote it: a mimic joint

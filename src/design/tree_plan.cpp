@@ -134,14 +134,15 @@ double rms_sd(const Eigen::MatrixXd& cov, const std::vector<Eigen::MatrixXd>& ev
 class TreeDesign {
  public:
   TreeDesign(const std::vector<Eigen::MatrixXd>& pool, PlanCriterion criterion,
-         const Eigen::MatrixXd& W, double sigma)
+             const Eigen::MatrixXd& W, double sigma)
       : criterion_(criterion), W_(W), r_(pool[0].rows()), used_(pool.size(), false) {
     const Eigen::Index k = pool[0].cols();
     C_.resize(static_cast<Eigen::Index>(pool.size()) * r_, k);
     for (size_t i = 0; i < pool.size(); ++i)
       C_.middleRows(static_cast<Eigen::Index>(i) * r_, r_) = pool[i] / sigma;
     const double mean_diagonal = C_.squaredNorm() / static_cast<double>(pool.size() * k);
-    Minv_ = Eigen::MatrixXd::Identity(k, k) / (1e-9 * mean_diagonal);
+    regularisation_ = 1e-9 * mean_diagonal;
+    Minv_ = Eigen::MatrixXd::Identity(k, k) / regularisation_;
   }
 
   // Each candidate's gain of the criterion if added (-inf: in the design):
@@ -166,6 +167,18 @@ class TreeDesign {
   }
   void add(int i) { update(i, 1); }
   void remove(int i) { update(i, -1); }
+  // M^-1 formed again from the design's poses (the rank-r updates drift where
+  // a pose carries most of a parameter's information).
+  void refresh() {
+    const Eigen::Index k = C_.cols();
+    Eigen::MatrixXd M = regularisation_ * Eigen::MatrixXd::Identity(k, k);
+    for (size_t i = 0; i < used_.size(); ++i) {
+      if (!used_[i]) continue;
+      const auto F = C_.middleRows(static_cast<Eigen::Index>(i) * r_, r_);
+      M.noalias() += F.transpose() * F;
+    }
+    Minv_ = M.ldlt().solve(Eigen::MatrixXd::Identity(k, k));
+  }
   // The criterion to maximise: log det M, or -trace(M^-1 W).
   double value() const {
     if (criterion_ == PlanCriterion::kI) return -(Minv_ * W_).trace();
@@ -185,6 +198,7 @@ class TreeDesign {
   }
 
   PlanCriterion criterion_;
+  double regularisation_ = 0;
   Eigen::MatrixXd W_, C_, Minv_;
   Eigen::Index r_;
   std::vector<bool> used_;
@@ -227,6 +241,7 @@ int exchange(TreeDesign& design, std::vector<int>& chosen, int max_sweeps, int& 
       }
       design.add(pose);
     }
+    design.refresh();
     swaps += accepted;
     if (accepted == 0) break;
   }
@@ -282,6 +297,7 @@ TreePlan plan_tree(const DeviceTree& tree, const TreePlanOptions& options) {
     for (int i : poses) out.push_back(candidates[static_cast<size_t>(i)]);
     return out;
   };
+  information.refresh();
   out.criterion_greedy = information.value();
   if (const auto c = covariance(rows_of(chosen), options.sigma)) {
     out.rms_sd_greedy = rms_sd(*c, evaluation);

@@ -392,9 +392,13 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   // where the nominal model meets the fixture exactly: each pose moved (damped
   // least squares in the joints) until its tool point is at its label's mean
   // point, or on its label's best plane.
-  const std::vector<Eigen::VectorXd> joints =
+  std::vector<Eigen::VectorXd> joints =
       kind.labels ? consistent_joints(s, p0, problem.joints, problem.type, problem.labels)
                   : problem.joints;
+  if (kind.labels) {  // the moved poses' features of their joint values
+    const StepTwoJoints step_two(model);
+    for (Eigen::VectorXd& j : joints) step_two.refresh(j);
+  }
   const Stack data =
       stack(s, p0, joints, kind, problem.measured, problem.weights, problem.compressed);
   // A fixture problem's synthetic poses are spread over as many labels as the data's.

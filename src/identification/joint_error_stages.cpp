@@ -85,6 +85,13 @@ Eigen::VectorXd StepTwoJoints::with_features(
   return joint;
 }
 
+void StepTwoJoints::refresh(Eigen::VectorXd& values) const {
+  for (const auto& [features, first] : features_) {
+    if (features->of_joint_values())
+      (*features)(values.data(), Eigen::VectorXd(), Eigen::RowVectorXd(), values.data() + first);
+  }
+}
+
 Eigen::RowVectorXd direction_row(const Log& log, int r) {
   if (!log.any_direction()) return {};
   return log.direction.row(r);

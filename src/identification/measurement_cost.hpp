@@ -49,22 +49,21 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
   constexpr int kMaxFeatures = 2 * static_cast<int>(Harmonic::kMaxFrequencies);
   std::array<double, kMaxDof> moved;
   std::copy(joint, joint + s.dof, moved.begin());
-  // A harmonic stage's features from its joint's value; the others' the pose's.
+  // A harmonic stage's features (one stage a link) from its joint's value; the
+  // others' the pose's.
   std::array<std::array<double, kMaxFeatures>, kMaxDof> formed;
-  auto features = [&](const JointErrorStage& e, size_t k) {
-    return e.feature >= 0 ? joint + e.feature : formed[k].data();
+  auto features = [&](const JointErrorStage& e) {
+    return e.feature >= 0 ? joint + e.feature : formed[e.link].data();
   };
-  for (size_t k = 0; k < kind.errors->size(); ++k) {
-    const JointErrorStage& e = (*kind.errors)[k];
-    if (e.feature < 0) e.harmonic.parameter_jacobian(joint[e.link], formed[k].data());
-    const double* x = features(e, k);
+  for (const JointErrorStage& e : *kind.errors) {
+    if (e.feature < 0) e.harmonic.parameter_jacobian(joint[e.link], formed[e.link].data());
+    const double* x = features(e);
     for (int c = 0; c < e.count; ++c) moved[e.link] += (params[e.slot + c] - e.nominal) * x[c];
   }
   hapticcal::measurement_rows(kind.type, s, constants, params, moved.data(), measured,
                               kind.rotation_scale, residual, J);
-  for (size_t k = 0; k < kind.errors->size(); ++k) {
-    const JointErrorStage& e = (*kind.errors)[k];
-    const double* x = features(e, k);
+  for (const JointErrorStage& e : *kind.errors) {
+    const double* x = features(e);
     for (int c = 0; c < e.count; ++c) J.col(e.slot + c) = x[c] * J.col(e.joint_column);
   }
 }

@@ -109,9 +109,11 @@ TreePlanJob run_tree_plan_job(const PlanRequest& request, const std::vector<std:
                   job.options.poses, job.tree.name, tips.size(), fmt::join(tips, ", "),
                   job.tree.dof(), to_string(job.options.criterion), job.options.seed),
       fmt::format("  parameters: {} identifiable ({} held); sigma {:.4g} um; candidates: {} "
-                  "random poses; greedy start {:.3f} um, exchange: {} swaps in {} sweeps",
+                  "random poses; greedy start {}, exchange: {} swaps in {} sweeps",
                   p.parameters.size(), p.held.size(), 1e6 * job.options.sigma, p.pool,
-                  1e6 * p.rms_sd_greedy, p.swaps, p.sweeps),
+                  p.rms_sd_greedy > 0 ? fmt::format("{:.3f} um", 1e6 * p.rms_sd_greedy)
+                                      : std::string("undetermined"),
+                  p.swaps, p.sweeps),
       fmt::format("  predicted RMS sd of a tip's point over the workspace: planned {:.3f} um, "
                   "random {} poses {:.3f} um (median of {} draws): ratio {:.3f}",
                   1e6 * p.rms_sd, job.options.poses, 1e6 * p.random_median_rms_sd,

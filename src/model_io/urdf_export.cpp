@@ -213,6 +213,7 @@ std::vector<std::string> link_yaml(const DeviceModel& model, std::string_view ke
 // folded into the origins), any other row one <hapticcal_coupling> a reading
 // (urdf_io.cpp reads it back; other programs ignore it).
 std::string coupling_elements(const DeviceModel& model, int i, const std::string& indent) {
+  if (!model.coupled()) return "";  // each joint its own reading
   const Eigen::RowVectorXd row = model.coupling.row(i);
   int k = 0;
   row.cwiseAbs().maxCoeff(&k);

@@ -407,11 +407,34 @@ void couple_mimics(const std::vector<ChainMimic>& mimics, const std::string& ori
 // publish). DeviceModel::coupling's row of the joint.
 constexpr std::string_view kCouplingElement = "hapticcal_coupling";
 
+// A joint's <hapticcal_coupling> elements (none if its element is not in the text).
+std::vector<const XmlElement*> coupling_terms(const Document& doc, const std::string& joint) {
+  const XmlElement* e = doc.joint(joint);
+  return e ? doc.children(*e, kCouplingElement) : std::vector<const XmlElement*>{};
+}
+
 struct ChainCoupling {
   int link;
   std::string name;
   std::vector<const XmlElement*> terms;
 };
+
+// A <mimic> of a joint driven by <hapticcal_coupling>: URDF's mimic follows a
+// joint's value, the coupling here a reading. Refused.
+void refuse_mimics_of_coupled(const std::vector<ChainMimic>& mimics,
+                              const std::vector<ChainCoupling>& couplings,
+                              const std::string& origin) {
+  for (const ChainMimic& m : mimics) {  // URDF's mimic follows a joint's value, ours a reading
+    for (const ChainCoupling& c : couplings) {
+      if (c.name != m.mimic.joint_name) continue;
+      throw InputError(
+          origin, m.line, joint_key(m.name),
+          fmt::format("its <mimic> of '{}', a joint driven by <{}>: give its readings with <{}> "
+                      "too",
+                      printable(c.name, 80), kCouplingElement, kCouplingElement));
+    }
+  }
+}
 
 void couple_readings(const std::vector<ChainCoupling>& couplings, const std::string& origin,
                      DeviceModel& model) {
@@ -437,12 +460,15 @@ void couple_readings(const std::vector<ChainCoupling>& couplings, const std::str
       if (!named.insert(k).second)
         fail(fmt::format("'{}' named twice", printable(joint->value, 80)));
       double v = 0;
-      const std::string& t = multiplier->value;
+      std::string_view t = multiplier->value;  // blanks and a leading + as urdfdom reads numbers
+      while (!t.empty() && is_blank(t.front())) t.remove_prefix(1);
+      while (!t.empty() && is_blank(t.back())) t.remove_suffix(1);
+      if (t.starts_with('+')) t.remove_prefix(1);
       const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
       if (ec != std::errc() || end != t.data() + t.size() || !std::isfinite(v) || v == 0 ||
           std::abs(v) > kMaxCouplingCoefficient) {
         fail(fmt::format("multiplier '{}': a number of magnitude in (0, {}] is needed",
-                         printable(t, 40), kMaxCouplingCoefficient));
+                         printable(multiplier->value, 40), kMaxCouplingCoefficient));
       }
       C(c.link, k) = v;
     }
@@ -508,6 +534,11 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
     const int line = chain.doc.joint_line(j->name);
     const std::array<double, 6> o = joint_origin(*j, chain.doc);
     if (j->type == urdf::Joint::FIXED) {
+      if (const auto terms = coupling_terms(chain.doc, j->name); !terms.empty()) {
+        throw InputError(
+            origin, terms.front()->line, joint_key(j->name),
+            fmt::format("<{}> on a fixed joint, which has no value to drive", kCouplingElement));
+      }
       fold = fold * frame_of(o);
       add_inertial(*urdf, *j, fold, origin, line, model);
       folding = true;
@@ -526,8 +557,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
                                    type, printable(chain.root, 80), printable(chain.tip, 80)));
     }
     if (j->mimic) mimics.push_back({model.dof(), line, j->name, *j->mimic});
-    if (auto terms = chain.doc.children(*chain.doc.joint(j->name), kCouplingElement);
-        !terms.empty()) {
+    if (auto terms = coupling_terms(chain.doc, j->name); !terms.empty()) {
       if (j->mimic) {
         throw InputError(
             origin, terms.front()->line, joint_key(j->name),
@@ -564,6 +594,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
     fixed_elements.clear();
   }
   if (folding) model.tool = pose_of(fold);
+  refuse_mimics_of_coupled(mimics, couplings, origin);
   couple_mimics(mimics, origin, model);
   couple_readings(couplings, origin, model);
   chain.tool_origins = std::move(fixed_origins);

@@ -62,6 +62,9 @@ class StepTwoJoints {
   // features).
   Eigen::VectorXd with_features(const Eigen::VectorXd& joint, const Eigen::VectorXd& q,
                                 const Eigen::Ref<const Eigen::RowVectorXd>& direction) const;
+  // A pose's values whose joint values moved: the features of the joint values
+  // formed again (a compliance's torque), the others kept.
+  void refresh(Eigen::VectorXd& values) const;
 
  private:
   const DeviceModel& model_;

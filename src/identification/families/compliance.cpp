@@ -56,6 +56,7 @@ class ComplianceFamily : public JointErrorFamily {
   class Torques : public PoseFeatures {
    public:
     explicit Torques(const DeviceModel& model) : model_(model), gravity_(model) {}
+    bool of_joint_values() const override { return true; }
     void operator()(const double* joint, const Eigen::VectorXd&,
                     const Eigen::Ref<const Eigen::RowVectorXd>&, double* out) const override {
       std::array<double, kMaxDof> tau;

@@ -27,6 +27,9 @@ class PoseFeatures {
   virtual void operator()(const double* joint, const Eigen::VectorXd& q,
                           const Eigen::Ref<const Eigen::RowVectorXd>& direction,
                           double* out) const = 0;
+  // Whether they depend on the joint values alone (formed again when a pose's
+  // joint values move: StepTwoJoints::refresh), not on its readings or sides.
+  virtual bool of_joint_values() const { return false; }
 };
 
 // Adds a stage (JointErrorStage): its joint, first slot, parameters and their
