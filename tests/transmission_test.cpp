@@ -238,5 +238,19 @@ TEST(Transmission, CheckRejectsUnusableModels) {
   EXPECT_NE(Transmission(Chain{}).check(-1, 1), "");
 }
 
+// A transmission's drive ratio is its capstan's, alone or first in a chain,
+// and 1 without a capstan.
+TEST(Transmission, DriveRatioIsTheCapstans) {
+  const Capstan c = table2_capstan1();
+  ASSERT_GT(c.ratio, 2);
+  EXPECT_EQ(Transmission(c).drive_ratio(), c.ratio);
+  EXPECT_EQ(joint4_chain().drive_ratio(), c.ratio);  // capstan, then parallelogram
+  const Transmission parallelogram_first(
+      Chain{{Transmission(table2_parallelogram()), Transmission(c)}});
+  EXPECT_EQ(parallelogram_first.drive_ratio(), c.ratio);
+  EXPECT_EQ(Transmission(table2_parallelogram()).drive_ratio(), 1.0);
+  EXPECT_EQ(Transmission().drive_ratio(), 1.0);
+}
+
 }  // namespace
 }  // namespace hapticcal

@@ -349,6 +349,16 @@ void Transmission::parameter_jacobian(double q, double* J) const {
   std::visit(Visitor{q, J}, model_);
 }
 
+double Transmission::drive_ratio() const {
+  if (const auto* c = std::get_if<Capstan>(&model_)) return c->ratio;
+  if (const auto* chain = std::get_if<Chain>(&model_)) {
+    for (const Transmission& stage : chain->stages) {
+      if (const auto* c = std::get_if<Capstan>(&stage.model())) return c->ratio;
+    }
+  }
+  return 1.0;
+}
+
 std::string Transmission::check(double lower, double upper) const {
   struct Visitor {
     double lower, upper;

@@ -25,19 +25,7 @@ namespace {
 // Each joint's motor-to-joint ratio: its capstan's, 1 without one.
 std::vector<double> drive_ratios(const DeviceModel& model) {
   std::vector<double> ratios(model.dof(), 1.0);
-  for (int j = 0; j < model.dof(); ++j) {
-    const auto& m = model.links[j].transmission.model();
-    if (const auto* c = std::get_if<Capstan>(&m)) {
-      ratios[j] = c->ratio;
-    } else if (const auto* chain = std::get_if<Chain>(&m)) {
-      for (const Transmission& stage : chain->stages) {
-        if (const auto* c = std::get_if<Capstan>(&stage.model())) {
-          ratios[j] = c->ratio;
-          break;
-        }
-      }
-    }
-  }
+  for (int j = 0; j < model.dof(); ++j) ratios[j] = model.links[j].transmission.drive_ratio();
   return ratios;
 }
 

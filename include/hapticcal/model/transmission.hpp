@@ -92,6 +92,9 @@ class Transmission {
   TransmissionKind kind() const { return static_cast<TransmissionKind>(model_.index()); }
   // "none", "capstan", "parallelogram", "polynomial", "chain" or "harmonic".
   std::string type_name() const { return to_string(kind()); }
+  // The motor-to-joint ratio of its capstan (alone, or the first in a chain);
+  // 1 without one.
+  double drive_ratio() const;
 
   // dtheta(q), referenced to home.
   double error(double q) const;

@@ -26,15 +26,9 @@ void offer_harmonics(CalibrationRun& run) {
     }
     Harmonic h;
     h.frequencies = {1, 2};
-    const Transmission& t = l.transmission;
-    const Capstan* capstan = std::get_if<Capstan>(&t.model());
-    if (const auto* chain = std::get_if<Chain>(&t.model())) {
-      for (const Transmission& stage : chain->stages)
-        capstan = capstan ? capstan : std::get_if<Capstan>(&stage.model());
-    }
-    if (capstan && capstan->ratio > 2) {
-      h.frequencies.push_back(capstan->ratio);
-      h.frequencies.push_back(2 * capstan->ratio);
+    if (const double ratio = l.transmission.drive_ratio(); ratio > 2) {
+      h.frequencies.push_back(ratio);
+      h.frequencies.push_back(2 * ratio);
     }
     h.coefficients.assign(2 * h.frequencies.size(), 0.0);
     stages[i] = Transmission(h);
