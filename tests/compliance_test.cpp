@@ -193,7 +193,7 @@ TEST(Compliance, JointComplianceIsRecoveredFromTrackerPositions) {
     EXPECT_EQ(r.calibrated.links[i].compliance, e->value);
   }
   EXPECT_GE(identified, 3);
-  EXPECT_TRUE(r.calibrated.fitted_compliance.empty());
+  EXPECT_TRUE(r.calibrated.fitted.empty());
 }
 
 // A device file that states its compliance and masses is its own truth here:

@@ -15,6 +15,7 @@
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "identification/capstan_cost.hpp"
+#include "identification/families/family.hpp"
 #include "identification/measurement_cost.hpp"
 #include "test_models.hpp"
 
@@ -291,6 +292,7 @@ TEST(CostJacobian, JointErrorStagesMatchCentralDifferences) {
         for (int k = 0; k < 8; ++k) h.coefficients.push_back(5e-3 * unit(rng));
         model.joint_errors[i] = Transmission(h);
       }
+      model.fitted.push_back(detail::find_joint_error_family("harmonic")->block(model));
       const std::vector<JointErrorStage> errors = joint_error_stages(model);
       stages += static_cast<int>(errors.size());
       ASSERT_EQ(model.structure().errors, 8 * static_cast<int>(errors.size()));
@@ -301,6 +303,7 @@ TEST(CostJacobian, JointErrorStagesMatchCentralDifferences) {
         if (!model.joint_errors[i].is_none()) folded.links[i].transmission = model.joint_errors[i];
       }
       folded.joint_errors.clear();
+      folded.fitted.clear();
       // A coupled model's joint values are C q (StepTwoJoints), not the readings.
       expect_stage_rows(model, folded, type, errors, rng, model.coupled() ? &model : nullptr);
     }
@@ -327,13 +330,13 @@ TEST(CostJacobian, ComplianceStagesMatchCentralDifferences) {
         l.compliance = 1e-3 * unit(rng);
       }
       model.coupling.resize(0, 0);
-      model.fitted_compliance.assign(model.dof(), true);
+      model.fitted.push_back(detail::find_joint_error_family("compliance")->block(model));
       const std::vector<JointErrorStage> errors = joint_error_stages(model);
       stages += static_cast<int>(errors.size());
       ASSERT_EQ(static_cast<int>(errors.size()), model.dof());
-      ASSERT_EQ(model.structure().compliance, model.dof());
+      ASSERT_EQ(model.structure().errors, model.dof());
       DeviceModel folded = model;
-      folded.fitted_compliance.clear();
+      folded.fitted.clear();
       expect_stage_rows(model, folded, type, errors, rng);
     }
   }
@@ -357,15 +360,16 @@ TEST(CostJacobian, CouplingStagesMatchCentralDifferences) {
       start.coupling = Eigen::MatrixXd::Identity(n, n);
       for (int i = 1; i < n; ++i) start.coupling(i, i - 1) = unit(rng);
       start.coupling(0, n - 1) = unit(rng);
-      for (int i = 0; i < n; ++i) start.fitted_coupling.push_back({i, (i + n - 1) % n});
+      start.fitted.push_back(detail::find_joint_error_family("coupling")->block(start));
       const std::vector<JointErrorStage> errors = joint_error_stages(start);
       stages += static_cast<int>(errors.size());
       ASSERT_EQ(static_cast<int>(errors.size()), n);
-      ASSERT_EQ(start.structure().coupling, n);
+      ASSERT_EQ(start.structure().errors, n);
       DeviceModel model = start;
-      for (const auto& [i, k] : start.fitted_coupling) model.coupling(i, k) += 0.05 * unit(rng);
+      for (const auto& c : start.fitted[0].parameters)
+        model.coupling(c.link, c.element) += 0.05 * unit(rng);
       DeviceModel folded = model;
-      folded.fitted_coupling.clear();
+      folded.fitted.clear();
       expect_stage_rows(model, folded, type, errors, rng, &start);
     }
   }
@@ -387,16 +391,16 @@ TEST(CostJacobian, BacklashStagesMatchCentralDifferences) {
       DeviceModel start = perturbed(file_model, rng);
       for (int i = 0; i < start.dof(); ++i) {
         start.links[i].backlash = 1e-3 * unit(rng);
-        start.fitted_backlash.push_back(i);
       }
+      start.fitted.push_back(detail::find_joint_error_family("backlash")->block(start));
       const std::vector<JointErrorStage> errors = joint_error_stages(start);
       stages += static_cast<int>(errors.size());
       ASSERT_EQ(static_cast<int>(errors.size()), start.dof());
-      ASSERT_EQ(start.structure().backlash, start.dof());
+      ASSERT_EQ(start.structure().errors, start.dof());
       DeviceModel model = start;
       for (Link& l : model.links) l.backlash += 5e-4 * unit(rng);
       DeviceModel folded = model;
-      folded.fitted_backlash.clear();
+      folded.fitted.clear();
       expect_stage_rows(model, folded, type, errors, rng, &start, /*directed=*/true);
     }
   }

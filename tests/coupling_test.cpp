@@ -255,7 +255,7 @@ TEST(Coupling, CouplingCoefficientsAreFittedWithJointErrorsCoupling) {
   ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
   const double held_out = evaluate(r.calibrated, val).position->rms;
   EXPECT_LT(held_out, 1.2 * floor);
-  EXPECT_TRUE(r.calibrated.fitted_coupling.empty());
+  EXPECT_TRUE(r.calibrated.fitted.empty());
   bool left_out = false;
   for (const std::string& note : r.notes)
     left_out = left_out || note.find("j4 are left out of step 1") != std::string::npos;

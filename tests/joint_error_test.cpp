@@ -232,7 +232,7 @@ TEST(JointErrors, BacklashIsRecoveredFromTheApproachDirections) {
     EXPECT_EQ(r.calibrated.links[i].backlash, e->value);
   }
   EXPECT_EQ(testing::find_parameter(r.kinematics, "j1.backlash"), nullptr);  // no dir1
-  EXPECT_TRUE(r.calibrated.fitted_backlash.empty());
+  EXPECT_TRUE(r.calibrated.fitted.empty());
 
   const DeviceModel reread = parse_device(device_to_yaml(r.calibrated), "calibrated.yaml");
   EXPECT_EQ(evaluate(reread, val).position->rms, rms);

@@ -366,9 +366,9 @@ std::vector<Eigen::VectorXd> structural_joints(const DeviceModel& model) {
           std::uniform_real_distribution<double>(model.links[j].lower, model.links[j].upper)(rng);
     }
     Eigen::RowVectorXd direction;
-    if (!model.fitted_backlash.empty()) {
+    if (const auto* backlash = model.fitted_block("backlash")) {
       direction.setZero(model.dof());
-      for (int j : model.fitted_backlash) direction[j] = rng() % 2 ? 1.0 : -1.0;
+      for (const auto& b : backlash->parameters) direction[b.link] = rng() % 2 ? 1.0 : -1.0;
     }
     qs = step_two(reading, direction);
   }

@@ -31,7 +31,7 @@ std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model) {
   for (const detail::JointErrorFamily* family : detail::joint_error_families()) {
     family->add_stages(
         model, [&](int link, int slot, int count, double nominal, const Transmission* formed) {
-          JointErrorStage e{link, slot, joint_value_column(model, s, link), count, -1, nominal};
+          JointErrorStage e{link, slot, joint_value_column(model, s, link), count, -1, nominal, {}};
           if (formed) {
             e.harmonic = *formed;
           } else {

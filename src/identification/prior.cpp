@@ -13,6 +13,7 @@
 #include <map>
 
 #include "hapticcal/core/error.hpp"
+#include "identification/families/family.hpp"
 
 namespace hapticcal {
 namespace detail {
@@ -300,6 +301,12 @@ void add_tolerance(Tolerances& tolerances, const std::string& item) {
   } else {
     tolerances.by_name[name] = value;
   }
+}
+
+double Tolerances::family(std::string_view name) const {
+  if (const auto it = by_family.find(std::string(name)); it != by_family.end()) return it->second;
+  const detail::JointErrorFamily* f = detail::find_joint_error_family(name);
+  return f ? f->tolerance() : std::numeric_limits<double>::infinity();
 }
 
 namespace detail {

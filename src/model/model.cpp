@@ -4,6 +4,7 @@
 
 #include <cassert>
 #include <cmath>
+#include <utility>
 
 namespace hapticcal {
 namespace {
@@ -65,11 +66,37 @@ ChainStructure DeviceModel::structure() const {
   }
   s.tool = slot;
   s.instrument = instrument_zero ? 1 : 0;
-  for (const Transmission& e : joint_errors) s.errors += e.num_parameters();
-  for (int i = 0; i < dof(); ++i) s.compliance += compliance_fitted(i) ? 1 : 0;
-  s.coupling = static_cast<int>(fitted_coupling.size());
-  s.backlash = static_cast<int>(fitted_backlash.size());
+  for (const FittedBlock& b : fitted) s.errors += static_cast<int>(b.parameters.size());
   return s;
+}
+
+const DeviceModel::FittedBlock* DeviceModel::fitted_block(std::string_view family) const {
+  for (const FittedBlock& b : fitted) {
+    if (family == b.family) return &b;
+  }
+  return nullptr;
+}
+
+DeviceModel::FittedBlock* DeviceModel::fitted_block(std::string_view family) {
+  return const_cast<FittedBlock*>(std::as_const(*this).fitted_block(family));
+}
+
+int DeviceModel::fitted_slot(std::string_view family) const {
+  int slot = structure().errors_slot();
+  for (const FittedBlock& b : fitted) {
+    if (family == b.family) break;
+    slot += static_cast<int>(b.parameters.size());
+  }
+  return slot;
+}
+
+bool DeviceModel::fitted_element(std::string_view family, int element) const {
+  const FittedBlock* b = fitted_block(family);
+  if (!b) return false;
+  for (const FittedParameter& p : b->parameters) {
+    if (p.element == element) return true;
+  }
+  return false;
 }
 
 Eigen::VectorXd DeviceModel::kinematic_parameters() const {
@@ -89,18 +116,9 @@ Eigen::VectorXd DeviceModel::kinematic_parameters() const {
   for (int k = 0; k < kPoseSlots; ++k) p[s.tool_slot() + k] = tool[k];
   if (instrument_zero) p[s.instrument_slot()] = *instrument_zero;
   int e = s.errors_slot();
-  for (const Transmission& stage : joint_errors) {
-    const Eigen::VectorXd v = stage.parameters();
-    p.segment(e, v.size()) = v;
-    e += static_cast<int>(v.size());
+  for (const FittedBlock& b : fitted) {
+    for (const FittedParameter& f : b.parameters) p[e++] = f.get ? f.get(*this, f) : f.value;
   }
-  for (int i = 0, k = s.compliance_slot(); i < dof(); ++i) {
-    if (compliance_fitted(i)) p[k++] = links[i].compliance;
-  }
-  for (int c = 0; c < s.coupling; ++c)
-    p[s.coupling_slot() + c] = coupling(fitted_coupling[c][0], fitted_coupling[c][1]);
-  for (int c = 0; c < s.backlash; ++c)
-    p[s.backlash_slot() + c] = links[fitted_backlash[c]].backlash;
   return p;
 }
 
@@ -125,17 +143,15 @@ void DeviceModel::set_kinematic_parameters(const Eigen::VectorXd& p) {
   for (int k = 0; k < kPoseSlots; ++k) tool[k] = p[s.tool_slot() + k];
   if (instrument_zero) instrument_zero = p[s.instrument_slot()];
   int e = s.errors_slot();
-  for (Transmission& stage : joint_errors) {
-    stage.set_parameters(p.data() + e);
-    e += stage.num_parameters();
+  for (FittedBlock& b : fitted) {
+    for (FittedParameter& f : b.parameters) {
+      if (f.set) {
+        f.set(*this, f, p[e++]);
+      } else {
+        f.value = p[e++];
+      }
+    }
   }
-  for (int i = 0, k = s.compliance_slot(); i < dof(); ++i) {
-    if (compliance_fitted(i)) links[i].compliance = p[k++];
-  }
-  for (int c = 0; c < s.coupling; ++c)
-    coupling(fitted_coupling[c][0], fitted_coupling[c][1]) = p[s.coupling_slot() + c];
-  for (int c = 0; c < s.backlash; ++c)
-    links[fitted_backlash[c]].backlash = p[s.backlash_slot() + c];
 }
 
 std::vector<ParameterInfo> DeviceModel::parameter_info() const {
@@ -176,27 +192,11 @@ std::vector<ParameterInfo> DeviceModel::parameter_info() const {
     info.push_back(
         {"instrument.zero", s.instrument_slot(), U::kLength, dof() + 1, 0, B::kInstrument});
   int e = s.errors_slot();
-  for (int i = 0; i < static_cast<int>(joint_errors.size()); ++i) {
-    for (const std::string& name : joint_errors[i].parameter_names()) {
-      info.push_back({links[i].name + "." + name, e++, U::kAngle, joint_error_block(dof()), i,
-                      B::kJointError, "harmonic"});
+  for (const FittedBlock& b : fitted) {
+    for (const FittedParameter& f : b.parameters) {
+      info.push_back({links[f.link].name + "." + f.name, e++, f.unit, dof() + 2, f.element,
+                      B::kJointError, b.family});
     }
-  }
-  for (int i = 0, k = s.compliance_slot(); i < dof(); ++i) {
-    if (compliance_fitted(i))
-      info.push_back({links[i].name + ".k", k++, U::kAngle, compliance_block(dof()), i,
-                      B::kJointError, "compliance"});
-  }
-  for (int c = 0; c < s.coupling; ++c) {
-    const auto [i, k] = fitted_coupling[c];
-    info.push_back({links[i].name + ".c_" + links[k].name, s.coupling_slot() + c, U::kAngle,
-                    coupling_block(dof()), c, B::kJointError, "coupling"});
-  }
-  for (int c = 0; c < s.backlash; ++c) {
-    const int i = fitted_backlash[c];
-    info.push_back({links[i].name + ".backlash", s.backlash_slot() + c,
-                    links[i].prismatic() ? U::kLength : U::kAngle, backlash_block(dof()), i,
-                    B::kJointError, "backlash"});
   }
   return info;
 }

@@ -294,27 +294,15 @@ double identified_instrument_zero(const KinematicFit& fit);
 struct Tolerances {
   double length = 0.5e-3;  // m
   double angle = 5e-3;     // rad
-  // A joint-error harmonic's amplitude (CalibrationOptions::joint_errors): a
-  // gear's or capstan's transmission error, ~0.1-1 mrad (the paper's drums).
-  double harmonic = 1e-3;  // rad
-  // A joint compliance (--joint-errors compliance): 1 mrad per N m.
-  double compliance = 1e-3;  // rad / N m
-  // A coupling coefficient (--joint-errors coupling): a drive's ratio to 1 %.
-  double coupling = 1e-2;
-  // A backlash (--joint-errors backlash): 1 mrad (1 mm for a sliding joint).
-  double backlash = 1e-3;  // rad; m
   // Per dotted parameter name (SI), over the family's.
   std::map<std::string, double> by_name;
   // The common scale of the tolerances; none: the one of highest evidence.
   std::optional<double> scale;
-  // A joint-error family's (ParameterInfo::family); infinite for another.
-  double family(std::string_view name) const {
-    return name == "harmonic"     ? harmonic
-           : name == "compliance" ? compliance
-           : name == "coupling"   ? coupling
-           : name == "backlash"   ? backlash
-                                  : std::numeric_limits<double>::infinity();
-  }
+  // Per joint-error family name, over the family's own (JointErrorFamily::tolerance).
+  std::map<std::string, double> by_family;
+  // A joint-error family's (ParameterInfo::family): by_family's, else the
+  // family's own; infinite for a name no family has.
+  double family(std::string_view name) const;
 };
 
 // One --tolerance item, NAME=SD in SI units: "length" and "angle" set a family's

@@ -28,7 +28,7 @@ namespace hapticcal {
 // stored per pose); a compliance stage's one x the link's gravity torque at
 // the pose's joint values from the start's geometry and masses (nominal 0:
 // compensate leaves a fitted compliance to the stage); a coupling stage's p is
-// C_ik, the joint's coefficient on reading k (DeviceModel::fitted_coupling), x
+// C_ik, the joint's coefficient on reading k (the coupling block in DeviceModel::fitted), x
 // the reading through its own transmission, u_k = q_k + dtheta_k(q_k); a
 // backlash stage's p is the link's backlash, x the side the joint approached
 // the pose from (the log's dir<i>: +1, -1, 0).

@@ -6,6 +6,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "hapticcal/model/transmission.hpp"
@@ -104,8 +105,9 @@ struct Link {
 //   tool: x, y, z, roll, pitch, yaw (6)
 //   instrument: zero (1), only while step 2 estimates a distance instrument's
 //     zero with the device (DeviceModel::instrument_zero)
-//   joint errors: each link's step-2 joint-error stage's parameters, in link
-//     order, only while step 2 estimates them (DeviceModel::joint_errors)
+//   joint errors: the step-2 parameters of the joint-error families fitted
+//     with the geometry (DeviceModel::fitted), block after block, only while
+//     step 2 estimates them
 constexpr int kLinkA = 0, kLinkAlpha = 1, kLinkD = 2, kLinkTheta = 3, kLinkBeta = 4;
 constexpr int kLinkSlots = 5;
 constexpr int kOriginX = 0, kOriginRoll = 3, kOriginPitch = 4, kOriginYaw = 5, kOriginOffset = 6;
@@ -128,18 +130,12 @@ struct ChainStructure {
   std::array<JointStructure, kMaxDof> joints{};
   int tool = 0;        // first slot of the tool block
   int instrument = 0;  // slots of the instrument block after the tool (0 or 1)
-  int errors = 0;      // slots of the joint-error block after the instrument
-  int compliance = 0;  // slots of the compliance block after the joint errors
-  int coupling = 0;    // slots of the coupling block after the compliance
-  int backlash = 0;    // slots of the backlash block after the coupling
+  int errors = 0;      // slots of the joint-error families' blocks after the instrument
 
   int base_slots() const { return base_kind == BaseKind::kDh ? 4 : kPoseSlots; }
-  int num_slots() const { return backlash_slot() + backlash; }
+  int num_slots() const { return errors_slot() + errors; }
   int instrument_slot() const { return tool + kPoseSlots; }
   int errors_slot() const { return tool + kPoseSlots + instrument; }
-  int compliance_slot() const { return errors_slot() + errors; }
-  int coupling_slot() const { return compliance_slot() + compliance; }
-  int backlash_slot() const { return coupling_slot() + coupling; }
   int link_slot(int i) const { return joints[i].slot; }  // i zero-based
   int tool_slot() const { return tool; }
 };
@@ -149,22 +145,11 @@ enum class ParameterUnit { kLength, kAngle };
 // One kinematic parameter: its stable dotted name ("base.a", "j3.alpha",
 // "tool.x", "panda_joint2.roll", "instrument.zero", "j2.sin1"), its slot in the
 // flat vector, and its place: joint -1 is the base, dof the tool, dof + 1 the
-// instrument, joint_error_block(dof) a joint-error stage's; element is its index
-// in the block (a joint error's: its link).
-inline int joint_error_block(int dof) { return dof + 2; }
-// A compliance parameter's block ("j2.k"): element is its link.
-inline int compliance_block(int dof) { return dof + 3; }
-// A coupling coefficient's block ("j1.c_j3", C_ik of joint i on reading k):
-// element is its index in DeviceModel::fitted_coupling.
-inline int coupling_block(int dof) { return dof + 4; }
-// A backlash's block ("j2.backlash"): element is its link.
-inline int backlash_block(int dof) { return dof + 5; }
-// Whether a parameter is a joint error's (a stage's, a compliance, a coupling
-// coefficient, a backlash): not a length or a periodic angle of the geometry.
-inline bool joint_error_parameter(int joint, int dof) { return joint >= joint_error_block(dof); }
+// instrument, dof + 2 a joint-error family's; element is its index in the
+// block (a link's, a joint error's own: DeviceModel::FittedParameter).
 // What a parameter belongs to: the base (the measurement frame), a joint's
 // geometry (joint: the link), the tool, an instrument's zero, or a joint-error
-// family's (family: "harmonic", "compliance", "coupling", "backlash"). Code
+// family's (family: "harmonic", "compliance", "coupling", "backlash", ...). Code
 // asks this, not the block number in `joint`.
 enum class ParameterBlock { kBase, kLink, kTool, kInstrument, kJointError };
 struct ParameterInfo {
@@ -195,15 +180,15 @@ struct DeviceModel {
   // distance logs); it is the instrument's, not the device's: device files and
   // a calibrated model have none.
   std::optional<double> instrument_zero;
-  // Step 2's joint-error stages (issue 25), one a link (none: no stage; a
-  // Harmonic): errors of the joint angle the geometry cannot express, fitted
-  // with it from the measurements (no external encoder). Present only in the
-  // problems of step 2 that estimate them; calibrate folds them into the
+  // Step 2's joint-error stages of the harmonic family, one a link (none: no
+  // stage; a Harmonic): errors of the joint angle the geometry cannot express,
+  // fitted with it from the measurements (no external encoder). Present only in
+  // the problems of step 2 that estimate them; calibrate folds them into the
   // links' transmissions (the angle v the kinematics turn by becomes
   // v + stage(v)), so device files and calibrated models have none.
   std::vector<Transmission> joint_errors;
-  // Coupled joints (issue 25): the joint values are a linear map of the
-  // readings, each first through its own link's transmission,
+  // Coupled joints: the joint values are a linear map of the readings, each
+  // first through its own link's transmission,
   //   theta_i = sum_k C_ik (q_k + dtheta_k(q_k)) (+ the joint offset, as always):
   // a passive joint driven by others (its own reading unused: column k of C is
   // zero), J2/J3 drive coupling, a parallelogram's relative reading, an
@@ -213,23 +198,38 @@ struct DeviceModel {
   // Gravity in the base frame (frame 0, after the base transform) [m/s^2]: what
   // the links' masses weigh for joint compliance.
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};
-  // Step 2's compliance parameters (issue 25): the links whose compliance k is
-  // estimated with the geometry, one slot each after the joint errors ("j2.k"),
-  // the slot being the link's own compliance. Present only in the problems of
-  // step 2 that estimate them: while a link's k is a parameter, compensate
-  // leaves its deflection to the fit (JointErrorStage).
-  std::vector<bool> fitted_compliance;
-  // Step 2's coupling coefficients (issue 25): the entries (joint i, reading k)
-  // of `coupling` estimated with the geometry, one slot each after the
-  // compliances ("j1.c_j3"), the slot being the coefficient C_ik itself.
-  // Present only in the problems of step 2 that estimate them
-  // (--joint-errors coupling); the fitted values are the calibrated coupling.
-  std::vector<std::array<int, 2>> fitted_coupling;
-  // Step 2's backlash parameters (issue 25): the links whose backlash is
-  // estimated with the geometry, one slot each after the coupling
-  // ("j2.backlash"), the slot being the link's own backlash. Present only in
-  // the problems of step 2 that estimate them (--joint-errors backlash).
-  std::vector<int> fitted_backlash;
+
+  // One step-2 parameter of a joint-error family: where its value lives (a
+  // field of the model, read and written by get and set: a link's compliance,
+  // a coupling coefficient; or, with neither, `value` here), its name's suffix
+  // after its link's ("k": "j2.k"), its unit and its element (the family's own
+  // index: a link, a coupling entry).
+  struct FittedParameter {
+    std::string name;
+    ParameterUnit unit = ParameterUnit::kAngle;
+    int link = 0;     // the link its name starts with
+    int element = 0;  // the family's own index (its link unless it says otherwise)
+    double (*get)(const DeviceModel&, const FittedParameter&) = nullptr;
+    void (*set)(DeviceModel&, const FittedParameter&, double value) = nullptr;
+    double value = 0;
+  };
+  // A family's parameters, one block of the vector (after the instrument's, in
+  // the order of `fitted`). `family` is the family's --joint-errors name (a
+  // string literal).
+  struct FittedBlock {
+    const char* family = "";
+    std::vector<FittedParameter> parameters;
+  };
+  // The joint-error families' blocks step 2 estimates (identification/families/):
+  // present only in the problems of step 2; calibrate folds them into the model.
+  std::vector<FittedBlock> fitted;
+  // The block of this family, or null.
+  const FittedBlock* fitted_block(std::string_view family) const;
+  FittedBlock* fitted_block(std::string_view family);
+  // The first slot of this family's block (the end of the blocks if none).
+  int fitted_slot(std::string_view family) const;
+  // Whether this family fits a parameter of this element.
+  bool fitted_element(std::string_view family, int element) const;
 
   bool base_is_pose() const { return base_kind == BaseKind::kPose; }
   int dof() const { return static_cast<int>(links.size()); }
@@ -257,9 +257,7 @@ struct DeviceModel {
   // Some joint deflects under gravity in compensate (a compliance that is not
   // step 2's parameter).
   bool compliant() const;
-  bool compliance_fitted(int i) const {
-    return i < static_cast<int>(fitted_compliance.size()) && fitted_compliance[i];
-  }
+  bool compliance_fitted(int i) const { return fitted_element("compliance", i); }
   // Whether some joint's value depends on reading k (false: a passive joint's
   // own reading, which nothing uses).
   bool reading_used(int k) const { return !coupled() || coupling.col(k).any(); }

@@ -1,11 +1,16 @@
 // The joint-error family "backlash" (families/family.hpp).
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "hapticcal/core/error.hpp"
 #include "identification/calibration_run.hpp"
 #include "identification/families/family.hpp"
 
 namespace hapticcal::detail {
+
+const JointErrorFamily* backlash_family();
+
 namespace {
 
 // "backlash": each joint whose log column dir<i> says from which side it
@@ -23,8 +28,11 @@ void offer_backlash(CalibrationRun& run) {
         "--joint-errors backlash: the log says for no joint from which side it approached its "
         "poses (give dir<i> columns: +1 moving up in q, -1 moving down)");
   }
-  run.model.fitted_backlash = joints;
-  run.step2_nominal.fitted_backlash = joints;
+  DeviceModel::FittedBlock block = backlash_family()->block(run.model);
+  std::erase_if(block.parameters, [&](const DeviceModel::FittedParameter& f) {
+    return std::find(joints.begin(), joints.end(), f.link) == joints.end();
+  });
+  add_block(run, block);
 }
 
 class BacklashFamily : public JointErrorFamily {
@@ -37,9 +45,15 @@ class BacklashFamily : public JointErrorFamily {
     return false;
   }
   void offer(CalibrationRun& run) const override { offer_backlash(run); }
+  DeviceModel::FittedBlock block(const DeviceModel& model) const override {
+    return per_link_block<&Link::backlash>(model, "backlash", "backlash", ParameterUnit::kAngle,
+                                           ParameterUnit::kLength);
+  }
   void add_stages(const DeviceModel& model, const AddStage& add) const override {
-    int slot = model.structure().backlash_slot();
-    for (const int i : model.fitted_backlash) add(i, slot++, 1, model.links[i].backlash, nullptr);
+    // The joint values are formed with the model's backlash.
+    add_block_stages(model, name(), add, [&](const DeviceModel::FittedParameter& f) {
+      return model.links[f.link].backlash;
+    });
   }
   // A backlash's feature: the side the joint approached the pose from.
   class Sides : public PoseFeatures {
@@ -48,22 +62,24 @@ class BacklashFamily : public JointErrorFamily {
     void operator()(const double*, const Eigen::VectorXd&,
                     const Eigen::Ref<const Eigen::RowVectorXd>& direction,
                     double* out) const override {
-      for (const int i : model_.fitted_backlash)
-        *out++ = direction.size() == model_.dof() ? direction[i] : 0.0;
+      for (const auto& b : model_.fitted_block("backlash")->parameters)
+        *out++ = direction.size() == model_.dof() ? direction[b.link] : 0.0;
     }
 
    private:
     const DeviceModel& model_;
   };
   std::unique_ptr<PoseFeatures> pose_features(const DeviceModel& model) const override {
-    if (model.fitted_backlash.empty()) return nullptr;
+    if (!model.fitted_block(name())) return nullptr;
     return std::make_unique<Sides>(model);
   }
   // Each fitted backlash is the link's now.
   std::string fold(DeviceModel& model) const override {
-    model.fitted_backlash.clear();
+    drop_block(model, name());
     return "";
   }
+  // 1 mrad (1 mm for a sliding joint).
+  double tolerance() const override { return 1e-3; }
 };
 
 }  // namespace

@@ -9,6 +9,9 @@
 #include "identification/families/family.hpp"
 
 namespace hapticcal::detail {
+
+const JointErrorFamily* compliance_family();
+
 namespace {
 
 // "compliance": every joint's compliance k is a step-2 parameter (its gravity
@@ -36,8 +39,7 @@ void offer_compliance(CalibrationRun& run) {
         "frame's origin (written into the calibrated model), so each k is in rad per N m of that "
         "model, not of the device's own torques");
   }
-  run.model.fitted_compliance.assign(m.dof(), true);
-  run.step2_nominal.fitted_compliance.assign(m.dof(), true);
+  add_block(run, compliance_family()->block(run.model));
 }
 
 class ComplianceFamily : public JointErrorFamily {
@@ -45,11 +47,13 @@ class ComplianceFamily : public JointErrorFamily {
   std::string_view name() const override { return "compliance"; }
   bool applies(const CalibrationRun& run) const override { return run.model.gravity.norm() > 0; }
   void offer(CalibrationRun& run) const override { offer_compliance(run); }
+  DeviceModel::FittedBlock block(const DeviceModel& model) const override {
+    return per_link_block<&Link::compliance>(model, "compliance", "k", ParameterUnit::kAngle,
+                                             ParameterUnit::kAngle);
+  }
   void add_stages(const DeviceModel& model, const AddStage& add) const override {
-    int slot = model.structure().compliance_slot();
-    for (int i = 0; i < model.dof(); ++i) {
-      if (model.compliance_fitted(i)) add(i, slot++, 1, 0.0, nullptr);
-    }
+    // nominal 0: compensate leaves a fitted compliance's joint undeflected.
+    add_block_stages(model, name(), add, [](const DeviceModel::FittedParameter&) { return 0.0; });
   }
   // A compliance's feature: its link's gravity torque at the pose's joint
   // values, from the start's geometry and masses.
@@ -61,9 +65,7 @@ class ComplianceFamily : public JointErrorFamily {
                     const Eigen::Ref<const Eigen::RowVectorXd>&, double* out) const override {
       std::array<double, kMaxDof> tau;
       gravity_.torques(joint, tau.data());
-      for (int i = 0; i < model_.dof(); ++i) {
-        if (model_.compliance_fitted(i)) *out++ = tau[i];
-      }
+      for (const auto& k : model_.fitted_block("compliance")->parameters) *out++ = tau[k.link];
     }
 
    private:
@@ -71,16 +73,15 @@ class ComplianceFamily : public JointErrorFamily {
     GravityModel gravity_;
   };
   std::unique_ptr<PoseFeatures> pose_features(const DeviceModel& model) const override {
-    for (int i = 0; i < model.dof(); ++i) {
-      if (model.compliance_fitted(i)) return std::make_unique<Torques>(model);
-    }
-    return nullptr;
+    if (!model.fitted_block(name())) return nullptr;
+    return std::make_unique<Torques>(model);
   }
   // Each fitted k is the link's compliance now.
   std::string fold(DeviceModel& model) const override {
-    model.fitted_compliance.clear();
+    drop_block(model, name());
     return "";
   }
+  double tolerance() const override { return 1e-3; }  // rad / N m
 };
 
 }  // namespace

@@ -6,6 +6,9 @@
 #include "identification/families/family.hpp"
 
 namespace hapticcal::detail {
+
+const JointErrorFamily* coupling_family();
+
 namespace {
 
 // "coupling": each coefficient C_ik (i != k) the model's coupling declares is a
@@ -19,19 +22,13 @@ void offer_coupling(CalibrationRun& run) {
         "--joint-errors coupling: the model has no coupled joints (give the device file's "
         "coupling, or a URDF's <mimic>)");
   }
-  std::vector<std::array<int, 2>> entries;
-  for (int i = 0; i < m.dof(); ++i) {
-    for (int k = 0; k < m.dof(); ++k) {
-      if (i != k && m.coupling(i, k) != 0) entries.push_back({i, k});
-    }
-  }
-  if (entries.empty()) {
+  const DeviceModel::FittedBlock block = coupling_family()->block(m);
+  if (block.parameters.empty()) {
     throw InputError(
         "--joint-errors coupling: the model's coupling has no coefficient between two joints "
         "(only the diagonal, which the transmissions scale)");
   }
-  run.model.fitted_coupling = entries;
-  run.step2_nominal.fitted_coupling = entries;
+  add_block(run, block);
 }
 
 class CouplingFamily : public JointErrorFamily {
@@ -39,10 +36,28 @@ class CouplingFamily : public JointErrorFamily {
   std::string_view name() const override { return "coupling"; }
   bool applies(const CalibrationRun& run) const override { return coupled_between(run.model); }
   void offer(CalibrationRun& run) const override { offer_coupling(run); }
+  // C_ik: the parameter of link i, element k, named "c_<joint k>".
+  DeviceModel::FittedBlock block(const DeviceModel& model) const override {
+    DeviceModel::FittedBlock block{"coupling", {}};
+    for (int i = 0; i < model.dof() && model.coupled(); ++i) {
+      for (int k = 0; k < model.dof(); ++k) {
+        if (i == k || model.coupling(i, k) == 0) continue;
+        DeviceModel::FittedParameter c{"c_" + model.links[k].name, ParameterUnit::kAngle, i, k};
+        c.get = [](const DeviceModel& m, const DeviceModel::FittedParameter& f) {
+          return m.coupling(f.link, f.element);
+        };
+        c.set = [](DeviceModel& m, const DeviceModel::FittedParameter& f, double value) {
+          m.coupling(f.link, f.element) = value;
+        };
+        block.parameters.push_back(c);
+      }
+    }
+    return block;
+  }
   void add_stages(const DeviceModel& model, const AddStage& add) const override {
-    int slot = model.structure().coupling_slot();
-    for (const auto& [i, k] : model.fitted_coupling)
-      add(i, slot++, 1, model.coupling(i, k), nullptr);
+    add_block_stages(model, name(), add, [&](const DeviceModel::FittedParameter& f) {
+      return model.coupling(f.link, f.element);
+    });
   }
   // A coefficient C_ik's feature: reading k through its own transmission.
   class Readings : public PoseFeatures {
@@ -50,24 +65,26 @@ class CouplingFamily : public JointErrorFamily {
     explicit Readings(const DeviceModel& model) : model_(model) {}
     void operator()(const double*, const Eigen::VectorXd& q,
                     const Eigen::Ref<const Eigen::RowVectorXd>&, double* out) const override {
-      for (const auto& [i, k] : model_.fitted_coupling)
-        *out++ = q[k] + model_.links[k].transmission.error(q[k]);
+      for (const auto& c : model_.fitted_block("coupling")->parameters)
+        *out++ = q[c.element] + model_.links[c.element].transmission.error(q[c.element]);
     }
 
    private:
     const DeviceModel& model_;
   };
   std::unique_ptr<PoseFeatures> pose_features(const DeviceModel& model) const override {
-    if (model.fitted_coupling.empty()) return nullptr;
+    if (!model.fitted_block(name())) return nullptr;
     return std::make_unique<Readings>(model);
   }
   // The fitted coefficients are the coupling now.
   std::string fold(DeviceModel& model) const override {
-    if (model.fitted_coupling.empty()) return "";
-    model.fitted_coupling.clear();
+    if (!model.fitted_block(name())) return "";
+    drop_block(model, name());
     const std::string why = coupling_problem(model.coupling, model.links);
     return why.empty() ? "" : "the coupling as fitted is no coupling: " + why;
   }
+  // A drive's ratio to 1 %.
+  double tolerance() const override { return 1e-2; }
 };
 
 }  // namespace

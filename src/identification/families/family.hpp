@@ -49,6 +49,9 @@ class JointErrorFamily {
   // Its parameters offered on run.model and run.step2_nominal; InputError (one
   // line) where this model or log cannot have them.
   virtual void offer(CalibrationRun& run) const = 0;
+  // Its block on this model: every parameter it could fit (offer keeps those
+  // the log can see); tests build a model's block with it.
+  virtual DeviceModel::FittedBlock block(const DeviceModel& model) const = 0;
   // Its stages on a model that has its parameters (joint_error_stages).
   virtual void add_stages(const DeviceModel& model, const AddStage& add) const = 0;
   // Its stored features of a pose on this model (none: it stores none).
@@ -56,7 +59,41 @@ class JointErrorFamily {
   // Its fitted parameters made the model's own (the calibrated model has no
   // step-2 parameters); why they cannot be, or "".
   virtual std::string fold(DeviceModel& model) const = 0;
+  // The tolerance prior's sd of its parameters (SI).
+  virtual double tolerance() const = 0;
 };
+
+// A family's block (its name a string literal) added to run.model and
+// run.step2_nominal, after the blocks offered before it.
+void add_block(CalibrationRun& run, const DeviceModel::FittedBlock& block);
+// A block of one parameter per link, its value the link's `Field` (compliance,
+// backlash), named `name`, in `prismatic_unit` on a prismatic link.
+template <double Link::*Field>
+DeviceModel::FittedBlock per_link_block(const DeviceModel& model, const char* family,
+                                        const char* name, ParameterUnit unit,
+                                        ParameterUnit prismatic_unit) {
+  DeviceModel::FittedBlock block{family, {}};
+  for (int i = 0; i < model.dof(); ++i) {
+    DeviceModel::FittedParameter p{name, model.links[i].prismatic() ? prismatic_unit : unit, i, i};
+    p.get = [](const DeviceModel& m, const DeviceModel::FittedParameter& f) {
+      return m.links[f.link].*Field;
+    };
+    p.set = [](DeviceModel& m, const DeviceModel::FittedParameter& f, double value) {
+      m.links[f.link].*Field = value;
+    };
+    block.parameters.push_back(p);
+  }
+  return block;
+}
+// One stage a parameter of the family's block on the model (its link, its
+// slot, one parameter) with its value in the joint values `nominal`.
+void add_block_stages(const DeviceModel& model, std::string_view family, const AddStage& add,
+                      const std::function<double(const DeviceModel::FittedParameter&)>& nominal);
+// The family's block removed from the model (fold: its values are the model's).
+void drop_block(DeviceModel& model, std::string_view family);
+// A family registered after the built-in ones (a test's; not thread-safe:
+// before any calibration runs).
+void register_joint_error_family(const JointErrorFamily* family);
 
 // Every family, in the model search's order (registry.cpp).
 const std::vector<const JointErrorFamily*>& joint_error_families();

@@ -7,6 +7,9 @@
 #include "identification/families/family.hpp"
 
 namespace hapticcal::detail {
+
+const JointErrorFamily* harmonic_family();
+
 namespace {
 
 // "harmonic": each turning joint gets a Harmonic stage of its angle's first and
@@ -41,6 +44,8 @@ void offer_harmonics(CalibrationRun& run) {
   }
   run.model.joint_errors = stages;
   run.step2_nominal.joint_errors = stages;
+  const DeviceModel::FittedBlock block = harmonic_family()->block(run.model);
+  if (!block.parameters.empty()) add_block(run, block);
 }
 
 class HarmonicFamily : public JointErrorFamily {
@@ -53,8 +58,29 @@ class HarmonicFamily : public JointErrorFamily {
     return false;
   }
   void offer(CalibrationRun& run) const override { offer_harmonics(run); }
+  // Its parameters are the stages' coefficients: link i's c-th, element c.
+  DeviceModel::FittedBlock block(const DeviceModel& model) const override {
+    DeviceModel::FittedBlock block{"harmonic", {}};
+    for (int i = 0; i < static_cast<int>(model.joint_errors.size()); ++i) {
+      const std::vector<std::string> names = model.joint_errors[i].parameter_names();
+      for (int c = 0; c < static_cast<int>(names.size()); ++c) {
+        DeviceModel::FittedParameter h{names[c], ParameterUnit::kAngle, i, c};
+        h.get = [](const DeviceModel& m, const DeviceModel::FittedParameter& f) {
+          return m.joint_errors[f.link].parameters()[f.element];
+        };
+        h.set = [](DeviceModel& m, const DeviceModel::FittedParameter& f, double value) {
+          Transmission& stage = m.joint_errors[f.link];
+          Eigen::VectorXd v = stage.parameters();
+          v[f.element] = value;
+          stage.set_parameters(v.data());
+        };
+        block.parameters.push_back(h);
+      }
+    }
+    return block;
+  }
   void add_stages(const DeviceModel& model, const AddStage& add) const override {
-    int slot = model.structure().errors_slot();
+    int slot = model.fitted_slot(name());
     for (int i = 0; i < static_cast<int>(model.joint_errors.size()); ++i) {
       const Transmission& stage = model.joint_errors[i];
       if (stage.is_none()) continue;
@@ -84,8 +110,11 @@ class HarmonicFamily : public JointErrorFamily {
       t = t.is_none() ? stage : Transmission(Chain{{t, stage}});
     }
     model.joint_errors.clear();
+    drop_block(model, name());
     return refused;
   }
+  // A gear's or capstan's transmission error, ~0.1-1 mrad (the paper's drums).
+  double tolerance() const override { return 1e-3; }
 };
 
 }  // namespace
