@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <set>
@@ -48,15 +49,17 @@ class YamlReader {
   // Fails on keys outside `allowed` and on repeated keys.
   void check_keys(const YAML::Node& map, const std::string& path,
                   std::initializer_list<const char*> allowed) const {
+    check_keys(map, path, std::vector<std::string>(allowed.begin(), allowed.end()));
+  }
+  void check_keys(const YAML::Node& map, const std::string& path,
+                  const std::vector<std::string>& allowed) const {
     expect_map(map, path);
     std::set<std::string> seen;
     for (const auto& kv : map) {
       const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : "?";
-      bool ok = false;
-      for (const char* a : allowed) ok = ok || key == a;
-      if (!ok) {
+      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
         std::string list;
-        for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
+        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
         fail(kv.first, join(path, printable(key)),
              fmt::format("unknown key (expected one of: {})", list));
       }

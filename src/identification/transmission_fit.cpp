@@ -203,6 +203,80 @@ void fit_capstan(const Capstan& nominal, const Eigen::VectorXd& q, const Eigen::
   fit.offset_sd = all[5];
 }
 
+// ext - q = c + dtheta(p, q) of a registered kind, the residual of each sample
+// with its Jacobian [d dtheta / d p, 1] (the kind's own parameter_jacobian).
+class ExtensionCost : public ceres::CostFunction {
+ public:
+  ExtensionCost(const Extension& e, const Eigen::VectorXd& q, const Eigen::VectorXd& target)
+      : e_(e), q_(q), target_(target) {
+    set_num_residuals(static_cast<int>(q.size()));
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(e.parameters.size()) + 1);
+  }
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const double* p = parameters[0];
+    const size_t n = e_.parameters.size();
+    for (Eigen::Index i = 0; i < q_.size(); ++i) {
+      residuals[i] = e_.definition->error(p, q_[i]) + p[n] - target_[i];
+      if (jacobians && jacobians[0]) {
+        double* row = jacobians[0] + i * static_cast<Eigen::Index>(n + 1);
+        e_.definition->parameter_jacobian(p, q_[i], row);
+        row[n] = 1;
+      }
+      if (!std::isfinite(residuals[i])) return false;
+    }
+    return true;
+  }
+
+ private:
+  const Extension& e_;
+  const Eigen::VectorXd& q_;
+  const Eigen::VectorXd& target_;
+};
+
+// A registered kind by Levenberg-Marquardt from the device file's parameters
+// (and the encoder zero from the mean), every parameter free.
+void fit_extension(const Extension& nominal, const Eigen::VectorXd& q,
+                   const Eigen::VectorXd& target, TransmissionFit& fit, Transmission& fitted) {
+  const int n = static_cast<int>(q.size());
+  const int parameters = static_cast<int>(nominal.parameters.size()) + 1;
+  if (parameters > supported_parameters(n)) {
+    throw InputError(fmt::format(
+        "j{}: {} samples support no {} model (step 1 needs at least {} samples a parameter, the "
+        "encoder zero included: {})",
+        fit.joint + 1, n, nominal.definition->name(), kStepOneSamplesPerParameter,
+        parameters * kStepOneSamplesPerParameter));
+  }
+  std::vector<double> p = nominal.parameters;
+  p.push_back(target.mean());
+  auto* cost = new ExtensionCost(nominal, q, target);
+  ceres::Problem problem;
+  problem.AddResidualBlock(cost, nullptr, p.data());
+  ceres::Solver::Summary summary;
+  ceres::Solve(detail::levenberg_marquardt(200), &problem, &summary);
+  fit.converged = summary.termination_type == ceres::CONVERGENCE;
+  fit.message = summary.message;
+  Eigen::VectorXd r(n);
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(n, parameters);
+  double* jacobian[] = {J.data()};
+  const double* at[] = {p.data()};
+  cost->Evaluate(at, r.data(), jacobian);
+  const Eigen::MatrixXd A = J;
+  fit.held_out_rms = leave_one_out_rms(A, r);
+  fit.candidates.push_back({std::string(nominal.definition->name()), parameters, fit.held_out_rms,
+                            generalised_cv_rms(r, parameters)});
+  fit.model_choice = std::string(nominal.definition->name());
+  fitted = Transmission(nominal);
+  fitted.set_parameters(p.data());
+  fit.value = Eigen::Map<const Eigen::VectorXd>(p.data(), parameters - 1);
+  fit.offset = p.back();
+  fit.rms_after = residual_rms(r);
+  const Eigen::VectorXd sd =
+      standard_deviations(A, r.squaredNorm() / std::max<double>(n - parameters, 1));
+  fit.sd = sd.head(parameters - 1);
+  fit.offset_sd = sd[parameters - 1];
+}
+
 // The polynomial of each order from 1 to `order` the samples support (at least
 // kStepOneSamplesPerParameter a coefficient, c included), by linear least
 // squares in a Chebyshev basis on the sampled range; the order of least
@@ -300,20 +374,21 @@ Transmission fit_transmission(const DeviceModel& model, int joint, const Eigen::
   const double mean = target.mean();
   fit.rms_before = residual_rms(target.array() - mean);
   Transmission fitted;
+  fit.kind = link.transmission.is_none() ? TransmissionKind::kPolynomial : link.transmission.kind();
+  const auto* p = std::get_if<Polynomial>(&link.transmission.model());
   if (const auto* c = std::get_if<Capstan>(&link.transmission.model())) {
-    fit.kind = TransmissionKind::kCapstan;
     fit.nominal = link.transmission.parameters();
     fit_capstan(*c, q, target, fit, fitted);
-  } else if (link.transmission.is_none() ||
-             std::holds_alternative<Polynomial>(link.transmission.model())) {
-    const auto* p = std::get_if<Polynomial>(&link.transmission.model());
+  } else if (link.transmission.is_none() || p) {
     const int n = order ? *order : (p ? p->order() : 10);
     if (n < 1 || n > 30) throw InputError(fmt::format("polynomial order {} (use 1 to 30)", n));
-    fit.kind = TransmissionKind::kPolynomial;
     fit.requested_order = n;
     fit_polynomial(n, order.has_value(), q, target, fit, fitted);
     fit.nominal = Eigen::VectorXd::Zero(fit.value.size());
     if (p && p->order() == fit.value.size()) fit.nominal = link.transmission.parameters();
+  } else if (const auto* e = std::get_if<Extension>(&link.transmission.model())) {
+    fit.nominal = link.transmission.parameters();
+    fit_extension(*e, q, target, fit, fitted);
   } else {
     throw InputError(
         fmt::format("{}: a {} transmission cannot be identified (only one parallelogram length is, "

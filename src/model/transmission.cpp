@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
+#include <stdexcept>
 #include <unsupported/Eigen/AutoDiff>
 
 namespace hapticcal {
@@ -126,9 +128,80 @@ void polynomial_jacobian(const Polynomial& poly, double q, double* J) {
 }  // namespace
 
 const char* to_string(TransmissionKind kind) {
-  static const char* const kNames[] = {"none",       "capstan", "parallelogram",
-                                       "polynomial", "chain",   "harmonic"};
+  static const char* const kNames[] = {"none",  "capstan",  "parallelogram", "polynomial",
+                                       "chain", "harmonic", "extension"};
   return kNames[static_cast<int>(kind)];
+}
+
+// The registered kinds (register_transmission_kind).
+namespace {
+
+std::vector<const TransmissionDefinition*>& extension_kinds() {
+  static std::vector<const TransmissionDefinition*> kinds;
+  return kinds;
+}
+
+// A step of central differences in x.
+double step_at(double x) { return 1e-6 * std::max(1.0, std::abs(x)); }
+
+}  // namespace
+
+double TransmissionDefinition::derivative(const double* p, double q) const {
+  const double h = step_at(q);
+  return (error(p, q + h) - error(p, q - h)) / (2 * h);
+}
+
+void TransmissionDefinition::parameter_jacobian(const double* p, double q, double* J) const {
+  const size_t n = parameter_names().size();
+  std::vector<double> moved(p, p + n);
+  for (size_t k = 0; k < n; ++k) {
+    const double h = step_at(p[k]);
+    moved[k] = p[k] + h;
+    const double plus = error(moved.data(), q);
+    moved[k] = p[k] - h;
+    const double minus = error(moved.data(), q);
+    moved[k] = p[k];
+    J[k] = (plus - minus) / (2 * h);
+  }
+}
+
+void register_transmission_kind(const TransmissionDefinition* definition) {
+  const auto word = [](const std::string& w) {
+    return !w.empty() && std::all_of(w.begin(), w.end(), [](char c) {
+      return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+    });
+  };
+  const std::string name(definition->name());
+  if (!word(name) || transmission_kind_named(name) || name == "extension" ||
+      find_transmission_kind(name)) {
+    throw std::invalid_argument(
+        fmt::format("transmission kind '{}': not a word, or a name a kind already has", name));
+  }
+  for (const std::string& p : definition->parameter_names()) {
+    if (!word(p) || p == "type") {
+      throw std::invalid_argument(fmt::format(
+          "transmission kind '{}': parameter '{}' is not a word other than 'type'", name, p));
+    }
+  }
+  extension_kinds().push_back(definition);
+}
+
+const TransmissionDefinition* find_transmission_kind(std::string_view name) {
+  for (const TransmissionDefinition* d : extension_kinds()) {
+    if (d->name() == name) return d;
+  }
+  return nullptr;
+}
+
+std::vector<std::string> registered_transmission_kinds() {
+  std::vector<std::string> names;
+  for (const TransmissionDefinition* d : extension_kinds()) names.emplace_back(d->name());
+  return names;
+}
+
+std::string Transmission::type_name() const {
+  if (const auto* e = std::get_if<Extension>(&model_)) return std::string(e->definition->name());
+  return to_string(kind());
 }
 
 std::optional<TransmissionKind> transmission_kind_named(const std::string& name) {
@@ -164,6 +237,9 @@ double Transmission::error(double q) const {
     double operator()(const Harmonic& h) const {
       return harmonic_error(h, h.coefficients.data(), q);
     }
+    double operator()(const Extension& e) const {
+      return e.definition->error(e.parameters.data(), q);
+    }
   };
   return std::visit(Visitor{q}, model_);
 }
@@ -175,6 +251,9 @@ double Transmission::derivative(double q) const {
     double operator()(const Capstan& c) const { return capstan_derivative(c, q); }
     double operator()(const Parallelogram& P) const { return parallelogram_derivative(P, q); }
     double operator()(const Polynomial& poly) const { return polynomial_derivative(poly, q); }
+    double operator()(const Extension& e) const {
+      return e.definition->derivative(e.parameters.data(), q);
+    }
     double operator()(const Harmonic& h) const {
       double d = 0;
       for (size_t i = 0; i < h.frequencies.size(); ++i) {
@@ -203,6 +282,7 @@ int Transmission::num_parameters() const {
     int operator()(const Parallelogram&) const { return Parallelogram::kNumParameters; }
     int operator()(const Polynomial& poly) const { return std::max(poly.order(), 0); }
     int operator()(const Harmonic& h) const { return static_cast<int>(2 * h.frequencies.size()); }
+    int operator()(const Extension& e) const { return static_cast<int>(e.parameters.size()); }
     int operator()(const Chain& chain) const {
       int n = 0;
       for (const Transmission& stage : chain.stages) n += stage.num_parameters();
@@ -220,6 +300,9 @@ std::vector<std::string> Transmission::parameter_names() const {
     }
     std::vector<std::string> operator()(const Parallelogram&) const {
       return {"L1", "L2", "L3", "L4"};
+    }
+    std::vector<std::string> operator()(const Extension& e) const {
+      return e.definition->parameter_names();
     }
     std::vector<std::string> operator()(const Polynomial& poly) const {
       std::vector<std::string> names;
@@ -268,6 +351,10 @@ Eigen::VectorXd Transmission::parameters() const {
       return Eigen::Map<const Eigen::VectorXd>(h.coefficients.data(),
                                                static_cast<Eigen::Index>(h.coefficients.size()));
     }
+    Eigen::VectorXd operator()(const Extension& e) const {
+      return Eigen::Map<const Eigen::VectorXd>(e.parameters.data(),
+                                               static_cast<Eigen::Index>(e.parameters.size()));
+    }
     Eigen::VectorXd operator()(const Chain& chain) const {
       std::vector<double> all;
       for (const Transmission& stage : chain.stages) {
@@ -303,6 +390,9 @@ void Transmission::set_parameters(const double* v) {
     void operator()(Harmonic& h) const {
       std::copy(v, v + h.coefficients.size(), h.coefficients.begin());
     }
+    void operator()(Extension& e) const {
+      std::copy(v, v + e.parameters.size(), e.parameters.begin());
+    }
     void operator()(Chain& chain) const {
       const double* p = v;
       for (Transmission& stage : chain.stages) {
@@ -322,6 +412,9 @@ void Transmission::parameter_jacobian(double q, double* J) const {
     void operator()(const Capstan& c) const { capstan_jacobian(c, q, J); }
     void operator()(const Parallelogram& P) const { parallelogram_jacobian(P, q, J); }
     void operator()(const Polynomial& poly) const { polynomial_jacobian(poly, q, J); }
+    void operator()(const Extension& e) const {
+      e.definition->parameter_jacobian(e.parameters.data(), q, J);
+    }
     void operator()(const Harmonic& h) const {
       for (size_t i = 0; i < h.frequencies.size(); ++i) {
         const double u = h.frequencies[i] * q;
@@ -405,6 +498,12 @@ std::string Transmission::check(double lower, double upper) const {
         if (!(std::abs(c) <= 1)) return "coefficients must be within 1 rad";
       }
       return {};
+    }
+    std::string operator()(const Extension& e) const {
+      if (e.parameters.size() != e.definition->parameter_names().size())
+        return fmt::format("{} needs {} parameters", e.definition->name(),
+                           e.definition->parameter_names().size());
+      return e.definition->check(e.parameters.data(), lower, upper);
     }
     std::string operator()(const Chain& chain) const {
       if (chain.stages.empty()) return "a chain needs at least one stage";

@@ -119,10 +119,21 @@ class Reader : public detail::YamlReader {
       for (size_t i = 0; i < n; ++i) h.coefficients.insert(h.coefficients.end(), {s[i], c[i]});
       return Transmission(h);
     }
+    if (const TransmissionDefinition* definition = find_transmission_kind(type)) {
+      // A registered kind: its parameters by name, 0 where not given.
+      std::vector<std::string> keys = definition->parameter_names();
+      Extension e{definition, std::vector<double>(keys.size(), 0.0)};
+      for (size_t k = 0; k < keys.size(); ++k) {
+        if (node[keys[k]]) e.parameters[k] = number(node[keys[k]], join(path, keys[k]));
+      }
+      keys.push_back("type");
+      check_keys(node, path, keys);
+      return Transmission(e);
+    }
+    std::string kinds = "capstan, parallelogram, polynomial, chain, harmonic";
+    for (const std::string& name : registered_transmission_kinds()) kinds += ", " + name;
     fail(node["type"], join(path, "type"),
-         fmt::format("'{}' is not a transmission (capstan, parallelogram, polynomial, chain, "
-                     "harmonic)",
-                     printable(type)));
+         fmt::format("'{}' is not a transmission ({})", printable(type), kinds));
   }
 
   // A geometry name: dh or mdh, and urdf in version 2.
@@ -405,6 +416,13 @@ std::string transmission_text(const Transmission& t) {
       }
       return fmt::format("{{type: harmonic, frequencies: {}, sin: {}, cos: {}}}",
                          numbers_text(h.frequencies), numbers_text(s), numbers_text(c));
+    }
+    std::string operator()(const Extension& e) const {
+      std::string out = fmt::format("{{type: {}", e.definition->name());
+      const std::vector<std::string> names = e.definition->parameter_names();
+      for (size_t k = 0; k < names.size(); ++k)
+        out += fmt::format(", {}: {}", names[k], num(e.parameters[k]));
+      return out + "}";
     }
     std::string operator()(const Chain& chain) const {
       std::string out = "{type: chain, stages: [";

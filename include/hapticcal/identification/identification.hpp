@@ -71,7 +71,7 @@ struct StepOneCandidate {
 // Step 1 for one joint: ext - q = c + dtheta(q).
 struct TransmissionFit {
   int joint = 0;                                    // zero-based
-  TransmissionKind kind = TransmissionKind::kNone;  // fitted: capstan or polynomial
+  TransmissionKind kind = TransmissionKind::kNone;  // fitted: capstan, polynomial or extension
   int n = 0;                                        // samples
   std::vector<std::string> names;                   // dotted: "j1.r_out", "j4.c3"
   Eigen::VectorXd nominal, value, sd;

@@ -7,7 +7,10 @@
 #include <cmath>
 #include <numbers>
 #include <optional>
+#include <stdexcept>
 #include <string>
+#include <string_view>
+#include <type_traits>
 #include <variant>
 #include <vector>
 
@@ -67,9 +70,59 @@ struct Harmonic {
 
 class Transmission;
 
+// A kind of transmission defined outside the library: one file that implements
+// this and one register_transmission_kind call. Its parameters are numbers
+// named by parameter_names(); the device file gives them as keys beside `type:
+// <name>` (absent: 0), step 1 fits all of them by least squares from the
+// external encoders, starting from the file's values, and everything else
+// (compensation, step 2, the runtime) evaluates error(). The error is referenced
+// to home: error(p, 0) = 0. derivative and parameter_jacobian default to
+// central differences of error.
+class TransmissionDefinition {
+ public:
+  virtual ~TransmissionDefinition() = default;
+  // Its device-file type: letters, digits and '_', not a built-in kind's.
+  virtual std::string_view name() const = 0;
+  virtual std::vector<std::string> parameter_names() const = 0;
+  // dtheta(q) with parameters p (parameter_names()' order).
+  virtual double error(const double* p, double q) const = 0;
+  // d dtheta / dq.
+  virtual double derivative(const double* p, double q) const;
+  // d dtheta / d p, one value a parameter.
+  virtual void parameter_jacobian(const double* p, double q, double* J) const;
+  // Empty if these parameters can be evaluated over [lower, upper], else why.
+  virtual std::string check(const double* /*p*/, double /*lower*/, double /*upper*/) const {
+    return {};
+  }
+};
+
+// A transmission of a registered kind: its definition and its parameters.
+struct Extension {
+  const TransmissionDefinition* definition = nullptr;
+  std::vector<double> parameters;
+};
+
+// A kind made known to device files (not thread-safe: before any file is read).
+// std::invalid_argument if its name is a built-in kind's, already registered, or
+// not a word.
+void register_transmission_kind(const TransmissionDefinition* definition);
+// The registered kind of this name, or null.
+const TransmissionDefinition* find_transmission_kind(std::string_view name);
+// The registered kinds' names, in registration order.
+std::vector<std::string> registered_transmission_kinds();
+
 // The kinds of transmission, in the order of Transmission::Model's alternatives.
-enum class TransmissionKind { kNone, kCapstan, kParallelogram, kPolynomial, kChain, kHarmonic };
-// "none", "capstan", "parallelogram", "polynomial", "chain", "harmonic" (device files).
+enum class TransmissionKind {
+  kNone,
+  kCapstan,
+  kParallelogram,
+  kPolynomial,
+  kChain,
+  kHarmonic,
+  kExtension
+};
+// "none", "capstan", "parallelogram", "polynomial", "chain", "harmonic",
+// "extension" (device files name an extension by its definition's name).
 const char* to_string(TransmissionKind kind);
 std::optional<TransmissionKind> transmission_kind_named(const std::string& name);
 
@@ -81,7 +134,8 @@ struct Chain {
 // One joint's transmission: none, or one of the models above.
 class Transmission {
  public:
-  using Model = std::variant<std::monostate, Capstan, Parallelogram, Polynomial, Chain, Harmonic>;
+  using Model =
+      std::variant<std::monostate, Capstan, Parallelogram, Polynomial, Chain, Harmonic, Extension>;
 
   Transmission() = default;
   Transmission(Model model) : model_(std::move(model)) {}  // NOLINT: implicit by design
@@ -90,8 +144,9 @@ class Transmission {
   Model& model() { return model_; }
   bool is_none() const { return std::holds_alternative<std::monostate>(model_); }
   TransmissionKind kind() const { return static_cast<TransmissionKind>(model_.index()); }
-  // "none", "capstan", "parallelogram", "polynomial", "chain" or "harmonic".
-  std::string type_name() const { return to_string(kind()); }
+  // "none", "capstan", "parallelogram", "polynomial", "chain", "harmonic" or an
+  // extension's name.
+  std::string type_name() const;
   // The motor-to-joint ratio of its capstan (alone, or the first in a chain);
   // 1 without one.
   double drive_ratio() const;
@@ -113,7 +168,7 @@ class Transmission {
   std::string check(double lower, double upper) const;
 
   // Generic evaluation with parameters supplied as T (double or ceres::Jet),
-  // in the order of parameter_names().
+  // in the order of parameter_names(). An extension's in double only.
   template <typename T>
   T error(const T* params, const T& q) const;
 
@@ -209,6 +264,14 @@ T Transmission::error(const T* params, const T& q) const {
     T operator()(const Parallelogram&) const { return parallelogram_error(p, q); }
     T operator()(const Polynomial& poly) const { return polynomial_error(poly, p, q); }
     T operator()(const Harmonic& h) const { return harmonic_error(h, p, q); }
+    T operator()(const Extension& e) const {
+      if constexpr (std::is_same_v<T, double>) {
+        return e.definition->error(p, q);
+      } else {
+        static_cast<void>(e);
+        throw std::logic_error("an extension transmission is evaluated in double only");
+      }
+    }
     T operator()(const Chain& chain) const {
       T x = q;
       const T* stage_params = p;
