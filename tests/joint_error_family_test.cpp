@@ -2,35 +2,32 @@
 // the library, and registered with one call, is offered by --joint-errors and
 // by the default's model search, estimated with its sd, named in the
 // parameters, and folded into the calibrated model, with no edit to the model,
-// the tolerances, the cost or the search.
+// the tolerances, the cost or the search; it includes public headers only, as
+// a program linking the installed library would.
 //
 // The family, "scale": each revolute joint's angle off by s_i times its reading
 // (a drive ratio error, theta_i = q_i + s_i q_i), folded into a monomial
 // polynomial transmission dtheta(q) = s_i q. The truth is a Panda-like arm whose
 // drives are 0.1 % to 0.3 % off; tracker positions carry no encoder, so step 1
 // cannot see the ratios and only step 2's family can.
+#include "hapticcal/identification/joint_error_family.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <stdexcept>
 #include <variant>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/study/evaluate.hpp"
-#include "identification/calibration_run.hpp"
-#include "identification/families/family.hpp"
 #include "support/held_out.hpp"
 #include "support/test_models.hpp"
 
 namespace hapticcal {
 namespace {
-
-using detail::AddStage;
-using detail::CalibrationRun;
-using detail::JointErrorFamily;
-using detail::PoseFeatures;
 
 // A drive ratio off by s: dtheta(q) = s q.
 Transmission ratio_error(double s) {
@@ -41,15 +38,15 @@ class ScaleFamily : public JointErrorFamily {
  public:
   std::string_view name() const override { return "scale"; }
   // Every revolute joint without a transmission of its own to fold into.
-  bool applies(const CalibrationRun& run) const override {
-    return !block(run.model).parameters.empty();
+  bool applies(const DeviceModel& model, const Log&) const override {
+    return !block(model).parameters.empty();
   }
-  void offer(CalibrationRun& run) const override {
-    const DeviceModel::FittedBlock b = block(run.model);
+  void offer(FamilyOffer& offer) const override {
+    const DeviceModel::FittedBlock b = block(offer.model);
     if (b.parameters.empty()) {
       throw InputError("--joint-errors scale: no revolute joint without a transmission");
     }
-    detail::add_block(run, b);
+    add_block(offer, b);
   }
   // s_i of each revolute link without a transmission: its value kept in the
   // block (no get / set: the model has no field for it until the fold).
@@ -62,8 +59,7 @@ class ScaleFamily : public JointErrorFamily {
     return b;
   }
   void add_stages(const DeviceModel& model, const AddStage& add) const override {
-    detail::add_block_stages(model, name(), add,
-                             [](const DeviceModel::FittedParameter&) { return 0.0; });
+    add_block_stages(model, name(), add, [](const DeviceModel::FittedParameter&) { return 0.0; });
   }
   // Its feature: the joint's own reading.
   class Readings : public PoseFeatures {
@@ -88,7 +84,7 @@ class ScaleFamily : public JointErrorFamily {
     for (const DeviceModel::FittedParameter& f : b->parameters) {
       model.links[f.link].transmission = ratio_error(f.value);
     }
-    detail::drop_block(model, name());
+    drop_block(model, name());
     return "";
   }
   double tolerance() const override { return 1e-2; }
@@ -97,7 +93,7 @@ class ScaleFamily : public JointErrorFamily {
 const ScaleFamily kScale;
 
 // The one line.
-const bool kRegistered = (detail::register_joint_error_family(&kScale), true);
+const bool kRegistered = (register_joint_error_family(&kScale), true);
 
 // The fold's ratio error of link i (0 without one).
 double folded_scale(const DeviceModel& m, int i) {
@@ -130,7 +126,7 @@ Study scaled_arm() {
 
 TEST(JointErrorFamily, ARegisteredFamilyIsFittedFoldedAndNamed) {
   ASSERT_TRUE(kRegistered);
-  ASSERT_NE(detail::find_joint_error_family("scale"), nullptr);
+  ASSERT_NE(find_joint_error_family("scale"), nullptr);
   const Study s = scaled_arm();
   const double floor = s.data.floor;
 
@@ -170,6 +166,8 @@ TEST(JointErrorFamily, ARegisteredFamilyIsFittedFoldedAndNamed) {
   }
   EXPECT_GE(identified, s.nominal.dof() - 1);
 
+  // A second family of a name a family has is refused.
+  EXPECT_THROW(register_joint_error_family(&kScale), std::invalid_argument);
   // Its default tolerance is the family's, and a user's overrides it.
   Tolerances t;
   EXPECT_EQ(t.family("scale"), 1e-2);

@@ -21,14 +21,10 @@ void offer_joint_errors(CalibrationRun& run) {
   if (named.empty() || named.front() == "none") return;
   run.fit().joint_error_families = named;
   for (const JointErrorFamily* family : joint_error_families()) {
-    if (std::find(named.begin(), named.end(), family->name()) != named.end()) family->offer(run);
+    if (std::find(named.begin(), named.end(), family->name()) == named.end()) continue;
+    FamilyOffer offer{run.model, run.step2_nominal, run.poses, run.result.notes};
+    family->offer(offer);
   }
-}
-
-bool own_reading(const CalibrationRun& run, int i) {
-  const DeviceModel& m = run.model;
-  return !m.coupled() || (m.coupling.row(i) == Eigen::RowVectorXd::Unit(m.dof(), i) &&
-                          m.coupling.col(i) == Eigen::VectorXd::Unit(m.dof(), i));
 }
 
 // The joint-error stages as fitted, folded into the calibrated model's
@@ -55,7 +51,7 @@ bool coupled_between(const DeviceModel& m) {
 std::vector<std::string> applicable_families(const CalibrationRun& run) {
   std::vector<std::string> out;
   for (const JointErrorFamily* family : joint_error_families()) {
-    if (family->applies(run)) out.emplace_back(family->name());
+    if (family->applies(run.model, run.poses)) out.emplace_back(family->name());
   }
   return out;
 }

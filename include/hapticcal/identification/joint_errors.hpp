@@ -28,14 +28,13 @@ namespace hapticcal {
 // stored per pose); a compliance stage's one x the link's gravity torque at
 // the pose's joint values from the start's geometry and masses (nominal 0:
 // compensate leaves a fitted compliance to the stage); a coupling stage's p is
-// C_ik, the joint's coefficient on reading k (the coupling block in DeviceModel::fitted), x
+// C_ik, the joint's coefficient on reading k (the coupling block in
+// DeviceModel::fitted), x
 // the reading through its own transmission, u_k = q_k + dtheta_k(q_k); a
 // backlash stage's p is the link's backlash, x the side the joint approached
 // the pose from (the log's dir<i>: +1, -1, 0).
 class PreparedModel;  // kinematics.hpp
-namespace detail {
-class PoseFeatures;  // identification/families/family.hpp
-}
+class PoseFeatures;   // joint_error_family.hpp
 struct JointErrorStage {
   int link = 0;
   int slot = 0;           // first slot of its parameters
@@ -70,7 +69,7 @@ class StepTwoJoints {
   const DeviceModel& model_;
   std::unique_ptr<const PreparedModel> prepared_;
   // Each family's features of a pose and where they start in its values.
-  std::vector<std::pair<std::unique_ptr<const detail::PoseFeatures>, int>> features_;
+  std::vector<std::pair<std::unique_ptr<const PoseFeatures>, int>> features_;
   int stored_ = 0;  // features a pose
 };
 // Row r of the log's approach directions (dof values), or none.

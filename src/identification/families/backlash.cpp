@@ -4,7 +4,6 @@
 #include <algorithm>
 
 #include "hapticcal/core/error.hpp"
-#include "identification/calibration_run.hpp"
 #include "identification/families/family.hpp"
 
 namespace hapticcal::detail {
@@ -17,10 +16,10 @@ namespace {
 // approached its poses gets a backlash b (the joint value moves by b s, s the
 // side): half the dead band of a gear or a cable, seen only where the same
 // joint arrives from both sides.
-void offer_backlash(CalibrationRun& run) {
-  const Log& poses = run.poses;
+void offer_backlash(FamilyOffer& offer) {
+  const Log& poses = offer.poses;
   std::vector<int> joints;
-  for (int i = 0; i < run.model.dof(); ++i) {
+  for (int i = 0; i < offer.model.dof(); ++i) {
     if (poses.directed(i) && poses.direction.col(i).any()) joints.push_back(i);
   }
   if (joints.empty()) {
@@ -28,23 +27,23 @@ void offer_backlash(CalibrationRun& run) {
         "--joint-errors backlash: the log says for no joint from which side it approached its "
         "poses (give dir<i> columns: +1 moving up in q, -1 moving down)");
   }
-  DeviceModel::FittedBlock block = backlash_family()->block(run.model);
+  DeviceModel::FittedBlock block = backlash_family()->block(offer.model);
   std::erase_if(block.parameters, [&](const DeviceModel::FittedParameter& f) {
     return std::find(joints.begin(), joints.end(), f.link) == joints.end();
   });
-  add_block(run, block);
+  add_block(offer, block);
 }
 
 class BacklashFamily : public JointErrorFamily {
  public:
   std::string_view name() const override { return "backlash"; }
-  bool applies(const CalibrationRun& run) const override {
-    for (int i = 0; i < run.model.dof(); ++i) {
-      if (run.poses.directed(i) && run.poses.direction.col(i).any()) return true;
+  bool applies(const DeviceModel& model, const Log& poses) const override {
+    for (int i = 0; i < model.dof(); ++i) {
+      if (poses.directed(i) && poses.direction.col(i).any()) return true;
     }
     return false;
   }
-  void offer(CalibrationRun& run) const override { offer_backlash(run); }
+  void offer(FamilyOffer& o) const override { offer_backlash(o); }
   DeviceModel::FittedBlock block(const DeviceModel& model) const override {
     return per_link_block<&Link::backlash>(model, "backlash", "backlash", ParameterUnit::kAngle,
                                            ParameterUnit::kLength);

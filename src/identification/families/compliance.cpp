@@ -5,7 +5,6 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
-#include "identification/calibration_run.hpp"
 #include "identification/families/family.hpp"
 
 namespace hapticcal::detail {
@@ -18,8 +17,8 @@ namespace {
 // torque the feature). Without masses in the model each link is a lumped 1 kg
 // at its frame's origin, written into the calibrated model (k then absorbs the
 // scale of the true masses).
-void offer_compliance(CalibrationRun& run) {
-  DeviceModel& m = run.model;
+void offer_compliance(FamilyOffer& offer) {
+  DeviceModel& m = offer.model;
   if (!(m.gravity.norm() > 0)) {
     throw InputError(
         "--joint-errors compliance: the model's gravity is zero, so no joint is loaded: give the "
@@ -28,25 +27,27 @@ void offer_compliance(CalibrationRun& run) {
   bool masses = false;
   for (const Link& l : m.links) masses = masses || l.mass > 0;
   if (!masses) {
-    for (DeviceModel* model : {&run.model, &run.step2_nominal}) {
+    for (DeviceModel* model : {&offer.model, &offer.nominal}) {
       for (Link& l : model->links) {
         l.mass = 1.0;
         l.com.setZero();
       }
     }
-    run.result.notes.push_back(
+    offer.notes.push_back(
         "--joint-errors compliance: the model gives no masses: each link is a lumped 1 kg at its "
         "frame's origin (written into the calibrated model), so each k is in rad per N m of that "
         "model, not of the device's own torques");
   }
-  add_block(run, compliance_family()->block(run.model));
+  add_block(offer, compliance_family()->block(offer.model));
 }
 
 class ComplianceFamily : public JointErrorFamily {
  public:
   std::string_view name() const override { return "compliance"; }
-  bool applies(const CalibrationRun& run) const override { return run.model.gravity.norm() > 0; }
-  void offer(CalibrationRun& run) const override { offer_compliance(run); }
+  bool applies(const DeviceModel& model, const Log&) const override {
+    return model.gravity.norm() > 0;
+  }
+  void offer(FamilyOffer& o) const override { offer_compliance(o); }
   DeviceModel::FittedBlock block(const DeviceModel& model) const override {
     return per_link_block<&Link::compliance>(model, "compliance", "k", ParameterUnit::kAngle,
                                              ParameterUnit::kAngle);

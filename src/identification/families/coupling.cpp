@@ -15,8 +15,8 @@ namespace {
 // step-2 parameter (the reading u_k its feature): a drive's coupling ratio, a
 // passive joint's share of the joints that drive it. The diagonal is each
 // joint's own scale, a transmission's (step 1), and a zero stays zero.
-void offer_coupling(CalibrationRun& run) {
-  const DeviceModel& m = run.model;
+void offer_coupling(FamilyOffer& offer) {
+  const DeviceModel& m = offer.model;
   if (!m.coupled()) {
     throw InputError(
         "--joint-errors coupling: the model has no coupled joints (give the device file's "
@@ -28,14 +28,16 @@ void offer_coupling(CalibrationRun& run) {
         "--joint-errors coupling: the model's coupling has no coefficient between two joints "
         "(only the diagonal, which the transmissions scale)");
   }
-  add_block(run, block);
+  add_block(offer, block);
 }
 
 class CouplingFamily : public JointErrorFamily {
  public:
   std::string_view name() const override { return "coupling"; }
-  bool applies(const CalibrationRun& run) const override { return coupled_between(run.model); }
-  void offer(CalibrationRun& run) const override { offer_coupling(run); }
+  bool applies(const DeviceModel& model, const Log&) const override {
+    return coupled_between(model);
+  }
+  void offer(FamilyOffer& o) const override { offer_coupling(o); }
   // C_ik: the parameter of link i, element k, named "c_<joint k>".
   DeviceModel::FittedBlock block(const DeviceModel& model) const override {
     DeviceModel::FittedBlock block{"coupling", {}};

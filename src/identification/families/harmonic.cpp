@@ -15,15 +15,15 @@ namespace {
 // "harmonic": each turning joint gets a Harmonic stage of its angle's first and
 // second harmonic, and its motor's where a capstan (alone or in a chain) gives
 // the ratio R.
-void offer_harmonics(CalibrationRun& run) {
-  std::vector<Transmission> stages(run.model.dof());
+void offer_harmonics(FamilyOffer& offer) {
+  std::vector<Transmission> stages(offer.model.dof());
   std::vector<std::string> coupled;
-  for (int i = 0; i < run.model.dof(); ++i) {
-    const Link& l = run.model.links[i];
+  for (int i = 0; i < offer.model.dof(); ++i) {
+    const Link& l = offer.model.links[i];
     if (l.prismatic()) continue;
     // A stage is folded into the link's transmission, on its reading: only
     // where the joint's angle is its own reading alone and no other joint's uses it.
-    if (!own_reading(run, i)) {
+    if (!own_reading(offer.model, i)) {
       coupled.push_back(l.name);
       continue;
     }
@@ -37,27 +37,27 @@ void offer_harmonics(CalibrationRun& run) {
     stages[i] = Transmission(h);
   }
   if (!coupled.empty()) {
-    run.result.notes.push_back(fmt::format(
+    offer.notes.push_back(fmt::format(
         "--joint-errors: no harmonic stage on the coupled joint(s) {} (a stage acts on the "
         "joint's own reading, which the coupling mixes with others)",
         fmt::join(coupled, ", ")));
   }
-  run.model.joint_errors = stages;
-  run.step2_nominal.joint_errors = stages;
-  const DeviceModel::FittedBlock block = harmonic_family()->block(run.model);
-  if (!block.parameters.empty()) add_block(run, block);
+  offer.model.joint_errors = stages;
+  offer.nominal.joint_errors = stages;
+  const DeviceModel::FittedBlock block = harmonic_family()->block(offer.model);
+  if (!block.parameters.empty()) add_block(offer, block);
 }
 
 class HarmonicFamily : public JointErrorFamily {
  public:
   std::string_view name() const override { return "harmonic"; }
-  bool applies(const CalibrationRun& run) const override {
-    for (int i = 0; i < run.model.dof(); ++i) {
-      if (!run.model.links[i].prismatic() && own_reading(run, i)) return true;
+  bool applies(const DeviceModel& model, const Log&) const override {
+    for (int i = 0; i < model.dof(); ++i) {
+      if (!model.links[i].prismatic() && own_reading(model, i)) return true;
     }
     return false;
   }
-  void offer(CalibrationRun& run) const override { offer_harmonics(run); }
+  void offer(FamilyOffer& o) const override { offer_harmonics(o); }
   // Its parameters are the stages' coefficients: link i's c-th, element c.
   DeviceModel::FittedBlock block(const DeviceModel& model) const override {
     DeviceModel::FittedBlock block{"harmonic", {}};

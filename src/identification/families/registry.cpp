@@ -1,8 +1,10 @@
 // The joint-error families (families/family.hpp): one line a family, in the
 // model search's order.
-#include <algorithm>
+#include <fmt/format.h>
 
-#include "identification/calibration_run.hpp"
+#include <algorithm>
+#include <stdexcept>
+
 #include "identification/families/family.hpp"
 
 namespace hapticcal::detail {
@@ -26,15 +28,28 @@ std::vector<const JointErrorFamily*>& registry() {
 
 }  // namespace
 
-const std::vector<const JointErrorFamily*>& joint_error_families() { return registry(); }
+}  // namespace hapticcal::detail
+
+namespace hapticcal {
+
+const std::vector<const JointErrorFamily*>& joint_error_families() { return detail::registry(); }
 
 void register_joint_error_family(const JointErrorFamily* family) {
-  if (!find_joint_error_family(family->name())) registry().push_back(family);
+  if (find_joint_error_family(family->name()) || family->name() == "none") {
+    throw std::invalid_argument(
+        fmt::format("joint-error family '{}': a family has that name", family->name()));
+  }
+  detail::registry().push_back(family);
 }
 
-void add_block(CalibrationRun& run, const DeviceModel::FittedBlock& block) {
-  run.model.fitted.push_back(block);
-  run.step2_nominal.fitted.push_back(block);
+void add_block(FamilyOffer& offer, const DeviceModel::FittedBlock& block) {
+  offer.model.fitted.push_back(block);
+  offer.nominal.fitted.push_back(block);
+}
+
+bool own_reading(const DeviceModel& m, int i) {
+  return !m.coupled() || (m.coupling.row(i) == Eigen::RowVectorXd::Unit(m.dof(), i) &&
+                          m.coupling.col(i) == Eigen::VectorXd::Unit(m.dof(), i));
 }
 
 void add_block_stages(const DeviceModel& model, std::string_view family, const AddStage& add,
@@ -58,4 +73,4 @@ const JointErrorFamily* find_joint_error_family(std::string_view name) {
   return it == all.end() ? nullptr : *it;
 }
 
-}  // namespace hapticcal::detail
+}  // namespace hapticcal
