@@ -166,6 +166,16 @@ TEST(JointErrorFamily, ARegisteredFamilyIsFittedFoldedAndNamed) {
   }
   EXPECT_GE(identified, s.nominal.dof() - 1);
 
+  // A block of no registered family, or whose parameter has another's name
+  // ("panda_joint1.x" is the geometry's), is refused before it is offered.
+  DeviceModel model = s.nominal, nominal = s.nominal;
+  std::vector<std::string> notes;
+  FamilyOffer offer{model, nominal, s.data.cal, notes};
+  DeviceModel::FittedBlock stray{"no-such-family", {{"s", ParameterUnit::kAngle, 0, 0}}};
+  EXPECT_THROW(add_block(offer, stray), std::logic_error);
+  DeviceModel::FittedBlock clash{"scale", {{"x", ParameterUnit::kLength, 0, 0}}};
+  EXPECT_THROW(add_block(offer, clash), std::logic_error);
+  EXPECT_TRUE(model.fitted.empty());
   // A second family of a name a family has is refused.
   EXPECT_THROW(register_joint_error_family(&kScale), std::invalid_argument);
   // Its default tolerance is the family's, and a user's overrides it.
@@ -173,6 +183,12 @@ TEST(JointErrorFamily, ARegisteredFamilyIsFittedFoldedAndNamed) {
   EXPECT_EQ(t.family("scale"), 1e-2);
   t.by_family["scale"] = 5e-3;
   EXPECT_EQ(t.family("scale"), 5e-3);
+  // A tolerance of no family, or out of range, is a clear refusal.
+  for (const auto& [family, value] : {std::pair{"scales", 1e-2}, std::pair{"scale", 0.0}}) {
+    CalibrationOptions o = options;
+    o.tolerances.by_family[family] = value;
+    EXPECT_THROW(calibrate(s.nominal, s.data.cal, o), InputError) << family << " " << value;
+  }
 }
 
 // The default's search offers it without being asked, and keeps it on held-out

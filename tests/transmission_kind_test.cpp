@@ -4,7 +4,7 @@
 // fitted by step 1 from external encoders, with no edit to the library.
 //
 // The kind, "cam": a follower that adds a once-a-turn error,
-//   dtheta(q) = a (sin(q + phase) - sin(phase)),
+//   dtheta(q) = lift (sin(q + phase) - sin(phase)),
 // written with its error alone (its derivative and parameter Jacobian are the
 // library's central differences, checked here against the closed forms).
 #include <gtest/gtest.h>
@@ -30,12 +30,12 @@ namespace {
 class Cam : public TransmissionDefinition {
  public:
   std::string_view name() const override { return "cam"; }
-  std::vector<std::string> parameter_names() const override { return {"a", "phase"}; }
+  std::vector<std::string> parameter_names() const override { return {"lift", "phase"}; }
   double error(const double* p, double q) const override {
     return p[0] * (std::sin(q + p[1]) - std::sin(p[1]));
   }
   std::string check(const double* p, double, double) const override {
-    return std::abs(p[0]) < 0.1 ? "" : "a must be within 0.1 rad";
+    return std::abs(p[0]) < 0.1 ? "" : "lift must be within 0.1 rad";
   }
 };
 
@@ -84,6 +84,22 @@ TEST(TransmissionKind, ItsErrorDerivativeAndJacobianMatchTheClosedForms) {
   const Typed typed;
   EXPECT_THROW(register_transmission_kind(&typed), std::invalid_argument);
   EXPECT_EQ(find_transmission_kind("typed"), nullptr);
+  // A parameter named as a geometry slot would share "j1.alpha" with it.
+  struct Twisted : Named {
+    Twisted() : Named("twisted") {}
+    std::vector<std::string> parameter_names() const override { return {"alpha"}; }
+  };
+  const Twisted twisted;
+  EXPECT_THROW(register_transmission_kind(&twisted), std::invalid_argument);
+  // Parameters that are not finite over the range, or not referenced to home,
+  // are refused by check (the device file's error names the field).
+  struct Unhomed : Cam {
+    double error(const double* p, double q) const override { return p[0] * std::cos(q); }
+  };
+  const Unhomed unhomed;
+  EXPECT_NE(Transmission(Transmission::Model{Extension{&unhomed, {1e-3, 0}}}).check(-1, 1), "");
+  EXPECT_NE(Transmission(Transmission::Model{Extension{&kCam, {1e-3}}}).check(-1, 1), "");
+  EXPECT_NE(Transmission(Transmission::Model{Extension{}}).check(-1, 1), "");
 }
 
 TEST(TransmissionKind, DeviceFilesReadAndWriteIt) {
@@ -95,9 +111,9 @@ base:
   pose: {xyz: [0, 0, 0], rpy: [0, 0, 0]}
 links:
   - {name: j1, a: 0.1, alpha: 1.5707963267948966, d: 0.2, theta: 0, limits: [-2, 2],
-     transmission: {type: cam, a: 0.002, phase: 0.5}}
+     transmission: {type: cam, lift: 0.002, phase: 0.5}}
   - {name: j2, a: 0.3, alpha: 0, d: 0, theta: 0, limits: [-2, 2],
-     transmission: {type: cam, a: 0.001}}
+     transmission: {type: cam, lift: 0.001}}
 )";
   const DeviceModel m = parse_device(yaml, "cam.yaml");
   const auto* e1 = std::get_if<Extension>(&m.links[0].transmission.model());
@@ -123,9 +139,9 @@ links:
       EXPECT_EQ(std::string(err.what()).find('\n'), std::string::npos) << err.what();
     }
   };
-  refused("phase: 0.5", "lift: 0.5", "links[0].transmission.lift");
-  refused("a: 0.002", "a: 0.5", "a must be within 0.1 rad");
-  refused("type: cam, a: 0.001", "type: cams", "cam)");
+  refused("phase: 0.5", "rise: 0.5", "links[0].transmission.rise");
+  refused("lift: 0.002", "lift: 0.5", "lift must be within 0.1 rad");
+  refused("type: cam, lift: 0.001", "type: cams", "cam)");
 }
 
 // Step 1 fits it from external encoders: a Panda-like arm with a cam on two

@@ -252,6 +252,13 @@ void check_options(const CalibrationOptions& options) {
           fmt::format("--tolerance {}={}: not in [1e-9, 1000] (SI)", printable(name), value));
     }
   }
+  for (const auto& [name, value] : t.by_family) {
+    if (!detail::find_joint_error_family(name) || !positive(value)) {
+      throw InputError(fmt::format(
+          "tolerance of the joint-error family {}={}: no such family, or not in [1e-9, 1000] (SI)",
+          printable(name), value));
+    }
+  }
   if (t.scale && !(*t.scale >= 1e-6 && *t.scale <= 1e6)) {
     throw InputError("--prior-scale must be in [1e-6, 1e6]");
   }

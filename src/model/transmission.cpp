@@ -177,10 +177,15 @@ void register_transmission_kind(const TransmissionDefinition* definition) {
     throw std::invalid_argument(
         fmt::format("transmission kind '{}': not a word, or a name a kind already has", name));
   }
+  // Step 1 names a parameter "<joint>.<name>": not a geometry slot's name.
+  static const char* const kTaken[] = {"type", "a", "alpha", "d",     "theta", "beta",  "x",
+                                       "y",    "z", "roll",  "pitch", "yaw",   "offset"};
   for (const std::string& p : definition->parameter_names()) {
-    if (!word(p) || p == "type") {
+    if (!word(p) || std::find(std::begin(kTaken), std::end(kTaken), p) != std::end(kTaken)) {
       throw std::invalid_argument(fmt::format(
-          "transmission kind '{}': parameter '{}' is not a word other than 'type'", name, p));
+          "transmission kind '{}': parameter '{}' is not a word, or is 'type' or a geometry "
+          "parameter's name",
+          name, p));
     }
   }
   extension_kinds().push_back(definition);
@@ -200,7 +205,8 @@ std::vector<std::string> registered_transmission_kinds() {
 }
 
 std::string Transmission::type_name() const {
-  if (const auto* e = std::get_if<Extension>(&model_)) return std::string(e->definition->name());
+  if (const auto* e = std::get_if<Extension>(&model_); e && e->definition)
+    return std::string(e->definition->name());
   return to_string(kind());
 }
 
@@ -500,10 +506,21 @@ std::string Transmission::check(double lower, double upper) const {
       return {};
     }
     std::string operator()(const Extension& e) const {
+      if (!e.definition) return "an extension without its kind's definition";
       if (e.parameters.size() != e.definition->parameter_names().size())
         return fmt::format("{} needs {} parameters", e.definition->name(),
                            e.definition->parameter_names().size());
-      return e.definition->check(e.parameters.data(), lower, upper);
+      const std::string why = e.definition->check(e.parameters.data(), lower, upper);
+      if (!why.empty()) return why;
+      // Referenced to home, and finite with a finite slope over the range.
+      const Transmission t{e};
+      if (!(std::abs(t.error(0.0)) <= 1e-12)) return "its error at q = 0 must be 0";
+      for (int i = 0; i <= 100; ++i) {
+        const double q = lower + (upper - lower) * i / 100.0;
+        if (!std::isfinite(t.error(q)) || !std::isfinite(t.derivative(q)))
+          return fmt::format("its error is not finite at q = {} rad", q);
+      }
+      return {};
     }
     std::string operator()(const Chain& chain) const {
       if (chain.stages.empty()) return "a chain needs at least one stage";

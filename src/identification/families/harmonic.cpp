@@ -2,6 +2,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <stdexcept>
+
 #include "hapticcal/core/error.hpp"
 #include "identification/calibration_run.hpp"
 #include "identification/families/family.hpp"
@@ -80,6 +82,8 @@ class HarmonicFamily : public JointErrorFamily {
     return block;
   }
   void add_stages(const DeviceModel& model, const AddStage& add) const override {
+    const DeviceModel::FittedBlock* block = model.fitted_block(name());
+    if (!block) return;  // stages without their block have no slots
     int slot = model.fitted_slot(name());
     for (int i = 0; i < static_cast<int>(model.joint_errors.size()); ++i) {
       const Transmission& stage = model.joint_errors[i];
@@ -91,6 +95,9 @@ class HarmonicFamily : public JointErrorFamily {
       }
       add(i, slot, stage.num_parameters(), 0.0, &stage);
       slot += stage.num_parameters();
+    }
+    if (slot != model.fitted_slot(name()) + static_cast<int>(block->parameters.size())) {
+      throw std::logic_error("the harmonic block does not match the model's joint-error stages");
     }
   }
   // Each stage as fitted folded into its link's transmission (after the

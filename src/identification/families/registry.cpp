@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <set>
 #include <stdexcept>
 
 #include "identification/families/family.hpp"
@@ -43,6 +44,22 @@ void register_joint_error_family(const JointErrorFamily* family) {
 }
 
 void add_block(FamilyOffer& offer, const DeviceModel::FittedBlock& block) {
+  // A block names its family, and its parameters' names name nothing else
+  // (the geometry's "j2.a", another family's): --fix, --free, --tolerance and
+  // the results go by name.
+  if (!find_joint_error_family(block.family)) {
+    throw std::logic_error(
+        fmt::format("a joint-error block of '{}', which is no registered family", block.family));
+  }
+  std::set<std::string> names;
+  for (const ParameterInfo& p : offer.model.parameter_info()) names.insert(p.name);
+  for (const DeviceModel::FittedParameter& f : block.parameters) {
+    const std::string name = offer.model.links.at(f.link).name + "." + f.name;
+    if (!names.insert(name).second) {
+      throw std::logic_error(fmt::format(
+          "joint-error family '{}': its parameter {} has the name of another", block.family, name));
+    }
+  }
   offer.model.fitted.push_back(block);
   offer.nominal.fitted.push_back(block);
 }
