@@ -168,6 +168,7 @@ TEST(TransmissionKind, StepOneFitsItAndTheCalibratedModelCarriesIt) {
   ASSERT_EQ(r.transmissions.size(), 2u);
   for (const TransmissionFit& f : r.transmissions) {
     EXPECT_EQ(f.kind, TransmissionKind::kExtension);
+    EXPECT_EQ(f.type, "cam");  // what results.json and the reports print
     EXPECT_TRUE(f.converged) << f.message;
     const Eigen::VectorXd truth = actual.links[f.joint].transmission.parameters();
     for (int k = 0; k < 2; ++k) {

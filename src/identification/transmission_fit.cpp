@@ -395,6 +395,7 @@ Transmission fit_transmission(const DeviceModel& model, int joint, const Eigen::
                     "Schroer et al.); declare the joint as a polynomial as the paper does",
                     link.name, link.transmission.type_name()));
   }
+  fit.type = fitted.type_name();
   fit.names.clear();
   for (const std::string& name : fitted.parameter_names())
     fit.names.push_back(link.name + "." + name);

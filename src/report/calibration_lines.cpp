@@ -110,7 +110,7 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
       out.push_back(fmt::format(
           "  {} {} ({} samples): RMS of ext - q - c {:.4f} mrad before, {:.4f} mrad after, {:.4f} "
           "mrad on left-out samples ({}){}{}",
-          link, to_string(t.kind), t.n, t.rms_before * 1e3, t.rms_after * 1e3, t.held_out_rms * 1e3,
+          link, t.type, t.n, t.rms_before * 1e3, t.rms_after * 1e3, t.held_out_rms * 1e3,
           t.model_choice, t.flagged ? " FLAGGED" : "", t.converged ? "" : " (did not converge)"));
       if (t.kind == TransmissionKind::kCapstan) {
         const char* labels[] = {"Re", "ro", "bo", "ri", "bi"};

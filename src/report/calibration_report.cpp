@@ -265,7 +265,7 @@ Outcome calibration_outcome(const CalibrationResult& result, const DeviceModel& 
     o.headline.push_back(fmt::format(
         "step 1, {} {} ({} samples, {}): RMS of ext - q - c {:.4f} mrad before, {:.4f} mrad "
         "after, {:.4f} mrad on left-out samples{}{}; encoder zero c {:.6f} +- {:.6f} mrad",
-        nominal.links[t.joint].name, to_string(t.kind), t.n, t.model_choice, t.rms_before * 1e3,
+        nominal.links[t.joint].name, t.type, t.n, t.model_choice, t.rms_before * 1e3,
         t.rms_after * 1e3, t.held_out_rms * 1e3, t.flagged ? " (FLAGGED)" : "",
         t.converged ? "" : " (did not converge)", t.offset * 1e3, t.offset_sd * 1e3));
   }

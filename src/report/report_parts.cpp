@@ -24,10 +24,10 @@ void transmission_figures(const TransmissionFit& t, const std::string& link, con
   }
   std::sort(q.begin(), q.end());
   for (double& v : q) v *= 180 / M_PI;
-  FigureSpec fit = figure("transmission_" + link,
-                          fmt::format("{} transmission error: measured and identified {} model",
-                                      link, to_string(t.kind)),
-                          "reading q [deg]", "dtheta [mrad]", {q, measured, model});
+  FigureSpec fit =
+      figure("transmission_" + link,
+             fmt::format("{} transmission error: measured and identified {} model", link, t.type),
+             "reading q [deg]", "dtheta [mrad]", {q, measured, model});
   fit.series = {measured_points("measured (ext - q - c)", 0, 1),
                 identified_line("identified", 0, 2)};
   if (truth) {

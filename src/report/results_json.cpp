@@ -270,7 +270,7 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
                             {"identifiable", true}};
     }
     json tj{{"joint", link},
-            {"type", to_string(t.kind)},
+            {"type", t.type},
             {"n", t.n},
             {"rms_before", t.rms_before},
             {"rms_after", t.rms_after},

@@ -72,8 +72,9 @@ struct StepOneCandidate {
 struct TransmissionFit {
   int joint = 0;                                    // zero-based
   TransmissionKind kind = TransmissionKind::kNone;  // fitted: capstan, polynomial or extension
-  int n = 0;                                        // samples
-  std::vector<std::string> names;                   // dotted: "j1.r_out", "j4.c3"
+  std::string type;  // its device-file type: "capstan", "polynomial" or a registered kind's
+  int n = 0;         // samples
+  std::vector<std::string> names;  // dotted: "j1.r_out", "j4.c3"
   Eigen::VectorXd nominal, value, sd;
   double offset = 0, offset_sd = 0;  // c, the external encoder's zero (nuisance)
   double rms_before = 0;             // RMS of ext - q - c: the error left by an ideal model
