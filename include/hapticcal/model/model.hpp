@@ -214,8 +214,8 @@ struct DeviceModel {
     double value = 0;
   };
   // A family's parameters, one block of the vector (after the instrument's, in
-  // the order of `fitted`). `family` is the family's --joint-errors name (a
-  // string literal).
+  // the order of `fitted`). `family` is the family's --joint-errors name
+  // (add_block keeps it in storage that outlives the model).
   struct FittedBlock {
     const char* family = "";
     std::vector<FittedParameter> parameters;

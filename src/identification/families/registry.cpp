@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <mutex>
 #include <set>
 #include <stdexcept>
 
@@ -60,8 +61,18 @@ void add_block(FamilyOffer& offer, const DeviceModel::FittedBlock& block) {
           "joint-error family '{}': its parameter {} has the name of another", block.family, name));
     }
   }
-  offer.model.fitted.push_back(block);
-  offer.nominal.fitted.push_back(block);
+  // The block's family name as the registry keeps it: a pointer that outlives
+  // whatever string the family built its block from.
+  // (The model search offers from several threads.)
+  static std::mutex guard;
+  static std::set<std::string> interned;
+  DeviceModel::FittedBlock kept = block;
+  {
+    const std::lock_guard<std::mutex> lock(guard);
+    kept.family = interned.emplace(block.family).first->c_str();
+  }
+  offer.model.fitted.push_back(kept);
+  offer.nominal.fitted.push_back(kept);
 }
 
 bool own_reading(const DeviceModel& m, int i) {
