@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <unsupported/Eigen/AutoDiff>
 
+#include "hapticcal/model/model.hpp"
+
 namespace hapticcal {
 namespace {
 
@@ -144,6 +146,16 @@ std::vector<const TransmissionDefinition*>& extension_kinds() {
 // A step of central differences in x.
 double step_at(double x) { return 1e-6 * std::max(1.0, std::abs(x)); }
 
+// The first of 101 angles across [lower, upper] where the error or its slope is
+// not finite, or none.
+std::optional<double> not_finite_at(const Transmission& t, double lower, double upper) {
+  for (int i = 0; i <= 100; ++i) {
+    const double q = lower + (upper - lower) * i / 100.0;
+    if (!std::isfinite(t.error(q)) || !std::isfinite(t.derivative(q))) return q;
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 double TransmissionDefinition::derivative(const double* p, double q) const {
@@ -178,10 +190,15 @@ void register_transmission_kind(const TransmissionDefinition* definition) {
         fmt::format("transmission kind '{}': not a word, or a name a kind already has", name));
   }
   // Step 1 names a parameter "<joint>.<name>": not a geometry slot's name.
-  static const char* const kTaken[] = {"type", "a", "alpha", "d",     "theta", "beta",  "x",
-                                       "y",    "z", "roll",  "pitch", "yaw",   "offset"};
+  const auto taken = [](const std::string& p) {
+    for (Geometry g : {Geometry::kDh, Geometry::kOrigin}) {
+      const std::vector<std::string>& names = block_names(g);
+      if (std::find(names.begin(), names.end(), p) != names.end()) return true;
+    }
+    return p == "type";
+  };
   for (const std::string& p : definition->parameter_names()) {
-    if (!word(p) || std::find(std::begin(kTaken), std::end(kTaken), p) != std::end(kTaken)) {
+    if (!word(p) || taken(p)) {
       throw std::invalid_argument(fmt::format(
           "transmission kind '{}': parameter '{}' is not a word, or is 'type' or a geometry "
           "parameter's name",
@@ -472,13 +489,8 @@ std::string Transmission::check(double lower, double upper) const {
     }
     std::string operator()(const Parallelogram& P) const {
       if (!(P.L1 > 0 && P.L2 > 0 && P.L3 > 0 && P.L4 > 0)) return "lengths must be positive";
-      const Transmission t{P};
-      for (int i = 0; i <= 100; ++i) {
-        const double q = lower + (upper - lower) * i / 100.0;
-        if (!std::isfinite(t.error(q)) || !std::isfinite(t.derivative(q))) {
-          return fmt::format("the linkage cannot close at q = {} rad", q);
-        }
-      }
+      if (const auto q = not_finite_at(Transmission{P}, lower, upper))
+        return fmt::format("the linkage cannot close at q = {} rad", *q);
       return {};
     }
     std::string operator()(const Polynomial& poly) const {
@@ -515,11 +527,8 @@ std::string Transmission::check(double lower, double upper) const {
       // Referenced to home, and finite with a finite slope over the range.
       const Transmission t{e};
       if (!(std::abs(t.error(0.0)) <= 1e-12)) return "its error at q = 0 must be 0";
-      for (int i = 0; i <= 100; ++i) {
-        const double q = lower + (upper - lower) * i / 100.0;
-        if (!std::isfinite(t.error(q)) || !std::isfinite(t.derivative(q)))
-          return fmt::format("its error is not finite at q = {} rad", q);
-      }
+      if (const auto q = not_finite_at(t, lower, upper))
+        return fmt::format("its error is not finite at q = {} rad", *q);
       return {};
     }
     std::string operator()(const Chain& chain) const {
