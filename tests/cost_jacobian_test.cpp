@@ -261,8 +261,15 @@ void expect_stage_rows(const DeviceModel& model, const DeviceModel& folded, Meas
     folded.apply_backlash(direction[i], moved);
     Eigen::MatrixXd J(kind.dimension(), fs.num_slots());
     Eigen::VectorXd ri(kind.dimension());
+    // A folded lateral compliance bends the links per pose (what the prepared
+    // model does).
+    const StepTwoJoints folded_values(folded);
+    if (folded_values.bends() >= 0) {
+      moved = folded_values.with_features(moved, readings[i], direction[i]);
+    }
     detail::measurement_rows(fs, chain_constants(fs, fp.data()), fp.data(), moved.data(),
-                             detail::RowsOf{type, 0.3}, measured.row(i).data(), ri.data(), J);
+                             detail::RowsOf{type, 0.3, nullptr, nullptr, folded_values.bends()},
+                             measured.row(i).data(), ri.data(), J);
     EXPECT_LT((ri - r.segment(i * kind.dimension(), kind.dimension())).norm(), 1e-12) << i;
   }
 }
@@ -338,6 +345,56 @@ TEST(CostJacobian, ComplianceStagesMatchCentralDifferences) {
       DeviceModel folded = model;
       folded.fitted.clear();
       expect_stage_rows(model, folded, type, errors, rng);
+    }
+  }
+  EXPECT_GE(stages, 30);
+}
+
+// The lateral family's stages: one parameter kx a joint, moving the joint's
+// alpha (URDF: roll) by kx tau_x, its column tau_x (fixed at the start's
+// geometry) times the alpha / roll column, against central differences; the
+// fitted kx, made the links' lateral compliance, predicts the same rows with
+// the links bent per pose. And a lateral compliance step 2 holds (not fitted):
+// the rows with each pose's links bent, against central differences.
+TEST(CostJacobian, LateralStagesMatchCentralDifferences) {
+  std::mt19937_64 rng(20261204);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  int stages = 0;
+  for (const auto& [label, file_model] : devices()) {
+    for (const MeasurementType type : kTypes) {
+      SCOPED_TRACE(label + " " + traits(type).name);
+      DeviceModel model = perturbed(file_model, rng);
+      for (Link& l : model.links) {
+        l.transmission = Transmission();
+        l.mass = 1 + unit(rng);
+        l.com = 0.05 * Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
+        l.lateral_compliance = 1e-3 * unit(rng);
+      }
+      model.coupling.resize(0, 0);
+      DeviceModel held = model;
+      model.fitted.push_back(detail::find_joint_error_family("lateral")->block(model));
+      const std::vector<JointErrorStage> errors = joint_error_stages(model);
+      stages += static_cast<int>(errors.size());
+      ASSERT_EQ(static_cast<int>(errors.size()), model.dof());
+      for (const JointErrorStage& e : errors) ASSERT_TRUE(e.geometry);
+      DeviceModel folded = model;
+      folded.fitted.clear();
+      expect_stage_rows(model, folded, type, errors, rng);
+
+      // Held: no stage, each pose's links bent by the model's own compliance.
+      ASSERT_TRUE(held.laterally_compliant());
+      const StepTwoJoints step_two(held);
+      ASSERT_EQ(step_two.bends(), held.dof());
+      const detail::RowsOf kind{type, 0.3, nullptr, nullptr, step_two.bends()};
+      std::vector<Eigen::VectorXd> readings;
+      detail::RowMatrix measured;
+      measure_poses(held, type, 10, rng, readings, measured);
+      for (Eigen::VectorXd& values : readings) values = step_two(values, Eigen::RowVectorXd());
+      const detail::MeasurementCost cost(held.structure(), readings, kind, measured);
+      const Eigen::VectorXd params = held.kinematic_parameters();
+      const DerivativeCheck c = check_cost_jacobian(
+          cost, params, Eigen::VectorXd::Constant(params.size(), 1e-6), slot_names(held));
+      EXPECT_LT(c.max_error, 1e-7) << c.worst;
     }
   }
   EXPECT_GE(stages, 30);

@@ -412,6 +412,7 @@ void identify_and_solve(CalibrationRun& run) {
   // absorb: Levenberg-Marquardt needs more steps (the MUKCa Panda: up to 130).
   run.iterations = is_fixture(run.problem.type) ? kFixtureIterations : kIterations;
   run.solution = solve_kinematics(run.problem, run.identified, run.iterations);
+  reform_on_fit(run);
   run.plain_weights = run.problem.weights;
   fit.robust = reweight_outliers(run.problem, run.identified, run.solution, run.options.loss,
                                  run.options.outlier_alpha, run.iterations);

@@ -106,6 +106,10 @@ std::string fold_joint_errors(DeviceModel& model);
 // (a model with gravity), harmonic (a turning joint whose angle is its own
 // reading), coupling (coefficients between joints), backlash (the log's dir<i>).
 std::vector<std::string> applicable_families(const CalibrationRun& run);
+// A fit whose poses' values were formed on the start's geometry (a joint or
+// lateral compliance's gravity torques, held or fitted) formed again on the
+// fit's geometry and solved again from the fit (kept if that converges).
+void reform_on_fit(CalibrationRun& run);
 // Whether the model's coupling has a coefficient between two joints.
 bool coupled_between(const DeviceModel& model);
 

@@ -383,7 +383,11 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   const DeviceModel& model = problem.model;
   const ChainStructure s = model.structure();
   const Eigen::VectorXd p0 = model.kinematic_parameters();
-  const RowsOf kind = rows_of(problem);
+  // A held lateral compliance's bends left out: a bend about an URDF origin's
+  // x axis would tell apart an rpy and an offset that turn about the joint's
+  // axis alike (a gauge the geometry cannot see), and the fit would drift along it.
+  RowsOf kind = rows_of(problem);
+  kind.bends = -1;
   // On synthetic poses over the joint limits (structural) and on the data.
   const std::vector<Eigen::VectorXd> synthetic = structural_joints(model);
   // A fixture's rows change with the residual itself (p_i - m_L turns with the

@@ -462,6 +462,7 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   problem.type = measurement_type(poses);
   const int m = poses.rows;
   const StepTwoJoints step_two(model);
+  problem.bends = step_two.bends();
   problem.joints.resize(m);
   for (int i = 0; i < m; ++i)
     problem.joints[i] = step_two(poses.q.row(i).transpose(), direction_row(poses, i));

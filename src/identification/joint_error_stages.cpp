@@ -31,7 +31,13 @@ std::vector<JointErrorStage> joint_error_stages(const DeviceModel& model) {
   for (const detail::JointErrorFamily* family : detail::joint_error_families()) {
     family->add_stages(
         model, [&](int link, int slot, int count, double nominal, const Transmission* formed) {
-          JointErrorStage e{link, slot, joint_value_column(model, s, link), count, -1, nominal, {}};
+          JointErrorStage e;
+          e.link = link;
+          e.slot = slot;
+          e.count = count;
+          e.nominal = nominal;
+          e.geometry = family->bends();
+          e.joint_column = joint_value_column(model, s, link);
           if (formed) {
             e.harmonic = *formed;
           } else {
@@ -61,6 +67,10 @@ StepTwoJoints::StepTwoJoints(const DeviceModel& model)
     features_.push_back({family->pose_features(model), static_cast<int>(model.dof()) + stored_});
     stored_ += count;
   }
+  if (model.laterally_compliant()) {
+    gravity_ = std::make_unique<const GravityModel>(model);
+    bends_ = model.dof() + stored_;
+  }
 }
 
 StepTwoJoints::~StepTwoJoints() = default;
@@ -78,10 +88,19 @@ Eigen::VectorXd StepTwoJoints::with_features(
     const Eigen::VectorXd& values, const Eigen::VectorXd& q,
     const Eigen::Ref<const Eigen::RowVectorXd>& direction) const {
   const int n = model_.dof();
-  Eigen::VectorXd joint(n + stored_);
+  Eigen::VectorXd joint(n + stored_ + (bends_ >= 0 ? n : 0));
   joint.head(n) = values;
   for (const auto& [features, first] : features_)
     (*features)(joint.data(), q, direction, joint.data() + first);
+  if (bends_ >= 0) {  // from the joint values before any deflection (the readings')
+    std::array<double, kMaxDof> rigid;
+    if (q.size() == n) {
+      prepared_->rigid_joints(q.data(), rigid.data());
+    } else {
+      std::copy(values.data(), values.data() + n, rigid.begin());
+    }
+    gravity_->bends(rigid.data(), joint.data() + bends_);
+  }
   return joint;
 }
 
@@ -90,6 +109,7 @@ void StepTwoJoints::refresh(Eigen::VectorXd& values) const {
     if (features->of_joint_values())
       (*features)(values.data(), Eigen::VectorXd(), Eigen::RowVectorXd(), values.data() + first);
   }
+  if (bends_ >= 0) gravity_->bends(values.data(), values.data() + bends_);
 }
 
 Eigen::RowVectorXd direction_row(const Log& log, int r) {

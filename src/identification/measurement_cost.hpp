@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -27,6 +28,9 @@ struct RowsOf {
   double rotation_scale = 1;              // metres per radian of a pose's rotation rows
   const FixtureLabels* labels = nullptr;  // a fixture problem's (fixture points or planes)
   const std::vector<JointErrorStage>* errors = nullptr;  // step 2's joint-error stages
+  // Where a pose's values hold its links' lateral bends (StepTwoJoints::bends:
+  // a lateral compliance step 2 holds), or -1.
+  int bends = -1;
   int dimension() const { return traits(type).dimension; }
   // Residual rows of `poses` poses: a fixture problem's include its known distances.
   int rows(int poses) const {
@@ -37,15 +41,19 @@ struct RowsOf {
 // The rows of one pose and their Jacobian; with joint-error stages
 // (JointErrorStage) the joint values moved by them first, and each stage
 // parameter's column its feature times its joint value's column.
+// Stages that bend a link (a lateral compliance's) and a held lateral
+// compliance (kind.bends) change the pose's link constants: its own copy.
 inline void measurement_rows(const ChainStructure& s, const ChainConstants<double>& constants,
                              const double* params, const double* joint, const RowsOf& kind,
                              const double* measured, double* residual,
                              Eigen::Ref<Eigen::MatrixXd> J) {
-  if (!kind.errors) {
+  if (!kind.errors && kind.bends < 0) {
     hapticcal::measurement_rows(kind.type, s, constants, params, joint, measured,
                                 kind.rotation_scale, residual, J);
     return;
   }
+  static const std::vector<JointErrorStage> kNoStages;
+  const std::vector<JointErrorStage>& stages = kind.errors ? *kind.errors : kNoStages;
   constexpr int kMaxFeatures = 2 * static_cast<int>(Harmonic::kMaxFrequencies);
   std::array<double, kMaxDof> moved;
   std::copy(joint, joint + s.dof, moved.begin());
@@ -55,16 +63,28 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
   auto features = [&](const JointErrorStage& e) {
     return e.feature >= 0 ? joint + e.feature : formed[e.link].data();
   };
-  for (const JointErrorStage& e : *kind.errors) {
+  const bool bent =
+      kind.bends >= 0 || std::any_of(stages.begin(), stages.end(),
+                                     [](const JointErrorStage& e) { return e.geometry; });
+  std::optional<ChainConstants<double>> pose;
+  if (bent) pose.emplace(constants);
+  std::array<double, kMaxDof> bend{};
+  if (kind.bends >= 0) std::copy(joint + kind.bends, joint + kind.bends + s.dof, bend.begin());
+  for (const JointErrorStage& e : stages) {
     if (e.feature < 0) e.harmonic.parameter_jacobian(joint[e.link], formed[e.link].data());
     const double* x = features(e);
-    for (int c = 0; c < e.count; ++c) moved[e.link] += (params[e.slot + c] - e.nominal) * x[c];
+    double& target = e.geometry ? bend[e.link] : moved[e.link];
+    for (int c = 0; c < e.count; ++c) target += (params[e.slot + c] - e.nominal) * x[c];
   }
-  hapticcal::measurement_rows(kind.type, s, constants, params, moved.data(), measured,
-                              kind.rotation_scale, residual, J);
-  for (const JointErrorStage& e : *kind.errors) {
+  if (bent) bend_links(s, bend.data(), pose->links.data());
+  hapticcal::measurement_rows(kind.type, s, bent ? *pose : constants, params, moved.data(),
+                              measured, kind.rotation_scale, residual, J);
+  for (const JointErrorStage& e : stages) {
     const double* x = features(e);
-    for (int c = 0; c < e.count; ++c) J.col(e.slot + c) = x[c] * J.col(e.joint_column);
+    // A bend turns the link's alpha / roll: that slot's column.
+    const int column =
+        e.geometry ? s.link_slot(e.link) + lateral_slot(s.joints[e.link]) : e.joint_column;
+    for (int c = 0; c < e.count; ++c) J.col(e.slot + c) = x[c] * J.col(column);
   }
 }
 

@@ -88,7 +88,7 @@ double position_rss(const Eigen::VectorXd& r, const RowsOf& kind);
 inline RowsOf rows_of(const KinematicProblem& problem) {
   return {problem.type, problem.rotation_scale,
           is_fixture(problem.type) ? &problem.labels : nullptr,
-          problem.joint_errors.empty() ? nullptr : &problem.joint_errors};
+          problem.joint_errors.empty() ? nullptr : &problem.joint_errors, problem.bends};
 }
 
 // select_model and cross_validate (identification.hpp) at a fit whose stack

@@ -37,6 +37,7 @@ std::string single_chain_feature(const DeviceModel& m) {
   if (!m.joint_errors.empty()) return "joint-error stages";
   if (m.coupled()) return "a coupling";
   if (m.compliant()) return "joint compliance";
+  if (m.laterally_compliant()) return "lateral compliance";
   if (m.has_backlash()) return "backlash";
   if (m.instrument_zero) return "an instrument zero";
   return "";

@@ -2,8 +2,10 @@
 // and the deflection k tau they cause, in the one place readings become joint
 // values (DeviceModel::compensate is defined here, beside the kinematics its
 // compliance needs).
+#include <algorithm>
 #include <array>
 #include <cassert>
+#include <cmath>
 
 #include "hapticcal/kinematics/kinematics.hpp"
 
@@ -23,6 +25,47 @@ void gravity_torques(const ChainStructure& s, const Frame<double>* frames, const
   }
 }
 
+void lateral_axis(const ChainStructure& s, const LinkConstants<double>& k,
+                  const Frame<double>* frames, int i, Vec3<double>& axis, Vec3<double>& point) {
+  const JointStructure& j = s.joints[i];
+  if (j.geometry == Geometry::kDh) {
+    axis = k.cos_beta * frames[i + 1].R.col(0) + k.sin_beta * frames[i + 1].R.col(2);
+    point = frames[i + 1].p;
+  } else if (j.geometry == Geometry::kMdh) {
+    axis = frames[i].R.col(0);
+    point = frames[i].p;
+  } else {
+    axis = frames[i].R * k.origin.R.col(0);
+    point = frames[i].p + frames[i].R * k.origin.p;
+  }
+}
+
+void turn_laterally(const JointStructure& j, double turn, LinkConstants<double>& k) {
+  const double c = std::cos(turn), s = std::sin(turn);
+  if (j.geometry == Geometry::kOrigin) {
+    turn_x(k.origin.R, c, s);  // Rz Ry Rx(roll) Rx(turn)
+    return;
+  }
+  const double c0 = k.cos_alpha;
+  k.cos_alpha = c0 * c - k.sin_alpha * s;
+  k.sin_alpha = k.sin_alpha * c + c0 * s;
+}
+
+void lateral_torques(const ChainStructure& s, const ChainConstants<double>& constants,
+                     const Frame<double>* frames, const double* mass, const Eigen::Vector3d* com,
+                     const Eigen::Vector3d& gravity, double* tau) {
+  const Eigen::Vector3d g = frames[0].R * gravity;
+  double M = 0;
+  Eigen::Vector3d S = Eigen::Vector3d::Zero();
+  for (int i = s.dof - 1; i >= 0; --i) {
+    M += mass[i];
+    S += mass[i] * (frames[i + 1].R * com[i] + frames[i + 1].p);
+    Vec3<double> axis, point;
+    lateral_axis(s, constants.links[i], frames, i, axis, point);
+    tau[i] = axis.dot((S - M * point).cross(g));
+  }
+}
+
 GravityModel::GravityModel(const DeviceModel& model) : structure(model.structure()) {
   const Eigen::VectorXd p = model.kinematic_parameters();
   constants = chain_constants(structure, p.data());
@@ -31,7 +74,40 @@ GravityModel::GravityModel(const DeviceModel& model) : structure(model.structure
     mass[i] = model.links[i].mass;
     com[i] = model.links[i].com;
     compliance[i] = model.compliance_fitted(i) ? 0.0 : model.links[i].compliance;
+    lateral[i] = model.fitted_element("lateral", i) ? 0.0 : model.links[i].lateral_compliance;
+    any_lateral = any_lateral || lateral[i] != 0;
   }
+}
+
+bool GravityModel::lateral_any() const { return any_lateral; }
+
+void GravityModel::lateral_torques(const double* joint, double* tau) const {
+  std::array<Frame<double>, kMaxDof + 1> frames;
+  forward_kinematics(structure, constants, joint, frames.data());
+  hapticcal::lateral_torques(structure, constants, frames.data(), mass.data(), com.data(), gravity,
+                             tau);
+}
+
+void GravityModel::bend(const Frame<double>* frames, LinkConstants<double>* links) const {
+  std::array<double, kMaxDof> tau;
+  hapticcal::lateral_torques(structure, constants, frames, mass.data(), com.data(), gravity,
+                             tau.data());
+  for (int i = 0; i < structure.dof; ++i) tau[i] *= lateral[i];
+  bend_links(structure, tau.data(), links);
+}
+
+void GravityModel::bends(const double* rigid_joint, double* bend) const {
+  lateral_torques(rigid_joint, bend);
+  for (int i = 0; i < structure.dof; ++i) bend[i] *= lateral[i];
+}
+
+ChainConstants<double> GravityModel::pose_constants(const double* rigid_joint) const {
+  ChainConstants<double> bent = constants;
+  if (!lateral_any()) return bent;
+  std::array<Frame<double>, kMaxDof + 1> frames;
+  forward_kinematics(structure, constants, rigid_joint, frames.data());
+  bend(frames.data(), bent.links.data());
+  return bent;
 }
 
 void GravityModel::torques(const double* joint, double* tau) const {

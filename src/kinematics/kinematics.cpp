@@ -72,7 +72,8 @@ PreparedModel::PreparedModel(const DeviceModel& model) : structure_(model.struct
     all_mdh = all_mdh && j.geometry == Geometry::kMdh && !j.prismatic();
   }
   path_ = all_dh ? Path::kDh : all_mdh ? Path::kMdh : Path::kGeneric;
-  if (model.compliant()) gravity_ = std::make_shared<const GravityModel>(model);
+  if (model.compliant() || model.laterally_compliant())
+    gravity_ = std::make_shared<const GravityModel>(model);
   if (model.coupled()) {
     for (int i = 0; i < structure_.dof; ++i) {
       for (int k = 0; k < structure_.dof; ++k) {
@@ -218,7 +219,18 @@ Frame<double> PreparedModel::compliant_chain(const double* q, Frame<double>* fra
       turn_angle(turn, joint[i] + turn + links_[i].offset, cos_theta[i], sin_theta[i]);
     }
   }
+  // The lateral bends from the same (undeflected) chain, whose frames these still are.
+  if (g.lateral_any())
+    return compose_bent(cos_theta.data(), sin_theta.data(), length.data(), frames);
   return compose(cos_theta.data(), sin_theta.data(), length.data(), frames);
+}
+
+Frame<double> PreparedModel::compose_bent(const double* cos_theta, const double* sin_theta,
+                                          const double* length, Frame<double>* frames) const {
+  std::array<LinkConstants<double>, kMaxDof> bent;
+  std::copy(links_.begin(), links_.end(), bent.begin());
+  gravity_->bend(frames, bent.data());
+  return compose(cos_theta, sin_theta, length, frames, bent.data());
 }
 
 // The transcendental functions of all joints are evaluated in one batch: sin
@@ -283,13 +295,15 @@ Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const
 }
 
 Frame<double> PreparedModel::compose(const double* cos_theta, const double* sin_theta,
-                                     const double* length, Frame<double>* frames) const {
+                                     const double* length, Frame<double>* frames,
+                                     const LinkConstants<double>* links) const {
   const int n = structure_.dof;
+  if (!links) links = links_.data();
   frames[0] = base_;
   if (path_ == Path::kGeneric) {
     for (int i = 0; i < n; ++i) {
-      compose_link(structure_.joints[i], frames[i], links_[i], cos_theta[i], sin_theta[i],
-                   length[i], frames[i + 1]);
+      compose_link(structure_.joints[i], frames[i], links[i], cos_theta[i], sin_theta[i], length[i],
+                   frames[i + 1]);
     }
     return frames[n] * tool_;
   }
@@ -301,7 +315,7 @@ Frame<double> PreparedModel::compose(const double* cos_theta, const double* sin_
   V3 o{base_.p[0], base_.p[1], base_.p[2]};
   const bool dh = path_ == Path::kDh;
   for (int i = 0; i < n; ++i) {
-    const LinkConstants<double>& k = links_[i];
+    const LinkConstants<double>& k = links[i];
     const double ct = cos_theta[i], st = sin_theta[i];
     if (dh) {
       const V3 ex1 = ct * ex + st * ey, ey1 = ct * ey - st * ex;  // Rz(theta)

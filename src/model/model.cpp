@@ -224,6 +224,13 @@ bool DeviceModel::compliant() const {
   return false;
 }
 
+bool DeviceModel::laterally_compliant() const {
+  for (int i = 0; i < dof(); ++i) {
+    if (links[i].lateral_compliance != 0 && !fitted_element("lateral", i)) return true;
+  }
+  return false;
+}
+
 std::string coupling_problem(const Eigen::MatrixXd& coupling, const std::vector<Link>& links) {
   const int n = static_cast<int>(links.size());
   if (coupling.size() == 0) return {};

@@ -197,11 +197,12 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
   if (!link.dh_parameters()) {
     r.check_keys(node, path,
                  {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission",
-                  "coupling", "mass", "compliance", "backlash"});
+                  "coupling", "mass", "compliance", "lateral_compliance", "backlash"});
   } else if (file.v2) {
-    r.check_keys(node, path,
-                 {"name", "geometry", "type", "a", "alpha", "d", "theta", "beta", "limits",
-                  "transmission", "coupling", "mass", "compliance", "backlash"});
+    r.check_keys(
+        node, path,
+        {"name", "geometry", "type", "a", "alpha", "d", "theta", "beta", "limits", "transmission",
+         "coupling", "mass", "compliance", "lateral_compliance", "backlash"});
   } else {
     r.check_keys(node, path,
                  {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
@@ -250,6 +251,10 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
     link.com = Eigen::Vector3d(com[0], com[1], com[2]);
   }
   if (node["compliance"]) link.compliance = r.number(node["compliance"], join(path, "compliance"));
+  if (node["lateral_compliance"]) {
+    link.lateral_compliance =
+        r.number(node["lateral_compliance"], join(path, "lateral_compliance"));
+  }
   if (node["backlash"]) link.backlash = r.number(node["backlash"], join(path, "backlash"));
   return link;
 }
@@ -352,6 +357,11 @@ std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) 
     return {key + ".compliance",
             fmt::format("{} is not a compliance of magnitude at most {} rad/N m", link.compliance,
                         kMaxCompliance)};
+  }
+  if (!(std::abs(link.lateral_compliance) <= kMaxCompliance)) {
+    return {key + ".lateral_compliance",
+            fmt::format("{} is not a compliance of magnitude at most {} rad/N m",
+                        link.lateral_compliance, kMaxCompliance)};
   }
   if (!(std::abs(link.backlash) <= kMaxBacklash)) {
     return {key + ".backlash",
@@ -470,12 +480,13 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
     model.links.push_back(read_link(r, node, fmt::format("links[{}]", i), file));
     const auto [key, why] = check_link(model, static_cast<int>(i));
     if (!why.empty()) {
-      const YAML::Node at = key.ends_with(".transmission") ? node["transmission"]
-                            : key.ends_with(".name")       ? node["name"]
-                            : key.ends_with(".mass")       ? node["mass"]
-                            : key.ends_with(".compliance") ? node["compliance"]
-                            : key.ends_with(".backlash")   ? node["backlash"]
-                                                           : node;
+      const YAML::Node at = key.ends_with(".transmission")         ? node["transmission"]
+                            : key.ends_with(".name")               ? node["name"]
+                            : key.ends_with(".mass")               ? node["mass"]
+                            : key.ends_with(".lateral_compliance") ? node["lateral_compliance"]
+                            : key.ends_with(".compliance")         ? node["compliance"]
+                            : key.ends_with(".backlash")           ? node["backlash"]
+                                                                   : node;
       r.fail(at, key, why);
     }
   }
@@ -534,7 +545,8 @@ std::string device_to_yaml(const DeviceModel& model) {
     uniform = uniform && l.geometry == first && !l.prismatic() && !l.continuous();
   }
   bool masses = false;  // masses, compliance, gravity and backlash are version 2's, like a coupling
-  for (const Link& l : model.links) masses = masses || l.mass != 0 || l.compliance != 0;
+  for (const Link& l : model.links)
+    masses = masses || l.mass != 0 || l.compliance != 0 || l.lateral_compliance != 0;
   uniform = uniform && !model.coupled() && !masses && !model.has_backlash();
   auto geometry_name = [](Geometry g) { return traits(g).name; };
   out += fmt::format("format: {}\n", uniform ? kFormat : kFormat2);
@@ -586,6 +598,8 @@ std::string device_to_yaml(const DeviceModel& model) {
                          num(l.com[1]), num(l.com[2]));
     }
     if (l.compliance != 0) out += fmt::format("    compliance: {}\n", num(l.compliance));
+    if (l.lateral_compliance != 0)
+      out += fmt::format("    lateral_compliance: {}\n", num(l.lateral_compliance));
     if (l.backlash != 0) out += fmt::format("    backlash: {}\n", num(l.backlash));
   }
   if (masses) {

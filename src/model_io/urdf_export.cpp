@@ -297,6 +297,7 @@ std::string device_to_urdf(const DeviceModel& model) {
   const std::vector<std::string> masses = link_yaml(model, "mass");
   const std::vector<std::string> compliances = link_yaml(model, "compliance");
   const std::vector<std::string> backlashes = link_yaml(model, "backlash");
+  const std::vector<std::string> laterals = link_yaml(model, "lateral_compliance");
 
   std::set<std::string> joint_names;
   for (const Link& l : model.links) joint_names.insert(l.name);
@@ -335,6 +336,12 @@ std::string device_to_urdf(const DeviceModel& model) {
     } else if (!masses[i].empty()) {
       out += fmt::format("  <!-- hapticcal: link {} carries mass: {} -->\n", comment_safe(l.name),
                          comment_safe(masses[i]));
+    }
+    if (!laterals[i].empty()) {
+      out += fmt::format(
+          "  <!-- hapticcal: joint {} bends about its x axis under gravity, which URDF cannot "
+          "express (as in a device file): lateral_compliance: {} -->\n",
+          comment_safe(l.name), comment_safe(laterals[i]));
     }
     if (!backlashes[i].empty()) {
       out += fmt::format(

@@ -143,11 +143,16 @@ RegisteredModel register_for_evaluation(const DeviceModel& model, const Log& log
   detail::RowMatrix measured(log.rows, traits(type).width);
   Eigen::Matrix3Xd a(3, log.rows), b(3, log.rows);
   const ChainConstants<double> constants = chain_constants(s, p.data());
+  // Each pose's joint values (compensated, with backlash) and a lateral
+  // compliance's bends of its links (StepTwoJoints).
+  const StepTwoJoints step_two(m);
+  const int bends = step_two.bends();
   for (int r = 0; r < log.rows; ++r) {
-    joints[r] = m.compensate(log.q.row(r).transpose());
-    if (log.any_direction()) m.apply_backlash(log.direction.row(r), joints[r]);
+    joints[r] = step_two(log.q.row(r).transpose(), direction_row(log, r));
     measured_values(type, log, r, measured.row(r).data());
-    a.col(r) = forward_kinematics(s, constants, joints[r].data()).p;
+    ChainConstants<double> bent = constants;
+    if (bends >= 0) bend_links(s, joints[r].data() + bends, bent.links.data());
+    a.col(r) = forward_kinematics(s, bent, joints[r].data()).p;
     b.col(r) = log.position.row(r).transpose();
     if (!a.col(r).allFinite()) {
       throw InputError(log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0, "",
@@ -159,7 +164,8 @@ RegisteredModel register_for_evaluation(const DeviceModel& model, const Log& log
   const Frame<double> moved = Frame<double>{reg.R, reg.t} * constants.base;
   const std::array<double, 6> start = pose_of(moved);
   for (int k = 0; k < kPoseSlots; ++k) p[k] = start[k];
-  refine(s, p, joints, detail::RowsOf{type, rotation_scale(s, p, joints)}, measured, what);
+  refine(s, p, joints, detail::RowsOf{type, rotation_scale(s, p, joints), nullptr, nullptr, bends},
+         measured, what);
   m.set_kinematic_parameters(p);
   return {m, frame_fit(model, m, what, rms_before)};
 }

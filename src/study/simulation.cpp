@@ -7,6 +7,7 @@
 #include <cassert>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <random>
 
 #include "hapticcal/core/error.hpp"
@@ -143,6 +144,8 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
   const ChainStructure s = actual.structure();
   const Eigen::VectorXd params = actual.kinematic_parameters();
   const ChainConstants<double> constants = chain_constants(s, params.data());
+  std::optional<GravityModel> bend;  // a lateral compliance bends the links per pose
+  if (backlash && actual.laterally_compliant()) bend.emplace(actual);
   for (int r = 0; r < poses; ++r) {
     log.line.push_back(r + 2);
     draw(r, rng, log.q);
@@ -155,7 +158,13 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
       }
       Eigen::VectorXd joint = actual.compensate(q);
       actual.apply_backlash(log.direction.row(r), joint);
-      T_meas_tool = forward_kinematics(s, constants, joint.data());
+      if (bend) {  // bent on the chain before any deflection
+        Eigen::VectorXd rigid(n);
+        prepared.rigid_joints(q.data(), rigid.data());
+        T_meas_tool = forward_kinematics(s, bend->pose_constants(rigid.data()), joint.data());
+      } else {
+        T_meas_tool = forward_kinematics(s, constants, joint.data());
+      }
     } else {
       T_meas_tool = prepared.forward(q.data());
     }

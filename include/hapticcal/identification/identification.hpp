@@ -448,6 +448,9 @@ struct KinematicProblem {
   bool frame_unknown = false;
   // The model's joint-error stages (joint_error_stages).
   std::vector<JointErrorStage> joint_errors;
+  // Where each pose's values hold its links' lateral bends (a lateral
+  // compliance step 2 holds: StepTwoJoints::bends), or -1.
+  int bends = -1;
   // Where Levenberg-Marquardt starts (every slot), if not at the model: a
   // nearby fit's (the model search's family sets start at the geometry's).
   // The model stays the start of everything else (the prior's centre, what a

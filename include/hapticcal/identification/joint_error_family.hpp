@@ -66,6 +66,10 @@ class JointErrorFamily {
   virtual DeviceModel::FittedBlock block(const DeviceModel& model) const = 0;
   // Its stages on a model that has its parameters (joint_error_stages).
   virtual void add_stages(const DeviceModel& model, const AddStage& add) const = 0;
+  // Whether its stages bend their link about its lateral axis
+  // (Link::lateral_compliance's, kinematics.hpp) instead of moving the joint
+  // value (the default).
+  virtual bool bends() const { return false; }
   // Its stored features of a pose on this model (none: it stores none).
   virtual std::unique_ptr<PoseFeatures> pose_features(const DeviceModel&) const { return nullptr; }
   // Its fitted parameters made the model's own (the calibrated model has no

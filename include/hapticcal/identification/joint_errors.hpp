@@ -34,11 +34,16 @@ namespace hapticcal {
 // backlash stage's p is the link's backlash, x the side the joint approached
 // the pose from (the log's dir<i>: +1, -1, 0).
 class PreparedModel;  // kinematics.hpp
+struct GravityModel;  // kinematics.hpp
 class PoseFeatures;   // joint_error_family.hpp
 struct JointErrorStage {
   int link = 0;
-  int slot = 0;           // first slot of its parameters
-  int joint_column = 0;   // the slot whose column is d rows / d joint value
+  int slot = 0;          // first slot of its parameters
+  int joint_column = 0;  // the slot whose column is d rows / d joint value
+  // It bends the link about its lateral axis per pose (turn_laterally:
+  // alpha or roll) instead of moving the joint value; its columns are that
+  // slot's.
+  bool geometry = false;
   int count = 1;          // its parameters
   int feature = -1;       // index of its first feature in a pose's step-2 values
   double nominal = 0;     // its parameters' value in the joint values
@@ -64,10 +69,17 @@ class StepTwoJoints {
   // A pose's values whose joint values moved: the features of the joint values
   // formed again (a compliance's torque), the others kept.
   void refresh(Eigen::VectorXd& values) const;
+  // Where a pose's values hold its links' lateral bends [rad] (dof values, after
+  // the features) when the model has a lateral compliance step 2 holds
+  // (DeviceModel::laterally_compliant), formed from the readings' joint values
+  // before any deflection (GravityModel::bends); -1: none.
+  int bends() const { return bends_; }
 
  private:
   const DeviceModel& model_;
   std::unique_ptr<const PreparedModel> prepared_;
+  std::unique_ptr<const GravityModel> gravity_;  // the held lateral compliance's
+  int bends_ = -1;
   // Each family's features of a pose and where they start in its values.
   std::vector<std::pair<std::unique_ptr<const PoseFeatures>, int>> features_;
   int stored_ = 0;  // features a pose

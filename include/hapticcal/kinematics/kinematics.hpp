@@ -402,19 +402,60 @@ T distance_parameter_jacobian(const ChainStructure& s, const T* params, const T*
 void gravity_torques(const ChainStructure& s, const Frame<double>* frames, const double* mass,
                      const Eigen::Vector3d* com, const Eigen::Vector3d& gravity, double* tau);
 
+// Lateral compliance (Link::lateral_compliance): the slot a bend turns (DH,
+// MDH: alpha; URDF origin: roll), and the axis and a point of that turn from
+// the frames of forward_kinematics (DH: the x axis after Rz(theta) T(a, 0, d),
+// through frame i + 1's origin; MDH: x of frame i, through its origin; URDF:
+// x of the origin frame, through its origin): the alpha / roll columns' axes
+// of pose_parameter_jacobian. A URDF joint whose axis is along its origin's x
+// has its own turn for a bend (the lateral family leaves it out).
+inline int lateral_slot(const JointStructure& j) {
+  return j.geometry == Geometry::kOrigin ? kOriginRoll : kLinkAlpha;
+}
+void lateral_axis(const ChainStructure& s, const LinkConstants<double>& k,
+                  const Frame<double>* frames, int i, Vec3<double>& axis, Vec3<double>& point);
+// The link constants with the lateral slot turned by `turn` [rad] (what
+// link_constants gives for the slot's value + turn).
+void turn_laterally(const JointStructure& j, double turn, LinkConstants<double>& k);
+// Each link's constants turned by its bend (dof values; 0: unbent).
+inline void bend_links(const ChainStructure& s, const double* bend, LinkConstants<double>* links) {
+  for (int i = 0; i < s.dof; ++i) {
+    if (bend[i] != 0) turn_laterally(s.joints[i], bend[i], links[i]);
+  }
+}
+// The gravity torques about each joint's lateral axis: tau_i = u_i . ((S_i -
+// M_i o_i) x g), M_i and S_i as in gravity_torques (links i..n), u_i and o_i
+// lateral_axis'.
+void lateral_torques(const ChainStructure& s, const ChainConstants<double>& constants,
+                     const Frame<double>* frames, const double* mass, const Eigen::Vector3d* com,
+                     const Eigen::Vector3d& gravity, double* tau);
+
 // A model's masses and compliances, prepared: the gravity torques at joint
 // values (compensated, without offsets) and the deflection joint += k tau
-// (compliance as compensate applies it: 0 for a link whose k step 2 fits).
+// (compliance as compensate applies it: 0 for a link whose k step 2 fits);
+// the lateral torques and the link constants bent by them (lateral: 0 for a
+// link whose lateral compliance step 2 fits).
 struct GravityModel {
   explicit GravityModel(const DeviceModel& model);
   void torques(const double* joint, double* tau) const;
   void deflect(double* joint) const;
+  void lateral_torques(const double* joint, double* tau) const;
+  // Each link's lateral bend c tau_x [rad] at joint values before any
+  // deflection (PreparedModel::rigid_joints: the joint compliance's torques
+  // and the bends come from one chain).
+  void bends(const double* rigid_joint, double* bend) const;
+  // The chain constants with each link bent so (rigid_joint as for bends).
+  ChainConstants<double> pose_constants(const double* rigid_joint) const;
+  // The bends from that chain's frames, applied to `links`.
+  void bend(const Frame<double>* frames, LinkConstants<double>* links) const;
+  bool lateral_any() const;
 
   ChainStructure structure;
   ChainConstants<double> constants;
   Eigen::Vector3d gravity;
-  std::array<double, kMaxDof> mass{}, compliance{};
+  std::array<double, kMaxDof> mass{}, compliance{}, lateral{};
   std::array<Eigen::Vector3d, kMaxDof> com;
+  bool any_lateral = false;  // some lateral[i] != 0
 };
 
 // The calibrated model in the form a 1 kHz controller uses: transmissions and
@@ -441,14 +482,15 @@ class PreparedModel {
   void reading_jacobian(const double* q, double* J_joint_reading_col_major) const;
   bool coupled() const { return !coupling_.empty(); }
   bool compliant() const { return gravity_ != nullptr; }
+  // The joint values without a compliant model's deflection (the chain its
+  // gravity torques and lateral bends are formed on).
+  void rigid_joints(const double* q, double* joint) const;
 
  private:
   Frame<double> chain(const double* q, Frame<double>* frames) const;
   // dtheta_k(q_k) of every reading, the capstans' sines, cosines and arc
   // tangents in batches (the coupled path's compensation).
   void transmission_errors(const double* q, double* error) const;
-  // The joint values without a compliant model's deflection.
-  void rigid_joints(const double* q, double* joint) const;
   // joint += k tau(joint) (a compliant model).
   void deflect(double* joint) const;
   Frame<double> compliant_chain(const double* q, Frame<double>* frames) const;
@@ -459,8 +501,13 @@ class PreparedModel {
   Frame<double> chain_from_joints(const double* joint, Frame<double>* frames) const;
   // The frames from each joint's cos and sin of theta and its length (d of a
   // revolute joint; d + q of a prismatic one).
+  // The same with each link bent laterally, the bends formed from `frames`
+  // (the undeflected chain's), which it then overwrites.
+  Frame<double> compose_bent(const double* cos_theta, const double* sin_theta, const double* length,
+                             Frame<double>* frames) const;
+  // `links`: the link constants to use (a bent chain's), or the model's.
   Frame<double> compose(const double* cos_theta, const double* sin_theta, const double* length,
-                        Frame<double>* frames) const;
+                        Frame<double>* frames, const LinkConstants<double>* links = nullptr) const;
 
   ChainStructure structure_;
   Frame<double> base_, tool_;

@@ -90,6 +90,15 @@ struct Link {
   // the direction is known (evaluate, calibrate, simulate: apply_backlash);
   // compensate, the runtime and Python have no direction and leave it out.
   double backlash = 0.0;
+  // Lateral compliance c [rad/N m]: the joint bends about its x axis under the
+  // gravity torque about that axis (of the links it carries), turning the
+  // link's twist by c tau_x: DH and MDH the alpha of this link (about the x
+  // axis of the frame after, DH, or before, MDH, the joint's turn), URDF the
+  // origin's roll (the origin frame's x axis; for a joint whose axis is along
+  // that x the bend is the joint's own turn, which `compliance` already is).
+  // tau_x is formed on the chain at the joint values, before the bend
+  // (GravityModel::pose_constants).
+  double lateral_compliance = 0.0;
 
   bool prismatic() const { return type == JointType::kPrismatic; }
   // Turns without limits (a URDF continuous joint).
@@ -258,6 +267,10 @@ struct DeviceModel {
   // step 2's parameter).
   bool compliant() const;
   bool compliance_fitted(int i) const { return fitted_element("compliance", i); }
+  // Some joint bends laterally in the kinematics (Link::lateral_compliance,
+  // not a step-2 parameter): its link constants depend on the pose
+  // (GravityModel::pose_constants).
+  bool laterally_compliant() const;
   // Whether some joint's value depends on reading k (false: a passive joint's
   // own reading, which nothing uses).
   bool reading_used(int k) const { return !coupled() || coupling.col(k).any(); }

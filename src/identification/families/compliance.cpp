@@ -11,6 +11,30 @@ namespace hapticcal::detail {
 
 const JointErrorFamily* compliance_family();
 
+void gravity_loads(FamilyOffer& offer, std::string_view family, std::string_view parameter) {
+  DeviceModel& m = offer.model;
+  if (!(m.gravity.norm() > 0)) {
+    throw InputError(fmt::format(
+        "--joint-errors {}: the model's gravity is zero, so no joint is loaded: give the "
+        "device file's gravity: [gx, gy, gz] (base frame, m/s^2)",
+        family));
+  }
+  bool masses = false;
+  for (const Link& l : m.links) masses = masses || l.mass > 0;
+  if (masses) return;
+  for (DeviceModel* model : {&offer.model, &offer.nominal}) {
+    for (Link& l : model->links) {
+      l.mass = 1.0;
+      l.com.setZero();
+    }
+  }
+  offer.notes.push_back(fmt::format(
+      "--joint-errors {}: the model gives no masses: each link is a lumped 1 kg at its "
+      "frame's origin (written into the calibrated model), so each {} is in rad per N m of that "
+      "model, not of the device's own torques",
+      family, parameter));
+}
+
 namespace {
 
 // "compliance": every joint's compliance k is a step-2 parameter (its gravity
@@ -18,26 +42,7 @@ namespace {
 // at its frame's origin, written into the calibrated model (k then absorbs the
 // scale of the true masses).
 void offer_compliance(FamilyOffer& offer) {
-  DeviceModel& m = offer.model;
-  if (!(m.gravity.norm() > 0)) {
-    throw InputError(
-        "--joint-errors compliance: the model's gravity is zero, so no joint is loaded: give the "
-        "device file's gravity: [gx, gy, gz] (base frame, m/s^2)");
-  }
-  bool masses = false;
-  for (const Link& l : m.links) masses = masses || l.mass > 0;
-  if (!masses) {
-    for (DeviceModel* model : {&offer.model, &offer.nominal}) {
-      for (Link& l : model->links) {
-        l.mass = 1.0;
-        l.com.setZero();
-      }
-    }
-    offer.notes.push_back(
-        "--joint-errors compliance: the model gives no masses: each link is a lumped 1 kg at its "
-        "frame's origin (written into the calibrated model), so each k is in rad per N m of that "
-        "model, not of the device's own torques");
-  }
+  gravity_loads(offer, "compliance", "k");
   add_block(offer, compliance_family()->block(offer.model));
 }
 

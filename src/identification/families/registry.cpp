@@ -15,15 +15,14 @@ const JointErrorFamily* compliance_family();
 const JointErrorFamily* harmonic_family();
 const JointErrorFamily* coupling_family();
 const JointErrorFamily* backlash_family();
+const JointErrorFamily* lateral_family();
 
 namespace {
 
 std::vector<const JointErrorFamily*>& registry() {
   static std::vector<const JointErrorFamily*> families = {
-      compliance_family(),
-      harmonic_family(),
-      coupling_family(),
-      backlash_family(),
+      compliance_family(), harmonic_family(), coupling_family(),
+      backlash_family(),   lateral_family(),
   };
   return families;
 }
