@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <set>
+#include <utility>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/identification.hpp"
@@ -79,9 +80,10 @@ void reform_on_fit(CalibrationRun& run) {
   const std::vector<Eigen::VectorXd> start = problem.joints;
   for (int i = 0; i < run.poses.rows; ++i)
     problem.joints[i] = step_two(run.poses.q.row(i).transpose(), direction_row(run.poses, i));
-  problem.initial = run.solution.parameters;
+  Eigen::VectorXd initial = run.solution.parameters;
+  std::swap(initial, problem.initial);
   KinematicSolution again = solve_kinematics(problem, run.identified, run.iterations);
-  problem.initial.resize(0);
+  std::swap(initial, problem.initial);
   if (again.termination != SolveTermination::kConverged) {
     problem.joints = start;
     return;

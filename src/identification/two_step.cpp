@@ -1,6 +1,7 @@
 #include "hapticcal/identification/two_step.hpp"
 
 #include <Eigen/Geometry>
+#include <optional>
 
 #include "hapticcal/kinematics/kinematics.hpp"
 
@@ -26,6 +27,8 @@ TwoStepJacobians two_step_jacobians(const DeviceModel& model, MeasurementType ty
   const Eigen::VectorXd p = model.kinematic_parameters();
   const ChainConstants<double> constants = chain_constants(s, p.data());
   const PreparedModel prepared(model);
+  std::optional<GravityModel> bend;  // a lateral compliance bends the links per pose
+  if (model.laterally_compliant()) bend.emplace(model);
   const int n = model.dof();
   const int d = traits(type).dimension;
   const Eigen::Index m = readings.rows();
@@ -34,7 +37,7 @@ TwoStepJacobians two_step_jacobians(const DeviceModel& model, MeasurementType ty
   out.dimension = d;
   out.kinematic.resize(m * d, k);
   out.joint.resize(m * d, n);
-  Eigen::VectorXd q(n), joint(n);
+  Eigen::VectorXd q(n), joint(n), rigid(n);
   Eigen::MatrixXd J_all(d, s.num_slots());
   Jacobian6<double> Jg;
   double measured[7], residual[6];
@@ -44,8 +47,9 @@ TwoStepJacobians two_step_jacobians(const DeviceModel& model, MeasurementType ty
     const Frame<double> tool = prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, Jg);
     predicted_values(type, tool, measured);
     // At the predicted values: zero residual (a pose's rotation rows then turn by w).
-    measurement_rows(type, s, constants, p.data(), joint.data(), measured, rotation_scale, residual,
-                     J_all);
+    if (bend) prepared.rigid_joints(q.data(), rigid.data());
+    measurement_rows(type, s, bend ? bend->pose_constants(rigid.data()) : constants, p.data(),
+                     joint.data(), measured, rotation_scale, residual, J_all);
     for (int c = 0; c < k; ++c) out.kinematic.block(r * d, c, d, 1) = J_all.col(slots[c]);
     kind_of(type).joint_rows(tool, Jg, rotation_scale, out.joint.block(r * d, 0, d, n));
   }

@@ -76,6 +76,7 @@ GravityModel::GravityModel(const DeviceModel& model) : structure(model.structure
     compliance[i] = model.compliance_fitted(i) ? 0.0 : model.links[i].compliance;
     lateral[i] = model.fitted_element("lateral", i) ? 0.0 : model.links[i].lateral_compliance;
     any_lateral = any_lateral || lateral[i] != 0;
+    any_compliance = any_compliance || compliance[i] != 0;
   }
 }
 

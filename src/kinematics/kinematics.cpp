@@ -85,7 +85,7 @@ PreparedModel::PreparedModel(const DeviceModel& model) : structure_(model.struct
 
 void PreparedModel::compensate(const double* q, double* joint) const {
   rigid_joints(q, joint);
-  if (gravity_) deflect(joint);
+  if (gravity_ && gravity_->any_compliance) deflect(joint);
 }
 
 void PreparedModel::rigid_joints(const double* q, double* joint) const {
@@ -143,7 +143,7 @@ void PreparedModel::transmission_errors(const double* q, double* error) const {
 
 void PreparedModel::reading_jacobian(const double* q, double* J_joint_reading) const {
   const int n = structure_.dof;
-  if (gravity_) {  // the deflection's slope by central differences
+  if (gravity_ && gravity_->any_compliance) {  // the deflection's slope by central differences
     const double h = 1e-6;
     std::array<double, kMaxDof> q_step, plus, minus;
     std::copy(q, q + n, q_step.begin());

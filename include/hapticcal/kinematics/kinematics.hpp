@@ -455,7 +455,8 @@ struct GravityModel {
   Eigen::Vector3d gravity;
   std::array<double, kMaxDof> mass{}, compliance{}, lateral{};
   std::array<Eigen::Vector3d, kMaxDof> com;
-  bool any_lateral = false;  // some lateral[i] != 0
+  bool any_lateral = false;     // some lateral[i] != 0
+  bool any_compliance = false;  // some compliance[i] != 0
 };
 
 // The calibrated model in the form a 1 kHz controller uses: transmissions and

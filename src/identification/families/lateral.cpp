@@ -18,7 +18,7 @@ namespace {
 
 // A URDF joint turning about its origin's x axis: its bend (about that axis)
 // would be its own turn, which "compliance" fits.
-bool bends(const Link& l) {
+bool can_bend(const Link& l) {
   return l.geometry != Geometry::kOrigin || l.prismatic() || std::abs(l.axis.x()) < 0.9;
 }
 
@@ -32,7 +32,7 @@ void offer_lateral(FamilyOffer& offer) {
   std::vector<std::string> skipped;
   std::erase_if(block.parameters, [&](const DeviceModel::FittedParameter& f) {
     const Link& l = offer.model.links[f.link];
-    if (bends(l)) return false;
+    if (can_bend(l)) return false;
     skipped.push_back(l.name);
     return true;
   });
@@ -54,8 +54,10 @@ class LateralFamily : public JointErrorFamily {
   // Offered unasked only where the model gives the masses: a lateral torque
   // from lumped masses is a guess at the load's direction.
   bool applies(const DeviceModel& model, const Log&) const override {
-    return model.gravity.norm() > 0 && std::any_of(model.links.begin(), model.links.end(),
-                                                   [](const Link& l) { return l.mass > 0; });
+    return model.gravity.norm() > 0 &&
+           std::any_of(model.links.begin(), model.links.end(),
+                       [](const Link& l) { return l.mass > 0; }) &&
+           std::any_of(model.links.begin(), model.links.end(), can_bend);
   }
   void offer(FamilyOffer& o) const override { offer_lateral(o); }
   DeviceModel::FittedBlock block(const DeviceModel& model) const override {
