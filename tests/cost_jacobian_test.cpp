@@ -318,25 +318,34 @@ TEST(CostJacobian, JointErrorStagesMatchCentralDifferences) {
   EXPECT_GE(stages, 30);
 }
 
+// A device's perturbed model loaded by gravity: no transmissions or coupling,
+// each link a mass of 0-2 kg at up to 5 cm from its frame and a random
+// compliance of up to 1e-3 rad/N m in `field` (the joint's or the lateral).
+template <typename Rng>
+DeviceModel gravity_loaded(const DeviceModel& file_model, Rng& rng, double Link::*field) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  DeviceModel model = perturbed(file_model, rng);
+  for (Link& l : model.links) {
+    l.transmission = Transmission();
+    l.mass = 1 + unit(rng);
+    l.com = 0.05 * Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
+    l.*field = 1e-3 * unit(rng);
+  }
+  model.coupling.resize(0, 0);
+  return model;
+}
+
 // The compliance family's stages (issue 25, item 2a): one parameter k a joint,
 // its column the joint's gravity torque (fixed at the start's geometry) times
 // the joint value's, against central differences; and the fitted k, made the
 // links' compliance, predicts the same rows through DeviceModel::compensate.
 TEST(CostJacobian, ComplianceStagesMatchCentralDifferences) {
   std::mt19937_64 rng(20261203);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
   int stages = 0;
   for (const auto& [label, file_model] : devices()) {
     for (const MeasurementType type : kTypes) {
       SCOPED_TRACE(label + " " + traits(type).name);
-      DeviceModel model = perturbed(file_model, rng);
-      for (Link& l : model.links) {
-        l.transmission = Transmission();
-        l.mass = 1 + unit(rng);
-        l.com = 0.05 * Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
-        l.compliance = 1e-3 * unit(rng);
-      }
-      model.coupling.resize(0, 0);
+      DeviceModel model = gravity_loaded(file_model, rng, &Link::compliance);
       model.fitted.push_back(detail::find_joint_error_family("compliance")->block(model));
       const std::vector<JointErrorStage> errors = joint_error_stages(model);
       stages += static_cast<int>(errors.size());
@@ -358,19 +367,11 @@ TEST(CostJacobian, ComplianceStagesMatchCentralDifferences) {
 // the rows with each pose's links bent, against central differences.
 TEST(CostJacobian, LateralStagesMatchCentralDifferences) {
   std::mt19937_64 rng(20261204);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
   int stages = 0;
   for (const auto& [label, file_model] : devices()) {
     for (const MeasurementType type : kTypes) {
       SCOPED_TRACE(label + " " + traits(type).name);
-      DeviceModel model = perturbed(file_model, rng);
-      for (Link& l : model.links) {
-        l.transmission = Transmission();
-        l.mass = 1 + unit(rng);
-        l.com = 0.05 * Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
-        l.lateral_compliance = 1e-3 * unit(rng);
-      }
-      model.coupling.resize(0, 0);
+      DeviceModel model = gravity_loaded(file_model, rng, &Link::lateral_compliance);
       DeviceModel held = model;
       model.fitted.push_back(detail::find_joint_error_family("lateral")->block(model));
       const std::vector<JointErrorStage> errors = joint_error_stages(model);

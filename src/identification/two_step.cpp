@@ -27,8 +27,6 @@ TwoStepJacobians two_step_jacobians(const DeviceModel& model, MeasurementType ty
   const Eigen::VectorXd p = model.kinematic_parameters();
   const ChainConstants<double> constants = chain_constants(s, p.data());
   const PreparedModel prepared(model);
-  std::optional<GravityModel> bend;  // a lateral compliance bends the links per pose
-  if (model.laterally_compliant()) bend.emplace(model);
   const int n = model.dof();
   const int d = traits(type).dimension;
   const Eigen::Index m = readings.rows();
@@ -37,7 +35,7 @@ TwoStepJacobians two_step_jacobians(const DeviceModel& model, MeasurementType ty
   out.dimension = d;
   out.kinematic.resize(m * d, k);
   out.joint.resize(m * d, n);
-  Eigen::VectorXd q(n), joint(n), rigid(n);
+  Eigen::VectorXd q(n), joint(n);
   Eigen::MatrixXd J_all(d, s.num_slots());
   Jacobian6<double> Jg;
   double measured[7], residual[6];
@@ -47,9 +45,9 @@ TwoStepJacobians two_step_jacobians(const DeviceModel& model, MeasurementType ty
     const Frame<double> tool = prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, Jg);
     predicted_values(type, tool, measured);
     // At the predicted values: zero residual (a pose's rotation rows then turn by w).
-    if (bend) prepared.rigid_joints(q.data(), rigid.data());
-    measurement_rows(type, s, bend ? bend->pose_constants(rigid.data()) : constants, p.data(),
-                     joint.data(), measured, rotation_scale, residual, J_all);
+    const std::optional<ChainConstants<double>> bent = prepared.bent_constants(q.data());
+    measurement_rows(type, s, bent ? *bent : constants, p.data(), joint.data(), measured,
+                     rotation_scale, residual, J_all);
     for (int c = 0; c < k; ++c) out.kinematic.block(r * d, c, d, 1) = J_all.col(slots[c]);
     kind_of(type).joint_rows(tool, Jg, rotation_scale, out.joint.block(r * d, 0, d, n));
   }

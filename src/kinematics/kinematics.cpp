@@ -88,6 +88,13 @@ void PreparedModel::compensate(const double* q, double* joint) const {
   if (gravity_ && gravity_->any_compliance) deflect(joint);
 }
 
+std::optional<ChainConstants<double>> PreparedModel::bent_constants(const double* q) const {
+  if (!gravity_ || !gravity_->lateral_any()) return std::nullopt;
+  std::array<double, kMaxDof> rigid;
+  rigid_joints(q, rigid.data());
+  return gravity_->pose_constants(rigid.data());
+}
+
 void PreparedModel::rigid_joints(const double* q, double* joint) const {
   const int n = structure_.dof;
   if (coupling_.empty() && !gravity_) {

@@ -120,8 +120,6 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
   const ChainStructure s = model.structure();
   const Eigen::VectorXd params = model.kinematic_parameters();
   const ChainConstants<double> constants = chain_constants(s, params.data());
-  std::optional<GravityModel> bend;  // a lateral compliance bends the links per pose
-  if (backlash && model.laterally_compliant()) bend.emplace(model);
   for (int r = 0; r < log.rows; ++r) {
     q = log.q.row(r).transpose();
     Frame<double> tool;
@@ -129,13 +127,8 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
       Eigen::VectorXd joint(model.dof());
       prepared.compensate(q.data(), joint.data());
       model.apply_backlash(log.direction.row(r), joint);
-      if (bend) {  // bent on the chain before any deflection
-        Eigen::VectorXd rigid(model.dof());
-        prepared.rigid_joints(q.data(), rigid.data());
-        tool = forward_kinematics(s, bend->pose_constants(rigid.data()), joint.data());
-      } else {
-        tool = forward_kinematics(s, constants, joint.data());
-      }
+      const std::optional<ChainConstants<double>> bent = prepared.bent_constants(q.data());
+      tool = forward_kinematics(s, bent ? *bent : constants, joint.data());
     } else {
       tool = prepared.forward(q.data());
     }

@@ -144,8 +144,6 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
   const ChainStructure s = actual.structure();
   const Eigen::VectorXd params = actual.kinematic_parameters();
   const ChainConstants<double> constants = chain_constants(s, params.data());
-  std::optional<GravityModel> bend;  // a lateral compliance bends the links per pose
-  if (backlash && actual.laterally_compliant()) bend.emplace(actual);
   for (int r = 0; r < poses; ++r) {
     log.line.push_back(r + 2);
     draw(r, rng, log.q);
@@ -158,13 +156,8 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
       }
       Eigen::VectorXd joint = actual.compensate(q);
       actual.apply_backlash(log.direction.row(r), joint);
-      if (bend) {  // bent on the chain before any deflection
-        Eigen::VectorXd rigid(n);
-        prepared.rigid_joints(q.data(), rigid.data());
-        T_meas_tool = forward_kinematics(s, bend->pose_constants(rigid.data()), joint.data());
-      } else {
-        T_meas_tool = forward_kinematics(s, constants, joint.data());
-      }
+      const std::optional<ChainConstants<double>> bent = prepared.bent_constants(q.data());
+      T_meas_tool = forward_kinematics(s, bent ? *bent : constants, joint.data());
     } else {
       T_meas_tool = prepared.forward(q.data());
     }

@@ -12,6 +12,7 @@
 #include <cassert>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "hapticcal/model/frame.hpp"
@@ -486,6 +487,11 @@ class PreparedModel {
   // The joint values without a compliant model's deflection (the chain its
   // gravity torques and lateral bends are formed on).
   void rigid_joints(const double* q, double* joint) const;
+  // A laterally compliant model's chain constants at the readings q, each
+  // link bent (GravityModel::pose_constants at q's rigid joint values), for
+  // kinematics formed from joint values moved otherwise (a backlash, the rows
+  // of a fit); none for any other model, whose constants do not depend on q.
+  std::optional<ChainConstants<double>> bent_constants(const double* q) const;
 
  private:
   Frame<double> chain(const double* q, Frame<double>* frames) const;
