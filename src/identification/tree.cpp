@@ -292,6 +292,25 @@ DeviceTree load_tree(const std::string& path, const std::vector<std::string>& ti
   return parse_tree(read_file(path, FileKind::kUrdf), path, tips, root);
 }
 
+DeviceModel tree_model(const DeviceTree& tree) {
+  DeviceModel m = tree.chains[0];
+  m.links.assign(static_cast<size_t>(tree.dof()), Link{});
+  m.parents.assign(static_cast<size_t>(tree.dof()), -1);
+  for (size_t c = 0; c < tree.chains.size(); ++c) {
+    const std::vector<int>& joints = tree.joint_of[c];
+    for (size_t j = 0; j < joints.size(); ++j) {
+      m.links[static_cast<size_t>(joints[j])] = tree.chains[c].links[j];
+      m.parents[static_cast<size_t>(joints[j])] = j == 0 ? -1 : joints[j - 1];
+    }
+  }
+  m.tip = tree.tips[0];
+  m.tip_link = tree.joint_of[0].back();
+  m.branches.clear();
+  for (size_t c = 1; c < tree.chains.size(); ++c)
+    m.branches.push_back({tree.tips[c], tree.joint_of[c].back(), tree.chains[c].tool});
+  return m;
+}
+
 Eigen::MatrixXd tree_random_readings(const DeviceTree& tree, int count, std::uint64_t seed) {
   std::vector<std::uniform_real_distribution<double>> joint(static_cast<size_t>(tree.dof()));
   for (size_t c = 0; c < tree.chains.size(); ++c) {

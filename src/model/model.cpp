@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <utility>
@@ -65,10 +66,52 @@ ChainStructure DeviceModel::structure() const {
     slot += block_size(l);
   }
   s.tool = slot;
+  if (tree()) s.tools_end = slot + kPoseSlots * tips();
   s.instrument = instrument_zero ? 1 : 0;
   for (const FittedBlock& b : fitted) s.errors += static_cast<int>(b.parameters.size());
   return s;
 }
+
+ChainStructure DeviceModel::structure(int tip) const {
+  const ChainStructure all = structure();
+  if (!tree()) return all;
+  ChainStructure s = all;
+  const std::vector<int> links = path(tip);
+  s.dof = static_cast<int>(links.size());
+  for (int i = 0; i < s.dof; ++i) s.joints[i] = all.joints[links[i]];
+  s.tool = tool_slot(tip);
+  s.tools_end = all.tools_end;
+  return s;
+}
+
+int DeviceModel::tip_link_of(int tip) const {
+  assert(tip >= 0 && tip < tips());
+  if (tip > 0) return branches[tip - 1].link;
+  return tip_link >= 0 ? tip_link : dof() - 1;
+}
+
+const std::array<double, 6>& DeviceModel::tip_tool(int tip) const {
+  assert(tip >= 0 && tip < tips());
+  return tip == 0 ? tool : branches[tip - 1].tool;
+}
+
+std::array<double, 6>& DeviceModel::tip_tool(int tip) {
+  return const_cast<std::array<double, 6>&>(std::as_const(*this).tip_tool(tip));
+}
+
+const std::string& DeviceModel::tip_name(int tip) const {
+  assert(tip >= 0 && tip < tips());
+  return tip == 0 ? this->tip : branches[tip - 1].tip;
+}
+
+std::vector<int> DeviceModel::path(int tip) const {
+  std::vector<int> out;
+  for (int i = tip_link_of(tip); i >= 0; i = parent(i)) out.push_back(i);
+  std::reverse(out.begin(), out.end());
+  return out;
+}
+
+int DeviceModel::tool_slot(int tip) const { return structure().tool_slot() + kPoseSlots * tip; }
 
 const DeviceModel::FittedBlock* DeviceModel::fitted_block(std::string_view family) const {
   for (const FittedBlock& b : fitted) {
@@ -113,7 +156,9 @@ Eigen::VectorXd DeviceModel::kinematic_parameters() const {
       p.segment<kLinkSlots>(o) << l.a, l.alpha, l.d, l.theta, l.beta;
     }
   }
-  for (int k = 0; k < kPoseSlots; ++k) p[s.tool_slot() + k] = tool[k];
+  for (int t = 0; t < tips(); ++t) {
+    for (int k = 0; k < kPoseSlots; ++k) p[s.tool_slot() + kPoseSlots * t + k] = tip_tool(t)[k];
+  }
   if (instrument_zero) p[s.instrument_slot()] = *instrument_zero;
   int e = s.errors_slot();
   for (const FittedBlock& b : fitted) {
@@ -140,7 +185,9 @@ void DeviceModel::set_kinematic_parameters(const Eigen::VectorXd& p) {
       l.beta = p[o + kLinkBeta];
     }
   }
-  for (int k = 0; k < kPoseSlots; ++k) tool[k] = p[s.tool_slot() + k];
+  for (int t = 0; t < tips(); ++t) {
+    for (int k = 0; k < kPoseSlots; ++k) tip_tool(t)[k] = p[s.tool_slot() + kPoseSlots * t + k];
+  }
   if (instrument_zero) instrument_zero = p[s.instrument_slot()];
   int e = s.errors_slot();
   for (FittedBlock& b : fitted) {
@@ -184,9 +231,12 @@ std::vector<ParameterInfo> DeviceModel::parameter_info() const {
       info.push_back({l.name + "." + names[k], o + k, unit, i, k});
     }
   }
-  for (int k = 0; k < 6; ++k) {
-    info.push_back({std::string("tool.") + kPoseNames[k], s.tool_slot() + k,
-                    k < 3 ? U::kLength : U::kAngle, dof(), k, B::kTool});
+  for (int t = 0; t < tips(); ++t) {
+    const std::string prefix = tree() ? tip_name(t) + ".tool." : std::string("tool.");
+    for (int k = 0; k < 6; ++k) {
+      info.push_back({prefix + kPoseNames[k], s.tool_slot() + kPoseSlots * t + k,
+                      k < 3 ? U::kLength : U::kAngle, dof(), k, B::kTool});
+    }
   }
   if (instrument_zero)
     info.push_back(

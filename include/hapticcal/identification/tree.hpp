@@ -56,6 +56,12 @@ DeviceTree parse_tree(const std::string& text, const std::string& origin,
 DeviceTree load_tree(const std::string& path, const std::vector<std::string>& tips,
                      const std::string& root = "");
 
+// The tree as one model (DeviceModel::tree): its links the tree's joints in
+// order (a log's q1..qN), each with its parent on the path from the root, the
+// first chain's tip and tool, and the other chains' as branches. Tip k's
+// kinematics (structure(k), path(k)) are chain k's.
+DeviceModel tree_model(const DeviceTree& tree);
+
 // `count` readings of the tree, each joint uniform within its limits
 // (seeded: the same on every platform's std::mt19937_64; the distribution's
 // arithmetic is the standard library's).

@@ -140,11 +140,16 @@ struct ChainStructure {
   int tool = 0;        // first slot of the tool block
   int instrument = 0;  // slots of the instrument block after the tool (0 or 1)
   int errors = 0;      // slots of the joint-error families' blocks after the instrument
+  // A tree's: the slot after the last tip's tool block (0: this tool's is the
+  // last). A tip's structure (DeviceModel::structure(tip)) is the chain root ->
+  // tip whose slots are the tree's: its joints those of the path, its tool the
+  // tip's, its vector the whole tree's.
+  int tools_end = 0;
 
   int base_slots() const { return base_kind == BaseKind::kDh ? 4 : kPoseSlots; }
   int num_slots() const { return errors_slot() + errors; }
-  int instrument_slot() const { return tool + kPoseSlots; }
-  int errors_slot() const { return tool + kPoseSlots + instrument; }
+  int instrument_slot() const { return tools_end ? tools_end : tool + kPoseSlots; }
+  int errors_slot() const { return instrument_slot() + instrument; }
   int link_slot(int i) const { return joints[i].slot; }  // i zero-based
   int tool_slot() const { return tool; }
 };
@@ -183,6 +188,21 @@ struct DeviceModel {
   std::array<double, 6> base{};  // DH: a, alpha, d, theta, 0, 0; pose: x, y, z, roll, pitch, yaw
   std::vector<Link> links;
   std::array<double, 6> tool{};  // x, y, z, roll, pitch, yaw
+  // A tree (a URDF's chains to several tips, --tip A,B): each link's parent
+  // link (-1: the base; empty: a chain, link i's parent is i - 1) and the tips
+  // after the first, each a link ending a path from the base and its own tool.
+  // The first tip is `tip` at link `tip_link` (-1: the last link) with `tool`.
+  // The vector's tool blocks are the tips', in tip order; a tree's parameter
+  // names carry the tip ("left_hand.tool.x"). A log's q1..qN are the links'.
+  struct Branch {
+    std::string tip;
+    int link = 0;
+    std::array<double, 6> tool{};
+  };
+  std::vector<int> parents;
+  std::string tip;
+  int tip_link = -1;
+  std::vector<Branch> branches;
   // A distance instrument's own zero d0 [m]: a cable encoder that reads
   // |p| + d0. Present (the slot "instrument.zero" after the tool) only in the
   // problems of step 2 that estimate it with the device (calibrate, for
@@ -242,7 +262,23 @@ struct DeviceModel {
 
   bool base_is_pose() const { return base_kind == BaseKind::kPose; }
   int dof() const { return static_cast<int>(links.size()); }
+  // The layout of the whole vector (a tree's: every link, the first tip's tool).
   ChainStructure structure() const;
+  // Tip k's chain in the tree's vector (a chain's only tip: structure()).
+  ChainStructure structure(int tip) const;
+
+  // Trees (a chain is a tree with one tip).
+  bool tree() const { return !branches.empty(); }
+  int tips() const { return 1 + static_cast<int>(branches.size()); }
+  int parent(int link) const { return parents.empty() ? link - 1 : parents[link]; }
+  int tip_link_of(int tip) const;
+  const std::array<double, 6>& tip_tool(int tip) const;
+  std::array<double, 6>& tip_tool(int tip);
+  const std::string& tip_name(int tip) const;
+  // The links root -> tip (a chain's: every link).
+  std::vector<int> path(int tip) const;
+  // The first slot of tip k's tool block.
+  int tool_slot(int tip) const;
 
   // The flat kinematic parameter vector and its inverse.
   Eigen::VectorXd kinematic_parameters() const;
