@@ -9,10 +9,13 @@
 #include <random>
 
 #include "hapticcal/core/files.hpp"
+#include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/tree.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/urdf.hpp"
+#include "identification/stack.hpp"
 #include "kdl_urdf.hpp"
+#include "test_models.hpp"
 
 namespace hapticcal {
 namespace {
@@ -109,6 +112,104 @@ TEST(TreeModel, EachTipMatchesKdlAndTheChains) {
       EXPECT_LT((got.R - want.R).norm(), 1e-12);
     }
   }
+}
+
+// The tree moved by 1 mm / 2 mrad (sd) in every joint and tool slot, its base
+// the tracker's frame: a truth, as the chains (DeviceTree, each its own
+// DeviceModel) and as one model.
+struct Truth {
+  DeviceTree chains;
+  DeviceModel model;
+};
+Truth truth(std::uint64_t seed) {
+  Truth t{two_arm_tree(), {}};
+  Eigen::VectorXd v = t.chains.values();
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  for (const ParameterInfo& p : t.chains.parameters) {
+    if (p.block == ParameterBlock::kBase) continue;
+    v[p.slot] += (p.unit == ParameterUnit::kLength ? 1e-3 : 2e-3) * gauss(rng);
+  }
+  v.head<6>() << 1.2, -0.4, 0.3, 0.05, -0.1, 2.0;
+  t.chains.set_values(v);
+  t.model = tree_model(t.chains);
+  return t;
+}
+
+// Random poses and each hand's point (x1.. the first tip, x2.. the second) from
+// the chains' own kinematics, noise sd `sigma` a coordinate.
+Log hands_log(const DeviceTree& chains, int rows, double sigma, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(-1.3, 1.3);
+  Log log = testing::blank_marker_log("hands.csv", rows, chains.dof(), 2);
+  for (int r = 0; r < rows; ++r) {
+    for (int j = 0; j < chains.dof(); ++j) log.q(r, j) = uniform(rng);
+    for (int c = 0; c < 2; ++c) {
+      const PreparedModel chain(chains.chains[static_cast<size_t>(c)]);
+      const Eigen::VectorXd q = chains.chain_reading(log.q.row(r).transpose(), c);
+      const Eigen::Vector3d p = chain.forward(q.data()).p;
+      for (int x = 0; x < 3; ++x) log.markers(r, 3 * c + x) = p[x] + sigma * gauss(rng);
+    }
+  }
+  return log;
+}
+
+// A tree log as one sample a tip; the tree's problem (the chain's pipeline:
+// kinematic_problem, its rows): each sample's residual the chains' prediction
+// minus the point, and the Jacobian against central differences.
+TEST(TreeModel, TheChainsProblemHoldsATree) {
+  const Truth t = truth(7);
+  const DeviceModel nominal = tree_model(two_arm_tree());
+  const Log log = hands_log(t.chains, 15, 0.0, 8);
+  const Log samples = tip_samples(nominal, log);
+  ASSERT_EQ(samples.rows, 30);
+  EXPECT_EQ(samples.tip[3], 1);
+  EXPECT_EQ(samples.line[3], log.line[1]);
+  const KinematicProblem problem = kinematic_problem(nominal, samples, {}, CalibrationOptions{});
+  ASSERT_GE(problem.tip, 0);
+  const ChainStructure s = nominal.structure();
+  const detail::RowsOf rows = detail::rows_of(problem);
+
+  // At the truth's vector every residual is zero; at the nominal's, the
+  // nominal chains' points minus the truth's.
+  const Eigen::VectorXd v = t.model.kinematic_parameters();
+  const detail::Stack at = detail::stack(s, v, problem.joints, rows, problem.measured, {});
+  ASSERT_EQ(at.r.size(), 90);
+  EXPECT_LT(at.r.cwiseAbs().maxCoeff(), 1e-12);
+  const DeviceTree nominal_chains = two_arm_tree();
+  const Eigen::VectorXd r = detail::residuals_at(s, nominal.kinematic_parameters(), problem.joints,
+                                                 rows, problem.measured, {});
+  for (int i = 0; i < samples.rows; ++i) {
+    const int c = samples.tip[static_cast<size_t>(i)];
+    const PreparedModel chain(nominal_chains.chains[static_cast<size_t>(c)]);
+    const Eigen::VectorXd q = nominal_chains.chain_reading(samples.q.row(i).transpose(), c);
+    const Eigen::Vector3d want = chain.forward(q.data()).p - samples.position.row(i).transpose();
+    EXPECT_LT((r.segment<3>(3 * i) - want).norm(), 1e-12) << i;
+  }
+
+  // Columns: central differences; a left-arm joint moves only the left hand's
+  // samples, a torso joint both.
+  for (Eigen::Index k = 0; k < v.size(); ++k) {
+    const double h = 1e-6;
+    Eigen::VectorXd up = v, down = v;
+    up[k] += h;
+    down[k] -= h;
+    const Eigen::VectorXd numeric =
+        (detail::residuals_at(s, up, problem.joints, rows, problem.measured, {}) -
+         detail::residuals_at(s, down, problem.joints, rows, problem.measured, {})) /
+        (2 * h);
+    EXPECT_LT((at.J.col(k) - numeric).norm(), 1e-6 * std::max(1.0, numeric.norm())) << k;
+  }
+  const int left = s.link_slot(3), torso = s.link_slot(0);
+  double left_on_right = 0, torso_on_right = 0;
+  for (int i = 0; i < samples.rows; ++i) {
+    if (samples.tip[static_cast<size_t>(i)] != 1) continue;
+    left_on_right += at.J.block(3 * i, left, 3, kOriginSlots).norm();
+    torso_on_right += at.J.block(3 * i, torso, 3, kOriginSlots).norm();
+  }
+  EXPECT_EQ(left_on_right, 0.0);
+  EXPECT_GT(torso_on_right, 0.0);
 }
 
 }  // namespace

@@ -237,8 +237,9 @@ std::vector<std::vector<int>> repeated_poses(const Log& log, bool by_direction) 
       std::memcpy(key.data() + sizeof(double) * j, &v, sizeof(double));
     }
     // A fixture log's rows are one pose only at one label.
-    const std::string labelled =
-        log.label.empty() ? key : key + '\0' + log.label[static_cast<size_t>(r)];
+    std::string labelled = log.label.empty() ? key : key + '\0' + log.label[static_cast<size_t>(r)];
+    // A tree's rows are one pose only at one tip.
+    if (!log.tip.empty()) labelled += '\0' + std::to_string(log.tip[static_cast<size_t>(r)]);
     const auto [it, added] = index.try_emplace(labelled, static_cast<int>(groups.size()));
     if (added) groups.emplace_back();
     groups[it->second].push_back(r);
@@ -273,6 +274,7 @@ Log average_repeats(const Log& log, const std::vector<std::vector<int>>& groups)
     out.q.row(g) = log.q.row(first);
     if (log.any_direction()) out.direction.row(g) = log.direction.row(first);  // one per group
     if (!log.label.empty()) out.label.push_back(log.label[static_cast<size_t>(first)]);
+    if (!log.tip.empty()) out.tip.push_back(log.tip[static_cast<size_t>(first)]);
     out.line.push_back(first < static_cast<int>(log.line.size()) ? log.line[first] : 0);
     if (log.has_time) out.t[g] = log.t[first];
     const double w = 1.0 / static_cast<double>(rows.size());
@@ -463,9 +465,12 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   const int m = poses.rows;
   const StepTwoJoints step_two(model);
   problem.bends = step_two.bends();
+  problem.tip = step_two.tip();
   problem.joints.resize(m);
-  for (int i = 0; i < m; ++i)
-    problem.joints[i] = step_two(poses.q.row(i).transpose(), direction_row(poses, i));
+  for (int i = 0; i < m; ++i) {
+    const int tip = poses.tip.empty() ? 0 : poses.tip[static_cast<size_t>(i)];
+    problem.joints[i] = step_two(poses.q.row(i).transpose(), direction_row(poses, i), tip);
+  }
   std::vector<int> pose_index(m);
   std::iota(pose_index.begin(), pose_index.end(), 0);
   problem.measured = pose_measurements(poses, pose_index, RowsOf{problem.type});

@@ -71,24 +71,28 @@ StepTwoJoints::StepTwoJoints(const DeviceModel& model)
     gravity_ = std::make_unique<const GravityModel>(model);
     bends_ = model.dof() + stored_;
   }
+  if (model.tree()) tip_ = model.dof() + stored_ + (bends_ >= 0 ? model.dof() : 0);
 }
 
 StepTwoJoints::~StepTwoJoints() = default;
 
-Eigen::VectorXd StepTwoJoints::operator()(
-    const Eigen::VectorXd& q, const Eigen::Ref<const Eigen::RowVectorXd>& direction) const {
+Eigen::VectorXd StepTwoJoints::operator()(const Eigen::VectorXd& q,
+                                          const Eigen::Ref<const Eigen::RowVectorXd>& direction,
+                                          int tip) const {
   const int n = model_.dof();
   Eigen::VectorXd joint(n);
   prepared_->compensate(q.data(), joint.data());
   model_.apply_backlash(direction, joint);
-  return with_features(joint, q, direction);
+  return with_features(joint, q, direction, tip);
 }
 
-Eigen::VectorXd StepTwoJoints::with_features(
-    const Eigen::VectorXd& values, const Eigen::VectorXd& q,
-    const Eigen::Ref<const Eigen::RowVectorXd>& direction) const {
+Eigen::VectorXd StepTwoJoints::with_features(const Eigen::VectorXd& values,
+                                             const Eigen::VectorXd& q,
+                                             const Eigen::Ref<const Eigen::RowVectorXd>& direction,
+                                             int tip) const {
   const int n = model_.dof();
-  Eigen::VectorXd joint(n + stored_ + (bends_ >= 0 ? n : 0));
+  Eigen::VectorXd joint(n + stored_ + (bends_ >= 0 ? n : 0) + (tip_ >= 0 ? 1 : 0));
+  if (tip_ >= 0) joint[tip_] = tip;
   joint.head(n) = values;
   for (const auto& [features, first] : features_)
     (*features)(joint.data(), q, direction, joint.data() + first);

@@ -31,12 +31,44 @@ struct RowsOf {
   // Where a pose's values hold its links' lateral bends (StepTwoJoints::bends:
   // a lateral compliance step 2 holds), or -1.
   int bends = -1;
+  // A tree's (ChainStructure::tips > 1): where a pose's values hold the tip it
+  // measures (StepTwoJoints::tip), or -1: the first.
+  int tip = -1;
   int dimension() const { return traits(type).dimension; }
   // Residual rows of `poses` poses: a fixture problem's include its known distances.
   int rows(int poses) const {
     return labels ? fixture_rows(type, *labels, poses) : poses * dimension();
   }
 };
+
+// The family's rows of one pose at its joint values `joint` (dof values, the
+// kinematics' links' constants `constants`): a tree's of the tip the pose's
+// values name (kind.tip), on that tip's chain (ChainStructure::tip) in the
+// tree's vector.
+inline void tip_rows(const ChainStructure& s, const ChainConstants<double>& constants,
+                     const double* params, const double* joint, const double* values,
+                     const RowsOf& kind, const double* measured, double* residual,
+                     Eigen::Ref<Eigen::MatrixXd> J) {
+  if (s.tips == 1) {
+    hapticcal::measurement_rows(kind.type, s, constants, params, joint, measured,
+                                kind.rotation_scale, residual, J);
+    return;
+  }
+  const int k = kind.tip >= 0 ? static_cast<int>(values[kind.tip]) : 0;
+  std::array<int, kMaxDof> links;
+  const int n = s.path(k, links.data());
+  const ChainStructure chain = s.tip(k);
+  ChainConstants<double> on_path;
+  on_path.base = constants.base;
+  on_path.tool = tool_frame(chain, params);
+  std::array<double, kMaxDof> q;
+  for (int i = 0; i < n; ++i) {
+    on_path.links[i] = constants.links[links[i]];
+    q[i] = joint[links[i]];
+  }
+  hapticcal::measurement_rows(kind.type, chain, on_path, params, q.data(), measured,
+                              kind.rotation_scale, residual, J);
+}
 
 // The rows of one pose and their Jacobian; with joint-error stages
 // (JointErrorStage) the joint values moved by them first, and each stage
@@ -48,8 +80,7 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
                              const double* measured, double* residual,
                              Eigen::Ref<Eigen::MatrixXd> J) {
   if (!kind.errors && kind.bends < 0) {
-    hapticcal::measurement_rows(kind.type, s, constants, params, joint, measured,
-                                kind.rotation_scale, residual, J);
+    tip_rows(s, constants, params, joint, joint, kind, measured, residual, J);
     return;
   }
   static const std::vector<JointErrorStage> kNoStages;
@@ -77,8 +108,7 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
     for (int c = 0; c < e.count; ++c) target += (params[e.slot + c] - e.nominal) * x[c];
   }
   if (bent) bend_links(s, bend.data(), pose->links.data());
-  hapticcal::measurement_rows(kind.type, s, bent ? *pose : constants, params, moved.data(),
-                              measured, kind.rotation_scale, residual, J);
+  tip_rows(s, bent ? *pose : constants, params, moved.data(), joint, kind, measured, residual, J);
   for (const JointErrorStage& e : stages) {
     const double* x = features(e);
     // A bend turns the link's alpha / roll: that slot's column.

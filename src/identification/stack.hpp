@@ -86,9 +86,12 @@ double position_rss(const Eigen::VectorXd& r, const RowsOf& kind);
 
 // The rows of a problem: its measurement type, rotation scale and fixture labels.
 inline RowsOf rows_of(const KinematicProblem& problem) {
-  return {problem.type, problem.rotation_scale,
+  return {problem.type,
+          problem.rotation_scale,
           is_fixture(problem.type) ? &problem.labels : nullptr,
-          problem.joint_errors.empty() ? nullptr : &problem.joint_errors, problem.bends};
+          problem.joint_errors.empty() ? nullptr : &problem.joint_errors,
+          problem.bends,
+          problem.tip};
 }
 
 // select_model and cross_validate (identification.hpp) at a fit whose stack

@@ -311,6 +311,44 @@ DeviceModel tree_model(const DeviceTree& tree) {
   return m;
 }
 
+Log tip_samples(const DeviceModel& tree, const Log& log) {
+  const int k = tree.tips();
+  if (log.marker_count != k)
+    throw InputError(log.origin, log.line.empty() ? 0 : log.line[0], "x1",
+                     fmt::format("the tree has {} tips: give x, y, z of each (x1 ... z{}); the "
+                                 "log has {} points a row",
+                                 k, k, log.marker_count));
+  if (!log.label.empty() || log.has_orientation || log.has_distance || !log.columns.empty())
+    throw InputError(log.origin, 0, "x1",
+                     "a tree's log gives each tip's point only (no labels, orientations, "
+                     "distances or other measurements yet)");
+  Log out = log;
+  out.rows = log.rows * k;
+  out.marker_count = 0;
+  out.markers.resize(0, 0);
+  out.has_position = true;
+  out.position.resize(out.rows, 3);
+  out.q.resize(out.rows, log.dof());
+  out.ext.resize(out.rows, log.ext.cols());
+  out.direction.resize(out.rows, log.direction.cols());
+  if (log.has_time) out.t.resize(out.rows);
+  out.line.clear();
+  out.tip.clear();
+  for (int r = 0; r < log.rows; ++r) {
+    for (int t = 0; t < k; ++t) {
+      const int row = r * k + t;
+      out.q.row(row) = log.q.row(r);
+      if (log.ext.cols() > 0) out.ext.row(row) = log.ext.row(r);
+      if (log.direction.cols() > 0) out.direction.row(row) = log.direction.row(r);
+      if (log.has_time) out.t[row] = log.t[r];
+      out.position.row(row) = log.markers.row(r).segment<3>(3 * t);
+      out.line.push_back(r < static_cast<int>(log.line.size()) ? log.line[r] : 0);
+      out.tip.push_back(t);
+    }
+  }
+  return out;
+}
+
 Eigen::MatrixXd tree_random_readings(const DeviceTree& tree, int count, std::uint64_t seed) {
   std::vector<std::uniform_real_distribution<double>> joint(static_cast<size_t>(tree.dof()));
   for (size_t c = 0; c < tree.chains.size(); ++c) {

@@ -66,21 +66,39 @@ ChainStructure DeviceModel::structure() const {
     slot += block_size(l);
   }
   s.tool = slot;
-  if (tree()) s.tools_end = slot + kPoseSlots * tips();
+  if (tree()) {
+    s.tools_end = slot + kPoseSlots * tips();
+    s.tips = tips();
+    for (int i = 0; i < dof(); ++i) s.parent[i] = parent(i);
+    for (int t = 0; t < tips(); ++t) s.tip_link[t] = tip_link_of(t);
+  }
   s.instrument = instrument_zero ? 1 : 0;
   for (const FittedBlock& b : fitted) s.errors += static_cast<int>(b.parameters.size());
   return s;
 }
 
-ChainStructure DeviceModel::structure(int tip) const {
-  const ChainStructure all = structure();
-  if (!tree()) return all;
-  ChainStructure s = all;
-  const std::vector<int> links = path(tip);
-  s.dof = static_cast<int>(links.size());
-  for (int i = 0; i < s.dof; ++i) s.joints[i] = all.joints[links[i]];
-  s.tool = tool_slot(tip);
-  s.tools_end = all.tools_end;
+ChainStructure DeviceModel::structure(int tip) const { return structure().tip(tip); }
+
+int ChainStructure::path(int k, int* links) const {
+  assert(k >= 0 && k < tips);
+  if (tips == 1) {
+    for (int i = 0; i < dof; ++i) links[i] = i;
+    return dof;
+  }
+  int n = 0;
+  for (int i = tip_link[k]; i >= 0; i = parent[i]) links[n++] = i;
+  std::reverse(links, links + n);
+  return n;
+}
+
+ChainStructure ChainStructure::tip(int k) const {
+  if (tips == 1) return *this;
+  ChainStructure s = *this;
+  std::array<int, kMaxDof> links;
+  s.dof = path(k, links.data());
+  for (int i = 0; i < s.dof; ++i) s.joints[i] = joints[links[i]];
+  s.tool = tool + kPoseSlots * k;
+  s.tips = 1;
   return s;
 }
 

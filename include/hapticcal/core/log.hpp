@@ -52,6 +52,9 @@ struct Log {
   // reader does not read them (yet); repeats are averaged like the columns above.
   std::map<std::string, Eigen::MatrixXd> columns;
   std::vector<int> line;  // source line of each row
+  // A tree's samples (tip_samples: a row a tip of a log row): the tip each row
+  // measures; empty: the first (a chain's only one).
+  std::vector<int> tip;
   int dof() const { return static_cast<int>(q.cols()); }
   bool directed(int joint) const {
     return joint < static_cast<int>(has_direction.size()) && has_direction[joint];

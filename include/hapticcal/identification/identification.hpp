@@ -451,6 +451,9 @@ struct KinematicProblem {
   // Where each pose's values hold its links' lateral bends (a lateral
   // compliance step 2 holds: StepTwoJoints::bends), or -1.
   int bends = -1;
+  // A tree's (DeviceModel::tree): where each pose's values hold the tip it
+  // measures (StepTwoJoints::tip), or -1.
+  int tip = -1;
   // Where Levenberg-Marquardt starts (every slot), if not at the model: a
   // nearby fit's (the model search's family sets start at the geometry's).
   // The model stays the start of everything else (the prior's centre, what a

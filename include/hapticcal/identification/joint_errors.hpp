@@ -60,12 +60,15 @@ class StepTwoJoints {
  public:
   explicit StepTwoJoints(const DeviceModel& model);
   ~StepTwoJoints();
+  // A tree's pose measures one tip (`tip`, stored last: tip()).
   Eigen::VectorXd operator()(const Eigen::VectorXd& q,
-                             const Eigen::Ref<const Eigen::RowVectorXd>& direction) const;
+                             const Eigen::Ref<const Eigen::RowVectorXd>& direction,
+                             int tip = 0) const;
   // The same from given joint values (the readings' q are the couplings'
   // features).
   Eigen::VectorXd with_features(const Eigen::VectorXd& joint, const Eigen::VectorXd& q,
-                                const Eigen::Ref<const Eigen::RowVectorXd>& direction) const;
+                                const Eigen::Ref<const Eigen::RowVectorXd>& direction,
+                                int tip = 0) const;
   // A pose's values whose joint values moved: the features of the joint values
   // formed again (a compliance's torque), the others kept.
   void refresh(Eigen::VectorXd& values) const;
@@ -74,12 +77,15 @@ class StepTwoJoints {
   // (DeviceModel::laterally_compliant), formed from the readings' joint values
   // before any deflection (GravityModel::bends); -1: none.
   int bends() const { return bends_; }
+  // Where a tree's pose's values hold the tip it measures; -1: a chain.
+  int tip() const { return tip_; }
 
  private:
   const DeviceModel& model_;
   std::unique_ptr<const PreparedModel> prepared_;
   std::unique_ptr<const GravityModel> gravity_;  // the held lateral compliance's
   int bends_ = -1;
+  int tip_ = -1;
   // Each family's features of a pose and where they start in its values.
   std::vector<std::pair<std::unique_ptr<const PoseFeatures>, int>> features_;
   int stored_ = 0;  // features a pose

@@ -62,6 +62,12 @@ DeviceTree load_tree(const std::string& path, const std::vector<std::string>& ti
 // kinematics (structure(k), path(k)) are chain k's.
 DeviceModel tree_model(const DeviceTree& tree);
 
+// A tree log (x1, y1, z1 at the first tip, x2, ... at the second, ...) as
+// one sample a tip of each row, in row order (Log::tip): each a position of
+// its tip, with the row's readings, directions, time and line. InputError
+// naming the log for another number of marker points than the model's tips.
+Log tip_samples(const DeviceModel& tree, const Log& log);
+
 // `count` readings of the tree, each joint uniform within its limits
 // (seeded: the same on every platform's std::mt19937_64; the distribution's
 // arithmetic is the standard library's).

@@ -145,6 +145,17 @@ struct ChainStructure {
   // tip whose slots are the tree's: its joints those of the path, its tool the
   // tip's, its vector the whole tree's.
   int tools_end = 0;
+  // A tree's tips (1: a chain), each link's parent (-1: the base) and each tip's
+  // last link, for tip(k).
+  int tips = 1;
+  std::array<int, kMaxDof> parent{};
+  std::array<int, kMaxDof> tip_link{};
+
+  // Tip k's chain: the joints on its path, its tool, the tree's vector (a
+  // chain's only tip: itself).
+  ChainStructure tip(int k) const;
+  // The links on tip k's path, root first, into `links`; their count.
+  int path(int k, int* links) const;
 
   int base_slots() const { return base_kind == BaseKind::kDh ? 4 : kPoseSlots; }
   int num_slots() const { return errors_slot() + errors; }
