@@ -340,8 +340,7 @@ void check_nominal(CalibrationRun& run) {
   // step2_nominal: its compensate leaves a fitted compliance to the stages (kind).
   const StepTwoJoints step_two(run.step2_nominal);
   std::vector<Eigen::VectorXd> nominal_joints(m);
-  for (int i = 0; i < m; ++i)
-    nominal_joints[i] = step_two(run.poses.q.row(i).transpose(), direction_row(run.poses, i));
+  for (int i = 0; i < m; ++i) nominal_joints[i] = step_two.row(run.poses, i);
   const Eigen::VectorXd r0 =
       residuals_at(s, run.step2_nominal.kinematic_parameters(), nominal_joints, kind,
                    run.problem.measured, run.problem.weights);

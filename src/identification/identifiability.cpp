@@ -357,9 +357,9 @@ void record_verdicts(const KinematicProblem& problem, const RankFindings& f,
 // formed into step 2's joint values through the model's coupling.
 std::vector<Eigen::VectorXd> structural_joints(const DeviceModel& model) {
   std::mt19937_64 rng(kStructuralSeed);
-  std::vector<Eigen::VectorXd> synthetic(kStructuralPoses);
+  std::vector<Eigen::VectorXd> synthetic;
   const StepTwoJoints step_two(model);
-  for (Eigen::VectorXd& qs : synthetic) {
+  for (int pose = 0; pose < kStructuralPoses; ++pose) {
     Eigen::VectorXd reading(model.dof());
     for (int j = 0; j < model.dof(); ++j) {
       reading[j] =
@@ -370,7 +370,8 @@ std::vector<Eigen::VectorXd> structural_joints(const DeviceModel& model) {
       direction.setZero(model.dof());
       for (const auto& b : backlash->parameters) direction[b.link] = rng() % 2 ? 1.0 : -1.0;
     }
-    qs = step_two(reading, direction);
+    for (int tip = 0; tip < model.tips(); ++tip)  // a tree's: each tip at each
+      synthetic.push_back(step_two(reading, direction, tip));
   }
   return synthetic;
 }
@@ -447,7 +448,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
     const auto links = std::stable_partition(order.begin(), order.end(), is_base);
     if (problem.frame_unknown) {
       std::stable_partition(links, order.end(), [&](int slot) {
-        return slot >= s.tool_slot() && slot < s.tool_slot() + kPoseSlots;
+        return slot >= s.tool_slot() && slot < s.instrument_slot();  // every tip's tool
       });
     }
   }

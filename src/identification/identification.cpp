@@ -84,7 +84,7 @@ RowMatrix predicted_values(const ChainStructure& s, const Eigen::VectorXd& param
   if (is_fixture(kind.type)) return RowMatrix::Zero(out.rows(), out.cols());  // nothing measured
   const ChainConstants<double> constants = chain_constants(s, params.data());
   for (size_t i = 0; i < joints.size(); ++i) {
-    const Frame<double> tool = forward_kinematics(s, constants, joints[i].data());
+    const Frame<double> tool = pose_tool(s, constants, params.data(), joints[i].data(), kind.tip);
     double* row = out.row(i).data();
     hapticcal::predicted_values(kind.type, tool, row);
     // The instrument reads its zero d0 on top (step 2's "instrument.zero").
@@ -152,7 +152,7 @@ std::optional<std::string> register_frame(DeviceModel& model,
   const Eigen::Index m = static_cast<Eigen::Index>(joints.size());
   Eigen::Matrix3Xd a(3, m), b(3, m);
   for (Eigen::Index i = 0; i < m; ++i) {
-    a.col(i) = forward_kinematics(s, constants, joints[i].data()).p;
+    a.col(i) = detail::pose_tool(s, constants, p.data(), joints[i].data(), kind.tip).p;
     b.col(i) = measured.row(i).head<3>().transpose();
   }
   const Eigen::VectorXd w =
@@ -370,7 +370,8 @@ void set_scales(KinematicProblem& problem) {
   const ChainConstants<double> constants = chain_constants(s, p.data());
   double sum = 0;
   for (const Eigen::VectorXd& jq : problem.joints) {
-    sum += (forward_kinematics(s, constants, jq.data()).p - constants.base.p).squaredNorm();
+    sum += (detail::pose_tool(s, constants, p.data(), jq.data(), problem.tip).p - constants.base.p)
+               .squaredNorm();
   }
   problem.length_scale =
       std::max(std::sqrt(sum / std::max<double>(problem.joints.size(), 1)), 1e-3);
@@ -467,10 +468,7 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   problem.bends = step_two.bends();
   problem.tip = step_two.tip();
   problem.joints.resize(m);
-  for (int i = 0; i < m; ++i) {
-    const int tip = poses.tip.empty() ? 0 : poses.tip[static_cast<size_t>(i)];
-    problem.joints[i] = step_two(poses.q.row(i).transpose(), direction_row(poses, i), tip);
-  }
+  for (int i = 0; i < m; ++i) problem.joints[i] = step_two.row(poses, i);
   std::vector<int> pose_index(m);
   std::iota(pose_index.begin(), pose_index.end(), 0);
   problem.measured = pose_measurements(poses, pose_index, RowsOf{problem.type});

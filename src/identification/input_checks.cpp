@@ -148,8 +148,8 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
   const ChainConstants<double> constants = chain_constants(s, p.data());
   double reach = 0;
   for (const Eigen::VectorXd& q : joints) {
-    reach =
-        std::max(reach, (forward_kinematics(s, constants, q.data()).p - constants.base.p).norm());
+    reach = std::max(
+        reach, (pose_tool(s, constants, p.data(), q.data(), kind.tip).p - constants.base.p).norm());
   }
   const double limit = kImplausibleErrorFraction * reach;
   if (!(rms_before > limit)) return;

@@ -86,6 +86,11 @@ Eigen::VectorXd StepTwoJoints::operator()(const Eigen::VectorXd& q,
   return with_features(joint, q, direction, tip);
 }
 
+Eigen::VectorXd StepTwoJoints::row(const Log& log, int r) const {
+  return (*this)(log.q.row(r).transpose(), direction_row(log, r),
+                 log.tip.empty() ? 0 : log.tip[static_cast<size_t>(r)]);
+}
+
 Eigen::VectorXd StepTwoJoints::with_features(const Eigen::VectorXd& values,
                                              const Eigen::VectorXd& q,
                                              const Eigen::Ref<const Eigen::RowVectorXd>& direction,

@@ -78,8 +78,7 @@ void reform_on_fit(CalibrationRun& run) {
   at.set_kinematic_parameters(run.solution.parameters);
   const StepTwoJoints step_two(at);
   const std::vector<Eigen::VectorXd> start = problem.joints;
-  for (int i = 0; i < run.poses.rows; ++i)
-    problem.joints[i] = step_two(run.poses.q.row(i).transpose(), direction_row(run.poses, i));
+  for (int i = 0; i < run.poses.rows; ++i) problem.joints[i] = step_two.row(run.poses, i);
   Eigen::VectorXd initial = run.solution.parameters;
   std::swap(initial, problem.initial);
   KinematicSolution again = solve_kinematics(problem, run.identified, run.iterations);

@@ -41,10 +41,44 @@ struct RowsOf {
   }
 };
 
+// Tip k's chain of a tree (ChainStructure::tip) at the tree's joint values
+// `joint` and link constants: its structure in the tree's vector, its
+// constants (its path's links, its tool) and its joint values.
+struct TipChain {
+  ChainStructure s;
+  ChainConstants<double> constants;
+  std::array<double, kMaxDof> joint;
+};
+inline void tip_chain(const ChainStructure& tree, const ChainConstants<double>& constants,
+                      const double* params, const double* joint, int k, TipChain& out) {
+  std::array<int, kMaxDof> links;
+  const int n = tree.path(k, links.data());
+  out.s = tree.tip(k);
+  out.constants.base = constants.base;
+  out.constants.tool = tool_frame(out.s, params);
+  for (int i = 0; i < n; ++i) {
+    out.constants.links[i] = constants.links[links[i]];
+    out.joint[i] = joint[links[i]];
+  }
+}
+// The tip a pose's values name (a chain's: 0).
+inline int tip_of(const ChainStructure& s, const double* values, int tip_at) {
+  return s.tips > 1 && tip_at >= 0 ? static_cast<int>(values[tip_at]) : 0;
+}
+
+// T_meas_tool of a pose at its values (a tree's: of the tip they name, at
+// tip_at: RowsOf::tip).
+inline Frame<double> pose_tool(const ChainStructure& s, const ChainConstants<double>& constants,
+                               const double* params, const double* values, int tip_at) {
+  if (s.tips == 1) return forward_kinematics(s, constants, values);
+  TipChain chain;
+  tip_chain(s, constants, params, values, tip_of(s, values, tip_at), chain);
+  return forward_kinematics(chain.s, chain.constants, chain.joint.data());
+}
+
 // The family's rows of one pose at its joint values `joint` (dof values, the
 // kinematics' links' constants `constants`): a tree's of the tip the pose's
-// values name (kind.tip), on that tip's chain (ChainStructure::tip) in the
-// tree's vector.
+// values name (kind.tip), on that tip's chain in the tree's vector.
 inline void tip_rows(const ChainStructure& s, const ChainConstants<double>& constants,
                      const double* params, const double* joint, const double* values,
                      const RowsOf& kind, const double* measured, double* residual,
@@ -54,20 +88,10 @@ inline void tip_rows(const ChainStructure& s, const ChainConstants<double>& cons
                                 kind.rotation_scale, residual, J);
     return;
   }
-  const int k = kind.tip >= 0 ? static_cast<int>(values[kind.tip]) : 0;
-  std::array<int, kMaxDof> links;
-  const int n = s.path(k, links.data());
-  const ChainStructure chain = s.tip(k);
-  ChainConstants<double> on_path;
-  on_path.base = constants.base;
-  on_path.tool = tool_frame(chain, params);
-  std::array<double, kMaxDof> q;
-  for (int i = 0; i < n; ++i) {
-    on_path.links[i] = constants.links[links[i]];
-    q[i] = joint[links[i]];
-  }
-  hapticcal::measurement_rows(kind.type, chain, on_path, params, q.data(), measured,
-                              kind.rotation_scale, residual, J);
+  TipChain chain;
+  tip_chain(s, constants, params, joint, tip_of(s, values, kind.tip), chain);
+  hapticcal::measurement_rows(kind.type, chain.s, chain.constants, params, chain.joint.data(),
+                              measured, kind.rotation_scale, residual, J);
 }
 
 // The rows of one pose and their Jacobian; with joint-error stages

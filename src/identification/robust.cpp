@@ -227,8 +227,7 @@ SuspectFit check_suspect(const KinematicFit& fit, const KinematicProblem& proble
     base_only.model = nominal_in_frame;
     base_only.weights = weights;
     const StepTwoJoints step_two(nominal_in_frame);
-    for (int i = 0; i < poses.rows; ++i)
-      base_only.joints[i] = step_two(poses.q.row(i).transpose(), direction_row(poses, i));
+    for (int i = 0; i < poses.rows; ++i) base_only.joints[i] = step_two.row(poses, i);
     const ChainStructure s = nominal_in_frame.structure();
     std::vector<int> base_slots;
     for (int k = 0; k < s.base_slots(); ++k) base_slots.push_back(k);

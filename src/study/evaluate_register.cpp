@@ -148,7 +148,7 @@ RegisteredModel register_for_evaluation(const DeviceModel& model, const Log& log
   const StepTwoJoints step_two(m);
   const int bends = step_two.bends();
   for (int r = 0; r < log.rows; ++r) {
-    joints[r] = step_two(log.q.row(r).transpose(), direction_row(log, r));
+    joints[r] = step_two.row(log, r);
     measured_values(type, log, r, measured.row(r).data());
     ChainConstants<double> bent = constants;
     if (bends >= 0) bend_links(s, joints[r].data() + bends, bent.links.data());

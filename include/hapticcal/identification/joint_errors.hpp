@@ -64,6 +64,8 @@ class StepTwoJoints {
   Eigen::VectorXd operator()(const Eigen::VectorXd& q,
                              const Eigen::Ref<const Eigen::RowVectorXd>& direction,
                              int tip = 0) const;
+  // Row r of a log: its readings, approach directions and tip.
+  Eigen::VectorXd row(const Log& log, int r) const;
   // The same from given joint values (the readings' q are the couplings'
   // features).
   Eigen::VectorXd with_features(const Eigen::VectorXd& joint, const Eigen::VectorXd& q,
