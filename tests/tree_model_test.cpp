@@ -52,6 +52,16 @@ TEST(TreeModel, LinksParentsAndTips) {
   EXPECT_EQ(chain.path(0).size(), 7u);
   EXPECT_EQ(chain.structure(0).num_slots(), chain.structure().num_slots());
   EXPECT_EQ(chain.tool_slot(0), chain.structure().tool_slot());
+  // The prepared model composes one chain: a tree's readings it compensates,
+  // its kinematics it refuses (never a wrong chain through every link).
+  const PreparedModel prepared(m);
+  Eigen::VectorXd q = Eigen::VectorXd::Constant(m.dof(), 0.3), joint(m.dof());
+  prepared.compensate(q.data(), joint.data());
+  EXPECT_EQ(joint, q);
+  EXPECT_THROW(prepared.forward(q.data()), std::logic_error);
+  Jacobian6<double> J;
+  EXPECT_THROW(prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, J),
+               std::logic_error);
 }
 
 // Each tip's forward kinematics against KDL's chain to that tip, on the

@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <stdexcept>
 
 #include "kinematics/fast_math.hpp"
 
@@ -200,7 +201,14 @@ void PreparedModel::joint_angles(const double* joint, double* cos_theta, double*
   }
 }
 
+void PreparedModel::refuse_tree() const {
+  throw std::logic_error(
+      "a tree's kinematics are its tips' chains (DeviceModel::structure(tip)); the prepared "
+      "model composes one chain");
+}
+
 Frame<double> PreparedModel::chain_from_joints(const double* joint, Frame<double>* frames) const {
+  if (structure_.tips > 1) refuse_tree();
   std::array<double, kMaxDof> cos_theta, sin_theta, length;
   joint_angles(joint, cos_theta.data(), sin_theta.data(), length.data());
   return compose(cos_theta.data(), sin_theta.data(), length.data(), frames);
@@ -245,6 +253,7 @@ Frame<double> PreparedModel::compose_bent(const double* cos_theta, const double*
 // joints; then the arc tangents of eq. (1). A capstan joint's angle
 // theta = q + (error + offset) is turned from (cos q, sin q) by that small angle.
 Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const {
+  if (structure_.tips > 1) refuse_tree();
   if (gravity_) return compliant_chain(q, frames);
   if (!coupling_.empty()) {
     std::array<double, kMaxDof> joint;

@@ -494,6 +494,9 @@ class PreparedModel {
   std::optional<ChainConstants<double>> bent_constants(const double* q) const;
 
  private:
+  // A tree model (DeviceModel::tree): its compensation is the chain's, its
+  // kinematics are not one chain's; std::logic_error.
+  [[noreturn]] void refuse_tree() const;
   Frame<double> chain(const double* q, Frame<double>* frames) const;
   // dtheta_k(q_k) of every reading, the capstans' sines, cosines and arc
   // tangents in batches (the coupled path's compensation).
