@@ -11,14 +11,62 @@
 
 namespace hapticcal {
 
+namespace {
+
+// The mass a joint carries and its first moment: of the links after it on a
+// chain, of its subtree on a tree (each link's added to its parent's, from the
+// last link back: a parent comes before its children).
+class CarriedMass {
+ public:
+  CarriedMass(const ChainStructure& s, const Frame<double>* frames, const double* mass,
+              const Eigen::Vector3d* com)
+      : s_(s), frames_(frames), mass_(mass), com_(com) {
+    if (s.tips > 1) {
+      std::fill(M_.begin(), M_.begin() + s.dof, 0.0);
+      std::fill(S_.begin(), S_.begin() + s.dof, Eigen::Vector3d::Zero());
+    }
+  }
+  // Link i's (called for i = dof - 1 down to 0).
+  void add(int i, double& M, Eigen::Vector3d& S) {
+    const Eigen::Vector3d own = mass_[i] * (frames_[i + 1].R * com_[i] + frames_[i + 1].p);
+    if (s_.tips == 1) {  // a chain: links i..n
+      chain_M_ += mass_[i];
+      chain_S_ += own;
+      M = chain_M_;
+      S = chain_S_;
+      return;
+    }
+    M_[i] += mass_[i];
+    S_[i] += own;
+    M = M_[i];
+    S = S_[i];
+    if (const int p = s_.parent[i]; p >= 0) {
+      M_[p] += M_[i];
+      S_[p] += S_[i];
+    }
+  }
+
+ private:
+  const ChainStructure& s_;
+  const Frame<double>* frames_;
+  const double* mass_;
+  const Eigen::Vector3d* com_;
+  double chain_M_ = 0;
+  Eigen::Vector3d chain_S_ = Eigen::Vector3d::Zero();
+  std::array<double, kMaxDof> M_;
+  std::array<Eigen::Vector3d, kMaxDof> S_;
+};
+
+}  // namespace
+
 void gravity_torques(const ChainStructure& s, const Frame<double>* frames, const double* mass,
                      const Eigen::Vector3d* com, const Eigen::Vector3d& gravity, double* tau) {
   const Eigen::Vector3d g = frames[0].R * gravity;  // in the measurement frame
-  double M = 0;                                     // mass of links i..n
-  Eigen::Vector3d S = Eigen::Vector3d::Zero();      // their first moment
+  CarriedMass carried(s, frames, mass, com);
+  double M = 0;                                 // the mass joint i carries
+  Eigen::Vector3d S = Eigen::Vector3d::Zero();  // its first moment
   for (int i = s.dof - 1; i >= 0; --i) {
-    M += mass[i];
-    S += mass[i] * (frames[i + 1].R * com[i] + frames[i + 1].p);
+    carried.add(i, M, S);
     Vec3<double> axis, point;
     joint_axis(s, frames, i, axis, point);
     tau[i] = s.joints[i].prismatic() ? M * axis.dot(g) : axis.dot((S - M * point).cross(g));
@@ -32,11 +80,12 @@ void lateral_axis(const ChainStructure& s, const LinkConstants<double>& k,
     axis = k.cos_beta * frames[i + 1].R.col(0) + k.sin_beta * frames[i + 1].R.col(2);
     point = frames[i + 1].p;
   } else if (j.geometry == Geometry::kMdh) {
-    axis = frames[i].R.col(0);
-    point = frames[i].p;
+    axis = frames[s.before(i)].R.col(0);
+    point = frames[s.before(i)].p;
   } else {
-    axis = frames[i].R * k.origin.R.col(0);
-    point = frames[i].p + frames[i].R * k.origin.p;
+    const Frame<double>& before = frames[s.before(i)];
+    axis = before.R * k.origin.R.col(0);
+    point = before.p + before.R * k.origin.p;
   }
 }
 
@@ -55,11 +104,11 @@ void lateral_torques(const ChainStructure& s, const ChainConstants<double>& cons
                      const Frame<double>* frames, const double* mass, const Eigen::Vector3d* com,
                      const Eigen::Vector3d& gravity, double* tau) {
   const Eigen::Vector3d g = frames[0].R * gravity;
+  CarriedMass carried(s, frames, mass, com);
   double M = 0;
   Eigen::Vector3d S = Eigen::Vector3d::Zero();
   for (int i = s.dof - 1; i >= 0; --i) {
-    M += mass[i];
-    S += mass[i] * (frames[i + 1].R * com[i] + frames[i + 1].p);
+    carried.add(i, M, S);
     Vec3<double> axis, point;
     lateral_axis(s, constants.links[i], frames, i, axis, point);
     tau[i] = axis.dot((S - M * point).cross(g));

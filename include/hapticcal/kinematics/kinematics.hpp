@@ -217,9 +217,9 @@ Frame<T> forward_kinematics(const ChainStructure& s, const ChainConstants<T>& c,
   if (!frames) frames = local.data();
   frames[0] = c.base;
   for (int i = 0; i < s.dof; ++i) {
-    compose_joint(s.joints[i], frames[i], c.links[i], joint[i], frames[i + 1]);
+    compose_joint(s.joints[i], frames[s.before(i)], c.links[i], joint[i], frames[i + 1]);
   }
-  return frames[s.dof] * c.tool;
+  return frames[s.last_frame()] * c.tool;
 }
 
 template <typename T>
@@ -236,8 +236,8 @@ HAPTICCAL_INLINE void joint_axis(const ChainStructure& s, const Frame<T>* frames
                                  Vec3<T>& axis, Vec3<T>& point) {
   const JointStructure& j = s.joints[i];
   if (j.geometry == Geometry::kDh) {
-    axis = frames[i].R.col(2);
-    point = frames[i].p;
+    axis = frames[s.before(i)].R.col(2);
+    point = frames[s.before(i)].p;
   } else if (j.geometry == Geometry::kMdh) {
     axis = frames[i + 1].R.col(2);
     point = frames[i + 1].p;
@@ -334,7 +334,7 @@ Frame<T> pose_parameter_jacobian(const ChainStructure& s, const ChainConstants<T
   for (int i = 0; i < s.dof; ++i) {
     const JointStructure& j = s.joints[i];
     const int slot = j.slot;
-    const Frame<T>& prev = frames[i];
+    const Frame<T>& prev = frames[s.before(i)];
     const Frame<T>& next = frames[i + 1];
     const LinkConstants<T>& k = constants.links[i];
     if (j.geometry == Geometry::kDh) {

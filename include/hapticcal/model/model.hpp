@@ -157,6 +157,13 @@ struct ChainStructure {
   // The links on tip k's path, root first, into `links`; their count.
   int path(int k, int* links) const;
 
+  // Link i's parent link (-1: the base), and the index of its frame in the
+  // frames of forward_kinematics (frame 0 is the base, frame i + 1 link i's).
+  int parent_of(int i) const { return tips > 1 ? parent[i] : i - 1; }
+  int before(int i) const { return parent_of(i) + 1; }
+  // The frame a tip's tool hangs from: the last link's (a tree's first tip's).
+  int last_frame() const { return tips > 1 ? tip_link[0] + 1 : dof; }
+
   int base_slots() const { return base_kind == BaseKind::kDh ? 4 : kPoseSlots; }
   int num_slots() const { return errors_slot() + errors; }
   int instrument_slot() const { return tools_end ? tools_end : tool + kPoseSlots; }
