@@ -8,10 +8,12 @@
 #include <map>
 #include <random>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/tree.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "held_out.hpp"
 #include "identification/stack.hpp"
@@ -63,6 +65,12 @@ TEST(TreeModel, LinksParentsAndTips) {
   Jacobian6<double> J;
   EXPECT_THROW(prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, J),
                std::logic_error);
+  // A device file or a chain's URDF holds one chain: a tree is refused, not
+  // written as the chain through every link.
+  EXPECT_NE(check_device(m).find("a tree of 2 tips"), std::string::npos) << check_device(m);
+  EXPECT_THROW(device_to_yaml(m), InputError);
+  EXPECT_THROW(device_to_urdf(m), InputError);
+  EXPECT_EQ(check_device(chain), "");
 }
 
 // Each tip's forward kinematics against KDL's chain to that tip, on the

@@ -516,6 +516,9 @@ std::string check_device(const DeviceModel& model) {
   if (const std::string why = device_name_problem(model.name); !why.empty()) return "name: " + why;
   if (model.links.empty()) return "links: no links";
   if (model.dof() > kMaxDof) return fmt::format("links: at most {} links are supported", kMaxDof);
+  if (model.tree())
+    return fmt::format("a tree of {} tips: a device file holds one chain (a tree is its URDF's)",
+                       model.tips());
   for (double v : model.base) {
     if (!std::isfinite(v)) return "base: non-finite value";
   }
@@ -537,6 +540,9 @@ std::string check_device(const DeviceModel& model) {
 }
 
 std::string device_to_yaml(const DeviceModel& model) {
+  if (model.tree())
+    throw InputError("", 0, "",
+                     "refusing to write a tree as a device file: " + check_device(model));
   std::string out;
   // Version 1 holds a model whose links are all revolute with one DH or MDH geometry.
   const Geometry first = model.links.empty() ? Geometry::kDh : model.links[0].geometry;
