@@ -251,6 +251,8 @@ TEST(TreeModel, CalibrateRunsTheChainsProcedure) {
   const CalibrationResult fit = calibrate(nominal, tip_samples(nominal, log), CalibrationOptions{});
   ASSERT_EQ(fit.status, CalibrationStatus::kConverged) << fit.status_reason;
   EXPECT_TRUE(fit.calibrated.tree());
+  // The model search holds out poses: a pose's two hands together.
+  EXPECT_EQ(fit.kinematics.search.units, 350);
   const Log test = tip_samples(nominal, hands_log(t.chains, 150, 0.0, 13));
   const double after = held_out_rms(fit.calibrated, test);
   const TreeCalibration tree_fit = calibrate_tree(two_arm_tree(), log, CalibrationOptions{});

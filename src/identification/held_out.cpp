@@ -250,11 +250,18 @@ HeldOutSystem held_out_system(const KinematicProblem& problem, const Stack& at,
     if (i % d >= length_rows) s.measuring[i] = 0;
   }
   if (!is_fixture(problem.type)) {
+    // A pose a unit; a tree's samples of one pose (its tips, consecutive:
+    // tip_samples) are one: held out together.
+    const Eigen::Index n = problem.model.dof();
     for (int i = 0; i < m; ++i) {
-      std::vector<Eigen::Index> rows(static_cast<size_t>(d));
-      std::iota(rows.begin(), rows.end(), static_cast<Eigen::Index>(i) * d);
-      s.unit_rows.push_back(rows);
-      s.unit_unknowns.push_back(0);
+      const bool same_pose =
+          problem.tip >= 0 && i > 0 && problem.joints[i].head(n) == problem.joints[i - 1].head(n);
+      if (!same_pose) {
+        s.unit_rows.emplace_back();
+        s.unit_unknowns.push_back(0);
+      }
+      for (int k = 0; k < d; ++k)
+        s.unit_rows.back().push_back(static_cast<Eigen::Index>(i) * d + k);
     }
     return s;
   }
