@@ -229,6 +229,55 @@ TEST(TreeModel, TheChainsProblemHoldsATree) {
   }
   EXPECT_EQ(left_on_right, 0.0);
   EXPECT_GT(torso_on_right, 0.0);
+
+  // Held out together: a pose's two hands in one fold, 15 units; a chain's
+  // folds are its poses'.
+  EXPECT_EQ(detail::pose_units(problem).back(), 14);
+  const std::vector<int> folds = detail::unit_folds(problem, 5, 1);
+  const std::vector<int> of_pose = pose_folds(15, 5, 1);
+  for (int i = 0; i < samples.rows; ++i) EXPECT_EQ(folds[i], of_pose[i / 2]) << i;
+  const DeviceModel left_arm = two_arm_tree().chains[0];
+  Log chain_samples = chain_log(two_arm_tree(), log, 0);
+  const KinematicProblem chain =
+      kinematic_problem(left_arm, chain_samples, {}, CalibrationOptions{});
+  EXPECT_EQ(detail::unit_folds(chain, 5, 1), pose_folds(15, 5, 1));
+}
+
+// A tree model takes a log of one sample a tip, each naming one of its tips;
+// a malformed tree is refused before anything indexes by it.
+TEST(TreeModel, LogsAndTreesThatDoNotFitAreRefused) {
+  const DeviceModel m = tree_model(two_arm_tree());
+  const Log log = hands_log(two_arm_tree(), 10, 0.0, 3);
+  try {
+    calibrate(m, log, CalibrationOptions{});  // the raw log: two points a row, no tips
+    FAIL() << "a tree log without tips was calibrated";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("one sample a tip"), std::string::npos) << e.what();
+  }
+  Log samples = tip_samples(m, log);
+  samples.tip[5] = 2;
+  try {
+    calibrate(m, samples, CalibrationOptions{});
+    FAIL() << "a tip beyond the tree's was calibrated";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("tip 2 of a model with 2 tip(s)"), std::string::npos)
+        << e.what();
+  }
+  // tip_samples refuses a log of another number of points.
+  Log one = log;
+  one.marker_count = 1;
+  one.markers.conservativeResize(Eigen::NoChange, 3);
+  EXPECT_THROW(tip_samples(m, one), InputError);
+  // Malformed trees: a parent after its child, a tip inside another's path.
+  DeviceModel bad = m;
+  bad.parents[3] = 5;
+  EXPECT_NE(tree_problem(bad).find("is not a link before it"), std::string::npos);
+  EXPECT_THROW(calibrate(bad, tip_samples(m, log), CalibrationOptions{}), InputError);
+  bad = m;
+  bad.branches[0].link = 2;  // the torso's last joint: the left arm passes it
+  EXPECT_NE(tree_problem(bad).find("another tip ends at or passes"), std::string::npos);
+  EXPECT_EQ(tree_problem(m), "");
+  EXPECT_EQ(tree_problem(two_arm_tree().chains[0]), "");
 }
 
 // RMS position error [m] of a model on a tree's samples (one a tip of each row).
@@ -409,6 +458,10 @@ TEST(TreeModel, ComplianceOfATreeIsRecovered) {
   const CalibrationResult rigid = calibrate(nominal, samples, none);
   const double with = held_out(fit.calibrated), without = held_out(rigid.calibrated);
   EXPECT_LT(with, 1.1 * floor) << with << " floor " << floor;
+  // The calibrated tree holds its compliance (folded into its links): its
+  // problem deflects and bends each pose as the kinematics above do.
+  ASSERT_NE(fit.calibrated.links[1].compliance, 0.0);
+  EXPECT_NEAR(held_out_rms(fit.calibrated, test), with, 1e-9);
   EXPECT_GT(without, 2 * with) << without;
   for (const auto& [link, suffix] : std::vector<std::pair<int, std::string>>{
            {1, ".k"}, {4, ".k"}, {8, ".k"}, {0, ".kx"}, {1, ".kx"}}) {

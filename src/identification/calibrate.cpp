@@ -79,13 +79,15 @@ std::string setup_change_note(const DeviceModel& nominal, const DeviceModel& cal
     return pose_frame(v[0], v[1], v[2], v[3], v[4], v[5]);
   };
   const Frame<double> b0 = frame(nominal.base), b1 = frame(calibrated.base);
-  const Frame<double> t0 = frame(nominal.tool), t1 = frame(calibrated.tool);
+  double tool = 0;  // the largest move of a tool point (a tree's tips each have one)
+  for (int t = 0; t < nominal.tips(); ++t)
+    tool = std::max(tool, (frame(calibrated.tip_tool(t)).p - frame(nominal.tip_tool(t)).p).norm());
   return fmt::format(
       "the measurement frame (base) moved {:.1f} mm and {:.2f} deg from the model's, the tool "
       "point {:.1f} mm: the set-up's unknowns (the tracker's frame, the marker's offset), not "
       "changes of the robot",
       (b1.p - b0.p).norm() * 1e3, Eigen::AngleAxisd(b0.R.transpose() * b1.R).angle() * 180 / M_PI,
-      (t1.p - t0.p).norm() * 1e3);
+      tool * 1e3);
 }
 
 // RMS scatter of repeated measurements about their pose's mean (`means`, the
@@ -663,6 +665,7 @@ CalibrationResult conclude_model(CalibrationRun& run) {
 // information of the fit.
 CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
                             const CalibrationOptions& options) {
+  check_tips(log, nominal);
   // Markers of one rigid body: the body's poses (markers.hpp), fitted as a pose log.
   if (log.marker_count > 0) {
     const MarkerPoses markers = markers_to_poses(log, options.marker_body);

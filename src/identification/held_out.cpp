@@ -250,13 +250,10 @@ HeldOutSystem held_out_system(const KinematicProblem& problem, const Stack& at,
     if (i % d >= length_rows) s.measuring[i] = 0;
   }
   if (!is_fixture(problem.type)) {
-    // A pose a unit; a tree's samples of one pose (its tips, consecutive:
-    // tip_samples) are one: held out together.
-    const Eigen::Index n = problem.model.dof();
+    // A pose a unit; a tree's samples of one pose are one (pose_units).
+    const std::vector<int> unit = pose_units(problem);
     for (int i = 0; i < m; ++i) {
-      const bool same_pose =
-          problem.tip >= 0 && i > 0 && problem.joints[i].head(n) == problem.joints[i - 1].head(n);
-      if (!same_pose) {
+      if (unit[i] == static_cast<int>(s.unit_rows.size())) {
         s.unit_rows.emplace_back();
         s.unit_unknowns.push_back(0);
       }

@@ -17,7 +17,24 @@ bool encoders_only(const Log& log) {
          std::find(log.has_ext.begin(), log.has_ext.end(), true) != log.has_ext.end();
 }
 
+void check_tips(const Log& log, const DeviceModel& model) {
+  if (const std::string why = tree_problem(model); !why.empty())
+    throw InputError("", 0, "", fmt::format("the model '{}' is not a tree: {}", model.name, why));
+  if (!model.tree() && log.tip.empty()) return;
+  if (model.tree() && log.tip.size() != static_cast<size_t>(log.rows))
+    throw InputError(log.origin, 0, "x1",
+                     fmt::format("the model is a tree of {} tips: its log needs one sample a tip "
+                                 "(tip_samples: each row's x<k>, y<k>, z<k> tip k's point)",
+                                 model.tips()));
+  for (size_t r = 0; r < log.tip.size(); ++r) {
+    if (log.tip[r] < 0 || log.tip[r] >= model.tips())
+      throw InputError(log.origin, r < log.line.size() ? log.line[r] : 0, "tip",
+                       fmt::format("tip {} of a model with {} tip(s)", log.tip[r], model.tips()));
+  }
+}
+
 void check_log_fits(const Log& log, const DeviceModel& model, bool measurements) {
+  check_tips(log, model);
   if (log.dof() != model.dof()) {
     throw InputError(log.origin, 0, "",
                      fmt::format("the log has {} joint columns but the model '{}' has {} joints",

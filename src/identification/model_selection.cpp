@@ -150,6 +150,32 @@ std::vector<int> complement(int n, const std::vector<int>& held_positions) {
 
 }  // namespace
 
+namespace detail {
+
+std::vector<int> pose_units(const KinematicProblem& problem) {
+  const int m = static_cast<int>(problem.joints.size());
+  const Eigen::Index n = problem.model.dof();
+  std::vector<int> unit(static_cast<size_t>(m));
+  int units = 0;
+  for (int i = 0; i < m; ++i) {
+    const bool same_pose =
+        problem.tip >= 0 && i > 0 && problem.joints[i].head(n) == problem.joints[i - 1].head(n);
+    unit[i] = same_pose ? units - 1 : units++;
+  }
+  return unit;
+}
+
+std::vector<int> unit_folds(const KinematicProblem& problem, int folds, std::uint64_t seed) {
+  const std::vector<int> unit = pose_units(problem);
+  const int units = unit.empty() ? 0 : unit.back() + 1;
+  const std::vector<int> of_unit = pose_folds(units, folds, seed);
+  std::vector<int> fold(unit.size());
+  for (size_t i = 0; i < unit.size(); ++i) fold[i] = of_unit[static_cast<size_t>(unit[i])];
+  return fold;
+}
+
+}  // namespace detail
+
 std::vector<int> pose_folds(int poses, int folds, std::uint64_t seed) {
   std::vector<int> order(std::max(poses, 0));
   std::iota(order.begin(), order.end(), 0);
@@ -236,8 +262,10 @@ ModelSelection select_model(const KinematicProblem& problem, const std::vector<i
   const Eigen::VectorXd scale = column_scale(problem);
   std::map<int, std::string> name;
   for (const ParameterInfo& pi : problem.model.parameter_info()) name[pi.slot] = pi.name;
-  const int k_folds = std::clamp(folds, 2, std::max(m, 2));
-  const LinearisedFolds system(at, identified, scale, pose_folds(m, k_folds, seed), k_folds, kind);
+  const int units = m == 0 ? 0 : pose_units(problem).back() + 1;
+  const int k_folds = std::clamp(folds, 2, std::max(units, 2));
+  const LinearisedFolds system(at, identified, scale, unit_folds(problem, k_folds, seed), k_folds,
+                               kind);
   // A held parameter goes back to its start value: in scaled units, h.
   Eigen::VectorXd back(n);
   for (int c = 0; c < n; ++c)
@@ -315,14 +343,15 @@ CrossValidation cross_validate(const KinematicProblem& problem, const std::vecto
         "poses): evaluate the model on a fixture placement left out of the fit instead";
     return out;
   }
-  if (m < 2 || folds < 2) {
-    out.note = m < 2 ? "not computed: fewer than two poses" : "not computed (folds < 2)";
+  const int units = m == 0 ? 0 : pose_units(problem).back() + 1;  // poses (a tree's: not tips)
+  if (units < 2 || folds < 2) {
+    out.note = units < 2 ? "not computed: fewer than two poses" : "not computed (folds < 2)";
     return out;
   }
-  out.folds = std::min(folds, m);
+  out.folds = std::min(folds, units);
   const RowsOf kind = rows_of(problem);
   const LinearisedFolds system(at, identified, column_scale(problem),
-                               pose_folds(m, out.folds, seed), out.folds, kind);
+                               unit_folds(problem, out.folds, seed), out.folds, kind);
   std::vector<int> all(identified.size());
   std::iota(all.begin(), all.end(), 0);
   const double rss = system.cross_validated(all, {}, Eigen::VectorXd()).second;

@@ -28,8 +28,8 @@ void Search::nominal_yardstick(const CalibrationRun& geometry) {
   for (int k = 0; k < s.base_slots(); ++k) {
     if (candidate(k)) free.push_back(k), base = true;
   }
-  for (int k = 0; k < kPoseSlots; ++k) {
-    if (candidate(s.tool_slot() + k)) free.push_back(s.tool_slot() + k), tool = true;
+  for (int k = s.tool_slot(); k < s.instrument_slot(); ++k) {  // every tip's tool
+    if (candidate(k)) free.push_back(k), tool = true;
   }
   if (s.instrument && candidate(s.instrument_slot())) free.push_back(s.instrument_slot());
   if (base) what.push_back("measurement frame");

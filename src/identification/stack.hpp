@@ -94,6 +94,12 @@ inline RowsOf rows_of(const KinematicProblem& problem) {
           problem.tip};
 }
 
+// The unit each pose is held out with (0, 1, ...): itself, or a tree's
+// samples of one pose (its tips, consecutive: tip_samples) together.
+std::vector<int> pose_units(const KinematicProblem& problem);
+// Each pose's fold (pose_folds over the units).
+std::vector<int> unit_folds(const KinematicProblem& problem, int folds, std::uint64_t seed);
+
 // select_model and cross_validate (identification.hpp) at a fit whose stack
 // (not compressed) is `at`.
 ModelSelection select_model(const KinematicProblem& problem, const std::vector<int>& identified,

@@ -293,6 +293,9 @@ DeviceTree load_tree(const std::string& path, const std::vector<std::string>& ti
 }
 
 DeviceModel tree_model(const DeviceTree& tree) {
+  if (tree.dof() > kMaxDof)
+    throw InputError(
+        fmt::format("the tree has {} joints: at most {} are supported", tree.dof(), kMaxDof));
   DeviceModel m = tree.chains[0];
   m.links.assign(static_cast<size_t>(tree.dof()), Link{});
   m.parents.assign(static_cast<size_t>(tree.dof()), -1);

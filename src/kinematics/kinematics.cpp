@@ -116,6 +116,7 @@ void PreparedModel::rigid_joints(const double* q, double* joint) const {
 // The gravity torques from the prepared chain's frames at the undeflected
 // joint values (the same frames as forward_kinematics'), then joint += k tau.
 void PreparedModel::deflect(double* joint) const {
+  if (structure_.tips > 1) return gravity_->deflect(joint);  // a tree: every branch's frames
   std::array<Frame<double>, kMaxDof + 1> frames;
   chain_from_joints(joint, frames.data());
   std::array<double, kMaxDof> tau;

@@ -299,6 +299,34 @@ bool DeviceModel::laterally_compliant() const {
   return false;
 }
 
+std::string tree_problem(const DeviceModel& model) {
+  if (!model.tree() && model.parents.empty()) return {};
+  const int n = model.dof();
+  if (n > kMaxDof || model.tips() > kMaxDof)
+    return fmt::format("{} links and {} tips: at most {} of each", n, model.tips(), kMaxDof);
+  if (static_cast<int>(model.parents.size()) != n)
+    return fmt::format("{} parents for {} links", model.parents.size(), n);
+  std::vector<int> children(static_cast<size_t>(n), 0);
+  for (int i = 0; i < n; ++i) {
+    const int p = model.parents[static_cast<size_t>(i)];
+    if (p < -1 || p >= i)
+      return fmt::format("link {}'s parent {} is not a link before it", model.links[i].name, p);
+    if (p >= 0) ++children[static_cast<size_t>(p)];
+  }
+  std::vector<bool> ends(static_cast<size_t>(n), false);
+  for (int t = 0; t < model.tips(); ++t) {
+    const int link = t == 0 ? model.tip_link : model.branches[static_cast<size_t>(t - 1)].link;
+    if (link < (t == 0 ? -1 : 0) || link >= n)
+      return fmt::format("tip {}'s link {} is not one of the {} links", t, link, n);
+    const int at = link < 0 ? n - 1 : link;
+    if (ends[static_cast<size_t>(at)] || children[static_cast<size_t>(at)] > 0)
+      return fmt::format("tip {} ends at link {}, which another tip ends at or passes",
+                         model.tip_name(t), model.links[static_cast<size_t>(at)].name);
+    ends[static_cast<size_t>(at)] = true;
+  }
+  return {};
+}
+
 std::string coupling_problem(const Eigen::MatrixXd& coupling, const std::vector<Link>& links) {
   const int n = static_cast<int>(links.size());
   if (coupling.size() == 0) return {};

@@ -12,6 +12,9 @@ namespace hapticcal {
 // With `measurements` false a log without them passes (calibrate's step 1
 // alone, on a log of external encoders).
 void check_log_fits(const Log& log, const DeviceModel& model, bool measurements = true);
+// A tree model's log is one sample a tip (Log::tip, tip_samples), each naming
+// one of its tips; a chain's names none but its own. InputError naming the log.
+void check_tips(const Log& log, const DeviceModel& model);
 
 // A log of readings and external encoders with nothing measured: calibrate
 // runs step 1 alone on it.

@@ -336,6 +336,11 @@ struct DeviceModel {
 // (it is written as no coupling).
 std::string coupling_problem(const Eigen::MatrixXd& coupling, const std::vector<Link>& links);
 
+// Why a model's tree (parents, tips) is not one, or empty: at most kMaxDof
+// links and tips, parents numbered before their children, each tip at a link
+// of its own, none below another's (a chain: always empty).
+std::string tree_problem(const DeviceModel& model);
+
 // The parameter names of a joint's block, in slot order ("a", ..., "offset").
 const std::vector<std::string>& block_names(Geometry geometry);
 
