@@ -101,6 +101,20 @@ TEST(TreeModel, EachTipMatchesKdlAndTheChains) {
     }
   }
 
+  // tip_chain: each tip's chain as a model of its own, the same kinematics.
+  for (int tip = 0; tip < 2; ++tip) {
+    const DeviceModel chain = tip_chain(m, tip);
+    EXPECT_FALSE(chain.tree());
+    ASSERT_EQ(chain.dof(), 7);
+    const PreparedModel prepared(chain);
+    Eigen::VectorXd q(m.dof());
+    for (int j = 0; j < m.dof(); ++j) q[j] = uniform(rng);
+    const std::vector<int> path = m.path(tip);
+    Eigen::VectorXd qc(7);
+    for (int i = 0; i < 7; ++i) qc[i] = q[path[static_cast<size_t>(i)]];
+    EXPECT_LT((prepared.forward(qc.data()).p - tip_frame(m, tip, q).p).norm(), 1e-12);
+  }
+
   // Move every slot; the chains moved by name give the same tips.
   DeviceModel moved = m;
   DeviceTree moved_tree = tree;

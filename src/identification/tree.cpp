@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <random>
+#include <set>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
@@ -312,6 +313,61 @@ DeviceModel tree_model(const DeviceTree& tree) {
   for (size_t c = 1; c < tree.chains.size(); ++c)
     m.branches.push_back({tree.tips[c], tree.joint_of[c].back(), tree.chains[c].tool});
   return m;
+}
+
+DeviceModel tip_chain(const DeviceModel& tree, int tip) {
+  DeviceModel chain = tree;
+  chain.links.clear();
+  for (int i : tree.path(tip)) chain.links.push_back(tree.links[static_cast<size_t>(i)]);
+  chain.tool = tree.tip_tool(tip);
+  chain.parents.clear();
+  chain.branches.clear();
+  chain.tip.clear();
+  chain.tip_link = -1;
+  return chain;
+}
+
+namespace {
+
+// The names of a URDF text's <link name="..."> (or '...') elements.
+std::set<std::string> link_names(const std::string& text) {
+  std::set<std::string> out;
+  const std::string open = "<link name=";
+  for (size_t at = text.find(open); at != std::string::npos; at = text.find(open, at + 1)) {
+    const size_t quote = at + open.size();
+    if (quote >= text.size() || (text[quote] != '"' && text[quote] != '\'')) continue;
+    const size_t to = text.find(text[quote], quote + 1);
+    if (to != std::string::npos) out.insert(text.substr(quote + 1, to - quote - 1));
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string tree_urdf(const std::string& text, const std::string& origin, const std::string& root,
+                      const DeviceModel& tree, std::vector<std::string>& notes) {
+  std::string out = text;
+  std::string from = root;
+  for (int t = 0; t < tree.tips(); ++t) {
+    std::vector<std::string> said;
+    out = calibrated_urdf(out, origin, tree.tip_name(t), from, tip_chain(tree, t), &said);
+    for (std::string& note : said) {
+      // A tree's set has no calibrated.yaml: the calibrated tree is the URDF's.
+      const std::string yaml = "reproduces calibrated.yaml";
+      if (const size_t at = note.find(yaml); at != std::string::npos)
+        note.replace(at, yaml.size(), "gives the calibrated tree");
+      if (std::find(notes.begin(), notes.end(), note) == notes.end()) notes.push_back(note);
+    }
+    if (t == 0) {
+      // The measurement frame's link the first chain wrote, if it wrote one
+      // (a name of its own: unique_name): the later chains are read from it.
+      const std::set<std::string> before = link_names(text);
+      for (const std::string& link : link_names(out)) {
+        if (link.find("measurement") != std::string::npos && !before.count(link)) from = link;
+      }
+    }
+  }
+  return out;
 }
 
 Log tip_samples(const DeviceModel& tree, const Log& log) {

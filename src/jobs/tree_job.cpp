@@ -4,7 +4,6 @@
 
 #include <cmath>
 #include <nlohmann/json.hpp>
-#include <set>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
@@ -16,49 +15,6 @@
 
 namespace hapticcal {
 namespace {
-
-// The names of a URDF text's <link name="..."> (or '...') elements.
-std::set<std::string> link_names(const std::string& text) {
-  std::set<std::string> out;
-  const std::string open = "<link name=";
-  for (size_t at = text.find(open); at != std::string::npos; at = text.find(open, at + 1)) {
-    const size_t quote = at + open.size();
-    if (quote >= text.size() || (text[quote] != '"' && text[quote] != '\'')) continue;
-    const size_t to = text.find(text[quote], quote + 1);
-    if (to != std::string::npos) out.insert(text.substr(quote + 1, to - quote - 1));
-  }
-  return out;
-}
-
-// The URDF with every chain's calibrated joints, base and tool: calibrated_urdf
-// chain by chain, the later chains read from the measurement frame the first
-// wrote (a shared joint is written again with the same origin).
-std::string tree_urdf(const std::string& text, const std::string& origin, const std::string& root,
-                      const TreeCalibration& fit, std::vector<std::string>& notes) {
-  std::string out = text;
-  std::string from = root;
-  for (size_t c = 0; c < fit.calibrated.chains.size(); ++c) {
-    std::vector<std::string> said;
-    out =
-        calibrated_urdf(out, origin, fit.calibrated.tips[c], from, fit.calibrated.chains[c], &said);
-    for (std::string& note : said) {
-      // A tree's set has no calibrated.yaml: the calibrated tree is the URDF's.
-      const std::string yaml = "reproduces calibrated.yaml";
-      if (const size_t at = note.find(yaml); at != std::string::npos)
-        note.replace(at, yaml.size(), "gives the calibrated tree");
-      if (std::find(notes.begin(), notes.end(), note) == notes.end()) notes.push_back(note);
-    }
-    if (c == 0) {
-      // The measurement frame's link the first chain wrote, if it wrote one
-      // (a name of its own: unique_name): the later chains are read from it.
-      const std::set<std::string> before = link_names(text);
-      for (const std::string& link : link_names(out)) {
-        if (link.find("measurement") != std::string::npos && !before.count(link)) from = link;
-      }
-    }
-  }
-  return out;
-}
 
 nlohmann::ordered_json tree_json(const TreeCalibration& fit, const CalibrateRequest& request) {
   nlohmann::ordered_json j;
@@ -169,8 +125,9 @@ CalibrateJob run_tree_calibrate_job(const CalibrateRequest& request,
   job.result.status_reason = fit.status_reason;
   if (job.out) {
     if (fit.status == CalibrationStatus::kConverged) {
-      write_file_atomically(job.out->dir() + "/calibrated.urdf",
-                            tree_urdf(text, request.model, request.root, fit, fit.notes));
+      write_file_atomically(
+          job.out->dir() + "/calibrated.urdf",
+          tree_urdf(text, request.model, request.root, tree_model(fit.calibrated), fit.notes));
       job.written.model_written = true;
     } else if (job.out->previous_command() == "calibrate") {
       job.written.previous_kept = job.out->keep_previous("calibrated.urdf");

@@ -62,6 +62,18 @@ DeviceTree load_tree(const std::string& path, const std::vector<std::string>& ti
 // kinematics (structure(k), path(k)) are chain k's.
 DeviceModel tree_model(const DeviceTree& tree);
 
+// Tip k's chain of a tree model as a model of its own: the links on its path,
+// its tool, the tree's base and gravity (its links' masses only: the joints it
+// shares carry the other branches too in the tree, not in this chain).
+DeviceModel tip_chain(const DeviceModel& tree, int tip);
+
+// The URDF `text` with a tree model's calibrated joints, base and tools written
+// back: calibrated_urdf chain by chain, the later chains read from the
+// measurement frame the first wrote (a shared joint is written again with the
+// same origin). Its notes (once each) into `notes`.
+std::string tree_urdf(const std::string& text, const std::string& origin, const std::string& root,
+                      const DeviceModel& tree, std::vector<std::string>& notes);
+
 // A tree log (x1, y1, z1 at the first tip, x2, ... at the second, ...) as
 // one sample a tip of each row, in row order (Log::tip): each a position of
 // its tip, with the row's readings, directions, time and line. InputError
