@@ -123,10 +123,9 @@ const std::string& DeviceModel::tip_name(int tip) const {
 }
 
 std::vector<int> DeviceModel::path(int tip) const {
-  std::vector<int> out;
-  for (int i = tip_link_of(tip); i >= 0; i = parent(i)) out.push_back(i);
-  std::reverse(out.begin(), out.end());
-  return out;
+  std::array<int, kMaxDof> links;
+  const int n = structure().path(tip, links.data());
+  return {links.begin(), links.begin() + n};
 }
 
 int DeviceModel::tool_slot(int tip) const { return structure().tool_slot() + kPoseSlots * tip; }
