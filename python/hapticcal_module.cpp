@@ -234,27 +234,10 @@ Calibration calibrate(
                  "identifiable"_a = e.identifiable, "reason"_a = e.reason);
   }
   c.notes = result.notes;
-  if (job.tree) {
-    // A tree (tip "A,B"): its parameters, each tip's RMS combined; its
-    // calibrated model is the URDF written into out (no single-chain Model).
-    const auto combined = [](const std::vector<double>& rms) {
-      double sum = 0;
-      for (double r : rms) sum += r * r;
-      return rms.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(rms.size()));
-    };
-    c.rms_before = combined(job.tree->rms_before);
-    c.rms_after = combined(job.tree->rms_after);
-    for (const ParameterEstimate& e : job.tree->parameters) {
-      c.parameters[py::str(e.name)] =
-          py::dict("value"_a = e.value, "nominal"_a = e.nominal, "sd"_a = e.sd,
-                   "identifiable"_a = e.identifiable, "reason"_a = e.reason);
-    }
-    c.notes = job.tree->notes;
-  }
   c.lines = job.lines;
   c.results = parsed(json);
   c.search = c.results.attr("get")("model_search");
-  if (c.usable && !job.tree) c.model = Model{result.calibrated, "", "", ""};
+  if (c.usable) c.model = Model{result.calibrated, "", "", ""};
   return c;
 }
 
@@ -406,6 +389,13 @@ py::dict convert(const std::string& in, const std::string& out, const Text& tip_
 
 namespace hapticcal::python {
 
+// A tip of the model (ValueError out of range).
+int tip_of(const Model& s, int tip) {
+  if (tip < 0 || tip >= s.model.tips())
+    throw py::value_error(fmt::format("tip {}: the model has {} tip(s)", tip, s.model.tips()));
+  return tip;
+}
+
 // The Model class: a device model with its file, forward kinematics and
 // Jacobians, its parameters by name.
 void bind_model(py::module_& m) {
@@ -415,31 +405,42 @@ void bind_model(py::module_& m) {
       .def_property_readonly(
           "path", [](const Model& s) { return s.path; },
           "The file it was loaded from ('' if made or changed in Python)")
+      .def_property_readonly(
+          "tips",
+          [](const Model& s) {
+            std::vector<std::string> names;
+            for (int t = 0; t < s.model.tips(); ++t) names.push_back(s.model.tip_name(t));
+            return names;
+          },
+          "The tips' names: a tree's (calibrate with tip='A,B'), or a chain's one")
       .def(
           "forward",
-          [](const Model& s, const Eigen::VectorXd& q) {
+          [](const Model& s, const Eigen::VectorXd& q, int tip) {
             const Eigen::VectorXd r = readings(s, q);
-            return homogeneous(hapticcal::PreparedModel(s.model).forward(r.data()));
+            return homogeneous(hapticcal::PreparedModel(s.model).forward(r.data(), tip_of(s, tip)));
           },
-          "q"_a, "T_meas_tool (4x4) from the joint readings q (transmissions applied)")
+          "q"_a, "tip"_a = 0,
+          "T_meas_tool (4x4) of tip `tip` (a tree's; 0 for a chain) from the joint readings q "
+          "(transmissions applied)")
       .def(
           "jacobian",
-          [](const Model& s, const Eigen::VectorXd& q, const std::string& frame) {
+          [](const Model& s, const Eigen::VectorXd& q, const std::string& frame, int tip) {
             const Eigen::VectorXd r = readings(s, q);
             if (frame != "measurement" && frame != "tool") {
               throw hapticcal::InputError(
                   fmt::format("frame '{}': expected measurement or tool", frame));
             }
-            hapticcal::Jacobian6<double> J;
+            hapticcal::Jacobian6<double> J(6, s.model.dof());
             hapticcal::PreparedModel(s.model).forward_jacobian(
-                r.data(),
+                r.data(), tip_of(s, tip),
                 frame == "tool" ? hapticcal::JacobianFrame::kTool
                                 : hapticcal::JacobianFrame::kMeasurement,
-                J);
+                J.data());
             return Eigen::MatrixXd(J);
           },
-          "q"_a, "frame"_a = "measurement",
-          "Geometric Jacobian (6 x dof: linear velocity over angular) w.r.t. the joint values")
+          "q"_a, "frame"_a = "measurement", "tip"_a = 0,
+          "Geometric Jacobian (6 x dof: linear velocity over angular) of tip `tip` w.r.t. the "
+          "joint values (a tree's: zero for the joints off the tip's path)")
       .def(
           "compensate",
           [](const Model& s, const Eigen::VectorXd& q) {

@@ -27,7 +27,7 @@ CEILINGS = {
     # at their counts when first measured (a ratchet: the one pipeline for a
     # chain and a tree, families as members, lowers them):
     "trait_flag_branches": 58,     # a measurement trait flag read outside the family
-    "slot_decoding": 4,           # a line decoding a parameter's block from ParameterInfo.joint
+    "slot_decoding": 3,           # a line decoding a parameter's block from ParameterInfo.joint
     "transmission_kind_checks": 23,  # a transmission's kind asked outside its family
     "layer_violations": 0,
     # A newcomer's joint-error family and transmission kind (and measurement

@@ -113,16 +113,6 @@ int run_plan(const PlanCommandOptions& options) {
   if (!options.distance_range.empty())
     o.distance_range = numbers<2>(options.distance_range, "--distance-range");
   if (!options.box.empty()) o.box = numbers<6>(options.box, "--box");
-  if (const std::vector<std::string> tips = tip_names(o.tip); tips.size() > 1) {
-    const TreePlanJob job = run_tree_plan_job(o, tips, options.out);
-    for (const std::string& line : job.lines) fmt::print("{}\n", line);
-    fmt::print("report: {}/report.html ({} figures)\n", options.out, job.figures);
-    if (!job.report_note.empty()) fmt::print("note: {}\n", job.report_note);
-    fmt::print("{}", output_summary(*job.out, options.out,
-                                    fmt::format(" (plan.csv: q1..q{} in radians, path order)",
-                                                job.tree.dof())));
-    return 0;
-  }
   const bool tty = isatty(2);
   const auto started = [&](const PlanSetup& setup, const PlanProblem& problem) {
     const DeviceModel& model = setup.model;

@@ -601,10 +601,10 @@ TWO_ARM = str(SOURCE / "examples" / "two-arm" / "two_arm.urdf")
 
 
 def test_calibrate_a_tree_of_two_tips(tmp_path):
-    """calibrate(tip="A,B") on a URDF fits both hands at once (issue 26): points from the nominal
-    chains (Model.forward) in a frame moved by a known pose are fitted to rounding (the frame
-    registered); the shared torso joints
-    are one parameter each, used by both tips; no single-chain Model comes back."""
+    """calibrate(tip="A,B") on a URDF fits both hands at once: points from the nominal chains
+    (Model.forward) in a frame moved by a known pose are fitted to rounding (the frame
+    registered); the shared torso joints are one parameter each, on both tips' paths; the
+    calibrated tree comes back as a Model whose forward(q, tip=k) is tip k's pose."""
     left = hapticcal.load_model(TWO_ARM, tip="left_hand")
     right = hapticcal.load_model(TWO_ARM, tip="right_hand")
     rng = np.random.default_rng(5)
@@ -621,9 +621,18 @@ def test_calibrate_a_tree_of_two_tips(tmp_path):
     c = hapticcal.calibrate(TWO_ARM, str(tmp_path / "tree.csv"), tip="left_hand,right_hand",
                             out=str(tmp_path / "out"))
     assert c.usable, c.status_reason
-    assert c.model is None
+    assert c.model is not None and c.model.tips == ["left_hand", "right_hand"]
     assert c.results["frame_registered"] and c.rms_after < 1e-9
-    assert c.results["tree"]["tips"] == ["left_hand", "right_hand"]
-    assert c.results["parameters"]["torso_pitch.x"]["tips"] == ["left_hand", "right_hand"]
+    tips = c.results["tips"]
+    assert list(tips) == ["left_hand", "right_hand"]
+    assert tips["left_hand"]["joints"][:3] == tips["right_hand"]["joints"][:3]
+    assert tips["right_hand"]["rms_after"] < 1e-9
+    assert "torso_pitch.x" in c.parameters
     assert c.parameters["base.x"]["value"] == pytest.approx(0.4, abs=1e-9)
+    q = rng.uniform(-1.3, 1.3, 11)
+    want = (frame @ right.forward(q[[0, 1, 2, 7, 8, 9, 10]]))[:3, 3]
+    assert np.abs(c.model.forward(q, tip=1)[:3, 3] - want).max() < 1e-9
+    assert not c.model.jacobian(q, tip=1)[:, 3:7].any()  # the left arm moves no right hand
+    with pytest.raises(ValueError):
+        c.model.forward(q, tip=2)
     assert (tmp_path / "out" / "calibrated.urdf").exists()

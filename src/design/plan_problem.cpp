@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <map>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/design/plan.hpp"
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/tree.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
@@ -24,12 +26,41 @@ void linearisable(Transmission& t) {
   }
 }
 
+// The rows of each sample's tip point (a distance: the sample's one row); a
+// tree's pose is a sample a tip, each `d` rows.
 Eigen::MatrixXd tip_rows(const Eigen::MatrixXd& G, int d) {
   if (d == 1) return G;
-  const Eigen::Index poses = G.cols() / d;
-  Eigen::MatrixXd out(G.rows(), poses * 3);
-  for (Eigen::Index r = 0; r < poses; ++r) out.middleCols(3 * r, 3) = G.middleCols(d * r, 3);
+  const Eigen::Index samples = G.cols() / d;
+  Eigen::MatrixXd out(G.rows(), samples * 3);
+  for (Eigen::Index r = 0; r < samples; ++r) out.middleCols(3 * r, 3) = G.middleCols(d * r, 3);
   return out;
+}
+
+// The log of the model's predicted measurements at `readings`: a tree's, its
+// tips' points as one sample a tip (tip_samples).
+Log predicted_log(const DeviceModel& model, MeasurementType type, const Eigen::MatrixXd& readings) {
+  Log log;
+  log.origin = "plan candidates";
+  log.rows = static_cast<int>(readings.rows());
+  log.q = readings;
+  log.ext.setZero(log.rows, model.dof());
+  log.has_ext.assign(model.dof(), false);
+  for (int r = 0; r < log.rows; ++r) log.line.push_back(r + 2);
+  if (!model.tree()) {
+    kind_of(type).to_log(predicted_measurements(model, type, readings), log);
+    return log;
+  }
+  if (type != MeasurementType::kPosition)
+    throw InputError("--measurement: a tree's plan measures its tips' points: position");
+  const PreparedModel prepared(model);
+  log.marker_count = model.tips();
+  log.markers.resize(log.rows, 3 * model.tips());
+  for (int r = 0; r < log.rows; ++r) {
+    const Eigen::VectorXd q = readings.row(r).transpose();
+    for (int t = 0; t < model.tips(); ++t)
+      log.markers.row(r).segment<3>(3 * t) = prepared.forward(q.data(), t).p.transpose();
+  }
+  return tip_samples(model, log);
 }
 
 // step_one_model for one transmission (chains stage by stage).
@@ -52,18 +83,14 @@ DeviceModel step_one_model(DeviceModel model, int samples) {
 PlanProblem::PlanProblem(const DeviceModel& model, MeasurementType type, double sigma_m,
                          double sigma_e, const Eigen::MatrixXd& analysis,
                          const std::vector<std::string>& fix, const std::vector<std::string>& free)
-    : model_(model), type_(type), d_(traits(type).dimension), sigma_m_(sigma_m), sigma_e_(sigma_e) {
+    : model_(model),
+      type_(type),
+      d_(traits(type).dimension * model.tips()),
+      sigma_m_(sigma_m),
+      sigma_e_(sigma_e) {
   for (Link& l : model_.links) linearisable(l.transmission);
   // The kinematic parameters these candidates can identify.
-  Log log;
-  log.origin = "plan candidates";
-  log.rows = static_cast<int>(analysis.rows());
-  log.q = analysis;
-  log.ext.setZero(log.rows, model_.dof());
-  log.has_ext.assign(model_.dof(), false);
-  for (int r = 0; r < log.rows; ++r) log.line.push_back(r + 2);
-  const MeasuredValues measured = predicted_measurements(model_, type, analysis);
-  kind_of(type).to_log(measured, log);
+  const Log log = predicted_log(model_, type, analysis);
   const KinematicProblem problem = kinematic_problem(model_, log, {}, CalibrationOptions{});
   length_scale_ = problem.length_scale;
   rotation_scale_ = problem.rotation_scale;
@@ -145,10 +172,11 @@ Eigen::MatrixXd PlanProblem::covariance(const Eigen::MatrixXd& design) const {
 }
 
 double PlanProblem::rms_sd_of(const Eigen::MatrixXd& C, const Eigen::MatrixXd& G) const {
-  const Eigen::MatrixXd T = tip_rows(G, d_);
-  const Eigen::Index poses = G.cols() / d_;
+  const int per_tip = d_ / model_.tips();
+  const Eigen::MatrixXd T = tip_rows(G, per_tip);
+  const Eigen::Index samples = G.cols() / per_tip;
   const double total = (T.transpose() * C).cwiseProduct(T.transpose()).sum();
-  return std::sqrt(std::max(total, 0.0) / static_cast<double>(poses));
+  return std::sqrt(std::max(total, 0.0) / static_cast<double>(samples));
 }
 
 double PlanProblem::predicted_rms_sd(const Eigen::MatrixXd& design,

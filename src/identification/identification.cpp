@@ -67,6 +67,23 @@ double position_rss(const Eigen::VectorXd& r, const RowsOf& kind) {
   return sum;
 }
 
+std::vector<double> tip_rms(const KinematicProblem& problem, const Eigen::VectorXd& r,
+                            const RowsOf& kind) {
+  if (problem.tip < 0) return {};
+  const int d = kind.dimension(), length_rows = traits(kind.type).length_rows;
+  std::vector<double> rss(static_cast<size_t>(problem.model.tips()), 0.0), rows(rss.size(), 0.0);
+  for (size_t i = 0; i < problem.joints.size(); ++i) {
+    const auto tip = static_cast<size_t>(problem.joints[i][problem.tip]);
+    const Eigen::Index at = static_cast<Eigen::Index>(i) * d;
+    rss[tip] += r.segment(at, std::min(d, length_rows)).squaredNorm();
+    const double w = problem.weights.size() > 0 ? problem.weights[static_cast<Eigen::Index>(i)] : 1;
+    rows[tip] += w * w;
+  }
+  std::vector<double> rms(rss.size());
+  for (size_t t = 0; t < rss.size(); ++t) rms[t] = measurement_rms(rss[t], rows[t]);
+  return rms;
+}
+
 // The cost LM minimises over these poses: every row, or its compressed form.
 ceres::CostFunction* measurement_cost(const ChainStructure& s,
                                       const std::vector<Eigen::VectorXd>& joints,

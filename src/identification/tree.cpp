@@ -1,32 +1,25 @@
 // Several tips on one tree (identification/tree.hpp): the tree's parameters
-// from its chains', and one fit of every tip's points.
+// from its chains', the tree as one model, its URDF written back and its
+// logs as one sample a tip.
 #include "hapticcal/identification/tree.hpp"
 
-#include <ceres/ceres.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <map>
-#include <memory>
-#include <random>
 #include <set>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
-#include "hapticcal/identification/registration.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/urdf.hpp"
-#include "identification/solver_options.hpp"
-#include "identification/stack.hpp"
-#include "identification/tree_internal.hpp"
 
 namespace hapticcal {
 namespace {
-
-constexpr std::uint64_t kTreeStructuralSeed = 20261203;  // synthetic readings of the rank test
-constexpr int kTreeStructuralPoses = 400;
 
 // A tree parameter's name: the chain's, but a tool's carries its tip.
 std::string tree_name(const ParameterInfo& p, int dof, const std::string& tip) {
@@ -36,7 +29,6 @@ std::string tree_name(const ParameterInfo& p, int dof, const std::string& tip) {
 // Why a chain cannot be part of a tree, or empty.
 std::string single_chain_feature(const DeviceModel& m) {
   if (!m.joint_errors.empty()) return "joint-error stages";
-  if (m.coupled()) return "a coupling";
   if (m.compliant()) return "joint compliance";
   if (m.laterally_compliant()) return "lateral compliance";
   if (m.has_backlash()) return "backlash";
@@ -51,110 +43,6 @@ bool same_joint(const Link& a, const Link& b) {
 }
 
 }  // namespace
-
-namespace detail {
-
-TreeStack tree_stack(const DeviceTree& tree, const TreeData& data, const Eigen::VectorXd& values,
-                     bool jacobian) {
-  TreeStack out;
-  Eigen::Index rows = 0;
-  for (const auto& j : data.joints) rows += 3 * static_cast<Eigen::Index>(j.size());
-  out.r.resize(rows);
-  if (jacobian) out.J.setZero(rows, tree.num_slots());
-  Eigen::Index at = 0;
-  for (size_t c = 0; c < tree.chains.size(); ++c) {
-    const Stack st = stack(data.s[c], tree.chain_values(values, static_cast<int>(c)),
-                           data.joints[c], tree_rows(), data.measured[c], data.weights[c]);
-    out.r.segment(at, st.r.size()) = st.r;
-    out.rss.push_back(st.rss);
-    if (jacobian) {
-      for (Eigen::Index k = 0; k < st.J.cols(); ++k)
-        out.J.block(at, tree.slot_of[c][static_cast<size_t>(k)], st.J.rows(), 1) += st.J.col(k);
-    }
-    at += st.r.size();
-  }
-  return out;
-}
-
-namespace {
-
-// One Ceres cost over the tree's vector: each chain's cost at its part of it.
-class TreeCost : public ceres::CostFunction {
- public:
-  TreeCost(const DeviceTree& tree, const TreeData& data) : tree_(tree) {
-    int rows = 0;
-    for (size_t c = 0; c < tree.chains.size(); ++c) {
-      costs_.emplace_back(measurement_cost(data.s[c], data.joints[c], tree_rows(), data.measured[c],
-                                           data.weights[c], false));
-      rows += costs_.back()->num_residuals();
-    }
-    set_num_residuals(rows);
-    mutable_parameter_block_sizes()->push_back(tree.num_slots());
-  }
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override {
-    const Eigen::Map<const Eigen::VectorXd> values(parameters[0], tree_.num_slots());
-    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-    std::optional<Eigen::Map<RowMajor>> J;
-    if (jacobians && jacobians[0]) {
-      J.emplace(jacobians[0], num_residuals(), tree_.num_slots());
-      J->setZero();
-    }
-    int at = 0;
-    for (size_t c = 0; c < costs_.size(); ++c) {
-      const Eigen::VectorXd v = tree_.chain_values(values, static_cast<int>(c));
-      const double* block = v.data();
-      const int n = costs_[c]->num_residuals();
-      RowMajor Jc(n, v.size());
-      double* jc = Jc.data();
-      if (!costs_[c]->Evaluate(&block, residuals + at, J ? &jc : nullptr)) return false;
-      if (J) {
-        for (Eigen::Index k = 0; k < Jc.cols(); ++k)
-          J->block(at, tree_.slot_of[c][static_cast<size_t>(k)], n, 1) += Jc.col(k);
-      }
-      at += n;
-    }
-    return true;
-  }
-
- private:
-  const DeviceTree& tree_;
-  std::vector<std::unique_ptr<ceres::CostFunction>> costs_;
-};
-
-}  // namespace
-
-ceres::CostFunction* tree_cost(const DeviceTree& tree, const TreeData& data) {
-  return new TreeCost(tree, data);
-}
-
-// Random tree readings over the joint limits, each chain's joint values.
-std::vector<std::vector<Eigen::VectorXd>> tree_synthetic_joints(const DeviceTree& tree) {
-  const Eigen::MatrixXd readings =
-      tree_random_readings(tree, kTreeStructuralPoses, kTreeStructuralSeed);
-  std::vector<std::vector<Eigen::VectorXd>> out(tree.chains.size());
-  for (Eigen::Index i = 0; i < readings.rows(); ++i) {
-    for (size_t c = 0; c < tree.chains.size(); ++c)
-      out[c].push_back(tree.chains[c].compensate(
-          tree.chain_reading(readings.row(i).transpose(), static_cast<int>(c))));
-  }
-  return out;
-}
-
-Eigen::VectorXd tree_column_scale(const DeviceTree& tree, double length) {
-  Eigen::VectorXd scale = Eigen::VectorXd::Ones(tree.num_slots());
-  for (const ParameterInfo& p : tree.parameters)
-    if (p.unit == ParameterUnit::kAngle) scale[p.slot] = length;
-  return scale;
-}
-
-bool tree_base_unset(const DeviceTree& tree) {
-  const DeviceModel& first = tree.chains[0];
-  return first.base_is_pose() &&
-         std::all_of(first.base.begin(), first.base.end(), [](double v) { return v == 0; });
-}
-
-}  // namespace detail
 
 Eigen::VectorXd DeviceTree::values() const {
   Eigen::VectorXd out(num_slots());
@@ -307,6 +195,27 @@ DeviceModel tree_model(const DeviceTree& tree) {
       m.parents[static_cast<size_t>(joints[j])] = j == 0 ? -1 : joints[j - 1];
     }
   }
+  // Each chain's coupling (a passive joint driven by readings of its path) in
+  // the tree's joints; a shared joint's row the same from each of its chains.
+  m.coupling.resize(0, 0);
+  std::vector<bool> row_set(static_cast<size_t>(tree.dof()), false);
+  for (size_t c = 0; c < tree.chains.size(); ++c) {
+    const DeviceModel& chain = tree.chains[c];
+    if (!chain.coupled()) continue;
+    if (!m.coupled()) m.coupling = Eigen::MatrixXd::Identity(tree.dof(), tree.dof());
+    const std::vector<int>& joints = tree.joint_of[c];
+    for (int i = 0; i < chain.dof(); ++i) {
+      Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(tree.dof());
+      for (int k = 0; k < chain.dof(); ++k)
+        row[joints[static_cast<size_t>(k)]] = chain.coupling(i, k);
+      const auto at = static_cast<size_t>(joints[static_cast<size_t>(i)]);
+      if (row_set[at] && row != m.coupling.row(static_cast<Eigen::Index>(at)))
+        throw InputError(fmt::format("the chains to '{}' and '{}' couple joint '{}' differently",
+                                     tree.tips[0], tree.tips[c], tree.joints[at]));
+      m.coupling.row(static_cast<Eigen::Index>(at)) = row;
+      row_set[at] = true;
+    }
+  }
   m.tip = tree.tips[0];
   m.tip_link = tree.joint_of[0].back();
   m.branches.clear();
@@ -320,6 +229,16 @@ DeviceModel tip_chain(const DeviceModel& tree, int tip) {
   chain.links.clear();
   for (int i : tree.path(tip)) chain.links.push_back(tree.links[static_cast<size_t>(i)]);
   chain.tool = tree.tip_tool(tip);
+  if (tree.coupled()) {  // the path's rows and readings (a URDF's couplings stay on a path)
+    const std::vector<int> path = tree.path(tip);
+    const auto n = static_cast<Eigen::Index>(path.size());
+    chain.coupling.resize(n, n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      for (Eigen::Index k = 0; k < n; ++k)
+        chain.coupling(i, k) =
+            tree.coupling(path[static_cast<size_t>(i)], path[static_cast<size_t>(k)]);
+    }
+  }
   chain.parents.clear();
   chain.branches.clear();
   chain.tip.clear();
@@ -370,19 +289,27 @@ std::string tree_urdf(const std::string& text, const std::string& origin, const 
   return out;
 }
 
-Log tip_samples(const DeviceModel& tree, const Log& log) {
+Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
   const int k = tree.tips();
-  if (log.marker_count != k)
-    throw InputError(log.origin, log.line.empty() ? 0 : log.line[0], "x1",
-                     fmt::format("the tree has {} tips: give x, y, z of each (x1 ... z{}); the "
-                                 "log has {} points a row",
-                                 k, k, log.marker_count));
+  assert(only < k);
+  if (log.marker_count != k) {
+    std::vector<std::string> names;
+    for (int t = 0; t < k; ++t) names.push_back(tree.tip_name(t));
+    throw InputError(
+        log.origin, log.line.empty() ? 0 : log.line[0], "header",
+        fmt::format("{} tips ({}) need the points x1, y1, z1 .. x{}, y{}, z{}; the log has {}", k,
+                    fmt::join(names, ", "), k, k, k,
+                    log.marker_count ? fmt::format("{} point{}", log.marker_count,
+                                                   log.marker_count > 1 ? "s" : "")
+                                     : std::string("none")));
+  }
   if (!log.label.empty() || log.has_orientation || log.has_distance || !log.columns.empty())
     throw InputError(log.origin, 0, "x1",
                      "a tree's log gives each tip's point only (no labels, orientations, "
                      "distances or other measurements yet)");
   Log out = log;
-  out.rows = log.rows * k;
+  const int per_row = only >= 0 ? 1 : k;
+  out.rows = log.rows * per_row;
   out.marker_count = 0;
   out.markers.resize(0, 0);
   out.has_position = true;
@@ -394,8 +321,8 @@ Log tip_samples(const DeviceModel& tree, const Log& log) {
   out.line.clear();
   out.tip.clear();
   for (int r = 0; r < log.rows; ++r) {
-    for (int t = 0; t < k; ++t) {
-      const int row = r * k + t;
+    for (int t = std::max(only, 0); t < (only >= 0 ? only + 1 : k); ++t) {
+      const int row = only >= 0 ? r : r * k + t;
       out.q.row(row) = log.q.row(r);
       if (log.ext.cols() > 0) out.ext.row(row) = log.ext.row(r);
       if (log.direction.cols() > 0) out.direction.row(row) = log.direction.row(r);
@@ -404,23 +331,6 @@ Log tip_samples(const DeviceModel& tree, const Log& log) {
       out.line.push_back(r < static_cast<int>(log.line.size()) ? log.line[r] : 0);
       out.tip.push_back(t);
     }
-  }
-  return out;
-}
-
-Eigen::MatrixXd tree_random_readings(const DeviceTree& tree, int count, std::uint64_t seed) {
-  std::vector<std::uniform_real_distribution<double>> joint(static_cast<size_t>(tree.dof()));
-  for (size_t c = 0; c < tree.chains.size(); ++c) {
-    for (size_t l = 0; l < tree.joint_of[c].size(); ++l) {
-      const Link& link = tree.chains[c].links[l];
-      joint[static_cast<size_t>(tree.joint_of[c][l])] =
-          std::uniform_real_distribution<double>(link.lower, link.upper);
-    }
-  }
-  std::mt19937_64 rng(seed);
-  Eigen::MatrixXd out(count, tree.dof());
-  for (int i = 0; i < count; ++i) {
-    for (int j = 0; j < tree.dof(); ++j) out(i, j) = joint[static_cast<size_t>(j)](rng);
   }
   return out;
 }
@@ -446,24 +356,6 @@ Log chain_log(const DeviceTree& tree, const Log& log, int chain) {
   }
   out.position = log.markers.middleCols(3 * chain, 3);
   out.has_position = true;
-  return out;
-}
-
-std::vector<double> tree_position_rms(const DeviceTree& tree, const Log& log) {
-  check_tree_log(tree, log);
-  std::vector<double> out;
-  for (size_t c = 0; c < tree.chains.size(); ++c) {
-    const DeviceModel& m = tree.chains[c];
-    const PreparedModel prepared(m);
-    double sum = 0;
-    for (int r = 0; r < log.rows; ++r) {
-      const Eigen::VectorXd q = tree.chain_reading(log.q.row(r).transpose(), static_cast<int>(c));
-      const Eigen::Vector3d p = prepared.forward(q.data()).p;
-      sum += (p - log.markers.row(r).segment<3>(3 * static_cast<Eigen::Index>(c)).transpose())
-                 .squaredNorm();
-    }
-    out.push_back(std::sqrt(sum / std::max(log.rows, 1)));
-  }
   return out;
 }
 

@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "identification/measurement_cost.hpp"
 
 namespace hapticcal {
 
@@ -28,7 +29,8 @@ TwoStepJacobians two_step_jacobians(const DeviceModel& model, MeasurementType ty
   const ChainConstants<double> constants = chain_constants(s, p.data());
   const PreparedModel prepared(model);
   const int n = model.dof();
-  const int d = traits(type).dimension;
+  // A tree's pose measures each tip: its rows are tip 0's, then tip 1's, ...
+  const int tips = model.tips(), per_tip = traits(type).dimension, d = per_tip * tips;
   const Eigen::Index m = readings.rows();
   const int k = static_cast<int>(slots.size());
   TwoStepJacobians out;
@@ -36,20 +38,33 @@ TwoStepJacobians two_step_jacobians(const DeviceModel& model, MeasurementType ty
   out.kinematic.resize(m * d, k);
   out.joint.resize(m * d, n);
   Eigen::VectorXd q(n), joint(n);
-  Eigen::MatrixXd J_all(d, s.num_slots());
-  Jacobian6<double> Jg;
+  Eigen::MatrixXd J_all(per_tip, s.num_slots());
+  Jacobian6<double> Jg(6, n);
   double measured[7], residual[6];
+  detail::TipChain chain;
   for (Eigen::Index r = 0; r < m; ++r) {
     q = readings.row(r).transpose();
     prepared.compensate(q.data(), joint.data());
-    const Frame<double> tool = prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, Jg);
-    predicted_values(type, tool, measured);
     // At the predicted values: zero residual (a pose's rotation rows then turn by w).
     const std::optional<ChainConstants<double>> bent = prepared.bent_constants(q.data());
-    measurement_rows(type, s, bent ? *bent : constants, p.data(), joint.data(), measured,
-                     rotation_scale, residual, J_all);
-    for (int c = 0; c < k; ++c) out.kinematic.block(r * d, c, d, 1) = J_all.col(slots[c]);
-    kind_of(type).joint_rows(tool, Jg, rotation_scale, out.joint.block(r * d, 0, d, n));
+    const ChainConstants<double>& c = bent ? *bent : constants;
+    for (int t = 0; t < tips; ++t) {
+      const Frame<double> tool =
+          prepared.forward_jacobian(q.data(), t, JacobianFrame::kMeasurement, Jg.data());
+      predicted_values(type, tool, measured);
+      if (tips == 1) {
+        measurement_rows(type, s, c, p.data(), joint.data(), measured, rotation_scale, residual,
+                         J_all);
+      } else {  // tip t's chain in the tree's vector
+        detail::tip_chain(s, c, p.data(), joint.data(), t, chain);
+        measurement_rows(type, chain.s, chain.constants, p.data(), chain.joint.data(), measured,
+                         rotation_scale, residual, J_all);
+      }
+      const Eigen::Index row = r * d + t * per_tip;
+      for (int col = 0; col < k; ++col)
+        out.kinematic.block(row, col, per_tip, 1) = J_all.col(slots[col]);
+      kind_of(type).joint_rows(tool, Jg, rotation_scale, out.joint.block(row, 0, per_tip, n));
+    }
   }
   for (const StepOneModel& t : step_one) {
     const int np = t.transmission.num_parameters();

@@ -1,6 +1,8 @@
 // `calibrate` as one job (jobs/calibrate_job.hpp).
 #include "hapticcal/jobs/calibrate_job.hpp"
 
+#include <fmt/format.h>
+
 #include <memory>
 
 #include "hapticcal/core/error.hpp"
@@ -9,6 +11,7 @@
 #include "hapticcal/data_io/fixture.hpp"
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/markers.hpp"
+#include "hapticcal/identification/tree.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/report/calibration_lines.hpp"
@@ -31,14 +34,35 @@ std::vector<std::string> tip_names(const std::string& tip) {
   return out;
 }
 
+namespace {
+
+// Several tips (a tree) are a URDF's, measured as each tip's point.
+void check_tree_request(const CalibrateRequest& request) {
+  const auto refuse = [&](const std::string& key, const std::string& why) {
+    throw InputError(request.model, 0, key, why);
+  };
+  if (request.nominal || !is_urdf_path(request.model))
+    refuse("--tip", "several tips (a tree) need a URDF model");
+  if (!request.tracker.empty()) refuse("--tracker", "a tree is fitted on static poses");
+  if (!request.fixture.empty() || !request.point_distances.empty())
+    refuse("--fixture", "a tree's log measures its tips' points, not fixture points");
+  if (request.options.marker_body.cols() > 0)
+    refuse("--markers", "with several tips, x<k> is tip k's point, not a marker of one body");
+}
+
+}  // namespace
+
 CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
-  if (const std::vector<std::string> tips = tip_names(request.tip); tips.size() > 1)
-    return run_tree_calibrate_job(request, tips);
+  const std::vector<std::string> tips = tip_names(request.tip);
+  const bool tree = tips.size() > 1;
+  if (tree) check_tree_request(request);
   CalibrateJob job;
   const bool urdf = !request.model.empty() && is_urdf_path(request.model);
   const std::string urdf_text = urdf ? read_file(request.model, FileKind::kUrdf) : std::string();
   if (request.nominal) {
     job.nominal = *request.nominal;
+  } else if (tree) {
+    job.nominal = tree_model(parse_tree(urdf_text, request.model, tips, request.root));
   } else {
     job.nominal = urdf ? parse_urdf(urdf_text, request.model, request.tip, request.root)
                        : load_model(request.model, request.tip, request.root);
@@ -53,6 +77,7 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
                      "time yet");
   }
   Log log = read_log(request.log, request.columns);
+  if (tree) log = tip_samples(job.nominal, log);  // a sample a tip of each row
   const Log tracker = request.tracker.empty() ? Log() : read_log(request.tracker);
   if (request.out) job.out = std::make_unique<OutputSet>(*request.out, "calibrate");
   CalibrationOptions options = request.options;
@@ -76,8 +101,10 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
     job.results_json = job.written.results_json;
   } else {
     // results.json as the command line would write it into a fresh folder.
-    if (!job.usable())
-      job.result.notes.push_back("no calibrated.yaml written: the calibration is not usable");
+    if (!job.usable()) {
+      job.result.notes.push_back(fmt::format("no {} written: the calibration is not usable",
+                                             tree ? "calibrated.urdf" : "calibrated.yaml"));
+    }
     job.results_json =
         calibration_json(job.result, job.nominal, request.model, request.log, options);
   }

@@ -36,15 +36,16 @@ void check_chain_used(const EvaluateRequest& request) {
                                request.tip.empty() ? "--root" : "--tip"));
 }
 
-// The tree of a URDF path at these tips.
-DeviceTree evaluated_tree(const EvaluateRequest& request, const std::string& path,
-                          const std::vector<std::string>& tips) {
+// The tree of a URDF path at these tips, as one model (tree_model).
+DeviceModel evaluated_tree(const EvaluateRequest& request, const std::string& path,
+                           const std::vector<std::string>& tips) {
   if (!is_urdf_path(path))
     throw InputError(path, 0, "--tip", "several tips (a tree) need URDF models");
-  return load_tree(path, tips, request.root);
+  return tree_model(load_tree(path, tips, request.root));
 }
 
-// Each tip of a tree evaluated on its chain's log (the log's x<k> its point).
+// Each tip of a tree evaluated on its samples (the log's x<k> its point), by
+// the chain's evaluation of the tree model.
 EvaluateJob tree_evaluate_job(const EvaluateRequest& request,
                               const std::vector<std::string>& tips) {
   if (request.given || request.given_reference || !request.fixture.empty() ||
@@ -53,25 +54,25 @@ EvaluateJob tree_evaluate_job(const EvaluateRequest& request,
                      "a tree is evaluated on its tips' points alone (no fixture, --register, "
                      "markers or models in memory)");
   EvaluateJob job;
-  const DeviceTree tree = evaluated_tree(request, request.model, tips);
-  std::optional<DeviceTree> reference;
+  const DeviceModel tree = evaluated_tree(request, request.model, tips);
+  std::optional<DeviceModel> reference;
   if (!request.reference.empty()) reference = evaluated_tree(request, request.reference, tips);
   const Log log = read_log(request.log, request.columns);
-  tree_position_rms(tree, log);  // the log's joints and points checked against the tree
+  std::vector<Log> parts;
+  for (size_t c = 0; c < tips.size(); ++c)
+    parts.push_back(tip_samples(tree, log, static_cast<int>(c)));
   job.rows = log.rows;
   job.tips = tips;
   nlohmann::ordered_json json;
-  json["tree"] = {{"name", tree.name}, {"tips", tips}, {"joints", tree.joints}};
+  json["device"] = tree.name;
   for (size_t c = 0; c < tips.size(); ++c) {
-    const int chain = static_cast<int>(c);
-    const Log part = chain_log(tree, log, chain);
     std::optional<EvaluationComparison> cmp;
     Evaluation e;
     if (reference) {
-      cmp = compare_to_reference(tree.chains[c], reference->chains[c], part, {}, {}, {});
+      cmp = compare_to_reference(tree, *reference, parts[c], {}, {}, {});
       e = cmp->model;
     } else {
-      e = evaluate(tree.chains[c], part, {}, {});
+      e = evaluate(tree, parts[c], {}, {});
     }
     json["tips"][tips[c]] =
         nlohmann::ordered_json::parse(evaluation_json(cmp ? &*cmp : nullptr, e));
@@ -81,7 +82,7 @@ EvaluateJob tree_evaluate_job(const EvaluateRequest& request,
     job.tip_evaluations.push_back(e);
     job.tip_comparisons.push_back(cmp);
   }
-  job.model = tree.chains[0];
+  job.model = tree;
   job.evaluation = job.tip_evaluations[0];
   job.json = json.dump();
   if (!request.out) return job;
@@ -91,8 +92,7 @@ EvaluateJob tree_evaluate_job(const EvaluateRequest& request,
   Report report;
   for (size_t c = 0; c < tips.size(); ++c) {
     Report tip =
-        evaluation_report(tree.chains[c], request.model, chain_log(tree, log, static_cast<int>(c)),
-                          job.tip_evaluations[c],
+        evaluation_report(tree, request.model, parts[c], job.tip_evaluations[c],
                           job.tip_comparisons[c] ? &job.tip_comparisons[c]->reference : nullptr,
                           request.reference, {});
     if (c == 0) {

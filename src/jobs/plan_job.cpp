@@ -10,6 +10,8 @@
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/tree.hpp"
+#include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/paper.hpp"
@@ -33,7 +35,18 @@ PlanSetup prepare_plan(const PlanRequest& o) {
     throw InputError(fmt::format("{}: applies to URDF models (.urdf); none is given",
                                  o.tip.empty() ? "--root" : "--tip"));
   }
-  setup.model = load_model(o.model, o.tip, o.root);
+  if (const std::vector<std::string> tips = tip_names(o.tip); tips.size() > 1) {
+    // A tree: each pose measures every tip's point (tree_model).
+    if (*type != MeasurementType::kPosition)
+      throw InputError(o.model, 0, "--measurement",
+                       "a tree's plan measures its tips' points: position");
+    if (o.distance_range || o.box)
+      throw InputError(o.model, 0, o.box ? "--box" : "--distance-range",
+                       "no workspace constraints on a tree yet");
+    setup.model = tree_model(load_tree(o.model, tips, o.root));
+  } else {
+    setup.model = load_model(o.model, o.tip, o.root);
+  }
   setup.type = *type;
   const DeviceModel& model = setup.model;
   PlanOptions& options = setup.options;

@@ -73,6 +73,14 @@ PreparedModel::PreparedModel(const DeviceModel& model) : structure_(model.struct
     all_mdh = all_mdh && j.geometry == Geometry::kMdh && !j.prismatic();
   }
   path_ = all_dh ? Path::kDh : all_mdh ? Path::kMdh : Path::kGeneric;
+  if (structure_.tips > 1) {  // the register recursions run down one chain
+    path_ = Path::kGeneric;
+    for (int k = 0; k < structure_.tips; ++k) {
+      tip_tools_.push_back(tool_frame(structure_.tip(k), params.data()));
+      std::array<int, kMaxDof> links;
+      tip_paths_.emplace_back(links.begin(), links.begin() + structure_.path(k, links.data()));
+    }
+  }
   if (model.compliant() || model.laterally_compliant())
     gravity_ = std::make_shared<const GravityModel>(model);
   if (model.coupled()) {
@@ -202,14 +210,7 @@ void PreparedModel::joint_angles(const double* joint, double* cos_theta, double*
   }
 }
 
-void PreparedModel::refuse_tree() const {
-  throw std::logic_error(
-      "a tree's kinematics are its tips' chains (DeviceModel::structure(tip)); the prepared "
-      "model composes one chain");
-}
-
 Frame<double> PreparedModel::chain_from_joints(const double* joint, Frame<double>* frames) const {
-  if (structure_.tips > 1) refuse_tree();
   std::array<double, kMaxDof> cos_theta, sin_theta, length;
   joint_angles(joint, cos_theta.data(), sin_theta.data(), length.data());
   return compose(cos_theta.data(), sin_theta.data(), length.data(), frames);
@@ -254,7 +255,6 @@ Frame<double> PreparedModel::compose_bent(const double* cos_theta, const double*
 // joints; then the arc tangents of eq. (1). A capstan joint's angle
 // theta = q + (error + offset) is turned from (cos q, sin q) by that small angle.
 Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const {
-  if (structure_.tips > 1) refuse_tree();
   if (gravity_) return compliant_chain(q, frames);
   if (!coupling_.empty()) {
     std::array<double, kMaxDof> joint;
@@ -317,12 +317,12 @@ Frame<double> PreparedModel::compose(const double* cos_theta, const double* sin_
   const int n = structure_.dof;
   if (!links) links = links_.data();
   frames[0] = base_;
-  if (path_ == Path::kGeneric) {
+  if (path_ == Path::kGeneric) {  // a tree's links each on its parent's frame
     for (int i = 0; i < n; ++i) {
-      compose_link(structure_.joints[i], frames[i], links[i], cos_theta[i], sin_theta[i], length[i],
-                   frames[i + 1]);
+      compose_link(structure_.joints[i], frames[structure_.before(i)], links[i], cos_theta[i],
+                   sin_theta[i], length[i], frames[i + 1]);
     }
-    return frames[n] * tool_;
+    return frames[structure_.last_frame()] * tool_;
   }
   // compose_link's column operations on a running frame held in registers
   // (columns ex, ey, ez and origin o); frames[] is only written.
@@ -380,8 +380,35 @@ Frame<double> PreparedModel::forward_jacobian(const double* q, JacobianFrame exp
   return forward_jacobian(q, expressed_in, J.data());
 }
 
+Frame<double> PreparedModel::forward(const double* q, int tip) const {
+  std::array<Frame<double>, kMaxDof + 1> frames;
+  const Frame<double> first = chain(q, frames.data());
+  if (tip == 0) return first;
+  assert(tip > 0 && tip < structure_.tips);
+  return frames[structure_.tip_link[tip] + 1] * tip_tools_[tip];
+}
+
+Frame<double> PreparedModel::forward_jacobian(const double* q, int tip, JacobianFrame expressed_in,
+                                              double* J_col_major) const {
+  if (structure_.tips == 1) return forward_jacobian(q, expressed_in, J_col_major);
+  assert(tip >= 0 && tip < structure_.tips);
+  std::array<Frame<double>, kMaxDof + 1> frames;
+  chain(q, frames.data());
+  const Frame<double> T_meas_tool = frames[structure_.tip_link[tip] + 1] * tip_tools_[tip];
+  const int n = structure_.dof;
+  Eigen::Map<Jacobian6<double>> J(J_col_major, 6, n);
+  geometric_jacobian_into(structure_, frames.data(), T_meas_tool, expressed_in, J);
+  std::array<bool, kMaxDof> on_path{};
+  for (int i : tip_paths_[static_cast<size_t>(tip)]) on_path[i] = true;
+  for (int i = 0; i < n; ++i) {
+    if (!on_path[i]) J.col(i).setZero();
+  }
+  return T_meas_tool;
+}
+
 Frame<double> PreparedModel::forward_jacobian(const double* q, JacobianFrame expressed_in,
                                               double* J_col_major) const {
+  if (structure_.tips > 1) return forward_jacobian(q, 0, expressed_in, J_col_major);
   std::array<Frame<double>, kMaxDof + 1> frames;
   const Frame<double> T_meas_tool = chain(q, frames.data());
   // geometric_jacobian in plain doubles, written straight into J's storage: 2511

@@ -165,6 +165,7 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
                             k.converged ? "converged" : "NOT converged", k.iterations));
   out.push_back(fmt::format("  RMS residual: {:.4f} mm before, {:.4f} mm after (training)",
                             k.rms_before * 1e3, k.rms_after * 1e3));
+  for (const std::string& line : tip_rms_lines(k, nominal)) out.push_back("    " + line);
   if (k.search.ran && std::isfinite(k.cv_rms)) {
     out.push_back(
         fmt::format("  held-out RMS (the model search's: {} folds x {} shuffles by {}): {:.4f} mm",
@@ -210,6 +211,16 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
   }
   for (const std::string& note : r.notes) {
     out.push_back(fmt::format("{}{}", note.rfind("warning: ", 0) == 0 ? "" : "note: ", note));
+  }
+  return out;
+}
+
+std::vector<std::string> tip_rms_lines(const KinematicFit& fit, const DeviceModel& nominal) {
+  std::vector<std::string> out;
+  for (size_t t = 0; t < fit.tip_rms_after.size() && t < fit.tip_rms_before.size(); ++t) {
+    out.push_back(fmt::format("{}: {:.4f} mm before, {:.4f} mm after",
+                              nominal.tip_name(static_cast<int>(t)), fit.tip_rms_before[t] * 1e3,
+                              fit.tip_rms_after[t] * 1e3));
   }
   return out;
 }

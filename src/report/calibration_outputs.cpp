@@ -1,7 +1,10 @@
 #include "hapticcal/report/calibration_outputs.hpp"
 
+#include <fmt/format.h>
+
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
+#include "hapticcal/identification/tree.hpp"
 #include "hapticcal/model_io/device.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/report/report.hpp"
@@ -12,10 +15,12 @@ namespace {
 
 // The previous run's calibrated.yaml (and calibrated.urdf of a URDF model),
 // carried into a failed run's set only if that run calibrated the same device.
-bool keep_previous_model(const OutputSet& out, const std::string& device, bool urdf) {
+// A tree's calibrated.urdf alone (a device file holds one chain).
+bool keep_previous_model(const OutputSet& out, const DeviceModel& nominal, bool urdf) {
   if (out.previous_command() != "calibrate") return false;
+  if (nominal.tree()) return out.keep_previous("calibrated.urdf");
   try {
-    if (load_device(out.target() + "/calibrated.yaml").name != device) return false;
+    if (load_device(out.target() + "/calibrated.yaml").name != nominal.name) return false;
   } catch (const InputError&) {
     return false;
   }
@@ -23,9 +28,16 @@ bool keep_previous_model(const OutputSet& out, const std::string& device, bool u
   return out.keep_previous("calibrated.yaml");
 }
 
-// calibrated.yaml, and for a URDF model calibrated.urdf (its notes into result).
+// calibrated.yaml, and for a URDF model calibrated.urdf (its notes into
+// result); a tree's calibrated.urdf alone.
 void write_models(const std::string& dir, CalibrationResult& result,
                   const CalibrationSource& source) {
+  if (result.calibrated.tree()) {
+    write_file_atomically(dir + "/calibrated.urdf",
+                          tree_urdf(source.urdf_text, source.model_path, source.root,
+                                    result.calibrated, result.notes));
+    return;
+  }
   save_device(result.calibrated, dir + "/calibrated.yaml");
   if (source.urdf_text.empty()) return;
   write_file_atomically(dir + "/calibrated.urdf",
@@ -44,10 +56,11 @@ CalibrationOutputs write_calibration_outputs(OutputSet& out, CalibrationResult& 
     write_models(out.dir(), result, source);
     written.model_written = true;
   } else {
-    written.previous_kept = keep_previous_model(out, nominal.name, !source.urdf_text.empty());
+    written.previous_kept = keep_previous_model(out, nominal, !source.urdf_text.empty());
+    const char* file = nominal.tree() ? "calibrated.urdf" : "calibrated.yaml";
     result.notes.push_back(written.previous_kept
-                               ? "calibrated.yaml is the previous run's model: not replaced"
-                               : "no calibrated.yaml written: the calibration is not usable");
+                               ? fmt::format("{} is the previous run's model: not replaced", file)
+                               : fmt::format("no {} written: the calibration is not usable", file));
   }
   written.results_json =
       calibration_json(result, nominal, source.model_path, source.log_path, options);

@@ -117,6 +117,8 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
   Eigen::VectorXd q(model.dof());
   // A backlash moves the joint values by the side each joint came from.
   const bool backlash = model.has_backlash() && log.any_direction();
+  if (backlash && model.tree())
+    throw InputError(log.origin, 0, "dir1", "a backlash on a tree is not evaluated yet");
   const ChainStructure s = model.structure();
   const Eigen::VectorXd params = model.kinematic_parameters();
   const ChainConstants<double> constants = chain_constants(s, params.data());
@@ -129,8 +131,8 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
       model.apply_backlash(log.direction.row(r), joint);
       const std::optional<ChainConstants<double>> bent = prepared.bent_constants(q.data());
       tool = forward_kinematics(s, bent ? *bent : constants, joint.data());
-    } else {
-      tool = prepared.forward(q.data());
+    } else {  // a tree's sample: its tip's pose (Log::tip)
+      tool = prepared.forward(q.data(), log.tip.empty() ? 0 : log.tip[static_cast<size_t>(r)]);
     }
     const Eigen::Vector3d& p = tool.p;
     if (log.has_point || log.has_plane) {

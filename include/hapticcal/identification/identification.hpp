@@ -244,6 +244,8 @@ struct KinematicFit {
   // as `evaluate` reports it: the distance error, or the Euclidean position
   // error (of a pose log too: its orientation error is evaluate's).
   double rms_before = 0, rms_after = 0;
+  // A tree's: the same a tip (its samples' rows), in tip order; empty for a chain.
+  std::vector<double> tip_rms_before, tip_rms_after;
   // K-fold cross-validated RMS [m] (the same measure as rms_after): each fold's
   // poses (repeats together) predicted by a fit on the other folds; NaN when
   // not computed (cv_note says why).

@@ -1,7 +1,9 @@
-// Several tips on one tree (issue 26): the chains root -> tip of one URDF (two
-// hands on a shared torso, two tools on one base), measured together (a log's
-// x1, y1, z1 at the first tip, x2, y2, z2 at the second, ...) and fitted as one
-// problem, in which a joint the chains share is one set of parameters.
+// Several tips on one tree: the chains root -> tip of one URDF (two hands on a
+// shared torso, two tools on one base), measured together (a log's x1, y1, z1
+// at the first tip, x2, y2, z2 at the second, ...). The tree is one model
+// (tree_model: DeviceModel::tree), in which a joint the chains share is one set
+// of parameters, calibrated, evaluated and planned by the chain's procedure on
+// one sample a tip (tip_samples).
 #pragma once
 
 #include <Eigen/Core>
@@ -45,7 +47,10 @@ struct DeviceTree {
 // for fewer than two chains, a tip named twice, chains that do not start from
 // one base, a joint two chains share with different geometry or limits or not
 // on their common path from the root, or a chain with joint-error stages,
-// coupling, compliance or backlash (single-chain features, not yet on trees).
+// compliance or backlash (a device file's, which holds one chain). A chain's
+// coupling (a URDF's <mimic> or <hapticcal_coupling>) becomes the tree
+// model's (tree_model); two chains that couple a joint they share differently
+// are refused there.
 DeviceTree make_tree(std::vector<DeviceModel> chains, const std::vector<std::string>& tips);
 // The chains root -> tip of a URDF's text, one a tip (parse_urdf); InputError
 // besides make_tree's for a tip on the path to another or joined to it by
@@ -78,59 +83,11 @@ std::string tree_urdf(const std::string& text, const std::string& origin, const 
 // one sample a tip of each row, in row order (Log::tip): each a position of
 // its tip, with the row's readings, directions, time and line. InputError
 // naming the log for another number of marker points than the model's tips.
-Log tip_samples(const DeviceModel& tree, const Log& log);
-
-// `count` readings of the tree, each joint uniform within its limits
-// (seeded: the same on every platform's std::mt19937_64; the distribution's
-// arithmetic is the standard library's).
-Eigen::MatrixXd tree_random_readings(const DeviceTree& tree, int count, std::uint64_t seed);
+// `only` >= 0: that tip's sample of each row alone.
+Log tip_samples(const DeviceModel& tree, const Log& log, int only = -1);
 
 // Chain c's log: its readings (the tree's columns of its joints) and its tip's
 // point (the tree log's marker c) as positions.
 Log chain_log(const DeviceTree& tree, const Log& log, int chain);
-
-// A tree's calibration: the fit of every tip's points at once.
-struct TreeCalibration {
-  CalibrationStatus status = CalibrationStatus::kConverged;
-  std::string status_reason;
-  DeviceTree calibrated;
-  // Every tree parameter, in tree slot order: identified or held (why).
-  std::vector<ParameterEstimate> parameters;
-  int identified = 0;
-  int poses = 0;
-  double condition_number = 0;  // of the identified, column-scaled Jacobian
-  double sigma = 0;             // m: used for the standard deviations
-  double length_scale = 1;      // m: angle columns are divided by it
-  bool frame_registered = false;
-  bool rank_deficient = false;
-  int iterations = 0;
-  std::string termination;
-  // RMS position error [m] a tip, of the nominal tree (in the registered frame,
-  // if registered) and of the calibrated one.
-  std::vector<double> rms_before, rms_after;
-  // Each pose's position error [m] a tip, before and after (the report's figure).
-  std::vector<Eigen::VectorXd> errors_before, errors_after;
-  std::vector<std::string> notes;
-};
-
-// Levenberg-Marquardt (Ceres) over the parameters the tips' points identify:
-// the structural rank test on synthetic readings over the joint limits, then
-// the data's, in the order base -> tools -> joints where the measurement frame
-// is unknown (calibrate's rule) and joints -> tools -> base otherwise. Plain
-// least squares (no tolerance prior, no model selection). Uses of options:
-// fix (tree names), force, sigma, dependency_tolerance, max_jacobian_bytes.
-// InputError for a log check_tree_log refuses, readings outside the limits
-// (unless forced), a Jacobian beyond max_jacobian_bytes, and joint errors,
-// --free or --select (single-chain features).
-TreeCalibration calibrate_tree(const DeviceTree& nominal, const Log& log,
-                               const CalibrationOptions& options);
-
-// A log that does not fit the tree: InputError naming the log, for its joint
-// count, no x1..xK for K tips, external encoders, directions, distances,
-// positions or orientations besides the tips' points.
-void check_tree_log(const DeviceTree& tree, const Log& log);
-
-// The RMS position error [m] of each tip of the tree over the log (x1..xK).
-std::vector<double> tree_position_rms(const DeviceTree& tree, const Log& log);
 
 }  // namespace hapticcal

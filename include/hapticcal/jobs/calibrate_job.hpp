@@ -10,7 +10,6 @@
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/stream.hpp"
-#include "hapticcal/identification/tree.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/report/calibration_outputs.hpp"
 
@@ -47,20 +46,17 @@ struct CalibrateJob {
   CalibrationOutputs written;      // what write_calibration_outputs did
   std::string results_json;        // as written (or as it would be into a fresh folder)
   std::vector<std::string> lines;  // the summary (calibration_lines)
-  // Several tips (a tree): its fit; `result` then carries only the status,
-  // `nominal` the first chain, and the set holds calibrated.urdf and results.json.
-  std::optional<TreeCalibration> tree;
   bool usable() const { return result.status == CalibrationStatus::kConverged; }
 };
 
 // Reads the model (a URDF once: its text is also the base of calibrated.urdf)
 // and the log, calibrates, and with `out` writes the output set
-// (write_calibration_outputs). Throws InputError for bad input.
+// (write_calibration_outputs). Several tips (request.tip "A,B") calibrate the
+// URDF's tree (tree_model) on each row's tip points (tip_samples), through the
+// same procedure and writers; its set holds calibrated.urdf, no device file.
+// Throws InputError for bad input (a tree: a model that is not a URDF, a
+// tracker's stream, a fixture or a marker body).
 CalibrateJob run_calibrate_job(const CalibrateRequest& request);
-// The same for a tree (request.tip naming these tips): InputError for a model
-// that is not a URDF, a tracker's stream, a fixture or a marker body.
-CalibrateJob run_tree_calibrate_job(const CalibrateRequest& request,
-                                    const std::vector<std::string>& tips);
 // The tips of a --tip value: its comma-separated names (one: a chain).
 std::vector<std::string> tip_names(const std::string& tip);
 

@@ -13,7 +13,6 @@
 
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/design/plan.hpp"
-#include "hapticcal/design/tree_plan.hpp"
 #include "hapticcal/model/model.hpp"
 
 namespace hapticcal {
@@ -75,24 +74,5 @@ PlanJob run_plan_job(const PlanRequest& request, const std::string& out,
 // `note` as write_report does.
 int write_plan_files(const std::string& dir, const std::string& json, const PlanProblem& problem,
                      const Plan& plan, std::string& note);
-
-// plan --tip A,B on a URDF (a tree): the tree, its plan (design/tree_plan.hpp)
-// and its files in `out` (plan.csv: q1..qN of the tree's joints; plan.json,
-// format hapticcal-tree-plan/1; report.html), committed.
-struct TreePlanJob {
-  DeviceTree tree;
-  TreePlanOptions options;
-  TreePlan plan;
-  std::string json;
-  std::vector<std::string> lines;  // the terminal's summary
-  std::unique_ptr<OutputSet> out;
-  int figures = 0;
-  std::string report_note;
-};
-// InputError for what a tree's plan does not take: a model that is not a URDF,
-// a measurement other than position, candidates, constraints, --fix/--free,
-// refinement or an encoder sd.
-TreePlanJob run_tree_plan_job(const PlanRequest& request, const std::vector<std::string>& tips,
-                              const std::string& out);
 
 }  // namespace hapticcal

@@ -467,11 +467,20 @@ class PreparedModel {
   explicit PreparedModel(const DeviceModel& model);
 
   int dof() const { return structure_.dof; }
+  // A tree's tips (DeviceModel::tips; 1: a chain).
+  int tips() const { return structure_.tips; }
   // The joint values q + dtheta(q) for the readings q (n values); coupled:
   // C (q + dtheta(q)) (DeviceModel::coupling).
   void compensate(const double* q, double* joint) const;
-  // T_meas_tool from the readings q.
+  // T_meas_tool from the readings q (a tree's: its first tip's).
   Frame<double> forward(const double* q) const;
+  // T_meas_tool of tip `tip` of a tree (0 <= tip < tips()): every link's
+  // frame composed once on its parent's, then the tip's link and tool.
+  Frame<double> forward(const double* q, int tip) const;
+  // Its geometric Jacobian w.r.t. the tree's joint values (zero columns for
+  // the joints off the tip's path), into 6 x dof column-major storage.
+  Frame<double> forward_jacobian(const double* q, int tip, JacobianFrame expressed_in,
+                                 double* J_col_major) const;
   // T_meas_tool and the geometric Jacobian w.r.t. the joint values.
   Frame<double> forward_jacobian(const double* q, JacobianFrame expressed_in,
                                  Jacobian6<double>& J) const;
@@ -494,9 +503,6 @@ class PreparedModel {
   std::optional<ChainConstants<double>> bent_constants(const double* q) const;
 
  private:
-  // A tree model (DeviceModel::tree): its compensation is the chain's, its
-  // kinematics are not one chain's; std::logic_error.
-  [[noreturn]] void refuse_tree() const;
   Frame<double> chain(const double* q, Frame<double>* frames) const;
   // dtheta_k(q_k) of every reading, the capstans' sines, cosines and arc
   // tangents in batches (the coupled path's compensation).
@@ -521,6 +527,9 @@ class PreparedModel {
 
   ChainStructure structure_;
   Frame<double> base_, tool_;
+  // A tree's: each tip's tool (tool_ is the first's) and the links on its path.
+  std::vector<Frame<double>> tip_tools_;
+  std::vector<std::vector<int>> tip_paths_;
   std::vector<LinkConstants<double>> links_;
   std::vector<PreparedTransmission> transmissions_;
   std::vector<int> capstan_joints_;  // revolute joints whose transmission is a capstan

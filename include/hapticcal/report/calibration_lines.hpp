@@ -15,5 +15,8 @@ namespace hapticcal {
 // warnings, large changes and the notes. No trailing newlines.
 std::vector<std::string> calibration_lines(const CalibrationResult& result,
                                            const DeviceModel& nominal);
+// A tree's RMS error a tip, before and after ("left_hand: 3.2 mm before, ...");
+// none for a chain.
+std::vector<std::string> tip_rms_lines(const KinematicFit& fit, const DeviceModel& nominal);
 
 }  // namespace hapticcal

@@ -104,13 +104,6 @@ Report evaluation_report(const DeviceModel& model, const std::string& model_path
                          const Evaluation& ev, const Evaluation* reference,
                          const std::string& reference_path, const std::vector<std::string>& lines);
 
-struct TreeCalibration;
-// calibrate of a tree (several tips): the outcome (the terminal's first
-// lines), the parameter table with each parameter's tips, and each tip's
-// error a pose before and after.
-Report tree_report(const TreeCalibration& fit, const std::string& model_path,
-                   const std::string& log_path, const std::vector<std::string>& lines);
-
 class PlanProblem;
 struct Plan;
 // plan: the predicted sd per parameter and over the workspace, planned against
