@@ -23,6 +23,7 @@
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/study/evaluate.hpp"
+#include "hapticcal/study/session.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
 
@@ -266,6 +267,61 @@ TEST(Tree, BadTreesAndLogsAreRefused) {
   Log fewer = good;
   fewer.q.conservativeResize(Eigen::NoChange, 10);
   EXPECT_THROW(calibrate(tree, fewer, {}), InputError);
+}
+
+// The largest distance [m] between the tips of a calibration's tree and of
+// its calibrated.urdf read back from the measurement frame, at random readings.
+double urdf_round_trip_gap(const DeviceModel& calibrated, const std::string& urdf) {
+  const DeviceModel back = tree_model(load_tree(urdf, kTips, "hapticcal_measurement"));
+  const PreparedModel a(calibrated), b(back);
+  const Eigen::MatrixXd q = random_readings(calibrated, 50, 9);
+  double gap = 0;
+  for (Eigen::Index r = 0; r < q.rows(); ++r) {
+    const Eigen::VectorXd x = q.row(r).transpose();
+    for (int t = 0; t < calibrated.tips(); ++t)
+      gap = std::max(gap, (a.forward(x.data(), t).p - b.forward(x.data(), t).p).norm());
+  }
+  return gap;
+}
+
+// A tree from a hand-guided session: the device's readings and a tracker's
+// stream of one marker a hand on two clocks (37.3 ms and 20 ppm apart, 0.1 mm
+// noise, 60 s at 60 Hz): calibrate --tip A,B --tracker finds the offset and
+// fits the tree, and calibrated.urdf gives back the fitted tree to 1e-9 m.
+TEST(Tree, CalibratesFromATwoClockStream) {
+  const std::string dir = testing::fresh_folder("tree_stream");
+  std::filesystem::copy_file(kUrdf, dir + "/two_arm.urdf");
+  const DeviceModel truth = truth_model(41);
+  SessionOptions o;
+  o.seconds = 60;
+  o.tracker_rate_hz = 60;
+  const Session session = simulate_session(truth, o, 42);
+  ASSERT_EQ(session.tracker.marker_count, 2);
+  std::ofstream(dir + "/device.csv") << log_to_csv(session.device);
+  std::ofstream(dir + "/tracker.csv") << log_to_csv(session.tracker);
+  CalibrateRequest request;
+  request.model = dir + "/two_arm.urdf";
+  request.tip = "left_hand,right_hand";
+  request.log = dir + "/device.csv";
+  request.tracker = dir + "/tracker.csv";
+  request.stream.drift = true;
+  request.out = dir + "/cal";
+  const CalibrateJob job = run_calibrate_job(request);
+  ASSERT_TRUE(job.usable()) << job.result.status_reason;
+  ASSERT_TRUE(job.result.clock.has_value());
+  const ClockEstimate& c = *job.result.clock;
+  std::printf("tree stream: offset %.4f ms +- %.4f (truth 37.3), training RMS %.4f mm\n",
+              1e3 * c.clock.offset, 1e3 * c.offset_sd, 1e3 * job.result.kinematics.rms_after);
+  EXPECT_LT(std::abs(c.clock.offset - o.clock_offset), 4 * c.offset_sd + 2e-5);
+  // The residual is the markers' noise (Euclidean: sqrt(3) sigma) and little else.
+  EXPECT_LT(job.result.kinematics.rms_after, 1.3 * std::sqrt(3.0) * o.sigma_position);
+  // Against the truth at other readings: the tree is calibrated.
+  const Log truth_points = hands_log(truth, 100, 0.0, 43);
+  const std::vector<double> gap = tip_rms(job.result.calibrated, truth_points);
+  std::printf("tree stream: against the truth %.4f / %.4f mm\n", 1e3 * gap[0], 1e3 * gap[1]);
+  EXPECT_LT(std::max(gap[0], gap[1]), 1e-4) << gap[0] << " " << gap[1];
+  EXPECT_LT(urdf_round_trip_gap(job.result.calibrated, dir + "/cal/calibrated.urdf"), 1e-9);
+  std::filesystem::remove_all(dir);
 }
 
 // The command line: calibrate --tip A,B on the URDF writes the tree's

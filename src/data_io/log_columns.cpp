@@ -320,13 +320,18 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
     ++count[static_cast<int>(c.quantity)];
     if (c.quantity == Quantity::kJoint) dof = std::max(dof, c.joint + 1);
   }
-  // A tracker's stream (calibrate --tracker) is times and positions alone.
+  // A tracker's stream (calibrate --tracker) is times and positions alone: a
+  // point (x, y, z) or markers (x1, y1, z1, ...: a tree's, one a tip).
+  const auto has = [&](Quantity q) { return count[static_cast<int>(q)] > 0; };
   const bool tracker_stream =
-      count[static_cast<int>(Quantity::kTime)] == 1 && count[static_cast<int>(Quantity::kX)] == 1 &&
-      count[static_cast<int>(Quantity::kY)] == 1 && count[static_cast<int>(Quantity::kZ)] == 1;
+      count[static_cast<int>(Quantity::kTime)] == 1 &&
+      ((count[static_cast<int>(Quantity::kX)] == 1 && count[static_cast<int>(Quantity::kY)] == 1 &&
+        count[static_cast<int>(Quantity::kZ)] == 1) ||
+       (has(Quantity::kMarkerX) && has(Quantity::kMarkerY) && has(Quantity::kMarkerZ)));
   if (dof == 0 && !tracker_stream) {
     throw InputError(origin, line, "q1",
-                     "missing: a log needs joint columns q1..qn (a tracker's stream: t, x, y, z)");
+                     "missing: a log needs joint columns q1..qn (a tracker's stream: t, x, y, z, "
+                     "or t, x1, y1, z1, ...)");
   }
   if (count[static_cast<int>(Quantity::kJoint)] != dof) {
     for (int i = 0; i < dof; ++i) {

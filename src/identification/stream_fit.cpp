@@ -11,6 +11,7 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/stream.hpp"
+#include "hapticcal/identification/tree.hpp"
 #include "hapticcal/identification/two_step.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
@@ -32,10 +33,39 @@ constexpr int kCurveSamples = 2000;
 // ReadingInterpolator::around (a and b: buffers of dof values); false where the
 // readings do not reach.
 bool tool_velocity(const PreparedModel& model, const ReadingInterpolator& readings, double t,
-                   Eigen::VectorXd& a, Eigen::VectorXd& b, Eigen::Vector3d& v) {
+                   Eigen::VectorXd& a, Eigen::VectorXd& b, Eigen::Vector3d& v, int tip = 0) {
   if (!readings.around(t, a.data(), b.data())) return false;
-  v = (model.forward(b.data()).p - model.forward(a.data()).p) / readings.median_interval();
+  v = (model.forward(b.data(), tip).p - model.forward(a.data(), tip).p) /
+      readings.median_interval();
   return true;
+}
+
+// A tree's tracker stream (x1, y1, z1 the first tip's marker, ...) as its
+// first tip's positions: the clock's search, the samples and the residual
+// curve follow that tip (the prepared tree's forward(q) is its pose).
+Log first_tip_stream(const Log& tracker) {
+  Log first = tracker;
+  first.has_position = tracker.marker_count > 0;
+  first.position = tracker.markers.leftCols(std::min<Eigen::Index>(3, tracker.markers.cols()));
+  first.marker_count = 0;
+  first.markers.resize(0, 0);
+  return first;
+}
+
+// The samples at a clock: the readings at the tracker's times with its
+// positions; a tree's as one sample a tip of its markers (tip_samples).
+Log samples_at(const DeviceModel& nominal, const ReadingInterpolator& readings, const Log& device,
+               const Log& tracker, const Log& first, const std::vector<int>& rows,
+               const StreamClock& clock, std::vector<int>& kept) {
+  Log at = readings_at_tracker(readings, device, first, rows, clock, kept);
+  if (!nominal.tree()) return at;
+  at.has_position = false;
+  at.position.resize(0, 0);
+  at.marker_count = tracker.marker_count;
+  at.markers.resize(at.rows, tracker.markers.cols());
+  for (int r = 0; r < at.rows; ++r)
+    at.markers.row(r) = tracker.markers.row(kept[static_cast<size_t>(r)]);
+  return tip_samples(nominal, at);
 }
 
 // The tracker rows the fit may use at a clock: those whose device time the
@@ -112,16 +142,25 @@ ClockStep clock_step(const CalibrationResult& fit, const ReadingInterpolator& re
   Eigen::Vector3d v;
   for (Eigen::Index r = 0; r < m; ++r) {
     q = poses.q.row(r).transpose();
+    const int tip = poses.tip.empty() ? 0 : poses.tip[static_cast<size_t>(r)];
     // readings_at_tracker kept only samples with readings either side at this clock.
-    if (!tool_velocity(prepared, readings, clock.device_time(poses.t[r]), a, b, v)) v.setZero();
-    e.segment<3>(3 * r) = poses.position.row(r).transpose() - prepared.forward(q.data()).p;
+    if (!tool_velocity(prepared, readings, clock.device_time(poses.t[r]), a, b, v, tip))
+      v.setZero();
+    e.segment<3>(3 * r) = poses.position.row(r).transpose() - prepared.forward(q.data(), tip).p;
     G.block(3 * r, 0, 3, 1) = v;
     if (drift) G.block(3 * r, 1, 3, 1) = v * (poses.t[r] - clock.reference);
   }
   const std::vector<int> slots = identified_slots(fit.kinematics, model.structure().num_slots());
   if (!slots.empty()) {
+    // A tree's rows are each pose's tips in turn, as its samples (tip_samples).
+    Eigen::MatrixXd q_poses = poses.q;
+    if (model.tree()) {
+      q_poses.resize(m / model.tips(), n);
+      for (Eigen::Index r = 0; r < q_poses.rows(); ++r)
+        q_poses.row(r) = poses.q.row(r * model.tips());
+    }
     const Eigen::MatrixXd J =
-        two_step_jacobians(model, MeasurementType::kPosition, 1.0, slots, {}, poses.q).kinematic;
+        two_step_jacobians(model, MeasurementType::kPosition, 1.0, slots, {}, q_poses).kinematic;
     // J x with x the least-squares (basic) solution is G's projection on J's
     // range, rank-deficient or not.
     const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(J);
@@ -178,7 +217,17 @@ std::vector<std::pair<double, double>> residual_curve(const DeviceModel& model,
 StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& device,
                                     const Log& tracker, const CalibrationOptions& options,
                                     const StreamOptions& stream) {
-  check_streams(device, tracker);
+  // A tree's stream: one marker a tip (x1, y1, z1, ...); its clock follows the first tip.
+  if (nominal.tree() && tracker.marker_count != nominal.tips()) {
+    throw InputError(tracker.origin, 0, "x1",
+                     fmt::format("a tree of {} tips needs one marker a tip in the tracker's "
+                                 "stream (x1, y1, z1 .. x{}, y{}, z{}); it has {}",
+                                 nominal.tips(), nominal.tips(), nominal.tips(), nominal.tips(),
+                                 tracker.marker_count));
+  }
+  const Log first = nominal.tree() ? first_tip_stream(tracker) : Log();
+  const Log& tracked = nominal.tree() ? first : tracker;
+  check_streams(device, tracked);
   if (device.dof() != nominal.dof()) {
     throw InputError(device.origin, 0, "q",
                      fmt::format("the device log has {} joint readings; the model has {} joints",
@@ -195,7 +244,7 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   estimate.tracker_rows = tracker.rows;
   progress("clock search", 0);
   const auto [coarse, correlation] =
-      coarse_clock_offset(nominal, device, tracker, stream.search_range);
+      coarse_clock_offset(nominal, device, tracked, stream.search_range);
   estimate.coarse_offset = coarse;
   estimate.coarse_correlation = correlation;
   estimate.clock = {coarse, 0, tracker.t[0]};
@@ -217,10 +266,10 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   // The samples are chosen once, at the coarse offset: a set that changed with
   // the clock would move the estimate by a share of its sd at every step.
   const std::vector<int> rows =
-      fit_rows(nominal, readings, device, tracker, estimate.clock, stream, estimate);
+      fit_rows(nominal, readings, device, tracked, estimate.clock, stream, estimate);
   for (int it = 0; it < stream.max_iterations; ++it) {
     progress("clock and kinematics", static_cast<double>(it) / stream.max_iterations);
-    out.poses = readings_at_tracker(readings, device, tracker, rows, estimate.clock, kept);
+    out.poses = samples_at(nominal, readings, device, tracker, tracked, rows, estimate.clock, kept);
     const CalibrationResult fit = calibrate(nominal, out.poses, inner);
     if (fit.status != CalibrationStatus::kConverged) {
       out.result = fit;
@@ -244,7 +293,7 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
     estimate.offset_sd = std::sqrt(step.covariance(0, 0));
     if (stream.drift) estimate.drift_sd = std::sqrt(step.covariance(1, 1));
     estimate.iterations = it + 1;
-    const double span = tracker.t[tracker.rows - 1] - tracker.t[0];
+    const double span = tracked.t[tracked.rows - 1] - tracked.t[0];
     const double moved = std::abs(step.step[0]) + (c == 2 ? std::abs(step.step[1]) * span : 0.0);
     if (std::getenv("HAPTICCAL_DEBUG_STREAM"))
       fmt::print(stderr, "clock step {}: offset {:.7f} s (+{:.3g}), drift {:.4g}, sd {:.3g}\n", it,
@@ -255,7 +304,7 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
     }
   }
   progress("clock and kinematics", 1);
-  out.poses = readings_at_tracker(readings, device, tracker, rows, estimate.clock, kept);
+  out.poses = samples_at(nominal, readings, device, tracker, tracked, rows, estimate.clock, kept);
   estimate.fit_samples = out.poses.rows;
   progress("final fit", 0);
   out.result = calibrate(nominal, out.poses, options);
@@ -266,7 +315,7 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
         "the clock's offset did not settle in {} iterations (its last step was above {:g} s)",
         stream.max_iterations, kClockTolerance);
   }
-  estimate.curve = residual_curve(out.result.calibrated, readings, device, tracker, kept, estimate);
+  estimate.curve = residual_curve(out.result.calibrated, readings, device, tracked, kept, estimate);
   out.result.notes.push_back(fmt::format(
       "clocks of {} and {}: the speeds correlate best ({:.3f}) at an offset of {:.4f} s "
       "(searched +-{:g} s); "

@@ -43,7 +43,6 @@ void check_tree_request(const CalibrateRequest& request) {
   };
   if (request.nominal || !is_urdf_path(request.model))
     refuse("--tip", "several tips (a tree) need a URDF model");
-  if (!request.tracker.empty()) refuse("--tracker", "a tree is fitted on static poses");
   if (!request.fixture.empty() || !request.point_distances.empty())
     refuse("--fixture", "a tree's log measures its tips' points, not fixture points");
   if (request.options.marker_body.cols() > 0)
@@ -77,7 +76,8 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
                      "time yet");
   }
   Log log = read_log(request.log, request.columns);
-  if (tree) log = tip_samples(job.nominal, log);  // a sample a tip of each row
+  // A sample a tip of each row (a tracker's stream: of each of its rows, once aligned).
+  if (tree && request.tracker.empty()) log = tip_samples(job.nominal, log);
   const Log tracker = request.tracker.empty() ? Log() : read_log(request.tracker);
   if (request.out) job.out = std::make_unique<OutputSet>(*request.out, "calibrate");
   CalibrationOptions options = request.options;

@@ -107,7 +107,9 @@ Session simulate_session(const DeviceModel& actual, const SessionOptions& o, std
   // instant (device time) follows from the clocks, plus the stamp's jitter.
   const PreparedModel prepared(actual);
   std::vector<double> stamps;
-  std::vector<Eigen::Vector3d> points;
+  // A tree's: each tip's marker (x1, y1, z1, ...); a chain's: the tool point.
+  const int tips = actual.tips();
+  std::vector<Eigen::VectorXd> points;
   const double period = 1 / o.tracker_rate_hz;
   // Dropouts start at random with the rate that loses dropout_share of the time.
   const double start_rate = o.dropout_share / std::max(o.dropout_seconds, 1e-9);
@@ -129,18 +131,23 @@ Session simulate_session(const DeviceModel& actual, const SessionOptions& o, std
       continue;
     }
     motion.at(instant, q.data());
-    Eigen::Vector3d p = prepared.forward(q.data()).p;
-    for (int k = 0; k < 3; ++k) p[k] += o.sigma_position * gauss(rng);
+    Eigen::VectorXd p(3 * tips);
+    for (int t = 0; t < tips; ++t) {
+      p.segment<3>(3 * t) = prepared.forward(q.data(), t).p;
+      for (int k = 0; k < 3; ++k) p[3 * t + k] += o.sigma_position * gauss(rng);
+    }
     stamps.push_back(stamp);
     points.push_back(p);
   }
   const auto m = static_cast<Eigen::Index>(stamps.size());
   s.tracker = empty_log(actual, "simulated tracker stream", m, false);
-  s.tracker.has_position = true;
-  s.tracker.position.resize(m, 3);
+  Eigen::MatrixXd& measured = actual.tree() ? s.tracker.markers : s.tracker.position;
+  s.tracker.has_position = !actual.tree();
+  s.tracker.marker_count = actual.tree() ? tips : 0;
+  measured.resize(m, 3 * tips);
   for (Eigen::Index r = 0; r < m; ++r) {
     s.tracker.t[r] = stamps[static_cast<size_t>(r)];
-    s.tracker.position.row(r) = points[static_cast<size_t>(r)].transpose();
+    measured.row(r) = points[static_cast<size_t>(r)].transpose();
     s.tracker.line.push_back(static_cast<int>(r) + 2);
   }
   s.tracker.rows = static_cast<int>(m);

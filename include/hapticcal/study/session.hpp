@@ -35,14 +35,15 @@ struct SessionOptions {
 
 struct Session {
   Log device;         // t (device clock), q
-  Log tracker;        // t (tracker clock), x, y, z
+  Log tracker;        // t (tracker clock), x, y, z (a tree's: x1, y1, z1, ...)
   StreamClock clock;  // the truth
   int dropped = 0;    // tracker samples lost to dropouts
 };
 
 // The device's readings (the motion, stamped on its clock) and the tracker's
 // positions of the actual device's tool point (stamped on its own, with
-// noise, jitter and dropouts). Reproducible for a seed.
+// noise, jitter and dropouts); a tree's tips each as a marker (x1, y1, z1,
+// ...). Reproducible for a seed.
 Session simulate_session(const DeviceModel& actual, const SessionOptions& options,
                          std::uint64_t seed);
 
