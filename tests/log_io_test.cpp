@@ -461,3 +461,33 @@ TEST(LogIo, PrismaticReadingsAreLengthsMatchedToTheModel) {
 
 }  // namespace
 }  // namespace hapticcal
+
+namespace hapticcal {
+namespace {
+
+// A tree's fixture log names a label a tip (point1 .. pointK): kept tip by
+// tip, written back as it was read; numbers that are not 1 .. K, or a label
+// beside numbered ones, are refused naming the column.
+TEST(LogIo, TreeFixtureLabelsAreNumberedATip) {
+  const Log log = parse_log("q1,q2,point2,point1\n0.1,0.2,R1,L1\n0.3,0.4,R2,L1\n", "hands.csv");
+  ASSERT_TRUE(log.has_point);
+  EXPECT_EQ(log.label, (std::vector<std::string>{"L1,R1", "L1,R2"}));
+  const Log back = parse_log(log_to_csv(log), "back.csv");
+  EXPECT_EQ(back.label, log.label);
+  EXPECT_NE(log_to_csv(log).find("point1,point2"), std::string::npos);
+  auto refused = [](const std::string& header, const std::string& why) {
+    try {
+      parse_log(header + "\n0.1,0.2,A,B\n", "hands.csv");
+      ADD_FAILURE() << "accepted: " << header;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+  };
+  refused("q1,q2,point1,point3", "2 labels of a tree's tips are point1 .. point2");
+  refused("q1,q2,point,point1", "are point1 .. point2");
+  refused("q1,q2,point0,point1", "tip numbers start at 1");
+  refused("q1,q2,point1,plane2", "fixture points or plane contacts, not both");
+}
+
+}  // namespace
+}  // namespace hapticcal

@@ -272,7 +272,12 @@ TEST(Tree, BadTreesAndLogsAreRefused) {
 // The largest distance [m] between the tips of a calibration's tree and of
 // its calibrated.urdf read back from the measurement frame, at random readings.
 double urdf_round_trip_gap(const DeviceModel& calibrated, const std::string& urdf) {
-  const DeviceModel back = tree_model(load_tree(urdf, kTips, "hapticcal_measurement"));
+  // From the measurement frame calibrate wrote, if it fitted one (a fixture's
+  // sockets are unknown: its base stays the URDF's root).
+  const bool measured =
+      read_file(urdf, FileKind::kUrdf).find("\"hapticcal_measurement\"") != std::string::npos;
+  const DeviceModel back =
+      tree_model(load_tree(urdf, kTips, measured ? "hapticcal_measurement" : ""));
   const PreparedModel a(calibrated), b(back);
   const Eigen::MatrixXd q = random_readings(calibrated, 50, 9);
   double gap = 0;
@@ -320,6 +325,101 @@ TEST(Tree, CalibratesFromATwoClockStream) {
   const std::vector<double> gap = tip_rms(job.result.calibrated, truth_points);
   std::printf("tree stream: against the truth %.4f / %.4f mm\n", 1e3 * gap[0], 1e3 * gap[1]);
   EXPECT_LT(std::max(gap[0], gap[1]), 1e-4) << gap[0] << " " << gap[1];
+  EXPECT_LT(urdf_round_trip_gap(job.result.calibrated, dir + "/cal/calibrated.urdf"), 1e-9);
+  std::filesystem::remove_all(dir);
+}
+
+// Readings at which tip 0 is at `a` and tip 1 at `b` (damped least squares on
+// both tips' points over every joint, from `start`); false if not reached.
+bool reach_both(const DeviceModel& m, Eigen::VectorXd& q, const Eigen::Vector3d& a,
+                const Eigen::Vector3d& b) {
+  const PreparedModel prepared(m);
+  Jacobian6<double> J(6, m.dof());
+  for (int step = 0; step < 200; ++step) {
+    Eigen::MatrixXd A(6, m.dof());
+    Eigen::VectorXd e(6);
+    for (int t = 0; t < 2; ++t) {
+      const Frame<double> f =
+          prepared.forward_jacobian(q.data(), t, JacobianFrame::kMeasurement, J.data());
+      A.middleRows(3 * t, 3) = J.topRows<3>();
+      e.segment<3>(3 * t) = (t == 0 ? a : b) - f.p;
+    }
+    if (e.norm() < 1e-13) return true;
+    q += A.transpose() *
+         (A * A.transpose() + 1e-9 * Eigen::MatrixXd::Identity(6, 6)).ldlt().solve(e);
+  }
+  return false;
+}
+
+// Two hands in sockets: each row the left hand in one of three sockets and the
+// right in one of three others, at varied postures (the torso and the arms'
+// redundancy), read as point1 (the left's socket) and point2. calibrate --tip
+// A,B with the sockets unknown and one distance between two of them given
+// fits the tree to the readings, and calibrated.urdf gives it back to 1e-9 m.
+TEST(Tree, CalibratesWithBothHandsInSockets) {
+  const std::string dir = testing::fresh_folder("tree_fixture");
+  std::filesystem::copy_file(kUrdf, dir + "/two_arm.urdf");
+  const DeviceModel truth = truth_model(51);
+  const PreparedModel prepared(truth);
+  std::mt19937_64 rng(52);
+  std::uniform_real_distribution<double> uniform(-0.8, 0.8);
+  // The sockets: where the hands are at three postures.
+  std::vector<Eigen::Vector3d> left, right;
+  for (int k = 0; k < 3; ++k) {
+    Eigen::VectorXd q(truth.dof());
+    for (int j = 0; j < truth.dof(); ++j) q[j] = uniform(rng);
+    left.push_back(prepared.forward(q.data(), 0).p);
+    right.push_back(prepared.forward(q.data(), 1).p);
+  }
+  Log log = testing::blank_marker_log("sockets.csv", 0, truth.dof(), 0);
+  log.has_point = true;
+  std::vector<Eigen::VectorXd> rows;
+  while (rows.size() < 180) {
+    const size_t i = rows.size() % 3, j = (rows.size() / 3) % 3;
+    Eigen::VectorXd q(truth.dof());
+    for (int k = 0; k < truth.dof(); ++k) q[k] = uniform(rng);
+    if (!reach_both(truth, q, left[i], right[j])) continue;
+    rows.push_back(q);
+    log.label.push_back(fmt::format("L{},R{}", i + 1, j + 1));
+  }
+  log.rows = static_cast<int>(rows.size());
+  log.q.resize(log.rows, truth.dof());
+  for (int r = 0; r < log.rows; ++r) log.q.row(r) = rows[static_cast<size_t>(r)].transpose();
+  log.ext.setZero(log.rows, truth.dof());
+  log.direction.setZero(log.rows, truth.dof());
+  for (int r = 0; r < log.rows; ++r) log.line.push_back(r + 2);
+  const std::string csv = log_to_csv(log);
+  ASSERT_NE(csv.find("point1,point2"), std::string::npos) << csv.substr(0, 200);
+  std::ofstream(dir + "/sockets.csv") << csv;
+  CalibrateRequest request;
+  request.model = dir + "/two_arm.urdf";
+  request.tip = "left_hand,right_hand";
+  request.log = dir + "/sockets.csv";
+  request.point_distances = {fmt::format("L1:R1={:.17g}", (left[0] - right[0]).norm())};
+  request.out = dir + "/cal";
+  const CalibrateJob job = run_calibrate_job(request);
+  ASSERT_TRUE(job.usable()) << job.result.status_reason;
+  std::printf("tree in sockets: %d parameters identified, RMS %.3g mm before, %.3g mm after\n",
+              job.result.kinematics.identified, 1e3 * job.result.kinematics.rms_before,
+              1e3 * job.result.kinematics.rms_after);
+  EXPECT_LT(job.result.kinematics.rms_after, 1e-7);
+  EXPECT_GT(job.result.kinematics.rms_before, 1e-4);
+  // The hands' distance at other readings (free of the frame, which the
+  // sockets leave open) is the truth's.
+  const PreparedModel fitted(job.result.calibrated), nominal(nominal_model());
+  const Eigen::MatrixXd other = random_readings(truth, 50, 53);
+  double worst = 0, worst_nominal = 0;
+  for (Eigen::Index r = 0; r < other.rows(); ++r) {
+    const Eigen::VectorXd q = other.row(r).transpose();
+    const auto span = [&](const PreparedModel& m) {
+      return (m.forward(q.data(), 0).p - m.forward(q.data(), 1).p).norm();
+    };
+    worst = std::max(worst, std::abs(span(fitted) - span(prepared)));
+    worst_nominal = std::max(worst_nominal, std::abs(span(nominal) - span(prepared)));
+  }
+  std::printf("tree in sockets: hands' distance off by %.3g mm at most (nominal %.3g mm)\n",
+              1e3 * worst, 1e3 * worst_nominal);
+  EXPECT_LT(worst, 1e-6);
   EXPECT_LT(urdf_round_trip_gap(job.result.calibrated, dir + "/cal/calibrated.urdf"), 1e-9);
   std::filesystem::remove_all(dir);
 }

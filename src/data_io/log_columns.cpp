@@ -125,7 +125,19 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
     throw InputError(origin, line, spec.empty() ? "(empty)" : printable(spec), why);
   }
   Column c;
-  c.name = printable(spec);  // messages quote it
+  c.name = printable(spec);                  // messages quote it
+  if (base == "point" || base == "plane") {  // a label; point<k>: a tree's tip k's
+    c.quantity = base == "point" ? Quantity::kPoint : Quantity::kPlane;
+    if (!unit.empty()) {
+      throw InputError(origin, line, c.name,
+                       fmt::format("unit '{}': a {} column holds labels", printable(unit), base));
+    }
+    if (index.size() > 3) throw InputError(origin, line, c.name, "tip number too large");
+    c.joint = index.empty() ? 0 : std::stoi(index);
+    if (!index.empty() && c.joint < 1)
+      throw InputError(origin, line, c.name, "tip numbers start at 1");
+    return c;
+  }
   const bool marker = (base == "x" || base == "y" || base == "z") && !index.empty();
   const bool indexed = base == "q" || base == "ext" || base == "dir" || marker;
   if (base == "_" && index.empty() && unit.empty()) return c;
@@ -167,13 +179,6 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
     c.quantity = Quantity::kZ;
   } else if (base == "t") {
     c.quantity = Quantity::kTime;
-  } else if (base == "point" || base == "plane") {
-    c.quantity = base == "point" ? Quantity::kPoint : Quantity::kPlane;
-    if (!unit.empty()) {
-      throw InputError(origin, line, c.name,
-                       fmt::format("unit '{}': a {} column holds labels", printable(unit), base));
-    }
-    return c;
   } else if (const int k = component_index(base, 'q', kQuaternionLetters); k >= 0) {
     c.quantity = static_cast<Quantity>(static_cast<int>(Quantity::kQw) + k);
   } else if (const int k = component_index(base, 'r', kRotationVectorLetters); k >= 0) {
@@ -368,6 +373,21 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
                        "a log holds fixture points or plane contacts, not both");
     }
     const char* label = points ? "point" : "plane";
+    // Several: a tree's, point1 .. pointK, one a tip.
+    std::vector<int> numbers;
+    for (const Column& c : columns) {
+      if (c.quantity == Quantity::kPoint || c.quantity == Quantity::kPlane)
+        numbers.push_back(c.joint);
+    }
+    std::sort(numbers.begin(), numbers.end());
+    const int labels = points + planes;
+    for (int k = 0; k < labels && labels > 1; ++k) {
+      if (numbers[static_cast<size_t>(k)] != k + 1) {
+        throw InputError(origin, line, label,
+                         fmt::format("{} labels of a tree's tips are {}1 .. {}{}, one a tip",
+                                     labels, label, label, labels));
+      }
+    }
     if (xyz != 0 || count[static_cast<int>(Quantity::kDistance)] != 0) {
       throw InputError(origin, line, label,
                        fmt::format("a {} log has no measured x, y, z or distance: the {} label is "

@@ -1,6 +1,7 @@
 // Measurement logs (CSV), SPEC section 5: a log's lines read into a Log, and a
 // Log written back as CSV. The column names are log_columns.cpp's.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -119,20 +120,22 @@ void add_row(Table& table, const std::vector<std::string>& fields, const std::st
   const size_t first = table.values.size();
   table.values.resize(first + columns.size(), 0.0);
   double* row = table.values.data() + first;
-  std::string row_label;
-  bool labelled = false;
+  // A row's label; a tree's (point1 .. pointK) tip by tip, joined by ',' (no
+  // field holds one).
+  std::vector<std::string> row_labels;
   for (size_t k = 0; k < fields.size(); ++k) {
     if (columns[k].quantity == Quantity::kSkip) continue;
     const std::string& f = fields[k];
     if (columns[k].quantity == Quantity::kPoint || columns[k].quantity == Quantity::kPlane) {
       check_label(f, columns[k], origin, line);
-      row_label = f;
-      labelled = true;
+      const auto at = static_cast<size_t>(std::max(columns[k].joint, 1) - 1);
+      if (row_labels.size() <= at) row_labels.resize(at + 1);
+      row_labels[at] = f;
       continue;
     }
     row[k] = field_value(f, columns[k], origin, line);
   }
-  if (labelled) table.labels.push_back(std::move(row_label));
+  if (!row_labels.empty()) table.labels.push_back(fmt::format("{}", fmt::join(row_labels, ",")));
   table.lines.push_back(line);
 }
 
@@ -382,7 +385,13 @@ std::string log_to_csv(const Log& log) {
   for (int k = 1; k <= log.marker_count; ++k) {
     for (const char* c : {"x", "y", "z"}) header.push_back(fmt::format("{}{}", c, k));
   }
-  if (log.has_point || log.has_plane) header.push_back(log.has_point ? "point" : "plane");
+  if (log.has_point || log.has_plane) {  // a tree's labels, tip by tip: point1 .. pointK
+    const char* label = log.has_point ? "point" : "plane";
+    const auto tips =
+        log.label.empty() ? 1 : std::count(log.label[0].begin(), log.label[0].end(), ',') + 1;
+    for (long k = 1; k <= tips; ++k)
+      header.push_back(tips > 1 ? fmt::format("{}{}", label, k) : std::string(label));
+  }
   for (size_t k = 0; k < header.size(); ++k) out += (k ? "," : "") + header[k];
   out += '\n';
   fmt::memory_buffer row;

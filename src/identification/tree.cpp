@@ -289,10 +289,37 @@ std::string tree_urdf(const std::string& text, const std::string& origin, const 
   return out;
 }
 
+namespace {
+
+// A tree fixture log's row labels (point1 .. pointK, joined by ',' as the log
+// reader keeps them), one a tip; InputError naming the row for another count.
+std::vector<std::string> row_labels(const Log& log, int r, int tips) {
+  std::vector<std::string> out;
+  const std::string& joined = log.label[static_cast<size_t>(r)];
+  size_t from = 0;
+  for (size_t comma = joined.find(','); comma != std::string::npos;
+       comma = joined.find(',', from)) {
+    out.push_back(joined.substr(from, comma - from));
+    from = comma + 1;
+  }
+  out.push_back(joined.substr(from));
+  if (static_cast<int>(out.size()) != tips)
+    throw InputError(log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0,
+                     log.has_point ? "point1" : "plane1",
+                     fmt::format("the tree has {} tips: a fixture log names a label a tip "
+                                 "({}1 .. {}{}); this row has {}",
+                                 tips, log.has_point ? "point" : "plane",
+                                 log.has_point ? "point" : "plane", tips, out.size()));
+  return out;
+}
+
+}  // namespace
+
 Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
   const int k = tree.tips();
   assert(only < k);
-  if (log.marker_count != k) {
+  const bool fixture = log.has_point || log.has_plane;
+  if (!fixture && log.marker_count != k) {
     std::vector<std::string> names;
     for (int t = 0; t < k; ++t) names.push_back(tree.tip_name(t));
     throw InputError(
@@ -303,31 +330,39 @@ Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
                                                    log.marker_count > 1 ? "s" : "")
                                      : std::string("none")));
   }
-  if (!log.label.empty() || log.has_orientation || log.has_distance || !log.columns.empty())
+  if (log.has_orientation || log.has_distance || !log.columns.empty() ||
+      (fixture && log.marker_count > 0))
     throw InputError(log.origin, 0, "x1",
-                     "a tree's log gives each tip's point only (no labels, orientations, "
-                     "distances or other measurements yet)");
+                     "a tree's log gives each tip's point, or each tip's fixture label, only (no "
+                     "orientations, distances or other measurements yet)");
   Log out = log;
   const int per_row = only >= 0 ? 1 : k;
   out.rows = log.rows * per_row;
   out.marker_count = 0;
   out.markers.resize(0, 0);
-  out.has_position = true;
-  out.position.resize(out.rows, 3);
+  out.has_position = !fixture;
+  out.position.resize(fixture ? 0 : out.rows, 3);
   out.q.resize(out.rows, log.dof());
   out.ext.resize(out.rows, log.ext.cols());
   out.direction.resize(out.rows, log.direction.cols());
   if (log.has_time) out.t.resize(out.rows);
   out.line.clear();
   out.tip.clear();
+  out.label.clear();
   for (int r = 0; r < log.rows; ++r) {
+    const std::vector<std::string> labels =
+        fixture ? row_labels(log, r, k) : std::vector<std::string>();
     for (int t = std::max(only, 0); t < (only >= 0 ? only + 1 : k); ++t) {
       const int row = only >= 0 ? r : r * k + t;
       out.q.row(row) = log.q.row(r);
       if (log.ext.cols() > 0) out.ext.row(row) = log.ext.row(r);
       if (log.direction.cols() > 0) out.direction.row(row) = log.direction.row(r);
       if (log.has_time) out.t[row] = log.t[r];
-      out.position.row(row) = log.markers.row(r).segment<3>(3 * t);
+      if (fixture) {
+        out.label.push_back(labels[static_cast<size_t>(t)]);
+      } else {
+        out.position.row(row) = log.markers.row(r).segment<3>(3 * t);
+      }
       out.line.push_back(r < static_cast<int>(log.line.size()) ? log.line[r] : 0);
       out.tip.push_back(t);
     }

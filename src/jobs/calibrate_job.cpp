@@ -43,8 +43,6 @@ void check_tree_request(const CalibrateRequest& request) {
   };
   if (request.nominal || !is_urdf_path(request.model))
     refuse("--tip", "several tips (a tree) need a URDF model");
-  if (!request.fixture.empty() || !request.point_distances.empty())
-    refuse("--fixture", "a tree's log measures its tips' points, not fixture points");
   if (request.options.marker_body.cols() > 0)
     refuse("--markers", "with several tips, x<k> is tip k's point, not a marker of one body");
 }

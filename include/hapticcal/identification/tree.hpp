@@ -83,6 +83,8 @@ std::string tree_urdf(const std::string& text, const std::string& origin, const 
 // one sample a tip of each row, in row order (Log::tip): each a position of
 // its tip, with the row's readings, directions, time and line. InputError
 // naming the log for another number of marker points than the model's tips.
+// A fixture log of a tree names a label a tip (point1 .. pointK, which the
+// log reader keeps joined by ','): each sample its tip's label.
 // `only` >= 0: that tip's sample of each row alone.
 Log tip_samples(const DeviceModel& tree, const Log& log, int only = -1);
 
