@@ -319,7 +319,10 @@ Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
   const int k = tree.tips();
   assert(only < k);
   const bool fixture = log.has_point || log.has_plane;
-  if (!fixture && log.marker_count != k) {
+  // Markers a tip: 1, a point; 3 or more, a rigid body on each tip (the same
+  // layout on every one), x1 .. x<M> the first tip's, x<M+1> .. the second's.
+  const int per_tip = fixture ? 0 : log.marker_count / k;
+  if (!fixture && (log.marker_count % k != 0 || per_tip == 0 || per_tip == 2)) {
     std::vector<std::string> names;
     for (int t = 0; t < k; ++t) names.push_back(tree.tip_name(t));
     throw InputError(
@@ -328,7 +331,8 @@ Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
                     fmt::join(names, ", "), k, k, k,
                     log.marker_count ? fmt::format("{} point{}", log.marker_count,
                                                    log.marker_count > 1 ? "s" : "")
-                                     : std::string("none")));
+                                     : std::string("none")) +
+            fmt::format(" (a rigid body of M >= 3 markers on each tip: x1 .. x{}M)", k));
   }
   if (log.has_orientation || log.has_distance || !log.columns.empty() ||
       (fixture && log.marker_count > 0))
@@ -338,10 +342,10 @@ Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
   Log out = log;
   const int per_row = only >= 0 ? 1 : k;
   out.rows = log.rows * per_row;
-  out.marker_count = 0;
-  out.markers.resize(0, 0);
-  out.has_position = !fixture;
-  out.position.resize(fixture ? 0 : out.rows, 3);
+  out.marker_count = per_tip > 1 ? per_tip : 0;
+  out.markers.resize(per_tip > 1 ? out.rows : 0, 3 * out.marker_count);
+  out.has_position = per_tip == 1;
+  out.position.resize(per_tip == 1 ? out.rows : 0, 3);
   out.q.resize(out.rows, log.dof());
   out.ext.resize(out.rows, log.ext.cols());
   out.direction.resize(out.rows, log.direction.cols());
@@ -360,8 +364,10 @@ Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
       if (log.has_time) out.t[row] = log.t[r];
       if (fixture) {
         out.label.push_back(labels[static_cast<size_t>(t)]);
-      } else {
+      } else if (per_tip == 1) {
         out.position.row(row) = log.markers.row(r).segment<3>(3 * t);
+      } else {
+        out.markers.row(row) = log.markers.row(r).segment(3 * per_tip * t, 3 * per_tip);
       }
       out.line.push_back(r < static_cast<int>(log.line.size()) ? log.line[r] : 0);
       out.tip.push_back(t);

@@ -36,15 +36,10 @@ std::vector<std::string> tip_names(const std::string& tip) {
 
 namespace {
 
-// Several tips (a tree) are a URDF's, measured as each tip's point.
+// Several tips (a tree) are a URDF's.
 void check_tree_request(const CalibrateRequest& request) {
-  const auto refuse = [&](const std::string& key, const std::string& why) {
-    throw InputError(request.model, 0, key, why);
-  };
   if (request.nominal || !is_urdf_path(request.model))
-    refuse("--tip", "several tips (a tree) need a URDF model");
-  if (request.options.marker_body.cols() > 0)
-    refuse("--markers", "with several tips, x<k> is tip k's point, not a marker of one body");
+    throw InputError(request.model, 0, "--tip", "several tips (a tree) need a URDF model");
 }
 
 }  // namespace

@@ -83,6 +83,9 @@ std::string tree_urdf(const std::string& text, const std::string& origin, const 
 // one sample a tip of each row, in row order (Log::tip): each a position of
 // its tip, with the row's readings, directions, time and line. InputError
 // naming the log for another number of marker points than the model's tips.
+// M >= 3 markers a tip (x1 .. x<KM>, the first tip's M first): each sample
+// its tip's markers, a rigid body (one layout on every tip: calibrate turns
+// them into the body's poses, markers.hpp).
 // A fixture log of a tree names a label a tip (point1 .. pointK, which the
 // log reader keeps joined by ','): each sample its tip's label.
 // `only` >= 0: that tip's sample of each row alone.

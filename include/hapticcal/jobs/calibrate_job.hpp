@@ -54,8 +54,7 @@ struct CalibrateJob {
 // (write_calibration_outputs). Several tips (request.tip "A,B") calibrate the
 // URDF's tree (tree_model) on each row's tip points (tip_samples), through the
 // same procedure and writers; its set holds calibrated.urdf, no device file.
-// Throws InputError for bad input (a tree: a model that is not a URDF, a
-// tracker's stream, a fixture or a marker body).
+// Throws InputError for bad input (a tree: a model that is not a URDF).
 CalibrateJob run_calibrate_job(const CalibrateRequest& request);
 // The tips of a --tip value: its comma-separated names (one: a chain).
 std::vector<std::string> tip_names(const std::string& tip);
