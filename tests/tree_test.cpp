@@ -270,6 +270,13 @@ TEST(Tree, BadTreesAndLogsAreRefused) {
   EXPECT_THROW(calibrate(tree, fewer, {}), InputError);
 }
 
+// A fresh folder holding a copy of the two-arm URDF (calibrated.urdf's base).
+std::string urdf_folder(const std::string& name) {
+  const std::string dir = testing::fresh_folder(name);
+  std::filesystem::copy_file(kUrdf, dir + "/two_arm.urdf");
+  return dir;
+}
+
 // The largest distance [m] between the tips of a calibration's tree and of
 // its calibrated.urdf read back from the measurement frame, at random readings.
 double urdf_round_trip_gap(const DeviceModel& calibrated, const std::string& urdf) {
@@ -298,8 +305,7 @@ double urdf_round_trip_gap(const DeviceModel& calibrated, const std::string& urd
 // noise, 60 s at 60 Hz): calibrate --tip A,B --tracker finds the offset and
 // fits the tree, and calibrated.urdf gives back the fitted tree to 1e-9 m.
 TEST(Tree, CalibratesFromATwoClockStream) {
-  const std::string dir = testing::fresh_folder("tree_stream");
-  std::filesystem::copy_file(kUrdf, dir + "/two_arm.urdf");
+  const std::string dir = urdf_folder("tree_stream");
   const DeviceModel truth = truth_model(41);
   SessionOptions o;
   o.seconds = 60;
@@ -361,8 +367,7 @@ bool reach_both(const DeviceModel& m, Eigen::VectorXd& q, const Eigen::Vector3d&
 // A,B with the sockets unknown and one distance between two of them given
 // fits the tree to the readings, and calibrated.urdf gives it back to 1e-9 m.
 TEST(Tree, CalibratesWithBothHandsInSockets) {
-  const std::string dir = testing::fresh_folder("tree_fixture");
-  std::filesystem::copy_file(kUrdf, dir + "/two_arm.urdf");
+  const std::string dir = urdf_folder("tree_fixture");
   const DeviceModel truth = truth_model(51);
   const PreparedModel prepared(truth);
   std::mt19937_64 rng(52);
@@ -433,8 +438,7 @@ TEST(Tree, CalibratesWithBothHandsInSockets) {
 // unknown: calibrate --tip A,B --markers fits each hand's pose (the body's,
 // from its markers), and calibrated.urdf gives back each hand's frame to 1e-9 m.
 TEST(Tree, CalibratesFromSeveralMarkersOnEachHand) {
-  const std::string dir = testing::fresh_folder("tree_markers");
-  std::filesystem::copy_file(kUrdf, dir + "/two_arm.urdf");
+  const std::string dir = urdf_folder("tree_markers");
   DeviceModel truth = truth_model(61);
   for (int t = 0; t < 2; ++t) {  // each plate turned on its hand
     std::array<double, 6>& tool = truth.tip_tool(t);
@@ -498,8 +502,7 @@ TEST(Tree, CalibratesFromSeveralMarkersOnEachHand) {
 // measurement frame) predicts held-out points as the fit does; bad requests
 // exit 2 with one line.
 TEST(Tree, CalibrateAndEvaluateOnTheCommandLine) {
-  const std::string dir = testing::fresh_folder("tree_cli");
-  std::filesystem::copy_file(kUrdf, dir + "/two_arm.urdf");
+  const std::string dir = urdf_folder("tree_cli");
   const DeviceModel truth = truth_model(21);
   const Log fit = hands_log(truth, 350, 1e-4, 22);
   const Log held = hands_log(truth, 150, 1e-4, 23);
