@@ -483,9 +483,11 @@ TEST(LogIo, TreeFixtureLabelsAreNumberedATip) {
       EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
     }
   };
-  refused("q1,q2,point1,point3", "2 labels of a tree's tips are point1 .. point2");
-  refused("q1,q2,point,point1", "are point1 .. point2");
+  refused("q1,q2,point1,point3",
+          "2 label columns: a chain's is 'point', a tree's point1 .. point2");
+  refused("q1,q2,point,point1", "a tree's point1 .. point2");
   refused("q1,q2,point0,point1", "tip numbers start at 1");
+  refused("q1,q2,point2,_", "1 label columns: a chain's is 'point'");
   refused("q1,q2,point1,plane2", "fixture points or plane contacts, not both");
 }
 

@@ -381,11 +381,13 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
     }
     std::sort(numbers.begin(), numbers.end());
     const int labels = points + planes;
-    for (int k = 0; k < labels && labels > 1; ++k) {
+    const bool unnumbered = labels == 1 && numbers[0] == 0;  // a chain's `point`
+    for (int k = 0; k < labels && !unnumbered; ++k) {
       if (numbers[static_cast<size_t>(k)] != k + 1) {
         throw InputError(origin, line, label,
-                         fmt::format("{} labels of a tree's tips are {}1 .. {}{}, one a tip",
-                                     labels, label, label, labels));
+                         fmt::format("{} label columns: a chain's is '{}', a tree's {}1 .. {}{}, "
+                                     "one a tip",
+                                     labels, label, label, label, labels));
       }
     }
     if (xyz != 0 || count[static_cast<int>(Quantity::kDistance)] != 0) {
