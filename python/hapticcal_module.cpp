@@ -237,7 +237,12 @@ Calibration calibrate(
   c.lines = job.lines;
   c.results = parsed(json);
   c.search = c.results.attr("get")("model_search");
-  if (c.usable) c.model = Model{result.calibrated, "", "", ""};
+  // A tree keeps the URDF it writes back into and its tips (calibrate it again).
+  if (c.usable) {
+    c.model = result.calibrated.tree()
+                  ? Model{result.calibrated, request.model, request.tip, request.root}
+                  : Model{result.calibrated, "", "", ""};
+  }
   return c;
 }
 

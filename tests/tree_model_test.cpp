@@ -63,6 +63,11 @@ TEST(TreeModel, LinksParentsAndTips) {
   EXPECT_EQ(joint, q);
   EXPECT_EQ(prepared.tips(), 2);
   EXPECT_EQ(prepared.forward(q.data()).p, prepared.forward(q.data(), 0).p);
+  EXPECT_THROW(prepared.forward(q.data(), 2), std::out_of_range);
+  EXPECT_THROW(prepared.forward(q.data(), -1), std::out_of_range);
+  Jacobian6<double> J(6, m.dof());
+  EXPECT_THROW(prepared.forward_jacobian(q.data(), 2, JacobianFrame::kMeasurement, J.data()),
+               std::out_of_range);
   // A device file or a chain's URDF holds one chain: a tree is refused, not
   // written as the chain through every link.
   EXPECT_NE(check_device(m).find("a tree of 2 tips"), std::string::npos) << check_device(m);

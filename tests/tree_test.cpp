@@ -21,6 +21,7 @@
 #include "hapticcal/design/plan.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/jobs/calibrate_job.hpp"
+#include "hapticcal/jobs/evaluate_job.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/study/evaluate.hpp"
@@ -268,6 +269,19 @@ TEST(Tree, BadTreesAndLogsAreRefused) {
   Log fewer = good;
   fewer.q.conservativeResize(Eigen::NoChange, 10);
   EXPECT_THROW(calibrate(tree, fewer, {}), InputError);
+  // A tree's fixture labels (point1, point2) given to one chain.
+  Log labelled = testing::blank_marker_log("sockets.csv", 4, 7, 0);
+  labelled.q.setZero();
+  labelled.has_point = true;
+  labelled.label = {"A,B", "A,C", "B,C", "A,B"};
+  try {
+    calibrate(left, labelled, {});
+    FAIL() << "a chain took a tree's labels";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("numbered labels (point1, point2, ...) are a tree's"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 // A fresh folder holding a copy of the two-arm URDF (calibrated.urdf's base).
@@ -493,6 +507,19 @@ TEST(Tree, CalibratesFromSeveralMarkersOnEachHand) {
               1e3 * position, 1e3 * angle);
   EXPECT_LT(position, 2.5e-4);
   EXPECT_LT(angle, 1e-3);
+  // evaluate --tip A,B --markers of calibrated.urdf: each hand's pose error on the log.
+  EvaluateRequest check;
+  check.model = dir + "/cal/calibrated.urdf";
+  check.root = "hapticcal_measurement";
+  check.tip = request.tip;
+  check.log = request.log;
+  check.marker_body = plate;
+  const EvaluateJob evaluated = run_evaluate_job(check);
+  ASSERT_EQ(evaluated.tip_evaluations.size(), 2u);
+  for (const Evaluation& e : evaluated.tip_evaluations) {
+    ASSERT_TRUE(e.position.has_value());
+    EXPECT_LT(e.position->rms, 5e-4);
+  }
   EXPECT_LT(urdf_round_trip_gap(job.result.calibrated, dir + "/cal/calibrated.urdf"), 1e-9);
   std::filesystem::remove_all(dir);
 }
@@ -532,6 +559,16 @@ TEST(Tree, CalibrateAndEvaluateOnTheCommandLine) {
   request.log = dir + "/fit.csv";
   const CalibrateJob in_process = run_calibrate_job(request);
   ASSERT_TRUE(in_process.usable());
+  // Each tip's RMS after is the calibrated tree's error on that tip's samples.
+  for (int t = 0; t < 2; ++t) {
+    const double rms =
+        evaluate(in_process.result.calibrated, tip_samples(in_process.result.calibrated, fit, t))
+            .position->rms;
+    EXPECT_NEAR(in_process.result.kinematics.tip_rms_after[static_cast<size_t>(t)], rms, 1e-9 * rms)
+        << t;
+    EXPECT_NEAR(j["tips"][kTips[static_cast<size_t>(t)]]["rms_after"].get<double>(), rms,
+                1e-9 * rms);
+  }
   const Log held_samples = tip_samples(in_process.result.calibrated, held);
   std::vector<double> expected(2, 0.0), count(2, 0.0);
   const PreparedModel fitted(in_process.result.calibrated);

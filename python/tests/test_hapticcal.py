@@ -635,4 +635,6 @@ def test_calibrate_a_tree_of_two_tips(tmp_path):
     assert not c.model.jacobian(q, tip=1)[:, 3:7].any()  # the left arm moves no right hand
     with pytest.raises(ValueError):
         c.model.forward(q, tip=2)
+    again = hapticcal.calibrate(c.model, str(tmp_path / "tree.csv"))  # its URDF and tips kept
+    assert again.usable and again.model.tips == ["left_hand", "right_hand"]
     assert (tmp_path / "out" / "calibrated.urdf").exists()

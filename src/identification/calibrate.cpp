@@ -370,7 +370,7 @@ void check_nominal(CalibrationRun& run) {
                      "the nominal model's error on this row is not finite: a value is too large");
   }
   run.fit().rms_before = measurement_rms(position_rss(r0, kind), run.fit().rows);
-  run.fit().tip_rms_before = detail::tip_rms(run.problem, r0, kind);
+  run.fit().tip_rms_before = detail::tip_rms(run.problem, r0, kind, run.problem.weights);
   DeviceModel registered = run.step2_nominal;  // the nominal in the registered frame, if it was
   registered.base = run.problem.model.base;
   check_reach(s, registered, nominal_joints, kind, run.problem.measured, run.problem.weights,
@@ -455,7 +455,7 @@ void finish_solution(CalibrationRun& run) {
   const Eigen::VectorXd r = residuals_at(s, run.p, run.problem.joints, run.kind(),
                                          run.problem.measured, run.problem.weights);
   fit.rms_after = measurement_rms(position_rss(r, run.kind()), fit.rows);
-  fit.tip_rms_after = detail::tip_rms(run.problem, r, run.kind());
+  fit.tip_rms_after = detail::tip_rms(run.problem, r, run.kind(), run.plain_weights);
 }
 
 // The factor of the prior's rows in the covariance: 1, or with --sigma the

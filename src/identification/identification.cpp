@@ -68,7 +68,7 @@ double position_rss(const Eigen::VectorXd& r, const RowsOf& kind) {
 }
 
 std::vector<double> tip_rms(const KinematicProblem& problem, const Eigen::VectorXd& r,
-                            const RowsOf& kind) {
+                            const RowsOf& kind, const Eigen::VectorXd& repeat_weights) {
   if (problem.tip < 0) return {};
   const int d = kind.dimension(), length_rows = traits(kind.type).length_rows;
   std::vector<double> rss(static_cast<size_t>(problem.model.tips()), 0.0), rows(rss.size(), 0.0);
@@ -76,7 +76,7 @@ std::vector<double> tip_rms(const KinematicProblem& problem, const Eigen::Vector
     const auto tip = static_cast<size_t>(problem.joints[i][problem.tip]);
     const Eigen::Index at = static_cast<Eigen::Index>(i) * d;
     rss[tip] += r.segment(at, std::min(d, length_rows)).squaredNorm();
-    const double w = problem.weights.size() > 0 ? problem.weights[static_cast<Eigen::Index>(i)] : 1;
+    const double w = repeat_weights.size() > 0 ? repeat_weights[static_cast<Eigen::Index>(i)] : 1;
     rows[tip] += w * w;
   }
   std::vector<double> rms(rss.size());

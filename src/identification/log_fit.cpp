@@ -20,7 +20,17 @@ bool encoders_only(const Log& log) {
 void check_tips(const Log& log, const DeviceModel& model) {
   if (const std::string why = tree_problem(model); !why.empty())
     throw InputError("", 0, "", fmt::format("the model '{}' is not a tree: {}", model.name, why));
-  if (!model.tree() && log.tip.empty()) return;
+  if (!model.tree() && log.tip.empty()) {
+    for (size_t r = 0; r < log.label.size(); ++r) {
+      if (log.label[r].find(',') == std::string::npos) continue;
+      throw InputError(log.origin, r < log.line.size() ? log.line[r] : 0, "point1",
+                       fmt::format("numbered labels (point1, point2, ...) are a tree's, one a tip; "
+                                   "the model '{}' has one tip: its log's label column is 'point' "
+                                   "or 'plane'",
+                                   model.name));
+    }
+    return;
+  }
   if (model.tree() && log.tip.size() != static_cast<size_t>(log.rows))
     throw InputError(log.origin, 0, "x1",
                      fmt::format("the model is a tree of {} tips: its log needs one sample a tip "

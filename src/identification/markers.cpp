@@ -68,6 +68,11 @@ MarkerPoses markers_to_poses(const Log& log, const Eigen::Matrix3Xd& body) {
         log.origin, 0, "--markers",
         fmt::format("the body has {} markers; the log has {}", body.cols(), log.marker_count));
   }
+  if (!log.tip.empty() && body.cols() == 0) {  // a tree's samples: each tip's body
+    throw InputError(log.origin, 0, "--markers",
+                     "markers on a tree's tips: give their layout (--markers, one for every tip); "
+                     "it is not estimated from the tips' markers pooled");
+  }
   MarkerPoses out;
   out.estimated = body.cols() == 0;
   try {

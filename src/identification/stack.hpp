@@ -84,9 +84,10 @@ Eigen::VectorXd residuals_at(const ChainStructure& s, const Eigen::VectorXd& par
 // but of a pose only its position rows (its rotation rows are reported apart).
 double position_rss(const Eigen::VectorXd& r, const RowsOf& kind);
 // A tree's measurement RMS a tip (the rows of its poses; measurement_rms of
-// each); empty for a chain.
+// each, its rows the poses' repeats: `repeat_weights` sqrt(repeats) a pose, as
+// before any robust reweighting); empty for a chain.
 std::vector<double> tip_rms(const KinematicProblem& problem, const Eigen::VectorXd& r,
-                            const RowsOf& kind);
+                            const RowsOf& kind, const Eigen::VectorXd& repeat_weights);
 
 // The rows of a problem: its measurement type, rotation scale and fixture labels.
 inline RowsOf rows_of(const KinematicProblem& problem) {

@@ -8,10 +8,10 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
-#include <cassert>
 #include <cmath>
 #include <map>
 #include <set>
+#include <stdexcept>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
@@ -198,7 +198,7 @@ DeviceModel tree_model(const DeviceTree& tree) {
   // Each chain's coupling (a passive joint driven by readings of its path) in
   // the tree's joints; a shared joint's row the same from each of its chains.
   m.coupling.resize(0, 0);
-  std::vector<bool> row_set(static_cast<size_t>(tree.dof()), false);
+  std::vector<int> row_from(static_cast<size_t>(tree.dof()), -1);  // the chain that set it
   for (size_t c = 0; c < tree.chains.size(); ++c) {
     const DeviceModel& chain = tree.chains[c];
     if (!chain.coupled()) continue;
@@ -209,11 +209,12 @@ DeviceModel tree_model(const DeviceTree& tree) {
       for (int k = 0; k < chain.dof(); ++k)
         row[joints[static_cast<size_t>(k)]] = chain.coupling(i, k);
       const auto at = static_cast<size_t>(joints[static_cast<size_t>(i)]);
-      if (row_set[at] && row != m.coupling.row(static_cast<Eigen::Index>(at)))
+      if (row_from[at] >= 0 && row != m.coupling.row(static_cast<Eigen::Index>(at)))
         throw InputError(fmt::format("the chains to '{}' and '{}' couple joint '{}' differently",
-                                     tree.tips[0], tree.tips[c], tree.joints[at]));
+                                     tree.tips[static_cast<size_t>(row_from[at])], tree.tips[c],
+                                     tree.joints[at]));
       m.coupling.row(static_cast<Eigen::Index>(at)) = row;
-      row_set[at] = true;
+      row_from[at] = static_cast<int>(c);
     }
   }
   m.tip = tree.tips[0];
@@ -317,7 +318,7 @@ std::vector<std::string> row_labels(const Log& log, int r, int tips) {
 
 Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
   const int k = tree.tips();
-  assert(only < k);
+  if (only >= k) throw std::out_of_range("tip_samples: tip " + std::to_string(only));
   const bool fixture = log.has_point || log.has_plane;
   // Markers a tip: 1, a point; 3 or more, a rigid body on each tip (the same
   // layout on every one), x1 .. x<M> the first tip's, x<M+1> .. the second's.
@@ -326,7 +327,7 @@ Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
     std::vector<std::string> names;
     for (int t = 0; t < k; ++t) names.push_back(tree.tip_name(t));
     throw InputError(
-        log.origin, log.line.empty() ? 0 : log.line[0], "header",
+        log.origin, 0, "header",
         fmt::format("{} tips ({}) need the points x1, y1, z1 .. x{}, y{}, z{}; the log has {}", k,
                     fmt::join(names, ", "), k, k, k,
                     log.marker_count ? fmt::format("{} point{}", log.marker_count,

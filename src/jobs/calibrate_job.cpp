@@ -36,9 +36,13 @@ std::vector<std::string> tip_names(const std::string& tip) {
 
 namespace {
 
-// Several tips (a tree) are a URDF's.
+// Several tips (a tree) are a URDF's; a tree in memory (Python's calibrated
+// Model) needs it too for calibrated.urdf.
 void check_tree_request(const CalibrateRequest& request) {
-  if (request.nominal || !is_urdf_path(request.model))
+  if (request.nominal && !is_urdf_path(request.model) && request.out)
+    throw InputError(request.model, 0, "--tip",
+                     "a tree in memory is written back as calibrated.urdf: give its URDF's path");
+  if (!request.nominal && !is_urdf_path(request.model))
     throw InputError(request.model, 0, "--tip", "several tips (a tree) need a URDF model");
 }
 
@@ -46,7 +50,7 @@ void check_tree_request(const CalibrateRequest& request) {
 
 CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
   const std::vector<std::string> tips = tip_names(request.tip);
-  const bool tree = tips.size() > 1;
+  const bool tree = tips.size() > 1 || (request.nominal && request.nominal->tree());
   if (tree) check_tree_request(request);
   CalibrateJob job;
   const bool urdf = !request.model.empty() && is_urdf_path(request.model);

@@ -49,18 +49,21 @@ DeviceModel evaluated_tree(const EvaluateRequest& request, const std::string& pa
 EvaluateJob tree_evaluate_job(const EvaluateRequest& request,
                               const std::vector<std::string>& tips) {
   if (request.given || request.given_reference || !request.fixture.empty() ||
-      !request.point_distances.empty() || request.registration || request.marker_body.cols() > 0)
+      !request.point_distances.empty() || request.registration)
     throw InputError(request.model, 0, "--tip",
-                     "a tree is evaluated on its tips' points alone (no fixture, --register, "
-                     "markers or models in memory)");
+                     "a tree is evaluated on its tips' points or marker bodies (no fixture, "
+                     "--register or models in memory)");
   EvaluateJob job;
   const DeviceModel tree = evaluated_tree(request, request.model, tips);
   std::optional<DeviceModel> reference;
   if (!request.reference.empty()) reference = evaluated_tree(request, request.reference, tips);
   const Log log = read_log(request.log, request.columns);
   std::vector<Log> parts;
-  for (size_t c = 0; c < tips.size(); ++c)
+  for (size_t c = 0; c < tips.size(); ++c) {  // a marker body's: its poses (--markers)
     parts.push_back(tip_samples(tree, log, static_cast<int>(c)));
+    if (parts.back().marker_count > 0)
+      parts.back() = markers_to_poses(parts.back(), request.marker_body).poses;
+  }
   job.rows = log.rows;
   job.tips = tips;
   nlohmann::ordered_json json;
@@ -76,7 +79,7 @@ EvaluateJob tree_evaluate_job(const EvaluateRequest& request,
     }
     json["tips"][tips[c]] =
         nlohmann::ordered_json::parse(evaluation_json(cmp ? &*cmp : nullptr, e));
-    job.lines.push_back(fmt::format("tip {} (x{}, y{}, z{}):", tips[c], c + 1, c + 1, c + 1));
+    job.lines.push_back(fmt::format("tip {} ({} of {}):", tips[c], c + 1, tips.size()));
     for (const std::string& line : evaluation_lines(cmp ? &*cmp : nullptr, e, request.reference))
       job.lines.push_back("  " + line);
     job.tip_evaluations.push_back(e);
@@ -101,8 +104,8 @@ EvaluateJob tree_evaluate_job(const EvaluateRequest& request,
       report.outcome = tip.outcome;
       report.outcome.headline = job.lines;
     }
-    report.sections.push_back(fmt::format("<h2>Tip {} (x{}, y{}, z{})</h2>\n", html_escape(tips[c]),
-                                          c + 1, c + 1, c + 1));
+    report.sections.push_back(
+        fmt::format("<h2>Tip {} ({} of {})</h2>\n", html_escape(tips[c]), c + 1, tips.size()));
     report.sections.insert(report.sections.end(), tip.sections.begin(), tip.sections.end());
     for (FigureSpec& f : tip.figures) {
       f.name += "_" + std::to_string(c + 1);

@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <stdexcept>
+#include <string>
 
 #include "kinematics/fast_math.hpp"
 
@@ -380,18 +381,24 @@ Frame<double> PreparedModel::forward_jacobian(const double* q, JacobianFrame exp
   return forward_jacobian(q, expressed_in, J.data());
 }
 
+void PreparedModel::check_tip(int tip) const {
+  if (tip < 0 || tip >= structure_.tips)
+    throw std::out_of_range("tip " + std::to_string(tip) + " of a model with " +
+                            std::to_string(structure_.tips) + " tip(s)");
+}
+
 Frame<double> PreparedModel::forward(const double* q, int tip) const {
+  check_tip(tip);
   std::array<Frame<double>, kMaxDof + 1> frames;
   const Frame<double> first = chain(q, frames.data());
   if (tip == 0) return first;
-  assert(tip > 0 && tip < structure_.tips);
   return frames[structure_.tip_link[tip] + 1] * tip_tools_[tip];
 }
 
 Frame<double> PreparedModel::forward_jacobian(const double* q, int tip, JacobianFrame expressed_in,
                                               double* J_col_major) const {
+  check_tip(tip);
   if (structure_.tips == 1) return forward_jacobian(q, expressed_in, J_col_major);
-  assert(tip >= 0 && tip < structure_.tips);
   std::array<Frame<double>, kMaxDof + 1> frames;
   chain(q, frames.data());
   const Frame<double> T_meas_tool = frames[structure_.tip_link[tip] + 1] * tip_tools_[tip];

@@ -1,7 +1,5 @@
 #include "hapticcal/report/results_json.hpp"
 
-#include <fmt/format.h>
-
 #include <map>
 #include <nlohmann/json.hpp>
 
@@ -163,15 +161,15 @@ void checks_json(const KinematicFit& k, const CalibrationOptions& options,
   j["model_search"] = search_json(k.search);
 }
 
-// A tree's tips: each one's marker columns, the joints on its path (a log's
-// q<j>) and its RMS error before and after.
+// A tree's tips: the joints on each one's path (a log's q<j>) and its RMS
+// error before and after.
 nlohmann::ordered_json tips_json(const KinematicFit& k, const DeviceModel& nominal) {
   using json = nlohmann::ordered_json;
   json tips = json::object();
   for (int t = 0; t < nominal.tips(); ++t) {
     json joints = json::array();
     for (int i : nominal.path(t)) joints.push_back(nominal.links[static_cast<size_t>(i)].name);
-    json tip{{"marker", fmt::format("x{}, y{}, z{}", t + 1, t + 1, t + 1)}, {"joints", joints}};
+    json tip{{"joints", joints}};
     if (static_cast<size_t>(t) < k.tip_rms_after.size()) {
       tip["rms_before"] = k.tip_rms_before[static_cast<size_t>(t)];
       tip["rms_after"] = k.tip_rms_after[static_cast<size_t>(t)];

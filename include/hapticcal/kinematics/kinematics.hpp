@@ -474,8 +474,9 @@ class PreparedModel {
   void compensate(const double* q, double* joint) const;
   // T_meas_tool from the readings q (a tree's: its first tip's).
   Frame<double> forward(const double* q) const;
-  // T_meas_tool of tip `tip` of a tree (0 <= tip < tips()): every link's
-  // frame composed once on its parent's, then the tip's link and tool.
+  // T_meas_tool of tip `tip` of a tree (0 <= tip < tips(), else
+  // std::out_of_range): every link's frame composed once on its parent's, then
+  // the tip's link and tool.
   Frame<double> forward(const double* q, int tip) const;
   // Its geometric Jacobian w.r.t. the tree's joint values (zero columns for
   // the joints off the tip's path), into 6 x dof column-major storage.
@@ -503,6 +504,7 @@ class PreparedModel {
   std::optional<ChainConstants<double>> bent_constants(const double* q) const;
 
  private:
+  void check_tip(int tip) const;  // std::out_of_range outside [0, tips())
   Frame<double> chain(const double* q, Frame<double>* frames) const;
   // dtheta_k(q_k) of every reading, the capstans' sines, cosines and arc
   // tangents in batches (the coupled path's compensation).
