@@ -269,6 +269,25 @@ TEST(Tree, BadTreesAndLogsAreRefused) {
   Log fewer = good;
   fewer.q.conservativeResize(Eigen::NoChange, 10);
   EXPECT_THROW(calibrate(tree, fewer, {}), InputError);
+  // Points in millimetres with a bare header: refused, the unit named (a tree
+  // and one of its arms alike).
+  Log mm = hands_log(truth_model(2), 60, 1e-4, 4);
+  mm.markers *= 1e3;
+  const Log arm_mm = arm_log(tree, mm, 0);
+  for (int chain = 0; chain < 2; ++chain) {
+    try {
+      if (chain) {
+        calibrate(left, arm_mm, {});
+      } else {
+        calibrate(tree, tip_samples(tree, mm), {});
+      }
+      FAIL() << "points in mm calibrated";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("The measurements fit it in mm: give the unit"),
+                std::string::npos)
+          << e.what();
+    }
+  }
   // A tree's fixture labels (point1, point2) given to one chain.
   Log labelled = testing::blank_marker_log("sockets.csv", 4, 7, 0);
   labelled.q.setZero();

@@ -2,6 +2,7 @@
 // readings that are readings, and a nominal error plausible for this device.
 #include <ceres/ceres.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -121,6 +122,53 @@ double rms_with_fitted(const ChainStructure& s, Eigen::VectorXd p, const std::ve
                          rows);
 }
 
+// What an implausible log's numbers fit once a first-day mistake is undone:
+// its lengths in millimetres or micrometres read as metres (a header without
+// units). The hint (empty: none fits within `limit`, the frame registered
+// afresh and the slots `free` fitted).
+std::string likely_mistake(const ChainStructure& s, const Eigen::VectorXd& p,
+                           const std::vector<int>& free, const std::vector<Eigen::VectorXd>& joints,
+                           const RowsOf& kind, const RowMatrix& measured,
+                           const Eigen::VectorXd& weights, double rows, bool compressed,
+                           double limit) {
+  // The frame registered afresh in closed form on these numbers (a pose base),
+  // then the slots `free` fitted.
+  const auto fits = [&](const RowMatrix& m) {
+    Eigen::VectorXd start = p;
+    if (s.base_slots() == kPoseSlots && traits(kind.type).own_frame) {
+      const ChainConstants<double> c = chain_constants(s, p.data());
+      Eigen::Matrix3Xd a(3, static_cast<Eigen::Index>(joints.size())), b(3, a.cols());
+      for (Eigen::Index i = 0; i < a.cols(); ++i) {
+        a.col(i) =
+            detail::pose_tool(s, c, p.data(), joints[static_cast<size_t>(i)].data(), kind.tip).p;
+        b.col(i) = m.row(i).head<3>().transpose();
+      }
+      try {
+        const Registration reg = register_points(a, b);
+        const Eigen::Vector3d rpy = matrix_rpy(reg.R * c.base.R);
+        start.head<3>() = reg.R * c.base.p + reg.t;
+        start.segment<3>(3) = rpy;
+      } catch (const InputError&) {  // collinear points: LM from the frame as it is
+      }
+    }
+    return rms_with_fitted(s, start, free, joints, kind, m, weights, rows, compressed) <= limit;
+  };
+  const int lengths = std::min(traits(kind.type).length_rows, static_cast<int>(measured.cols()));
+  if (!kind.labels && lengths > 0) {
+    for (const auto& [factor, unit] : {std::pair{1e-3, "mm"}, std::pair{1e-6, "um"}}) {
+      RowMatrix scaled = measured;
+      scaled.leftCols(lengths) *= factor;
+      if (fits(scaled)) {
+        return fmt::format(
+            " The measurements fit it in {}: give the unit in the log's header (x[{}], y[{}], "
+            "z[{}] or distance[{}]; a bare column is metres).",
+            unit, unit, unit, unit, unit);
+      }
+    }
+  }
+  return "";
+}
+
 }  // namespace
 
 namespace detail {
@@ -177,10 +225,12 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
         rms_before * 1e3, tried, kImplausibleErrorFraction * 100));
     return;
   }
-  const std::string message = fmt::format(
-      "the nominal model's RMS error, {:.1f} mm ({}), is more than {:.0f} % of the device's reach "
-      "({:.1f} mm): is this log from this device ({})?",
-      rms_before * 1e3, tried, kImplausibleErrorFraction * 100, reach * 1e3, nominal.name);
+  const std::string message =
+      fmt::format(
+          "the nominal model's RMS error, {:.1f} mm ({}), is more than {:.0f} % of the device's "
+          "reach ({:.1f} mm): is this log from this device ({})?",
+          rms_before * 1e3, tried, kImplausibleErrorFraction * 100, reach * 1e3, nominal.name) +
+      likely_mistake(s, p, free, joints, kind, measured, weights, rows, compressed, limit);
   if (!force) throw InputError(message + " (--force calibrates anyway)");
   notes.push_back("warning: " + message);
 }
