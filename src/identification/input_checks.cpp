@@ -131,11 +131,12 @@ std::string likely_mistake(const ChainStructure& s, const Eigen::VectorXd& p,
                            const RowsOf& kind, const RowMatrix& measured,
                            const Eigen::VectorXd& weights, double rows, bool compressed,
                            double limit) {
-  // The frame registered afresh in closed form on these numbers (a pose base),
-  // then the slots `free` fitted.
+  const int lengths = std::min(traits(kind.type).length_rows, static_cast<int>(measured.cols()));
+  // The frame registered afresh in closed form on these numbers (a pose base,
+  // measured points), then the slots `free` fitted.
   const auto fits = [&](const RowMatrix& m) {
     Eigen::VectorXd start = p;
-    if (s.base_slots() == kPoseSlots && traits(kind.type).own_frame) {
+    if (s.base_slots() == kPoseSlots && lengths == 3) {
       const ChainConstants<double> c = chain_constants(s, p.data());
       Eigen::Matrix3Xd a(3, static_cast<Eigen::Index>(joints.size())), b(3, a.cols());
       for (Eigen::Index i = 0; i < a.cols(); ++i) {
@@ -153,7 +154,6 @@ std::string likely_mistake(const ChainStructure& s, const Eigen::VectorXd& p,
     }
     return rms_with_fitted(s, start, free, joints, kind, m, weights, rows, compressed) <= limit;
   };
-  const int lengths = std::min(traits(kind.type).length_rows, static_cast<int>(measured.cols()));
   if (!kind.labels && lengths > 0) {
     for (const auto& [factor, unit] : {std::pair{1e-3, "mm"}, std::pair{1e-6, "um"}}) {
       RowMatrix scaled = measured;
