@@ -616,6 +616,11 @@ TEST(Tree, CalibrateAndEvaluateOnTheCommandLine) {
       testing::run_cli({"calibrate", "--model", dir + "/two_arm.urdf", "--tip",
                         "left_hand,right_hand", "--log", dir + "/one.csv", "--out", dir + "/b"}),
       "2 tips (left_hand, right_hand) need the points x1, y1, z1 .. x2, y2, z2");
+  // The tips in another order than the log's: refused, the order that fits named.
+  testing::expect_input_error(
+      testing::run_cli({"calibrate", "--model", dir + "/two_arm.urdf", "--tip",
+                        "right_hand,left_hand", "--log", dir + "/fit.csv", "--out", dir + "/b"}),
+      "The log fits the tips in the order left_hand, right_hand: give --tip left_hand,right_hand.");
   testing::expect_input_error(
       testing::run_cli({"calibrate", "--model", "geomagic-touch", "--tip", "a,b", "--log",
                         dir + "/fit.csv", "--out", dir + "/b"}),

@@ -2,7 +2,9 @@
 #include "hapticcal/jobs/calibrate_job.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <memory>
 
 #include "hapticcal/core/error.hpp"
@@ -46,6 +48,34 @@ void check_tree_request(const CalibrateRequest& request) {
     throw InputError(request.model, 0, "--tip", "several tips (a tree) need a URDF model");
 }
 
+// A tree's log refused as not from this device: does it fit the tips in
+// another order (--tip's order is also the order of the log's joint columns)?
+// The hint naming it, or "" (at most three tips are tried in every order).
+std::string tip_order_hint(const CalibrateRequest& request, const std::string& urdf_text,
+                           const std::vector<std::string>& tips, const Log& raw,
+                           const CalibrationOptions& options) {
+  if (tips.size() > 3 || urdf_text.empty()) return "";
+  CalibrationOptions quick = options;  // one plain fit: the plausibility check is what counts
+  quick.search = false;
+  quick.keep_all = true;
+  quick.folds = 0;
+  std::vector<std::string> order = tips;
+  std::sort(order.begin(), order.end());
+  do {
+    if (order == tips) continue;
+    try {
+      const DeviceModel other =
+          tree_model(parse_tree(urdf_text, request.model, order, request.root));
+      calibrate(other, tip_samples(other, raw), quick);
+    } catch (const InputError&) {
+      continue;
+    }
+    return fmt::format(" The log fits the tips in the order {}: give --tip {}.",
+                       fmt::join(order, ", "), fmt::join(order, ","));
+  } while (std::next_permutation(order.begin(), order.end()));
+  return "";
+}
+
 }  // namespace
 
 CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
@@ -72,9 +102,9 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
                      "a tracker's stream is fitted on positions: markers are not aligned in "
                      "time yet");
   }
-  Log log = read_log(request.log, request.columns);
+  const Log raw = read_log(request.log, request.columns);
   // A sample a tip of each row (a tracker's stream: of each of its rows, once aligned).
-  if (tree && request.tracker.empty()) log = tip_samples(job.nominal, log);
+  Log log = tree && request.tracker.empty() ? tip_samples(job.nominal, raw) : raw;
   const Log tracker = request.tracker.empty() ? Log() : read_log(request.tracker);
   if (request.out) job.out = std::make_unique<OutputSet>(*request.out, "calibrate");
   CalibrationOptions options = request.options;
@@ -82,7 +112,15 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
   options.point_distances = std::move(fixture.distances);
   options.known_points = std::move(fixture.points);
   if (request.tracker.empty()) {
-    job.result = calibrate(job.nominal, log, options);
+    try {
+      job.result = calibrate(job.nominal, log, options);
+    } catch (const InputError& e) {  // a tree's tips in another order than the log's?
+      const std::string what = e.what();
+      if (!tree || what.find("is this log from this device") == std::string::npos) throw;
+      const std::string hint = tip_order_hint(request, urdf_text, tips, raw, options);
+      if (hint.empty()) throw;
+      throw InputError(what + hint);
+    }
     // A marker log is reported as the body's poses it was fitted to.
     if (log.marker_count > 0) log = markers_to_poses(log, job.result.marker_body).poses;
   } else {
