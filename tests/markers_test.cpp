@@ -119,6 +119,19 @@ TEST(Markers, PosesOfTheBodyMatchTheTruth) {
                   (body().col(a) - body().col(b)).norm(), 1e-5);
     }
   }
+  // The body listed in another order than the log's markers: refused, the
+  // order that fits named (the given body's second marker is the log's first).
+  Eigen::Matrix3Xd swapped = body();
+  swapped.col(0) = body().col(1);
+  swapped.col(1) = body().col(0);
+  try {
+    markers_to_poses(log, swapped);
+    ADD_FAILURE() << "a body in another order was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--markers' markers in the order 2, 1, 3"),
+              std::string::npos)
+        << e.what();
+  }
   Log two = log;
   two.marker_count = 2;
   two.markers = log.markers.leftCols(6);

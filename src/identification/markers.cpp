@@ -2,10 +2,13 @@
 #include "hapticcal/identification/markers.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <numeric>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/registration.hpp"
@@ -52,6 +55,47 @@ Eigen::Matrix3Xd estimated_body(const Log& log) {
   U.col(2) = z;
   U.col(1) = z.cross(x);
   return U.transpose() * mean;
+}
+
+// The median registration RMS of `body` onto the rows' markers (every
+// `stride`-th row).
+double median_fit(const Log& log, const Eigen::Matrix3Xd& body, int stride) {
+  std::vector<double> rms;
+  for (int r = 0; r < log.rows; r += stride) {
+    try {
+      rms.push_back(register_points(body, row_markers(log, r)).rms);
+    } catch (const InputError&) {  // a degenerate row: no vote
+    }
+  }
+  if (rms.empty()) return std::numeric_limits<double>::infinity();
+  std::nth_element(rms.begin(), rms.begin() + static_cast<std::ptrdiff_t>(rms.size() / 2),
+                   rms.end());
+  return rms[rms.size() / 2];
+}
+
+// A given body whose markers the log lists in another order (--markers in
+// the order of the log's x1, x2, ... columns): InputError naming the order that
+// fits, where one fits four times better than the given one (at most six
+// markers; a symmetric body's equal fits do not count).
+void check_marker_order(const Log& log, const Eigen::Matrix3Xd& body, double given) {
+  const int m = static_cast<int>(body.cols());
+  if (m > 6 || !(given > 0)) return;
+  const int stride = std::max(1, log.rows / 200);
+  std::vector<int> order(static_cast<size_t>(m));
+  std::iota(order.begin(), order.end(), 0);
+  while (std::next_permutation(order.begin(), order.end())) {
+    Eigen::Matrix3Xd moved(3, m);  // the body's marker order[k] as the log's marker k
+    for (int k = 0; k < m; ++k) moved.col(k) = body.col(order[static_cast<size_t>(k)]);
+    const double fit = median_fit(log, moved, stride);
+    if (!(fit < 0.25 * given)) continue;
+    std::vector<int> listed;
+    for (int k : order) listed.push_back(k + 1);
+    throw InputError(log.origin, 0, "--markers",
+                     fmt::format("the body fits the log's markers at {:.3f} mm (median) with "
+                                 "--markers' markers in the order {} ({:.3f} mm as given): list "
+                                 "--markers in the order of the log's x1, x2, ... columns",
+                                 1e3 * fit, fmt::join(listed, ", "), 1e3 * given));
+  }
 }
 
 }  // namespace
@@ -103,6 +147,7 @@ MarkerPoses markers_to_poses(const Log& log, const Eigen::Matrix3Xd& body) {
   std::nth_element(rms.begin(), rms.begin() + static_cast<std::ptrdiff_t>(rms.size() / 2),
                    rms.end());
   out.fit_rms = rms[rms.size() / 2];
+  if (!out.estimated) check_marker_order(log, out.body, out.fit_rms);
   out.note = fmt::format(
       "markers: {} on one rigid body, {}; each row's pose the best fit of the body onto its "
       "markers (median RMS {:.4f} mm){}",
