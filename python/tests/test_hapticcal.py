@@ -638,3 +638,14 @@ def test_calibrate_a_tree_of_two_tips(tmp_path):
     again = hapticcal.calibrate(c.model, str(tmp_path / "tree.csv"))  # its URDF and tips kept
     assert again.usable and again.model.tips == ["left_hand", "right_hand"]
     assert (tmp_path / "out" / "calibrated.urdf").exists()
+
+
+def test_shipped_robot_descriptions_are_well_formed_xml():
+    """Every URDF the project ships parses as XML by Python's own parser (independent of
+    urdfdom, which forgives what ROS tools do not, such as "--" inside a comment)."""
+    import xml.dom.minidom
+
+    urdfs = sorted((SOURCE / "examples").rglob("*.urdf")) + sorted((SOURCE / "data").rglob("*.urdf"))
+    assert len(urdfs) >= 2
+    for path in urdfs:
+        xml.dom.minidom.parse(str(path))
