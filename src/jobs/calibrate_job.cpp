@@ -102,9 +102,14 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
                      "a tracker's stream is fitted on positions: markers are not aligned in "
                      "time yet");
   }
-  const Log raw = read_log(request.log, request.columns);
-  // A sample a tip of each row (a tracker's stream: of each of its rows, once aligned).
-  Log log = tree && request.tracker.empty() ? tip_samples(job.nominal, raw) : raw;
+  Log log = read_log(request.log, request.columns);
+  // A tree's: a sample a tip of each row (a tracker's stream: of each of its rows, once
+  // aligned); the rows as read kept for the tip-order hint. A chain's log is not copied.
+  Log raw;
+  if (tree && request.tracker.empty()) {
+    raw = std::move(log);
+    log = tip_samples(job.nominal, raw);
+  }
   const Log tracker = request.tracker.empty() ? Log() : read_log(request.tracker);
   if (request.out) job.out = std::make_unique<OutputSet>(*request.out, "calibrate");
   CalibrationOptions options = request.options;
