@@ -3,6 +3,8 @@
 // clocks (offset and drift) in at most 60 s and 1 GB (peak memory measured
 // with /usr/bin/time -v, README). The reference in the same process: a static
 // calibration of as many poses as the stream's fit uses (10 000).
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/stream.hpp"
 #include "hapticcal/study/session.hpp"
 #include "hapticcal/study/simulation.hpp"
@@ -57,12 +59,63 @@ void BM_Stream_StaticReference(benchmark::State& state) {
   }
 }
 
+// A 10-minute session whose device times are milliseconds read as seconds
+// (the CSV texts in memory): reading both logs and refusing them, against
+// reading them alone. The refusal comes before any grid is sized, so it costs
+// about what reading the input does.
+struct MillisecondSession {
+  std::string device, tracker;
+  MillisecondSession() {
+    SessionOptions o;
+    o.seconds = 600;
+    Session session = simulate_session(touch_actual(), o, 3);
+    session.device.t *= 1e3;
+    device = log_to_csv(session.device);
+    tracker = log_to_csv(session.tracker);
+  }
+};
+
+const MillisecondSession& millisecond_session() {
+  static const MillisecondSession s;
+  return s;
+}
+
+void BM_Stream_MillisecondsRefused(benchmark::State& state) {
+  const MillisecondSession& s = millisecond_session();
+  const DeviceModel nominal = testing::builtin("geomagic-touch");
+  for (auto _ : state) {
+    const Log device = parse_log(s.device, "device.csv"),
+              tracker = parse_log(s.tracker, "tracker.csv");
+    try {
+      calibrate_streams(nominal, device, tracker, CalibrationOptions{}, StreamOptions{});
+      state.SkipWithError("not refused");
+    } catch (const InputError&) {
+    }
+  }
+}
+
+void BM_Stream_ReadLogs(benchmark::State& state) {
+  const MillisecondSession& s = millisecond_session();
+  for (auto _ : state) {
+    const Log device = parse_log(s.device, "device.csv"),
+              tracker = parse_log(s.tracker, "tracker.csv");
+    benchmark::DoNotOptimize(device.rows + tracker.rows);
+  }
+}
+
 BENCHMARK(BM_Stream_OneHour)->Unit(benchmark::kSecond)->Iterations(1)->Repetitions(3);
 BENCHMARK(BM_Stream_StaticReference)->Unit(benchmark::kSecond)->Iterations(1)->Repetitions(3);
+BENCHMARK(BM_Stream_MillisecondsRefused)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(5);
+BENCHMARK(BM_Stream_ReadLogs)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(5);
 
 }  // namespace
 
 int main(int argc, char** argv) {
   return hapticcal::bench::ratio_main(
-      argc, argv, hapticcal::bench::Pairs{{"BM_Stream_OneHour", "BM_Stream_StaticReference"}});
+      argc, argv,
+      hapticcal::bench::Pairs{{"BM_Stream_OneHour", "BM_Stream_StaticReference"},
+                              {"BM_Stream_MillisecondsRefused", "BM_Stream_ReadLogs"}});
 }

@@ -4,8 +4,10 @@
 // static-pose one of as many tracker samples and an offset-blind one.
 #include "hapticcal/identification/stream.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -383,6 +385,134 @@ TEST(StreamCli, SimulatedSessionScoresOffsetAwareAgainstBlind) {
   testing::expect_input_error(
       testing::run_cli({"simulate", "--scenario", dir + "/bad.yaml", "--out", dir + "/bad"}),
       "session: a hand-guided session is measured by a tracker's positions");
+  std::filesystem::remove_all(dir);
+}
+
+// A careless session's tracker stream: one copy a mistake of the clean one.
+struct CarelessSession {
+  TouchSetUp set = touch_set_up(41);
+  Session session;
+  Log validation;
+  CarelessSession() {
+    SessionOptions o;
+    o.seconds = 600;  // 120 Hz: about 70,000 tracker samples
+    session = simulate_session(set.actual, o, 41);
+    SimulationNoise noise;
+    noise.sigma_position = 1e-4;
+    validation = simulate_measurement_log(set.actual, MeasurementType::kPosition, 300,
+                                          Eigen::MatrixXd(), noise, 42);
+  }
+  StreamCalibration fit(const Log& tracker, bool drift = true) const {
+    CalibrationOptions options;
+    options.transmissions = false;
+    options.search = false;
+    StreamOptions stream;
+    stream.drift = drift;
+    return calibrate_streams(set.nominal, session.device, tracker, options, stream);
+  }
+};
+
+bool has_note(const CalibrationResult& r, const std::string& text) {
+  return std::any_of(r.notes.begin(), r.notes.end(),
+                     [&](const std::string& n) { return n.find(text) != std::string::npos; });
+}
+
+// One 3 m glitch (and one of 1e308 m) among 70,000 tracker samples: the
+// session calibrates, the glitch named by its line, held-out within 5 % of the
+// clean session's; the clean session names no glitch, step or drift.
+TEST(StreamCareless, OneGlitchIsNamedByItsLineAndLeftOut) {
+  const CarelessSession c;
+  ASSERT_GT(c.session.tracker.rows, 69000);
+  const StreamCalibration clean = c.fit(c.session.tracker);
+  ASSERT_EQ(clean.result.status, CalibrationStatus::kConverged) << clean.result.status_reason;
+  EXPECT_TRUE(clean.clock.glitch_lines.empty());
+  EXPECT_FALSE(has_note(clean.result, "glitch"));
+  EXPECT_FALSE(has_note(clean.result, "drift apart"));
+  const double clean_rms = held_out_rms(clean.result.calibrated, c.validation);
+  for (const double value : {3.0, 1e308}) {
+    Log tracker = c.session.tracker;
+    const int row = tracker.rows / 2;
+    tracker.position(row, 0) += value;
+    const StreamCalibration fit = c.fit(tracker);
+    ASSERT_EQ(fit.result.status, CalibrationStatus::kConverged) << fit.result.status_reason;
+    const int line = tracker.line[static_cast<size_t>(row)];
+    EXPECT_EQ(fit.clock.glitch_lines, std::vector<int>{line});
+    EXPECT_TRUE(has_note(fit.result, fmt::format("line {}: a glitch", line)));
+    const double rms = held_out_rms(fit.result.calibrated, c.validation);
+    EXPECT_LT(rms, 1.05 * clean_rms) << rms << " vs clean " << clean_rms;
+    EXPECT_NEAR(fit.clock.clock.offset, clean.clock.clock.offset, 3 * clean.clock.offset_sd);
+    std::printf("glitch of %g m at line %d: held-out %.4f mm, clean %.4f mm\n", value, line,
+                1e3 * rms, 1e3 * clean_rms);
+  }
+}
+
+// The tracker's clock steps by +0.05 s halfway (a resync): refused (exit 3's
+// status) naming the step's time within a few samples, with the drift fitted
+// or not.
+TEST(StreamCareless, AClockStepIsRefusedNamingItsTime) {
+  const CarelessSession c;
+  Log tracker = c.session.tracker;
+  const int row = tracker.rows / 2;
+  for (int r = row; r < tracker.rows; ++r) tracker.t[r] += 0.05;
+  const double when = tracker.t[row];
+  for (const bool drift : {false, true}) {
+    const StreamCalibration fit = c.fit(tracker, drift);
+    EXPECT_EQ(fit.result.status, CalibrationStatus::kNotConverged) << drift;
+    const std::string& why = fit.result.status_reason;
+    EXPECT_NE(why.find("the clocks' offset steps by"), std::string::npos) << why;
+    // "tracker time 300.123 s": within 0.1 s of the truth.
+    const size_t at = why.find("tracker time ");
+    ASSERT_NE(at, std::string::npos) << why;
+    EXPECT_NEAR(std::stod(why.substr(at + 13)), when, 0.1) << why;
+    std::printf("drift %s: %s\n", drift ? "fitted" : "not fitted", why.c_str());
+  }
+}
+
+// Drift without --clock-drift: 300 ppm on the tracker's clock is named (its
+// ppm within 10 %) with the option that fits it.
+TEST(StreamCareless, DriftWithoutTheOptionSuggestsIt) {
+  const CarelessSession c;
+  Log tracker = c.session.tracker;
+  tracker.t *= 1 - 300e-6;  // the device's clock runs 300 ppm more than it did
+  const StreamCalibration fit = c.fit(tracker, false);
+  const auto note =
+      std::find_if(fit.result.notes.begin(), fit.result.notes.end(),
+                   [](const std::string& n) { return n.find("drift apart") != n.npos; });
+  ASSERT_NE(note, fit.result.notes.end());
+  EXPECT_NE(note->find("--clock-drift"), std::string::npos) << *note;
+  const size_t ppm = note->find(" ppm)");
+  ASSERT_NE(ppm, std::string::npos) << *note;
+  const double said = std::stod(note->substr(note->rfind('(', ppm) + 1));
+  EXPECT_NEAR(said, 320, 32) << *note;  // 300 ppm added to the session's 20
+  const StreamCalibration fitted = c.fit(tracker, true);
+  EXPECT_EQ(fitted.result.status, CalibrationStatus::kConverged);
+  EXPECT_FALSE(has_note(fitted.result, "drift apart"));
+}
+
+// A 10-minute session whose device times are milliseconds read as seconds:
+// exit 2 naming the file, the column and the unit, in the memory of reading
+// the logs (under 200 MB).
+TEST(StreamCareless, MillisecondsReadAsSecondsAreRefusedBeforeAnyGrid) {
+  const std::string dir = testing::fresh_folder("stream_ms");
+  {
+    const CarelessSession c;
+    Log ms = c.session.device;
+    ms.t *= 1e3;
+    std::ofstream(dir + "/device.csv") << log_to_csv(ms);
+    std::ofstream(dir + "/tracker.csv") << log_to_csv(c.session.tracker);
+  }
+  // The program starts from this process's memory (posix_spawn shares it until
+  // exec): its peak is measured from this process's current size, the session
+  // above released.
+  ASSERT_TRUE(std::ofstream("/proc/self/clear_refs") << "5") << "cannot reset the peak memory";
+  const testing::CliResult r =
+      testing::run_cli({"calibrate", "--model", "geomagic-touch", "--log", dir + "/device.csv",
+                        "--tracker", dir + "/tracker.csv", "--out", dir + "/out"});
+  testing::expect_input_error(r, "device.csv:2: t: the device stream's samples are");
+  EXPECT_NE(r.err.find("t [ms]"), std::string::npos) << r.err;
+  EXPECT_LT(r.peak_kb, 200 * 1024) << r.peak_kb;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
+  std::printf("milliseconds refused at a peak of %.1f MB\n", r.peak_kb / 1024.0);
   std::filesystem::remove_all(dir);
 }
 

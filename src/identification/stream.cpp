@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "hapticcal/core/error.hpp"
@@ -23,12 +24,22 @@ constexpr int kSmoothing = 5;
 // correlate by chance.
 constexpr double kMinOverlapShare = 0.5;
 constexpr int kMinPairs = 100;
-// A stream may span at most this many grid steps a sample (a 1 Hz tracker: 100).
-constexpr double kMaxGridPerSample = 1000;
+// A stream's samples are at most this far apart (median) [s]: a time in
+// milliseconds read as seconds puts a 1 kHz stream's 1 s apart, a 120 Hz one's 8 s.
+constexpr double kMaxMedianInterval = 0.5;
+// A stream may span at most this many grid steps a sample (its gaps
+// included): the search's grids then hold at most 4 kB a sample of the input.
+constexpr double kMaxGridPerSample = 100;
 // The coarse search's work (offsets x grid points) at most: about 5 s.
 constexpr double kMaxSearchWork = 4e9;
 // Below this correlation of the speeds the streams do not show the same motion.
 constexpr double kMinCorrelation = 0.3;
+// A tracker sample further from its neighbourhood's median (two samples either
+// side, no gap between) than this many times the stream's 99th percentile of
+// that distance is a glitch: a clean 120 Hz stream's largest is 2x its 99th
+// percentile; the percentile holds while glitches are fewer than 1 %.
+constexpr double kGlitchFactor = 10;
+constexpr double kGlitchQuantile = 0.99;
 
 double median_step(const Eigen::VectorXd& t) {
   std::vector<double> dt(static_cast<size_t>(t.size() - 1));
@@ -49,15 +60,6 @@ void check_times(const Log& log, const char* role) {
                      fmt::format("the {} stream has {} samples; a stream needs at least {}", role,
                                  log.rows, 2 * kSmoothing));
   }
-  // A stream's span in grid steps, against its samples: a time in other units
-  // (milliseconds read as seconds) would ask for a grid of billions.
-  const double span = log.t[log.rows - 1] - log.t[0];
-  if (!std::isfinite(span) || span / kGridStep > kMaxGridPerSample * log.rows + 1e5) {
-    throw InputError(log.origin, log.line.back(), "t",
-                     fmt::format("the {} stream's {} samples span {:g} s: more than {:g} s a "
-                                 "sample (is t in seconds? [ms] reads milliseconds)",
-                                 role, log.rows, span, kMaxGridPerSample * kGridStep));
-  }
   for (int r = 1; r < log.rows; ++r) {
     if (!(log.t[r] > log.t[r - 1])) {
       throw InputError(
@@ -65,6 +67,27 @@ void check_times(const Log& log, const char* role) {
           fmt::format("time {} s does not follow {} s of line {}: a stream's times must increase",
                       log.t[r], log.t[r - 1], log.line[static_cast<size_t>(r - 1)]));
     }
+  }
+  // The time's unit, before any grid is sized: milliseconds read as seconds
+  // put the samples a thousand times too far apart.
+  const double interval = median_step(log.t);
+  if (interval > kMaxMedianInterval) {
+    throw InputError(
+        log.origin, log.line.front(), "t",
+        fmt::format("the {} stream's samples are {:g} s apart (the median of {} intervals; at most "
+                    "{:g} s): is t in seconds? A time in milliseconds is read with t [ms] in the "
+                    "header",
+                    role, interval, log.rows - 1, kMaxMedianInterval));
+  }
+  // A stream's span in grid steps, against its samples: long gaps would ask
+  // for a grid far larger than the input.
+  const double span = log.t[log.rows - 1] - log.t[0];
+  if (!std::isfinite(span) || span / kGridStep > kMaxGridPerSample * log.rows + 1e5) {
+    throw InputError(log.origin, log.line.back(), "t",
+                     fmt::format("the {} stream's {} samples span {:g} s: more than {:g} s a "
+                                 "sample, its gaps far longer than its samples (calibrate the "
+                                 "parts between the long pauses on their own)",
+                                 role, log.rows, span, kMaxGridPerSample * kGridStep));
   }
 }
 
@@ -144,7 +167,90 @@ int known(const std::vector<double>& v) {
       std::count_if(v.begin(), v.end(), [](double x) { return !std::isnan(x); }));
 }
 
+// How far each tracker sample lies from the componentwise median of the five
+// samples about it (NaN where they span a gap or the stream's ends).
+std::vector<double> neighbourhood_distances(const Eigen::MatrixXd& p, const Eigen::VectorXd& t,
+                                            double gap) {
+  const Eigen::Index n = p.rows();
+  std::vector<double> d(static_cast<size_t>(n), std::nan(""));
+  std::array<double, 5> w{};
+  for (Eigen::Index r = 2; r + 2 < n; ++r) {
+    bool spans_gap = false;
+    for (Eigen::Index k = r - 2; k < r + 2; ++k) spans_gap |= t[k + 1] - t[k] > gap;
+    if (spans_gap) continue;
+    Eigen::Vector3d median;
+    for (int c = 0; c < 3; ++c) {
+      for (int k = 0; k < 5; ++k) w[static_cast<size_t>(k)] = p(r - 2 + k, c);
+      std::nth_element(w.begin(), w.begin() + 2, w.end());
+      median[c] = w[2];
+    }
+    const double distance = (p.row(r).transpose() - median).norm();
+    d[static_cast<size_t>(r)] = std::isfinite(distance) ? distance : HUGE_VAL;
+  }
+  return d;
+}
+
 }  // namespace
+
+std::vector<int> tracker_glitches(const Log& tracker) {
+  if (tracker.rows < 5 || !tracker.has_time) return {};
+  const double gap = ReadingInterpolator::kGapFactor * median_step(tracker.t);
+  // Each marker's (a tree's, one a tip) positions, or the tool point's.
+  std::vector<Eigen::MatrixXd> points;
+  if (tracker.marker_count > 0) {
+    for (int m = 0; m < tracker.marker_count; ++m)
+      points.push_back(tracker.markers.middleCols(3 * m, 3));
+  } else if (tracker.has_position) {
+    points.push_back(tracker.position);
+  }
+  std::vector<bool> glitch(static_cast<size_t>(tracker.rows), false);
+  for (const Eigen::MatrixXd& p : points) {
+    const std::vector<double> d = neighbourhood_distances(p, tracker.t, gap);
+    std::vector<double> known;
+    for (const double x : d)
+      if (!std::isnan(x)) known.push_back(x);
+    if (known.size() < 100) continue;
+    const auto q = static_cast<std::ptrdiff_t>(kGlitchQuantile * static_cast<double>(known.size()));
+    std::nth_element(known.begin(), known.begin() + q, known.end());
+    const double limit = kGlitchFactor * known[static_cast<size_t>(q)];
+    for (size_t r = 0; r < d.size(); ++r)
+      if (d[r] > limit) glitch[r] = true;
+  }
+  std::vector<int> out;
+  for (int r = 0; r < tracker.rows; ++r)
+    if (glitch[static_cast<size_t>(r)]) out.push_back(r);
+  return out;
+}
+
+Log without_rows(const Log& tracker, const std::vector<int>& rows) {
+  std::vector<Eigen::Index> keep;
+  size_t next = 0;
+  for (int r = 0; r < tracker.rows; ++r) {
+    if (next < rows.size() && rows[next] == r) {
+      ++next;
+      continue;
+    }
+    keep.push_back(r);
+  }
+  Log out = tracker;
+  out.rows = static_cast<int>(keep.size());
+  const auto take = [&](Eigen::MatrixXd& m) {
+    if (m.rows() == tracker.rows) m = Eigen::MatrixXd(m(keep, Eigen::all));
+  };
+  take(out.q), take(out.ext), take(out.direction), take(out.position), take(out.orientation),
+      take(out.markers);
+  if (out.t.size() == tracker.rows) out.t = Eigen::VectorXd(tracker.t(keep));
+  if (out.distance.size() == tracker.rows) out.distance = Eigen::VectorXd(tracker.distance(keep));
+  const auto take_each = [&](auto& v) {
+    if (v.size() != static_cast<size_t>(tracker.rows)) return;
+    auto all = v;
+    v.clear();
+    for (const Eigen::Index r : keep) v.push_back(all[static_cast<size_t>(r)]);
+  };
+  take_each(out.line), take_each(out.tip), take_each(out.label);
+  for (auto& [name, m] : out.columns) take(m);
+  return out;
+}
 
 ReadingInterpolator::ReadingInterpolator(const Log& device) : log_(device) {
   if (device.rows < 2 || device.t.size() != device.rows) {

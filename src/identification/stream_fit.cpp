@@ -28,6 +28,13 @@ constexpr double kClockSds = 0.01;
 constexpr int kCurvePoints = 81;
 constexpr double kCurveMin = 0.02, kCurveSds = 10;
 constexpr int kCurveSamples = 2000;
+// A clock's step or drift is refused or named when it explains this share of
+// the fit's residual sum of squares (a clock the fit holds explains about 1 /
+// samples); a step splits at least kClockCheckSide samples from either end.
+constexpr double kClockShare = 0.1;
+constexpr size_t kClockCheckSide = 50;
+// The glitches named one by one on the terminal.
+constexpr size_t kGlitchesNamed = 5;
 
 // The tool point's velocity at device time t [m/s], central differences over
 // ReadingInterpolator::around (a and b: buffers of dof values); false where the
@@ -212,19 +219,119 @@ std::vector<std::pair<double, double>> residual_curve(const DeviceModel& model,
   return out;
 }
 
+// What a clock the fit holds constant (or drifting) leaves in the residuals: each
+// sample's residual e against the tool point's velocity v is v times the
+// clock's error there, so the share of the residuals' sum of squares that one
+// offset change (at the best split) or a drift explains tells a step or a
+// drift from noise (about 1 / samples).
+struct ClockCheck {
+  double step_share = 0, drift_share = 0;
+  double step = 0, step_sd = 0;  // s: the offset after the split less before
+  double step_time = 0;          // tracker time [s] between the split's samples
+  int line_before = 0, line_after = 0;
+  double drift = 0;  // the drift a linear clock error gives
+};
+
+ClockCheck check_clock(const CalibrationResult& fit, const ReadingInterpolator& readings,
+                       const Log& poses, const StreamClock& clock) {
+  const PreparedModel prepared(fit.calibrated);
+  const int n = fit.calibrated.dof();
+  const Eigen::Index m = poses.rows;
+  Eigen::VectorXd q(n), a(n), b(n);
+  Eigen::Vector3d v;
+  // Per sample: v.e and |v|^2, and the time since the session's middle.
+  std::vector<double> ve, vv, tau;
+  double sse = 0;
+  const double middle = 0.5 * (poses.t[0] + poses.t[m - 1]);
+  for (Eigen::Index r = 0; r < m; ++r) {
+    const int tip = poses.tip.empty() ? 0 : poses.tip[static_cast<size_t>(r)];
+    if (!tool_velocity(prepared, readings, clock.device_time(poses.t[r]), a, b, v, tip))
+      v.setZero();
+    q = poses.q.row(r).transpose();
+    const Eigen::Vector3d e = poses.position.row(r).transpose() - prepared.forward(q.data(), tip).p;
+    sse += e.squaredNorm();
+    ve.push_back(v.dot(e));
+    vv.push_back(v.squaredNorm());
+    tau.push_back(poses.t[r] - middle);
+  }
+  ClockCheck out;
+  if (!(sse > 0) || m < 2 * kClockCheckSide) return out;
+  double S = 0, W = 0, St = 0, Wt = 0, Wtt = 0;
+  for (size_t i = 0; i < ve.size(); ++i) {
+    S += ve[i], W += vv[i], St += ve[i] * tau[i], Wt += vv[i] * tau[i],
+        Wtt += vv[i] * tau[i] * tau[i];
+  }
+  if (!(W > 0)) return out;
+  const double constant = S * S / W;
+  // The drift: the offset linear in time (two parameters against one).
+  const double det = W * Wtt - Wt * Wt;
+  if (det > 0) {
+    const double c0 = (Wtt * S - Wt * St) / det, c1 = (W * St - Wt * S) / det;
+    out.drift_share = (c0 * S + c1 * St - constant) / sse;
+    out.drift = c1;
+  }
+  // The step: one offset before the split and another after.
+  double S1 = 0, W1 = 0, best = 0, best_W1 = 0;
+  size_t split = 0;
+  for (size_t k = 0; k + 1 < ve.size(); ++k) {
+    S1 += ve[k], W1 += vv[k];
+    const size_t before = k + 1;
+    if (before < kClockCheckSide || ve.size() - before < kClockCheckSide) continue;
+    const double S2 = S - S1, W2 = W - W1;
+    if (!(W1 > 0 && W2 > 0)) continue;
+    const double gain = S1 * S1 / W1 + S2 * S2 / W2 - constant;
+    if (gain > best) best = gain, split = before, best_W1 = W1, out.step = S2 / W2 - S1 / W1;
+  }
+  if (split > 0) {
+    const double sigma2 = std::max(sse - best, 0.0) / (3.0 * static_cast<double>(m));
+    out.step_sd = std::sqrt(sigma2 * (1 / best_W1 + 1 / (W - best_W1)));
+    out.step_share = best / sse;
+    out.step_time = 0.5 * (poses.t[static_cast<Eigen::Index>(split) - 1] +
+                           poses.t[static_cast<Eigen::Index>(split)]);
+    out.line_before = poses.line[split - 1];
+    out.line_after = poses.line[split];
+  }
+  return out;
+}
+
+// One warning a glitch left out (the first kGlitchesNamed; results.json lists them all).
+void glitch_notes(const Log& tracker, const std::vector<int>& glitches,
+                  std::vector<std::string>& notes) {
+  const Eigen::MatrixXd& p = tracker.marker_count > 0 ? tracker.markers : tracker.position;
+  for (size_t i = 0; i < glitches.size() && i < kGlitchesNamed; ++i) {
+    const auto r = static_cast<Eigen::Index>(glitches[i]);
+    const double jump = (p.row(r) - p.row(r - 1)).stableNorm();
+    notes.push_back(fmt::format(
+        "warning: {} line {}: a glitch, {:.4g} mm from line {}'s sample and far from the median "
+        "of the two samples either side: left out of the clock's search and the fits",
+        tracker.origin, tracker.line[static_cast<size_t>(r)], 1e3 * jump,
+        tracker.line[static_cast<size_t>(r - 1)]));
+  }
+  if (glitches.size() > kGlitchesNamed) {
+    notes.push_back(
+        fmt::format("warning: {}: and {} more glitches left out (results.json lists them all)",
+                    tracker.origin, glitches.size() - kGlitchesNamed));
+  }
+}
+
 }  // namespace
 
 StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& device,
-                                    const Log& tracker, const CalibrationOptions& options,
+                                    const Log& tracker_in, const CalibrationOptions& options,
                                     const StreamOptions& stream) {
   // A tree's stream: one marker a tip (x1, y1, z1, ...); its clock follows the first tip.
-  if (nominal.tree() && tracker.marker_count != nominal.tips()) {
-    throw InputError(tracker.origin, 0, "x1",
+  if (nominal.tree() && tracker_in.marker_count != nominal.tips()) {
+    throw InputError(tracker_in.origin, 0, "x1",
                      fmt::format("a tree of {} tips needs one marker a tip in the tracker's "
                                  "stream (x1, y1, z1 .. x{}, y{}, z{}); it has {}",
                                  nominal.tips(), nominal.tips(), nominal.tips(), nominal.tips(),
-                                 tracker.marker_count));
+                                 tracker_in.marker_count));
   }
+  // Glitches (a marker swapped or reflected for a sample) would decide the
+  // coarse search and the inner least squares: left out, each named.
+  const std::vector<int> glitches = tracker_glitches(tracker_in);
+  const Log screened = glitches.empty() ? Log() : without_rows(tracker_in, glitches);
+  const Log& tracker = glitches.empty() ? tracker_in : screened;
   const Log first = nominal.tree() ? first_tip_stream(tracker) : Log();
   const Log& tracked = nominal.tree() ? first : tracker;
   check_streams(device, tracked);
@@ -241,7 +348,7 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   estimate.search_range = stream.search_range;
   estimate.drift_fitted = stream.drift;
   estimate.device_rows = device.rows;
-  estimate.tracker_rows = tracker.rows;
+  estimate.tracker_rows = tracker_in.rows;
   progress("clock search", 0);
   const auto [coarse, correlation] =
       coarse_clock_offset(nominal, device, tracked, stream.search_range);
@@ -255,6 +362,7 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   // cross-validation, no reweighting.
   CalibrationOptions inner = options;
   inner.search = false;
+  inner.force = true;  // a clock far off looks implausible: the check after the loop says why
   inner.keep_all = true;
   inner.select = false;
   inner.folds = 0;
@@ -263,6 +371,8 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   inner.joint_errors.clear();
   const int c = stream.drift ? 2 : 1;
   std::vector<int> kept;
+  CalibrationResult last;  // the last inner fit
+  const double span = tracked.t[tracked.rows - 1] - tracked.t[0];
   // The samples are chosen once, at the coarse offset: a set that changed with
   // the clock would move the estimate by a share of its sd at every step.
   const std::vector<int> rows =
@@ -270,7 +380,8 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   for (int it = 0; it < stream.max_iterations; ++it) {
     progress("clock and kinematics", static_cast<double>(it) / stream.max_iterations);
     out.poses = samples_at(nominal, readings, device, tracker, tracked, rows, estimate.clock, kept);
-    const CalibrationResult fit = calibrate(nominal, out.poses, inner);
+    last = calibrate(nominal, out.poses, inner);
+    const CalibrationResult& fit = last;
     if (fit.status != CalibrationStatus::kConverged) {
       out.result = fit;
       out.result.status_reason =
@@ -293,7 +404,6 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
     estimate.offset_sd = std::sqrt(step.covariance(0, 0));
     if (stream.drift) estimate.drift_sd = std::sqrt(step.covariance(1, 1));
     estimate.iterations = it + 1;
-    const double span = tracked.t[tracked.rows - 1] - tracked.t[0];
     const double moved = std::abs(step.step[0]) + (c == 2 ? std::abs(step.step[1]) * span : 0.0);
     if (std::getenv("HAPTICCAL_DEBUG_STREAM"))
       fmt::print(stderr, "clock step {}: offset {:.7f} s (+{:.3g}), drift {:.4g}, sd {:.3g}\n", it,
@@ -304,11 +414,46 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
     }
   }
   progress("clock and kinematics", 1);
+  // A clock the model cannot hold: a step refuses the session, a drift not
+  // fitted is named.
+  const ClockCheck check = check_clock(last, readings, out.poses, estimate.clock);
+  if (std::getenv("HAPTICCAL_DEBUG_STREAM"))
+    fmt::print(stderr, "clock check: step {:.4g} ({:.3g} s at {:.3f}), drift {:.4g} ({:.3g})\n",
+               check.step_share, check.step, check.step_time, check.drift_share, check.drift);
+  const bool step =
+      check.step_share >= kClockShare && (stream.drift || check.step_share > check.drift_share);
+  if (step) {
+    out.result = last;
+    out.result.status = CalibrationStatus::kNotConverged;
+    out.result.status_reason = fmt::format(
+        "the clocks' offset steps by {:+.2f} ms +- {:.2f} between {} lines {} and {} (tracker time "
+        "{:.3f} s; a clock resynchronised?), which explains {:.0f} % of the fit's residual: one "
+        "offset cannot hold the session; calibrate the parts before and after the step on their "
+        "own",
+        1e3 * check.step, 1e3 * check.step_sd, tracker.origin, check.line_before, check.line_after,
+        check.step_time, 100 * check.step_share);
+    out.result.clock = estimate;
+    return out;
+  }
+  std::string drift_note;
+  if (!stream.drift && check.drift_share >= kClockShare) {
+    drift_note = fmt::format(
+        "the clocks drift apart: their offset changes by about {:.1f} ms over the {:.0f} s session "
+        "({:.0f} ppm), which explains {:.0f} % of the fit's residual: --clock-drift fits it",
+        1e3 * check.drift * span, span, 1e6 * check.drift, 100 * check.drift_share);
+  }
   out.poses = samples_at(nominal, readings, device, tracker, tracked, rows, estimate.clock, kept);
   estimate.fit_samples = out.poses.rows;
   progress("final fit", 0);
-  out.result = calibrate(nominal, out.poses, options);
+  try {
+    out.result = calibrate(nominal, out.poses, options);
+  } catch (const InputError& e) {
+    if (drift_note.empty()) throw;
+    throw InputError(e.file(), e.line(), e.key(),
+                     drift_note + "; without it the fit is refused: " + e.message());
+  }
   progress("final fit", 1);
+  if (!drift_note.empty()) out.result.notes.push_back("warning: " + drift_note);
   if (out.result.status == CalibrationStatus::kConverged && !estimate.converged) {
     out.result.status = CalibrationStatus::kNotConverged;
     out.result.status_reason = fmt::format(
@@ -326,8 +471,12 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
       stream.drift ? fmt::format(", drift {:.3f} ppm +- {:.3f} ppm", 1e6 * estimate.clock.drift,
                                  1e6 * estimate.drift_sd)
                    : std::string(),
-      estimate.iterations, estimate.overlapping, tracker.rows, estimate.dropped_gap,
+      estimate.iterations, estimate.overlapping, tracker_in.rows, estimate.dropped_gap,
       estimate.dropped_speed, 100 * stream.speed_quantile, estimate.fit_samples));
+  glitch_notes(tracker_in, glitches, out.result.notes);
+  estimate.glitch_lines.clear();
+  for (const int r : glitches)
+    estimate.glitch_lines.push_back(tracker_in.line[static_cast<size_t>(r)]);
   out.result.clock = estimate;
   return out;
 }

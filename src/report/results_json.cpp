@@ -204,6 +204,7 @@ nlohmann::ordered_json clock_json(const ClockEstimate& c) {
           {"dropped_in_gaps", c.dropped_gap},
           {"dropped_fast", c.dropped_speed},
           {"fit_samples", c.fit_samples},
+          {"glitch_lines", c.glitch_lines},
           {"residual_against_offset", curve}};
 }
 

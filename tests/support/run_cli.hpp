@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <spawn.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -24,6 +25,7 @@ namespace hapticcal::testing {
 struct CliResult {
   int exit_code = -1;
   std::string out, err;
+  long peak_kb = 0;  // the program's peak resident memory [kB] (getrusage's ru_maxrss)
 };
 
 inline std::string slurp(const std::string& path) {
@@ -97,8 +99,10 @@ inline CliResult run_program(const std::string& program, const std::vector<std::
     return r;
   }
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  struct rusage usage {};
+  while (::wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {
   }
+  r.peak_kb = usage.ru_maxrss;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   r.out = slurp(out_path);
   r.err = slurp(err_path);

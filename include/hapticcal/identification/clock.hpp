@@ -29,11 +29,12 @@ struct ClockEstimate {
   double coarse_correlation = 0;  // the speeds' correlation there
   double search_range = 0;        // s
   int device_rows = 0, tracker_rows = 0;
-  int overlapping = 0;    // tracker samples whose device time the readings cover
-  int fit_samples = 0;    // used by the kinematic fit
-  int dropped_gap = 0;    // in a gap of the device stream (no readings to interpolate)
-  int dropped_speed = 0;  // above the speed quantile
-  int iterations = 0;     // of the clock's Gauss-Newton steps
+  int overlapping = 0;            // tracker samples whose device time the readings cover
+  int fit_samples = 0;            // used by the kinematic fit
+  int dropped_gap = 0;            // in a gap of the device stream (no readings to interpolate)
+  int dropped_speed = 0;          // above the speed quantile
+  int iterations = 0;             // of the clock's Gauss-Newton steps
+  std::vector<int> glitch_lines;  // tracker samples left out as glitches (tracker_glitches)
   bool converged = false;
   // RMS position residual [m] of the calibrated model against the offset
   // [s], about the estimate (the report's figure).

@@ -73,6 +73,16 @@ class ReadingInterpolator {
 // Throws InputError naming the file, the line and the column.
 void check_streams(const Log& device, const Log& tracker);
 
+// A tracker stream's glitches (a marker swapped or reflected for one or two
+// samples): the rows (0-based) of samples further from the componentwise
+// median of the five about them than 10 times the stream's 99th percentile of
+// that distance, for the tool point or any marker; none within two samples of
+// a gap or an end. A stream with more than 1 % glitches keeps them.
+std::vector<int> tracker_glitches(const Log& tracker);
+
+// The log without the given rows (ascending, 0-based): every per-row field.
+Log without_rows(const Log& log, const std::vector<int>& rows);
+
 // The coarse search: the offset in [-range, range] at which the speed of the
 // nominal model's tool point (device stream) and the tracker's point agree
 // best (largest Pearson correlation, 10 ms steps, refined by a parabola).
