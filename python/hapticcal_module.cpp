@@ -21,6 +21,7 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
+#include "hapticcal/core/option_ranges.hpp"
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/data_io/fixture.hpp"
 #include "hapticcal/data_io/log.hpp"
@@ -169,6 +170,18 @@ Calibration calibrate(
     const std::optional<Names>& joint_errors, const Text& tracker_arg, double clock_search,
     bool clock_drift, const Text& markers_arg, bool search, bool prior, int threads) {
   // The command line's job (jobs/calibrate_job.hpp), from keywords.
+  // The command line's ranges (an out-of-range number is a ValueError).
+  namespace range = option_range;
+  check_option("--samples", samples, range::kSamples, true);
+  if (sigma) check_option("--sigma", *sigma, range::kSigma);
+  check_option("--folds", folds, range::kFolds, true);
+  if (polynomial_order)
+    check_option("--polynomial-order", *polynomial_order, range::kPolynomialOrder);
+  check_option("--dependency-tolerance", dependency_tolerance, range::kDependencyTolerance);
+  if (prior_scale) check_option("--prior-scale", *prior_scale, range::kPriorScale);
+  if (encoder_resolution) check_option("--encoder-resolution", *encoder_resolution, range::kAngle);
+  check_option("--clock-search", clock_search, range::kClockSearch);
+  check_option("--threads", threads, {0, range::kThreads.hi});  // 0: one a core
   CalibrateRequest request;
   request.tracker = text(tracker_arg);
   request.stream.search_range = clock_search;
@@ -195,8 +208,8 @@ Calibration calibrate(
   options.transmissions = !no_transmission;
   options.samples = samples;
   options.seed = seed;
-  if (sigma && *sigma > 0) options.sigma = sigma;
-  if (polynomial_order && *polynomial_order > 0) options.polynomial_order = polynomial_order;
+  options.sigma = sigma;
+  options.polynomial_order = polynomial_order;
   options.encoder_resolution = encoder_resolution;
   options.joint_errors = names(joint_errors);
   options.dependency_tolerance = dependency_tolerance;
@@ -204,7 +217,6 @@ Calibration calibrate(
   options.select = select;
   options.prior = prior;
   options.search = search;
-  if (threads < 0) throw InputError("threads must not be negative (0: one a core)");
   options.threads = threads;
   for (const std::string& item : names(tolerance)) add_tolerance(options.tolerances, item);
   if (prior_scale) options.tolerances.scale = prior_scale;
@@ -297,6 +309,13 @@ py::dict plan(const std::variant<Model, std::string>& model_arg, const std::stri
   }
   const std::string candidates = text(candidates_arg), tip = text(tip_arg), root = text(root_arg),
                     out = out_arg.value_or("hapticcal-out/plan");
+  // The command line's ranges; 0 (-1 for refine_passes) keeps a default.
+  namespace range = option_range;
+  check_option("--poses", poses, range::kPlanPoses, true);
+  if (sigma != 0) check_option("--sigma", sigma, range::kSigma);
+  if (sigma_e != 0) check_option("--sigma-e", sigma_e, range::kAngle);
+  if (refine_passes != -1) check_option("--refine-passes", refine_passes, range::kRefinePasses);
+  if (pool != 0) check_option("--pool", pool, range::kPool);
   PlanRequest request;
   request.model = model_path;
   request.measurement = measurement;
@@ -331,6 +350,10 @@ py::dict simulate(const Text& scenario_arg, int trials, long long seed, int thre
                   const Text& device_arg, const Text& tip_arg, const Text& root_arg,
                   const Text& out_arg) {
   // The command line's job (jobs/simulate_job.hpp), from keywords.
+  // The command line's ranges; 0 (-1 for the seed) keeps the scenario's.
+  if (trials != 0) check_option("--trials", trials, option_range::kTrials);
+  if (threads != 0) check_option("--threads", threads, option_range::kThreads);
+  if (seed < -1) throw InputError(fmt::format("--seed {}: less than 0", seed));
   SimulateRequest request;
   request.scenario = text(scenario_arg);
   request.device = text(device_arg);
@@ -365,6 +388,13 @@ py::dict force(const std::string& actual, const std::string& nominal, const std:
   request.tip = text(tip_arg);
   request.root = text(root_arg);
   ForceScenario& sc = request.scenario;
+  namespace range = option_range;
+  if (gain) check_option("--gain", *gain, range::kForceGain);
+  if (noise) check_option("--noise", *noise, range::kForceNoise);
+  if (stiffness) check_option("--stiffness", *stiffness, range::kWallStiffness);
+  if (travel) check_option("--travel", *travel, range::kWallTravel);
+  if (seconds) check_option("--seconds", *seconds, range::kWallSeconds);
+  if (lock) check_option("--lock", *lock, range::kLockedJoint);
   if (gain) sc.gain = *gain;
   if (noise) sc.sensor_noise = *noise;
   if (stiffness) sc.stiffness = *stiffness;

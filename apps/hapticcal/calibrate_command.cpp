@@ -60,7 +60,7 @@ void add_model_options(CLI::App* c, CalibrateOptions& o) {
                 "m), angle (0.005 rad) or a parameter, e.g. j2.a=0.001 (repeatable)");
   c->add_option("--prior-scale", o.prior_scale,
                 "The common scale of the tolerances (default: the one of highest evidence)")
-      ->check(within(1e-6, 1e6));
+      ->check(within(option_range::kPriorScale));
 }
 
 }  // namespace
@@ -85,7 +85,7 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
   calibrate
       ->add_option("--clock-search", o.clock_search,
                    "With --tracker: the clocks' offset is searched within +-SECONDS (default 10)")
-      ->check(within(1e-3, 3600, "s"))
+      ->check(within(option_range::kClockSearch))
       ->needs(tracker);
   calibrate->add_option("--markers", o.markers,
                         "A log of several markers on one rigid body (x1, y1, z1, x2, ...): their "
@@ -100,29 +100,29 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
   calibrate
       ->add_option("--samples", o.samples,
                    "Use N random poses of the log (0: all; repeated rows count as one pose)")
-      ->check(whole_number(0, 100000000));
+      ->check(whole_number(option_range::kSamples));
   calibrate->add_option("--seed", o.seed, "Seed of the row sample")->check(whole_number(0));
   calibrate
       ->add_option("--sigma", o.sigma,
                    "Measurement noise sd [m] for the standard deviations (default: "
                    "estimated from the residuals)")
-      ->check(within(1e-12, 1, "m"));
+      ->check(within(option_range::kSigma));
   calibrate
       ->add_option("--polynomial-order", o.polynomial_order,
                    "Order of polynomial transmissions, exactly (refused where the samples do "
                    "not support it, 3 a coefficient); default: the order of least generalised "
                    "cross-validation error up to the device file's (else 10)")
-      ->check(whole_number(1, 30));
+      ->check(whole_number(option_range::kPolynomialOrder));
   calibrate
       ->add_option("--encoder-resolution", o.encoder_resolution,
                    "The external encoders' count [rad]: a step-1 fit that predicts left-out "
                    "samples worse than 2 counts is flagged (suspect)")
-      ->check(within(1e-12, 1, "rad"));
+      ->check(within(option_range::kAngle));
   add_model_options(calibrate, o);
   calibrate
       ->add_option("--folds", o.folds,
                    "K of the K-fold cross-validated (held-out) RMS by pose (default 5; 0: none)")
-      ->check(whole_number(0, 1000));
+      ->check(whole_number(option_range::kFolds));
   calibrate
       ->add_option("--loss", o.loss,
                    "Loss for poses the outlier test flags (residual beyond the Bonferroni "
@@ -138,7 +138,7 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
       ->add_option("--dependency-tolerance", o.tolerance,
                    "A parameter whose scaled Jacobian column lies within this relative "
                    "distance of the span of those before it is held (default 1e-6)")
-      ->check(within(1e-12, 0.5));
+      ->check(within(option_range::kDependencyTolerance));
   calibrate->add_flag(
       "--force", o.force,
       "Calibrate even if the log looks implausible for the model (readings "

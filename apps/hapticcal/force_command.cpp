@@ -34,19 +34,19 @@ CLI::App* add_force_command(CLI::App& app, ForceOptions& o) {
       ->required();
   force->add_option("--out", o.out, "Output directory (default hapticcal-out/force)");
   force->add_option("--gain", o.scenario.gain, "Force-loop gain G (default 0.5)")
-      ->check(within(-100, 100));
+      ->check(within(option_range::kForceGain));
   force->add_option("--noise", o.scenario.sensor_noise, "Force sensor noise sd [N] (default 0)")
-      ->check(within(0, 1000, "N"));
+      ->check(within(option_range::kForceNoise));
   force->add_option("--stiffness", o.scenario.stiffness, "Wall stiffness [N/m] (default 100)")
-      ->check(within(1e-3, 1e6, "N/m"));
+      ->check(within(option_range::kWallStiffness));
   force
       ->add_option("--travel", o.scenario.travel,
                    "Wall travel along the handle's z [m] (default 0.02)")
-      ->check(within(-1, 1, "m"));
+      ->check(within(option_range::kWallTravel));
   force
       ->add_option("--seconds", o.scenario.move_seconds,
                    "Time the wall takes (default 2 s; at most 600 s at the 1 kHz loop rate)")
-      ->check(within(0, 600, "s"));
+      ->check(within(option_range::kWallSeconds));
   force->add_option("--posture", o.posture,
                     "Readings q of the fixed handle, comma separated (default: home, j6 = 0.3 rad "
                     "on a 7-joint device)");
@@ -55,7 +55,7 @@ CLI::App* add_force_command(CLI::App& app, ForceOptions& o) {
       ->add_option("--lock", o.lock,
                    "Joint to lock, 1-based; 0: none (default: joint 3 on a 7-joint device, none "
                    "on a 6-joint one; 6 joints must remain)")
-      ->check(whole_number(0, 1000));
+      ->check(whole_number(option_range::kLockedJoint));
   add_chain_options(force, o.chain);
   return force;
 }

@@ -12,16 +12,13 @@
 #include <string>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/core/option_ranges.hpp"
 
 namespace hapticcal::cli {
 
 // "1" rather than "1.000000"; "1e-12" as written; a unit after a blank.
 inline std::string range_text(double lo, double hi, const std::string& unit) {
-  auto number = [](double v) {
-    return v == std::floor(v) && std::abs(v) < 1e15 ? fmt::format("{}", static_cast<long long>(v))
-                                                    : fmt::format("{}", v);
-  };
-  return fmt::format("[{}, {}]{}{}", number(lo), number(hi), unit.empty() ? "" : " ", unit);
+  return hapticcal::range_text(OptionRange{lo, hi, unit.c_str()});
 }
 
 // A real number in [lo, hi] (a unit for the message); also refuses nan and
@@ -76,6 +73,12 @@ inline CLI::Validator whole_number(long long lo, long long hi = kNoUpperLimit) {
         return {};
       },
       hi == kNoUpperLimit ? range : "in " + range);
+}
+
+// The shared ranges (hapticcal/core/option_ranges.hpp).
+inline CLI::Validator within(const OptionRange& r) { return within(r.lo, r.hi, r.unit); }
+inline CLI::Validator whole_number(const OptionRange& r) {
+  return whole_number(static_cast<long long>(r.lo), static_cast<long long>(r.hi));
 }
 
 }  // namespace hapticcal::cli

@@ -67,13 +67,13 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
   plan->add_option("--measurement", o.measurement, "distance, position or pose")->required();
   plan->add_option("--poses", o.poses, "Number of poses to plan")
       ->required()
-      ->check(whole_number(1, 100000));
+      ->check(whole_number(option_range::kPlanPoses));
   auto* candidates =
       plan->add_option("--candidates", o.candidates,
                        "A log of recorded poses to choose from (repeated rows count as one pose)");
   auto* pool = plan->add_option("--pool", o.pool,
                                 "Random candidate poses within the joint limits (default 10000)")
-                   ->check(whole_number(1, 10000000));
+                   ->check(whole_number(option_range::kPool));
   candidates->excludes(pool);
   pool->excludes(candidates);
   plan->add_option("--columns", options.columns, "Column names of a candidates log without header");
@@ -84,10 +84,10 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
   plan->add_option("--sigma", o.sigma,
                    "Measurement sd [m] (default: the paper's sigma_m for distances, 10 um for "
                    "positions and poses)")
-      ->check(within(1e-12, 1, "m"));
+      ->check(within(option_range::kSigma));
   plan->add_option("--sigma-e", o.sigma_e,
                    "External encoder sd [rad] (default: the paper's 2 pi / 20000 / 3)")
-      ->check(within(1e-12, 1, "rad"));
+      ->check(within(option_range::kAngle));
   plan->add_option("--distance-range", options.distance_range,
                    "MIN,MAX: the tool point's distance from the measurement origin [m] (a cable "
                    "encoder's range)");
@@ -96,7 +96,7 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
                    "(measurement frame) [m]");
   plan->add_option("--refine-passes", o.refine_passes,
                    "Continuous refinement passes of random candidates (default 20; 0: none)")
-      ->check(whole_number(0, 1000));
+      ->check(whole_number(option_range::kRefinePasses));
   plan->add_option("--fix", options.fix, "Kinematic parameters held at nominal, e.g. j1.a,j2.d");
   plan->add_option("--free", options.free, "Parameters added to the candidates, e.g. j2.beta");
   plan->add_option("--tip", o.tip, "Tip link of a URDF model's chain");

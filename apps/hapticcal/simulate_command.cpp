@@ -170,10 +170,10 @@ CLI::App* add_simulate_command(CLI::App& app, SimulateOptions& o) {
       "Run the paper's simulation study (main job), or one on any device and measurement");
   simulate->add_option("--scenario", o.scenario, "Scenario file (YAML)");
   simulate->add_option("--trials", o.trials, "Monte Carlo trials (default 1)")
-      ->check(whole_number(1, 100000));
+      ->check(whole_number(option_range::kTrials));
   simulate->add_option("--seed", o.seed, "Random seed (default 1)")->check(whole_number(0));
   simulate->add_option("--threads", o.threads, "Threads (default: all cores)")
-      ->check(whole_number(1, 256));
+      ->check(whole_number(option_range::kThreads));
   simulate->add_option("--device", o.device,
                        "Nominal device file or URDF (default: the built-in 7-DOF)");
   simulate->add_option("--out", o.out, "Output directory (default hapticcal-out/simulate)");

@@ -570,6 +570,29 @@ def test_the_library_refuses_what_the_command_line_refuses(tmp_path):
         hapticcal.plan(MECA, "position", 12, pool=10**9, out=str(tmp_path / "plan"))
     with pytest.raises(ValueError, match="NUL byte"):
         hapticcal.load_model(MECA + "\x00junk")
+    # Every number in the command line's range, nan and inf included: never
+    # converted out of range (a clock search of 1e20 s once reported -9.2e16 s).
+    for bad in (math.nan, math.inf, -math.inf, 1e20, 0.0):
+        with pytest.raises(ValueError, match=r"--clock-search .*: not in \[0.001, 3600\] s"):
+            hapticcal.calibrate("geomagic-touch", CAL_LOG, tracker=CAL_LOG, clock_search=bad)
+    refusals = [
+        (dict(sigma=0.0), "--sigma"), (dict(sigma=math.nan), "--sigma"),
+        (dict(folds=-1), "--folds"), (dict(samples=-3), "--samples"),
+        (dict(polynomial_order=0), "--polynomial-order"), (dict(prior_scale=math.inf), "--prior-scale"),
+        (dict(encoder_resolution=math.nan), "--encoder-resolution"),
+    ]
+    for keywords, option in refusals:
+        with pytest.raises(ValueError, match=option):
+            hapticcal.calibrate(MECA, CAL_LOG, **keywords)
+    with pytest.raises(ValueError, match="--sigma-e"):
+        hapticcal.plan(MECA, "position", 12, sigma_e=math.nan, out=str(tmp_path / "plan"))
+    with pytest.raises(ValueError, match="--refine-passes"):
+        hapticcal.plan(MECA, "position", 12, refine_passes=5000, out=str(tmp_path / "plan"))
+    with pytest.raises(ValueError, match="--threads"):
+        hapticcal.simulate(threads=1000, out=str(tmp_path / "sim"))
+    with pytest.raises(ValueError, match="--stiffness"):
+        hapticcal.force(MECA, MECA, MECA, stiffness=math.nan, out=str(tmp_path / "force"))
+    assert not (tmp_path / "plan").exists() and not (tmp_path / "sim").exists()
 
 
 def test_calibrate_two_streams_and_markers(tmp_path):

@@ -359,13 +359,22 @@ std::pair<double, double> coarse_clock_offset(const DeviceModel& nominal, const 
                     tracker.t[tracker.rows - 1], range, needed));
   }
   const auto i = static_cast<size_t>(best);
+  const double found = base + static_cast<double>(k_lo + best) * kGridStep;
+  if (r.size() > 2 && (i == 0 || i + 1 == r.size())) {
+    throw InputError(
+        tracker.origin, tracker.line.front(), "t",
+        fmt::format("the tool point's speeds in {} and {} correlate best ({:.3f}) at an offset of "
+                    "{:.3f} s, the edge of the search (+-{:g} s): the clocks' offset may lie "
+                    "beyond it (widen --clock-search)",
+                    device.origin, tracker.origin, r[i], found, range));
+  }
   if (!(r[i] >= kMinCorrelation)) {
     throw InputError(
         tracker.origin, tracker.line.front(), "t",
         fmt::format("the tool point's speed in the two streams correlates at most "
                     "{:.3f} (at an offset of {:.3f} s; at least {:g} is needed): "
                     "the handle hardly moved, or the streams are not of one session",
-                    r[i], base + static_cast<double>(k_lo + best) * kGridStep, kMinCorrelation));
+                    r[i], found, kMinCorrelation));
   }
   double shift = 0;
   if (i > 0 && i + 1 < r.size() && r[i - 1] > -2 && r[i + 1] > -2) {

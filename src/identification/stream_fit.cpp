@@ -10,6 +10,7 @@
 #include <cstdlib>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/core/option_ranges.hpp"
 #include "hapticcal/identification/stream.hpp"
 #include "hapticcal/identification/tree.hpp"
 #include "hapticcal/identification/two_step.hpp"
@@ -319,6 +320,7 @@ void glitch_notes(const Log& tracker, const std::vector<int>& glitches,
 StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& device,
                                     const Log& tracker_in, const CalibrationOptions& options,
                                     const StreamOptions& stream) {
+  check_option("--clock-search", stream.search_range, option_range::kClockSearch);
   // A tree's stream: one marker a tip (x1, y1, z1, ...); its clock follows the first tip.
   if (nominal.tree() && tracker_in.marker_count != nominal.tips()) {
     throw InputError(tracker_in.origin, 0, "x1",
@@ -448,9 +450,17 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   try {
     out.result = calibrate(nominal, out.poses, options);
   } catch (const InputError& e) {
-    if (drift_note.empty()) throw;
-    throw InputError(e.file(), e.line(), e.key(),
-                     drift_note + "; without it the fit is refused: " + e.message());
+    // Refused at the clock found: which clock, and what would change it.
+    throw InputError(
+        tracker.origin, 0, "t",
+        fmt::format("{}at the clocks' offset found, {:.4f} s (the speeds correlate {:.3f} there; "
+                    "searched +-{:g} s), the fit is refused: {}{}",
+                    drift_note.empty() ? "" : drift_note + "; ", estimate.clock.offset, correlation,
+                    stream.search_range, e.message(),
+                    drift_note.empty() ? fmt::format("; if the clocks differ by more than {:g} s, "
+                                                     "widen --clock-search",
+                                                     stream.search_range)
+                                       : ""));
   }
   progress("final fit", 1);
   if (!drift_note.empty()) out.result.notes.push_back("warning: " + drift_note);
