@@ -12,13 +12,16 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
+#include <future>
 #include <optional>
 #include <string>
 #include <thread>
 #include <variant>
 #include <vector>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/core/option_ranges.hpp"
@@ -48,6 +51,9 @@ using namespace pybind11::literals;
 namespace hapticcal::python {
 namespace {
 
+// How often a running job's thread looks for Ctrl-C [ms].
+constexpr int kSignalPollMs = 50;
+
 // A device model and the file it came from (the path results.json names; empty
 // once its parameters are changed in Python).
 struct Model {
@@ -55,6 +61,34 @@ struct Model {
   std::string path;
   std::string tip, root;  // a URDF's chain, as it was loaded
 };
+
+// Runs a job in a worker thread (the GIL released) while this thread, the
+// interpreter's, looks for signals every 50 ms: on Ctrl-C the job is cancelled
+// (core/cancel.hpp) and unwinds at its solver's next iteration without
+// committing its output set (the previous one stays), and KeyboardInterrupt is
+// raised here.
+template <class Job>
+auto interruptible(Job&& job) {
+  reset_cancel();
+  std::packaged_task<decltype(job())()> task(std::forward<Job>(job));
+  auto result = task.get_future();
+  bool interrupted = false;
+  {
+    py::gil_scoped_release released;
+    std::thread worker(std::move(task));
+    while (result.wait_for(std::chrono::milliseconds(kSignalPollMs)) != std::future_status::ready) {
+      const py::gil_scoped_acquire held;
+      if (PyErr_CheckSignals() != 0) {  // KeyboardInterrupt set: raised below
+        interrupted = true;
+        request_cancel();
+        break;
+      }
+    }
+    worker.join();
+  }
+  if (interrupted) throw py::error_already_set();
+  return result.get();
+}
 
 // A list option given as a Python list of strings or as the command line's
 // comma-separated text.
@@ -226,10 +260,7 @@ Calibration calibrate(
   options.fix = names(fix);
   options.free = names(free);
   CalibrateJob job;
-  {
-    py::gil_scoped_release released;
-    job = run_calibrate_job(request);
-  }
+  job = interruptible([&] { return run_calibrate_job(request); });
   const CalibrationResult& result = job.result;
   const std::string& json = job.results_json;
   Calibration c;
@@ -289,10 +320,7 @@ py::object evaluate(const std::variant<Model, std::string>& model_arg, const std
   if (!text(register_arg).empty()) request.registration = parse_register(text(register_arg));
   if (out_arg) request.out = *out_arg;
   EvaluateJob job;
-  {
-    py::gil_scoped_release released;
-    job = run_evaluate_job(request);
-  }
+  job = interruptible([&] { return run_evaluate_job(request); });
   return parsed(job.json);
 }
 
@@ -335,10 +363,7 @@ py::dict plan(const std::variant<Model, std::string>& model_arg, const std::stri
   request.tip = tip;
   request.root = root;
   PlanJob job;
-  {
-    py::gil_scoped_release released;
-    job = run_plan_job(request, out);
-  }
+  job = interruptible([&] { return run_plan_job(request, out); });
   const std::string& json = job.json;
   const Plan& result = job.plan;
   return py::dict("plan"_a = parsed(json), "readings"_a = result.readings, "out"_a = out,
@@ -364,10 +389,7 @@ py::dict simulate(const Text& scenario_arg, int trials, long long seed, int thre
   request.threads = threads;
   request.out = out_arg.value_or("hapticcal-out/simulate");
   SimulateJob job;
-  {
-    py::gil_scoped_release released;
-    job = run_simulate_job(request);
-  }
+  job = interruptible([&] { return run_simulate_job(request); });
   const std::string& out = request.out;
   return py::dict("results"_a = parsed(job.results_json), "out"_a = out,
                   "files"_a = std::vector<std::string>{out + "/results.json", out + "/report.html",
@@ -405,10 +427,7 @@ py::dict force(const std::string& actual, const std::string& nominal, const std:
   request.posture = posture;
   request.out = out_arg.value_or("hapticcal-out/force");
   ForceJob job;
-  {
-    py::gil_scoped_release released;
-    job = run_force_job(request);
-  }
+  job = interruptible([&] { return run_force_job(request); });
   return py::dict("results"_a = parsed(job.results_json), "out"_a = request.out);
 }
 
@@ -524,6 +543,8 @@ PYBIND11_MODULE(hapticcal, m) {
       "Kinematic calibration of haptic devices and robots (the hapticcal command line as "
       "functions). Lengths in metres, angles in radians.";
   py::register_exception<hapticcal::IoError>(m, "IoError", PyExc_OSError);
+  // A job cancelled from another thread's Ctrl-C (interruptible).
+  py::register_exception<hapticcal::Cancelled>(m, "Cancelled", PyExc_KeyboardInterrupt);
 
   bind_model(m);
 

@@ -10,7 +10,10 @@ import json
 import math
 import os
 import pathlib
+import signal
 import subprocess
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -672,3 +675,53 @@ def test_shipped_robot_descriptions_are_well_formed_xml():
     assert len(urdfs) >= 2
     for path in urdfs:
         xml.dom.minidom.parse(str(path))
+
+
+def interrupted_after(seconds, job):
+    """Runs job() with a SIGINT `seconds` in; the time from the signal to its end [s]."""
+    sent = []
+    timer = threading.Timer(seconds, lambda: (sent.append(time.monotonic()),
+                                              os.kill(os.getpid(), signal.SIGINT)))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            job()
+    finally:
+        timer.cancel()
+    assert sent, "the job ended before the signal"
+    return time.monotonic() - sent[0]
+
+
+def test_ctrl_c_interrupts_a_running_job_and_keeps_the_previous_set(tmp_path):
+    """Ctrl-C 1 s into a calibration (or a 20 s study) ends it within a second,
+    KeyboardInterrupt raised, and the output folder keeps the previous set."""
+    scenario = tmp_path / "session.yaml"
+    scenario.write_text(
+        "format: hapticcal-scenario/1\n"
+        f"device: {SOURCE / 'data' / 'devices' / 'geomagic-touch.yaml'}\n"
+        "measurement: position\nposes: {validation: 20}\nnoise: {sigma_m: 1.0e-4}\n"
+        "random_deviations: {lengths: 5.0e-4, angles: 5.0e-3}\n"
+        "session: {seconds: 120, clock_offset: 0.0373, clock_drift_ppm: 20}\n"
+    )
+    code, _, stderr = cli("simulate", "--scenario", str(scenario), "--out", str(tmp_path / "sim"))
+    assert code == 0, stderr
+    out = tmp_path / "out"
+    assert hapticcal.calibrate(MECA, CAL_LOG, out=str(out)).usable
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    jobs = {
+        # About 5 s on one thread.
+        "calibrate": lambda: hapticcal.calibrate(
+            "geomagic-touch", str(tmp_path / "sim" / "device.csv"),
+            tracker=str(tmp_path / "sim" / "tracker.csv"), threads=1, out=str(out)),
+        # 200 trials of the paper's study: about 20 s on one thread.
+        "simulate": lambda: hapticcal.simulate(trials=200, threads=1, out=str(out)),
+    }
+    for name, job in jobs.items():
+        took = interrupted_after(1.0, job)
+        assert took < 1.0, f"{name}: {took:.2f} s after the signal"
+        after = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+        assert after == before, name
+        assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".out")] == [], name
+    # The next run is not cancelled.
+    assert hapticcal.calibrate(MECA, CAL_LOG, out=str(out)).usable
+

@@ -20,6 +20,7 @@
 #include <thread>
 
 #include "core/interrupt.hpp"
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 
@@ -260,6 +261,7 @@ bool OutputSet::keep_previous(const std::string& name) const {
 }
 
 void OutputSet::commit() {
+  throw_if_cancelled();  // a cancelled run leaves the previous set
   std::error_code ec;
   fs::remove(fs::path(staging_) / kStagingMarker, ec);
   // The marker lists what the set holds: a later run replaces nothing else.

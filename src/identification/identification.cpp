@@ -626,7 +626,7 @@ KinematicSolution solve_kinematics(const KinematicProblem& problem,
     lm.SetManifold(out.parameters.data(), new ceres::SubsetManifold(s.num_slots(), constant));
   }
   ceres::Solver::Summary summary;
-  ceres::Solve(detail::levenberg_marquardt(max_iterations, problem.tolerance), &lm, &summary);
+  detail::solve(detail::levenberg_marquardt(max_iterations, problem.tolerance), &lm, &summary);
   out.termination = summary.termination_type == ceres::CONVERGENCE ? SolveTermination::kConverged
                     : summary.termination_type == ceres::FAILURE   ? SolveTermination::kFailure
                                                                  : SolveTermination::kNoConvergence;

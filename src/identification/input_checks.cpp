@@ -116,7 +116,7 @@ double rms_with_fitted(const ChainStructure& s, Eigen::VectorXd p, const std::ve
                            nullptr, p.data());
   problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
   ceres::Solver::Summary summary;
-  ceres::Solve(detail::levenberg_marquardt(50), &problem, &summary);
+  detail::solve(detail::levenberg_marquardt(50), &problem, &summary);
   if (fitted) *fitted = p;
   return measurement_rms(position_rss(residuals_at(s, p, joints, kind, measured, weights), kind),
                          rows);

@@ -23,6 +23,7 @@
 #include <thread>
 #include <tuple>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "identification/calibration_run.hpp"
@@ -180,6 +181,7 @@ void Search::round(const std::vector<std::vector<std::string>>& sets, bool named
   std::vector<std::string> notes(sets.size());
   const int first = static_cast<int>(fits_.size());
   const auto work = [&](size_t i) {
+    throw_if_cancelled();
     fits[i] = fit_families(sets[i], named, notes[i]);
     if (notes[i].empty()) {
       judged[i] = judge(fits[i], first + static_cast<int>(i), true);

@@ -7,6 +7,8 @@
 #include <ceres/ceres.h>
 #include <glog/logging.h>
 
+#include "hapticcal/core/cancel.hpp"
+
 namespace hapticcal::detail {
 
 // Ceres reports a non-finite residual through glog, tens of lines on stderr
@@ -26,6 +28,15 @@ inline void quiet_ceres() {
 constexpr double kTightTolerance = 1e-14;
 constexpr double kSearchTolerance = 1e-10;
 
+// Ends a solve at its next iteration once a host cancels the run (solve()
+// then throws Cancelled).
+class CancelCallback : public ceres::IterationCallback {
+ public:
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return cancel_requested() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
+  }
+};
+
 inline ceres::Solver::Options levenberg_marquardt(int max_iterations,
                                                   double tolerance = kTightTolerance) {
   quiet_ceres();
@@ -38,7 +49,16 @@ inline ceres::Solver::Options levenberg_marquardt(int max_iterations,
   options.function_tolerance = tolerance;
   options.parameter_tolerance = tolerance;
   options.gradient_tolerance = 1e-16;
+  static CancelCallback cancel;
+  options.callbacks.push_back(&cancel);
   return options;
+}
+
+// ceres::Solve, then Cancelled if the run was cancelled meanwhile.
+inline void solve(const ceres::Solver::Options& options, ceres::Problem* problem,
+                  ceres::Solver::Summary* summary) {
+  ceres::Solve(options, problem, summary);
+  throw_if_cancelled();
 }
 
 }  // namespace hapticcal::detail

@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
@@ -343,6 +344,7 @@ std::pair<double, double> coarse_clock_offset(const DeviceModel& nominal, const 
   std::vector<double> r(static_cast<size_t>(std::max(0L, k_hi - k_lo + 1)), -2);
   long best = -1;
   for (long k = k_lo; k <= k_hi; ++k) {
+    if ((k - k_lo) % 64 == 0) throw_if_cancelled();
     const Correlation c = correlate(a, b, k);
     if (c.pairs < needed) continue;
     const auto i = static_cast<size_t>(k - k_lo);
@@ -369,12 +371,11 @@ std::pair<double, double> coarse_clock_offset(const DeviceModel& nominal, const 
                     device.origin, tracker.origin, r[i], found, range));
   }
   if (!(r[i] >= kMinCorrelation)) {
-    throw InputError(
-        tracker.origin, tracker.line.front(), "t",
-        fmt::format("the tool point's speed in the two streams correlates at most "
-                    "{:.3f} (at an offset of {:.3f} s; at least {:g} is needed): "
-                    "the handle hardly moved, or the streams are not of one session",
-                    r[i], found, kMinCorrelation));
+    throw InputError(tracker.origin, tracker.line.front(), "t",
+                     fmt::format("the tool point's speed in the two streams correlates at most "
+                                 "{:.3f} (at an offset of {:.3f} s; at least {:g} is needed): "
+                                 "the handle hardly moved, or the streams are not of one session",
+                                 r[i], found, kMinCorrelation));
   }
   double shift = 0;
   if (i > 0 && i + 1 < r.size() && r[i - 1] > -2 && r[i + 1] > -2) {

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/option_ranges.hpp"
 #include "hapticcal/identification/stream.hpp"
@@ -381,6 +382,7 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
       fit_rows(nominal, readings, device, tracked, estimate.clock, stream, estimate);
   for (int it = 0; it < stream.max_iterations; ++it) {
     progress("clock and kinematics", static_cast<double>(it) / stream.max_iterations);
+    throw_if_cancelled();
     out.poses = samples_at(nominal, readings, device, tracker, tracked, rows, estimate.clock, kept);
     last = calibrate(nominal, out.poses, inner);
     const CalibrationResult& fit = last;

@@ -131,7 +131,7 @@ CapstanSolve solve_capstan(const Capstan& nominal, const Eigen::VectorXd& q,
     problem.SetParameterUpperBound(out.p.data(), k, 0.99 * nominal.drum_distance);
   }
   ceres::Solver::Summary summary;
-  ceres::Solve(detail::levenberg_marquardt(200), &problem, &summary);
+  detail::solve(detail::levenberg_marquardt(200), &problem, &summary);
   out.converged = summary.termination_type == ceres::CONVERGENCE;
   out.message = summary.message;
   // A negative radius is the same drum with the phase turned by pi.
@@ -253,7 +253,7 @@ void fit_extension(const Extension& nominal, const Eigen::VectorXd& q,
   ceres::Problem problem;
   problem.AddResidualBlock(cost, nullptr, p.data());
   ceres::Solver::Summary summary;
-  ceres::Solve(detail::levenberg_marquardt(200), &problem, &summary);
+  detail::solve(detail::levenberg_marquardt(200), &problem, &summary);
   fit.converged = summary.termination_type == ceres::CONVERGENCE;
   fit.message = summary.message;
   Eigen::VectorXd r(n);

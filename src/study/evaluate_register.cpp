@@ -90,7 +90,7 @@ void refine(const ChainStructure& s, Eigen::VectorXd& p, const std::vector<Eigen
                            p.data());
   problem.SetManifold(p.data(), new ceres::SubsetManifold(s.num_slots(), constant));
   ceres::Solver::Summary summary;
-  ceres::Solve(detail::levenberg_marquardt(kRegistrationIterations), &problem, &summary);
+  detail::solve(detail::levenberg_marquardt(kRegistrationIterations), &problem, &summary);
 }
 
 FrameFit frame_fit(const DeviceModel& model, const DeviceModel& fitted, RegisterWhat what,
