@@ -160,6 +160,30 @@ TEST(CliErrors, BuiltInDevicesAreListedAndUsableByName) {
   std::ofstream(dir + "/baser-7dof") << "not a device\n";
   const testing::CliResult own = testing::run_cli_in(dir, {"convert", "baser-7dof", "b.urdf"});
   EXPECT_EQ(own.exit_code, 2) << own.out;
+  // A folder of a built-in's name (a run's --out geomagic-touch) is no model:
+  // the name still loads the built-in.
+  std::filesystem::create_directories(dir + "/geomagic-touch");
+  const testing::CliResult shadowed =
+      testing::run_cli_in(dir, {"convert", "geomagic-touch", "touch.urdf"});
+  EXPECT_EQ(shadowed.exit_code, 0) << shadowed.err;
+  EXPECT_EQ(load_model(dir + "/touch.urdf").dof(), 6);
+  // A scenario names a built-in device by name, from any folder; a file
+  // beside the scenario of that name is the scenario's.
+  const std::string scenarios = dir + "/scenarios";
+  std::filesystem::create_directories(scenarios);
+  std::ofstream(scenarios + "/touch.yaml")
+      << "format: hapticcal-scenario/1\ndevice: geomagic-touch\nmeasurement: position\n"
+         "poses: {identification: 60, validation: 20}\n";
+  const testing::CliResult scenario = testing::run_cli_in(
+      dir, {"simulate", "--scenario", scenarios + "/touch.yaml", "--out", dir + "/sim"});
+  EXPECT_EQ(scenario.exit_code, 0) << scenario.err;
+  EXPECT_NE(scenario.out.find(builtin_device_file("geomagic-touch")), std::string::npos)
+      << scenario.out;
+  std::ofstream(scenarios + "/geomagic-touch") << "not a device\n";
+  const testing::CliResult beside = testing::run_cli_in(
+      dir, {"simulate", "--scenario", scenarios + "/touch.yaml", "--out", dir + "/sim"});
+  EXPECT_EQ(beside.exit_code, 2) << beside.out;
+  EXPECT_NE(beside.err.find(scenarios + "/geomagic-touch"), std::string::npos) << beside.err;
 }
 
 TEST(CliErrors, BareCommandPointsToHelp) {

@@ -379,6 +379,14 @@ TEST(StreamCli, SimulatedSessionScoresOffsetAwareAgainstBlind) {
   EXPECT_LT(std::abs(j["estimate"]["offset_error"].get<double>()), 2e-4);
   EXPECT_GT(j["validation"]["position_rms_offset_blind"].get<double>(),
             3 * j["validation"]["position_rms_offset_aware"].get<double>());
+  // A session study is one session: --trials 3 (or trials: 3) is refused, not
+  // announced and run once.
+  const testing::CliResult three = testing::run_cli(
+      {"simulate", "--scenario", dir + "/s.yaml", "--trials", "3", "--out", dir + "/three"});
+  testing::expect_input_error(three, "--trials 3: a hand-guided session study runs one session");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/three"));
+  EXPECT_NE(r.out.find("hapticcal simulate: a hand-guided session, seed 1"), std::string::npos)
+      << r.out;
   // A session needs positions: refused before anything is written.
   std::ofstream(dir + "/bad.yaml") << "format: hapticcal-scenario/1\nmeasurement: distance\n"
                                       "session: {seconds: 60}\n";

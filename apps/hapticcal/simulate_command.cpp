@@ -193,8 +193,13 @@ int run_simulate(const SimulateOptions& o) {
   request.out = o.out;
   bool bar = false;
   request.started = [&](const hapticcal::Scenario& sc, int threads) {
-    fmt::print("hapticcal simulate: {} trial(s), seed {}, {} thread(s), device {}\n", sc.trials,
-               sc.seed, threads, sc.device_path);
+    if (sc.session) {
+      fmt::print("hapticcal simulate: a hand-guided session, seed {}, device {}\n", sc.seed,
+                 sc.device_path);
+    } else {
+      fmt::print("hapticcal simulate: {} trial(s), seed {}, {} thread(s), device {}\n", sc.trials,
+                 sc.seed, threads, sc.device_path);
+    }
     bar = sc.trials > 1 && isatty(2);
   };
   request.progress = [&](int k, int n) {

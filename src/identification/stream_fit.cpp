@@ -296,9 +296,13 @@ ClockCheck check_clock(const CalibrationResult& fit, const ReadingInterpolator& 
   return out;
 }
 
-// One warning a glitch left out (the first kGlitchesNamed; results.json lists them all).
+// One warning a glitch left out (the first kGlitchesNamed; results.json lists
+// them all, from the estimate's glitch_lines).
 void glitch_notes(const Log& tracker, const std::vector<int>& glitches,
-                  std::vector<std::string>& notes) {
+                  std::vector<std::string>& notes, ClockEstimate& estimate) {
+  estimate.glitch_lines.clear();
+  for (const int r : glitches)
+    estimate.glitch_lines.push_back(tracker.line[static_cast<size_t>(r)]);
   const Eigen::MatrixXd& p = tracker.marker_count > 0 ? tracker.markers : tracker.position;
   for (size_t i = 0; i < glitches.size() && i < kGlitchesNamed; ++i) {
     const auto r = static_cast<Eigen::Index>(glitches[i]);
@@ -314,6 +318,84 @@ void glitch_notes(const Log& tracker, const std::vector<int>& glitches,
         fmt::format("warning: {}: and {} more glitches left out (results.json lists them all)",
                     tracker.origin, glitches.size() - kGlitchesNamed));
   }
+}
+
+// The inner fits: plain least squares of one model (no search), no
+// cross-validation, no reweighting.
+CalibrationOptions inner_options(const CalibrationOptions& options) {
+  CalibrationOptions inner = options;
+  inner.search = false;
+  inner.force = true;  // a clock far off looks implausible: the clock's check says why
+  inner.keep_all = true;
+  inner.select = false;
+  inner.folds = 0;
+  inner.loss = RobustLoss::kNone;
+  inner.samples = 0;  // the clock's step uses every sample the fit does
+  inner.joint_errors.clear();
+  return inner;
+}
+
+// A clock the model cannot hold: the reason a step refuses the session (empty
+// if none), and `drift_note` for a drift not fitted.
+std::string clock_verdict(const ClockCheck& check, const StreamOptions& stream,
+                          const std::string& tracker, double span, std::string& drift_note) {
+  if (std::getenv("HAPTICCAL_DEBUG_STREAM"))
+    fmt::print(stderr, "clock check: step {:.4g} ({:.3g} s at {:.3f}), drift {:.4g} ({:.3g})\n",
+               check.step_share, check.step, check.step_time, check.drift_share, check.drift);
+  if (!stream.drift && check.drift_share >= kClockShare) {
+    drift_note = fmt::format(
+        "the clocks drift apart: their offset changes by about {:.1f} ms over the {:.0f} s session "
+        "({:.0f} ppm), which explains {:.0f} % of the fit's residual: --clock-drift fits it",
+        1e3 * check.drift * span, span, 1e6 * check.drift, 100 * check.drift_share);
+  }
+  if (!(check.step_share >= kClockShare && (stream.drift || check.step_share > check.drift_share)))
+    return {};
+  drift_note.clear();
+  return fmt::format(
+      "the clocks' offset steps by {:+.2f} ms +- {:.2f} between {} lines {} and {} (tracker time "
+      "{:.3f} s; a clock resynchronised?), which explains {:.0f} % of the fit's residual: one "
+      "offset cannot hold the session; calibrate the parts before and after the step on their own",
+      1e3 * check.step, 1e3 * check.step_sd, tracker, check.line_before, check.line_after,
+      check.step_time, 100 * check.step_share);
+}
+
+// The final calibration at the clock found; refused there, the refusal says
+// which clock and what would change it.
+CalibrationResult final_fit(const DeviceModel& nominal, const Log& poses,
+                            const CalibrationOptions& options, const ClockEstimate& estimate,
+                            const StreamOptions& stream, const std::string& tracker,
+                            const std::string& drift_note) {
+  try {
+    return calibrate(nominal, poses, options);
+  } catch (const InputError& e) {
+    throw InputError(
+        tracker, 0, "t",
+        fmt::format("{}at the clocks' offset found, {:.4f} s (the speeds correlate {:.3f} there; "
+                    "searched +-{:g} s), the fit is refused: {}{}",
+                    drift_note.empty() ? "" : drift_note + "; ", estimate.clock.offset,
+                    estimate.coarse_correlation, stream.search_range, e.message(),
+                    drift_note.empty() ? fmt::format("; if the clocks differ by more than {:g} s, "
+                                                     "widen --clock-search",
+                                                     stream.search_range)
+                                       : ""));
+  }
+}
+
+// The clocks' summary line.
+std::string clock_note(const ClockEstimate& estimate, const StreamOptions& stream,
+                       const std::string& device, const std::string& tracker) {
+  return fmt::format(
+      "clocks of {} and {}: the speeds correlate best ({:.3f}) at an offset of {:.4f} s "
+      "(searched +-{:g} s); "
+      "fitted: offset {:.4f} ms +- {:.4f} ms{}, after {} step(s); {} of {} tracker samples within "
+      "the device stream, {} in its gaps, {} faster than the {:g} % quantile left out, {} fitted",
+      device, tracker, estimate.coarse_correlation, estimate.coarse_offset, stream.search_range,
+      1e3 * estimate.clock.offset, 1e3 * estimate.offset_sd,
+      stream.drift ? fmt::format(", drift {:.3f} ppm +- {:.3f} ppm", 1e6 * estimate.clock.drift,
+                                 1e6 * estimate.drift_sd)
+                   : std::string(),
+      estimate.iterations, estimate.overlapping, estimate.tracker_rows, estimate.dropped_gap,
+      estimate.dropped_speed, 100 * stream.speed_quantile, estimate.fit_samples);
 }
 
 }  // namespace
@@ -361,17 +443,7 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   progress("clock search", 1);
 
   const ReadingInterpolator readings(device);
-  // The inner fits: plain least squares of one model (no search), no
-  // cross-validation, no reweighting.
-  CalibrationOptions inner = options;
-  inner.search = false;
-  inner.force = true;  // a clock far off looks implausible: the check after the loop says why
-  inner.keep_all = true;
-  inner.select = false;
-  inner.folds = 0;
-  inner.loss = RobustLoss::kNone;
-  inner.samples = 0;  // the clock's step uses every sample the fit does
-  inner.joint_errors.clear();
+  const CalibrationOptions inner = inner_options(options);
   const int c = stream.drift ? 2 : 1;
   std::vector<int> kept;
   CalibrationResult last;  // the last inner fit
@@ -421,49 +493,19 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   // A clock the model cannot hold: a step refuses the session, a drift not
   // fitted is named.
   const ClockCheck check = check_clock(last, readings, out.poses, estimate.clock);
-  if (std::getenv("HAPTICCAL_DEBUG_STREAM"))
-    fmt::print(stderr, "clock check: step {:.4g} ({:.3g} s at {:.3f}), drift {:.4g} ({:.3g})\n",
-               check.step_share, check.step, check.step_time, check.drift_share, check.drift);
-  const bool step =
-      check.step_share >= kClockShare && (stream.drift || check.step_share > check.drift_share);
-  if (step) {
+  std::string drift_note;
+  if (const std::string step = clock_verdict(check, stream, tracker.origin, span, drift_note);
+      !step.empty()) {
     out.result = last;
     out.result.status = CalibrationStatus::kNotConverged;
-    out.result.status_reason = fmt::format(
-        "the clocks' offset steps by {:+.2f} ms +- {:.2f} between {} lines {} and {} (tracker time "
-        "{:.3f} s; a clock resynchronised?), which explains {:.0f} % of the fit's residual: one "
-        "offset cannot hold the session; calibrate the parts before and after the step on their "
-        "own",
-        1e3 * check.step, 1e3 * check.step_sd, tracker.origin, check.line_before, check.line_after,
-        check.step_time, 100 * check.step_share);
+    out.result.status_reason = step;
     out.result.clock = estimate;
     return out;
-  }
-  std::string drift_note;
-  if (!stream.drift && check.drift_share >= kClockShare) {
-    drift_note = fmt::format(
-        "the clocks drift apart: their offset changes by about {:.1f} ms over the {:.0f} s session "
-        "({:.0f} ppm), which explains {:.0f} % of the fit's residual: --clock-drift fits it",
-        1e3 * check.drift * span, span, 1e6 * check.drift, 100 * check.drift_share);
   }
   out.poses = samples_at(nominal, readings, device, tracker, tracked, rows, estimate.clock, kept);
   estimate.fit_samples = out.poses.rows;
   progress("final fit", 0);
-  try {
-    out.result = calibrate(nominal, out.poses, options);
-  } catch (const InputError& e) {
-    // Refused at the clock found: which clock, and what would change it.
-    throw InputError(
-        tracker.origin, 0, "t",
-        fmt::format("{}at the clocks' offset found, {:.4f} s (the speeds correlate {:.3f} there; "
-                    "searched +-{:g} s), the fit is refused: {}{}",
-                    drift_note.empty() ? "" : drift_note + "; ", estimate.clock.offset, correlation,
-                    stream.search_range, e.message(),
-                    drift_note.empty() ? fmt::format("; if the clocks differ by more than {:g} s, "
-                                                     "widen --clock-search",
-                                                     stream.search_range)
-                                       : ""));
-  }
+  out.result = final_fit(nominal, out.poses, options, estimate, stream, tracker.origin, drift_note);
   progress("final fit", 1);
   if (!drift_note.empty()) out.result.notes.push_back("warning: " + drift_note);
   if (out.result.status == CalibrationStatus::kConverged && !estimate.converged) {
@@ -473,22 +515,8 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
         stream.max_iterations, kClockTolerance);
   }
   estimate.curve = residual_curve(out.result.calibrated, readings, device, tracked, kept, estimate);
-  out.result.notes.push_back(fmt::format(
-      "clocks of {} and {}: the speeds correlate best ({:.3f}) at an offset of {:.4f} s "
-      "(searched +-{:g} s); "
-      "fitted: offset {:.4f} ms +- {:.4f} ms{}, after {} step(s); {} of {} tracker samples within "
-      "the device stream, {} in its gaps, {} faster than the {:g} % quantile left out, {} fitted",
-      device.origin, tracker.origin, correlation, coarse, stream.search_range,
-      1e3 * estimate.clock.offset, 1e3 * estimate.offset_sd,
-      stream.drift ? fmt::format(", drift {:.3f} ppm +- {:.3f} ppm", 1e6 * estimate.clock.drift,
-                                 1e6 * estimate.drift_sd)
-                   : std::string(),
-      estimate.iterations, estimate.overlapping, tracker_in.rows, estimate.dropped_gap,
-      estimate.dropped_speed, 100 * stream.speed_quantile, estimate.fit_samples));
-  glitch_notes(tracker_in, glitches, out.result.notes);
-  estimate.glitch_lines.clear();
-  for (const int r : glitches)
-    estimate.glitch_lines.push_back(tracker_in.line[static_cast<size_t>(r)]);
+  out.result.notes.push_back(clock_note(estimate, stream, device.origin, tracker.origin));
+  glitch_notes(tracker_in, glitches, out.result.notes, estimate);
   out.result.clock = estimate;
   return out;
 }

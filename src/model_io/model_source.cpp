@@ -73,13 +73,22 @@ std::vector<BuiltinDevice> builtin_devices() {
   return out;
 }
 
-std::string resolve_model_path(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::exists(path, ec)) return path;
+std::string builtin_device_file(const std::string& name) {
   for (const BuiltinDevice& d : builtin_devices()) {
-    if (d.name == path) return d.path;
+    if (d.name == name) return d.path;
   }
-  return path;
+  return {};
+}
+
+std::string resolve_model_path(const std::string& path) {
+  // A folder is no model: one named as a built-in device (--out geomagic-touch)
+  // does not hide it.
+  std::error_code ec;
+  const std::string builtin = builtin_device_file(path);
+  if (std::filesystem::exists(path, ec) &&
+      (builtin.empty() || !std::filesystem::is_directory(path, ec)))
+    return path;
+  return builtin.empty() ? path : builtin;
 }
 
 }  // namespace hapticcal

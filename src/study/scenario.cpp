@@ -100,8 +100,15 @@ Scenario scenario_device(const ScenarioFile& file, const std::string& default_de
   std::string device = default_device_path;
   if (root["device"]) {
     device = r.string(root["device"], "device");
+    // A relative path is the scenario folder's; a built-in device's name
+    // (geomagic-touch) where that folder has no such file.
     const std::filesystem::path p(device);
-    if (p.is_relative()) device = (std::filesystem::path(file.path).parent_path() / p).string();
+    if (p.is_relative()) {
+      const std::filesystem::path beside = std::filesystem::path(file.path).parent_path() / p;
+      std::error_code ec;
+      const std::string builtin = builtin_device_file(device);
+      device = std::filesystem::exists(beside, ec) || builtin.empty() ? beside.string() : builtin;
+    }
   }
   std::string tip = default_tip, chain_root = default_root;
   if (root["tip"]) tip = r.string(root["tip"], "tip");

@@ -34,8 +34,11 @@ struct BuiltinDevice {
 };
 // The built-in devices, in the folder of builtin_device_path().
 std::vector<BuiltinDevice> builtin_devices();
-// `path` itself if a file of that name exists or no built-in device has that
-// name, else that device's file.
+// The file of the built-in device of that name, or empty.
+std::string builtin_device_file(const std::string& name);
+// `path` itself if a file of that name exists (a folder does not count where a
+// built-in device has that name) or no built-in device has that name, else
+// that device's file.
 std::string resolve_model_path(const std::string& path);
 
 }  // namespace hapticcal
