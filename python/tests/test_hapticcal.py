@@ -666,15 +666,26 @@ def test_calibrate_a_tree_of_two_tips(tmp_path):
     assert (tmp_path / "out" / "calibrated.urdf").exists()
 
 
-def test_shipped_robot_descriptions_are_well_formed_xml():
-    """Every URDF the project ships parses as XML by Python's own parser (independent of
-    urdfdom, which forgives what ROS tools do not, such as "--" inside a comment)."""
+def test_every_xml_file_of_the_repository_is_well_formed():
+    """Every XML file the repository holds (URDF, xacro, SVG, launch, SDF) parses by Python's own
+    parser (independent of urdfdom, which forgives what ROS tools do not, such as "--" inside a
+    comment); the two files that are malformed on purpose (parser tests) are refused by it."""
     import xml.dom.minidom
+    import xml.parsers.expat
 
-    urdfs = sorted((SOURCE / "examples").rglob("*.urdf")) + sorted((SOURCE / "data").rglob("*.urdf"))
-    assert len(urdfs) >= 2
-    for path in urdfs:
-        xml.dom.minidom.parse(str(path))
+    malformed = {SOURCE / "tests" / "data" / "urdf" / "bad-xml.urdf",
+                 SOURCE / "fuzz" / "seeds" / "urdf" / "cut-utf8.urdf"}
+    kinds = {".xml", ".urdf", ".xacro", ".svg", ".launch", ".sdf"}
+    files = [p for p in SOURCE.rglob("*")
+             if p.suffix.lower() in kinds and p.is_file()
+             and not any(part.startswith(("build", ".git")) for part in p.relative_to(SOURCE).parts)]
+    assert len(files) >= 10 and malformed <= set(files)
+    for path in sorted(files):
+        if path in malformed:
+            with pytest.raises(xml.parsers.expat.ExpatError):
+                xml.dom.minidom.parse(str(path))
+        else:
+            xml.dom.minidom.parse(str(path))
 
 
 def interrupted_after(seconds, job):
