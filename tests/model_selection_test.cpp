@@ -297,6 +297,31 @@ TEST(ModelSelection, DataThatSupportNoChangeGiveAConvergedUnchangedModel) {
   EXPECT_GT(all_held, 0);  // seeds 1 and 3 hold all 27
 }
 
+// The same device fitted without selection or search on 14 poses (42 rows for
+// 27 parameters plus the frame): its held-out error is many times the nominal
+// model's with the frame fitted, and that is unusable without --strict (the
+// "suspect" status, exit 3), the reason naming both figures.
+TEST(ModelSelection, AFitWorseThanTheNominalModelHeldOutIsUnusable) {
+  const DeviceModel nominal = testing::meca500();
+  SimulationNoise noise;
+  noise.sigma_position = 2e-5;
+  const Log log = simulate_log(nominal, 14, noise, 5, false, true);
+  CalibrationOptions o;
+  o.search = false;
+  o.keep_all = true;
+  o.loss = RobustLoss::kNone;
+  const CalibrationResult r = calibrate(nominal, log, o);
+  const SuspectFit& s = r.kinematics.suspect;
+  ASSERT_TRUE(std::isfinite(s.cv_ratio)) << r.status_reason;
+  EXPECT_GT(s.cv_ratio, kWorseThanNominalRatio);
+  EXPECT_EQ(r.status, CalibrationStatus::kSuspect);
+  EXPECT_NE(r.status_reason.find("the calibration predicts new poses worse than no calibration"),
+            std::string::npos)
+      << r.status_reason;
+  std::printf("held-out %.4f mm, %.1f times the nominal model's with its frame fitted\n",
+              1e3 * r.kinematics.cv_rms, s.cv_ratio);
+}
+
 // Student's t quantile (the selection's threshold) against tabulated values
 // (e.g. t_0.975 with 10 degrees of freedom is 2.228, with 3 it is 3.182) and its
 // normal limit.

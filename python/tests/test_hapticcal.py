@@ -598,18 +598,23 @@ def test_the_library_refuses_what_the_command_line_refuses(tmp_path):
     assert not (tmp_path / "plan").exists() and not (tmp_path / "sim").exists()
 
 
-def test_calibrate_two_streams_and_markers(tmp_path):
-    """Issue 26: calibrate(tracker=...) estimates the clocks as --tracker does."""
+def simulated_session(tmp_path, seconds, validation):
+    """A simulated hand-guided Touch session (the command line's simulate) in tmp_path/sim."""
     scenario = tmp_path / "session.yaml"
     scenario.write_text(
         "format: hapticcal-scenario/1\n"
         f"device: {SOURCE / 'data' / 'devices' / 'geomagic-touch.yaml'}\n"
-        "measurement: position\nposes: {validation: 50}\nnoise: {sigma_m: 1.0e-4}\n"
+        f"measurement: position\nposes: {{validation: {validation}}}\nnoise: {{sigma_m: 1.0e-4}}\n"
         "random_deviations: {lengths: 5.0e-4, angles: 5.0e-3}\n"
-        "session: {seconds: 40, clock_offset: 0.0373, clock_drift_ppm: 20}\n"
+        f"session: {{seconds: {seconds}, clock_offset: 0.0373, clock_drift_ppm: 20}}\n"
     )
     code, _, stderr = cli("simulate", "--scenario", str(scenario), "--out", str(tmp_path / "sim"))
     assert code == 0, stderr
+
+
+def test_calibrate_two_streams_and_markers(tmp_path):
+    """Issue 26: calibrate(tracker=...) estimates the clocks as --tracker does."""
+    simulated_session(tmp_path, seconds=40, validation=50)
     r = hapticcal.calibrate(
         "geomagic-touch",
         str(tmp_path / "sim" / "device.csv"),
@@ -706,16 +711,7 @@ def interrupted_after(seconds, job):
 def test_ctrl_c_interrupts_a_running_job_and_keeps_the_previous_set(tmp_path):
     """Ctrl-C 1 s into a calibration (or a 20 s study) ends it within a second,
     KeyboardInterrupt raised, and the output folder keeps the previous set."""
-    scenario = tmp_path / "session.yaml"
-    scenario.write_text(
-        "format: hapticcal-scenario/1\n"
-        f"device: {SOURCE / 'data' / 'devices' / 'geomagic-touch.yaml'}\n"
-        "measurement: position\nposes: {validation: 20}\nnoise: {sigma_m: 1.0e-4}\n"
-        "random_deviations: {lengths: 5.0e-4, angles: 5.0e-3}\n"
-        "session: {seconds: 120, clock_offset: 0.0373, clock_drift_ppm: 20}\n"
-    )
-    code, _, stderr = cli("simulate", "--scenario", str(scenario), "--out", str(tmp_path / "sim"))
-    assert code == 0, stderr
+    simulated_session(tmp_path, seconds=120, validation=20)
     out = tmp_path / "out"
     assert hapticcal.calibrate(MECA, CAL_LOG, out=str(out)).usable
     before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}

@@ -184,12 +184,15 @@ void name_outliers(RobustFit& robust, const Log& log, const std::vector<std::vec
                               (robust.note.empty() ? " (--loss none)" : " (" + robust.note + ")")));
 }
 
-// --strict: a suspect fit is unusable.
+// --strict: a suspect fit is unusable; so is, always, one that predicts
+// held-out poses worse than the nominal model with its frame registered.
 void refuse_suspect(CalibrationResult& result, bool strict) {
   const SuspectFit& suspect = result.kinematics.suspect;
-  if (!strict || !suspect.suspect || result.status != CalibrationStatus::kConverged) return;
+  if (!suspect.suspect || result.status != CalibrationStatus::kConverged) return;
+  if (!strict && suspect.worse_than_nominal.empty()) return;
   result.status = CalibrationStatus::kSuspect;
-  result.status_reason = "suspect fit (--strict): " + suspect.reasons.front();
+  result.status_reason = strict ? "suspect fit (--strict): " + suspect.reasons.front()
+                                : "suspect fit: " + suspect.worse_than_nominal;
 }
 
 }  // namespace

@@ -249,6 +249,7 @@ SuspectFit check_suspect(const KinematicFit& fit, const KinematicProblem& proble
           "base pose fitted ({:.4g} mm): the calibration predicts new poses worse than no "
           "calibration",
           fit.cv_rms * 1e3, out.cv_ratio, out.nominal_base_fitted_rms * 1e3));
+      if (out.cv_ratio > kWorseThanNominalRatio) out.worse_than_nominal = out.reasons.back();
     }
   }
   out.suspect = !out.reasons.empty();

@@ -195,7 +195,16 @@ struct SuspectFit {
   // computed), and cv_rms over it.
   double nominal_base_fitted_rms = std::numeric_limits<double>::quiet_NaN();
   double cv_ratio = std::numeric_limits<double>::quiet_NaN();
+  // The reason that cv_ratio is above kWorseThanNominalRatio (unusable even
+  // without --strict), or empty.
+  std::string worse_than_nominal;
 };
+// A held-out RMS more than this many times the nominal model's with its base
+// fitted (on the same poses, in sample) is unusable without --strict: a fit of
+// a device the nominal model describes exactly gives 1.01-1.05 (a held-out
+// error against a training one); the mistakes this catches (points in mm, tips
+// or markers in another order) give 29-200.
+constexpr double kWorseThanNominalRatio = 1.5;
 // A training RMS more than this many times the measured repeatability is
 // suspect (README: clean Meca500 sets give 15-20x, a tracker bumped 3 mm 670x).
 constexpr double kSuspectRepeatabilityRatio = 100;
