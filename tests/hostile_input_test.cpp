@@ -13,7 +13,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -25,9 +27,11 @@
 #include "hapticcal/core/log.hpp"
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/stream.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/runtime.h"
+#include "hapticcal/study/session.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
 
@@ -574,6 +578,60 @@ TEST(Hostile, AJointLoopIsRefusedBeforeUrdfdom) {
           << e.what();
     }
   }
+}
+
+// Hostile values in a tracker's stream where the glitch screen, the time checks
+// and the coarse search read them (also under the sanitizers): screened
+// samples or a clear refusal, never a crash or an out-of-range conversion.
+TEST(Hostile, TrackerStreamsWithExtremeValues) {
+  const DeviceModel touch = testing::builtin("geomagic-touch");
+  SessionOptions o;
+  o.seconds = 20;
+  o.dropout_share = 0.05;
+  const Session s = simulate_session(touch, o, 3);
+  const auto search = [&](const Log& device, const Log& tracker) {
+    try {
+      check_streams(device, tracker);
+      coarse_clock_offset(touch, device, tracker, 10);
+      return std::string();
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+  };
+  for (const double v : {1e308, -1e308, 1e-308, 5e307}) {
+    Log t = s.tracker;
+    t.position(100, 1) = v;
+    t.position(101, 2) = -v;
+    const std::vector<int> glitches = tracker_glitches(t);
+    const Log kept = without_rows(t, glitches);
+    EXPECT_EQ(kept.rows + static_cast<int>(glitches.size()), t.rows);
+    EXPECT_EQ(kept.line.size(), static_cast<size_t>(kept.rows));
+    if (std::abs(v) > 1) {
+      EXPECT_TRUE(std::find(glitches.begin(), glitches.end(), 100) != glitches.end()) << v;
+      EXPECT_EQ(search(s.device, kept), "") << v;
+    }
+  }
+  // Every other sample far off (more than 1 % glitches): kept, the search refuses.
+  Log flicker = s.tracker;
+  for (int r = 0; r < flicker.rows; r += 2) flicker.position(r, 0) = 1e300;
+  EXPECT_TRUE(tracker_glitches(flicker).empty());
+  EXPECT_NE(search(s.device, flicker), "");
+  // Times: a jump of 1e6 s (1e300 s: no longer increasing), milliseconds, three samples.
+  Log jump = s.tracker;
+  for (int r = jump.rows / 2; r < jump.rows; ++r) jump.t[r] += 1e6;
+  EXPECT_NE(search(s.device, jump).find("span"), std::string::npos) << search(s.device, jump);
+  for (int r = jump.rows / 2; r < jump.rows; ++r) jump.t[r] += 1e300;
+  EXPECT_NE(search(s.device, jump).find("must increase"), std::string::npos);
+  Log ms = s.device;
+  ms.t *= 1e3;
+  EXPECT_NE(search(ms, s.tracker).find("t [ms]"), std::string::npos);
+  const Log three = without_rows(s.tracker, [&] {
+    std::vector<int> all;
+    for (int r = 3; r < s.tracker.rows; ++r) all.push_back(r);
+    return all;
+  }());
+  EXPECT_TRUE(tracker_glitches(three).empty());
+  EXPECT_NE(search(s.device, three).find("samples"), std::string::npos);
 }
 
 }  // namespace
