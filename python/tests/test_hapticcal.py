@@ -1,10 +1,7 @@
-""
-    "The Python module against the command line and against numerical derivatives.
+"""The Python module against the command line and against numerical derivatives.
 
-    Run by
-    ctest(python_test)
-with PYTHONPATH = <build> / python,
-     HAPTICCAL_CLI the built command line and HAPTICCAL_SOURCE the source tree; by hand:
+Run by ctest (python_test) with PYTHONPATH=<build>/python, HAPTICCAL_CLI the
+built command line and HAPTICCAL_SOURCE the source tree; by hand:
     PYTHONPATH=build/python HAPTICCAL_CLI=build/hapticcal python3 -m pytest -q python/tests
 """
 
@@ -99,9 +96,9 @@ def test_validation_rms_matches_the_cli(cli_calibration, py_calibration):
     assert mine["n"] == validation["n"]
     assert abs(mine["rms_position"] - validation["rms_position"]) < 1e-12
     assert abs(mine["max_position"] - validation["max_position"]) < 1e-12
-#The README's figure: 0.0396 mm on the validation log.
+    # The README's figure: 0.0396 mm on the validation log.
     assert mine["rms_position"] * 1e3 == pytest.approx(0.0396, abs=5e-5)
-#The CLI's calibrated.yaml read back gives the same figures.
+    # The CLI's calibrated.yaml read back gives the same figures.
     assert_same(hapticcal.evaluate(str(out / "calibrated.yaml"), VAL_LOG), validation)
 
 
@@ -114,7 +111,7 @@ def test_evaluation_with_reference_matches_the_cli(cli_calibration):
     assert code == 0, stderr
     mine = hapticcal.evaluate(calibrated, VAL_LOG, reference=MECA)
     assert_same(mine, json.loads(stdout))
-#The README 's figure: the nominal model' s 0.8372 mm on the validation log.
+    # The README's figure: the nominal model's 0.8372 mm on the validation log.
     assert mine["reference_rms_position"] * 1e3 == pytest.approx(0.8372, abs=5e-5)
 
 
@@ -163,8 +160,8 @@ def test_jacobian_matches_central_differences(which, eccentric):
         J = m.jacobian(q)
         J_tool = m.jacobian(q, frame="tool")
         assert J.shape == (6, m.dof)
-#The Jacobian is w.r.t.the joint values : through the transmissions'
-#compensation, d theta / d q by central differences too.
+        # The Jacobian is w.r.t. the joint values: through the transmissions'
+        # compensation, d theta / d q by central differences too.
         numeric = numeric_jacobian(m, q, h)
         dtheta = np.array(
             [
@@ -271,8 +268,7 @@ def test_the_model_search_is_returned_and_can_be_turned_off(py_calibration):
     kept = s["candidates"][s["kept"]]
     assert kept["cv_rms"] == pytest.approx(py_calibration.cv_rms, rel=1e-12)
     assert kept["usable"] and kept["allowed"]
-    assert {c["estimator"] for c in s["candidates"]
-} == {
+    assert {c["estimator"] for c in s["candidates"]} == {
         "tolerance prior", "significance cut", "least squares"}
     assert s["nominal_rms"] > 5 * kept["cv_rms"]
     one = hapticcal.calibrate(MECA, CAL_LOG, search=False, prior=True)
@@ -284,15 +280,15 @@ def test_the_model_search_is_returned_and_can_be_turned_off(py_calibration):
 
 
 def test_joint_error_options_reach_the_calibration():
-#The harmonic joint errors : their coefficients are parameters, and the
-#comparison without them is in the results.
+    # The harmonic joint errors: their coefficients are parameters, and the
+    # comparison without them is in the results.
     r = hapticcal.calibrate(MECA, CAL_LOG, samples=40, joint_errors=["harmonic"])
     assert "j2.sin1" in r.parameters and "j6.cos2" in r.parameters
     assert r.results["joint_errors"]["families"] == ["harmonic"]
     assert r.results["joint_errors"]["cv_rms_without"] > 0
     with pytest.raises(ValueError, match="not a joint-error family"):
         hapticcal.calibrate(MECA, CAL_LOG, joint_errors=["gear-play"])
-#Compliance on a model without masses : each link a lumped 1 kg, said so.
+    # Compliance on a model without masses: each link a lumped 1 kg, said so.
     c = hapticcal.calibrate(MECA, CAL_LOG, joint_errors=["compliance"])
     assert "j2.k" in c.parameters
     assert any("lumped 1 kg" in n for n in c.notes)
@@ -365,7 +361,7 @@ def test_evaluate_register_matches_the_cli(tmp_path, what):
     mine = hapticcal.evaluate(MECA, log, register=what)
     assert_same(mine, json.loads(stdout))
     assert mine["registered"]["what"] == what
-#Moved or not, the registered error is the same(the tracker's place does not matter).
+    # Moved or not, the registered error is the same (the tracker's place does not matter).
     unmoved = hapticcal.evaluate(MECA, VAL_LOG, register=what)
     assert abs(mine["rms_position"] - unmoved["rms_position"]) < 1e-9
     assert mine["registered"]["rms_position_before_registration"] > 0.1
@@ -418,8 +414,8 @@ def test_calibrate_out_writes_the_cli_files_for_a_urdf_model(tmp_path):
     poor = arm_log(tmp_path / "poor.csv", 150, 6, held=3)  # the wrist still: not excited
     cli_out, py_out = tmp_path / "cli", tmp_path / "py"
     for log, usable in ((good, True), (poor, False)):
-#-- keep - all : plain least squares refuses what the poses leave unexcited
-#(the default's tolerance prior would hold it).
+        # --keep-all: plain least squares refuses what the poses leave unexcited
+        # (the default's tolerance prior would hold it).
         code, _, stderr = cli("calibrate", "--model", ARM, "--tip", "tcp", "--log", log,
                               "--keep-all", "--out", str(cli_out))
         assert code == (0 if usable else 3), stderr
@@ -457,9 +453,9 @@ def test_calibrate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
     printed = stdout.splitlines()
     assert printed[: len(r.lines)] == list(r.lines)
     assert printed[len(r.lines)].startswith("report: ")
-#The report carries the same summary(one calibration_lines for both).
+    # The report carries the same summary (one calibration_lines for both).
     report = (cli_out / "report.html").read_text()
-#(report.cpp 's html_escape: & < > and ", not ')
+    # (report.cpp's html_escape: & < > and ", not ')
     summary = "\n".join(html.escape(line, quote=False).replace('"', "&quot;") for line in r.lines)
     assert summary in report
 
@@ -531,8 +527,7 @@ def test_simulate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
 
 def test_force_and_convert_jobs_give_the_cli_outputs_byte_for_byte(tmp_path):
     """force and convert run one job each (jobs/force_job.hpp) for both front ends: force's
-    folders are equal byte for byte;
-convert writes the same file; both refuse the same input."""
+    folders are equal byte for byte; convert writes the same file; both refuse the same input."""
     m = hapticcal.load_model(MECA)
     p = m.parameters()
     p["j2.a"] += 1e-3
@@ -578,8 +573,8 @@ def test_the_library_refuses_what_the_command_line_refuses(tmp_path):
         hapticcal.plan(MECA, "position", 12, pool=10**9, out=str(tmp_path / "plan"))
     with pytest.raises(ValueError, match="NUL byte"):
         hapticcal.load_model(MECA + "\x00junk")
-#Every number in the command line 's range, nan and inf included: never
-#converted out of range(a clock search of 1e20 s once reported - 9.2e16 s).
+    # Every number in the command line's range, nan and inf included: never
+    # converted out of range (a clock search of 1e20 s once reported -9.2e16 s).
     for bad in (math.nan, math.inf, -math.inf, 1e20, 0.0):
         with pytest.raises(ValueError, match=r"--clock-search .*: not in \[0.001, 3600\] s"):
             hapticcal.calibrate("geomagic-touch", CAL_LOG, tracker=CAL_LOG, clock_search=bad)
@@ -721,11 +716,11 @@ def test_ctrl_c_interrupts_a_running_job_and_keeps_the_previous_set(tmp_path):
     assert hapticcal.calibrate(MECA, CAL_LOG, out=str(out)).usable
     before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
     jobs = {
-#About 5 s on one thread.
+        # About 5 s on one thread.
         "calibrate": lambda: hapticcal.calibrate(
             "geomagic-touch", str(tmp_path / "sim" / "device.csv"),
             tracker=str(tmp_path / "sim" / "tracker.csv"), threads=1, out=str(out)),
-# 200 trials of the paper's study: about 20 s on one thread.
+        # 200 trials of the paper's study: about 20 s on one thread.
         "simulate": lambda: hapticcal.simulate(trials=200, threads=1, out=str(out)),
     }
     for name, job in jobs.items():
@@ -734,5 +729,6 @@ def test_ctrl_c_interrupts_a_running_job_and_keeps_the_previous_set(tmp_path):
         after = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
         assert after == before, name
         assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".out")] == [], name
-#The next run is not cancelled.
+    # The next run is not cancelled.
     assert hapticcal.calibrate(MECA, CAL_LOG, out=str(out)).usable
+
