@@ -18,6 +18,7 @@
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/data_io/log.hpp"
+#include "hapticcal/jobs/simulate_job.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/session.hpp"
 #include "hapticcal/study/simulation.hpp"
@@ -393,6 +394,27 @@ TEST(StreamCli, SimulatedSessionScoresOffsetAwareAgainstBlind) {
   testing::expect_input_error(
       testing::run_cli({"simulate", "--scenario", dir + "/bad.yaml", "--out", dir + "/bad"}),
       "session: a hand-guided session is measured by a tracker's positions");
+  std::filesystem::remove_all(dir);
+}
+
+// A session study reports its progress (a terminal's bar): from 0 to 100 %,
+// never backwards, through its stages.
+TEST(StreamCli, SessionStudyReportsItsProgress) {
+  const std::string dir = testing::fresh_folder("stream_progress");
+  std::ofstream(dir + "/s.yaml") << "format: hapticcal-scenario/1\ndevice: geomagic-touch\n"
+                                    "measurement: position\nposes: {validation: 20}\n"
+                                    "noise: {sigma_m: 1.0e-4}\nsession: {seconds: 30}\n";
+  SimulateRequest request;
+  request.scenario = dir + "/s.yaml";
+  request.out = dir + "/out";
+  std::vector<std::pair<int, int>> calls;
+  request.progress = [&](int k, int n) { calls.emplace_back(k, n); };
+  const SimulateJob job = run_simulate_job(request);
+  ASSERT_TRUE(job.session);
+  ASSERT_GE(calls.size(), 8u);
+  EXPECT_EQ(calls.front(), std::make_pair(0, 100));
+  EXPECT_EQ(calls.back(), std::make_pair(100, 100));
+  for (size_t i = 1; i < calls.size(); ++i) EXPECT_GT(calls[i].first, calls[i - 1].first);
   std::filesystem::remove_all(dir);
 }
 

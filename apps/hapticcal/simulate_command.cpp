@@ -200,7 +200,7 @@ int run_simulate(const SimulateOptions& o) {
       fmt::print("hapticcal simulate: {} trial(s), seed {}, {} thread(s), device {}\n", sc.trials,
                  sc.seed, threads, sc.device_path);
     }
-    bar = sc.trials > 1 && isatty(2);
+    bar = (sc.trials > 1 || sc.session) && isatty(2);
   };
   request.progress = [&](int k, int n) {
     if (!bar) return;

@@ -40,7 +40,7 @@ SimulateJob run_simulate_job(const SimulateRequest& request) {
   if (request.started) request.started(sc, std::min(threads, sc.trials));
   job.out = std::make_unique<OutputSet>(request.out, "simulate");
   if (sc.session) {
-    job.session = run_session_study(sc, job.out->dir());
+    job.session = run_session_study(sc, job.out->dir(), request.progress);
     job.results_json = job.session->json;
     job.out->commit();
     return job;

@@ -4,6 +4,8 @@
 // scored on held-out static poses.
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
 #include <nlohmann/json.hpp>
 
 #include "hapticcal/core/error.hpp"
@@ -25,7 +27,16 @@ double position_rms(const DeviceModel& model, const Log& log) {
 
 }  // namespace
 
-SessionStudy run_session_study(const Scenario& sc, const std::string& dir) {
+SessionStudy run_session_study(const Scenario& sc, const std::string& dir,
+                               const std::function<void(int, int)>& progress) {
+  // Shares of the whole: the streams 15, the calibration's stages 70, the
+  // offset-blind fit and the validation 15.
+  int done = -1;
+  const auto at = [&](double share) {
+    const int k = static_cast<int>(std::lround(100 * std::clamp(share, 0.0, 1.0)));
+    if (progress && k > done) progress(done = k, 100);
+  };
+  at(0);
   SessionOptions o = *sc.session;
   o.sigma_position = sc.noise.sigma_position;
   SessionStudy out;
@@ -44,6 +55,7 @@ SessionStudy run_session_study(const Scenario& sc, const std::string& dir) {
                                Eigen::MatrixXd(), noise, sc.seed + 1);
   write_file_atomically(dir + "/validation.csv", log_to_csv(validation));
 
+  at(0.15);
   // As calibrate --tracker reads them: the files, not the memory.
   const Log device = read_log(dir + "/device.csv"), tracker = read_log(dir + "/tracker.csv");
   CalibrationOptions options;
@@ -52,6 +64,11 @@ SessionStudy run_session_study(const Scenario& sc, const std::string& dir) {
   StreamOptions stream;
   stream.search_range = sc.session_search_range;
   stream.drift = sc.session_fit_drift;
+  stream.progress = [&](const std::string& stage, double share) {
+    const double begin = stage == "clock search" ? 0.15 : stage == "final fit" ? 0.75 : 0.2;
+    const double width = stage == "clock search" ? 0.05 : stage == "final fit" ? 0.1 : 0.55;
+    at(begin + width * share);
+  };
   const StreamCalibration aware = calibrate_streams(sc.nominal, device, tracker, options, stream);
   out.clock = aware.clock;
   // The truth at the estimate's reference (the first sample kept), where the
@@ -77,6 +94,7 @@ SessionStudy run_session_study(const Scenario& sc, const std::string& dir) {
                     blind_poses.rows));
   }
   const CalibrationResult blind = calibrate(sc.nominal, blind_poses, forced);
+  at(0.95);
   save_device(aware.result.calibrated, dir + "/calibrated.yaml");
   save_device(blind.calibrated, dir + "/calibrated-offset-blind.yaml");
 
@@ -122,6 +140,7 @@ SessionStudy run_session_study(const Scenario& sc, const std::string& dir) {
                      {"truth_distance_offset_blind", out.truth_blind}};
   out.json = j.dump(2) + "\n";
   write_file_atomically(dir + "/results.json", out.json);
+  at(1);
 
   out.lines.push_back(fmt::format(
       "Session: {:g} s of hand-guided motion, device {} rows at {:g} Hz, tracker {} rows at {:g} "

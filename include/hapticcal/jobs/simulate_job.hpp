@@ -23,7 +23,7 @@ struct SimulateRequest {
   std::string out = "hapticcal-out/simulate";
   // Called once the scenario is read, before the trials run (threads: used).
   std::function<void(const Scenario&, int threads)> started;
-  std::function<void(int, int)> progress;  // trials done, of all
+  std::function<void(int, int)> progress;  // trials done, of all (a session: percent done)
 };
 
 struct SimulateJob {

@@ -123,7 +123,10 @@ struct SessionStudy {
   std::vector<std::string> lines;  // the terminal's
   std::string json;                // results.json as written
 };
-SessionStudy run_session_study(const Scenario& scenario, const std::string& dir);
+// `progress(k, 100)`: the share done, through the streams' simulation, the
+// clocks' search, their fit and the offset-blind fit (a terminal's bar).
+SessionStudy run_session_study(const Scenario& scenario, const std::string& dir,
+                               const std::function<void(int, int)>& progress = {});
 
 // Whether `model` is the paper's built-in device (the same name, joint count,
 // base kind and kinematic parameters as builtin_device_path()'s; limits and
