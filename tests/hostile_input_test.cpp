@@ -611,6 +611,13 @@ TEST(Hostile, TrackerStreamsWithExtremeValues) {
       EXPECT_EQ(search(s.device, kept), "") << v;
     }
   }
+  // A stream without noise: no sample flagged but a glitch.
+  SessionOptions exact = o;
+  exact.sigma_position = 0;
+  Log clean = simulate_session(touch, exact, 4).tracker;
+  EXPECT_TRUE(tracker_glitches(clean).empty());
+  clean.position(200, 0) += 0.05;
+  EXPECT_EQ(tracker_glitches(clean), std::vector<int>{200});
   // Every other sample far off (more than 1 % glitches): kept, the search refuses.
   Log flicker = s.tracker;
   for (int r = 0; r < flicker.rows; r += 2) flicker.position(r, 0) = 1e300;

@@ -41,6 +41,7 @@ constexpr double kMinCorrelation = 0.3;
 // percentile; the percentile holds while glitches are fewer than 1 %.
 constexpr double kGlitchFactor = 10;
 constexpr double kGlitchQuantile = 0.99;
+constexpr double kGlitchStepShare = 0.1;
 
 double median_step(const Eigen::VectorXd& t) {
   std::vector<double> dt(static_cast<size_t>(t.size() - 1));
@@ -213,7 +214,15 @@ std::vector<int> tracker_glitches(const Log& tracker) {
     if (known.size() < 100) continue;
     const auto q = static_cast<std::ptrdiff_t>(kGlitchQuantile * static_cast<double>(known.size()));
     std::nth_element(known.begin(), known.begin() + q, known.end());
-    const double limit = kGlitchFactor * known[static_cast<size_t>(q)];
+    // Not below a tenth of the median step between samples: a stream without
+    // noise has distances of 0 wherever it moves monotonically.
+    std::vector<double> steps;
+    for (Eigen::Index r = 0; r + 1 < p.rows(); ++r)
+      steps.push_back((p.row(r + 1) - p.row(r)).norm());
+    std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2),
+                     steps.end());
+    const double limit = kGlitchFactor * std::max(known[static_cast<size_t>(q)],
+                                                  kGlitchStepShare * steps[steps.size() / 2]);
     for (size_t r = 0; r < d.size(); ++r)
       if (d[r] > limit) glitch[r] = true;
   }
