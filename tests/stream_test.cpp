@@ -373,9 +373,16 @@ TEST(StreamCli, SimulatedSessionScoresOffsetAwareAgainstBlind) {
       testing::run_cli({"simulate", "--scenario", dir + "/s.yaml", "--out", dir + "/out"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("Clocks: offset"), std::string::npos) << r.out;
-  for (const char* f : {"device.csv", "tracker.csv", "validation.csv", "calibrated.yaml",
-                        "calibrated-offset-blind.yaml", "actual.yaml"})
+  for (const char* f :
+       {"device.csv", "tracker.csv", "validation.csv", "calibrated.yaml",
+        "calibrated-offset-blind.yaml", "actual.yaml", "report.html", "figures/clock_offset.svg"})
     EXPECT_TRUE(std::filesystem::exists(dir + "/out/" + f)) << f;
+  // The report: the session's lines first, then the calibration's sections.
+  const std::string page = read_file(dir + "/out/report.html");
+  EXPECT_NE(page.find("a hand-guided session on"), std::string::npos);
+  EXPECT_NE(page.find("Validation (100 static poses)"), std::string::npos);
+  EXPECT_NE(page.find("<h2>Clocks</h2>"), std::string::npos);
+  EXPECT_NE(r.out.find("report: "), std::string::npos) << r.out;
   const auto j = nlohmann::json::parse(read_file(dir + "/out/results.json"));
   EXPECT_LT(std::abs(j["estimate"]["offset_error"].get<double>()), 2e-4);
   EXPECT_GT(j["validation"]["position_rms_offset_blind"].get<double>(),

@@ -212,6 +212,7 @@ int run_simulate(const SimulateOptions& o) {
   const hapticcal::SimulateJob job = hapticcal::run_simulate_job(request);
   if (job.session) {
     for (const std::string& line : job.session->lines) fmt::print("{}\n", line);
+    fmt::print("{}", report_said(job.figures, job.report_note, o.out));
     fmt::print("{}", hapticcal::cli::output_summary(*job.out, o.out));
     return 0;
   }

@@ -42,6 +42,13 @@ SimulateJob run_simulate_job(const SimulateRequest& request) {
   if (sc.session) {
     job.session = run_session_study(sc, job.out->dir(), request.progress);
     job.results_json = job.session->json;
+    // The offset-aware calibration's report (its clocks' figure among them),
+    // opened by the session's own lines.
+    Report report = calibration_report(job.session->aware, sc.nominal, job.session->aware_poses);
+    report.title = fmt::format("hapticcal simulate: a hand-guided session on {}", sc.nominal.name);
+    report.outcome.headline.insert(report.outcome.headline.begin(), job.session->lines.begin(),
+                                   job.session->lines.end());
+    job.figures = write_report(report, job.out->dir(), job.report_note);
     job.out->commit();
     return job;
   }

@@ -25,6 +25,68 @@ double position_rms(const DeviceModel& model, const Log& log) {
   return evaluate(model, log).position->rms;
 }
 
+// results.json of a session study.
+std::string session_json(const Scenario& sc, const SessionOptions& o, int validation_poses,
+                         const SessionStudy& out) {
+  using json = nlohmann::ordered_json;
+  const ClockEstimate& c = out.clock;
+  json j;
+  j["format"] = "hapticcal-results/1";
+  j["device"] = sc.nominal.name;
+  j["seed"] = sc.seed;
+  j["session"] = {{"seconds", o.seconds},
+                  {"device_rate_hz", o.device_rate_hz},
+                  {"tracker_rate_hz", o.tracker_rate_hz},
+                  {"device_rows", out.device_rows},
+                  {"tracker_rows", out.tracker_rows},
+                  {"dropped_samples", out.dropped},
+                  {"sigma_position", o.sigma_position}};
+  j["truth"] = {
+      {"offset", out.truth.offset}, {"drift", out.truth.drift}, {"reference", out.truth.reference}};
+  j["estimate"] = {{"status", to_string(out.status)},
+                   {"offset", c.clock.offset},
+                   {"offset_sd", c.offset_sd},
+                   {"offset_error", c.clock.offset - out.truth.offset},
+                   {"drift", c.clock.drift},
+                   {"drift_sd", c.drift_fitted ? json(c.drift_sd) : json(nullptr)},
+                   {"drift_error", c.clock.drift - out.truth.drift},
+                   {"coarse_offset", c.coarse_offset},
+                   {"fit_samples", c.fit_samples},
+                   {"iterations", c.iterations}};
+  j["validation"] = {{"poses", validation_poses},
+                     {"position_rms_nominal", out.rms_nominal},
+                     {"position_rms_offset_aware", out.rms_aware},
+                     {"position_rms_offset_blind", out.rms_blind},
+                     {"truth_distance_offset_aware", out.truth_aware},
+                     {"truth_distance_offset_blind", out.truth_blind}};
+  return j.dump(2) + "\n";
+}
+
+// The terminal's lines of a session study.
+std::vector<std::string> session_lines(const SessionOptions& o, int validation_poses,
+                                       const SessionStudy& out) {
+  const ClockEstimate& c = out.clock;
+  std::vector<std::string> lines;
+  lines.push_back(fmt::format(
+      "Session: {:g} s of hand-guided motion, device {} rows at {:g} Hz, tracker {} rows at {:g} "
+      "Hz ({} lost to dropouts), noise {:.3g} mm",
+      o.seconds, out.device_rows, o.device_rate_hz, out.tracker_rows, o.tracker_rate_hz,
+      out.dropped, 1e3 * o.sigma_position));
+  lines.push_back(fmt::format(
+      "Clocks: offset {:.4f} ms +- {:.4f} (truth {:.4f} ms){}; {}", 1e3 * c.clock.offset,
+      1e3 * c.offset_sd, 1e3 * out.truth.offset,
+      c.drift_fitted ? fmt::format(", drift {:.3f} ppm +- {:.3f} (truth {:.3f} ppm)",
+                                   1e6 * c.clock.drift, 1e6 * c.drift_sd, 1e6 * out.truth.drift)
+                     : std::string(),
+      to_string(out.status)));
+  lines.push_back(fmt::format(
+      "Validation ({} static poses): position RMS nominal {:.4f} mm, offset-aware {:.4f} mm, "
+      "offset-blind {:.4f} mm ({:.1f}x); against the truth {:.4f} mm and {:.4f} mm",
+      validation_poses, 1e3 * out.rms_nominal, 1e3 * out.rms_aware, 1e3 * out.rms_blind,
+      out.rms_blind / out.rms_aware, 1e3 * out.truth_aware, 1e3 * out.truth_blind));
+  return lines;
+}
+
 }  // namespace
 
 SessionStudy run_session_study(const Scenario& sc, const std::string& dir,
@@ -107,58 +169,13 @@ SessionStudy run_session_study(const Scenario& sc, const std::string& dir,
   out.truth_aware = position_rms(aware.result.calibrated, truth);
   out.truth_blind = position_rms(blind.calibrated, truth);
 
-  using json = nlohmann::ordered_json;
-  const ClockEstimate& c = out.clock;
-  json j;
-  j["format"] = "hapticcal-results/1";
-  j["device"] = sc.nominal.name;
-  j["seed"] = sc.seed;
-  j["session"] = {{"seconds", o.seconds},
-                  {"device_rate_hz", o.device_rate_hz},
-                  {"tracker_rate_hz", o.tracker_rate_hz},
-                  {"device_rows", out.device_rows},
-                  {"tracker_rows", out.tracker_rows},
-                  {"dropped_samples", out.dropped},
-                  {"sigma_position", noise.sigma_position}};
-  j["truth"] = {
-      {"offset", out.truth.offset}, {"drift", out.truth.drift}, {"reference", out.truth.reference}};
-  j["estimate"] = {{"status", to_string(out.status)},
-                   {"offset", c.clock.offset},
-                   {"offset_sd", c.offset_sd},
-                   {"offset_error", c.clock.offset - out.truth.offset},
-                   {"drift", c.clock.drift},
-                   {"drift_sd", c.drift_fitted ? json(c.drift_sd) : json(nullptr)},
-                   {"drift_error", c.clock.drift - out.truth.drift},
-                   {"coarse_offset", c.coarse_offset},
-                   {"fit_samples", c.fit_samples},
-                   {"iterations", c.iterations}};
-  j["validation"] = {{"poses", validation.rows},
-                     {"position_rms_nominal", out.rms_nominal},
-                     {"position_rms_offset_aware", out.rms_aware},
-                     {"position_rms_offset_blind", out.rms_blind},
-                     {"truth_distance_offset_aware", out.truth_aware},
-                     {"truth_distance_offset_blind", out.truth_blind}};
-  out.json = j.dump(2) + "\n";
+  out.json = session_json(sc, o, validation.rows, out);
   write_file_atomically(dir + "/results.json", out.json);
   at(1);
 
-  out.lines.push_back(fmt::format(
-      "Session: {:g} s of hand-guided motion, device {} rows at {:g} Hz, tracker {} rows at {:g} "
-      "Hz ({} lost to dropouts), noise {:.3g} mm",
-      o.seconds, out.device_rows, o.device_rate_hz, out.tracker_rows, o.tracker_rate_hz,
-      out.dropped, 1e3 * noise.sigma_position));
-  out.lines.push_back(fmt::format(
-      "Clocks: offset {:.4f} ms +- {:.4f} (truth {:.4f} ms){}; {}", 1e3 * c.clock.offset,
-      1e3 * c.offset_sd, 1e3 * out.truth.offset,
-      c.drift_fitted ? fmt::format(", drift {:.3f} ppm +- {:.3f} (truth {:.3f} ppm)",
-                                   1e6 * c.clock.drift, 1e6 * c.drift_sd, 1e6 * out.truth.drift)
-                     : std::string(),
-      to_string(out.status)));
-  out.lines.push_back(fmt::format(
-      "Validation ({} static poses): position RMS nominal {:.4f} mm, offset-aware {:.4f} mm, "
-      "offset-blind {:.4f} mm ({:.1f}x); against the truth {:.4f} mm and {:.4f} mm",
-      validation.rows, 1e3 * out.rms_nominal, 1e3 * out.rms_aware, 1e3 * out.rms_blind,
-      out.rms_blind / out.rms_aware, 1e3 * out.truth_aware, 1e3 * out.truth_blind));
+  out.lines = session_lines(o, validation.rows, out);
+  out.aware = aware.result;
+  out.aware_poses = aware.poses;
   return out;
 }
 

@@ -122,6 +122,9 @@ struct SessionStudy {
   double truth_aware = 0, truth_blind = 0;
   std::vector<std::string> lines;  // the terminal's
   std::string json;                // results.json as written
+  // The offset-aware calibration and the samples it fitted (the report's).
+  CalibrationResult aware;
+  Log aware_poses;
 };
 // `progress(k, 100)`: the share done, through the streams' simulation, the
 // clocks' search, their fit and the offset-blind fit (a terminal's bar).
