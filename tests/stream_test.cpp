@@ -382,6 +382,8 @@ TEST(StreamCli, SimulatedSessionScoresOffsetAwareAgainstBlind) {
   EXPECT_NE(page.find("a hand-guided session on"), std::string::npos);
   EXPECT_NE(page.find("Validation (100 static poses)"), std::string::npos);
   EXPECT_NE(page.find("<h2>Clocks</h2>"), std::string::npos);
+  EXPECT_NE(page.find("clocks of device.csv and tracker.csv"), std::string::npos);
+  EXPECT_EQ(page.find(".tmp-"), std::string::npos);  // no staging folder's path
   EXPECT_NE(r.out.find("report: "), std::string::npos) << r.out;
   const auto j = nlohmann::json::parse(read_file(dir + "/out/results.json"));
   EXPECT_LT(std::abs(j["estimate"]["offset_error"].get<double>()), 2e-4);

@@ -119,7 +119,10 @@ SessionStudy run_session_study(const Scenario& sc, const std::string& dir,
 
   at(0.15);
   // As calibrate --tracker reads them: the files, not the memory.
-  const Log device = read_log(dir + "/device.csv"), tracker = read_log(dir + "/tracker.csv");
+  Log device = read_log(dir + "/device.csv"), tracker = read_log(dir + "/tracker.csv");
+  // Named as in the output folder, not the staging folder that becomes it.
+  device.origin = "device.csv";
+  tracker.origin = "tracker.csv";
   CalibrationOptions options;
   options.transmissions = false;
   options.fix = sc.fix;
