@@ -292,6 +292,14 @@ TEST(ModelSelection, DataThatSupportNoChangeGiveAConvergedUnchangedModel) {
     if (r.kinematics.identified > 0) continue;
     ++all_held;
     EXPECT_NE(r.status_reason.find("support no change"), std::string::npos) << r.status_reason;
+    // The note names 20 of the 27 held, then how many more (a tree's would list hundreds).
+    const auto note = std::find_if(r.notes.begin(), r.notes.end(), [](const std::string& n) {
+      return n.rfind("model selection held", 0) == 0;
+    });
+    ASSERT_NE(note, r.notes.end());
+    EXPECT_EQ(std::count(note->begin(), note->end(), ','), 19) << *note;
+    EXPECT_NE(note->find("and 7 more (results.json lists each parameter)"), std::string::npos)
+        << *note;
     EXPECT_EQ(r.calibrated.kinematic_parameters(), nominal.kinematic_parameters());
   }
   EXPECT_GT(all_held, 0);  // seeds 1 and 3 hold all 27

@@ -110,9 +110,13 @@ RowMatrix predicted_values(const ChainStructure& s, const Eigen::VectorXd& param
   return out;
 }
 
-std::string names_of(const std::vector<int>& slots, const std::map<int, std::string>& name) {
+std::string names_of(const std::vector<int>& slots, const std::map<int, std::string>& name,
+                     size_t limit) {
   std::string out;
-  for (int s : slots) out += (out.empty() ? "" : ", ") + name.at(s);
+  for (size_t i = 0; i < slots.size() && i < limit; ++i)
+    out += (out.empty() ? "" : ", ") + name.at(slots[i]);
+  if (slots.size() > limit)
+    out += fmt::format(" and {} more (results.json lists each parameter)", slots.size() - limit);
   return out;
 }
 

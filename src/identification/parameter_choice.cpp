@@ -13,6 +13,9 @@
 namespace hapticcal::detail {
 namespace {
 
+// A note names at most this many parameters (a tree of 32 tips holds hundreds).
+constexpr size_t kNamesInANote = 20;
+
 // The fit again with the parameters the selection held back at their start: from
 // the full fit, a few iterations (none if the selection kept nothing).
 KinematicSolution refit_selected(const CalibrationRun& run, const ModelSelection& selection,
@@ -83,9 +86,9 @@ void apply_prior(CalibrationRun& run) {
       "tolerance prior: scale {:.3g} of the tolerances (highest evidence), {:.1f} effective "
       "parameters of the {} estimated{}",
       prior.scale, prior.effective_parameters, slots.size(),
-      by_prior.empty()
-          ? std::string()
-          : "; set by the prior (the data do not see them): " + names_of(by_prior, run.name)));
+      by_prior.empty() ? std::string()
+                       : "; set by the prior (the data do not see them): " +
+                             names_of(by_prior, run.name, kNamesInANote)));
 }
 
 // Model selection: hold what the data do not support, and fit again.
@@ -127,7 +130,7 @@ void select_parameters(CalibrationRun& run) {
   run.result.notes.push_back(fmt::format(
       "model selection held {} of the {} identifiable parameters at nominal (not supported "
       "by these data; --keep-all keeps them): {}",
-      held.size(), fit.structurally_identified, names_of(held, run.name)));
+      held.size(), fit.structurally_identified, names_of(held, run.name, kNamesInANote)));
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -28,8 +29,9 @@ ceres::CostFunction* measurement_cost(const ChainStructure& s,
 // without error (for the structural analysis, whose rows need a measured value).
 RowMatrix predicted_values(const ChainStructure& s, const Eigen::VectorXd& params,
                            const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind);
-// The parameter names of `slots`, comma-separated.
-std::string names_of(const std::vector<int>& slots, const std::map<int, std::string>& name);
+// The parameter names of `slots`, comma-separated; beyond `limit`, how many more.
+std::string names_of(const std::vector<int>& slots, const std::map<int, std::string>& name,
+                     size_t limit = std::numeric_limits<size_t>::max());
 // RMS of the per-measurement error, as `evaluate` reports it: the distance error,
 // or the Euclidean norm of the position error. `rows` the log rows behind the
 // residuals (their weights' sum of squares).
