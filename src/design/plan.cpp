@@ -14,6 +14,7 @@
 
 #include "design/plan_information.hpp"
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/core/option_ranges.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
@@ -397,10 +398,7 @@ Plan plan_poses(const PlanProblem& problem, const PlanOptions& o) {
   const bool user = o.candidates.size() > 0;
   if (N < 1) throw InputError(fmt::format("--poses {}: must be at least 1", N));
   // The command line's bound, for every caller (Python asked for 10^9: MemoryError).
-  constexpr int kMaxPool = 10000000;
-  if (!user && (o.pool < 1 || o.pool > kMaxPool)) {
-    throw InputError(fmt::format("--pool {}: not in [1, {}]", o.pool, kMaxPool));
-  }
+  if (!user) check_option("--pool", o.pool, option_range::kPool);
   if (user && o.candidates.cols() != n)
     throw InputError(
         fmt::format("candidates have {} joints, the model {}", o.candidates.cols(), n));

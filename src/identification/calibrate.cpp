@@ -16,6 +16,7 @@
 #include <unordered_map>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/core/option_ranges.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/log_fit.hpp"
 #include "hapticcal/identification/markers.hpp"
@@ -203,10 +204,8 @@ namespace {
 // CLI's ranges, for every caller: Python passed 1.0 and inf).
 void check_options(const CalibrationOptions& options) {
   if (options.samples < 0) throw InputError("--samples must not be negative");
-  if (!(options.dependency_tolerance >= 1e-12 && options.dependency_tolerance <= 0.5)) {
-    throw InputError(fmt::format("--dependency-tolerance {}: not in [1e-12, 0.5]",
-                                 options.dependency_tolerance));
-  }
+  check_option("--dependency-tolerance", options.dependency_tolerance,
+               option_range::kDependencyTolerance);
   for (const std::string& name : options.fix) {
     if (std::find(options.free.begin(), options.free.end(), name) != options.free.end()) {
       throw InputError(fmt::format("'{}' is given to both --fix and --free", printable(name)));

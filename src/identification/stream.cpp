@@ -232,27 +232,27 @@ std::vector<int> tracker_glitches(const Log& tracker) {
   return out;
 }
 
-Log without_rows(const Log& tracker, const std::vector<int>& rows) {
+Log without_rows(const Log& log, const std::vector<int>& rows) {
   std::vector<Eigen::Index> keep;
   size_t next = 0;
-  for (int r = 0; r < tracker.rows; ++r) {
+  for (int r = 0; r < log.rows; ++r) {
     if (next < rows.size() && rows[next] == r) {
       ++next;
       continue;
     }
     keep.push_back(r);
   }
-  Log out = tracker;
+  Log out = log;
   out.rows = static_cast<int>(keep.size());
   const auto take = [&](Eigen::MatrixXd& m) {
-    if (m.rows() == tracker.rows) m = Eigen::MatrixXd(m(keep, Eigen::all));
+    if (m.rows() == log.rows) m = Eigen::MatrixXd(m(keep, Eigen::all));
   };
   take(out.q), take(out.ext), take(out.direction), take(out.position), take(out.orientation),
       take(out.markers);
-  if (out.t.size() == tracker.rows) out.t = Eigen::VectorXd(tracker.t(keep));
-  if (out.distance.size() == tracker.rows) out.distance = Eigen::VectorXd(tracker.distance(keep));
+  if (out.t.size() == log.rows) out.t = Eigen::VectorXd(log.t(keep));
+  if (out.distance.size() == log.rows) out.distance = Eigen::VectorXd(log.distance(keep));
   const auto take_each = [&](auto& v) {
-    if (v.size() != static_cast<size_t>(tracker.rows)) return;
+    if (v.size() != static_cast<size_t>(log.rows)) return;
     auto all = v;
     v.clear();
     for (const Eigen::Index r : keep) v.push_back(all[static_cast<size_t>(r)]);

@@ -135,6 +135,33 @@ struct ClockStep {
   Eigen::MatrixXd covariance;  // of the clock parameters
 };
 
+// Each sample's position residual at a fitted model and the model's tool
+// point velocity at its device time (zero where the readings do not reach:
+// readings_at_tracker kept only samples with readings either side at the
+// clock it was read at), a row each.
+struct SampleMotion {
+  Eigen::MatrixX3d residual, velocity;
+};
+
+SampleMotion sample_motion(const DeviceModel& model, const ReadingInterpolator& readings,
+                           const Log& poses, const StreamClock& clock) {
+  const PreparedModel prepared(model);
+  const int n = model.dof();
+  const Eigen::Index m = poses.rows;
+  SampleMotion out{Eigen::MatrixX3d(m, 3), Eigen::MatrixX3d(m, 3)};
+  Eigen::VectorXd q(n), a(n), b(n);
+  Eigen::Vector3d v;
+  for (Eigen::Index r = 0; r < m; ++r) {
+    q = poses.q.row(r).transpose();
+    const int tip = poses.tip.empty() ? 0 : poses.tip[static_cast<size_t>(r)];
+    if (!tool_velocity(prepared, readings, clock.device_time(poses.t[r]), a, b, v, tip))
+      v.setZero();
+    out.residual.row(r) = poses.position.row(r) - prepared.forward(q.data(), tip).p.transpose();
+    out.velocity.row(r) = v.transpose();
+  }
+  return out;
+}
+
 // The Gauss-Newton step of the clock at a fitted model: the residuals'
 // columns over the clock (the predicted point's velocity, times the tracker
 // time since the reference for the drift), projected off the identified
@@ -142,22 +169,16 @@ struct ClockStep {
 ClockStep clock_step(const CalibrationResult& fit, const ReadingInterpolator& readings,
                      const Log& poses, const StreamClock& clock, bool drift) {
   const DeviceModel& model = fit.calibrated;
-  const PreparedModel prepared(model);
   const int n = model.dof(), c = drift ? 2 : 1;
   const Eigen::Index m = poses.rows;
+  const SampleMotion motion = sample_motion(model, readings, poses, clock);
   Eigen::MatrixXd G(3 * m, c);
   Eigen::VectorXd e(3 * m);
-  Eigen::VectorXd q(n), a(n), b(n);
-  Eigen::Vector3d v;
   for (Eigen::Index r = 0; r < m; ++r) {
-    q = poses.q.row(r).transpose();
-    const int tip = poses.tip.empty() ? 0 : poses.tip[static_cast<size_t>(r)];
-    // readings_at_tracker kept only samples with readings either side at this clock.
-    if (!tool_velocity(prepared, readings, clock.device_time(poses.t[r]), a, b, v, tip))
-      v.setZero();
-    e.segment<3>(3 * r) = poses.position.row(r).transpose() - prepared.forward(q.data(), tip).p;
-    G.block(3 * r, 0, 3, 1) = v;
-    if (drift) G.block(3 * r, 1, 3, 1) = v * (poses.t[r] - clock.reference);
+    e.segment<3>(3 * r) = motion.residual.row(r).transpose();
+    G.block(3 * r, 0, 3, 1) = motion.velocity.row(r).transpose();
+    if (drift)
+      G.block(3 * r, 1, 3, 1) = motion.velocity.row(r).transpose() * (poses.t[r] - clock.reference);
   }
   const std::vector<int> slots = identified_slots(fit.kinematics, model.structure().num_slots());
   if (!slots.empty()) {
@@ -236,28 +257,19 @@ struct ClockCheck {
 
 ClockCheck check_clock(const CalibrationResult& fit, const ReadingInterpolator& readings,
                        const Log& poses, const StreamClock& clock) {
-  const PreparedModel prepared(fit.calibrated);
-  const int n = fit.calibrated.dof();
   const Eigen::Index m = poses.rows;
-  Eigen::VectorXd q(n), a(n), b(n);
-  Eigen::Vector3d v;
+  const SampleMotion motion = sample_motion(fit.calibrated, readings, poses, clock);
   // Per sample: v.e and |v|^2, and the time since the session's middle.
   std::vector<double> ve, vv, tau;
-  double sse = 0;
+  const double sse = motion.residual.squaredNorm();
   const double middle = 0.5 * (poses.t[0] + poses.t[m - 1]);
   for (Eigen::Index r = 0; r < m; ++r) {
-    const int tip = poses.tip.empty() ? 0 : poses.tip[static_cast<size_t>(r)];
-    if (!tool_velocity(prepared, readings, clock.device_time(poses.t[r]), a, b, v, tip))
-      v.setZero();
-    q = poses.q.row(r).transpose();
-    const Eigen::Vector3d e = poses.position.row(r).transpose() - prepared.forward(q.data(), tip).p;
-    sse += e.squaredNorm();
-    ve.push_back(v.dot(e));
-    vv.push_back(v.squaredNorm());
+    ve.push_back(motion.velocity.row(r).dot(motion.residual.row(r)));
+    vv.push_back(motion.velocity.row(r).squaredNorm());
     tau.push_back(poses.t[r] - middle);
   }
   ClockCheck out;
-  if (!(sse > 0) || m < 2 * kClockCheckSide) return out;
+  if (!(sse > 0) || static_cast<size_t>(m) < 2 * kClockCheckSide) return out;
   double S = 0, W = 0, St = 0, Wt = 0, Wtt = 0;
   for (size_t i = 0; i < ve.size(); ++i) {
     S += ve[i], W += vv[i], St += ve[i] * tau[i], Wt += vv[i] * tau[i],

@@ -18,6 +18,7 @@
 #include "core/yaml_reader.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
+#include "hapticcal/core/option_ranges.hpp"
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/measurement.hpp"
@@ -32,7 +33,7 @@ namespace {
 
 // Bounds on the numbers of a scenario file: a typo must not ask for terabytes
 // of samples or a deviation that no device has.
-constexpr int kMaxTrials = 100000;
+constexpr int kMaxTrials = static_cast<int>(option_range::kTrials.hi);  // --trials's
 constexpr size_t kMaxSockets = 20;
 constexpr size_t kMaxPlanes = 20;
 constexpr double kMaxSocketCoordinate = 100;  // m

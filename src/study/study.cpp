@@ -15,6 +15,7 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
+#include "hapticcal/core/option_ranges.hpp"
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/information.hpp"
 #include "hapticcal/identification/two_step.hpp"
@@ -442,9 +443,7 @@ InputError study_failure(const Scenario& sc, int trial, const InputError& e) {
 StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
                       const std::function<void(int, int)>& progress) {
   // The command line's bounds, for every caller (Python's trials=10**9).
-  if (sc.trials < 1 || sc.trials > 100000) {
-    throw InputError(fmt::format("--trials {}: not in [1, 100000]", sc.trials));
-  }
+  check_option("--trials", sc.trials, option_range::kTrials);
   detail::check_simulated_limits(sc);
   const int n = sc.trials;
   std::vector<TrialResult> trials(n);
