@@ -11,7 +11,9 @@ JOBS ?= 2
 DEB_PACKAGES := cmake g++ make pkg-config libeigen3-dev libceres-dev libyaml-cpp-dev \
   nlohmann-json3-dev libcli11-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev \
   liborocos-kdl-dev liburdfdom-dev gnuplot-nox \
-  python3-dev python3-pybind11 python3-numpy python3-pytest
+  python3-dev python3-pybind11 python3-numpy python3-pytest \
+  libzstd-dev liblz4-dev libbz2-dev libsqlite3-dev \
+  python3-rosbag python3-roslz4 nodejs npm
 # Debian's clang and its compiler-rt (libclang_rt.fuzzer, ASan, UBSan) for the
 # instrumented tree of `make test` and `make fuzz`.
 FUZZ_PACKAGES := clang libclang-rt-dev

@@ -1,0 +1,151 @@
+#include "recording/byte_reader.hpp"
+
+#include <bzlib.h>
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <lz4frame.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zstd.h>
+
+#include <bit>
+#include <cerrno>
+#include <cstring>
+#include <limits>
+
+#include "hapticcal/core/error.hpp"
+
+namespace hapticcal::recording {
+
+static_assert(std::endian::native == std::endian::little, "the recording readers read little-endian");
+
+void fail_at(const std::string& name, std::uint64_t offset, const std::string& record, const std::string& what) {
+  std::string message = fmt::format("byte {}", offset);
+  if (!record.empty()) message += ": " + record;
+  throw InputError(name, 0, "", message + ": " + what);
+}
+
+void ByteReader::need(std::uint64_t n, const char* what) const {
+  if (n > left())
+    fail(fmt::format("{} of {} bytes, {} left (a truncated or corrupt file)", what, n, left()));
+}
+
+MappedFile::MappedFile(const std::string& path, std::uint64_t max_bytes) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw InputError(path, 0, "", fmt::format("cannot open: {}", std::strerror(errno)));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd);
+    throw InputError(path, 0, "", "not a regular file");
+  }
+  if (static_cast<std::uint64_t>(st.st_size) > max_bytes) {
+    ::close(fd);
+    throw InputError(path, 0, "", fmt::format("{} bytes: more than the bound of {} bytes", st.st_size, max_bytes));
+  }
+  size_ = static_cast<std::size_t>(st.st_size);
+  if (size_ > 0) {
+    void* map = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
+    if (map == MAP_FAILED) {
+      ::close(fd);
+      throw InputError(path, 0, "", fmt::format("cannot map: {}", std::strerror(errno)));
+    }
+    data_ = static_cast<const char*>(map);
+  }
+  ::close(fd);
+}
+
+MappedFile::~MappedFile() {
+  if (data_ != nullptr) ::munmap(const_cast<char*>(data_), size_);
+}
+
+namespace {
+
+// The output buffer of a decompressor: exactly `expected` bytes, or an error.
+void check_size(std::size_t got, std::uint64_t expected, const std::string& name, std::uint64_t offset,
+                const std::string& record, const char* codec) {
+  if (got != expected)
+    fail_at(name, offset, record,
+            fmt::format("{} data hold {} bytes, the record states {}", codec, got, expected));
+}
+
+}  // namespace
+
+std::string decompress_lz4_frame(std::string_view in, std::uint64_t expected, const std::string& name,
+                                 std::uint64_t offset, const std::string& record) {
+  LZ4F_dctx* ctx = nullptr;
+  if (LZ4F_isError(LZ4F_createDecompressionContext(&ctx, LZ4F_VERSION)))
+    fail_at(name, offset, record, "lz4: cannot create a decompression context");
+  std::string out(static_cast<std::size_t>(expected), '\0');
+  std::size_t in_pos = 0, out_pos = 0;
+  std::size_t status = 1;
+  while (in_pos < in.size() && status != 0) {
+    std::size_t in_size = in.size() - in_pos;
+    std::size_t out_size = out.size() - out_pos;
+    char spare;  // a full buffer still lets lz4 report data beyond it
+    char* dst = out_size > 0 ? out.data() + out_pos : &spare;
+    if (out_size == 0) out_size = 1;
+    status = LZ4F_decompress(ctx, dst, &out_size, in.data() + in_pos, &in_size, nullptr);
+    if (LZ4F_isError(status)) {
+      const std::string reason = LZ4F_getErrorName(status);
+      LZ4F_freeDecompressionContext(ctx);
+      fail_at(name, offset, record, "lz4: " + reason);
+    }
+    if (dst == &spare && out_size > 0) {
+      LZ4F_freeDecompressionContext(ctx);
+      fail_at(name, offset, record, fmt::format("lz4 data hold more than the {} bytes the record states", expected));
+    }
+    if (in_size == 0 && out_size == 0) break;  // no progress: truncated
+    in_pos += in_size;
+    out_pos += dst == &spare ? 0 : out_size;
+  }
+  LZ4F_freeDecompressionContext(ctx);
+  if (status != 0) fail_at(name, offset, record, "lz4 data end before their frame does (a truncated chunk)");
+  check_size(out_pos, expected, name, offset, record, "lz4");
+  return out;
+}
+
+std::string decompress_zstd(std::string_view in, std::uint64_t expected, const std::string& name,
+                            std::uint64_t offset, const std::string& record) {
+  std::string out(static_cast<std::size_t>(expected), '\0');
+  ZSTD_DCtx* ctx = ZSTD_createDCtx();
+  if (ctx == nullptr) fail_at(name, offset, record, "zstd: cannot create a decompression context");
+  ZSTD_inBuffer src{in.data(), in.size(), 0};
+  ZSTD_outBuffer dst{out.data(), out.size(), 0};
+  std::size_t status = 1;
+  while (src.pos < src.size) {
+    const std::size_t before_in = src.pos, before_out = dst.pos;
+    status = ZSTD_decompressStream(ctx, &dst, &src);
+    if (ZSTD_isError(status)) {
+      const std::string reason = ZSTD_getErrorName(status);
+      ZSTD_freeDCtx(ctx);
+      fail_at(name, offset, record, "zstd: " + reason);
+    }
+    if (src.pos == before_in && dst.pos == before_out) break;  // output full
+  }
+  ZSTD_freeDCtx(ctx);
+  if (src.pos < src.size)
+    fail_at(name, offset, record, fmt::format("zstd data hold more than the {} bytes the record states", expected));
+  if (status != 0) fail_at(name, offset, record, "zstd data end before their frame does (a truncated chunk)");
+  check_size(dst.pos, expected, name, offset, record, "zstd");
+  return out;
+}
+
+std::string decompress_bz2(std::string_view in, std::uint64_t expected, const std::string& name,
+                           std::uint64_t offset, const std::string& record) {
+  if (in.size() > std::numeric_limits<unsigned>::max() || expected > std::numeric_limits<unsigned>::max() - 1)
+    fail_at(name, offset, record, "bz2: a chunk over 4 GiB");
+  std::string out(static_cast<std::size_t>(expected) + 1, '\0');  // one spare byte: more data is an error
+  unsigned out_size = static_cast<unsigned>(out.size());
+  const int status = BZ2_bzBuffToBuffDecompress(out.data(), &out_size, const_cast<char*>(in.data()),
+                                                static_cast<unsigned>(in.size()), 0, 0);
+  if (status == BZ_OUTBUFF_FULL)
+    fail_at(name, offset, record, fmt::format("bz2 data hold more than the {} bytes the record states", expected));
+  if (status == BZ_UNEXPECTED_EOF) fail_at(name, offset, record, "bz2 data end early (a truncated chunk)");
+  if (status != BZ_OK) fail_at(name, offset, record, fmt::format("bz2: corrupt data (error {})", status));
+  check_size(out_size, expected, name, offset, record, "bz2");
+  out.resize(out_size);
+  return out;
+}
+
+}  // namespace hapticcal::recording
