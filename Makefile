@@ -13,7 +13,7 @@ DEB_PACKAGES := cmake g++ make pkg-config libeigen3-dev libceres-dev libyaml-cpp
   liborocos-kdl-dev liburdfdom-dev gnuplot-nox \
   python3-dev python3-pybind11 python3-numpy python3-pytest \
   libzstd-dev liblz4-dev libbz2-dev libsqlite3-dev \
-  python3-rosbag python3-roslz4 nodejs npm
+  python3-rosbag python3-roslz4 python3-sensor-msgs python3-geometry-msgs python3-tf2-msgs nodejs npm
 # Debian's clang and its compiler-rt (libclang_rt.fuzzer, ASan, UBSan) for the
 # instrumented tree of `make test` and `make fuzz`.
 FUZZ_PACKAGES := clang libclang-rt-dev

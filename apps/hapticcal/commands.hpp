@@ -45,6 +45,9 @@ struct EvaluateOptions {
   std::string fixture;
   std::vector<std::string> point_distance;
   std::string model, log, columns, reference, out = "hapticcal-out/evaluate";
+  std::string tracker;  // a second session's tracker stream (--log is the device's)
+  double clock_search = 10;
+  bool clock_drift = false;
   std::string register_what;    // --register: frame or frame,tool
   bool register_given = false;  // --register "" is refused, not taken as absent
   ChainOptions chain;
@@ -84,6 +87,17 @@ struct ConvertOptions {
 CLI::App* add_convert_command(CLI::App& app, ConvertOptions& options);
 // kExitBadInput, with a line on stderr, when the files are not a pair to convert.
 int run_convert(const ConvertOptions& options);
+
+// `hapticcal import`: a recording or a tracker's export in, hapticcal's streams out.
+struct ImportOptions {
+  std::string recording, joints, tracker_topic, frames, time = "header", model, convention;
+  std::vector<std::string> fields;
+  std::string tracker_export, body, markers, column_map, length_unit, time_unit;
+  std::string out = "hapticcal-out/import";
+  bool list = false;
+};
+CLI::App* add_import_command(CLI::App& app, ImportOptions& options);
+int run_import(const ImportOptions& options);
 
 // `hapticcal devices`: the built-in devices, usable by name as a model.
 CLI::App* add_devices_command(CLI::App& app);

@@ -11,6 +11,7 @@
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/identification/markers.hpp"
 #include "hapticcal/jobs/evaluate_job.hpp"
+#include "number_options.hpp"
 #include "output_summary.hpp"
 #include "terminal.hpp"
 
@@ -45,6 +46,23 @@ CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& o) {
                        "frame or frame,tool: fit the measurement frame (the base pose), and the "
                        "tool point, on this log before scoring (a tracker moved since); each "
                        "model on its own with --reference");
+  evaluate->add_option(
+      "--tracker", o.tracker,
+      "A second session's tracker stream (t, x, y, z [, qw..qz | x1..]) on its own "
+      "clock; --log is then the device's stream (t, q1..qn): the clocks are aligned "
+      "with the model held, then the model is scored on the tracker's samples");
+  evaluate
+      ->add_option("--clock-search", o.clock_search,
+                   "With --tracker: search the clocks' offset within +-this [s] (default 10)")
+      ->check(within(option_range::kClockSearch));
+  evaluate->add_flag("--clock-drift", o.clock_drift,
+                     "With --tracker: fit the clocks' drift too (else the offset alone)");
+  evaluate->footer(
+      "Examples:\n"
+      "  hapticcal evaluate --model calibrated.yaml --log validation.csv --reference "
+      "geomagic-touch\n"
+      "  hapticcal evaluate --model calibrated.yaml --log session2/device.csv --tracker "
+      "session2/tracker.csv --clock-drift");
   return evaluate;
 }
 
@@ -61,6 +79,9 @@ int run_evaluate(const EvaluateOptions& o) {
   request.fixture = o.fixture;
   request.point_distances = o.point_distance;
   if (o.register_given) request.registration = hapticcal::parse_register(o.register_what);
+  request.tracker = o.tracker;
+  request.stream.search_range = o.clock_search;
+  request.stream.drift = o.clock_drift;
   // --json writes no files unless --out is given.
   if (!o.json || o.out_given) request.out = o.out;
   const hapticcal::EvaluateJob job = hapticcal::run_evaluate_job(request);

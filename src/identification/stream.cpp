@@ -314,10 +314,10 @@ void check_streams(const Log& device, const Log& tracker) {
                      "the tracker log has no positions x, y, z: the tracker's stream gives the "
                      "measurements, the device's the readings");
   }
-  if (tracker.has_orientation || tracker.marker_count > 0) {
-    throw InputError(tracker.origin, 0, tracker.has_orientation ? "qw" : "x1",
-                     "a tracker's stream is fitted on positions (t, x, y, z): orientations and "
-                     "marker bodies are not aligned in time yet");
+  if (tracker.marker_count > 0) {
+    throw InputError(tracker.origin, 0, "x1",
+                     "a marker body's stream is aligned as the body's poses (calibrate_streams "
+                     "turns the markers into poses first)");
   }
   if (device.has_position || device.has_distance) {
     throw InputError(device.origin, 0, device.has_position ? "x" : "distance",

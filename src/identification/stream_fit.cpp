@@ -12,6 +12,7 @@
 #include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/option_ranges.hpp"
+#include "hapticcal/identification/markers.hpp"
 #include "hapticcal/identification/stream.hpp"
 #include "hapticcal/identification/tree.hpp"
 #include "hapticcal/identification/two_step.hpp"
@@ -412,6 +413,123 @@ std::string clock_note(const ClockEstimate& estimate, const StreamOptions& strea
 
 }  // namespace
 
+namespace {
+
+// The Gauss-Newton step of the clock with the model held: the residuals'
+// columns over the clock (the velocity, times the time since the reference
+// for the drift), not projected (nothing else is fitted); the sd from the
+// residuals' own scatter.
+ClockStep held_clock_step(const DeviceModel& model, const ReadingInterpolator& readings,
+                          const Log& poses, const StreamClock& clock, bool drift) {
+  const int c = drift ? 2 : 1;
+  const Eigen::Index m = poses.rows;
+  const SampleMotion motion = sample_motion(model, readings, poses, clock);
+  Eigen::MatrixXd G(3 * m, c);
+  Eigen::VectorXd e(3 * m);
+  for (Eigen::Index r = 0; r < m; ++r) {
+    e.segment<3>(3 * r) = motion.residual.row(r).transpose();
+    G.block(3 * r, 0, 3, 1) = motion.velocity.row(r).transpose();
+    if (drift)
+      G.block(3 * r, 1, 3, 1) = motion.velocity.row(r).transpose() * (poses.t[r] - clock.reference);
+  }
+  ClockStep out;
+  const Eigen::MatrixXd N = G.transpose() * G;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(N);
+  if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 1e-12 * N.trace())) {
+    out.step = Eigen::VectorXd::Zero(c);
+    out.covariance = Eigen::MatrixXd::Constant(c, c, std::nan(""));
+    return out;
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(N);
+  out.step = ldlt.solve(G.transpose() * e);
+  const double dof = std::max<double>(static_cast<double>(3 * m - c), 1.0);
+  const double sigma2 = (e - G * out.step).squaredNorm() / dof;
+  out.covariance = sigma2 * ldlt.solve(Eigen::MatrixXd::Identity(c, c));
+  return out;
+}
+
+}  // namespace
+
+StreamAlignment align_streams(const DeviceModel& model, const Log& device, const Log& tracker_in,
+                              const StreamOptions& stream, const Eigen::Matrix3Xd& marker_body) {
+  check_option("--clock-search", stream.search_range, option_range::kClockSearch);
+  if (model.tree())
+    throw InputError(tracker_in.origin, 0, "--tracker",
+                     "a tree's second session is not aligned yet: give a chain");
+  const std::vector<int> glitches = tracker_glitches(tracker_in);
+  const Log screened = glitches.empty() ? Log() : without_rows(tracker_in, glitches);
+  const Log& screened_ref = glitches.empty() ? tracker_in : screened;
+  const bool body = tracker_in.marker_count > 0;
+  const MarkerPoses markers = body ? markers_to_poses(screened_ref, marker_body) : MarkerPoses();
+  const Log& tracker = body ? markers.poses : screened_ref;
+  check_streams(device, tracker);
+  if (device.dof() != model.dof()) {
+    throw InputError(device.origin, 0, "q",
+                     fmt::format("the device log has {} joint readings; the model has {} joints",
+                                 device.dof(), model.dof()));
+  }
+  StreamAlignment out;
+  ClockEstimate& estimate = out.clock;
+  estimate.search_range = stream.search_range;
+  estimate.drift_fitted = stream.drift;
+  estimate.device_rows = device.rows;
+  estimate.tracker_rows = tracker_in.rows;
+  const auto [coarse, correlation] =
+      coarse_clock_offset(model, device, tracker, stream.search_range);
+  estimate.coarse_offset = coarse;
+  estimate.coarse_correlation = correlation;
+  estimate.clock = {coarse, 0, tracker.t[0]};
+  const ReadingInterpolator readings(device);
+  const std::vector<int> rows =
+      fit_rows(model, readings, device, tracker, estimate.clock, stream, estimate);
+  const double span = tracker.t[tracker.rows - 1] - tracker.t[0];
+  std::vector<int> kept;
+  for (int it = 0; it < stream.max_iterations; ++it) {
+    throw_if_cancelled();
+    out.poses = readings_at_tracker(readings, device, tracker, rows, estimate.clock, kept);
+    const ClockStep step =
+        held_clock_step(model, readings, out.poses, estimate.clock, stream.drift);
+    if (std::isnan(step.covariance(0, 0))) {
+      throw InputError(
+          tracker_in.origin, 0, "t",
+          "the motion does not determine the clocks' offset (the tool point hardly moves)");
+    }
+    estimate.clock.offset += step.step[0];
+    if (stream.drift) estimate.clock.drift += step.step[1];
+    estimate.offset_sd = std::sqrt(step.covariance(0, 0));
+    if (stream.drift) estimate.drift_sd = std::sqrt(step.covariance(1, 1));
+    estimate.iterations = it + 1;
+    const double moved =
+        std::abs(step.step[0]) + (stream.drift ? std::abs(step.step[1]) * span : 0.0);
+    if (moved < std::max(kClockTolerance, kClockSds * estimate.offset_sd)) {
+      estimate.converged = true;
+      break;
+    }
+  }
+  out.poses = readings_at_tracker(readings, device, tracker, rows, estimate.clock, kept);
+  estimate.fit_samples = out.poses.rows;
+  if (!estimate.converged) {
+    out.notes.push_back(fmt::format("warning: the clocks' offset did not settle in {} steps",
+                                    stream.max_iterations));
+  }
+  CalibrationResult held;  // the clock check reads the model and the residual scatter only
+  held.calibrated = model;
+  const ClockCheck check = check_clock(held, readings, out.poses, estimate.clock);
+  std::string drift_note;
+  if (const std::string step = clock_verdict(check, stream, tracker_in.origin, span, drift_note);
+      !step.empty())
+    out.notes.push_back("warning: " + step);
+  if (!drift_note.empty()) out.notes.push_back("warning: " + drift_note);
+  estimate.curve = residual_curve(model, readings, device, tracker, kept, estimate);
+  if (body) {
+    out.notes.insert(out.notes.begin(), markers.note);
+    out.marker_body = markers.body;
+  }
+  out.notes.push_back(clock_note(estimate, stream, device.origin, tracker_in.origin));
+  glitch_notes(tracker_in, glitches, out.notes, estimate);
+  return out;
+}
+
 StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& device,
                                     const Log& tracker_in, const CalibrationOptions& options,
                                     const StreamOptions& stream) {
@@ -428,7 +546,13 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   // coarse search and the inner least squares: left out, each named.
   const std::vector<int> glitches = tracker_glitches(tracker_in);
   const Log screened = glitches.empty() ? Log() : without_rows(tracker_in, glitches);
-  const Log& tracker = glitches.empty() ? tracker_in : screened;
+  // A chain's marker body: the body's poses, aligned as a 6-D tracker's (the
+  // clock from their positions, the kinematics from positions and orientations).
+  const bool body = !nominal.tree() && tracker_in.marker_count > 0;
+  const MarkerPoses markers =
+      body ? markers_to_poses(glitches.empty() ? tracker_in : screened, options.marker_body)
+           : MarkerPoses();
+  const Log& tracker = body ? markers.poses : glitches.empty() ? tracker_in : screened;
   const Log first = nominal.tree() ? first_tip_stream(tracker) : Log();
   const Log& tracked = nominal.tree() ? first : tracker;
   check_streams(device, tracked);
@@ -529,6 +653,10 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   estimate.curve = residual_curve(out.result.calibrated, readings, device, tracked, kept, estimate);
   out.result.notes.push_back(clock_note(estimate, stream, device.origin, tracker.origin));
   glitch_notes(tracker_in, glitches, out.result.notes, estimate);
+  if (body) {
+    out.result.notes.insert(out.result.notes.begin(), markers.note);
+    out.result.marker_body = markers.body;
+  }
   out.result.clock = estimate;
   return out;
 }

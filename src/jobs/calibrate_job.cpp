@@ -97,11 +97,6 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
     throw InputError(request.tracker, 0, "--tracker",
                      "a tracker's stream measures positions: it takes no fixture points");
   }
-  if (!request.tracker.empty() && request.options.marker_body.cols() > 0) {
-    throw InputError(request.tracker, 0, "--markers",
-                     "a tracker's stream is fitted on positions: markers are not aligned in "
-                     "time yet");
-  }
   Log log = read_log(request.log, request.columns);
   // A tree's: a sample a tip of each row (a tracker's stream: of each of its rows, once
   // aligned); the rows as read kept for the tip-order hint. A chain's log is not copied.

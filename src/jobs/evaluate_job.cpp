@@ -118,6 +118,34 @@ EvaluateJob tree_evaluate_job(const EvaluateRequest& request,
   return job;
 }
 
+// A second session's clocks: first in the lines, "clock" in the JSON.
+void add_clock(const StreamAlignment& a, EvaluateJob& job) {
+  const ClockEstimate& c = a.clock;
+  std::vector<std::string> lines;
+  lines.push_back(fmt::format(
+      "clocks (the model held): offset {:.4f} ms +- {:.4f} ms{}; {} tracker samples scored",
+      1e3 * c.clock.offset, 1e3 * c.offset_sd,
+      c.drift_fitted
+          ? fmt::format(", drift {:.3f} ppm +- {:.3f} ppm", 1e6 * c.clock.drift, 1e6 * c.drift_sd)
+          : std::string(),
+      c.fit_samples));
+  lines.insert(lines.end(), a.notes.begin(), a.notes.end());
+  job.lines.insert(job.lines.begin(), lines.begin(), lines.end());
+  nlohmann::ordered_json json = nlohmann::ordered_json::parse(job.json);
+  json["clock"] = {
+      {"offset", c.clock.offset},
+      {"offset_sd", c.offset_sd},
+      {"drift", c.clock.drift},
+      {"drift_sd", c.drift_fitted ? nlohmann::ordered_json(c.drift_sd) : nlohmann::ordered_json()},
+      {"coarse_offset", c.coarse_offset},
+      {"coarse_correlation", c.coarse_correlation},
+      {"samples", c.fit_samples},
+      {"tracker_rows", c.tracker_rows},
+      {"glitch_lines", c.glitch_lines},
+      {"notes", a.notes}};
+  job.json = json.dump();
+}
+
 }  // namespace
 
 EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
@@ -127,6 +155,16 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   EvaluateJob job;
   job.model = request.given ? *request.given : load_evaluated_model(request, request.model);
   Log log = read_log(request.log, request.columns);
+  if (!request.tracker.empty()) {
+    if (request.registration || !request.fixture.empty() || !request.point_distances.empty()) {
+      throw InputError(request.tracker, 0, "--tracker",
+                       "a second session is scored in the calibrated model's frame: no --register, "
+                       "fixture or point distances");
+    }
+    job.alignment = align_streams(job.model, log, read_log(request.tracker), request.stream,
+                                  request.marker_body);
+    log = job.alignment->poses;
+  }
   if (log.marker_count > 0) log = markers_to_poses(log, request.marker_body).poses;
   job.rows = log.rows;
   const Fixture known = fixture_facts(request.fixture, request.point_distances);
@@ -147,6 +185,7 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   const EvaluationComparison* cmp = job.comparison ? &*job.comparison : nullptr;
   job.json = evaluation_json(cmp, job.evaluation);
   job.lines = evaluation_lines(cmp, job.evaluation, request.reference);
+  if (job.alignment) add_clock(*job.alignment, job);
   if (!request.out) return job;
   job.out = std::make_unique<OutputSet>(*request.out, "evaluate");
   write_file_atomically(job.out->dir() + "/results.json", job.json + "\n");

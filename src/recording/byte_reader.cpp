@@ -18,9 +18,11 @@
 
 namespace hapticcal::recording {
 
-static_assert(std::endian::native == std::endian::little, "the recording readers read little-endian");
+static_assert(std::endian::native == std::endian::little,
+              "the recording readers read little-endian");
 
-void fail_at(const std::string& name, std::uint64_t offset, const std::string& record, const std::string& what) {
+void fail_at(const std::string& name, std::uint64_t offset, const std::string& record,
+             const std::string& what) {
   std::string message = fmt::format("byte {}", offset);
   if (!record.empty()) message += ": " + record;
   throw InputError(name, 0, "", message + ": " + what);
@@ -41,7 +43,9 @@ MappedFile::MappedFile(const std::string& path, std::uint64_t max_bytes) {
   }
   if (static_cast<std::uint64_t>(st.st_size) > max_bytes) {
     ::close(fd);
-    throw InputError(path, 0, "", fmt::format("{} bytes: more than the bound of {} bytes", st.st_size, max_bytes));
+    throw InputError(
+        path, 0, "",
+        fmt::format("{} bytes: more than the bound of {} bytes", st.st_size, max_bytes));
   }
   size_ = static_cast<std::size_t>(st.st_size);
   if (size_ > 0) {
@@ -62,8 +66,8 @@ MappedFile::~MappedFile() {
 namespace {
 
 // The output buffer of a decompressor: exactly `expected` bytes, or an error.
-void check_size(std::size_t got, std::uint64_t expected, const std::string& name, std::uint64_t offset,
-                const std::string& record, const char* codec) {
+void check_size(std::size_t got, std::uint64_t expected, const std::string& name,
+                std::uint64_t offset, const std::string& record, const char* codec) {
   if (got != expected)
     fail_at(name, offset, record,
             fmt::format("{} data hold {} bytes, the record states {}", codec, got, expected));
@@ -71,8 +75,9 @@ void check_size(std::size_t got, std::uint64_t expected, const std::string& name
 
 }  // namespace
 
-std::string decompress_lz4_frame(std::string_view in, std::uint64_t expected, const std::string& name,
-                                 std::uint64_t offset, const std::string& record) {
+std::string decompress_lz4_frame(std::string_view in, std::uint64_t expected,
+                                 const std::string& name, std::uint64_t offset,
+                                 const std::string& record) {
   LZ4F_dctx* ctx = nullptr;
   if (LZ4F_isError(LZ4F_createDecompressionContext(&ctx, LZ4F_VERSION)))
     fail_at(name, offset, record, "lz4: cannot create a decompression context");
@@ -93,14 +98,16 @@ std::string decompress_lz4_frame(std::string_view in, std::uint64_t expected, co
     }
     if (dst == &spare && out_size > 0) {
       LZ4F_freeDecompressionContext(ctx);
-      fail_at(name, offset, record, fmt::format("lz4 data hold more than the {} bytes the record states", expected));
+      fail_at(name, offset, record,
+              fmt::format("lz4 data hold more than the {} bytes the record states", expected));
     }
     if (in_size == 0 && out_size == 0) break;  // no progress: truncated
     in_pos += in_size;
     out_pos += dst == &spare ? 0 : out_size;
   }
   LZ4F_freeDecompressionContext(ctx);
-  if (status != 0) fail_at(name, offset, record, "lz4 data end before their frame does (a truncated chunk)");
+  if (status != 0)
+    fail_at(name, offset, record, "lz4 data end before their frame does (a truncated chunk)");
   check_size(out_pos, expected, name, offset, record, "lz4");
   return out;
 }
@@ -125,24 +132,31 @@ std::string decompress_zstd(std::string_view in, std::uint64_t expected, const s
   }
   ZSTD_freeDCtx(ctx);
   if (src.pos < src.size)
-    fail_at(name, offset, record, fmt::format("zstd data hold more than the {} bytes the record states", expected));
-  if (status != 0) fail_at(name, offset, record, "zstd data end before their frame does (a truncated chunk)");
+    fail_at(name, offset, record,
+            fmt::format("zstd data hold more than the {} bytes the record states", expected));
+  if (status != 0)
+    fail_at(name, offset, record, "zstd data end before their frame does (a truncated chunk)");
   check_size(dst.pos, expected, name, offset, record, "zstd");
   return out;
 }
 
 std::string decompress_bz2(std::string_view in, std::uint64_t expected, const std::string& name,
                            std::uint64_t offset, const std::string& record) {
-  if (in.size() > std::numeric_limits<unsigned>::max() || expected > std::numeric_limits<unsigned>::max() - 1)
+  if (in.size() > std::numeric_limits<unsigned>::max() ||
+      expected > std::numeric_limits<unsigned>::max() - 1)
     fail_at(name, offset, record, "bz2: a chunk over 4 GiB");
-  std::string out(static_cast<std::size_t>(expected) + 1, '\0');  // one spare byte: more data is an error
+  std::string out(static_cast<std::size_t>(expected) + 1,
+                  '\0');  // one spare byte: more data is an error
   unsigned out_size = static_cast<unsigned>(out.size());
   const int status = BZ2_bzBuffToBuffDecompress(out.data(), &out_size, const_cast<char*>(in.data()),
                                                 static_cast<unsigned>(in.size()), 0, 0);
   if (status == BZ_OUTBUFF_FULL)
-    fail_at(name, offset, record, fmt::format("bz2 data hold more than the {} bytes the record states", expected));
-  if (status == BZ_UNEXPECTED_EOF) fail_at(name, offset, record, "bz2 data end early (a truncated chunk)");
-  if (status != BZ_OK) fail_at(name, offset, record, fmt::format("bz2: corrupt data (error {})", status));
+    fail_at(name, offset, record,
+            fmt::format("bz2 data hold more than the {} bytes the record states", expected));
+  if (status == BZ_UNEXPECTED_EOF)
+    fail_at(name, offset, record, "bz2 data end early (a truncated chunk)");
+  if (status != BZ_OK)
+    fail_at(name, offset, record, fmt::format("bz2: corrupt data (error {})", status));
   check_size(out_size, expected, name, offset, record, "bz2");
   out.resize(out_size);
   return out;

@@ -22,7 +22,8 @@ namespace hapticcal::recording {
 // at the chunk). `record` names what is being read in errors.
 class ByteReader {
  public:
-  ByteReader(std::string_view bytes, const std::string& name, std::uint64_t base, bool offsets_inside = true)
+  ByteReader(std::string_view bytes, const std::string& name, std::uint64_t base,
+             bool offsets_inside = true)
       : bytes_(bytes), name_(name), base_(base), offsets_inside_(offsets_inside) {}
 
   std::size_t position() const { return pos_; }
@@ -89,8 +90,9 @@ class MappedFile {
 // states (checked against limits.max_uncompressed_bytes by the caller first);
 // the result must have exactly that size. Errors name `name`, `offset` and
 // `record`.
-std::string decompress_lz4_frame(std::string_view in, std::uint64_t expected, const std::string& name,
-                                 std::uint64_t offset, const std::string& record);
+std::string decompress_lz4_frame(std::string_view in, std::uint64_t expected,
+                                 const std::string& name, std::uint64_t offset,
+                                 const std::string& record);
 std::string decompress_zstd(std::string_view in, std::uint64_t expected, const std::string& name,
                             std::uint64_t offset, const std::string& record);
 std::string decompress_bz2(std::string_view in, std::uint64_t expected, const std::string& name,

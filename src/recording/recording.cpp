@@ -1,3 +1,5 @@
+#include "hapticcal/recording/recording.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -6,7 +8,6 @@
 #include <vector>
 
 #include "hapticcal/core/error.hpp"
-#include "hapticcal/recording/recording.hpp"
 
 namespace hapticcal::recording {
 namespace {
@@ -43,19 +44,22 @@ std::string format_of(const std::string& path) {
   in.read(head, sizeof head);
   const std::string_view start(head, static_cast<std::size_t>(in.gcount()));
   if (start.starts_with("#ROSBAG V2.0\n")) return "ROS 1 bag";
-  if (start.starts_with("#ROSBAG V")) throw InputError(path, 0, "", "a ROS 1 bag of a format other than 2.0");
+  if (start.starts_with("#ROSBAG V"))
+    throw InputError(path, 0, "", "a ROS 1 bag of a format other than 2.0");
   if (start.starts_with("\x89MCAP0\r\n")) return "MCAP";
   if (start.starts_with(std::string_view("SQLite format 3\0", 16))) return "rosbag2 sqlite3";
-  throw InputError(path, 0, "",
-                   "not a recording hapticcal reads (a ROS 1 bag 2.0, an MCAP file or a rosbag2 .db3; "
-                   "a tracker's CSV export is read by `import --tracker-export`)");
+  throw InputError(
+      path, 0, "",
+      "not a recording hapticcal reads (a ROS 1 bag 2.0, an MCAP file or a rosbag2 .db3; "
+      "a tracker's CSV export is read by `import --tracker-export`)");
 }
 
 }  // namespace
 
 std::string recording_format(const std::string& path) { return format_of(resolved(path)); }
 
-void read_recording(const std::string& path, RecordingVisitor& visitor, const RecordingLimits& limits) {
+void read_recording(const std::string& path, RecordingVisitor& visitor,
+                    const RecordingLimits& limits) {
   const std::string file = resolved(path);
   const std::string format = format_of(file);
   if (format == "ROS 1 bag") return read_ros1_bag(file, visitor, limits);

@@ -1,1 +1,498 @@
-// (being written)
+// ROS 1 bags, format 2.0, as specified at http://wiki.ros.org/Bags/Format/2.0:
+// "#ROSBAG V2.0\n", then records, each a header (uint32 length, then fields
+// "name=value" each behind a uint32 length) and data (uint32 length, bytes).
+// The records are walked in file order from the start; the index (connection
+// and chunk info records after index_pos) is checked, not relied on. A bag cut
+// short (a record that the file ends inside, an index_pos beyond the end) or
+// whose recording never closed (index_pos 0) is an error: nothing is guessed.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/recording/recording.hpp"
+#include "recording/byte_reader.hpp"
+
+namespace hapticcal::recording {
+namespace {
+
+constexpr std::string_view kMagic = "#ROSBAG V2.0\n";
+// Far above any header a recorder writes (about six fields); keeps a hostile
+// header's field list (and the duplicate search over it) small.
+constexpr std::size_t kMaxHeaderFields = 4096;
+// An lz4 frame cannot expand more: a match's length grows by at most 255 for
+// each byte that encodes it (LZ4 block format), so larger claims are corrupt.
+constexpr std::uint64_t kMaxLz4Expansion = 255;
+
+enum Op : std::uint8_t {
+  kMessageDefinition = 0x01,  // format 1.2 only
+  kMessageData = 0x02,
+  kBagHeader = 0x03,
+  kIndexData = 0x04,
+  kChunk = 0x05,
+  kChunkInfo = 0x06,
+  kConnection = 0x07,
+};
+
+const char* op_name(std::uint8_t op) {
+  switch (op) {
+    case kMessageDefinition:
+      return "message definition";
+    case kMessageData:
+      return "message data";
+    case kBagHeader:
+      return "bag header";
+    case kIndexData:
+      return "index data";
+    case kChunk:
+      return "chunk";
+    case kChunkInfo:
+      return "chunk info";
+    case kConnection:
+      return "connection";
+    default:
+      return nullptr;
+  }
+}
+
+// Where an error points: the file, the byte offset of the record (or of the
+// compressed chunk holding it) and what the record is.
+struct Where {
+  const std::string& name;
+  std::uint64_t offset = 0;
+  std::string record;
+  [[noreturn]] void fail(const std::string& what) const { fail_at(name, offset, record, what); }
+};
+
+std::string quoted(std::string_view text) { return "'" + printable(std::string(text)) + "'"; }
+
+// A header's fields, sorted by name (names are unique).
+class Header {
+ public:
+  // `fields` is a header's bytes after its length; `what` names it in errors
+  // ("header", "connection header").
+  Header(std::string_view fields, const Where& where, const char* what)
+      : where_(where), what_(what) {
+    std::size_t pos = 0;
+    while (pos < fields.size()) {
+      const std::size_t left = fields.size() - pos;
+      if (left < 4)
+        fail(fmt::format("{} byte(s) after the last field, too few for a field's length", left));
+      std::uint32_t length;
+      std::memcpy(&length, fields.data() + pos, 4);
+      if (length > left - 4)
+        fail(fmt::format("a field of {} bytes at byte {} of the header, {} left", length, pos,
+                         left - 4));
+      const std::string_view field = fields.substr(pos + 4, length);
+      const std::size_t equals = field.find('=');
+      if (equals == std::string_view::npos) fail(fmt::format("field {} has no '='", quoted(field)));
+      if (equals == 0) fail(fmt::format("field {} has no name", quoted(field)));
+      if (fields_.size() == kMaxHeaderFields)
+        fail(fmt::format("more than {} fields", kMaxHeaderFields));
+      fields_.emplace_back(field.substr(0, equals), field.substr(equals + 1));
+      pos += 4 + std::size_t{length};
+    }
+    std::sort(fields_.begin(), fields_.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    const auto twice =
+        std::adjacent_find(fields_.begin(), fields_.end(),
+                           [](const auto& a, const auto& b) { return a.first == b.first; });
+    if (twice != fields_.end()) fail(fmt::format("field {} appears twice", quoted(twice->first)));
+  }
+
+  std::optional<std::string_view> find(std::string_view name) const {
+    const auto it =
+        std::lower_bound(fields_.begin(), fields_.end(), name,
+                         [](const auto& field, std::string_view n) { return field.first < n; });
+    if (it == fields_.end() || it->first != name) return std::nullopt;
+    return it->second;
+  }
+  std::string_view string(std::string_view name) const {
+    const std::optional<std::string_view> value = find(name);
+    if (!value) fail(fmt::format("no '{}' field", name));
+    return *value;
+  }
+  template <typename T>
+  T number(std::string_view name) const {
+    const std::string_view value = string(name);
+    if (value.size() != sizeof(T))
+      fail(fmt::format("field '{}' of {} bytes, not {}", name, value.size(), sizeof(T)));
+    T out;
+    std::memcpy(&out, value.data(), sizeof(T));
+    return out;
+  }
+  // A time field (uint32 sec, uint32 nsec) in nanoseconds since the epoch.
+  std::int64_t time_ns(std::string_view name) const {
+    const auto both = number<std::uint64_t>(name);
+    const std::uint64_t sec = both & 0xffffffffu, nsec = both >> 32;
+    if (nsec >= 1000000000u) fail(fmt::format("field '{}': nsec {} is not below 1e9", name, nsec));
+    return static_cast<std::int64_t>(sec * 1000000000u + nsec);
+  }
+  [[noreturn]] void fail(const std::string& what) const {
+    where_.fail(std::string(what_) + ": " + what);
+  }
+
+ private:
+  std::vector<std::pair<std::string_view, std::string_view>> fields_;
+  const Where& where_;
+  const char* what_;
+};
+
+// The op of a header (or of a cut one) when a sound field before any unsound
+// one holds it: only to name the record in errors.
+std::optional<std::uint8_t> op_of_partial_header(std::string_view fields) {
+  std::size_t pos = 0;
+  while (fields.size() - pos >= 4) {
+    std::uint32_t length;
+    std::memcpy(&length, fields.data() + pos, 4);
+    if (length > fields.size() - pos - 4) break;
+    const std::string_view field = fields.substr(pos + 4, length);
+    if (field.size() == 4 && field.substr(0, 3) == "op=")
+      return static_cast<std::uint8_t>(field[3]);
+    pos += 4 + std::size_t{length};
+  }
+  return std::nullopt;
+}
+
+// One record of a block (the file, or a chunk's contents). Not copied: its
+// header refers to `where`.
+struct Record {
+  explicit Record(Where w) : where(std::move(w)) {}
+  Record(const Record&) = delete;
+  Record& operator=(const Record&) = delete;
+
+  Where where;  // the record's offset (or its chunk's) and its name
+  std::uint8_t op = 0;
+  std::optional<Header> header;
+  std::string_view data;
+  std::uint64_t data_offset = 0;  // the data's offset within the block
+  std::size_t size = 0;           // header and data with their lengths
+};
+
+// The record at `pos` of `block`: the file, or a chunk's contents (decompressed
+// when `compressed`). `r.where` holds the offset its errors name.
+void read_record(std::string_view block, std::size_t pos, bool in_chunk, bool compressed,
+                 const RecordingLimits& limits, Record& r) {
+  const Where& w = r.where;
+  const char* block_name = in_chunk ? "chunk" : "file";
+  const auto name_record = [&](const char* name) {
+    r.where.record =
+        compressed ? fmt::format("chunk: {} at byte {} uncompressed", name, pos) : name;
+  };
+  name_record("record");
+  const std::size_t left = block.size() - pos;
+  if (left < 4)
+    w.fail(fmt::format("the {} ends inside the record's header length ({} of 4 bytes)", block_name,
+                       left));
+  std::uint32_t header_bytes;
+  std::memcpy(&header_bytes, block.data() + pos, 4);
+  if (header_bytes > limits.max_record_bytes)
+    w.fail(fmt::format("a header of {} bytes: more than the bound of {} bytes (max_record_bytes)",
+                       header_bytes, limits.max_record_bytes));
+  if (header_bytes > left - 4) {
+    if (const auto op = op_of_partial_header(block.substr(pos + 4)); op && op_name(*op))
+      name_record(op_name(*op));
+    w.fail(fmt::format("the {} ends inside the record's header of {} bytes ({} left)", block_name,
+                       header_bytes, left - 4));
+  }
+  const std::string_view header = block.substr(pos + 4, header_bytes);
+  // Named by its op (when that field is sound) also in errors of its other fields.
+  if (const auto op = op_of_partial_header(header); op && op_name(*op)) name_record(op_name(*op));
+  r.header.emplace(header, w, "header");
+  r.op = r.header->number<std::uint8_t>("op");
+  const char* name = op_name(r.op);
+  if (name == nullptr) w.fail(fmt::format("unknown op 0x{:02x}", r.op));
+  name_record(name);
+  const std::size_t after_header = left - 4 - header_bytes;
+  if (after_header < 4)
+    w.fail(fmt::format("the {} ends inside the record's data length ({} of 4 bytes)", block_name,
+                       after_header));
+  std::uint32_t data_bytes;
+  std::memcpy(&data_bytes, block.data() + pos + 4 + header_bytes, 4);
+  if (std::uint64_t{header_bytes} + data_bytes > limits.max_record_bytes)
+    w.fail(fmt::format(
+        "{} bytes of header and data: more than the bound of {} bytes (max_record_bytes)",
+        std::uint64_t{header_bytes} + data_bytes, limits.max_record_bytes));
+  if (data_bytes > after_header - 4)
+    w.fail(fmt::format("the {} ends inside the record's data of {} bytes ({} left)", block_name,
+                       data_bytes, after_header - 4));
+  r.data_offset = pos + 8 + header_bytes;
+  r.data = block.substr(r.data_offset, data_bytes);
+  r.size = 8 + std::size_t{header_bytes} + data_bytes;
+}
+
+struct Connection {
+  Channel channel;
+  std::string md5sum;
+};
+
+class BagReader {
+ public:
+  BagReader(std::string_view bytes, const std::string& name, RecordingVisitor& visitor,
+            const RecordingLimits& limits)
+      : bytes_(bytes), name_(name), visitor_(visitor), limits_(limits) {}
+
+  void read();
+
+ private:
+  void file_record(std::size_t pos, Record& r) const {
+    read_record(bytes_, pos, false, false, limits_, r);
+  }
+  void check_magic() const;
+  std::size_t read_bag_header();
+  void check_framing(std::size_t first) const;
+  void read_chunk(const Record& chunk);
+  void read_connection(const Record& r);
+  void read_message(const Record& r);
+  void read_index_data(const Record& r) const;
+  void read_chunk_info(const Record& r) const;
+  void check_counts() const;
+
+  std::string_view bytes_;
+  const std::string& name_;
+  RecordingVisitor& visitor_;
+  const RecordingLimits& limits_;
+  std::uint64_t index_pos_ = 0;
+  std::uint32_t conn_count_ = 0, chunk_count_ = 0;
+  std::unordered_map<std::uint32_t, Connection> connections_;
+  std::vector<std::uint64_t> chunk_offsets_;  // increasing
+  std::uint64_t messages_ = 0;
+};
+
+void BagReader::check_magic() const {
+  const Where w{name_, 0, ""};
+  if (bytes_.substr(0, kMagic.size()) == kMagic) return;
+  constexpr std::string_view kAnyVersion = "#ROSBAG V";
+  if (bytes_.substr(0, kAnyVersion.size()) == kAnyVersion) {
+    const std::string_view rest = bytes_.substr(kAnyVersion.size(), 8);
+    w.fail(fmt::format(
+        "a ROS bag of format version {}: only 2.0 is read (`rosbag fix` converts a 1.2 bag)",
+        quoted(rest.substr(0, rest.find('\n')))));
+  }
+  w.fail("not a ROS 1 bag: it does not start with \"#ROSBAG V2.0\\n\"");
+}
+
+// The bag header record after the magic; returns the offset after it.
+std::size_t BagReader::read_bag_header() {
+  Record r(Where{name_, kMagic.size(), ""});
+  file_record(kMagic.size(), r);
+  if (r.op != kBagHeader) r.where.fail("the first record is not the bag header");
+  index_pos_ = r.header->number<std::uint64_t>("index_pos");
+  conn_count_ = r.header->number<std::uint32_t>("conn_count");
+  chunk_count_ = r.header->number<std::uint32_t>("chunk_count");
+  if (const auto encryptor = r.header->find("encryptor"))
+    r.where.fail(fmt::format("an encrypted bag (encryptor {}) is not read", quoted(*encryptor)));
+  if (index_pos_ == 0)
+    r.where.fail(
+        "index_pos 0: the recording did not close the bag (`rosbag reindex` writes its index)");
+  return kMagic.size() + r.size;
+}
+
+// Every top-level record complete, index_pos at one of them (or at the end)
+// and as many chunks and chunk infos as the bag header states: a truncated bag
+// is reported before anything is handed out.
+void BagReader::check_framing(std::size_t first) const {
+  const Where w{name_, kMagic.size(), "bag header"};
+  std::uint64_t chunks = 0, chunk_infos = 0;
+  bool index_found = false;
+  for (std::size_t pos = first;;) {
+    index_found = index_found || index_pos_ == pos;
+    if (pos >= bytes_.size()) break;
+    Record r(Where{name_, pos, ""});
+    file_record(pos, r);
+    chunks += r.op == kChunk;
+    chunk_infos += r.op == kChunkInfo;
+    pos += r.size;
+  }
+  if (index_pos_ > bytes_.size())
+    w.fail(fmt::format("index_pos {} is beyond the file's end at byte {} (a truncated bag)",
+                       index_pos_, bytes_.size()));
+  if (!index_found) w.fail(fmt::format("index_pos {} is not at a record", index_pos_));
+  if (chunks != chunk_count_)
+    w.fail(fmt::format("chunk_count {}, but the file holds {} chunks", chunk_count_, chunks));
+  if (index_pos_ == bytes_.size() && chunk_count_ > 0)
+    w.fail(fmt::format(
+        "index_pos {} is the file's end: the index of its {} chunks is missing (a truncated bag)",
+        index_pos_, chunk_count_));
+  if (chunk_infos != chunk_count_)
+    w.fail(fmt::format("chunk_count {}, but the index holds {} chunk info records", chunk_count_,
+                       chunk_infos));
+}
+
+void BagReader::read() {
+  if (bytes_.size() > limits_.max_file_bytes)
+    fail_at(name_, 0, "",
+            fmt::format("{} bytes: more than the bound of {} bytes (max_file_bytes)", bytes_.size(),
+                        limits_.max_file_bytes));
+  check_magic();
+  const std::size_t first = read_bag_header();
+  check_framing(first);
+  for (std::size_t pos = first; pos < bytes_.size();) {
+    Record r(Where{name_, pos, ""});
+    file_record(pos, r);
+    const bool before_index = pos < index_pos_;
+    if (before_index && r.op == kChunk) {
+      read_chunk(r);
+    } else if (before_index && r.op == kIndexData) {
+      read_index_data(r);
+    } else if (!before_index && r.op == kConnection) {
+      read_connection(r);
+    } else if (!before_index && r.op == kChunkInfo) {
+      read_chunk_info(r);
+    } else {
+      r.where.fail(fmt::format("not expected {} the index at index_pos {}",
+                               before_index ? "before" : "after", index_pos_));
+    }
+    pos += r.size;
+  }
+  check_counts();
+}
+
+void BagReader::read_chunk(const Record& chunk) {
+  const Where& w = chunk.where;
+  const std::string_view compression = chunk.header->string("compression");
+  const auto size = chunk.header->number<std::uint32_t>("size");
+  if (size > limits_.max_uncompressed_bytes)
+    w.fail(fmt::format(
+        "{} bytes uncompressed: more than the bound of {} bytes (max_uncompressed_bytes)", size,
+        limits_.max_uncompressed_bytes));
+  std::string buffer;
+  std::string_view contents;
+  const bool compressed = compression != "none";
+  if (!compressed) {
+    if (chunk.data.size() != size)
+      w.fail(fmt::format("size {} uncompressed, but the uncompressed data hold {} bytes", size,
+                         chunk.data.size()));
+    contents = chunk.data;
+  } else if (compression == "lz4") {
+    if (size > kMaxLz4Expansion * chunk.data.size())
+      w.fail(fmt::format("size {} uncompressed: more than {} bytes of lz4 data can hold", size,
+                         chunk.data.size()));
+    buffer = decompress_lz4_frame(chunk.data, size, name_, w.offset, w.record);
+    contents = buffer;
+  } else if (compression == "bz2") {
+    buffer = decompress_bz2(chunk.data, size, name_, w.offset, w.record);
+    contents = buffer;
+  } else {
+    w.fail(fmt::format("compression {}: not none, bz2 or lz4", quoted(compression)));
+  }
+  chunk_offsets_.push_back(w.offset);
+  for (std::size_t pos = 0; pos < contents.size();) {
+    // Records of an uncompressed chunk are reported at their own offset in the
+    // file; those of a compressed one at the chunk's, with their place in it.
+    Record r(Where{name_, compressed ? w.offset : chunk.data_offset + pos, ""});
+    read_record(contents, pos, true, compressed, limits_, r);
+    if (r.op == kConnection) {
+      read_connection(r);
+    } else if (r.op == kMessageData) {
+      read_message(r);
+    } else {
+      r.where.fail("not expected inside a chunk");
+    }
+    pos += r.size;
+  }
+}
+
+void BagReader::read_connection(const Record& r) {
+  const auto id = r.header->number<std::uint32_t>("conn");
+  Connection c;
+  c.channel.topic = r.header->string("topic");
+  const Header fields(r.data, r.where, "connection header");
+  c.channel.type = fields.string("type");
+  c.channel.encoding = Encoding::kRos1;
+  c.channel.definition = fields.string("message_definition");
+  c.md5sum = fields.string("md5sum");
+  if (c.channel.topic.empty()) r.header->fail("the topic is empty");
+  if (c.channel.type.empty()) fields.fail("the type is empty");
+  const auto known = connections_.find(id);
+  if (known != connections_.end()) {
+    const Connection& k = known->second;
+    const auto differ = [&](const char* what, const std::string& before, const std::string& now) {
+      if (before != now)
+        r.where.fail(fmt::format("connection {} redefined: {} {}, before {}", id, what, quoted(now),
+                                 quoted(before)));
+    };
+    differ("topic", k.channel.topic, c.channel.topic);
+    differ("type", k.channel.type, c.channel.type);
+    differ("md5sum", k.md5sum, c.md5sum);
+    differ("message_definition", k.channel.definition, c.channel.definition);
+    return;
+  }
+  if (connections_.size() >= limits_.max_channels)
+    r.where.fail(
+        fmt::format("more than the bound of {} connections (max_channels)", limits_.max_channels));
+  const Channel& channel = connections_.emplace(id, std::move(c)).first->second.channel;
+  visitor_.channel(id, channel);
+}
+
+void BagReader::read_message(const Record& r) {
+  const auto id = r.header->number<std::uint32_t>("conn");
+  const std::int64_t receive_ns = r.header->time_ns("time");
+  if (connections_.count(id) == 0)
+    r.where.fail(fmt::format("connection {}, which no connection record before it defines", id));
+  if (r.data.size() > limits_.max_message_bytes)
+    r.where.fail(
+        fmt::format("a message of {} bytes: more than the bound of {} bytes (max_message_bytes)",
+                    r.data.size(), limits_.max_message_bytes));
+  if (messages_ >= limits_.max_messages)
+    r.where.fail(
+        fmt::format("more than the bound of {} messages (max_messages)", limits_.max_messages));
+  ++messages_;
+  visitor_.message(id, receive_ns, r.data, r.where.offset);
+}
+
+void BagReader::read_index_data(const Record& r) const {
+  const auto version = r.header->number<std::uint32_t>("ver");
+  const auto id = r.header->number<std::uint32_t>("conn");
+  const auto count = r.header->number<std::uint32_t>("count");
+  if (version != 1) r.header->fail(fmt::format("version {}, not 1", version));
+  if (connections_.count(id) == 0)
+    r.where.fail(fmt::format("connection {}, which no connection record before it defines", id));
+  if (r.data.size() != std::uint64_t{count} * 12)
+    r.where.fail(fmt::format("{} entries of 12 bytes, but {} bytes of data", count, r.data.size()));
+}
+
+void BagReader::read_chunk_info(const Record& r) const {
+  const auto version = r.header->number<std::uint32_t>("ver");
+  const auto chunk_pos = r.header->number<std::uint64_t>("chunk_pos");
+  r.header->time_ns("start_time");
+  r.header->time_ns("end_time");
+  const auto count = r.header->number<std::uint32_t>("count");
+  if (version != 1) r.header->fail(fmt::format("version {}, not 1", version));
+  if (!std::binary_search(chunk_offsets_.begin(), chunk_offsets_.end(), chunk_pos))
+    r.where.fail(fmt::format("chunk_pos {} is not a chunk's offset", chunk_pos));
+  if (r.data.size() != std::uint64_t{count} * 8)
+    r.where.fail(fmt::format("{} entries of 8 bytes, but {} bytes of data", count, r.data.size()));
+}
+
+// The bag header's count of connections against the file's (its chunks are
+// counted by check_framing).
+void BagReader::check_counts() const {
+  const Where w{name_, kMagic.size(), "bag header"};
+  if (connections_.size() != conn_count_)
+    w.fail(fmt::format("conn_count {}, but the file holds {} connections", conn_count_,
+                       connections_.size()));
+}
+
+}  // namespace
+
+void read_ros1_bag_bytes(std::string_view bytes, const std::string& name, RecordingVisitor& visitor,
+                         const RecordingLimits& limits) {
+  BagReader(bytes, name, visitor, limits).read();
+}
+
+void read_ros1_bag(const std::string& path, RecordingVisitor& visitor,
+                   const RecordingLimits& limits) {
+  const MappedFile file(path, limits.max_file_bytes);
+  read_ros1_bag_bytes(file.bytes(), path, visitor, limits);
+}
+
+}  // namespace hapticcal::recording

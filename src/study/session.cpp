@@ -73,6 +73,45 @@ Log empty_log(const DeviceModel& model, const char* origin, Eigen::Index rows, b
   return log;
 }
 
+// What the tracker records of the actual device at readings q: each tip's point
+// (a tree's), or the tool point with its orientation (a 6-D tracker's:
+// x, y, z, qw, qx, qy, qz), or a marker body's markers, with their noise.
+// `gauss` is the session's: the positions' noise draws as they always did.
+Eigen::VectorXd tracked(const DeviceModel& actual, const PreparedModel& prepared,
+                        const Eigen::VectorXd& q, const SessionOptions& o, std::mt19937_64& rng,
+                        std::normal_distribution<double>& gauss) {
+  const auto noise = [&] {
+    Eigen::Vector3d v;
+    for (int k = 0; k < 3; ++k) v[k] = gauss(rng);
+    return v;
+  };
+  const int tips = actual.tips();
+  if (actual.tree() || (!o.orientation && o.marker_body.cols() == 0)) {
+    Eigen::VectorXd p(3 * tips);
+    for (int t = 0; t < tips; ++t)
+      p.segment<3>(3 * t) = prepared.forward(q.data(), t).p + o.sigma_position * noise();
+    return p;
+  }
+  const Frame<double> pose = prepared.forward(q.data());
+  if (o.marker_body.cols() > 0) {
+    Eigen::VectorXd p(3 * o.marker_body.cols());
+    for (Eigen::Index k = 0; k < o.marker_body.cols(); ++k)
+      p.segment<3>(3 * k) =
+          pose * Eigen::Vector3d(o.marker_body.col(k)) + o.sigma_position * noise();
+    return p;
+  }
+  const Eigen::Vector3d turn = o.sigma_orientation * noise();
+  const Eigen::Matrix3d R =
+      pose.R *
+      Eigen::AngleAxisd(turn.norm(), turn.norm() > 0 ? turn.normalized() : Eigen::Vector3d::UnitX())
+          .toRotationMatrix();
+  const Eigen::Quaterniond quaternion(R);
+  Eigen::VectorXd p(7);
+  p << pose.p + o.sigma_position * noise(), quaternion.w(), quaternion.x(), quaternion.y(),
+      quaternion.z();
+  return p;
+}
+
 }  // namespace
 
 Session simulate_session(const DeviceModel& actual, const SessionOptions& o, std::uint64_t seed) {
@@ -131,23 +170,23 @@ Session simulate_session(const DeviceModel& actual, const SessionOptions& o, std
       continue;
     }
     motion.at(instant, q.data());
-    Eigen::VectorXd p(3 * tips);
-    for (int t = 0; t < tips; ++t) {
-      p.segment<3>(3 * t) = prepared.forward(q.data(), t).p;
-      for (int k = 0; k < 3; ++k) p[3 * t + k] += o.sigma_position * gauss(rng);
-    }
     stamps.push_back(stamp);
-    points.push_back(p);
+    points.push_back(tracked(actual, prepared, q, o, rng, gauss));
   }
   const auto m = static_cast<Eigen::Index>(stamps.size());
   s.tracker = empty_log(actual, "simulated tracker stream", m, false);
-  Eigen::MatrixXd& measured = actual.tree() ? s.tracker.markers : s.tracker.position;
-  s.tracker.has_position = !actual.tree();
-  s.tracker.marker_count = actual.tree() ? tips : 0;
-  measured.resize(m, 3 * tips);
+  const int markers = actual.tree() ? tips : static_cast<int>(o.marker_body.cols());
+  Eigen::MatrixXd& measured = markers > 0 ? s.tracker.markers : s.tracker.position;
+  s.tracker.has_position = markers == 0;
+  s.tracker.marker_count = markers;
+  s.tracker.has_orientation = markers == 0 && o.orientation;
+  measured.resize(m, 3 * std::max(markers, 1));
+  if (s.tracker.has_orientation) s.tracker.orientation.resize(m, 4);
   for (Eigen::Index r = 0; r < m; ++r) {
     s.tracker.t[r] = stamps[static_cast<size_t>(r)];
-    measured.row(r) = points[static_cast<size_t>(r)].transpose();
+    const Eigen::VectorXd& point = points[static_cast<size_t>(r)];
+    measured.row(r) = point.head(measured.cols()).transpose();
+    if (s.tracker.has_orientation) s.tracker.orientation.row(r) = point.tail<4>().transpose();
     s.tracker.line.push_back(static_cast<int>(r) + 2);
   }
   s.tracker.rows = static_cast<int>(m);

@@ -104,6 +104,22 @@ struct StreamCalibration {
   Log poses;  // the static log of the final fit
 };
 
+// A second session against a model held (evaluate --tracker): the clocks
+// found as calibrate_streams finds them (glitches screened, a marker body's
+// poses, the coarse search, the same samples) but by Gauss-Newton steps of the
+// clock alone, the model fixed; `poses` the static log at that clock (the
+// samples the evaluation scores), `notes` a step or a drift the clock check
+// finds (warnings) and the clocks' summary line.
+struct StreamAlignment {
+  ClockEstimate clock;
+  Log poses;
+  Eigen::Matrix3Xd marker_body;  // a marker body's (given or estimated)
+  std::vector<std::string> notes;
+};
+StreamAlignment align_streams(const DeviceModel& model, const Log& device, const Log& tracker,
+                              const StreamOptions& stream,
+                              const Eigen::Matrix3Xd& marker_body = {});
+
 // The whole procedure: check, coarse search, then kinematic fits and clock
 // steps until the clock moves by less than a microsecond, then the final
 // calibration (`options`, e.g. the tolerance prior) at the estimated clock.

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "hapticcal/core/output_set.hpp"
+#include "hapticcal/identification/stream.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/study/evaluate.hpp"
 
@@ -27,6 +28,11 @@ struct EvaluateRequest {
   std::optional<std::string> out;            // the output folder; none: nothing written
   // A marker log's body (3 x K in the tool frame, m; --markers); empty: estimated.
   Eigen::Matrix3Xd marker_body;
+  // A second session (--tracker): `log` is the device's stream, this the
+  // tracker's on its own clock; the clocks are aligned with the model held
+  // (align_streams) and the model scored on the tracker's samples.
+  std::string tracker;
+  StreamOptions stream;
 };
 
 struct EvaluateJob {
@@ -45,6 +51,7 @@ struct EvaluateJob {
   std::vector<std::string> tips;
   std::vector<Evaluation> tip_evaluations;
   std::vector<std::optional<EvaluationComparison>> tip_comparisons;
+  std::optional<StreamAlignment> alignment;  // with --tracker
 };
 
 // --tip / --root given without a URDF among the models is bad input, as every

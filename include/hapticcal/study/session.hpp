@@ -3,6 +3,7 @@
 // by its own clock (identification/stream.hpp reads them back).
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 
 #include "hapticcal/core/log.hpp"
@@ -27,6 +28,13 @@ struct SessionOptions {
   // in gaps of dropout_seconds on average.
   double dropout_share = 0.02, dropout_seconds = 0.3;
   double sigma_position = 1e-4;  // m, per coordinate
+  // A 6-D tracker (a chain's): the tool's orientation too (qw, qx, qy, qz), each
+  // turned by a random rotation of sigma_orientation rad sd about each axis.
+  bool orientation = false;
+  double sigma_orientation = 1e-3;  // rad
+  // A marker body on the tool (a chain's): 3 x K markers in the tool frame [m],
+  // each recorded with sigma_position noise (x1, y1, z1, ...); empty: the tool point.
+  Eigen::Matrix3Xd marker_body;
   // The motion: each reading a sum of sinusoids of 0.05 to max_frequency_hz
   // about the middle of its limits, within `coverage` of its half range.
   double max_frequency_hz = 0.5;
@@ -34,8 +42,9 @@ struct SessionOptions {
 };
 
 struct Session {
-  Log device;         // t (device clock), q
-  Log tracker;        // t (tracker clock), x, y, z (a tree's: x1, y1, z1, ...)
+  Log device;   // t (device clock), q
+  Log tracker;  // t (tracker clock), x, y, z [qw..qz] (a tree's or a marker body's: x1, y1, z1,
+                // ...)
   StreamClock clock;  // the truth
   int dropped = 0;    // tracker samples lost to dropouts
 };

@@ -1,0 +1,442 @@
+#include "hapticcal/recording/import.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "hapticcal/core/output_set.hpp"
+#include "hapticcal/model_io/model_source.hpp"
+#include "recording/conventions.hpp"
+#include "recording/import_topics.hpp"
+
+namespace hapticcal::recording {
+namespace {
+
+// A stream chosen for a file: its samples, the columns it gives and where it
+// came from (the topic, and a TF topic's frames).
+struct Stream {
+  const TopicBuffer* topic = nullptr;
+  const Samples* samples = nullptr;
+  std::string what;                  // "/joint_states (sensor_msgs/JointState)"
+  std::vector<std::string> columns;  // without t
+  std::vector<int> take;             // the value index of each column (device: joint matching)
+  int width = 0;                     // values a sample
+  std::optional<Convention> convention;
+};
+
+std::string topic_text(const TopicBuffer& t) {
+  return fmt::format("{} ({}, {} messages)", printable(t.channel.topic, 80), t.channel.type,
+                     t.messages);
+}
+
+std::string listing(const std::vector<const TopicBuffer*>& topics) {
+  std::string out;
+  for (const TopicBuffer* t : topics) out += (out.empty() ? "" : ", ") + topic_text(*t);
+  return out;
+}
+
+bool device_column(const std::string& c) { return c.starts_with("q") || c.starts_with("ext"); }
+
+// The device's stream: --field columns of q or ext, else a JointState topic.
+std::optional<Stream> device_stream(const std::vector<TopicBuffer>& topics,
+                                    const ImportRequest& request,
+                                    const std::vector<FieldRequest>& fields,
+                                    const std::string& file) {
+  std::vector<FieldRequest> mine;
+  for (const FieldRequest& f : fields)
+    if (device_column(f.column)) mine.push_back(f);
+  Stream s;
+  if (!mine.empty()) {
+    for (const FieldRequest& f : mine) {
+      if (f.topic != mine[0].topic) {
+        throw InputError("", 0, "--field",
+                         fmt::format("the device's columns come from one topic: {} and {}",
+                                     printable(mine[0].topic, 80), printable(f.topic, 80)));
+      }
+    }
+    for (const TopicBuffer& t : topics) {
+      if (t.channel.topic != mine[0].topic) continue;
+      s.topic = &t, s.samples = &t.samples;
+      int k = 0;
+      for (const FieldRequest& f : fields) {
+        if (f.topic != t.channel.topic) continue;
+        if (device_column(f.column)) s.columns.push_back(f.column), s.take.push_back(k);
+        ++k;
+      }
+      s.width = k;
+    }
+    if (s.topic == nullptr)
+      throw InputError(file, 0, "--field", "no topic " + printable(mine[0].topic, 80));
+    s.what = topic_text(*s.topic);
+    return s;
+  }
+  std::vector<const TopicBuffer*> found;
+  for (const TopicBuffer& t : topics) {
+    if (!request.joints_topic.empty() ? t.channel.topic == request.joints_topic
+                                      : t.kind == TopicKind::kJointState && t.messages > 0)
+      found.push_back(&t);
+  }
+  if (!request.joints_topic.empty() && found.empty()) {
+    throw InputError(file, 0, "--joints", "no topic " + printable(request.joints_topic, 80));
+  }
+  if (found.empty()) return std::nullopt;
+  if (found.size() > 1) {
+    throw InputError(
+        file, 0, "--joints",
+        "several JointState topics: " + listing(found) + ": name one with --joints TOPIC");
+  }
+  if (found[0]->kind != TopicKind::kJointState) {
+    throw InputError(file, 0, "--joints",
+                     topic_text(*found[0]) + " is not a sensor_msgs/JointState topic");
+  }
+  s.topic = found[0], s.samples = &found[0]->samples, s.what = topic_text(*found[0]);
+  s.width = static_cast<int>(found[0]->names.size());
+  return s;
+}
+
+// Joints by name: the model's (or the convention's) in its order, else the message's.
+void match_joints(Stream& s, const ImportRequest& request, ImportResult& result) {
+  if (s.topic->kind != TopicKind::kJointState) return;
+  const std::vector<std::string>& names = s.topic->names;
+  if (!request.convention.empty()) {
+    s.convention = convention_named(request.convention);
+    s.convention->bind(names, s.what);
+    for (std::size_t i = 0; i < s.convention->readings(); ++i)
+      s.columns.push_back(fmt::format("q{}", i + 1));
+    result.joint_names = s.convention->reading_names();
+    result.notes.push_back(s.convention->note());
+    return;
+  }
+  std::vector<std::string> wanted = names;
+  if (!request.model.empty()) {
+    wanted.clear();
+    for (const Link& l : load_model(request.model).links) wanted.push_back(l.name);
+  }
+  for (std::size_t i = 0; i < wanted.size(); ++i) {
+    const auto at = std::find(names.begin(), names.end(), wanted[i]);
+    if (at == names.end()) {
+      throw InputError(request.model, 0, "joints",
+                       fmt::format("the model's joint '{}' is not among {}'s joints ({}){}",
+                                   printable(wanted[i]), s.what, fmt::join(names, ", "),
+                                   did_you_mean(wanted[i], names)));
+    }
+    s.take.push_back(static_cast<int>(at - names.begin()));
+    s.columns.push_back(fmt::format("q{}", i + 1));
+  }
+  result.joint_names = wanted;
+  if (!request.model.empty() && wanted.size() < names.size()) {
+    result.notes.push_back(
+        fmt::format("{} of the topic's {} joints are the model's; the others are left out",
+                    wanted.size(), names.size()));
+  }
+}
+
+// The tracker's stream: --field columns of x, y, z or distance, else a pose,
+// point or transform topic (a TF topic with --frames).
+std::optional<Stream> tracker_stream(const std::vector<TopicBuffer>& topics,
+                                     const ImportRequest& request,
+                                     const std::vector<FieldRequest>& fields,
+                                     const std::string& file) {
+  Stream s;
+  std::vector<FieldRequest> mine;
+  for (const FieldRequest& f : fields)
+    if (!device_column(f.column)) mine.push_back(f);
+  if (!mine.empty()) {
+    for (const TopicBuffer& t : topics) {
+      if (t.channel.topic != mine[0].topic) continue;
+      int k = 0;
+      for (const FieldRequest& f : fields) {
+        if (f.topic != t.channel.topic) continue;
+        if (!device_column(f.column)) s.columns.push_back(f.column), s.take.push_back(k);
+        ++k;
+      }
+      s.topic = &t, s.samples = &t.samples, s.width = k, s.what = topic_text(t);
+    }
+    if (s.topic == nullptr)
+      throw InputError(file, 0, "--field", "no topic " + printable(mine[0].topic, 80));
+    return s;
+  }
+  std::string parent, child;
+  if (!request.frames.empty()) {
+    const std::size_t comma = request.frames.find(',');
+    if (comma == std::string::npos || comma == 0 || comma + 1 == request.frames.size())
+      throw InputError("", 0, "--frames", "'" + printable(request.frames) + "': not PARENT,CHILD");
+    parent = request.frames.substr(0, comma), child = request.frames.substr(comma + 1);
+  }
+  std::vector<std::pair<const TopicBuffer*, const Samples*>> found;
+  for (const TopicBuffer& t : topics) {
+    if (!request.tracker_topic.empty() && t.channel.topic != request.tracker_topic) continue;
+    if (t.kind == TopicKind::kTf) {
+      if (parent.empty()) continue;  // a TF tree is read with --frames only
+      const auto f = t.frames.find({parent, child});
+      if (f != t.frames.end()) found.emplace_back(&t, &f->second);
+    } else if ((t.kind == TopicKind::kPose || t.kind == TopicKind::kPoint ||
+                t.kind == TopicKind::kTransform) &&
+               t.messages > 0) {
+      found.emplace_back(&t, &t.samples);
+    }
+  }
+  if (found.empty()) {
+    if (!request.tracker_topic.empty() || !parent.empty()) {
+      throw InputError(
+          file, 0, request.tracker_topic.empty() ? "--frames" : "--tracker-topic",
+          "no pose, point or transform topic " +
+              (request.tracker_topic.empty() ? "" : printable(request.tracker_topic, 80) + " ") +
+              (parent.empty() ? "" : "with frames " + printable(request.frames, 80)));
+    }
+    return std::nullopt;
+  }
+  if (found.size() > 1) {
+    std::vector<const TopicBuffer*> list;
+    for (const auto& f : found) list.push_back(f.first);
+    throw InputError(file, 0, "--tracker-topic",
+                     "several pose, point or transform topics: " + listing(list) +
+                         ": name one with --tracker-topic TOPIC");
+  }
+  s.topic = found[0].first, s.samples = found[0].second;
+  s.what = topic_text(*s.topic) +
+           (parent.empty() ? "" : ", " + printable(parent) + " -> " + printable(child));
+  const bool oriented = s.topic->kind != TopicKind::kPoint;
+  s.width = oriented ? 7 : 3;
+  s.columns = {"x", "y", "z"};
+  s.take = {0, 1, 2};
+  if (oriented)
+    s.columns.insert(s.columns.end(), {"qw", "qx", "qy", "qz"}),
+        s.take.insert(s.take.end(), {3, 4, 5, 6});
+  return s;
+}
+
+// Orientations all zero (a tracker publishing positions in a pose message) are
+// left out, said in a note; a mix of unit and other quaternions is an error.
+void check_orientations(Stream& s, const std::string& file, ImportResult& result) {
+  if (s.width != 7 || s.columns.size() != 7) return;
+  const std::vector<double>& v = s.samples->values;
+  std::size_t zero = 0;
+  const std::size_t n = s.samples->stamp_ns.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double norm = std::sqrt(v[7 * i + 3] * v[7 * i + 3] + v[7 * i + 4] * v[7 * i + 4] +
+                                  v[7 * i + 5] * v[7 * i + 5] + v[7 * i + 6] * v[7 * i + 6]);
+    if (norm == 0) {
+      ++zero;
+    } else if (!(std::abs(norm - 1) <= 1e-3)) {
+      throw InputError(fmt::format(
+          "{}: byte {}: {} message {}: an orientation of norm {:.6g}, not a unit quaternion", file,
+          s.samples->offset[i], s.what, i + 1, norm));
+    }
+  }
+  if (zero == 0) return;
+  if (zero < n) {
+    throw InputError(
+        fmt::format("{}: {}: {} of {} orientations are zero and the others not: positions and "
+                    "orientations cannot be told apart",
+                    file, s.what, zero, n));
+  }
+  s.columns.resize(3), s.take.resize(3);
+  result.notes.push_back(
+      "the tracker's orientations are all zero (positions only): tracker.csv holds t, x, y, z");
+}
+
+// A stream's stamps must increase: the CSV reader and the clocks' search need it.
+void check_increasing(const Stream& s, const std::string& file, StampSource stamps) {
+  const std::vector<std::int64_t>& t = s.samples->stamp_ns;
+  for (std::size_t i = 1; i < t.size(); ++i) {
+    if (t[i] > t[i - 1]) continue;
+    throw InputError(fmt::format(
+        "{}: byte {}: {} message {}: its {} stamp {} s is not after the previous message's {} s{}",
+        file, s.samples->offset[i], s.what, i + 1,
+        stamps == StampSource::kHeader ? "header" : "recorder's", seconds_text(t[i]),
+        seconds_text(t[i - 1]),
+        stamps == StampSource::kHeader ? " (--time receive takes the recorder's stamps)" : ""));
+  }
+}
+
+std::string stream_csv(const Stream& s, std::int64_t origin, const std::string& comment) {
+  std::string out = comment;
+  out += "t";
+  for (const std::string& c : s.columns) out += "," + c;
+  out += "\n";
+  const std::size_t n = s.samples->stamp_ns.size();
+  std::vector<double> readings;
+  for (std::size_t i = 0; i < n; ++i) {
+    out += seconds_text(s.samples->stamp_ns[i] - origin);
+    const double* row = s.samples->values.data() + static_cast<std::size_t>(s.width) * i;
+    if (s.convention) {
+      s.convention->readings_of(row, readings);
+      for (const double r : readings) out += fmt::format(",{}", r);
+    } else {
+      for (const int k : s.take) out += fmt::format(",{}", row[k]);
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+TopicSummary summary_of(const TopicBuffer& t, const std::vector<std::int64_t>& stamps,
+                        std::int64_t origin) {
+  TopicSummary s;
+  s.topic = t.channel.topic, s.type = t.channel.type, s.messages = t.messages;
+  s.encoding = t.channel.encoding == Encoding::kRos1 ? "ros1" : "cdr";
+  if (stamps.empty()) return s;
+  s.first = 1e-9 * static_cast<double>(stamps.front() - origin);
+  s.last = 1e-9 * static_cast<double>(stamps.back() - origin);
+  std::vector<std::int64_t> dt;
+  for (std::size_t i = 1; i < stamps.size(); ++i) dt.push_back(stamps[i] - stamps[i - 1]);
+  if (dt.empty()) return s;
+  std::vector<std::int64_t> sorted = dt;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
+                   sorted.end());
+  const double median = 1e-9 * static_cast<double>(sorted[sorted.size() / 2]);
+  s.rate = median > 0 ? 1 / median : 0;
+  for (const std::int64_t d : dt) {
+    const double gap = 1e-9 * static_cast<double>(d);
+    if (median > 0 && gap > 5 * median) ++s.gaps, s.largest_gap = std::max(s.largest_gap, gap);
+  }
+  return s;
+}
+
+nlohmann::json summary_json(const ImportRequest& request, const ImportResult& r) {
+  nlohmann::json topics = nlohmann::json::array();
+  for (const TopicSummary& t : r.topics) {
+    topics.push_back({{"topic", t.topic},
+                      {"type", t.type},
+                      {"encoding", t.encoding},
+                      {"messages", t.messages},
+                      {"first", t.first},
+                      {"last", t.last},
+                      {"rate", t.rate},
+                      {"gaps", t.gaps},
+                      {"largest_gap", t.largest_gap},
+                      {"role", t.role}});
+  }
+  return {{"recording", request.recording},
+          {"tracker_export", request.tracker_export},
+          {"format", r.format},
+          {"stamps", request.stamps == StampSource::kHeader ? "header" : "receive"},
+          {"time_origin", seconds_text(r.time_origin_ns)},
+          {"topics", topics},
+          {"joints", r.joint_names},
+          {"device_rows", r.device_rows},
+          {"tracker_rows", r.tracker_rows},
+          {"tracker_orientation", r.tracker_orientation},
+          {"notes", r.notes}};
+}
+
+std::string export_csv(const TrackerStream& s) {
+  std::string out = "# hapticcal import of " + s.source + "\nt";
+  const bool markers = !s.marker_names.empty();
+  if (markers) {
+    for (std::size_t k = 1; k <= s.marker_names.size(); ++k)
+      out += fmt::format(",x{0},y{0},z{0}", k);
+  } else {
+    out += ",x,y,z";
+    if (!s.q.empty()) out += ",qw,qx,qy,qz";
+  }
+  out += "\n";
+  for (std::size_t i = 0; i < s.t.size(); ++i) {
+    out += fmt::format("{}", s.t[i]);
+    if (markers) {
+      for (const auto& m : s.markers[i]) out += fmt::format(",{},{},{}", m[0], m[1], m[2]);
+    } else {
+      out += fmt::format(",{},{},{}", s.p[i][0], s.p[i][1], s.p[i][2]);
+      if (!s.q.empty())
+        out += fmt::format(",{},{},{},{}", s.q[i][0], s.q[i][1], s.q[i][2], s.q[i][3]);
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+}  // namespace
+
+ImportResult run_import(const ImportRequest& request) {
+  if (request.recording.empty() && request.tracker_export.empty())
+    throw InputError("", 0, "RECORDING",
+                     "give a recording (a bag, .mcap or .db3) or --tracker-export FILE");
+  const std::vector<FieldRequest> fields = parse_fields(request.fields);
+  ImportResult result;
+  std::vector<TopicBuffer> topics;
+  const std::string& file = request.recording;
+  if (!file.empty())
+    topics = read_topics(file, fields, request.stamps, request.limits, result.format);
+  std::optional<Stream> device, tracker;
+  if (!file.empty()) {
+    device = device_stream(topics, request, fields, file);
+    if (request.tracker_export.empty()) tracker = tracker_stream(topics, request, fields, file);
+  }
+  if (!request.list && !file.empty() && !device && !tracker && request.tracker_export.empty()) {
+    std::vector<const TopicBuffer*> all;
+    for (const TopicBuffer& t : topics) all.push_back(&t);
+    throw InputError(file, 0, "",
+                     "no JointState, pose, point or transform topic to import (topics: " +
+                         (all.empty() ? std::string("none") : listing(all)) +
+                         "); --field COLUMN=TOPIC:PATH reads others");
+  }
+  if (device) match_joints(*device, request, result);
+  if (tracker) check_orientations(*tracker, file, result);
+  for (const std::optional<Stream>* s : {&device, &tracker})
+    if (*s) check_increasing(**s, file, request.stamps);
+  // One origin for both streams: their offset is what the clocks' search finds.
+  std::int64_t origin = std::numeric_limits<std::int64_t>::max();
+  for (const std::optional<Stream>* s : {&device, &tracker})
+    if (*s && !(*s)->samples->stamp_ns.empty())
+      origin = std::min(origin, (*s)->samples->stamp_ns.front());
+  if (origin == std::numeric_limits<std::int64_t>::max()) {
+    origin = 0;
+    for (const TopicBuffer& t : topics)
+      if (!t.receive_ns.empty())
+        origin = origin == 0 ? t.receive_ns.front() : std::min(origin, t.receive_ns.front());
+  }
+  result.time_origin_ns = origin;
+  for (const TopicBuffer& t : topics) {
+    const Stream* role = device && device->topic == &t     ? &*device
+                         : tracker && tracker->topic == &t ? &*tracker
+                                                           : nullptr;
+    TopicSummary s = summary_of(t, role ? role->samples->stamp_ns : t.receive_ns, origin);
+    s.role = role == nullptr ? "" : role == &*device ? "device" : "tracker";
+    result.topics.push_back(std::move(s));
+  }
+  if (request.list) return result;
+
+  OutputSet out(request.out, "import");
+  const std::string what = file.empty() ? "" : fmt::format("{} ({})", file, result.format);
+  if (device) {
+    result.device_rows = device->samples->stamp_ns.size();
+    const std::string comment =
+        fmt::format("# hapticcal import of {}: {}; {} stamps less {} s; joints: {}\n", what,
+                    device->what, request.stamps == StampSource::kHeader ? "header" : "recorder's",
+                    seconds_text(origin), fmt::join(result.joint_names, ", "));
+    write_file_atomically(out.dir() + "/device.csv", stream_csv(*device, origin, comment));
+  }
+  if (tracker) {
+    result.tracker_rows = tracker->samples->stamp_ns.size();
+    result.tracker_orientation = tracker->columns.size() == 7;
+    const std::string comment = fmt::format(
+        "# hapticcal import of {}: {}; {} stamps less {} s\n", what, tracker->what,
+        request.stamps == StampSource::kHeader ? "header" : "recorder's", seconds_text(origin));
+    write_file_atomically(out.dir() + "/tracker.csv", stream_csv(*tracker, origin, comment));
+  }
+  if (!request.tracker_export.empty()) {
+    const TrackerStream s = read_tracker_export(request.tracker_export, request.export_options);
+    if (result.format.empty()) result.format = s.source;
+    result.tracker_rows = s.t.size();
+    result.tracker_orientation = !s.q.empty();
+    result.notes.push_back(
+        fmt::format("{}: {} samples{}", s.source, s.t.size(),
+                    s.lost > 0 ? fmt::format(", {} lost (occluded) left out", s.lost) : ""));
+    write_file_atomically(out.dir() + "/tracker.csv", export_csv(s));
+  }
+  write_file_atomically(out.dir() + "/import.json", summary_json(request, result).dump(2) + "\n");
+  out.commit();
+  result.written = out.written();
+  result.out = out.target();
+  return result;
+}
+
+}  // namespace hapticcal::recording

@@ -1,0 +1,242 @@
+#include "recording/import_topics.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <utility>
+
+#include "hapticcal/core/error.hpp"
+
+namespace hapticcal::recording {
+namespace {
+
+TopicKind kind_of(const std::string& type) {
+  if (type == "sensor_msgs/JointState") return TopicKind::kJointState;
+  if (type == "geometry_msgs/PoseStamped") return TopicKind::kPose;
+  if (type == "geometry_msgs/PointStamped") return TopicKind::kPoint;
+  if (type == "geometry_msgs/TransformStamped") return TopicKind::kTransform;
+  if (type == "tf2_msgs/TFMessage") return TopicKind::kTf;
+  return TopicKind::kOther;
+}
+
+// The first of `paths` the message has, or nullptr.
+const double* first_number(const DecodedMessage& m, std::initializer_list<std::string_view> paths) {
+  for (const std::string_view p : paths)
+    if (const double* v = m.number(p)) return v;
+  return nullptr;
+}
+
+class Collector : public RecordingVisitor {
+ public:
+  Collector(std::string file, const std::vector<FieldRequest>& fields, StampSource stamps)
+      : file_(std::move(file)), fields_(fields), stamps_(stamps) {}
+
+  void channel(std::uint32_t id, const Channel& channel) override {
+    TopicBuffer buffer;
+    buffer.channel = channel;
+    buffer.kind = kind_of(channel.type);
+    for (const FieldRequest& f : fields_)
+      if (f.topic == channel.topic) buffer.kind = TopicKind::kFields;
+    index_[id] = topics_.size();
+    topics_.push_back(std::move(buffer));
+  }
+
+  void message(std::uint32_t channel_id, std::int64_t receive_ns, std::string_view data,
+               std::uint64_t offset) override {
+    const auto found = index_.find(channel_id);
+    if (found == index_.end())
+      throw InputError(file_, 0, "",
+                       fmt::format("byte {}: a message on channel {}, which was never defined",
+                                   offset, channel_id));
+    TopicBuffer& t = topics_[found->second];
+    ++t.messages;
+    t.receive_ns.push_back(receive_ns);
+    if (t.kind == TopicKind::kOther) return;
+    const std::string origin =
+        fmt::format("{}: byte {}: {} ({}) message {}", file_, offset,
+                    printable(t.channel.topic, 80), t.channel.type, t.messages);
+    if (!t.type) t.type = type_of(t, origin);
+    const DecodedMessage m = decode_message(*t.type, data, origin);
+    switch (t.kind) {
+      case TopicKind::kJointState:
+        return joint_state(t, m, receive_ns, offset, origin);
+      case TopicKind::kTf:
+        return tf(t, m, receive_ns, offset, origin);
+      case TopicKind::kFields:
+        return field_values(t, m, receive_ns, offset, origin);
+      default:
+        return pose(t, m, "", receive_ns, offset, origin, t.samples);
+    }
+  }
+
+  std::vector<TopicBuffer> take() { return std::move(topics_); }
+
+ private:
+  std::shared_ptr<const MessageType> type_of(const TopicBuffer& t,
+                                             const std::string& origin) const {
+    std::string definition = t.channel.definition;
+    if (definition.empty()) definition = builtin_definition(t.channel.type, t.channel.encoding);
+    if (definition.empty()) {
+      throw InputError(origin + ": the recording holds no definition of " +
+                       printable(t.channel.type, 80) +
+                       " and hapticcal knows none: record with the message definitions (rosbag2 "
+                       "Iron or later, MCAP) or import its fields another way");
+    }
+    return MessageType::parse(t.channel.type, definition, t.channel.encoding, origin);
+  }
+
+  // The stamp asked for: the header's (`prefix` + "header.stamp") or the recorder's.
+  std::int64_t stamp(const DecodedMessage& m, const std::string& prefix, std::int64_t receive_ns,
+                     const std::string& origin) const {
+    if (stamps_ == StampSource::kReceive) return receive_ns;
+    const std::string s = prefix + "header.stamp.";
+    const double* sec = first_number(m, {s + "sec", s + "secs"});
+    const double* nsec = first_number(m, {s + "nanosec", s + "nsec", s + "nsecs"});
+    if (sec == nullptr || nsec == nullptr)
+      throw InputError(origin + ": no header stamp: --time receive takes the recorder's");
+    if (*sec == 0 && *nsec == 0) {
+      throw InputError(origin +
+                       ": the header stamp is 0 (the sender did not stamp the message): "
+                       "--time receive takes the recorder's");
+    }
+    if (*nsec < 0 || *nsec >= 1e9)
+      throw InputError(fmt::format("{}: header stamp nanoseconds {}", origin, *nsec));
+    return static_cast<std::int64_t>(*sec) * 1000000000 + static_cast<std::int64_t>(*nsec);
+  }
+
+  static void add(Samples& s, std::int64_t stamp, std::int64_t receive, std::uint64_t offset) {
+    s.stamp_ns.push_back(stamp);
+    s.receive_ns.push_back(receive);
+    s.offset.push_back(offset);
+  }
+
+  void joint_state(TopicBuffer& t, const DecodedMessage& m, std::int64_t receive_ns,
+                   std::uint64_t offset, const std::string& origin) {
+    std::vector<std::string> names;
+    for (std::size_t k = 0;; ++k) {
+      const std::string* name = m.string(fmt::format("name[{}]", k));
+      if (name == nullptr) break;
+      names.push_back(*name);
+    }
+    if (t.samples.stamp_ns.empty()) {
+      if (names.empty()) throw InputError(origin + ": a JointState without joint names");
+      t.names = names;
+    } else if (names != t.names) {
+      throw InputError(
+          fmt::format("{}: its joints ({} names, the first '{}') differ from the topic's first "
+                      "message's ({}, '{}'): one topic, one set of joints",
+                      origin, names.size(), names.empty() ? "" : printable(names[0]),
+                      t.names.size(), printable(t.names[0])));
+    }
+    add(t.samples, stamp(m, "", receive_ns, origin), receive_ns, offset);
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      const double* p = m.number(fmt::format("position[{}]", k));
+      if (p == nullptr) {
+        throw InputError(fmt::format("{}: {} names but no position for '{}'", origin, names.size(),
+                                     printable(names[k])));
+      }
+      t.samples.values.push_back(*p);
+    }
+  }
+
+  // A pose, point or transform at `prefix` (a TFMessage's "transforms[k].").
+  void pose(TopicBuffer& t, const DecodedMessage& m, const std::string& prefix,
+            std::int64_t receive_ns, std::uint64_t offset, const std::string& origin,
+            Samples& out) {
+    const bool transform = t.kind == TopicKind::kTransform || t.kind == TopicKind::kTf;
+    const std::string p = prefix + (transform                     ? "transform.translation."
+                                    : t.kind == TopicKind::kPoint ? "point."
+                                                                  : "pose.position.");
+    const std::string q = prefix + (transform ? "transform.rotation." : "pose.orientation.");
+    add(out, stamp(m, prefix, receive_ns, origin), receive_ns, offset);
+    const bool oriented = t.kind != TopicKind::kPoint;
+    for (const char* axis : {"x", "y", "z"}) {
+      const double* v = m.number(p + axis);
+      if (v == nullptr) throw InputError(origin + ": no field " + p + axis);
+      out.values.push_back(*v);
+    }
+    if (!oriented) return;
+    for (const char* axis : {"w", "x", "y", "z"}) {
+      const double* v = m.number(q + axis);
+      if (v == nullptr) throw InputError(origin + ": no field " + q + axis);
+      out.values.push_back(*v);
+    }
+  }
+
+  void tf(TopicBuffer& t, const DecodedMessage& m, std::int64_t receive_ns, std::uint64_t offset,
+          const std::string& origin) {
+    for (std::size_t k = 0;; ++k) {
+      const std::string prefix = fmt::format("transforms[{}].", k);
+      const std::string* parent = m.string(prefix + "header.frame_id");
+      const std::string* child = m.string(prefix + "child_frame_id");
+      if (parent == nullptr || child == nullptr) break;
+      pose(t, m, prefix, receive_ns, offset, fmt::format("{}: transforms[{}]", origin, k),
+           t.frames[{*parent, *child}]);
+    }
+  }
+
+  void field_values(TopicBuffer& t, const DecodedMessage& m, std::int64_t receive_ns,
+                    std::uint64_t offset, const std::string& origin) {
+    const bool header =
+        m.number("header.stamp.sec") != nullptr || m.number("header.stamp.secs") != nullptr;
+    if (stamps_ == StampSource::kHeader && !header) {
+      throw InputError(origin +
+                       ": no header stamp (a message without a header): --time receive takes "
+                       "the recorder's");
+    }
+    add(t.samples, stamp(m, "", receive_ns, origin), receive_ns, offset);
+    for (const FieldRequest& f : fields_) {
+      if (f.topic != t.channel.topic) continue;
+      const double* v = m.number(f.path);
+      if (v == nullptr) {
+        std::vector<std::string> known;
+        for (const auto& [path, value] : m.numbers) known.push_back(path);
+        throw InputError(fmt::format("{}: no numeric field '{}'{}", origin, printable(f.path, 80),
+                                     did_you_mean(f.path, known)));
+      }
+      t.samples.values.push_back(*v);
+    }
+  }
+
+  std::string file_;
+  const std::vector<FieldRequest>& fields_;
+  StampSource stamps_;
+  std::vector<TopicBuffer> topics_;
+  std::map<std::uint32_t, std::size_t> index_;
+};
+
+}  // namespace
+
+std::vector<FieldRequest> parse_fields(const std::vector<std::string>& fields) {
+  std::vector<FieldRequest> out;
+  for (const std::string& f : fields) {
+    const std::size_t eq = f.find('=');
+    const std::size_t colon = eq == std::string::npos ? std::string::npos : f.find(':', eq);
+    if (eq == 0 || colon == std::string::npos || colon == eq + 1 || colon + 1 == f.size()) {
+      throw InputError(
+          "", 0, "--field",
+          "'" + printable(f, 80) + "': not COLUMN=TOPIC:PATH (e.g. q1=/encoders:position[0])");
+    }
+    out.push_back({f.substr(0, eq), f.substr(eq + 1, colon - eq - 1), f.substr(colon + 1)});
+  }
+  return out;
+}
+
+std::vector<TopicBuffer> read_topics(const std::string& path,
+                                     const std::vector<FieldRequest>& fields, StampSource stamps,
+                                     const RecordingLimits& limits, std::string& format) {
+  format = recording_format(path);
+  Collector collector(path, fields, stamps);
+  read_recording(path, collector, limits);
+  return collector.take();
+}
+
+std::string seconds_text(std::int64_t ns) {
+  const bool negative = ns < 0;
+  const std::uint64_t magnitude =
+      negative ? 0 - static_cast<std::uint64_t>(ns) : static_cast<std::uint64_t>(ns);
+  return fmt::format("{}{}.{:09d}", negative ? "-" : "", magnitude / 1000000000,
+                     magnitude % 1000000000);
+}
+
+}  // namespace hapticcal::recording

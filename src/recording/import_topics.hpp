@@ -1,0 +1,59 @@
+// The import's first half: a recording read once, the messages of every topic
+// hapticcal could import decoded into per-topic buffers (stamps and values),
+// each topic's problems named with the file, byte offset and message.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hapticcal/recording/import.hpp"
+#include "hapticcal/recording/recording.hpp"
+#include "hapticcal/recording/ros_message.hpp"
+
+namespace hapticcal::recording {
+
+enum class TopicKind { kJointState, kPose, kPoint, kTransform, kTf, kFields, kOther };
+
+// One stream's samples: stamps [ns] and `width` values a sample.
+struct Samples {
+  std::vector<std::int64_t> stamp_ns;
+  std::vector<std::int64_t> receive_ns;
+  std::vector<double> values;
+  std::vector<std::uint64_t> offset;  // each message's byte offset, for messages naming it
+};
+
+// A topic as read: its channel, what it is, and its samples. A TFMessage
+// topic holds one stream a parent/child pair ("topic parent->child").
+struct TopicBuffer {
+  Channel channel;
+  TopicKind kind = TopicKind::kOther;
+  std::shared_ptr<const MessageType> type;
+  std::uint64_t messages = 0;
+  std::vector<std::int64_t> receive_ns;  // every message's (the summary's)
+  // kJointState: the names of the first message (every message must have them).
+  std::vector<std::string> names;
+  Samples samples;                                                // not kTf
+  std::map<std::pair<std::string, std::string>, Samples> frames;  // kTf: by parent, child
+};
+
+// The columns asked of a topic by --field: COLUMN=TOPIC:PATH.
+struct FieldRequest {
+  std::string column, topic, path;
+};
+std::vector<FieldRequest> parse_fields(const std::vector<std::string>& fields);
+
+// Reads the recording: every JointState, pose, point, transform and TF topic,
+// and the --field topics, decoded with the stamps `stamps` asks for.
+std::vector<TopicBuffer> read_topics(const std::string& path,
+                                     const std::vector<FieldRequest>& fields, StampSource stamps,
+                                     const RecordingLimits& limits, std::string& format);
+
+// The nanoseconds since the epoch as seconds, exactly as decimal text
+// ("12.000000345"): the CSV reader then rounds it once, as it would the same
+// time typed in a log.
+std::string seconds_text(std::int64_t ns);
+
+}  // namespace hapticcal::recording
