@@ -1,1 +1,585 @@
-// (being written)
+// Trackers' CSV exports, the parts every layout shares: lines and fields
+// (bounded), units, rotations, the rows of samples; and the generic CSV read with
+// a column map. The layouts of Motive and Vicon exports are tracker_formats.cpp's.
+//
+// A row of samples (all layouts): an empty field is a sample the tracker lost (an
+// occluded marker, OptiTrack: "When there is an occlusion in a marker, the CSV
+// file will contain blank cells", https://docs.optitrack.com/motive/data-export/
+// data-export-csv); a sample with any of its fields empty is left out and counted.
+#include "hapticcal/recording/tracker_export.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <initializer_list>
+#include <limits>
+#include <map>
+#include <utility>
+
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
+#include "recording/tracker_csv.hpp"
+
+namespace hapticcal::recording {
+namespace detail {
+
+void fail(const std::string& name, int line, std::size_t column, const std::string& message) {
+  throw InputError(name, line, column > 0 ? fmt::format("column {}", column) : std::string(),
+                   message);
+}
+
+CsvLines::CsvLines(std::string_view text, const std::string& name) : text_(text), name_(name) {
+  if (text_.substr(0, 3) == "\xEF\xBB\xBF") pos_ = 3;  // a UTF-8 byte order mark
+}
+
+bool CsvLines::next() {
+  if (pos_ >= text_.size()) return false;
+  start_ = pos_;
+  std::size_t eol = text_.find('\n', pos_);
+  if (eol == std::string_view::npos) eol = text_.size();
+  ++number_;
+  if (eol - pos_ > kMaxLineBytes) {
+    fail(name_, number_, 1,
+         fmt::format("a line of {} bytes: at most {} (1 MiB)", eol - pos_, kMaxLineBytes));
+  }
+  line_ = text_.substr(pos_, eol - pos_);
+  pos_ = eol + 1;
+  if (!line_.empty() && line_.back() == '\r') line_.remove_suffix(1);
+  // Counted before they are split: a line of commas costs no memory.
+  const auto count = static_cast<std::size_t>(std::count(line_.begin(), line_.end(), ',')) + 1;
+  if (count > kMaxColumns) {
+    fail(name_, number_, kMaxColumns + 1,
+         fmt::format("{} fields: an export has at most {} columns", count, kMaxColumns));
+  }
+  fields_.clear();
+  std::size_t from = 0;
+  for (;;) {
+    const std::size_t comma = line_.find(',', from);
+    fields_.push_back(
+        trim(line_.substr(from, comma == std::string_view::npos ? comma : comma - from)));
+    if (comma == std::string_view::npos) break;
+    from = comma + 1;
+  }
+  return true;
+}
+
+void CsvLines::seek(std::size_t offset, int number) {
+  pos_ = offset;
+  number_ = number - 1;
+}
+
+bool CsvLines::blank() const {
+  return std::all_of(fields_.begin(), fields_.end(), [](std::string_view f) { return f.empty(); });
+}
+
+std::string_view trim(std::string_view s) {
+  const auto blank = [](char c) { return c == ' ' || c == '\t' || c == '\r'; };
+  while (!s.empty() && blank(s.front())) s.remove_prefix(1);
+  while (!s.empty() && blank(s.back())) s.remove_suffix(1);
+  return s;
+}
+
+bool parse_number(std::string_view f, double& v) {
+  if (!f.empty() && f.front() == '+') f.remove_prefix(1);
+  if (f.empty() || f.front() == '+') return false;
+  const auto [end, ec] = std::from_chars(f.data(), f.data() + f.size(), v);
+  return ec == std::errc() && end == f.data() + f.size() && std::isfinite(v);
+}
+
+double number_at(const CsvLines& lines, std::size_t k, const std::string& what) {
+  double v = 0;
+  if (!parse_number(lines.field(k), v)) {
+    fail(lines.name(), lines.number(), k + 1,
+         fmt::format("{} '{}' is not a number", what, printable(std::string(lines.field(k)))));
+  }
+  return v;
+}
+
+std::string name_list(const std::vector<std::string>& names) {
+  std::string out;
+  const std::size_t shown = std::min<std::size_t>(names.size(), 20);
+  for (std::size_t k = 0; k < shown; ++k) {
+    out += fmt::format("{}'{}'", k > 0 ? ", " : "", printable(names[k]));
+  }
+  if (names.size() > shown) out += fmt::format(" and {} more", names.size() - shown);
+  return out;
+}
+
+namespace {
+
+bool same_text(std::string_view a, std::string_view b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
+           return std::tolower(static_cast<unsigned char>(x)) ==
+                  std::tolower(static_cast<unsigned char>(y));
+         });
+}
+
+double scale_of(std::string_view unit, const std::map<std::string_view, double>& known) {
+  for (const auto& [name, scale] : known) {
+    if (same_text(unit, name)) return scale;
+  }
+  return 0;
+}
+
+}  // namespace
+
+double length_scale(std::string_view unit) {
+  static const std::map<std::string_view, double> known{{"m", 1},
+                                                        {"mm", 1e-3},
+                                                        {"cm", 1e-2},
+                                                        {"um", 1e-6},
+                                                        {"meters", 1},
+                                                        {"millimeters", 1e-3},
+                                                        {"centimeters", 1e-2},
+                                                        {"metres", 1},
+                                                        {"millimetres", 1e-3},
+                                                        {"centimetres", 1e-2}};
+  return scale_of(unit, known);
+}
+
+double time_scale(std::string_view unit) {
+  static const std::map<std::string_view, double> known{
+      {"s", 1}, {"ms", 1e-3}, {"seconds", 1}, {"milliseconds", 1e-3}};
+  return scale_of(unit, known);
+}
+
+double angle_scale(std::string_view unit) {
+  static const std::map<std::string_view, double> known{
+      {"rad", 1}, {"deg", M_PI / 180}, {"radians", 1}, {"degrees", M_PI / 180}};
+  return scale_of(unit, known);
+}
+
+double resolve_unit(const std::string& name, int line, std::size_t column, std::string_view kind,
+                    std::string_view file_unit, const std::string& option, std::string_view flag) {
+  const auto scale = [&](std::string_view unit) {
+    return kind == "length" ? length_scale(unit)
+           : kind == "time" ? time_scale(unit)
+                            : angle_scale(unit);
+  };
+  const char* known = kind == "length" ? "m, mm, cm, um" : kind == "time" ? "s, ms" : "rad, deg";
+  double given = 0;
+  if (!option.empty()) {
+    given = scale(option);
+    if (given == 0) {
+      throw InputError(name, 0, std::string(flag),
+                       fmt::format("unknown {} unit '{}' ({})", kind, printable(option), known));
+    }
+  }
+  if (file_unit.empty()) {
+    if (given == 0) {
+      fail(name, line, column,
+           fmt::format("the file states no {} unit: give {} ({})", kind, flag, known));
+    }
+    return given;
+  }
+  const double stated = scale(file_unit);
+  if (stated == 0) {
+    fail(name, line, column,
+         fmt::format("unknown {} unit '{}' ({})", kind, printable(std::string(file_unit)), known));
+  }
+  if (given != 0 && given != stated) {
+    fail(name, line, column,
+         fmt::format("the file's {} unit is '{}', {} {} disagrees", kind,
+                     printable(std::string(file_unit)), flag, printable(option)));
+  }
+  return stated;
+}
+
+std::array<double, 4> rotation_vector_quaternion(double rx, double ry, double rz) {
+  const double angle = std::sqrt(rx * rx + ry * ry + rz * rz);
+  // sin(angle / 2) / angle, by its series near 0 (no division by a tiny angle).
+  const double k = angle < 1e-6 ? 0.5 - angle * angle / 48 : std::sin(angle / 2) / angle;
+  return {std::cos(angle / 2), k * rx, k * ry, k * rz};
+}
+
+namespace {
+
+std::array<double, 4> multiply(const std::array<double, 4>& a, const std::array<double, 4>& b) {
+  return {a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+          a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+          a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+          a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]};
+}
+
+}  // namespace
+
+std::array<double, 4> euler_quaternion(const std::string& order, double ax, double ay, double az) {
+  // Intrinsic: the first axis's rotation, then about the new second axis, then
+  // the new third: R = R_first * R_second * R_third.
+  std::array<double, 4> q{1, 0, 0, 0};
+  for (const char axis : order) {
+    const int k = axis == 'X' ? 1 : axis == 'Y' ? 2 : 3;
+    const double angle = k == 1 ? ax : k == 2 ? ay : az;
+    std::array<double, 4> step{std::cos(angle / 2), 0, 0, 0};
+    step[static_cast<std::size_t>(k)] = std::sin(angle / 2);
+    q = multiply(q, step);
+  }
+  return q;
+}
+
+bool names_match(std::string_view full, std::string_view wanted) {
+  if (full == wanted) return true;
+  return full.size() > wanted.size() + 1 && full.substr(full.size() - wanted.size()) == wanted &&
+         full[full.size() - wanted.size() - 1] == ':';
+}
+
+namespace {
+
+// The row's time in seconds.
+double row_time(const CsvLines& lines, const SamplePlan& plan) {
+  const std::size_t c = plan.time_column;
+  if (lines.field(c).empty()) {
+    fail(lines.name(), lines.number(), c + 1, plan.frame_rate > 0 ? "no frame number" : "no time");
+  }
+  if (plan.sub_frame_column >= 0) {
+    const auto s = static_cast<std::size_t>(plan.sub_frame_column);
+    if (number_at(lines, s, "sub frame") != 0) {
+      fail(lines.name(), lines.number(), s + 1,
+           fmt::format("sub frame {}: rows between frames (sampled faster than the section's "
+                       "frame rate) are not read",
+                       printable(std::string(lines.field(s)))));
+    }
+  }
+  if (plan.frame_rate > 0) {
+    const double frame = number_at(lines, c, "frame");
+    if (frame != std::floor(frame) || frame < 0 || frame > 9e15) {
+      fail(lines.name(), lines.number(), c + 1,
+           fmt::format("frame {} is not a whole number", printable(std::string(lines.field(c)))));
+    }
+    return frame / plan.frame_rate;
+  }
+  return number_at(lines, c, "time") * plan.time_scale;
+}
+
+// The value of column `c` scaled, or false for an empty field.
+bool value(const CsvLines& lines, std::size_t c, double scale, double& v) {
+  if (lines.field(c).empty()) return false;
+  v = number_at(lines, c, "value") * scale;
+  return true;
+}
+
+// The row's orientation as a unit quaternion; false if a field is empty.
+bool row_rotation(const CsvLines& lines, const SamplePlan& plan, std::array<double, 4>& q) {
+  const auto& c = plan.rotation_columns;
+  if (plan.rotation == Rotation::kQuaternion) {
+    bool all = true;
+    for (std::size_t k = 0; k < 4; ++k) all = value(lines, c[k], 1, q[k]) && all;
+    if (!all) return false;
+    const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (std::abs(norm - 1) > 1e-3) {
+      fail(lines.name(), lines.number(), *std::min_element(c.begin(), c.end()) + 1,
+           fmt::format("a quaternion of norm {:.6g}: not a rotation (further than 1e-3 from 1)",
+                       norm));
+    }
+    for (double& v : q) v /= norm;
+    return true;
+  }
+  std::array<double, 3> a{};
+  bool all = true;
+  for (std::size_t k = 0; k < 3; ++k) all = value(lines, c[k], plan.angle_scale, a[k]) && all;
+  if (!all) return false;
+  q = plan.rotation == Rotation::kRotationVector
+          ? rotation_vector_quaternion(a[0], a[1], a[2])
+          : euler_quaternion(plan.euler_order, a[0], a[1], a[2]);
+  return true;
+}
+
+// The row's sample into `stream`; false if one of its fields is empty.
+bool add_row(const CsvLines& lines, const SamplePlan& plan, double t, TrackerStream& stream) {
+  bool all = true;
+  std::array<double, 3> p{};
+  if (plan.has_position) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      all = value(lines, plan.position[k], plan.position_scale[k], p[k]) && all;
+    }
+  }
+  std::array<double, 4> q{};
+  if (plan.rotation != Rotation::kNone) all = row_rotation(lines, plan, q) && all;
+  std::vector<std::array<double, 3>> markers(plan.markers.size());
+  for (std::size_t m = 0; m < plan.markers.size(); ++m) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      all = value(lines, plan.markers[m][k], plan.marker_scale[m][k], markers[m][k]) && all;
+    }
+  }
+  if (!all) return false;
+  stream.t.push_back(t);
+  if (plan.has_position) stream.p.push_back(p);
+  if (plan.rotation != Rotation::kNone) stream.q.push_back(q);
+  if (!plan.markers.empty()) stream.markers.push_back(std::move(markers));
+  return true;
+}
+
+}  // namespace
+
+bool is_title(const CsvLines& lines) {
+  double v = 0;
+  return !lines.field(0).empty() && !parse_number(lines.field(0), v) &&
+         std::all_of(lines.fields().begin() + 1, lines.fields().end(),
+                     [](std::string_view f) { return f.empty(); });
+}
+
+void read_samples(CsvLines& lines, const SamplePlan& plan, bool stop_at_blank,
+                  TrackerStream& stream) {
+  const int header_line = lines.number();
+  double last_t = -std::numeric_limits<double>::infinity();
+  int last_line = 0;
+  while (lines.next()) {
+    if (lines.blank()) {
+      if (stop_at_blank) return;
+      continue;
+    }
+    if (stop_at_blank && is_title(lines)) return;
+    const std::size_t n = lines.fields().size();
+    if (n != plan.width) {
+      fail(lines.name(), lines.number(), std::min(n, plan.width) + 1,
+           fmt::format("{} fields, the header (line {}) has {}{}", n, header_line, plan.width,
+                       n < plan.width ? ": a row cut short" : ""));
+    }
+    const double t = row_time(lines, plan);
+    if (!(t > last_t)) {
+      fail(lines.name(), lines.number(), plan.time_column + 1,
+           fmt::format("time {:.9g} s is not after the previous sample's {:.9g} s (line {})", t,
+                       last_t, last_line));
+    }
+    last_t = t;
+    last_line = lines.number();
+    if (!add_row(lines, plan, t, stream)) ++stream.lost;
+  }
+}
+
+}  // namespace detail
+
+using detail::CsvLines;
+using detail::fail;
+using detail::SamplePlan;
+
+std::string tracker_export_format(const std::string& text) {
+  // The first line that is not blank, read without splitting it (no bound to keep).
+  std::string_view rest(text);
+  if (rest.substr(0, 3) == "\xEF\xBB\xBF") rest.remove_prefix(3);
+  while (!rest.empty()) {
+    const std::size_t eol = std::min(rest.find('\n'), rest.size());
+    const std::string_view line = rest.substr(0, eol);
+    rest.remove_prefix(std::min(eol + 1, rest.size()));
+    const std::size_t comma = std::min(line.find(','), line.size());
+    const std::string_view first = detail::trim(line.substr(0, comma));
+    const bool alone = line.find_first_not_of(", \t\r", comma) == std::string_view::npos;
+    if (first.empty() && alone) continue;
+    if (first == "Format Version") return "Motive";
+    static const std::string_view kSections[] = {"Trajectories", "Segments", "Model Outputs",
+                                                 "Joints", "Devices"};
+    if (alone &&
+        std::find(std::begin(kSections), std::end(kSections), first) != std::end(kSections)) {
+      return "Vicon";
+    }
+    return "CSV";
+  }
+  return "CSV";
+}
+
+namespace {
+
+// A generic CSV's column map, "t=Time,x=PosX,...": each key's header name, and
+// the unit a key may carry ("rx[deg]=RotX").
+struct ColumnMap {
+  std::map<std::string, std::string> header;  // key -> header name
+  std::map<std::string, std::string> unit;    // key -> unit written with the key
+  std::size_t markers = 0;
+};
+
+ColumnMap parse_column_map(const std::string& map, const std::string& name) {
+  const auto bad = [&](const std::string& message) {
+    return InputError(name, 0, "--column-map", message);
+  };
+  ColumnMap out;
+  std::size_t from = 0;
+  while (from <= map.size()) {
+    std::size_t comma = map.find(',', from);
+    if (comma == std::string::npos) comma = map.size();
+    const std::string_view entry = detail::trim(std::string_view(map).substr(from, comma - from));
+    from = comma + 1;
+    const std::size_t eq = entry.find('=');
+    if (eq == std::string_view::npos || detail::trim(entry.substr(eq + 1)).empty()) {
+      throw bad(fmt::format("'{}' is not KEY=COLUMN", printable(std::string(entry))));
+    }
+    std::string key(detail::trim(entry.substr(0, eq)));
+    std::string unit;
+    if (const std::size_t open = key.find('['); open != std::string::npos && key.back() == ']') {
+      unit = key.substr(open + 1, key.size() - open - 2);
+      key = std::string(detail::trim(key.substr(0, open)));
+    }
+    static const std::string_view kFixed[] = {"t",  "x",  "y",  "z",  "qw", "qx",
+                                              "qy", "qz", "rx", "ry", "rz"};
+    bool known = std::find(std::begin(kFixed), std::end(kFixed), key) != std::end(kFixed);
+    if (!known && key.size() > 1 && (key[0] == 'x' || key[0] == 'y' || key[0] == 'z')) {
+      std::size_t k = 0;
+      const auto [end, ec] = std::from_chars(key.data() + 1, key.data() + key.size(), k);
+      known = ec == std::errc() && end == key.data() + key.size() && k >= 1 && k <= 1000 &&
+              key[1] != '0';
+      if (known) out.markers = std::max(out.markers, k);
+    }
+    if (!known) {
+      throw bad(
+          fmt::format("unknown key '{}' (t, x, y, z, qw, qx, qy, qz, rx, ry, rz, x1, y1, "
+                      "z1, ...)",
+                      printable(key)));
+    }
+    if (!out.header.emplace(key, std::string(detail::trim(entry.substr(eq + 1)))).second) {
+      throw bad(fmt::format("key '{}' given twice", key));
+    }
+    if (!unit.empty()) out.unit[key] = unit;
+  }
+  const auto has = [&](const char* k) { return out.header.count(k) > 0; };
+  const auto all_or_none = [&](std::initializer_list<const char*> keys, const char* what) {
+    const auto n = std::count_if(keys.begin(), keys.end(), has);
+    if (n != 0 && n != static_cast<long>(keys.size()))
+      throw bad(fmt::format("{}: give all of them", what));
+    return n != 0;
+  };
+  if (!has("t")) throw bad("no t=COLUMN: a stream needs its times");
+  const bool position = all_or_none({"x", "y", "z"}, "x, y, z");
+  const bool quaternion = all_or_none({"qw", "qx", "qy", "qz"}, "qw, qx, qy, qz");
+  const bool vector = all_or_none({"rx", "ry", "rz"}, "rx, ry, rz");
+  for (std::size_t k = 1; k <= out.markers; ++k) {
+    for (const char axis : {'x', 'y', 'z'}) {
+      if (!out.header.count(fmt::format("{}{}", axis, k))) {
+        throw bad(
+            fmt::format("marker {} has no {}{}=COLUMN (markers are numbered from 1)", k, axis, k));
+      }
+    }
+  }
+  if (quaternion && vector) throw bad("both a quaternion and a rotation vector: give one");
+  if ((quaternion || vector) && !position) throw bad("an orientation needs x, y, z");
+  if (position == (out.markers > 0)) {
+    throw bad(position ? "both x, y, z and markers x1, y1, z1...: give one"
+                       : "no positions: give x, y, z or markers x1, y1, z1, ...");
+  }
+  return out;
+}
+
+// A header field "PosX [mm]": its name and its unit (empty without brackets).
+std::pair<std::string_view, std::string_view> name_and_unit(std::string_view field) {
+  const std::size_t open = field.rfind('[');
+  if (open == std::string_view::npos || field.back() != ']') return {field, {}};
+  return {detail::trim(field.substr(0, open)),
+          detail::trim(field.substr(open + 1, field.size() - open - 2))};
+}
+
+// The header column the map's `key` names (0-based); InputError if none or several.
+std::size_t find_column(const CsvLines& lines, const ColumnMap& map, const std::string& key,
+                        const std::vector<std::string>& header_names) {
+  const std::string& wanted = map.header.at(key);
+  std::ptrdiff_t found = -1;
+  for (std::size_t c = 0; c < lines.fields().size(); ++c) {
+    if (lines.field(c) != wanted && name_and_unit(lines.field(c)).first != wanted) continue;
+    if (found >= 0) {
+      fail(lines.name(), lines.number(), c + 1,
+           fmt::format("'{}' ({}=) is both column {} and column {}", printable(wanted), key,
+                       found + 1, c + 1));
+    }
+    found = static_cast<std::ptrdiff_t>(c);
+  }
+  if (found < 0) {
+    throw InputError(lines.name(), lines.number(), fmt::format("column '{}'", printable(wanted)),
+                     fmt::format("no such column in the header ({}= of --column-map){}", key,
+                                 did_you_mean(wanted, header_names)));
+  }
+  return static_cast<std::size_t>(found);
+}
+
+}  // namespace
+
+TrackerStream read_generic_csv(const std::string& text, const std::string& name,
+                               const TrackerExportOptions& options) {
+  if (!options.body.empty() || !options.markers.empty()) {
+    throw InputError(name, 0, options.body.empty() ? "--marker" : "--body",
+                     "a generic CSV's columns are chosen by --column-map alone");
+  }
+  const ColumnMap map = parse_column_map(options.column_map, name);
+  CsvLines lines(text, name);
+  while (lines.next() && (lines.blank() || lines.line().front() == '#')) {
+  }
+  if (lines.number() == 0 || lines.blank() || lines.line().front() == '#') {
+    fail(name, lines.number() + 1, 1, "no header line: the file is empty");
+  }
+  std::vector<std::string> header_names;
+  for (const std::string_view f : lines.fields()) header_names.emplace_back(name_and_unit(f).first);
+  SamplePlan plan;
+  plan.width = lines.fields().size();
+  const auto column = [&](const std::string& key) {
+    return find_column(lines, map, key, header_names);
+  };
+  const auto unit_of = [&](std::size_t c, const std::string& key, std::string_view kind,
+                           const std::string& option, std::string_view flag) {
+    std::string_view stated = name_and_unit(lines.field(c)).second;
+    if (stated.empty() && map.unit.count(key)) stated = map.unit.at(key);
+    return detail::resolve_unit(name, lines.number(), c + 1, kind, stated, option, flag);
+  };
+  plan.time_column = column("t");
+  plan.time_scale = unit_of(plan.time_column, "t", "time", options.time_unit, "--time-unit");
+  TrackerStream stream;
+  stream.source = fmt::format("CSV with columns {}", printable(options.column_map, 200));
+  const auto position = [&](const std::string& suffix, std::array<std::size_t, 3>& c,
+                            std::array<double, 3>& scale) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::string key = std::string(1, "xyz"[k]) + suffix;
+      c[k] = column(key);
+      scale[k] = unit_of(c[k], key, "length", options.length_unit, "--length-unit");
+    }
+  };
+  if (map.markers == 0) {
+    plan.has_position = true;
+    position("", plan.position, plan.position_scale);
+  }
+  for (std::size_t m = 1; m <= map.markers; ++m) {
+    plan.markers.emplace_back();
+    plan.marker_scale.emplace_back();
+    position(std::to_string(m), plan.markers.back(), plan.marker_scale.back());
+    stream.marker_names.emplace_back(name_and_unit(lines.field(plan.markers.back()[0])).first);
+  }
+  if (map.header.count("qw")) {
+    plan.rotation = detail::Rotation::kQuaternion;
+    for (std::size_t k = 0; k < 4; ++k)
+      plan.rotation_columns[k] = column(std::string("q") + "wxyz"[k]);
+  } else if (map.header.count("rx")) {
+    plan.rotation = detail::Rotation::kRotationVector;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::string key = std::string("r") + "xyz"[k];
+      plan.rotation_columns[k] = column(key);
+      const double scale = unit_of(plan.rotation_columns[k], key, "angle", "",
+                                   "a unit in the header or the map (rx[deg]=NAME)");
+      if (k > 0 && scale != plan.angle_scale) {
+        fail(name, lines.number(), plan.rotation_columns[k] + 1,
+             "the rotation vector's columns are in different units");
+      }
+      plan.angle_scale = scale;
+    }
+  }
+  detail::read_samples(lines, plan, false, stream);
+  if (stream.t.empty() && stream.lost == 0) fail(name, lines.number() + 1, 1, "no data rows");
+  return stream;
+}
+
+TrackerStream read_tracker_export(const std::string& path, const TrackerExportOptions& options) {
+  const std::string text = read_file(path, FileKind::kLog);
+  const std::string format = tracker_export_format(text);
+  if (format != "CSV" && !options.column_map.empty()) {
+    throw InputError(path, 0, "--column-map",
+                     fmt::format("a column map is for a generic CSV; this file is a {} export "
+                                 "(read by its own header)",
+                                 format));
+  }
+  if (format == "Motive") return read_motive_csv(text, path, options);
+  if (format == "Vicon") return read_vicon_csv(text, path, options);
+  if (options.column_map.empty()) {
+    throw InputError(path, 1, "",
+                     "neither a Motive export (\"Format Version,...\") nor a Vicon one (a "
+                     "\"Trajectories\" or \"Segments\" section): give --column-map "
+                     "t=NAME,x=NAME,y=NAME,z=NAME");
+  }
+  return read_generic_csv(text, path, options);
+}
+
+}  // namespace hapticcal::recording
