@@ -10,7 +10,8 @@ build="$(cd "$1" && pwd)"
 seconds="$2"
 shift 2
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(fuzz_device fuzz_fixture fuzz_log fuzz_log_columns fuzz_scenario fuzz_urdf)
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_device fuzz_fixture fuzz_log fuzz_log_columns fuzz_scenario fuzz_urdf
+  fuzz_ros1_bag fuzz_mcap fuzz_ros_message fuzz_tracker_export)
 
 seeds() {
   case "$1" in
@@ -29,6 +30,8 @@ seeds() {
       ls "$src"/fuzz/seeds/scenario/* ;;
     fuzz_urdf)
       ls "$src"/tests/data/urdf/*.urdf "$src"/fuzz/seeds/urdf/*.urdf ;;
+    fuzz_ros1_bag | fuzz_mcap | fuzz_ros_message | fuzz_tracker_export)
+      ls "$src"/fuzz/seeds/"${1#fuzz_}"/* ;;
   esac
 }
 dict() {
@@ -38,6 +41,7 @@ dict() {
     fuzz_log | fuzz_log_columns) echo log ;;
     fuzz_scenario) echo scenario ;;
     fuzz_urdf) echo urdf ;;
+    *) echo "${1#fuzz_}" ;;
   esac
 }
 
