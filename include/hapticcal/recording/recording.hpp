@@ -24,11 +24,19 @@ enum class Encoding {
 // "package/msg/Type" loses its "msg/"); `definition` is the message definition
 // as stored (ROS 1's connection header, MCAP's ros1msg or ros2msg schema,
 // rosbag2's message_definitions table), empty when the file holds none.
+// `message_encoding` is the encoding as the file names it: "ros1" or "cdr" when
+// hapticcal can decode the messages (then `encoding` says which); anything else
+// ("json with a jsonschema schema", "cdr with a ros2idl schema", a .db3's "cdr
+// with a ros2idl definition", "protobuf") is a channel hapticcal cannot
+// decode, handed out all the same (its messages too) so that the import layer
+// can refuse its topic naming the encoding. Empty means `encoding` says it all
+// (a format with one encoding: a ROS 1 bag).
 struct Channel {
   std::string topic;
   std::string type;
   Encoding encoding = Encoding::kRos1;
   std::string definition;
+  std::string message_encoding;
 };
 
 // The bounds every reader keeps (README "Bounded input"). A file beyond one is
