@@ -226,9 +226,9 @@ void check_orientations(Stream& s, const std::string& file, ImportResult& result
     if (norm == 0) {
       ++zero;
     } else if (!(std::abs(norm - 1) <= 1e-3)) {
-      throw InputError(fmt::format(
-          "{}: byte {}: {} message {}: an orientation of norm {:.6g}, not a unit quaternion", file,
-          s.samples->offset[i], s.what, i + 1, norm));
+      throw InputError(
+          fmt::format("{}: {} message {}: an orientation of norm {:.6g}, not a unit quaternion",
+                      place(file, s.samples->offset[i]), s.what, i + 1, norm));
     }
   }
   if (zero == 0) return;
@@ -249,8 +249,8 @@ void check_increasing(const Stream& s, const std::string& file, StampSource stam
   for (std::size_t i = 1; i < t.size(); ++i) {
     if (t[i] > t[i - 1]) continue;
     throw InputError(fmt::format(
-        "{}: byte {}: {} message {}: its {} stamp {} s is not after the previous message's {} s{}",
-        file, s.samples->offset[i], s.what, i + 1,
+        "{}: {} message {}: its {} stamp {} s is not after the previous message's {} s{}",
+        place(file, s.samples->offset[i]), s.what, i + 1,
         stamps == StampSource::kHeader ? "header" : "recorder's", seconds_text(t[i]),
         seconds_text(t[i - 1]),
         stamps == StampSource::kHeader ? " (--time receive takes the recorder's stamps)" : ""));

@@ -28,13 +28,18 @@ const double* first_number(const DecodedMessage& m, std::initializer_list<std::s
 
 class Collector : public RecordingVisitor {
  public:
-  Collector(std::string file, const std::vector<FieldRequest>& fields, StampSource stamps)
-      : file_(std::move(file)), fields_(fields), stamps_(stamps) {}
+  Collector(std::string file, const std::vector<FieldRequest>& fields, StampSource stamps,
+            bool offsets)
+      : file_(std::move(file)), fields_(fields), stamps_(stamps), offsets_(offsets) {}
 
   void channel(std::uint32_t id, const Channel& channel) override {
     TopicBuffer buffer;
     buffer.channel = channel;
-    buffer.kind = kind_of(channel.type);
+    // A channel hapticcal cannot decode (JSON, protobuf, an IDL schema) is
+    // listed, never decoded.
+    const bool decodable = channel.message_encoding.empty() || channel.message_encoding == "ros1" ||
+                           channel.message_encoding == "cdr";
+    buffer.kind = decodable ? kind_of(channel.type) : TopicKind::kOther;
     for (const FieldRequest& f : fields_)
       if (f.topic == channel.topic) buffer.kind = TopicKind::kFields;
     index_[id] = topics_.size();
@@ -52,9 +57,11 @@ class Collector : public RecordingVisitor {
     ++t.messages;
     t.receive_ns.push_back(receive_ns);
     if (t.kind == TopicKind::kOther) return;
+    // A .db3 holds no byte offsets: its messages are named by their place.
+    if (!offsets_) offset = kNoOffset;
     const std::string origin =
-        fmt::format("{}: byte {}: {} ({}) message {}", file_, offset,
-                    printable(t.channel.topic, 80), t.channel.type, t.messages);
+        fmt::format("{}: {} ({}) message {}", place(file_, offset), printable(t.channel.topic, 80),
+                    t.channel.type, t.messages);
     if (!t.type) t.type = type_of(t, origin);
     const DecodedMessage m = decode_message(*t.type, data, origin);
     switch (t.kind) {
@@ -201,6 +208,7 @@ class Collector : public RecordingVisitor {
   std::string file_;
   const std::vector<FieldRequest>& fields_;
   StampSource stamps_;
+  bool offsets_ = true;  // the reader gives byte offsets (not a .db3)
   std::vector<TopicBuffer> topics_;
   std::map<std::uint32_t, std::size_t> index_;
 };
@@ -226,9 +234,13 @@ std::vector<TopicBuffer> read_topics(const std::string& path,
                                      const std::vector<FieldRequest>& fields, StampSource stamps,
                                      const RecordingLimits& limits, std::string& format) {
   format = recording_format(path);
-  Collector collector(path, fields, stamps);
+  Collector collector(path, fields, stamps, format != "rosbag2 sqlite3");
   read_recording(path, collector, limits);
   return collector.take();
+}
+
+std::string place(const std::string& file, std::uint64_t offset) {
+  return offset == kNoOffset ? file : fmt::format("{}: byte {}", file, offset);
 }
 
 std::string seconds_text(std::int64_t ns) {

@@ -51,6 +51,11 @@ std::vector<TopicBuffer> read_topics(const std::string& path,
                                      const std::vector<FieldRequest>& fields, StampSource stamps,
                                      const RecordingLimits& limits, std::string& format);
 
+// A message's place in errors: "FILE: byte N", or "FILE" for a storage without
+// byte offsets (a .db3: its messages are named by their number on the topic).
+inline constexpr std::uint64_t kNoOffset = ~std::uint64_t{0};
+std::string place(const std::string& file, std::uint64_t offset);
+
 // The nanoseconds since the epoch as seconds, exactly as decimal text
 // ("12.000000345"): the CSV reader then rounds it once, as it would the same
 // time typed in a log.
