@@ -191,7 +191,7 @@ TEST(CliErrors, BareCommandPointsToHelp) {
   testing::expect_input_error(r, "");
   EXPECT_EQ(r.err,
             "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, convert, "
-            "devices); see "
+            "import, devices); see "
             "hapticcal --help\n");
 }
 

@@ -14,6 +14,7 @@
 #include <random>
 
 #include "hapticcal/data_io/log.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/device.hpp"
 #include "hapticcal/study/session.hpp"
 #include "run_cli.hpp"
@@ -263,6 +264,72 @@ TEST(Import, MotiveAndViconExportsImportToTheSameStream) {
     const double dot = motive.orientation.row(r).dot(vicon.orientation.row(r));
     EXPECT_NEAR(std::abs(dot), 1.0, 1e-12) << r;
   }
+}
+
+// A robot that stops at poses while a tracker records: --static writes one row
+// a still window, its readings and the tracker's samples in it averaged.
+TEST(Import, StillPosesMakeAStaticLog) {
+  const std::string dir = testing::fresh_folder("import_static");
+  const DeviceModel truth = touch_truth();
+  const PreparedModel prepared(truth);
+  std::mt19937_64 rng(9);
+  const int poses = 12;
+  std::vector<Eigen::VectorXd> targets;
+  for (int k = 0; k < poses; ++k) targets.push_back(testing::random_readings(truth, rng));
+  // 1 s still at each pose, 0.5 s moving to the next; readings at 1 kHz, the
+  // tracker at 100 Hz on the same clock 0.3 ms later.
+  const auto readings_at = [&](double t) {
+    const int k = std::min(static_cast<int>(t / 1.5), poses - 1);
+    const double into = t - 1.5 * k;
+    if (into <= 1.0 || k == poses - 1) return targets[static_cast<size_t>(k)];
+    const double s = (into - 1.0) / 0.5;
+    return Eigen::VectorXd((1 - s) * targets[static_cast<size_t>(k)] +
+                           s * targets[static_cast<size_t>(k + 1)]);
+  };
+  std::string device = "t,q1,q2,q3,q4,q5,q6\n", tracker = "t,x,y,z,qw,qx,qy,qz\n";
+  for (int r = 0; r < 1500 * poses - 500; ++r) {
+    const Eigen::VectorXd q = readings_at(0.001 * r);
+    device += fmt::format("{}", 0.001 * r);
+    for (int j = 0; j < 6; ++j) device += fmt::format(",{}", q[j]);
+    device += "\n";
+    if (r % 10 != 0) continue;
+    const Frame<double> T = prepared.forward(readings_at(0.001 * r + 3e-4).data());
+    const Eigen::Quaterniond o(T.R);
+    tracker += fmt::format("{},{},{},{},{},{},{},{}\n", 0.001 * r + 3e-4, T.p[0], T.p[1], T.p[2],
+                           o.w(), o.x(), o.y(), o.z());
+  }
+  std::ofstream(dir + "/device.csv") << device;
+  std::ofstream(dir + "/tracker.csv") << tracker;
+  const testing::CliResult w = run_program(
+      HAPTICCAL_DEBIAN_PYTHON, {std::string(HAPTICCAL_SOURCE_DIR) + "/tests/writers/session_bag.py",
+                                dir + "/device.csv", dir + "/tracker.csv", dir, "lz4"});
+  ASSERT_EQ(w.exit_code, 0) << w.err;
+  const testing::CliResult c =
+      run_cli({"import", dir + "/session.bag", "--model", recordings().nominal, "--static", "0.5",
+               "--out", dir + "/out"});
+  ASSERT_EQ(c.exit_code, 0) << c.err;
+  EXPECT_NE(c.out.find("log.csv: 12 still poses"), std::string::npos) << c.out;
+  const Log log = read_log(dir + "/out/log.csv");
+  ASSERT_EQ(log.rows, poses);
+  EXPECT_TRUE(log.has_orientation);
+  for (int k = 0; k < poses; ++k) {
+    SCOPED_TRACE(k);
+    const Eigen::VectorXd& q = targets[static_cast<size_t>(k)];
+    EXPECT_LT((log.q.row(k).transpose() - q).cwiseAbs().maxCoeff(), 1e-12);
+    const Frame<double> T = prepared.forward(q.data());
+    EXPECT_LT((log.position.row(k).transpose() - T.p).norm(), 1e-12);
+    const Eigen::Quaterniond o(T.R);
+    EXPECT_NEAR(
+        std::abs(log.orientation.row(k).dot(Eigen::RowVector4d(o.w(), o.x(), o.y(), o.z()))), 1.0,
+        1e-12);
+  }
+  EXPECT_FALSE(fs::exists(dir + "/out/device.csv"));
+  // No still window that long: refused, naming what it found.
+  const testing::CliResult none =
+      run_cli({"import", dir + "/session.bag", "--model", recordings().nominal, "--static", "2",
+               "--out", dir + "/none"});
+  EXPECT_EQ(none.exit_code, 2);
+  EXPECT_NE(none.err.find("no window of at least 2 s"), std::string::npos) << none.err;
 }
 
 // A driver's convention maps its published joints back to the device file's

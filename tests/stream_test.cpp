@@ -258,11 +258,17 @@ TEST(Stream, CarelessStreamsAreRefusedWithTheirReason) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("the handle hardly moved"), std::string::npos) << e.what();
   }
+  // Orientations are aligned with the positions (a 6-D tracker); a marker
+  // body's markers are turned into poses before the check (calibrate_streams).
   Log posed = session.tracker;
   posed.has_orientation = true;
   posed.orientation = Eigen::MatrixXd::Zero(posed.rows, 4);
   posed.orientation.col(0).setOnes();
-  EXPECT_THROW(check_streams(session.device, posed), InputError);
+  EXPECT_NO_THROW(check_streams(session.device, posed));
+  Log markers = session.tracker;
+  markers.marker_count = 1;
+  markers.markers = markers.position;
+  EXPECT_THROW(check_streams(session.device, markers), InputError);
 }
 
 // A tracker whose clock reads 1000 s at the session's start shares no time

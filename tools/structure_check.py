@@ -168,7 +168,7 @@ def functions(code):
 # The layers, lowest first (docs/ARCHITECTURE.md): a file may include its own
 # layer and lower ones, never a higher one. A layer is a folder under
 # include/hapticcal/ and src/; apps/ and python/ are the front ends on top.
-LAYERS = ["core", "model", "kinematics", "model_io", "runtime", "identification", "data_io",
+LAYERS = ["core", "model", "kinematics", "model_io", "runtime", "identification", "recording", "data_io",
           "study", "design", "report", "jobs", "apps", "python"]
 
 

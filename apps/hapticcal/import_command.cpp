@@ -53,6 +53,17 @@ CLI::App* add_import_command(CLI::App& app, ImportOptions& o) {
                   "The export's length unit where it states none (m, cm, mm, um)");
   cmd->add_option("--time-unit", o.time_unit,
                   "The export's time unit where it states none (s, ms)");
+  cmd->add_option(
+         "--static", o.still_seconds,
+         "Write a static log (log.csv: one row a pose) instead of the streams: the windows of at "
+         "least SECONDS in which the readings stay within --still-tolerance, each averaged with "
+         "the "
+         "tracker's samples in it")
+      ->check(CLI::Range(1e-3, 3600.0));
+  cmd->add_option(
+         "--still-tolerance", o.still_tolerance,
+         "With --static: how far a reading may move in a still window [rad or m] (default 1e-4)")
+      ->check(CLI::Range(0.0, 1.0));
   cmd->add_flag("--list", o.list,
                 "List the recording's topics (counts, rates, span, gaps); write nothing");
   cmd->add_option("--out", o.out,
@@ -92,6 +103,8 @@ int run_import(const ImportOptions& o) {
   request.export_options.time_unit = o.time_unit;
   request.out = o.out;
   request.list = o.list;
+  request.still_seconds = o.still_seconds;
+  request.still_tolerance = o.still_tolerance;
   const recording::ImportResult r = recording::run_import(request);
   if (!r.format.empty())
     fmt::print("{}: {}\n", printable(o.recording.empty() ? o.tracker_export : o.recording, 200),
@@ -110,9 +123,10 @@ int run_import(const ImportOptions& o) {
   }
   for (const std::string& note : r.notes) fmt::print("{}\n", note);
   if (o.list) return 0;
-  if (!r.joint_names.empty())
+  if (r.device_rows > 0)
     fmt::print("device.csv: {} rows, q1..q{} = {}\n", r.device_rows, r.joint_names.size(),
                fmt::join(r.joint_names, ", "));
+  if (r.static_rows > 0) fmt::print("log.csv: {} still poses\n", r.static_rows);
   if (r.tracker_rows > 0)
     fmt::print("tracker.csv: {} rows, {}\n", r.tracker_rows,
                r.tracker_orientation ? "positions and orientations" : "positions");

@@ -120,6 +120,40 @@ std::vector<int> fit_rows(const DeviceModel& nominal, const ReadingInterpolator&
   return out;
 }
 
+// A tracker's stream as the fits read it: its glitches (a marker swapped or
+// reflected for a sample, which would decide the coarse search and the inner
+// least squares) left out, each named later, and a chain's marker body turned
+// into the body's poses, aligned as a 6-D tracker's (the clock from their
+// positions, the kinematics from positions and orientations).
+struct ScreenedTracker {
+  std::vector<int> glitches;
+  Log log;
+  MarkerPoses markers;  // a marker body's
+  bool body = false;
+};
+
+ScreenedTracker screen_tracker(const DeviceModel& model, const Log& tracker,
+                               const Eigen::Matrix3Xd& marker_body) {
+  ScreenedTracker s;
+  s.glitches = tracker_glitches(tracker);
+  s.body = !model.tree() && tracker.marker_count > 0;
+  Log screened = s.glitches.empty() ? tracker : without_rows(tracker, s.glitches);
+  if (!s.body) {
+    s.log = std::move(screened);
+    return s;
+  }
+  s.markers = markers_to_poses(screened, marker_body);
+  s.log = s.markers.poses;
+  return s;
+}
+
+void check_readings(const Log& device, const DeviceModel& model) {
+  if (device.dof() == model.dof()) return;
+  throw InputError(device.origin, 0, "q",
+                   fmt::format("the device log has {} joint readings; the model has {} joints",
+                               device.dof(), model.dof()));
+}
+
 // The identified kinematic slots of a fit.
 std::vector<int> identified_slots(const KinematicFit& fit, int slots) {
   std::vector<int> out;
@@ -456,18 +490,11 @@ StreamAlignment align_streams(const DeviceModel& model, const Log& device, const
   if (model.tree())
     throw InputError(tracker_in.origin, 0, "--tracker",
                      "a tree's second session is not aligned yet: give a chain");
-  const std::vector<int> glitches = tracker_glitches(tracker_in);
-  const Log screened = glitches.empty() ? Log() : without_rows(tracker_in, glitches);
-  const Log& screened_ref = glitches.empty() ? tracker_in : screened;
-  const bool body = tracker_in.marker_count > 0;
-  const MarkerPoses markers = body ? markers_to_poses(screened_ref, marker_body) : MarkerPoses();
-  const Log& tracker = body ? markers.poses : screened_ref;
+  const ScreenedTracker screen = screen_tracker(model, tracker_in, marker_body);
+  const std::vector<int>& glitches = screen.glitches;
+  const Log& tracker = screen.log;
   check_streams(device, tracker);
-  if (device.dof() != model.dof()) {
-    throw InputError(device.origin, 0, "q",
-                     fmt::format("the device log has {} joint readings; the model has {} joints",
-                                 device.dof(), model.dof()));
-  }
+  check_readings(device, model);
   StreamAlignment out;
   ClockEstimate& estimate = out.clock;
   estimate.search_range = stream.search_range;
@@ -521,9 +548,9 @@ StreamAlignment align_streams(const DeviceModel& model, const Log& device, const
     out.notes.push_back("warning: " + step);
   if (!drift_note.empty()) out.notes.push_back("warning: " + drift_note);
   estimate.curve = residual_curve(model, readings, device, tracker, kept, estimate);
-  if (body) {
-    out.notes.insert(out.notes.begin(), markers.note);
-    out.marker_body = markers.body;
+  if (screen.body) {
+    out.notes.insert(out.notes.begin(), screen.markers.note);
+    out.marker_body = screen.markers.body;
   }
   out.notes.push_back(clock_note(estimate, stream, device.origin, tracker_in.origin));
   glitch_notes(tracker_in, glitches, out.notes, estimate);
@@ -542,25 +569,13 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
                                  nominal.tips(), nominal.tips(), nominal.tips(), nominal.tips(),
                                  tracker_in.marker_count));
   }
-  // Glitches (a marker swapped or reflected for a sample) would decide the
-  // coarse search and the inner least squares: left out, each named.
-  const std::vector<int> glitches = tracker_glitches(tracker_in);
-  const Log screened = glitches.empty() ? Log() : without_rows(tracker_in, glitches);
-  // A chain's marker body: the body's poses, aligned as a 6-D tracker's (the
-  // clock from their positions, the kinematics from positions and orientations).
-  const bool body = !nominal.tree() && tracker_in.marker_count > 0;
-  const MarkerPoses markers =
-      body ? markers_to_poses(glitches.empty() ? tracker_in : screened, options.marker_body)
-           : MarkerPoses();
-  const Log& tracker = body ? markers.poses : glitches.empty() ? tracker_in : screened;
+  const ScreenedTracker screen = screen_tracker(nominal, tracker_in, options.marker_body);
+  const std::vector<int>& glitches = screen.glitches;
+  const Log& tracker = screen.log;
   const Log first = nominal.tree() ? first_tip_stream(tracker) : Log();
   const Log& tracked = nominal.tree() ? first : tracker;
   check_streams(device, tracked);
-  if (device.dof() != nominal.dof()) {
-    throw InputError(device.origin, 0, "q",
-                     fmt::format("the device log has {} joint readings; the model has {} joints",
-                                 device.dof(), nominal.dof()));
-  }
+  check_readings(device, nominal);
   const auto progress = [&](const std::string& stage, double share) {
     if (stream.progress) stream.progress(stage, share);
   };
@@ -653,9 +668,9 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   estimate.curve = residual_curve(out.result.calibrated, readings, device, tracked, kept, estimate);
   out.result.notes.push_back(clock_note(estimate, stream, device.origin, tracker.origin));
   glitch_notes(tracker_in, glitches, out.result.notes, estimate);
-  if (body) {
-    out.result.notes.insert(out.result.notes.begin(), markers.note);
-    out.result.marker_body = markers.body;
+  if (screen.body) {
+    out.result.notes.insert(out.result.notes.begin(), screen.markers.note);
+    out.result.marker_body = screen.markers.body;
   }
   out.result.clock = estimate;
   return out;

@@ -257,23 +257,113 @@ void check_increasing(const Stream& s, const std::string& file, StampSource stam
   }
 }
 
+// One sample's values as written: the columns taken, or a convention's readings.
+void row_values(const Stream& s, std::size_t i, std::vector<double>& out) {
+  const double* row = s.samples->values.data() + static_cast<std::size_t>(s.width) * i;
+  if (s.convention) return s.convention->readings_of(row, out);
+  out.clear();
+  for (const int k : s.take) out.push_back(row[k]);
+}
+
 std::string stream_csv(const Stream& s, std::int64_t origin, const std::string& comment) {
   std::string out = comment;
   out += "t";
   for (const std::string& c : s.columns) out += "," + c;
   out += "\n";
   const std::size_t n = s.samples->stamp_ns.size();
-  std::vector<double> readings;
+  std::vector<double> values;
   for (std::size_t i = 0; i < n; ++i) {
     out += seconds_text(s.samples->stamp_ns[i] - origin);
-    const double* row = s.samples->values.data() + static_cast<std::size_t>(s.width) * i;
-    if (s.convention) {
-      s.convention->readings_of(row, readings);
-      for (const double r : readings) out += fmt::format(",{}", r);
-    } else {
-      for (const int k : s.take) out += fmt::format(",{}", row[k]);
+    row_values(s, i, values);
+    for (const double v : values) out += fmt::format(",{}", v);
+    out += "\n";
+  }
+  return out;
+}
+
+// The static log: the windows of at least `still` seconds in which no reading
+// moves by more than `tolerance`, each one row: the mean of its readings, and
+// the mean of the tracker's samples stamped within it less a tenth of it at
+// either end (a clock difference below that does not matter), a quaternion's
+// mean its sign-aligned sum normalised. Windows without a tracker sample are
+// left out and counted in a note.
+std::string static_csv(const Stream& device, const Stream& tracker, const ImportRequest& request,
+                       std::int64_t origin, const std::string& comment, ImportResult& result) {
+  const std::vector<std::int64_t>& td = device.samples->stamp_ns;
+  const std::vector<std::int64_t>& tt = tracker.samples->stamp_ns;
+  std::string out = comment + "t";
+  for (const std::string& c : device.columns) out += "," + c;
+  for (const std::string& c : tracker.columns) out += "," + c;
+  out += "\n";
+  std::vector<double> values, low, high, q_sum, m_sum;
+  std::size_t windows = 0, empty = 0;
+  const auto close = [&](std::size_t a, std::size_t b) {  // device rows [a, b]
+    if (1e-9 * static_cast<double>(td[b] - td[a]) < request.still_seconds) return;
+    ++windows;
+    const std::int64_t margin = (td[b] - td[a]) / 10;
+    const auto first = std::lower_bound(tt.begin(), tt.end(), td[a] + margin);
+    const auto last = std::upper_bound(tt.begin(), tt.end(), td[b] - margin);
+    if (first >= last) return void(++empty);
+    q_sum.assign(device.columns.size(), 0.0);
+    for (std::size_t i = a; i <= b; ++i) {
+      row_values(device, i, values);
+      for (std::size_t k = 0; k < values.size(); ++k) q_sum[k] += values[k];
+    }
+    m_sum.assign(tracker.columns.size(), 0.0);
+    std::vector<double> reference;
+    for (auto it = first; it != last; ++it) {
+      row_values(tracker, static_cast<std::size_t>(it - tt.begin()), values);
+      if (values.size() == 7) {  // a quaternion and its negative are one turn
+        if (reference.empty()) reference.assign(values.begin() + 3, values.end());
+        double dot = 0;
+        for (int k = 0; k < 4; ++k) dot += reference[k] * values[3 + k];
+        if (dot < 0)
+          for (int k = 3; k < 7; ++k) values[k] = -values[k];
+      }
+      for (std::size_t k = 0; k < values.size(); ++k) m_sum[k] += values[k];
+    }
+    const auto nd = static_cast<double>(b - a + 1), nt = static_cast<double>(last - first);
+    out += seconds_text((td[a] + td[b]) / 2 - origin);
+    for (const double v : q_sum) out += fmt::format(",{}", v / nd);
+    for (std::size_t k = 0; k < 3; ++k) out += fmt::format(",{}", m_sum[k] / nt);
+    if (m_sum.size() == 7) {
+      const double norm = std::sqrt(m_sum[3] * m_sum[3] + m_sum[4] * m_sum[4] +
+                                    m_sum[5] * m_sum[5] + m_sum[6] * m_sum[6]);
+      for (std::size_t k = 3; k < 7; ++k) out += fmt::format(",{}", m_sum[k] / norm);
     }
     out += "\n";
+    ++result.static_rows;
+  };
+  std::size_t start = 0;
+  for (std::size_t i = 0; i < td.size(); ++i) {
+    row_values(device, i, values);
+    if (i == start) {
+      low = high = values;
+      continue;
+    }
+    bool still = true;
+    for (std::size_t k = 0; k < values.size(); ++k) {
+      low[k] = std::min(low[k], values[k]), high[k] = std::max(high[k], values[k]);
+      still = still && high[k] - low[k] <= request.still_tolerance;
+    }
+    if (still) continue;
+    close(start, i - 1);
+    start = i;
+    low = high = values;
+  }
+  if (!td.empty()) close(start, td.size() - 1);
+  result.notes.push_back(
+      fmt::format("{} still windows of at least {:g} s (readings within {:g}); {} without a "
+                  "tracker sample left out",
+                  windows, request.still_seconds, request.still_tolerance, empty));
+  if (result.static_rows == 0) {
+    throw InputError(
+        request.recording, 0, "--static",
+        fmt::format(
+            "no window of at least {:g} s with the readings within {:g} and a tracker sample "
+            "({} still windows): a hand-guided session is imported as streams (without "
+            "--static)",
+            request.still_seconds, request.still_tolerance, windows));
   }
   return out;
 }
@@ -325,6 +415,7 @@ nlohmann::json summary_json(const ImportRequest& request, const ImportResult& r)
           {"device_rows", r.device_rows},
           {"tracker_rows", r.tracker_rows},
           {"tracker_orientation", r.tracker_orientation},
+          {"static_rows", r.static_rows},
           {"notes", r.notes}};
 }
 
@@ -406,6 +497,20 @@ ImportResult run_import(const ImportRequest& request) {
 
   OutputSet out(request.out, "import");
   const std::string what = file.empty() ? "" : fmt::format("{} ({})", file, result.format);
+  if (request.still_seconds > 0) {
+    if (!device || !tracker) {
+      throw InputError(
+          file, 0, "--static",
+          "a static log needs the device's readings and the tracker's samples from the recording");
+    }
+    const std::string comment = fmt::format(
+        "# hapticcal import of {}: still poses of {} and {}; {} stamps less {} s\n", what,
+        device->what, tracker->what,
+        request.stamps == StampSource::kHeader ? "header" : "recorder's", seconds_text(origin));
+    write_file_atomically(out.dir() + "/log.csv",
+                          static_csv(*device, *tracker, request, origin, comment, result));
+    device.reset(), tracker.reset();
+  }
   if (device) {
     result.device_rows = device->samples->stamp_ns.size();
     const std::string comment =

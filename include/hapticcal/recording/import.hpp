@@ -41,6 +41,11 @@ struct ImportRequest {
   std::string out = "hapticcal-out/import";
   RecordingLimits limits;
   bool list = false;  // list the recording's topics; write nothing
+  // A static log (log.csv) instead of the streams: one row a window of at least
+  // this many seconds in which every reading stays within still_tolerance (rad
+  // or m), the readings and the tracker's samples in it averaged. 0: streams.
+  double still_seconds = 0;
+  double still_tolerance = 1e-4;
 };
 
 // What one topic held.
@@ -59,7 +64,7 @@ struct ImportResult {
   std::vector<TopicSummary> topics;
   std::int64_t time_origin_ns = 0;       // subtracted from every stamp written
   std::vector<std::string> joint_names;  // device.csv's q1..qn, in order
-  std::size_t device_rows = 0, tracker_rows = 0;
+  std::size_t device_rows = 0, tracker_rows = 0, static_rows = 0;
   bool tracker_orientation = false;
   std::vector<std::string> notes;    // what was chosen and why (the terminal's lines)
   std::vector<std::string> written;  // the files of the output set
