@@ -13,7 +13,11 @@ DEB_PACKAGES := cmake g++ make pkg-config libeigen3-dev libceres-dev libyaml-cpp
   liborocos-kdl-dev liburdfdom-dev gnuplot-nox \
   python3-dev python3-pybind11 python3-numpy python3-pytest \
   libzstd-dev liblz4-dev libbz2-dev libsqlite3-dev \
-  python3-rosbag python3-roslz4 python3-sensor-msgs python3-geometry-msgs python3-tf2-msgs nodejs npm
+  python3-rosbag python3-roslz4 python3-sensor-msgs python3-geometry-msgs python3-tf2-msgs
+# Node and npm for the recording tests' writers (tests/writers: npm ci of the
+# MCAP and CDR writers), installed from Debian unless an npm is already there (a
+# node from elsewhere ships its own npm, which Debian's npm package conflicts with).
+NODE_PACKAGES := nodejs npm
 # Debian's clang and its compiler-rt (libclang_rt.fuzzer, ASan, UBSan) for the
 # instrumented tree of `make test` and `make fuzz`.
 FUZZ_PACKAGES := clang libclang-rt-dev
@@ -27,6 +31,7 @@ deps:
 	for p in $(DEB_PACKAGES); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
 	done; \
+	if [ -n "$(NODE_PACKAGES)" ] && ! command -v npm >/dev/null 2>&1; then missing="$$missing $(NODE_PACKAGES)"; fi; \
 	if [ -n "$$missing" ]; then \
 	  echo "hapticcal: installing Debian packages:$$missing"; \
 	  if [ "$$(id -u)" = 0 ]; then sudo=""; else sudo="sudo"; fi; \

@@ -43,8 +43,9 @@ struct Checked : hapticcal::recording::RecordingVisitor {
   }
 };
 
+// `value` little-endian in `bytes` bytes (zeros past its eighth).
 void put(std::string& out, std::uint64_t value, int bytes) {
-  for (int i = 0; i < bytes; ++i) out += static_cast<char>((value >> (8 * i)) & 0xFF);
+  for (int i = 0; i < bytes; ++i) out += static_cast<char>(i < 8 ? (value >> (8 * i)) & 0xFF : 0);
 }
 
 // A file of one uncompressed chunk holding `records`: magic, Header, Chunk
