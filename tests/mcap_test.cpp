@@ -22,6 +22,7 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/recording/recording.hpp"
+#include "recording_visitor.hpp"
 #include "run_cli.hpp"
 
 namespace {
@@ -31,29 +32,10 @@ using hapticcal::recording::Channel;
 using hapticcal::recording::Encoding;
 using hapticcal::recording::RecordingLimits;
 using hapticcal::recording::RecordingVisitor;
+using hapticcal::testing::from_hex;
+using hapticcal::testing::Seen;
 using nlohmann::json;
 namespace rec = hapticcal::recording;
-
-// What a reader handed out, in order.
-struct Seen : RecordingVisitor {
-  struct Message {
-    std::uint32_t id;
-    std::int64_t receive_ns;
-    std::string data;
-    std::uint64_t offset;
-  };
-  std::map<std::uint32_t, Channel> channels;
-  std::vector<Message> messages;
-
-  void channel(std::uint32_t id, const Channel& channel) override {
-    EXPECT_TRUE(channels.emplace(id, channel).second) << "channel " << id << " handed out twice";
-  }
-  void message(std::uint32_t id, std::int64_t receive_ns, std::string_view data,
-               std::uint64_t offset) override {
-    EXPECT_TRUE(channels.count(id)) << "a message on channel " << id << " before the channel";
-    messages.push_back({id, receive_ns, std::string(data), offset});
-  }
-};
 
 std::string file_bytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -65,13 +47,6 @@ std::string file_bytes(const std::string& path) {
 void write_file(const std::string& path, std::string_view bytes) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
-
-std::string from_hex(const std::string& hex) {
-  std::string out;
-  for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
-    out += static_cast<char>(std::stoi(hex.substr(i, 2), nullptr, 16));
-  return out;
 }
 
 void put_u64(std::string& bytes, std::size_t at, std::uint64_t value) {

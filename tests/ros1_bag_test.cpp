@@ -20,6 +20,7 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/recording/recording.hpp"
+#include "recording_visitor.hpp"
 #include "run_cli.hpp"
 
 namespace {
@@ -31,41 +32,15 @@ using hapticcal::recording::read_ros1_bag;
 using hapticcal::recording::read_ros1_bag_bytes;
 using hapticcal::recording::RecordingLimits;
 using hapticcal::recording::RecordingVisitor;
+using hapticcal::testing::from_hex;
+using hapticcal::testing::Seen;
 using nlohmann::json;
-
-// What the reader handed out, in order.
-struct Seen : RecordingVisitor {
-  struct Message {
-    std::uint32_t id;
-    std::int64_t receive_ns;
-    std::string data;
-    std::uint64_t offset;
-  };
-  std::map<std::uint32_t, Channel> channels;
-  std::vector<Message> messages;
-
-  void channel(std::uint32_t id, const Channel& channel) override {
-    EXPECT_TRUE(channels.emplace(id, channel).second) << "connection " << id << " handed out twice";
-  }
-  void message(std::uint32_t id, std::int64_t receive_ns, std::string_view data,
-               std::uint64_t offset) override {
-    EXPECT_EQ(channels.count(id), 1u) << "a message on connection " << id << " before its channel";
-    messages.push_back({id, receive_ns, std::string(data), offset});
-  }
-};
 
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-std::string from_hex(const std::string& hex) {
-  std::string out;
-  for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
-    out += static_cast<char>(std::stoi(hex.substr(i, 2), nullptr, 16));
-  return out;
 }
 
 std::uint32_t u32_at(const std::string& bytes, std::size_t offset) {

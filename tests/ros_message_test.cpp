@@ -16,9 +16,12 @@
 #include <vector>
 
 #include "hapticcal/core/error.hpp"
+#include "recording_visitor.hpp"
 #include "run_cli.hpp"
 
 namespace {
+
+using hapticcal::testing::from_hex;
 
 using hapticcal::InputError;
 using hapticcal::recording::builtin_definition;
@@ -32,13 +35,6 @@ struct Case {
   std::vector<std::pair<std::string, double>> numbers;
   std::vector<std::pair<std::string, std::string>> strings;
 };
-
-std::string from_hex(const std::string& hex) {
-  std::string out;
-  for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
-    out += static_cast<char>(std::stoi(hex.substr(i, 2), nullptr, 16));
-  return out;
-}
 
 Case to_case(const nlohmann::json& j) {
   Case c;

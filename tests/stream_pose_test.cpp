@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -217,6 +218,16 @@ TEST(StreamPose, ASecondSessionIsScoredWithItsOwnClocks) {
   const nlohmann::json json = nlohmann::json::parse(r.out);
   EXPECT_NEAR(json["clock"]["offset"].get<double>(), c.clock.offset, 1e-9);
   EXPECT_NEAR(json["rms_position"].get<double>(), rms, 1e-12);
+  // With a folder: the report's Clocks section and its figure of the residual against the offset.
+  const testing::CliResult written =
+      testing::run_cli({"evaluate", "--model", request.model, "--log", request.log, "--tracker",
+                        request.tracker, "--clock-drift", "--out", dir + "/evaluated"});
+  ASSERT_EQ(written.exit_code, 0) << written.err;
+  EXPECT_NE(written.out.find("clocks (the model held): offset"), std::string::npos) << written.out;
+  const std::string report = testing::slurp(dir + "/evaluated/report.html");
+  EXPECT_NE(report.find("<h2>Clocks</h2>"), std::string::npos);
+  EXPECT_NE(report.find("Residual of the model held against the offset"), std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(dir + "/evaluated/figures/clock_offset.svg"));
 }
 
 }  // namespace

@@ -94,7 +94,12 @@ int run_evaluate(const EvaluateOptions& o) {
       fmt::print("model: {} ({}, a tree of {} tips: {})\n", o.model, job.model.name,
                  job.tips.size(), fmt::join(job.tips, ", "));
     }
-    fmt::print("log:   {} ({} rows)\n", o.log, job.evaluation.n);
+    if (o.tracker.empty()) {
+      fmt::print("log:   {} ({} rows)\n", o.log, job.evaluation.n);
+    } else {
+      fmt::print("log:   {} and {} ({} tracker samples at the clocks found)\n", o.log, o.tracker,
+                 job.evaluation.n);
+    }
     for (const std::string& line : job.lines) fmt::print("{}\n", line);
   }
   if (!job.out) return 0;

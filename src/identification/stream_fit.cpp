@@ -201,20 +201,56 @@ SampleMotion sample_motion(const DeviceModel& model, const ReadingInterpolator& 
 // columns over the clock (the predicted point's velocity, times the tracker
 // time since the reference for the drift), projected off the identified
 // kinematic columns.
+// The residuals e (3 a sample) and their columns G over the clock: the
+// predicted point's velocity, times the tracker time since the reference for
+// the drift.
+struct ClockColumns {
+  Eigen::MatrixXd G;
+  Eigen::VectorXd e;
+};
+
+ClockColumns clock_columns(const DeviceModel& model, const ReadingInterpolator& readings,
+                           const Log& poses, const StreamClock& clock, bool drift) {
+  const Eigen::Index m = poses.rows;
+  const SampleMotion motion = sample_motion(model, readings, poses, clock);
+  ClockColumns out{Eigen::MatrixXd(3 * m, drift ? 2 : 1), Eigen::VectorXd(3 * m)};
+  for (Eigen::Index r = 0; r < m; ++r) {
+    out.e.segment<3>(3 * r) = motion.residual.row(r).transpose();
+    out.G.block(3 * r, 0, 3, 1) = motion.velocity.row(r).transpose();
+    if (drift)
+      out.G.block(3 * r, 1, 3, 1) =
+          motion.velocity.row(r).transpose() * (poses.t[r] - clock.reference);
+  }
+  return out;
+}
+
+// The least-squares step of G step = e and its covariance sigma^2 (G^T G)^-1,
+// sigma^2 from the residuals left when `sigma` is NaN; no step and a NaN
+// covariance when G's columns vanish (no motion left to time).
+ClockStep solve_clock(const Eigen::MatrixXd& G, const Eigen::VectorXd& e, double sigma) {
+  const Eigen::Index c = G.cols();
+  ClockStep out;
+  const Eigen::MatrixXd N = G.transpose() * G;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(N);
+  if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 1e-12 * N.trace())) {
+    out.step = Eigen::VectorXd::Zero(c);
+    out.covariance = Eigen::MatrixXd::Constant(c, c, std::nan(""));
+    return out;
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(N);
+  out.step = ldlt.solve(G.transpose() * e);
+  const double dof = std::max<double>(static_cast<double>(G.rows() - c), 1.0);
+  const double sigma2 = std::isnan(sigma) ? (e - G * out.step).squaredNorm() / dof : sigma * sigma;
+  out.covariance = sigma2 * ldlt.solve(Eigen::MatrixXd::Identity(c, c));
+  return out;
+}
+
 ClockStep clock_step(const CalibrationResult& fit, const ReadingInterpolator& readings,
                      const Log& poses, const StreamClock& clock, bool drift) {
   const DeviceModel& model = fit.calibrated;
-  const int n = model.dof(), c = drift ? 2 : 1;
+  const int n = model.dof();
   const Eigen::Index m = poses.rows;
-  const SampleMotion motion = sample_motion(model, readings, poses, clock);
-  Eigen::MatrixXd G(3 * m, c);
-  Eigen::VectorXd e(3 * m);
-  for (Eigen::Index r = 0; r < m; ++r) {
-    e.segment<3>(3 * r) = motion.residual.row(r).transpose();
-    G.block(3 * r, 0, 3, 1) = motion.velocity.row(r).transpose();
-    if (drift)
-      G.block(3 * r, 1, 3, 1) = motion.velocity.row(r).transpose() * (poses.t[r] - clock.reference);
-  }
+  auto [G, e] = clock_columns(model, readings, poses, clock, drift);
   const std::vector<int> slots = identified_slots(fit.kinematics, model.structure().num_slots());
   if (!slots.empty()) {
     // A tree's rows are each pose's tips in turn, as its samples (tip_samples).
@@ -231,21 +267,7 @@ ClockStep clock_step(const CalibrationResult& fit, const ReadingInterpolator& re
     const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(J);
     G -= J * qr.solve(G);
   }
-  const Eigen::MatrixXd N = G.transpose() * G;
-  ClockStep out;
-  // The clock's columns gone (no motion left once the geometry took its share):
-  // no step and no sd.
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(N);
-  if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 1e-12 * N.trace())) {
-    out.step = Eigen::VectorXd::Zero(c);
-    out.covariance = Eigen::MatrixXd::Constant(c, c, std::nan(""));
-    return out;
-  }
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(N);
-  out.step = ldlt.solve(G.transpose() * e);
-  const double sigma = fit.kinematics.sigma;
-  out.covariance = sigma * sigma * ldlt.solve(Eigen::MatrixXd::Identity(c, c));
-  return out;
+  return solve_clock(G, e, fit.kinematics.sigma);
 }
 
 // RMS position residual of a model against the offset about the estimate.
@@ -430,19 +452,21 @@ CalibrationResult final_fit(const DeviceModel& nominal, const Log& poses,
 
 // The clocks' summary line.
 std::string clock_note(const ClockEstimate& estimate, const StreamOptions& stream,
-                       const std::string& device, const std::string& tracker) {
+                       const std::string& device, const std::string& tracker, bool held = false) {
   return fmt::format(
       "clocks of {} and {}: the speeds correlate best ({:.3f}) at an offset of {:.4f} s "
       "(searched +-{:g} s); "
-      "fitted: offset {:.4f} ms +- {:.4f} ms{}, after {} step(s); {} of {} tracker samples within "
-      "the device stream, {} in its gaps, {} faster than the {:g} % quantile left out, {} fitted",
+      "{}: offset {:.4f} ms +- {:.4f} ms{}, after {} step(s); {} of {} tracker samples within "
+      "the device stream, {} in its gaps, {} faster than the {:g} % quantile left out, {} {}",
       device, tracker, estimate.coarse_correlation, estimate.coarse_offset, stream.search_range,
-      1e3 * estimate.clock.offset, 1e3 * estimate.offset_sd,
+      held ? "aligned with the model held" : "fitted", 1e3 * estimate.clock.offset,
+      1e3 * estimate.offset_sd,
       stream.drift ? fmt::format(", drift {:.3f} ppm +- {:.3f} ppm", 1e6 * estimate.clock.drift,
                                  1e6 * estimate.drift_sd)
                    : std::string(),
       estimate.iterations, estimate.overlapping, estimate.tracker_rows, estimate.dropped_gap,
-      estimate.dropped_speed, 100 * stream.speed_quantile, estimate.fit_samples);
+      estimate.dropped_speed, 100 * stream.speed_quantile, estimate.fit_samples,
+      held ? "scored" : "fitted");
 }
 
 }  // namespace
@@ -455,31 +479,8 @@ namespace {
 // residuals' own scatter.
 ClockStep held_clock_step(const DeviceModel& model, const ReadingInterpolator& readings,
                           const Log& poses, const StreamClock& clock, bool drift) {
-  const int c = drift ? 2 : 1;
-  const Eigen::Index m = poses.rows;
-  const SampleMotion motion = sample_motion(model, readings, poses, clock);
-  Eigen::MatrixXd G(3 * m, c);
-  Eigen::VectorXd e(3 * m);
-  for (Eigen::Index r = 0; r < m; ++r) {
-    e.segment<3>(3 * r) = motion.residual.row(r).transpose();
-    G.block(3 * r, 0, 3, 1) = motion.velocity.row(r).transpose();
-    if (drift)
-      G.block(3 * r, 1, 3, 1) = motion.velocity.row(r).transpose() * (poses.t[r] - clock.reference);
-  }
-  ClockStep out;
-  const Eigen::MatrixXd N = G.transpose() * G;
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(N);
-  if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 1e-12 * N.trace())) {
-    out.step = Eigen::VectorXd::Zero(c);
-    out.covariance = Eigen::MatrixXd::Constant(c, c, std::nan(""));
-    return out;
-  }
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(N);
-  out.step = ldlt.solve(G.transpose() * e);
-  const double dof = std::max<double>(static_cast<double>(3 * m - c), 1.0);
-  const double sigma2 = (e - G * out.step).squaredNorm() / dof;
-  out.covariance = sigma2 * ldlt.solve(Eigen::MatrixXd::Identity(c, c));
-  return out;
+  const ClockColumns columns = clock_columns(model, readings, poses, clock, drift);
+  return solve_clock(columns.G, columns.e, std::nan(""));
 }
 
 }  // namespace
@@ -552,7 +553,7 @@ StreamAlignment align_streams(const DeviceModel& model, const Log& device, const
     out.notes.insert(out.notes.begin(), screen.markers.note);
     out.marker_body = screen.markers.body;
   }
-  out.notes.push_back(clock_note(estimate, stream, device.origin, tracker_in.origin));
+  out.notes.push_back(clock_note(estimate, stream, device.origin, tracker_in.origin, true));
   glitch_notes(tracker_in, glitches, out.notes, estimate);
   return out;
 }

@@ -189,10 +189,10 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   if (!request.out) return job;
   job.out = std::make_unique<OutputSet>(*request.out, "evaluate");
   write_file_atomically(job.out->dir() + "/results.json", job.json + "\n");
-  job.figures =
-      write_report(evaluation_report(job.model, request.model, log, job.evaluation,
-                                     cmp ? &cmp->reference : nullptr, request.reference, job.lines),
-                   job.out->dir(), job.report_note);
+  Report report = evaluation_report(job.model, request.model, log, job.evaluation,
+                                    cmp ? &cmp->reference : nullptr, request.reference, job.lines);
+  if (job.alignment) clock_section(job.alignment->clock, "model held", report);
+  job.figures = write_report(report, job.out->dir(), job.report_note);
   job.out->commit();
   return job;
 }

@@ -33,6 +33,16 @@ void ByteReader::need(std::uint64_t n, const char* what) const {
     fail(fmt::format("{} of {} bytes, {} left (a truncated or corrupt file)", what, n, left()));
 }
 
+// ROS 2's "package/msg/Type" as "package/Type"; any other name as it is.
+std::string normalised_type(std::string_view name) {
+  const std::size_t slash = name.find('/');
+  if (slash == std::string_view::npos) return std::string(name);
+  const std::string_view rest = name.substr(slash + 1);
+  if (rest.starts_with("msg/") && rest.find('/', 4) == std::string_view::npos && rest.size() > 4)
+    return fmt::format("{}/{}", name.substr(0, slash), rest.substr(4));
+  return std::string(name);
+}
+
 MappedFile::MappedFile(const std::string& path, std::uint64_t max_bytes) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw InputError(path, 0, "", fmt::format("cannot open: {}", std::strerror(errno)));
@@ -88,7 +98,8 @@ std::string decompress_lz4_frame(std::string_view in, std::uint64_t expected,
     }
   };
   thread_local Context context;
-  if (context.ctx == nullptr && LZ4F_isError(LZ4F_createDecompressionContext(&context.ctx, LZ4F_VERSION))) {
+  if (context.ctx == nullptr &&
+      LZ4F_isError(LZ4F_createDecompressionContext(&context.ctx, LZ4F_VERSION))) {
     context.ctx = nullptr;
     fail_at(name, offset, record, "lz4: cannot create a decompression context");
   }
@@ -118,7 +129,8 @@ std::string decompress_lz4_frame(std::string_view in, std::uint64_t expected,
   if (status != 0)
     fail_at(name, offset, record, "lz4 data end before their frame does (a truncated chunk)");
   if (in_pos < in.size())
-    fail_at(name, offset, record, fmt::format("{} bytes after the lz4 frame's end", in.size() - in_pos));
+    fail_at(name, offset, record,
+            fmt::format("{} bytes after the lz4 frame's end", in.size() - in_pos));
   check_size(out_pos, expected, name, offset, record, "lz4");
   return out;
 }

@@ -86,6 +86,10 @@ class MappedFile {
   std::size_t size_ = 0;
 };
 
+// ROS 2's "package/msg/Type" as "package/Type"; any other name as it is (the
+// MCAP and .db3 readers' channel types).
+std::string normalised_type(std::string_view name);
+
 // Decompressors for chunks. `expected` is the uncompressed size the record
 // states (checked against limits.max_uncompressed_bytes by the caller first);
 // the result must have exactly that size. Errors name `name`, `offset` and

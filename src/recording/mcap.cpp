@@ -78,16 +78,6 @@ std::uint32_t crc32(std::string_view data) {
   return ~crc;
 }
 
-// ROS 2's "package/msg/Type" as "package/Type"; any other name as it is.
-std::string normalised_type(std::string_view name) {
-  const std::size_t slash = name.find('/');
-  if (slash == std::string_view::npos) return std::string(name);
-  const std::string_view rest = name.substr(slash + 1);
-  if (rest.starts_with("msg/") && rest.find('/', 4) == std::string_view::npos && rest.size() > 4)
-    return fmt::format("{}/{}", name.substr(0, slash), rest.substr(4));
-  return std::string(name);
-}
-
 std::string read_string(ByteReader& r, const char* field) {
   const std::uint32_t n = r.u32();
   return std::string(r.bytes(n, field));

@@ -28,19 +28,10 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/recording/recording.hpp"
+#include "recording/byte_reader.hpp"
 
 namespace hapticcal::recording {
 namespace {
-
-// ROS 2's "package/msg/Type" as "package/Type"; any other name as it is.
-std::string normalised_type(std::string_view name) {
-  const std::size_t slash = name.find('/');
-  if (slash == std::string_view::npos) return std::string(name);
-  const std::string_view rest = name.substr(slash + 1);
-  if (rest.starts_with("msg/") && rest.find('/', 4) == std::string_view::npos && rest.size() > 4)
-    return fmt::format("{}/{}", name.substr(0, slash), rest.substr(4));
-  return std::string(name);
-}
 
 std::uint32_t big_endian(const unsigned char* p, int n) {
   std::uint32_t v = 0;

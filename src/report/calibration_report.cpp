@@ -364,14 +364,16 @@ void step_one_report(const CalibrationResult& result, const DeviceModel& nominal
   report.sections.push_back(terminal_section(result, nominal));
 }
 
+}  // namespace
+
 // Two streams' clocks: the estimate and the residual against the offset.
-void clock_section(const ClockEstimate& c, Report& report) {
+void clock_section(const ClockEstimate& c, const std::string& model, Report& report) {
   report.sections.push_back(fmt::format(
       "<h2>Clocks</h2>\n<p>Device time = tracker time + offset{}. Offset {:.4f} ms &plusmn; "
       "{:.4f} ms{}; the coarse search (the tool point's speed in both streams, correlated over "
       "&plusmn;{:g} s) found {:.1f} ms (correlation {:.3f}); {} clock step(s){}. {} of {} tracker "
       "samples fall within the device's stream; {} in its gaps and {} of the fastest were left "
-      "out; the fit used {}.</p>\n",
+      "out; {} used {}.</p>\n",
       c.drift_fitted ? " + drift &times; (tracker time &minus; its first stamp)" : "",
       1e3 * c.clock.offset, 1e3 * c.offset_sd,
       c.drift_fitted ? fmt::format(", drift {:.3f} ppm &plusmn; {:.3f} ppm", 1e6 * c.clock.drift,
@@ -379,23 +381,21 @@ void clock_section(const ClockEstimate& c, Report& report) {
                      : std::string(),
       c.search_range, 1e3 * c.coarse_offset, c.coarse_correlation, c.iterations,
       c.converged ? "" : " (<b>not settled</b>)", c.overlapping, c.tracker_rows, c.dropped_gap,
-      c.dropped_speed, c.fit_samples));
+      c.dropped_speed, model == "calibrated model" ? "the fit" : "the score", c.fit_samples));
   if (c.curve.size() < 2) return;
   std::vector<double> offset, rms;
   for (const auto& [o, r] : c.curve) {
     offset.push_back(1e3 * o);
     rms.push_back(1e3 * r);
   }
-  FigureSpec f = figure("clock_offset", "Residual of the calibrated model against the offset",
+  FigureSpec f = figure("clock_offset", "Residual of the " + model + " against the offset",
                         "clock offset [ms]", "RMS position residual [mm]", {offset, rms});
-  f.series = {{"calibrated model, tracker samples", 0, 1, "linespoints", -1, "#0072b2", 0, 1.5, 7}};
+  f.series = {{model + ", tracker samples", 0, 1, "linespoints", -1, "#0072b2", 0, 1.5, 7}};
   f.y_min = 0;
   f.extra =
       fmt::format("set arrow from {0},graph 0 to {0},graph 1 nohead dt 2", 1e3 * c.clock.offset);
   report.figures.push_back(f);
 }
-
-}  // namespace
 
 Report calibration_report(const CalibrationResult& result, const DeviceModel& nominal,
                           const Log& log, const std::vector<PointDistance>& point_distances,
@@ -424,7 +424,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   report.sections.push_back(held_table(k));
   selection_section(k, report);
   search_section(k.search, report);
-  if (result.clock) clock_section(*result.clock, report);
+  if (result.clock) clock_section(*result.clock, "calibrated model", report);
 
   const size_t pose_stride = detail::plot_stride(result.rows.size());
   std::vector<int> plotted_rows;

@@ -100,6 +100,11 @@ Outcome force_outcome(const ForceStudy& study);
 struct Evaluation;
 // evaluate: the lines the terminal prints as the outcome, each error per
 // sample (and the reference model's, if given), and the fixture's labels.
+// Two streams' clocks (calibrate --tracker, evaluate --tracker): the estimate,
+// the samples, and the RMS residual of `model` ("calibrated model", "model
+// held") against the offset about it.
+void clock_section(const ClockEstimate& clock, const std::string& model, Report& report);
+
 Report evaluation_report(const DeviceModel& model, const std::string& model_path, const Log& log,
                          const Evaluation& ev, const Evaluation* reference,
                          const std::string& reference_path, const std::vector<std::string>& lines);
