@@ -44,15 +44,13 @@
 #include "hapticcal/report/results_json.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/study.hpp"
+#include "module_support.hpp"
 
 namespace py = pybind11;
 using namespace pybind11::literals;
 
 namespace hapticcal::python {
 namespace {
-
-// How often a running job's thread looks for Ctrl-C [ms].
-constexpr int kSignalPollMs = 50;
 
 // A device model and the file it came from (the path results.json names; empty
 // once its parameters are changed in Python).
@@ -61,45 +59,6 @@ struct Model {
   std::string path;
   std::string tip, root;  // a URDF's chain, as it was loaded
 };
-
-// Runs a job in a worker thread (the GIL released) while this thread, the
-// interpreter's, looks for signals every 50 ms: on Ctrl-C the job is cancelled
-// (core/cancel.hpp) and unwinds at its solver's next iteration without
-// committing its output set (the previous one stays), and KeyboardInterrupt is
-// raised here.
-template <class Job>
-auto interruptible(Job&& job) {
-  reset_cancel();
-  std::packaged_task<decltype(job())()> task(std::forward<Job>(job));
-  auto result = task.get_future();
-  bool interrupted = false;
-  {
-    py::gil_scoped_release released;
-    std::thread worker(std::move(task));
-    while (result.wait_for(std::chrono::milliseconds(kSignalPollMs)) != std::future_status::ready) {
-      const py::gil_scoped_acquire held;
-      if (PyErr_CheckSignals() != 0) {  // KeyboardInterrupt set: raised below
-        interrupted = true;
-        request_cancel();
-        break;
-      }
-    }
-    worker.join();
-  }
-  if (interrupted) throw py::error_already_set();
-  return result.get();
-}
-
-// A list option given as a Python list of strings or as the command line's
-// comma-separated text.
-using Names = std::variant<std::string, std::vector<std::string>>;
-
-std::vector<std::string> names(const std::optional<Names>& value) {
-  if (!value) return {};
-  if (const auto* list = std::get_if<std::vector<std::string>>(&*value)) return *list;
-  const std::string& text = std::get<std::string>(*value);
-  return text.empty() ? std::vector<std::string>{} : split_columns(text);
-}
 
 // A number list option (--box, --distance-range): numbers, or the command line's text.
 using Numbers = std::variant<std::string, std::vector<double>>;
@@ -134,11 +93,6 @@ std::optional<std::array<double, N>> fixed_numbers(const std::optional<Numbers>&
   std::copy(v.begin(), v.end(), out.begin());
   return out;
 }
-
-// A path option: None or '' for none.
-using Text = std::optional<std::string>;
-
-std::string text(const Text& t) { return t.value_or(""); }
 
 Eigen::VectorXd readings(const Model& m, const Eigen::VectorXd& q) {
   if (q.size() != m.model.dof()) {
@@ -294,7 +248,8 @@ py::object evaluate(const std::variant<Model, std::string>& model_arg, const std
                     const Text& fixture_arg,
                     const std::optional<std::variant<Model, std::string>>& reference,
                     const Text& tip_arg, const Text& root_arg, const Text& register_arg,
-                    const Text& out_arg) {
+                    const Text& out_arg, const Text& tracker_arg, double clock_search,
+                    bool clock_drift) {
   // The command line's job (jobs/evaluate_job.hpp), from keywords.
   EvaluateRequest request;
   request.tip = text(tip_arg);
@@ -319,6 +274,10 @@ py::object evaluate(const std::variant<Model, std::string>& model_arg, const std
   request.point_distances = names(point_distance);
   if (!text(register_arg).empty()) request.registration = parse_register(text(register_arg));
   if (out_arg) request.out = *out_arg;
+  check_option("--clock-search", clock_search, option_range::kClockSearch);
+  request.tracker = text(tracker_arg);
+  request.stream.search_range = clock_search;
+  request.stream.drift = clock_drift;
   EvaluateJob job;
   job = interruptible([&] { return run_evaluate_job(request); });
   return parsed(job.json);
@@ -547,6 +506,7 @@ PYBIND11_MODULE(hapticcal, m) {
   py::register_exception<hapticcal::Cancelled>(m, "Cancelled", PyExc_KeyboardInterrupt);
 
   bind_model(m);
+  add_recording_functions(m);
 
   m.def(
       "load_model",
@@ -593,10 +553,12 @@ PYBIND11_MODULE(hapticcal, m) {
   m.def("evaluate", &evaluate, "model"_a, "log"_a, py::kw_only(), "columns"_a = py::none(),
         "point_distance"_a = py::none(), "fixture"_a = py::none(), "reference"_a = py::none(),
         "tip"_a = py::none(), "root"_a = py::none(), "register"_a = py::none(),
-        "out"_a = py::none(),
+        "out"_a = py::none(), "tracker"_a = py::none(), "clock_search"_a = 10.0,
+        "clock_drift"_a = false,
         "hapticcal evaluate --json: the same keys, in metres (register='frame' or "
         "'frame,tool' as --register; out: a folder, the command line's report.html and "
-        "results.json)");
+        "results.json; tracker: a second session's tracker stream, log its device stream, the "
+        "clocks aligned with the model held, 'clock' in the result)");
   m.def("plan", &plan, "model"_a, "measurement"_a, "poses"_a, py::kw_only(),
         "candidates"_a = py::none(), "columns"_a = py::none(), "criterion"_a = "i", "seed"_a = 1ULL,
         "sigma"_a = 0.0, "sigma_e"_a = 0.0, "distance_range"_a = py::none(), "box"_a = py::none(),

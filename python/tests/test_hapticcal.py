@@ -628,6 +628,57 @@ def test_calibrate_two_streams_and_markers(tmp_path):
         hapticcal.calibrate("geomagic-touch", str(tmp_path / "sim" / "device.csv"), markers="1,2")
 
 
+def test_evaluate_a_second_session(tmp_path):
+    """evaluate(tracker=...) aligns a session's clocks with the model held, as --tracker does."""
+    simulated_session(tmp_path, seconds=40, validation=50)
+    device, tracker = str(tmp_path / "sim" / "device.csv"), str(tmp_path / "sim" / "tracker.csv")
+    fit = hapticcal.calibrate("geomagic-touch", device, tracker=tracker, clock_drift=True)
+    assert fit.usable, fit.status_reason
+    r = hapticcal.evaluate(fit.model, device, tracker=tracker, clock_drift=True)
+    assert abs(r["clock"]["offset"] - fit.results["clock"]["offset"]) < 3 * r["clock"]["offset_sd"]
+    assert r["rms_position"] < 2e-4  # the session's noise: 0.1 mm a coordinate
+    with pytest.raises(ValueError, match="--clock-search"):
+        hapticcal.evaluate(fit.model, device, tracker=tracker, clock_search=0)
+
+
+def test_import_a_ros1_bag(tmp_path):
+    """import_recording reads a bag written by Debian's python3-rosbag, as `hapticcal import`."""
+    import rosbag  # Debian's python3-rosbag (the Makefile installs it)
+    import rospy
+    from geometry_msgs.msg import PointStamped
+    from sensor_msgs.msg import JointState
+
+    bag = tmp_path / "session.bag"
+    with rosbag.Bag(str(bag), "w") as b:
+        for k in range(50):
+            stamp = rospy.Time(1733390000, 1000000 * k)
+            js = JointState(name=["elbow", "shoulder", "waist", "yaw", "pitch", "roll"],
+                            position=[0.3, 0.2, 0.1 * k, 0.4, 0.5, 0.6])
+            js.header.stamp = stamp
+            b.write("/joint_states", js, t=stamp)
+            if k % 5 == 0:
+                p = PointStamped()
+                p.header.stamp = stamp
+                p.point.x, p.point.y, p.point.z = 0.001 * k, 0.2, -0.1
+                b.write("/probe", p, t=stamp)
+    out = tmp_path / "imported"
+    r = hapticcal.import_recording(str(bag), model="geomagic-touch", out=str(out))
+    assert r["format"] == "ROS 1 bag"
+    assert r["joints"] == ["waist", "shoulder", "elbow", "yaw", "pitch", "roll"]
+    assert (r["device_rows"], r["tracker_rows"]) == (50, 10)
+    roles = {t["topic"]: t["role"] for t in r["topics"]}
+    assert roles == {"/joint_states": "device", "/probe": "tracker"}
+    rows = [line.split(",") for line in (out / "device.csv").read_text().splitlines()
+            if not line.startswith("#")]
+    assert rows[0] == ["t", "q1", "q2", "q3", "q4", "q5", "q6"]
+    assert [float(v) for v in rows[3][1:]] == [0.1 * 2, 0.2, 0.3, 0.4, 0.5, 0.6]
+    assert rows[3][0] == "0.002000000"
+    listed = hapticcal.import_recording(str(bag), list=True, out=str(tmp_path / "listed"))
+    assert not (tmp_path / "listed").exists() and len(listed["topics"]) == 2
+    with pytest.raises(ValueError, match="no topic /nothing"):
+        hapticcal.import_recording(str(bag), joints="/nothing", out=str(tmp_path / "x"))
+
+
 TWO_ARM = str(SOURCE / "examples" / "two-arm" / "two_arm.urdf")
 
 

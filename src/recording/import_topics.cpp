@@ -5,6 +5,7 @@
 #include <cmath>
 #include <utility>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 
 namespace hapticcal::recording {
@@ -54,6 +55,7 @@ class Collector : public RecordingVisitor {
                        fmt::format("byte {}: a message on channel {}, which was never defined",
                                    offset, channel_id));
     TopicBuffer& t = topics_[found->second];
+    if ((++seen_ & 4095) == 0) throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp)
     ++t.messages;
     t.receive_ns.push_back(receive_ns);
     if (t.kind == TopicKind::kOther) return;
@@ -209,6 +211,7 @@ class Collector : public RecordingVisitor {
   const std::vector<FieldRequest>& fields_;
   StampSource stamps_;
   bool offsets_ = true;  // the reader gives byte offsets (not a .db3)
+  std::uint64_t seen_ = 0;
   std::vector<TopicBuffer> topics_;
   std::map<std::uint32_t, std::size_t> index_;
 };

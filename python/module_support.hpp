@@ -1,0 +1,73 @@
+// What the Python module's files share: running a job so that Ctrl-C cancels
+// it, and the keyword conversions (a list as Python's list or the command
+// line's text; a path that may be None).
+#pragma once
+
+#include <pybind11/pybind11.h>
+
+#include <chrono>
+#include <future>
+#include <optional>
+#include <string>
+#include <thread>
+#include <variant>
+#include <vector>
+
+#include "hapticcal/core/cancel.hpp"
+#include "hapticcal/data_io/log.hpp"
+
+namespace hapticcal::python {
+
+namespace py = pybind11;
+
+// How often a running job's thread looks for Ctrl-C [ms].
+inline constexpr int kSignalPollMs = 50;
+
+// Runs a job in a worker thread (the GIL released) while this thread, the
+// interpreter's, looks for signals every 50 ms: on Ctrl-C the job is cancelled
+// (core/cancel.hpp) and unwinds at its solver's next iteration without
+// committing its output set (the previous one stays), and KeyboardInterrupt is
+// raised here.
+template <class Job>
+auto interruptible(Job&& job) {
+  reset_cancel();
+  std::packaged_task<decltype(job())()> task(std::forward<Job>(job));
+  auto result = task.get_future();
+  bool interrupted = false;
+  {
+    py::gil_scoped_release released;
+    std::thread worker(std::move(task));
+    while (result.wait_for(std::chrono::milliseconds(kSignalPollMs)) != std::future_status::ready) {
+      const py::gil_scoped_acquire held;
+      if (PyErr_CheckSignals() != 0) {  // KeyboardInterrupt set: raised below
+        interrupted = true;
+        request_cancel();
+        break;
+      }
+    }
+    worker.join();
+  }
+  if (interrupted) throw py::error_already_set();
+  return result.get();
+}
+
+// A list option given as a Python list of strings or as the command line's
+// comma-separated text.
+using Names = std::variant<std::string, std::vector<std::string>>;
+
+inline std::vector<std::string> names(const std::optional<Names>& value) {
+  if (!value) return {};
+  if (const auto* list = std::get_if<std::vector<std::string>>(&*value)) return *list;
+  const std::string& text = std::get<std::string>(*value);
+  return text.empty() ? std::vector<std::string>{} : split_columns(text);
+}
+
+// A path option: None or '' for none.
+using Text = std::optional<std::string>;
+
+inline std::string text(const Text& t) { return t.value_or(""); }
+
+// The recording functions (recording_module.cpp): import_recording.
+void add_recording_functions(py::module_& m);
+
+}  // namespace hapticcal::python
