@@ -12,6 +12,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <sstream>
 
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
@@ -113,7 +114,8 @@ TEST(Import, EachFormatGivesTheStreamsTheCsvPathReads) {
   for (const std::string& file : files()) {
     SCOPED_TRACE(file);
     const std::string out = file + ".import";
-    const testing::CliResult c = run_cli({"import", file, "--model", r.nominal, "--out", out});
+    const testing::CliResult c =
+        run_cli({"import", file, "--model", r.nominal, "--convention", "none", "--out", out});
     ASSERT_EQ(c.exit_code, 0) << c.err;
     EXPECT_NE(c.out.find("/touch/joint_states"), std::string::npos) << c.out;
     expect_same_log(read_log(out + "/device.csv"), device);
@@ -147,7 +149,9 @@ TEST(Import, CalibrateAfterImportGivesTheCsvPathsModel) {
   for (const std::string& file : {files()[2], files()[3], files()[4]}) {
     SCOPED_TRACE(file);
     const std::string in = file + ".calibrate-import";
-    ASSERT_EQ(run_cli({"import", file, "--model", r.nominal, "--out", in}).exit_code, 0);
+    ASSERT_EQ(run_cli({"import", file, "--model", r.nominal, "--convention", "none", "--out", in})
+                  .exit_code,
+              0);
     const nlohmann::json fit =
         calibrate(in + "/device.csv", in + "/tracker.csv", file + ".calibrated");
     ASSERT_EQ(fit["parameters"].size(), reference["parameters"].size());
@@ -213,12 +217,32 @@ TEST(Import, TopicsAndJointsAreChosenNotGuessed) {
   testing::CliResult c = run_cli({"import", bag, "--joints", "/joint_states", "--out", bag + ".x"});
   EXPECT_EQ(c.exit_code, 2);
   EXPECT_NE(c.err.find("no topic /joint_states"), std::string::npos) << c.err;
-  c = run_cli({"import", bag, "--model", "dvrk-mtm", "--out", bag + ".x"});
+  c = run_cli({"import", bag, "--model", "dvrk-mtm", "--convention", "none", "--out", bag + ".x"});
   EXPECT_EQ(c.exit_code, 2);
   EXPECT_NE(c.err.find("'outer_yaw' is not among"), std::string::npos) << c.err;
+  // The Touch's drivers publish its joints under its own names in their own
+  // signs: the model alone does not say which; nothing is guessed.
+  c = run_cli({"import", bag, "--model", "geomagic-touch", "--out", bag + ".x"});
+  EXPECT_EQ(c.exit_code, 2);
+  EXPECT_NE(c.err.find("give --convention ros-geomagic|"), std::string::npos) << c.err;
+  // Options that would do nothing are refused, with one line.
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"--markers", "a,b,c"},
+        {"--body", "stylus"},
+        {"--field", "bogus=/touch/joint_states:position[0]"},
+        {"--field", "q1=/touch/joint_states:position[0]", "--field",
+         "q1=/touch/joint_states:position[1]"},
+        {"--still-tolerance", "1e-3"},
+        {"--convention", "ros-geomagic", "--model", "dvrk-mtm"}}) {
+    std::vector<std::string> all = {"import", bag, "--out", bag + ".x"};
+    all.insert(all.end(), args.begin(), args.end());
+    const testing::CliResult refused = run_cli(all);
+    EXPECT_EQ(refused.exit_code, 2) << args[0] << ": " << refused.out;
+    EXPECT_EQ(std::count(refused.err.begin(), refused.err.end(), '\n'), 1) << refused.err;
+  }
   // A TF topic is read with --frames only; then it is the tracker's stream.
-  c = run_cli({"import", bag, "--model", r.nominal, "--tracker-topic", "/tf", "--frames",
-               "world,table", "--out", bag + ".tf"});
+  c = run_cli({"import", bag, "--model", r.nominal, "--convention", "none", "--tracker-topic",
+               "/tf", "--frames", "world,table", "--out", bag + ".tf"});
   ASSERT_EQ(c.exit_code, 0) << c.err;
   EXPECT_GT(read_log(bag + ".tf/tracker.csv").rows, 10);
   // --list writes nothing and names every topic.
@@ -287,7 +311,7 @@ TEST(Import, StillPosesMakeAStaticLog) {
                            s * targets[static_cast<size_t>(k + 1)]);
   };
   std::string device = "t,q1,q2,q3,q4,q5,q6\n", tracker = "t,x,y,z,qw,qx,qy,qz\n";
-  for (int r = 0; r < 1500 * poses - 500; ++r) {
+  for (int r = 0; r <= 1500 * poses - 500; ++r) {
     const Eigen::VectorXd q = readings_at(0.001 * r);
     device += fmt::format("{}", 0.001 * r);
     for (int j = 0; j < 6; ++j) device += fmt::format(",{}", q[j]);
@@ -300,13 +324,24 @@ TEST(Import, StillPosesMakeAStaticLog) {
   }
   std::ofstream(dir + "/device.csv") << device;
   std::ofstream(dir + "/tracker.csv") << tracker;
+  // The same tracker on a clock 0.7 s ahead: its samples in a window hold motion.
+  std::string ahead = "t,x,y,z,qw,qx,qy,qz\n";
+  std::istringstream lines(tracker);
+  std::string line;
+  std::getline(lines, line);  // the header
+  while (std::getline(lines, line)) {
+    const std::size_t comma = line.find(',');
+    ahead += fmt::format("{}{}\n", std::stod(line.substr(0, comma)) + 0.7, line.substr(comma));
+  }
+  fs::create_directories(dir + "/ahead");
+  std::ofstream(dir + "/ahead/tracker.csv") << ahead;
   const testing::CliResult w = run_program(
       HAPTICCAL_DEBIAN_PYTHON, {std::string(HAPTICCAL_SOURCE_DIR) + "/tests/writers/session_bag.py",
                                 dir + "/device.csv", dir + "/tracker.csv", dir, "lz4"});
   ASSERT_EQ(w.exit_code, 0) << w.err;
   const testing::CliResult c =
-      run_cli({"import", dir + "/session.bag", "--model", recordings().nominal, "--static", "0.5",
-               "--out", dir + "/out"});
+      run_cli({"import", dir + "/session.bag", "--model", recordings().nominal, "--convention",
+               "none", "--static", "0.5", "--out", dir + "/out"});
   ASSERT_EQ(c.exit_code, 0) << c.err;
   EXPECT_NE(c.out.find("log.csv: 12 still poses"), std::string::npos) << c.out;
   const Log log = read_log(dir + "/out/log.csv");
@@ -324,10 +359,32 @@ TEST(Import, StillPosesMakeAStaticLog) {
         1e-12);
   }
   EXPECT_FALSE(fs::exists(dir + "/out/device.csv"));
+  // Each dwell is 1.000 s: none is cut short by the window before it.
+  const testing::CliResult whole =
+      run_cli({"import", dir + "/session.bag", "--model", recordings().nominal, "--convention",
+               "none", "--static", "0.9995", "--out", dir + "/whole"});
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  EXPECT_EQ(read_log(dir + "/whole/log.csv").rows, poses);
+  // The tracker's clock 0.7 s ahead: the windows in which it moved are left out
+  // (all but the first: before the first motion), never averaged into a pose.
+  const testing::CliResult wa =
+      run_program(HAPTICCAL_DEBIAN_PYTHON,
+                  {std::string(HAPTICCAL_SOURCE_DIR) + "/tests/writers/session_bag.py",
+                   dir + "/device.csv", dir + "/ahead/tracker.csv", dir + "/ahead", "none"});
+  ASSERT_EQ(wa.exit_code, 0) << wa.err;
+  const testing::CliResult moved =
+      run_cli({"import", dir + "/ahead/session.bag", "--model", recordings().nominal,
+               "--convention", "none", "--static", "0.5", "--out", dir + "/moved"});
+  ASSERT_EQ(moved.exit_code, 0) << moved.err;
+  EXPECT_NE(moved.out.find("11 in which the tracker moved"), std::string::npos) << moved.out;
+  const Log first = read_log(dir + "/moved/log.csv");
+  ASSERT_EQ(first.rows, 1);
+  EXPECT_LT((first.position.row(0).transpose() - prepared.forward(targets[0].data()).p).norm(),
+            1e-12);
   // No still window that long: refused, naming what it found.
   const testing::CliResult none =
-      run_cli({"import", dir + "/session.bag", "--model", recordings().nominal, "--static", "2",
-               "--out", dir + "/none"});
+      run_cli({"import", dir + "/session.bag", "--model", recordings().nominal, "--convention",
+               "none", "--static", "2", "--out", dir + "/none"});
   EXPECT_EQ(none.exit_code, 2);
   EXPECT_NE(none.err.find("no window of at least 2 s"), std::string::npos) << none.err;
 }

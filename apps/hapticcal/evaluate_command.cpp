@@ -46,7 +46,7 @@ CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& o) {
                        "frame or frame,tool: fit the measurement frame (the base pose), and the "
                        "tool point, on this log before scoring (a tracker moved since); each "
                        "model on its own with --reference");
-  evaluate->add_option(
+  auto* tracker = evaluate->add_option(
       "--tracker", o.tracker,
       "A second session's tracker stream (t, x, y, z [, qw..qz | x1..]) on its own "
       "clock; --log is then the device's stream (t, q1..qn): the clocks are aligned "
@@ -54,9 +54,12 @@ CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& o) {
   evaluate
       ->add_option("--clock-search", o.clock_search,
                    "With --tracker: search the clocks' offset within +-this [s] (default 10)")
-      ->check(within(option_range::kClockSearch));
-  evaluate->add_flag("--clock-drift", o.clock_drift,
-                     "With --tracker: fit the clocks' drift too (else the offset alone)");
+      ->check(within(option_range::kClockSearch))
+      ->needs(tracker);
+  evaluate
+      ->add_flag("--clock-drift", o.clock_drift,
+                 "With --tracker: fit the clocks' drift too (else the offset alone)")
+      ->needs(tracker);
   evaluate->footer(
       "Examples:\n"
       "  hapticcal evaluate --model calibrated.yaml --log validation.csv --reference "

@@ -40,7 +40,8 @@ CLI::App* add_import_command(CLI::App& app, ImportOptions& o) {
                   "Match JointState names to this model's joints, in its order");
   cmd->add_option(
       "--convention", o.convention,
-      "A driver's published joints mapped to the device's readings (see --list-conventions)");
+      "A driver's published joints mapped to the device's readings: ros-geomagic, phantom-omni, "
+      "touch-common, saw-sensable-phantom (Touch), dvrk-mtm; none: as published");
   cmd->add_option(
       "--tracker-export", o.tracker_export,
       "A tracker's CSV export (Motive, Vicon, or a CSV with --column-map) as tracker.csv");
@@ -53,24 +54,31 @@ CLI::App* add_import_command(CLI::App& app, ImportOptions& o) {
                   "The export's length unit where it states none (m, cm, mm, um)");
   cmd->add_option("--time-unit", o.time_unit,
                   "The export's time unit where it states none (s, ms)");
-  cmd->add_option(
-         "--static", o.still_seconds,
-         "Write a static log (log.csv: one row a pose) instead of the streams: the windows of at "
-         "least SECONDS in which the readings stay within --still-tolerance, each averaged with "
-         "the "
-         "tracker's samples in it")
-      ->check(CLI::Range(1e-3, 3600.0));
+  auto* still =
+      cmd->add_option("--static", o.still_seconds,
+                      "Write a static log (log.csv: one row a pose) instead of the streams: "
+                      "the windows of at least SECONDS in which the readings stay within "
+                      "--still-tolerance, each averaged with the tracker's samples in it");
+  still->check(CLI::Range(1e-3, 3600.0));
   cmd->add_option(
          "--still-tolerance", o.still_tolerance,
          "With --static: how far a reading may move in a still window [rad or m] (default 1e-4)")
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(CLI::Range(0.0, 1.0))
+      ->needs(still);
+  cmd->add_option(
+         "--tracker-still", o.tracker_still,
+         "With --static: how far the tracker's samples in a still window may lie from their "
+         "median [m] (default 1e-3; a window in which the tracker moved is left out)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->needs(still);
   cmd->add_flag("--list", o.list,
                 "List the recording's topics (counts, rates, span, gaps); write nothing");
   cmd->add_option("--out", o.out,
                   "Output folder (replaced as a whole when the import is complete)");
   cmd->footer(
       "Examples:\n"
-      "  hapticcal import session.bag --model geomagic-touch --out session\n"
+      "  hapticcal import session.bag --model geomagic-touch --convention ros-geomagic --out "
+      "session\n"
       "  hapticcal calibrate --model geomagic-touch --log session/device.csv --tracker "
       "session/tracker.csv\n"
       "  hapticcal import --tracker-export take.csv --body stylus --out take");
@@ -105,6 +113,7 @@ int run_import(const ImportOptions& o) {
   request.list = o.list;
   request.still_seconds = o.still_seconds;
   request.still_tolerance = o.still_tolerance;
+  request.tracker_still = o.tracker_still;
   const recording::ImportResult r = recording::run_import(request);
   if (!r.format.empty())
     fmt::print("{}: {}\n", printable(o.recording.empty() ? o.tracker_export : o.recording, 200),

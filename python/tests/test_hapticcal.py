@@ -662,7 +662,7 @@ def test_import_a_ros1_bag(tmp_path):
                 p.point.x, p.point.y, p.point.z = 0.001 * k, 0.2, -0.1
                 b.write("/probe", p, t=stamp)
     out = tmp_path / "imported"
-    r = hapticcal.import_recording(str(bag), model="geomagic-touch", out=str(out))
+    r = hapticcal.import_recording(str(bag), model="geomagic-touch", convention="none", out=str(out))
     assert r["format"] == "ROS 1 bag"
     assert r["joints"] == ["waist", "shoulder", "elbow", "yaw", "pitch", "roll"]
     assert (r["device_rows"], r["tracker_rows"]) == (50, 10)
@@ -675,6 +675,26 @@ def test_import_a_ros1_bag(tmp_path):
     assert rows[3][0] == "0.002000000"
     listed = hapticcal.import_recording(str(bag), list=True, out=str(tmp_path / "listed"))
     assert not (tmp_path / "listed").exists() and len(listed["topics"]) == 2
+    # Two publishers of one topic (two connections of the bag) are one stream in
+    # stamp order; a second JointState topic makes the choice the user's, and
+    # list=True still lists.
+    two = tmp_path / "two.bag"
+    with rosbag.Bag(str(two), "w") as b:
+        for k in range(40):
+            stamp = rospy.Time(1733390000, 1000000 * k)
+            js = JointState(name=["a"], position=[0.01 * k])
+            js.header.stamp = stamp
+            header = {"callerid": "/pub%d" % (k % 2), "topic": "/joint_states", "type": js._type,
+                      "md5sum": js._md5sum, "message_definition": js._full_text}
+            b.write("/joint_states", js, t=stamp, connection_header=header)
+            other = JointState(name=["b"], position=[1.0])
+            other.header.stamp = stamp
+            b.write("/gripper_states", other, t=stamp)
+    r = hapticcal.import_recording(str(two), joints="/joint_states", out=str(tmp_path / "two"))
+    assert r["device_rows"] == 40
+    assert hapticcal.import_recording(str(two), list=True)["topics"][0]["messages"] == 40
+    with pytest.raises(ValueError, match="several JointState topics"):
+        hapticcal.import_recording(str(two), out=str(tmp_path / "x"))
     with pytest.raises(ValueError, match="no topic /nothing"):
         hapticcal.import_recording(str(bag), joints="/nothing", out=str(tmp_path / "x"))
 

@@ -150,8 +150,12 @@ void add_clock(const StreamAlignment& a, EvaluateJob& job) {
 
 EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   check_chain_used(request);
-  if (const std::vector<std::string> tips = tip_names(request.tip); tips.size() > 1)
+  if (const std::vector<std::string> tips = tip_names(request.tip); tips.size() > 1) {
+    if (!request.tracker.empty())
+      throw InputError(request.tracker, 0, "--tracker",
+                       "a tree's second session is not aligned: give one tip");
     return tree_evaluate_job(request, tips);
+  }
   EvaluateJob job;
   job.model = request.given ? *request.given : load_evaluated_model(request, request.model);
   Log log = read_log(request.log, request.columns);

@@ -28,6 +28,7 @@ class Convention {
         readings_(std::move(readings)) {}
 
   const std::string& name() const { return name_; }
+  const std::string& device() const { return device_; }  // the built-in device it serves
   std::size_t readings() const { return readings_.size(); }
   std::vector<std::string> reading_names() const;
   // Finds each term's joint among a topic's `names`: InputError naming the

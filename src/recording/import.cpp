@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -38,45 +39,73 @@ std::string topic_text(const TopicBuffer& t) {
 
 std::string listing(const std::vector<const TopicBuffer*>& topics) {
   std::string out;
-  for (const TopicBuffer* t : topics) out += (out.empty() ? "" : ", ") + topic_text(*t);
+  for (std::size_t k = 0; k < topics.size() && k < 20; ++k)
+    out += (out.empty() ? "" : ", ") + topic_text(*topics[k]);
+  if (topics.size() > 20)
+    out += fmt::format(" and {} more (--list lists them)", topics.size() - 20);
   return out;
 }
 
-bool device_column(const std::string& c) { return c.starts_with("q") || c.starts_with("ext"); }
+// The stream chosen: its topic's first problem, or no messages, is the import's.
+void check_chosen(const TopicBuffer& t, const std::string& file, const char* option) {
+  if (!t.error.empty()) throw InputError(t.error);
+  if (t.messages == 0) throw InputError(file, 0, option, topic_text(t) + ": no messages to import");
+}
+
+// --frames PARENT,CHILD.
+std::pair<std::string, std::string> frames_of(const std::string& frames) {
+  const std::size_t comma = frames.find(',');
+  if (comma == std::string::npos || comma == 0 || comma + 1 == frames.size())
+    throw InputError("", 0, "--frames", "'" + printable(frames) + "': not PARENT,CHILD");
+  return {frames.substr(0, comma), frames.substr(comma + 1)};
+}
+
+// The --field columns of one stream (device or tracker) from one topic.
+std::optional<Stream> field_stream(const std::vector<TopicBuffer>& topics,
+                                   const std::vector<FieldRequest>& fields, bool device,
+                                   const std::string& file) {
+  std::vector<FieldRequest> mine;
+  for (const FieldRequest& f : fields)
+    if (f.device == device) mine.push_back(f);
+  if (mine.empty()) return std::nullopt;
+  for (const FieldRequest& f : mine) {
+    if (f.topic != mine[0].topic) {
+      throw InputError("", 0, "--field",
+                       fmt::format("the {}'s columns come from one topic: {} and {}",
+                                   device ? "device" : "tracker", printable(mine[0].topic, 80),
+                                   printable(f.topic, 80)));
+    }
+  }
+  Stream s;
+  for (const TopicBuffer& t : topics) {
+    if (t.channel.topic != mine[0].topic) continue;
+    int k = 0;
+    for (const FieldRequest& f : fields) {
+      if (f.topic != t.channel.topic) continue;
+      if (f.device == device) s.columns.push_back(f.column), s.take.push_back(k);
+      ++k;
+    }
+    s.topic = &t, s.samples = &t.samples, s.width = k, s.what = topic_text(t);
+  }
+  if (s.topic == nullptr)
+    throw InputError(file, 0, "--field", "no topic " + printable(mine[0].topic, 80));
+  check_chosen(*s.topic, file, "--field");
+  return s;
+}
 
 // The device's stream: --field columns of q or ext, else a JointState topic.
 std::optional<Stream> device_stream(const std::vector<TopicBuffer>& topics,
                                     const ImportRequest& request,
                                     const std::vector<FieldRequest>& fields,
                                     const std::string& file) {
-  std::vector<FieldRequest> mine;
-  for (const FieldRequest& f : fields)
-    if (device_column(f.column)) mine.push_back(f);
-  Stream s;
-  if (!mine.empty()) {
-    for (const FieldRequest& f : mine) {
-      if (f.topic != mine[0].topic) {
-        throw InputError("", 0, "--field",
-                         fmt::format("the device's columns come from one topic: {} and {}",
-                                     printable(mine[0].topic, 80), printable(f.topic, 80)));
-      }
+  if (std::optional<Stream> s = field_stream(topics, fields, true, file)) {
+    if (!request.model.empty() || !request.convention.empty()) {
+      throw InputError("", 0, request.model.empty() ? "--convention" : "--model",
+                       "applies to a JointState topic's joints, not to --field columns");
     }
-    for (const TopicBuffer& t : topics) {
-      if (t.channel.topic != mine[0].topic) continue;
-      s.topic = &t, s.samples = &t.samples;
-      int k = 0;
-      for (const FieldRequest& f : fields) {
-        if (f.topic != t.channel.topic) continue;
-        if (device_column(f.column)) s.columns.push_back(f.column), s.take.push_back(k);
-        ++k;
-      }
-      s.width = k;
-    }
-    if (s.topic == nullptr)
-      throw InputError(file, 0, "--field", "no topic " + printable(mine[0].topic, 80));
-    s.what = topic_text(*s.topic);
     return s;
   }
+  Stream s;
   std::vector<const TopicBuffer*> found;
   for (const TopicBuffer& t : topics) {
     if (!request.joints_topic.empty() ? t.channel.topic == request.joints_topic
@@ -96,6 +125,7 @@ std::optional<Stream> device_stream(const std::vector<TopicBuffer>& topics,
     throw InputError(file, 0, "--joints",
                      topic_text(*found[0]) + " is not a sensor_msgs/JointState topic");
   }
+  check_chosen(*found[0], file, "--joints");
   s.topic = found[0], s.samples = &found[0]->samples, s.what = topic_text(*found[0]);
   s.width = static_cast<int>(found[0]->names.size());
   return s;
@@ -105,9 +135,30 @@ std::optional<Stream> device_stream(const std::vector<TopicBuffer>& topics,
 void match_joints(Stream& s, const ImportRequest& request, ImportResult& result) {
   if (s.topic->kind != TopicKind::kJointState) return;
   const std::vector<std::string>& names = s.topic->names;
-  if (!request.convention.empty()) {
+  const std::optional<DeviceModel> model =
+      request.model.empty() ? std::nullopt : std::optional<DeviceModel>(load_model(request.model));
+  if (request.convention.empty() && model) {
+    // A device whose drivers publish its joints under its own names in their
+    // own conventions: which one is the user's to say.
+    std::vector<std::string> known;
+    for (const Convention& c : conventions())
+      if (c.device() == model->name) known.push_back(c.name());
+    if (!known.empty()) {
+      throw InputError(request.model, 0, "--convention",
+                       fmt::format("{}'s drivers publish its joints under these names in their own "
+                                   "signs and offsets: give --convention {} (or --convention none "
+                                   "for the positions as published)",
+                                   model->name, fmt::join(known, "|")));
+    }
+  }
+  if (!request.convention.empty() && request.convention != "none") {
     s.convention = convention_named(request.convention);
-    s.convention->bind(names, s.what);
+    if (model && static_cast<int>(s.convention->readings()) != model->dof()) {
+      throw InputError(request.model, 0, "--convention",
+                       fmt::format("{} gives {} readings; the model has {} joints",
+                                   request.convention, s.convention->readings(), model->dof()));
+    }
+    s.convention->bind(names, request.recording + ": " + s.what);
     for (std::size_t i = 0; i < s.convention->readings(); ++i)
       s.columns.push_back(fmt::format("q{}", i + 1));
     result.joint_names = s.convention->reading_names();
@@ -115,9 +166,9 @@ void match_joints(Stream& s, const ImportRequest& request, ImportResult& result)
     return;
   }
   std::vector<std::string> wanted = names;
-  if (!request.model.empty()) {
+  if (model) {
     wanted.clear();
-    for (const Link& l : load_model(request.model).links) wanted.push_back(l.name);
+    for (const Link& l : model->links) wanted.push_back(l.name);
   }
   for (std::size_t i = 0; i < wanted.size(); ++i) {
     const auto at = std::find(names.begin(), names.end(), wanted[i]);
@@ -144,36 +195,24 @@ std::optional<Stream> tracker_stream(const std::vector<TopicBuffer>& topics,
                                      const ImportRequest& request,
                                      const std::vector<FieldRequest>& fields,
                                      const std::string& file) {
+  if (std::optional<Stream> s = field_stream(topics, fields, false, file)) return s;
   Stream s;
-  std::vector<FieldRequest> mine;
-  for (const FieldRequest& f : fields)
-    if (!device_column(f.column)) mine.push_back(f);
-  if (!mine.empty()) {
-    for (const TopicBuffer& t : topics) {
-      if (t.channel.topic != mine[0].topic) continue;
-      int k = 0;
-      for (const FieldRequest& f : fields) {
-        if (f.topic != t.channel.topic) continue;
-        if (!device_column(f.column)) s.columns.push_back(f.column), s.take.push_back(k);
-        ++k;
-      }
-      s.topic = &t, s.samples = &t.samples, s.width = k, s.what = topic_text(t);
-    }
-    if (s.topic == nullptr)
-      throw InputError(file, 0, "--field", "no topic " + printable(mine[0].topic, 80));
-    return s;
-  }
-  std::string parent, child;
-  if (!request.frames.empty()) {
-    const std::size_t comma = request.frames.find(',');
-    if (comma == std::string::npos || comma == 0 || comma + 1 == request.frames.size())
-      throw InputError("", 0, "--frames", "'" + printable(request.frames) + "': not PARENT,CHILD");
-    parent = request.frames.substr(0, comma), child = request.frames.substr(comma + 1);
-  }
+  const std::string parent = request.frames.empty() ? "" : frames_of(request.frames).first;
+  const std::string child = request.frames.empty() ? "" : frames_of(request.frames).second;
   std::vector<std::pair<const TopicBuffer*, const Samples*>> found;
   for (const TopicBuffer& t : topics) {
     if (!request.tracker_topic.empty() && t.channel.topic != request.tracker_topic) continue;
     if (t.kind == TopicKind::kTf) {
+      if (parent.empty() && !request.tracker_topic.empty()) {  // named without its frames
+        std::string pairs;
+        for (const auto& [p, c] : t.frame_names)
+          pairs += (pairs.empty() ? "" : ", ") + printable(p) + "," + printable(c);
+        throw InputError(file, 0, "--frames",
+                         topic_text(t) +
+                             " holds transforms between frames: give --frames "
+                             "PARENT,CHILD (" +
+                             (pairs.empty() ? std::string("none decoded") : pairs) + ")");
+      }
       if (parent.empty()) continue;  // a TF tree is read with --frames only
       const auto f = t.frames.find({parent, child});
       if (f != t.frames.end()) found.emplace_back(&t, &f->second);
@@ -200,6 +239,7 @@ std::optional<Stream> tracker_stream(const std::vector<TopicBuffer>& topics,
                      "several pose, point or transform topics: " + listing(list) +
                          ": name one with --tracker-topic TOPIC");
   }
+  check_chosen(*found[0].first, file, "--tracker-topic");
   s.topic = found[0].first, s.samples = found[0].second;
   s.what = topic_text(*s.topic) +
            (parent.empty() ? "" : ", " + printable(parent) + " -> " + printable(child));
@@ -281,56 +321,84 @@ std::string stream_csv(const Stream& s, std::int64_t origin, const std::string& 
   return out;
 }
 
-// The static log: the windows of at least `still` seconds in which no reading
-// moves by more than `tolerance`, each one row: the mean of its readings, and
-// the mean of the tracker's samples stamped within it less a tenth of it at
-// either end (a clock difference below that does not matter), a quaternion's
-// mean its sign-aligned sum normalised. Windows without a tracker sample are
-// left out and counted in a note.
+// A still window's row: the mean of its readings (device rows [a, b]) and of
+// the tracker's samples stamped within it less a tenth of it at either end (a
+// quaternion's mean its sign-aligned sum normalised). Empty when the tracker
+// has no sample there, or moved: a sample further than `tracker_still` from the
+// samples' median (the tracker's clock not the device's?); `why` says which.
+std::optional<std::vector<double>> still_row(const Stream& device, const Stream& tracker,
+                                             std::size_t a, std::size_t b, double tracker_still,
+                                             std::string& why) {
+  const std::vector<std::int64_t>& td = device.samples->stamp_ns;
+  const std::vector<std::int64_t>& tt = tracker.samples->stamp_ns;
+  const std::int64_t margin = (td[b] - td[a]) / 10;
+  const auto first = std::lower_bound(tt.begin(), tt.end(), td[a] + margin);
+  const auto last = std::upper_bound(tt.begin(), tt.end(), td[b] - margin);
+  if (first >= last) return why = "empty", std::nullopt;
+  std::vector<double> values, row(device.columns.size(), 0.0);
+  for (std::size_t i = a; i <= b; ++i) {
+    row_values(device, i, values);
+    for (std::size_t k = 0; k < row.size(); ++k)
+      row[k] += values[k] / static_cast<double>(b - a + 1);
+  }
+  std::vector<std::vector<double>> samples;
+  for (auto it = first; it != last; ++it) {
+    row_values(tracker, static_cast<std::size_t>(it - tt.begin()), values);
+    samples.push_back(values);
+  }
+  // A pose or point topic's tracker still: every sample near the median point
+  // (--field columns carry their own units and order: not checked).
+  if (tracker.topic->kind != TopicKind::kFields) {
+    Eigen::Vector3d median;
+    for (int k = 0; k < 3; ++k) {
+      std::vector<double> c;
+      for (const auto& v : samples) c.push_back(v[k]);
+      std::nth_element(c.begin(), c.begin() + static_cast<std::ptrdiff_t>(c.size() / 2), c.end());
+      median[k] = c[c.size() / 2];
+    }
+    for (const auto& v : samples)
+      if ((Eigen::Vector3d(v[0], v[1], v[2]) - median).norm() > tracker_still)
+        return why = "moved", std::nullopt;
+  }
+  const bool quaternion = tracker.columns.size() == 7 && tracker.columns[3] == "qw";
+  std::vector<double> mean(tracker.columns.size(), 0.0);
+  for (std::vector<double>& v : samples) {
+    if (quaternion &&
+        v[3] * samples[0][3] + v[4] * samples[0][4] + v[5] * samples[0][5] + v[6] * samples[0][6] <
+            0)
+      for (int k = 3; k < 7; ++k) v[k] = -v[k];  // a quaternion and its negative are one turn
+    for (std::size_t k = 0; k < mean.size(); ++k)
+      mean[k] += v[k] / static_cast<double>(samples.size());
+  }
+  if (quaternion) {
+    const double norm =
+        std::sqrt(mean[3] * mean[3] + mean[4] * mean[4] + mean[5] * mean[5] + mean[6] * mean[6]);
+    for (int k = 3; k < 7; ++k) mean[k] /= norm;
+  }
+  row.insert(row.end(), mean.begin(), mean.end());
+  return row;
+}
+
+// The static log: one row a window of at least `still_seconds` in which no
+// reading moves by more than `still_tolerance` (still_row).
 std::string static_csv(const Stream& device, const Stream& tracker, const ImportRequest& request,
                        std::int64_t origin, const std::string& comment, ImportResult& result) {
   const std::vector<std::int64_t>& td = device.samples->stamp_ns;
-  const std::vector<std::int64_t>& tt = tracker.samples->stamp_ns;
   std::string out = comment + "t";
   for (const std::string& c : device.columns) out += "," + c;
   for (const std::string& c : tracker.columns) out += "," + c;
   out += "\n";
-  std::vector<double> values, low, high, q_sum, m_sum;
-  std::size_t windows = 0, empty = 0;
+  std::vector<double> values, low, high;
+  std::size_t windows = 0, empty = 0, moved = 0;
   const auto close = [&](std::size_t a, std::size_t b) {  // device rows [a, b]
     if (1e-9 * static_cast<double>(td[b] - td[a]) < request.still_seconds) return;
     ++windows;
-    const std::int64_t margin = (td[b] - td[a]) / 10;
-    const auto first = std::lower_bound(tt.begin(), tt.end(), td[a] + margin);
-    const auto last = std::upper_bound(tt.begin(), tt.end(), td[b] - margin);
-    if (first >= last) return void(++empty);
-    q_sum.assign(device.columns.size(), 0.0);
-    for (std::size_t i = a; i <= b; ++i) {
-      row_values(device, i, values);
-      for (std::size_t k = 0; k < values.size(); ++k) q_sum[k] += values[k];
-    }
-    m_sum.assign(tracker.columns.size(), 0.0);
-    std::vector<double> reference;
-    for (auto it = first; it != last; ++it) {
-      row_values(tracker, static_cast<std::size_t>(it - tt.begin()), values);
-      if (values.size() == 7) {  // a quaternion and its negative are one turn
-        if (reference.empty()) reference.assign(values.begin() + 3, values.end());
-        double dot = 0;
-        for (int k = 0; k < 4; ++k) dot += reference[k] * values[3 + k];
-        if (dot < 0)
-          for (int k = 3; k < 7; ++k) values[k] = -values[k];
-      }
-      for (std::size_t k = 0; k < values.size(); ++k) m_sum[k] += values[k];
-    }
-    const auto nd = static_cast<double>(b - a + 1), nt = static_cast<double>(last - first);
+    std::string why;
+    const std::optional<std::vector<double>> row =
+        still_row(device, tracker, a, b, request.tracker_still, why);
+    if (!row) return void(++(why == "moved" ? moved : empty));
     out += seconds_text((td[a] + td[b]) / 2 - origin);
-    for (const double v : q_sum) out += fmt::format(",{}", v / nd);
-    for (std::size_t k = 0; k < 3; ++k) out += fmt::format(",{}", m_sum[k] / nt);
-    if (m_sum.size() == 7) {
-      const double norm = std::sqrt(m_sum[3] * m_sum[3] + m_sum[4] * m_sum[4] +
-                                    m_sum[5] * m_sum[5] + m_sum[6] * m_sum[6]);
-      for (std::size_t k = 3; k < 7; ++k) out += fmt::format(",{}", m_sum[k] / norm);
-    }
+    for (const double v : *row) out += fmt::format(",{}", v);
     out += "\n";
     ++result.static_rows;
   };
@@ -353,17 +421,18 @@ std::string static_csv(const Stream& device, const Stream& tracker, const Import
   }
   if (!td.empty()) close(start, td.size() - 1);
   result.notes.push_back(
-      fmt::format("{} still windows of at least {:g} s (readings within {:g}); {} without a "
-                  "tracker sample left out",
-                  windows, request.still_seconds, request.still_tolerance, empty));
+      fmt::format("{} still windows of at least {:g} s (readings within {:g}); left out: {} "
+                  "without a tracker sample, {} in "
+                  "which the tracker moved by more than {:g} m (its clock not the device's?)",
+                  windows, request.still_seconds, request.still_tolerance, empty, moved,
+                  request.tracker_still));
   if (result.static_rows == 0) {
     throw InputError(
         request.recording, 0, "--static",
-        fmt::format(
-            "no window of at least {:g} s with the readings within {:g} and a tracker sample "
-            "({} still windows): a hand-guided session is imported as streams (without "
-            "--static)",
-            request.still_seconds, request.still_tolerance, windows));
+        fmt::format("no window of at least {:g} s with the readings within {:g} and the tracker "
+                    "still ({} still windows: {} without a tracker sample, {} with the tracker "
+                    "moving; if the clocks differ, --time receive takes the recorder's)",
+                    request.still_seconds, request.still_tolerance, windows, empty, moved));
   }
   return out;
 }
@@ -444,24 +513,91 @@ std::string export_csv(const TrackerStream& s) {
   return out;
 }
 
-}  // namespace
-
-ImportResult run_import(const ImportRequest& request) {
+// Options that would have no effect are refused: nothing is silently ignored.
+void check_request(const ImportRequest& request, const std::vector<FieldRequest>& fields) {
   if (request.recording.empty() && request.tracker_export.empty())
     throw InputError("", 0, "RECORDING",
                      "give a recording (a bag, .mcap or .db3) or --tracker-export FILE");
+  if (request.recording.empty() && request.list)
+    throw InputError("", 0, "--list", "lists a recording's topics: give the recording");
+  const TrackerExportOptions& e = request.export_options;
+  const bool export_options = !e.body.empty() || !e.markers.empty() || !e.column_map.empty() ||
+                              !e.length_unit.empty() || !e.time_unit.empty();
+  if (request.tracker_export.empty() && export_options) {
+    throw InputError("", 0, "--tracker-export",
+                     "--body, --markers, --column-map, --length-unit and --time-unit read a "
+                     "tracker's export: give --tracker-export FILE");
+  }
+  const bool tracker_field =
+      std::any_of(fields.begin(), fields.end(), [](const FieldRequest& f) { return !f.device; });
+  if (!request.tracker_export.empty() &&
+      (!request.tracker_topic.empty() || !request.frames.empty() || tracker_field)) {
+    throw InputError("", 0, "--tracker-export",
+                     "the tracker's stream comes from the export: no --tracker-topic, --frames or "
+                     "--field of x, y, z or distance with it");
+  }
+  if (request.recording.empty() &&
+      (!request.joints_topic.empty() || !fields.empty() || !request.model.empty() ||
+       !request.convention.empty() || request.still_seconds > 0)) {
+    throw InputError(
+        "", 0, "RECORDING",
+        "--joints, --field, --model, --convention and --static read a recording: give it");
+  }
+}
+
+Wanted wanted_of(const ImportRequest& request, const std::vector<FieldRequest>& fields) {
+  Wanted w;
+  w.joints_topic = request.joints_topic;
+  w.tracker_topic = request.tracker_topic;
+  if (!request.frames.empty()) w.frames = frames_of(request.frames);
+  w.fields = fields;
+  w.stamps = request.stamps;
+  w.list = request.list;
+  return w;
+}
+
+// Every topic's summary: the imported ones on the import's time origin (the
+// stamps written), the others on the recorder's clock from the recording's
+// first message.
+void summarise(const std::vector<TopicBuffer>& topics, const std::optional<Stream>& device,
+               const std::optional<Stream>& tracker, std::int64_t origin, ImportResult& result) {
+  std::int64_t first_receive = std::numeric_limits<std::int64_t>::max();
+  for (const TopicBuffer& t : topics)
+    if (!t.receive_ns.empty()) first_receive = std::min(first_receive, t.receive_ns.front());
+  for (const TopicBuffer& t : topics) {
+    const Stream* role = device && device->topic == &t     ? &*device
+                         : tracker && tracker->topic == &t ? &*tracker
+                                                           : nullptr;
+    TopicSummary s = role ? summary_of(t, role->samples->stamp_ns, origin)
+                          : summary_of(t, t.receive_ns, first_receive);
+    s.role = role == nullptr ? "" : role == &*device ? "device" : "tracker";
+    if (!t.error.empty() && role == nullptr)
+      result.notes.push_back(
+          fmt::format("{} not imported: {}", printable(t.channel.topic, 80), t.error));
+    result.topics.push_back(std::move(s));
+  }
+}
+
+}  // namespace
+
+ImportResult run_import(const ImportRequest& request) {
   const std::vector<FieldRequest> fields = parse_fields(request.fields);
+  check_request(request, fields);
   ImportResult result;
   std::vector<TopicBuffer> topics;
   const std::string& file = request.recording;
   if (!file.empty())
-    topics = read_topics(file, fields, request.stamps, request.limits, result.format);
+    topics = read_topics(file, wanted_of(request, fields), request.limits, result.format);
+  if (request.list) {
+    summarise(topics, std::nullopt, std::nullopt, 0, result);
+    return result;
+  }
   std::optional<Stream> device, tracker;
   if (!file.empty()) {
     device = device_stream(topics, request, fields, file);
     if (request.tracker_export.empty()) tracker = tracker_stream(topics, request, fields, file);
   }
-  if (!request.list && !file.empty() && !device && !tracker && request.tracker_export.empty()) {
+  if (!file.empty() && !device && !tracker && request.tracker_export.empty()) {
     std::vector<const TopicBuffer*> all;
     for (const TopicBuffer& t : topics) all.push_back(&t);
     throw InputError(file, 0, "",
@@ -485,15 +621,7 @@ ImportResult run_import(const ImportRequest& request) {
         origin = origin == 0 ? t.receive_ns.front() : std::min(origin, t.receive_ns.front());
   }
   result.time_origin_ns = origin;
-  for (const TopicBuffer& t : topics) {
-    const Stream* role = device && device->topic == &t     ? &*device
-                         : tracker && tracker->topic == &t ? &*tracker
-                                                           : nullptr;
-    TopicSummary s = summary_of(t, role ? role->samples->stamp_ns : t.receive_ns, origin);
-    s.role = role == nullptr ? "" : role == &*device ? "device" : "tracker";
-    result.topics.push_back(std::move(s));
-  }
-  if (request.list) return result;
+  summarise(topics, device, tracker, origin, result);
 
   OutputSet out(request.out, "import");
   const std::string what = file.empty() ? "" : fmt::format("{} ({})", file, result.format);

@@ -2,7 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <set>
 #include <utility>
 
 #include "hapticcal/core/cancel.hpp"
@@ -29,11 +32,22 @@ const double* first_number(const DecodedMessage& m, std::initializer_list<std::s
 
 class Collector : public RecordingVisitor {
  public:
-  Collector(std::string file, const std::vector<FieldRequest>& fields, StampSource stamps,
-            bool offsets)
-      : file_(std::move(file)), fields_(fields), stamps_(stamps), offsets_(offsets) {}
+  Collector(std::string file, const Wanted& wanted, bool offsets)
+      : file_(std::move(file)), wanted_(wanted), offsets_(offsets) {}
 
+  // A channel of a topic already seen (another publisher of a bag) joins it.
   void channel(std::uint32_t id, const Channel& channel) override {
+    for (std::size_t k = 0; k < topics_.size(); ++k) {
+      if (topics_[k].channel.topic != channel.topic) continue;
+      if (topics_[k].channel.type != channel.type && topics_[k].error.empty()) {
+        topics_[k].error = fmt::format("{}: topic {} is recorded as {} and as {}", file_,
+                                       printable(channel.topic, 80), topics_[k].channel.type,
+                                       printable(channel.type, 80));
+      }
+      topics_[k].merged = true;
+      index_[id] = k;
+      return;
+    }
     TopicBuffer buffer;
     buffer.channel = channel;
     // A channel hapticcal cannot decode (JSON, protobuf, an IDL schema) is
@@ -41,7 +55,7 @@ class Collector : public RecordingVisitor {
     const bool decodable = channel.message_encoding.empty() || channel.message_encoding == "ros1" ||
                            channel.message_encoding == "cdr";
     buffer.kind = decodable ? kind_of(channel.type) : TopicKind::kOther;
-    for (const FieldRequest& f : fields_)
+    for (const FieldRequest& f : wanted_.fields)
       if (f.topic == channel.topic) buffer.kind = TopicKind::kFields;
     index_[id] = topics_.size();
     topics_.push_back(std::move(buffer));
@@ -58,29 +72,54 @@ class Collector : public RecordingVisitor {
     if ((++seen_ & 4095) == 0) throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp)
     ++t.messages;
     t.receive_ns.push_back(receive_ns);
-    if (t.kind == TopicKind::kOther) return;
+    if (!decoded(t)) return;
     // A .db3 holds no byte offsets: its messages are named by their place.
     if (!offsets_) offset = kNoOffset;
     const std::string origin =
         fmt::format("{}: {} ({}) message {}", place(file_, offset), printable(t.channel.topic, 80),
                     t.channel.type, t.messages);
-    if (!t.type) t.type = type_of(t, origin);
-    const DecodedMessage m = decode_message(*t.type, data, origin);
-    switch (t.kind) {
-      case TopicKind::kJointState:
-        return joint_state(t, m, receive_ns, offset, origin);
-      case TopicKind::kTf:
-        return tf(t, m, receive_ns, offset, origin);
-      case TopicKind::kFields:
-        return field_values(t, m, receive_ns, offset, origin);
-      default:
-        return pose(t, m, "", receive_ns, offset, origin, t.samples);
+    try {
+      if (!t.type) t.type = type_of(t, origin);
+      const DecodedMessage m = decode_message(*t.type, data, origin);
+      switch (t.kind) {
+        case TopicKind::kJointState:
+          return joint_state(t, m, receive_ns, offset, origin);
+        case TopicKind::kTf:
+          return tf(t, m, receive_ns, offset, origin);
+        case TopicKind::kFields:
+          return field_values(t, m, receive_ns, offset, origin);
+        default:
+          return pose(t, m, "", receive_ns, offset, origin, t.samples);
+      }
+    } catch (const InputError& e) {
+      t.error = e.what();  // the import fails with it if it imports this topic
     }
   }
 
   std::vector<TopicBuffer> take() { return std::move(topics_); }
 
  private:
+  // Whether a message of `t` is decoded: a topic the import may take (of a
+  // kind it reads, not failed, named or not excluded by a name), none to list.
+  bool decoded(const TopicBuffer& t) const {
+    if (wanted_.list || !t.error.empty()) return false;
+    switch (t.kind) {
+      case TopicKind::kJointState:
+        return wanted_.joints_topic.empty() || wanted_.joints_topic == t.channel.topic;
+      case TopicKind::kPose:
+      case TopicKind::kPoint:
+      case TopicKind::kTransform:
+        return wanted_.tracker_topic.empty() || wanted_.tracker_topic == t.channel.topic;
+      case TopicKind::kTf:  // with --frames, or named (to name its pairs)
+        return wanted_.tracker_topic.empty() ? wanted_.frames.has_value()
+                                             : wanted_.tracker_topic == t.channel.topic;
+      case TopicKind::kFields:
+        return true;
+      default:
+        return false;
+    }
+  }
+
   std::shared_ptr<const MessageType> type_of(const TopicBuffer& t,
                                              const std::string& origin) const {
     std::string definition = t.channel.definition;
@@ -97,7 +136,7 @@ class Collector : public RecordingVisitor {
   // The stamp asked for: the header's (`prefix` + "header.stamp") or the recorder's.
   std::int64_t stamp(const DecodedMessage& m, const std::string& prefix, std::int64_t receive_ns,
                      const std::string& origin) const {
-    if (stamps_ == StampSource::kReceive) return receive_ns;
+    if (wanted_.stamps == StampSource::kReceive) return receive_ns;
     const std::string s = prefix + "header.stamp.";
     const double* sec = first_number(m, {s + "sec", s + "secs"});
     const double* nsec = first_number(m, {s + "nanosec", s + "nsec", s + "nsecs"});
@@ -108,8 +147,11 @@ class Collector : public RecordingVisitor {
                        ": the header stamp is 0 (the sender did not stamp the message): "
                        "--time receive takes the recorder's");
     }
-    if (*nsec < 0 || *nsec >= 1e9)
+    if (!(*nsec >= 0 && *nsec < 1e9 && *nsec == std::floor(*nsec)))
       throw InputError(fmt::format("{}: header stamp nanoseconds {}", origin, *nsec));
+    // Whole seconds within what nanoseconds since 1970 hold in 64 bits (year 2262).
+    if (!(std::abs(*sec) <= 9.2e9 && *sec == std::floor(*sec)))
+      throw InputError(fmt::format("{}: header stamp seconds {}", origin, *sec));
     return static_cast<std::int64_t>(*sec) * 1000000000 + static_cast<std::int64_t>(*nsec);
   }
 
@@ -137,15 +179,16 @@ class Collector : public RecordingVisitor {
                       origin, names.size(), names.empty() ? "" : printable(names[0]),
                       t.names.size(), printable(t.names[0])));
     }
-    add(t.samples, stamp(m, "", receive_ns, origin), receive_ns, offset);
-    for (std::size_t k = 0; k < names.size(); ++k) {
-      const double* p = m.number(fmt::format("position[{}]", k));
-      if (p == nullptr) {
-        throw InputError(fmt::format("{}: {} names but no position for '{}'", origin, names.size(),
-                                     printable(names[k])));
-      }
-      t.samples.values.push_back(*p);
+    if (m.number(fmt::format("position[{}]", names.size())) != nullptr ||
+        m.number(fmt::format("position[{}]", names.size() - 1)) == nullptr) {
+      std::size_t positions = 0;
+      while (m.number(fmt::format("position[{}]", positions)) != nullptr) ++positions;
+      throw InputError(
+          fmt::format("{}: {} joint names and {} positions", origin, names.size(), positions));
     }
+    add(t.samples, stamp(m, "", receive_ns, origin), receive_ns, offset);
+    for (std::size_t k = 0; k < names.size(); ++k)
+      t.samples.values.push_back(*m.number(fmt::format("position[{}]", k)));
   }
 
   // A pose, point or transform at `prefix` (a TFMessage's "transforms[k].").
@@ -179,6 +222,8 @@ class Collector : public RecordingVisitor {
       const std::string* parent = m.string(prefix + "header.frame_id");
       const std::string* child = m.string(prefix + "child_frame_id");
       if (parent == nullptr || child == nullptr) break;
+      if (t.frame_names.size() < 100) t.frame_names.insert({*parent, *child});
+      if (!wanted_.frames || *wanted_.frames != std::make_pair(*parent, *child)) continue;
       pose(t, m, prefix, receive_ns, offset, fmt::format("{}: transforms[{}]", origin, k),
            t.frames[{*parent, *child}]);
     }
@@ -188,13 +233,13 @@ class Collector : public RecordingVisitor {
                     std::uint64_t offset, const std::string& origin) {
     const bool header =
         m.number("header.stamp.sec") != nullptr || m.number("header.stamp.secs") != nullptr;
-    if (stamps_ == StampSource::kHeader && !header) {
+    if (wanted_.stamps == StampSource::kHeader && !header) {
       throw InputError(origin +
                        ": no header stamp (a message without a header): --time receive takes "
                        "the recorder's");
     }
     add(t.samples, stamp(m, "", receive_ns, origin), receive_ns, offset);
-    for (const FieldRequest& f : fields_) {
+    for (const FieldRequest& f : wanted_.fields) {
       if (f.topic != t.channel.topic) continue;
       const double* v = m.number(f.path);
       if (v == nullptr) {
@@ -208,13 +253,48 @@ class Collector : public RecordingVisitor {
   }
 
   std::string file_;
-  const std::vector<FieldRequest>& fields_;
-  StampSource stamps_;
+  const Wanted& wanted_;
   bool offsets_ = true;  // the reader gives byte offsets (not a .db3)
   std::uint64_t seen_ = 0;
   std::vector<TopicBuffer> topics_;
   std::map<std::uint32_t, std::size_t> index_;
 };
+
+}  // namespace
+
+namespace {
+
+// A --field column's name without its unit: "q3[deg]" -> "q3".
+std::string column_name(const std::string& column) { return column.substr(0, column.find('[')); }
+
+bool numbered(const std::string& name, const char* prefix) {
+  const std::size_t n = std::strlen(prefix);
+  return name.size() > n && name.compare(0, n, prefix) == 0 && name[n] != '0' &&
+         name.find_first_not_of("0123456789", n) == std::string::npos && name.size() - n <= 3;
+}
+
+// A topic's samples in stamp order (several publishers of one topic interleave
+// by arrival); a stable sort, so equal stamps stay as recorded (and are refused
+// later as not increasing).
+void sort_by_stamp(Samples& s) {
+  const std::size_t n = s.stamp_ns.size();
+  if (n == 0) return;
+  const std::size_t width = s.values.size() / n;
+  std::vector<std::size_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return s.stamp_ns[a] < s.stamp_ns[b]; });
+  Samples sorted;
+  for (const std::size_t i : order) {
+    sorted.stamp_ns.push_back(s.stamp_ns[i]);
+    sorted.receive_ns.push_back(s.receive_ns[i]);
+    sorted.offset.push_back(s.offset[i]);
+    sorted.values.insert(sorted.values.end(),
+                         s.values.begin() + static_cast<std::ptrdiff_t>(i * width),
+                         s.values.begin() + static_cast<std::ptrdiff_t>((i + 1) * width));
+  }
+  s = std::move(sorted);
+}
 
 }  // namespace
 
@@ -228,18 +308,39 @@ std::vector<FieldRequest> parse_fields(const std::vector<std::string>& fields) {
           "", 0, "--field",
           "'" + printable(f, 80) + "': not COLUMN=TOPIC:PATH (e.g. q1=/encoders:position[0])");
     }
-    out.push_back({f.substr(0, eq), f.substr(eq + 1, colon - eq - 1), f.substr(colon + 1)});
+    FieldRequest r{f.substr(0, eq), f.substr(eq + 1, colon - eq - 1), f.substr(colon + 1)};
+    const std::string name = column_name(r.column);
+    r.device = numbered(name, "q") || numbered(name, "ext");
+    static const std::set<std::string> tracker = {"x",  "y",  "z",  "qw",
+                                                  "qx", "qy", "qz", "distance"};
+    if (!r.device && tracker.count(name) == 0) {
+      throw InputError(
+          "", 0, "--field",
+          "'" + printable(r.column, 40) +
+              "': not a column a log has (q1.., ext1.. for the device's stream; x, y, z, "
+              "qw, qx, qy, qz, distance for the tracker's)");
+    }
+    for (const FieldRequest& other : out) {
+      if (column_name(other.column) == name)
+        throw InputError("", 0, "--field", "'" + printable(name, 40) + "': given twice");
+    }
+    out.push_back(std::move(r));
   }
   return out;
 }
 
-std::vector<TopicBuffer> read_topics(const std::string& path,
-                                     const std::vector<FieldRequest>& fields, StampSource stamps,
+std::vector<TopicBuffer> read_topics(const std::string& path, const Wanted& wanted,
                                      const RecordingLimits& limits, std::string& format) {
   format = recording_format(path);
-  Collector collector(path, fields, stamps, format != "rosbag2 sqlite3");
+  Collector collector(path, wanted, format != "rosbag2 sqlite3");
   read_recording(path, collector, limits);
-  return collector.take();
+  std::vector<TopicBuffer> topics = collector.take();
+  for (TopicBuffer& t : topics) {
+    if (!t.merged) continue;
+    sort_by_stamp(t.samples);
+    for (auto& [pair, samples] : t.frames) sort_by_stamp(samples);
+  }
+  return topics;
 }
 
 std::string place(const std::string& file, std::uint64_t offset) {

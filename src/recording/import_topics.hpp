@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -25,8 +27,17 @@ struct Samples {
   std::vector<std::uint64_t> offset;  // each message's byte offset, for messages naming it
 };
 
-// A topic as read: its channel, what it is, and its samples. A TFMessage
-// topic holds one stream a parent/child pair ("topic parent->child").
+// The columns asked of a topic by --field: COLUMN=TOPIC:PATH; a device column
+// (q<i>, ext<i>) or a tracker's (x, y, z, qw, qx, qy, qz, distance), with a unit
+// in brackets as a log's header allows.
+struct FieldRequest {
+  std::string column, topic, path;
+  bool device = false;
+};
+// InputError naming --field for a malformed one, an unknown or repeated column.
+std::vector<FieldRequest> parse_fields(const std::vector<std::string>& fields);
+
+// A topic as read: its channel, what it is, and its samples.
 struct TopicBuffer {
   Channel channel;
   TopicKind kind = TopicKind::kOther;
@@ -36,19 +47,27 @@ struct TopicBuffer {
   // kJointState: the names of the first message (every message must have them).
   std::vector<std::string> names;
   Samples samples;                                                // not kTf
-  std::map<std::pair<std::string, std::string>, Samples> frames;  // kTf: by parent, child
+  std::map<std::pair<std::string, std::string>, Samples> frames;  // kTf: the pair asked for
+  std::set<std::pair<std::string, std::string>> frame_names;      // kTf: the pairs seen (<= 100)
+  // The first problem of a topic's messages: the topic is decoded no further,
+  // and the import fails with it only if the topic is the one imported.
+  std::string error;
+  bool merged = false;  // several channels (a bag's connections) of one topic
 };
 
-// The columns asked of a topic by --field: COLUMN=TOPIC:PATH.
-struct FieldRequest {
-  std::string column, topic, path;
+// What the import wants of the recording: the topics decoded are those it may
+// import (all of a kind, or the ones named); --list decodes none.
+struct Wanted {
+  std::string joints_topic, tracker_topic;
+  std::optional<std::pair<std::string, std::string>> frames;
+  std::vector<FieldRequest> fields;
+  StampSource stamps = StampSource::kHeader;
+  bool list = false;
 };
-std::vector<FieldRequest> parse_fields(const std::vector<std::string>& fields);
 
-// Reads the recording: every JointState, pose, point, transform and TF topic,
-// and the --field topics, decoded with the stamps `stamps` asks for.
-std::vector<TopicBuffer> read_topics(const std::string& path,
-                                     const std::vector<FieldRequest>& fields, StampSource stamps,
+// Reads the recording once: the topics `wanted` may import decoded (a topic of
+// several channels merged, its samples in stamp order), every other one counted.
+std::vector<TopicBuffer> read_topics(const std::string& path, const Wanted& wanted,
                                      const RecordingLimits& limits, std::string& format);
 
 // A message's place in errors: "FILE: byte N", or "FILE" for a storage without

@@ -46,6 +46,9 @@ struct ImportRequest {
   // or m), the readings and the tracker's samples in it averaged. 0: streams.
   double still_seconds = 0;
   double still_tolerance = 1e-4;
+  // A still window whose tracker samples lie further than this from their
+  // median [m] is left out: the tracker moved (its clock is not the device's).
+  double tracker_still = 1e-3;
 };
 
 // What one topic held.
