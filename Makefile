@@ -46,9 +46,10 @@ build: configure
 	cmake --build $(BUILD) -j$(JOBS)
 
 # The main job: the paper's simulation study on the built-in 7-DOF device.
-# Builds only what it runs (the command line), not the tests and benchmarks.
+# Builds what it runs (the command line) and the C runtime a controller links,
+# not the tests and benchmarks.
 run: configure
-	cmake --build $(BUILD) -j$(JOBS) --target hapticcal_cli
+	cmake --build $(BUILD) -j$(JOBS) --target hapticcal_cli hapticcal_runtime
 	./$(BUILD)/hapticcal simulate
 
 # The instrumented tree $(ASAN_BUILD): clang at -O1 -gline-tables-only (file and

@@ -27,3 +27,63 @@ message("${out}")
 if(rc OR NOT out MATCHES "core: tool point at home: 0.400")
   message(FATAL_ERROR "the core consumer did not run: ${rc}")
 endif()
+
+# The pkg-config files: the README's compile lines build the C runtime's
+# realtime example and the C++ consumer against the installed tree.
+set(ENV{PKG_CONFIG_PATH} ${WORK_DIR}/prefix/lib/pkgconfig)
+function(pkg_flags package out)
+  execute_process(COMMAND pkg-config --cflags --libs ${package} RESULT_VARIABLE rc
+                  OUTPUT_VARIABLE flags ERROR_VARIABLE err OUTPUT_STRIP_TRAILING_WHITESPACE)
+  if(rc)
+    message(FATAL_ERROR "pkg-config ${package} failed: ${err}")
+  endif()
+  separate_arguments(flags UNIX_COMMAND "${flags}")
+  set(${out} ${flags} PARENT_SCOPE)
+endfunction()
+pkg_flags(hapticcal-runtime runtime_flags)
+execute_process(COMMAND cc -std=c99 ${SOURCE_DIR}/examples/realtime/realtime_controller.c
+                        -o ${WORK_DIR}/realtime_controller ${runtime_flags}
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(rc)
+  message(FATAL_ERROR "cc with pkg-config hapticcal-runtime failed: ${err}")
+endif()
+execute_process(COMMAND ${WORK_DIR}/realtime_controller
+                        ${WORK_DIR}/prefix/share/hapticcal/devices/baser-7dof.yaml --seconds 0.3
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+message("${out}")
+if(rc OR NOT out MATCHES "missed deadlines: [0-9]+ of 300")
+  message(FATAL_ERROR "the realtime example built by pkg-config did not run: ${rc}")
+endif()
+pkg_flags(hapticcal library_flags)
+execute_process(COMMAND c++ -std=c++20 ${SOURCE_DIR}/examples/consumer/main.cpp
+                        -o ${WORK_DIR}/pkg_consumer ${library_flags}
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(rc)
+  message(FATAL_ERROR "c++ with pkg-config hapticcal failed: ${err}")
+endif()
+execute_process(COMMAND ${WORK_DIR}/pkg_consumer ${WORK_DIR}/prefix/share/hapticcal/devices/baser-7dof.yaml
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+if(rc OR NOT out MATCHES "tool point at home: ")
+  message(FATAL_ERROR "the consumer built by pkg-config did not run: ${rc}")
+endif()
+
+# The Python module, when built: installed where Debian's python3 looks
+# (PREFIX/lib/python3.X/dist-packages), and that copy imported by /usr/bin/python3.
+file(GLOB built ${BUILD_DIR}/python/hapticcal*.so)
+if(built)
+  file(GLOB installed ${WORK_DIR}/prefix/lib/python3*/dist-packages/hapticcal*.so)
+  if(NOT installed)
+    message(FATAL_ERROR "the Python module is not in ${WORK_DIR}/prefix/lib/python3*/dist-packages")
+  endif()
+  get_filename_component(site ${installed} DIRECTORY)
+  set(ENV{PYTHONPATH} ${site})
+  execute_process(
+    COMMAND /usr/bin/python3 -c
+            "import hapticcal, sys; m = hapticcal.load_model(sys.argv[1]); print(hapticcal.__file__, m.dof, m.forward([0.0] * m.dof)[0:3, 3])"
+            ${WORK_DIR}/prefix/share/hapticcal/devices/baser-7dof.yaml
+    RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  message("${out}")
+  if(rc OR NOT out MATCHES "^${site}/hapticcal[^ ]*\\.so 7 ")
+    message(FATAL_ERROR "the installed Python module was not the one imported: ${rc} ${err}")
+  endif()
+endif()
