@@ -186,6 +186,35 @@ TEST(CliErrors, BuiltInDevicesAreListedAndUsableByName) {
   EXPECT_NE(beside.err.find(scenarios + "/geomagic-touch"), std::string::npos) << beside.err;
 }
 
+// A xacro file (named .urdf.xacro, or a .urdf still holding xacro macros) is one
+// line saying to expand it, not urdfdom's "Unable to parse component [${d1}]"
+// or "--tip: applies to URDF models".
+TEST(CliErrors, AXacroFileSaysToExpandItFirst) {
+  const std::string dir = testing::fresh_folder("cli_errors_xacro");
+  const std::string xacro =
+      "<?xml version=\"1.0\"?>\n<robot name=\"arm\" "
+      "xmlns:xacro=\"http://www.ros.org/wiki/xacro\">\n"
+      "  <xacro:property name=\"d1\" value=\"0.2\"/>\n  <link name=\"base\"/>\n  <link "
+      "name=\"tool\"/>\n"
+      "  <joint name=\"j1\" type=\"revolute\"><parent link=\"base\"/><child link=\"tool\"/>\n"
+      "    <origin xyz=\"0 0 ${d1}\"/><axis xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\" "
+      "effort=\"1\" "
+      "velocity=\"1\"/></joint>\n</robot>\n";
+  for (const std::string name : {"arm.urdf.xacro", "arm.urdf"}) {
+    SCOPED_TRACE(name);
+    std::ofstream(dir + "/" + name) << xacro;
+    for (const std::vector<std::string>& args :
+         {std::vector<std::string>{"calibrate", "--model", dir + "/" + name, "--tip", "tool",
+                                   "--log", dir + "/none.csv"},
+          {"evaluate", "--model", dir + "/" + name, "--tip", "tool", "--log", dir + "/none.csv"},
+          {"convert", dir + "/" + name, dir + "/arm.yaml"}}) {
+      const testing::CliResult r = testing::run_cli(args);
+      testing::expect_input_error(r, "expand it with xacro first");
+      EXPECT_NE(r.err.find(name), std::string::npos) << r.err;
+    }
+  }
+}
+
 TEST(CliErrors, BareCommandPointsToHelp) {
   const testing::CliResult r = testing::run_cli(std::vector<std::string>{});
   testing::expect_input_error(r, "");

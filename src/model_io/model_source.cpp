@@ -24,7 +24,11 @@ std::string lower_extension(const std::string& path) {
 
 }  // namespace
 
-bool is_urdf_path(const std::string& path) { return lower_extension(path) == ".urdf"; }
+// A .xacro file goes the URDF's way, to be refused there with what to do.
+bool is_urdf_path(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  return ext == ".urdf" || ext == ".xacro";
+}
 
 bool is_yaml_path(const std::string& path) {
   const std::string ext = lower_extension(path);
@@ -33,6 +37,11 @@ bool is_yaml_path(const std::string& path) {
 
 DeviceModel load_model(const std::string& given, const std::string& tip, const std::string& root) {
   const std::string path = resolve_model_path(given);
+  if (lower_extension(path) == ".xacro") {
+    throw InputError(path, 0, "",
+                     "a xacro file: hapticcal reads URDF; expand it with xacro first (xacro "
+                     "robot.urdf.xacro > robot.urdf)");
+  }
   if (is_urdf_path(path)) return load_urdf(path, tip, root);
   if (!tip.empty() || !root.empty()) {
     throw InputError(path, 0, tip.empty() ? "--root" : "--tip",

@@ -278,6 +278,16 @@ void check_xml(const std::string& text, const std::string& origin) {
     throw InputError(origin, line, "", fmt::format("NUL byte at byte {}", nul));
   }
   check_xml_shape(text, origin);
+  // A xacro file (macros, ${...} expressions) read as URDF would fail deep in
+  // urdfdom ("Unable to parse component [${d1}]"): said plainly instead.
+  for (const char* mark : {"xmlns:xacro", "<xacro:"}) {
+    if (const size_t at = text.find(mark); at != std::string::npos) {
+      const int line = static_cast<int>(std::count(text.begin(), text.begin() + at, '\n')) + 1;
+      throw InputError(origin, line, "",
+                       "a xacro file (its macros and ${...} expressions are not URDF): expand it "
+                       "with xacro first (xacro robot.urdf.xacro > robot.urdf)");
+    }
+  }
   // tinyxml 2.6 steps over a UTF-8 sequence by its lead byte, past the end of a
   // text that ends in a cut one: NUL bytes after the text stop it there.
   const std::string padded = text + std::string(4, '\0');

@@ -9,7 +9,8 @@
 
 namespace hapticcal {
 
-// Whether `path` names a URDF (extension .urdf, any case).
+// Whether `path` names a URDF (extension .urdf, any case), or a xacro file (.xacro:
+// refused by the URDF reader with the command that expands it).
 bool is_urdf_path(const std::string& path);
 // Whether `path` names a device file (extension .yaml or .yml, any case).
 bool is_yaml_path(const std::string& path);
