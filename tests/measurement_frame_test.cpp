@@ -158,8 +158,13 @@ TEST_F(MeasurementFrame, CalibratedUrdfFromItsMeasurementRootReproducesCalibrate
       held_out_);
   EXPECT_NEAR(urdf, yaml, 1e-9);
   EXPECT_LT(yaml, 5 * kNoise);  // and the calibration holds on poses it never saw
+  // Without --root: the measurement frame the calibration wrote (as calibrated.yaml).
+  EXPECT_NEAR(rms_position({"--model", out_ + "/calibrated.urdf", "--tip", "tcp"}, held_out_), yaml,
+              1e-9);
   // The robot's own root: 0.4 m off, as the nominal model in the robot's frame.
-  EXPECT_GT(rms_position({"--model", out_ + "/calibrated.urdf", "--tip", "tcp"}, held_out_), 0.3);
+  EXPECT_GT(rms_position({"--model", out_ + "/calibrated.urdf", "--root", "world", "--tip", "tcp"},
+                         held_out_),
+            0.3);
 }
 
 TEST_F(MeasurementFrame, BothRootsOfCalibratedUrdfAgreeWithKdl) {
@@ -241,6 +246,70 @@ TEST(MeasurementFrameReader, ARootBesideTheChainNeedsFixedJoints) {
                        "chain must be joined to it by fixed joints only)"),
             std::string::npos)
       << r.err;
+}
+
+}  // namespace
+}  // namespace hapticcal
+
+namespace hapticcal {
+namespace {
+
+// convert, then calibrate, then evaluate --model calibrated.urdf: the URDF's
+// measurement frame (added below the root convert wrote, whose own fixed joint
+// holds the nominal base) is the one evaluate reads by default, and it
+// reproduces calibrated.yaml's RMS on held-out data; where the calibration
+// holds what URDF cannot (joint compliance), evaluate says so.
+TEST(MeasurementFrameUrdf, ConvertCalibrateEvaluateReproducesTheYamlOrWarns) {
+  const std::string dir = testing::fresh_folder("measurement_frame_urdf");
+  const std::string data = std::string(HAPTICCAL_SOURCE_DIR) + "/examples/meca500/";
+  ASSERT_EQ(testing::run_cli({"convert", data + "meca500.yaml", dir + "/meca500.urdf"}).exit_code,
+            0);
+  const std::string validation = data + "val-norm_dist_data_0deg_160cube.csv";
+  const auto rms = [&](const std::string& out) {
+    const nlohmann::json j = nlohmann::json::parse(out);
+    return j["rms_position"].get<double>();
+  };
+  for (const char* joint_errors : {"none", ""}) {
+    SCOPED_TRACE(joint_errors);
+    const std::string out = dir + "/cal-" + (*joint_errors ? joint_errors : "default");
+    std::vector<std::string> args = {"calibrate",
+                                     "--model",
+                                     dir + "/meca500.urdf",
+                                     "--tip",
+                                     "tool",
+                                     "--log",
+                                     data + "cal-norm_dist_data_0deg_160cube.csv",
+                                     "--out",
+                                     out};
+    if (*joint_errors) args.insert(args.end(), {"--joint-errors", joint_errors});
+    const testing::CliResult c = testing::run_cli(args);
+    ASSERT_EQ(c.exit_code, 0) << c.err;
+    const testing::CliResult yaml = testing::run_cli(
+        {"evaluate", "--model", out + "/calibrated.yaml", "--log", validation, "--json"});
+    const testing::CliResult urdf = testing::run_cli(
+        {"evaluate", "--model", out + "/calibrated.urdf", "--tip", "tool", "--log", validation});
+    const testing::CliResult urdf_json =
+        testing::run_cli({"evaluate", "--model", out + "/calibrated.urdf", "--tip", "tool", "--log",
+                          validation, "--json"});
+    ASSERT_EQ(urdf.exit_code, 0) << urdf.err;
+    EXPECT_NE(
+        urdf.out.find("read from its measurement frame, link 'hapticcal_hapticcal_measurement'"),
+        std::string::npos)
+        << urdf.out;
+    const bool compliant =
+        c.out.find("calibrated.urdf leaves out joint compliance") != std::string::npos;
+    if (!compliant) {
+      EXPECT_NEAR(rms(urdf_json.out), rms(yaml.out), 1e-9);
+      EXPECT_EQ(urdf.out.find("left out of this URDF"), std::string::npos) << urdf.out;
+    } else {
+      EXPECT_NE(urdf.out.find("joint compliance is left out of this URDF"), std::string::npos)
+          << urdf.out;
+    }
+    if (!*joint_errors) {
+      EXPECT_TRUE(compliant) << "the default model search on this set keeps joint compliance: "
+                             << c.out;
+    }
+  }
 }
 
 }  // namespace

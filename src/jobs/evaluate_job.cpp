@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <cstring>
 #include <nlohmann/json.hpp>
 
 #include "hapticcal/core/error.hpp"
@@ -20,9 +21,33 @@
 namespace hapticcal {
 namespace {
 
-// A model file: a URDF with the request's chain, a device file as it is.
-DeviceModel load_evaluated_model(const EvaluateRequest& request, const std::string& path) {
-  return is_urdf_path(path) ? load_model(path, request.tip, request.root) : load_model(path);
+// A model file: a URDF with the request's chain, a device file as it is. A
+// calibrated URDF without --root is read from the measurement frame its
+// calibration wrote (the calibrated model in the tracker's frame, as
+// calibrated.yaml), said in `said`.
+DeviceModel load_evaluated_model(const EvaluateRequest& request, const std::string& path,
+                                 std::string* said = nullptr) {
+  if (!is_urdf_path(path)) return load_model(path);
+  std::string root = request.root;
+  if (root.empty()) {
+    const std::string text = read_file(path, FileKind::kUrdf);
+    root = measurement_frame_link(text, path);
+    if (!root.empty() && said) {
+      *said = fmt::format(
+          "{}: read from its measurement frame, link '{}' (the frame its calibration "
+          "was fitted in; --root ROOT reads another chain)",
+          path, root);
+    }
+    if (const size_t at = text.find(kLeftOut); at != std::string::npos && said) {
+      const size_t end = text.find(" -->", at);
+      const size_t from = at + std::strlen(kLeftOut);
+      *said +=
+          (said->empty() ? path + ": " : "; ") + "warning: the calibration's " +
+          text.substr(from, end == std::string::npos ? 0 : end - from) +
+          " is left out of this URDF (URDF cannot express it): its calibrated.yaml predicts better";
+    }
+  }
+  return load_model(path, request.tip, root);
 }
 
 // --tip and --root apply to URDF models: given without one, a usage error.
@@ -157,7 +182,9 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
     return tree_evaluate_job(request, tips);
   }
   EvaluateJob job;
-  job.model = request.given ? *request.given : load_evaluated_model(request, request.model);
+  std::string frame_said;
+  job.model =
+      request.given ? *request.given : load_evaluated_model(request, request.model, &frame_said);
   Log log = read_log(request.log, request.columns);
   if (!request.tracker.empty()) {
     if (request.registration || !request.fixture.empty() || !request.point_distances.empty()) {
@@ -190,6 +217,7 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   job.json = evaluation_json(cmp, job.evaluation);
   job.lines = evaluation_lines(cmp, job.evaluation, request.reference);
   if (job.alignment) add_clock(*job.alignment, job);
+  if (!frame_said.empty()) job.lines.insert(job.lines.begin(), frame_said);
   if (!request.out) return job;
   job.out = std::make_unique<OutputSet>(*request.out, "evaluate");
   write_file_atomically(job.out->dir() + "/results.json", job.json + "\n");

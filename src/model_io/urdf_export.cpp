@@ -373,7 +373,8 @@ std::string device_to_urdf(const DeviceModel& model) {
 // the text. A chain read from a measurement-frame root (up_origins) has its
 // first fixed joint's origin set so that o_1^-1 o_2^-1 ... = B; otherwise, if
 // the base moved, a link `hapticcal_measurement` is added below the chain's
-// root by a fixed joint with origin B^-1, so that --root hapticcal_measurement
+// root by a fixed joint with origin N B^-1 (N the nominal base: the root's own
+// fixed joints before the first moving one), so that --root hapticcal_measurement
 // gives the whole calibration and the robot's own root the robot alone.
 // Returns the comment's words on the frame.
 template <typename Mismatch>
@@ -410,7 +411,10 @@ std::string write_measurement_frame(const std::string& urdf_text, const UrdfChai
       "{} the robot alone -->\n",
       comment_safe(chain.root), comment_safe(link), comment_safe(chain.root));
   added += fmt::format("  <link name=\"{}\"/>\n", xml_escaped(link));
-  write_joint(added, joint, "fixed", chain.root, link, B.inverse(), nullptr);
+  // The chain from `link` is T_link_root * (the root's own fixed joints, the
+  // nominal base N) * the joints: with T_root_link = N B^-1 it starts with B.
+  write_joint(added, joint, "fixed", chain.root, link, frame_of(nominal.base) * B.inverse(),
+              nullptr);
   edits.push_back({close, close, added});
   if (notes) {
     notes->push_back(fmt::format(
@@ -419,6 +423,22 @@ std::string write_measurement_frame(const std::string& urdf_text, const UrdfChai
         link, joint, chain.root, link, chain.root));
   }
   return fmt::format("the measurement frame is the link {}", comment_safe(link));
+}
+
+// The calibrated model's parts a URDF cannot hold: joint compliance, lateral
+// compliance, backlash, transmissions (joint errors), or empty.
+std::string not_in_urdf(const DeviceModel& m) {
+  std::vector<std::string> parts;
+  if (m.compliant()) parts.push_back("joint compliance");
+  if (m.laterally_compliant()) parts.push_back("lateral compliance");
+  if (m.has_backlash()) parts.push_back("backlash");
+  for (const Link& l : m.links) {
+    if (!l.transmission.is_none()) {
+      parts.push_back("the transmissions' errors");
+      break;
+    }
+  }
+  return fmt::format("{}", fmt::join(parts, ", "));
 }
 
 std::string calibrated_urdf(const std::string& urdf_text, const std::string& origin,
@@ -506,11 +526,21 @@ std::string calibrated_urdf(const std::string& urdf_text, const std::string& ori
   const std::string frame_comment =
       write_measurement_frame(urdf_text, chain, nominal, calibrated, edits, notes, mismatch);
   const XmlElement& robot = chain.doc.elements[chain.doc.robot];
-  edits.push_back({robot.tag_end, robot.tag_end,
-                   fmt::format("\n{}<!-- hapticcal: calibrated joint origins of the chain {} -> {} "
-                               "(joint offsets folded into them); {} -->",
-                               indentation_at(urdf_text, robot.begin) + "  ",
-                               comment_safe(chain.root), comment_safe(chain.tip), frame_comment)});
+  // What URDF cannot hold is said in the file (evaluate reads it) and the notes.
+  const std::string left_out = not_in_urdf(calibrated);
+  if (!left_out.empty() && notes) {
+    notes->push_back(
+        "calibrated.urdf leaves out " + left_out +
+        " (URDF cannot express it): calibrated.yaml holds the whole model, and predicts "
+        "better than the URDF alone");
+  }
+  edits.push_back(
+      {robot.tag_end, robot.tag_end,
+       fmt::format("\n{}<!-- hapticcal: calibrated joint origins of the chain {} -> {} "
+                   "(joint offsets folded into them); {}{} -->",
+                   indentation_at(urdf_text, robot.begin) + "  ", comment_safe(chain.root),
+                   comment_safe(chain.tip), frame_comment,
+                   left_out.empty() ? "" : "; " + std::string(kLeftOut) + comment_safe(left_out))});
   return apply_edits(urdf_text, std::move(edits));
 }
 

@@ -616,4 +616,23 @@ DeviceModel load_urdf(const std::string& path, const std::string& tip, const std
   return parse_urdf(read_file(path, FileKind::kUrdf), path, tip, root);
 }
 
+std::string measurement_frame_link(const std::string& text, const std::string& origin) {
+  detail::check_xml(text, origin);
+  const detail::Document doc = detail::locate(text, origin);
+  std::set<std::string> children;
+  for (const auto& [name, index] : doc.joints) {
+    if (const detail::XmlElement* child = doc.child(doc.elements[index], "child")) {
+      if (const detail::XmlAttribute* link = child->attribute("link")) children.insert(link->value);
+    }
+  }
+  // The last written: a later calibration of a calibrated.urdf adds its own.
+  std::string found;
+  int last = -1;
+  for (const auto& [name, index] : doc.links) {
+    if (name.find("hapticcal_measurement") == std::string::npos || !children.count(name)) continue;
+    if (index > last) found = name, last = index;
+  }
+  return found;
+}
+
 }  // namespace hapticcal

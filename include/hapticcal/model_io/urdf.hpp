@@ -35,6 +35,17 @@ DeviceModel parse_urdf(const std::string& text, const std::string& origin, const
 DeviceModel load_urdf(const std::string& path, const std::string& tip,
                       const std::string& root = "");
 
+// Written in a calibrated URDF's comment before what it leaves out (joint
+// compliance, backlash, transmissions: URDF cannot express them).
+inline constexpr const char* kLeftOut = "left out (URDF cannot express it): ";
+
+// The link a calibrated URDF holds its calibration's measurement frame in (the
+// one hapticcal wrote: a name holding "hapticcal_measurement", attached below
+// the robot rather than its root; the last written if a file was calibrated
+// again), or empty. Reading the chain from it (--root) reproduces the
+// calibrated model in the tracker's frame.
+std::string measurement_frame_link(const std::string& text, const std::string& origin);
+
 // The model as a URDF: link `hapticcal_measurement` (the measurement frame) ->
 // fixed joint `base_joint` (B) -> `base_link` -> one revolute or prismatic joint
 // per link (named after it, child link `<name>_link`) -> fixed joint `tool_joint`
