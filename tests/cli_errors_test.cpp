@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -212,6 +213,25 @@ TEST(CliErrors, AXacroFileSaysToExpandItFirst) {
       testing::expect_input_error(r, "expand it with xacro first");
       EXPECT_NE(r.err.find(name), std::string::npos) << r.err;
     }
+  }
+}
+
+// Every command's --help ends with two examples.
+TEST(CliErrors, EachCommandsHelpEndsWithTwoExamples) {
+  for (const char* command :
+       {"calibrate", "evaluate", "simulate", "plan", "force", "convert", "import", "devices"}) {
+    SCOPED_TRACE(command);
+    const testing::CliResult r = testing::run_cli(std::vector<std::string>{command, "--help"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const std::size_t at = r.out.rfind("Examples:\n");
+    ASSERT_NE(at, std::string::npos) << r.out;
+    std::istringstream tail(r.out.substr(at + 10));
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(tail, line);)
+      if (!line.empty()) lines.push_back(line);
+    ASSERT_EQ(lines.size(), 2u) << r.out.substr(at);
+    for (const std::string& line : lines)
+      EXPECT_EQ(line.rfind(std::string("  hapticcal "), 0), 0u) << line;
   }
 }
 

@@ -147,6 +147,12 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
   calibrate->add_option("--out", o.out,
                         "Output folder, replaced as a whole when the run succeeds (default "
                         "hapticcal-out/calibrate)");
+  calibrate->footer(
+      "Examples:\n"
+      "  hapticcal calibrate --model examples/meca500/meca500.yaml --log "
+      "examples/meca500/cal-norm_dist_data_0deg_160cube.csv --out meca500-cal\n"
+      "  hapticcal calibrate --model geomagic-touch --log session/device.csv --tracker "
+      "session/tracker.csv --clock-drift");
   return calibrate;
 }
 

@@ -19,6 +19,10 @@ CLI::App* add_convert_command(CLI::App& app, ConvertOptions& o) {
   convert->add_option("IN", o.in, "Model to read")->required();
   convert->add_option("OUT", o.out, "File to write (replaced atomically)")->required();
   add_chain_options(convert, o.chain);
+  convert->footer(
+      "Examples:\n"
+      "  hapticcal convert examples/meca500/meca500.yaml meca500.urdf\n"
+      "  hapticcal convert robot.urdf robot.yaml --tip tool0 --root base_link");
   return convert;
 }
 
@@ -48,9 +52,15 @@ int run_convert(const ConvertOptions& o) {
 }
 
 CLI::App* add_devices_command(CLI::App& app) {
-  return app.add_subcommand("devices",
-                            "List the built-in devices: each name works wherever a model file "
-                            "does (--model NAME, convert NAME out.urdf)");
+  auto* devices =
+      app.add_subcommand("devices",
+                         "List the built-in devices: each name works wherever a model file "
+                         "does (--model NAME, convert NAME out.urdf)");
+  devices->footer(
+      "Examples:\n"
+      "  hapticcal devices\n"
+      "  hapticcal convert geomagic-touch touch.urdf");
+  return devices;
 }
 
 int run_devices() {

@@ -57,6 +57,10 @@ CLI::App* add_force_command(CLI::App& app, ForceOptions& o) {
                    "on a 6-joint one; 6 joints must remain)")
       ->check(whole_number(option_range::kLockedJoint));
   add_chain_options(force, o.chain);
+  force->footer(
+      "Examples:\n"
+      "  hapticcal force --actual actual.yaml --nominal baser-7dof --calibrated calibrated.yaml\n"
+      "  hapticcal force --actual actual.yaml --nominal baser-7dof --out force-study");
   return force;
 }
 

@@ -79,8 +79,6 @@ CLI::App* add_import_command(CLI::App& app, ImportOptions& o) {
       "Examples:\n"
       "  hapticcal import session.bag --model geomagic-touch --convention ros-geomagic --out "
       "session\n"
-      "  hapticcal calibrate --model geomagic-touch --log session/device.csv --tracker "
-      "session/tracker.csv\n"
       "  hapticcal import --tracker-export take.csv --body stylus --out take");
   return cmd;
 }

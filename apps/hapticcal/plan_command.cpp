@@ -102,6 +102,10 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
   plan->add_option("--tip", o.tip, "Tip link of a URDF model's chain");
   plan->add_option("--root", o.root, "Root link of a URDF model's chain");
   plan->add_option("--out", options.out, "Output folder (default hapticcal-out/plan)");
+  plan->footer(
+      "Examples:\n"
+      "  hapticcal plan --model examples/meca500/meca500.yaml --measurement position --poses 30\n"
+      "  hapticcal plan --model geomagic-touch --measurement pose --poses 40 --out touch-plan");
   return plan;
 }
 

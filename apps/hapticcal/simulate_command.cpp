@@ -178,6 +178,10 @@ CLI::App* add_simulate_command(CLI::App& app, SimulateOptions& o) {
                        "Nominal device file or URDF (default: the built-in 7-DOF)");
   simulate->add_option("--out", o.out, "Output directory (default hapticcal-out/simulate)");
   add_chain_options(simulate, o.chain);
+  simulate->footer(
+      "Examples:\n"
+      "  hapticcal simulate --trials 20 --seed 7\n"
+      "  hapticcal simulate --scenario data/scenarios/touch-hand-guided.yaml --out touch-session");
   return simulate;
 }
 
