@@ -42,12 +42,12 @@ struct Channel {
 // The bounds every reader keeps (README "Bounded input"). A file beyond one is
 // an InputError naming the bound, never a larger allocation.
 struct RecordingLimits {
-  std::uint64_t max_file_bytes = std::uint64_t{64} << 30;       // 64 GiB
-  std::uint64_t max_record_bytes = std::uint64_t{1} << 30;      // a record or chunk as stored: 1 GiB
+  std::uint64_t max_file_bytes = std::uint64_t{64} << 30;   // 64 GiB
+  std::uint64_t max_record_bytes = std::uint64_t{1} << 30;  // a record or chunk as stored: 1 GiB
   std::uint64_t max_uncompressed_bytes = std::uint64_t{1} << 30;  // a chunk decompressed: 1 GiB
-  std::uint64_t max_message_bytes = std::uint64_t{64} << 20;    // one message's payload: 64 MiB
+  std::uint64_t max_message_bytes = std::uint64_t{64} << 20;      // one message's payload: 64 MiB
   std::uint32_t max_channels = 10000;
-  std::uint64_t max_messages = std::uint64_t{100} << 20;        // 100 M messages
+  std::uint64_t max_messages = std::uint64_t{100} << 20;  // 100 M messages
 };
 
 // What a reader hands out. `channel` is called once for each channel before the
@@ -76,10 +76,12 @@ void read_recording(const std::string& path, RecordingVisitor& visitor,
 
 // The readers, from a file and (for the fuzz targets and tests) from memory;
 // `name` is the file named in errors.
-void read_ros1_bag(const std::string& path, RecordingVisitor& visitor, const RecordingLimits& limits = {});
+void read_ros1_bag(const std::string& path, RecordingVisitor& visitor,
+                   const RecordingLimits& limits = {});
 void read_ros1_bag_bytes(std::string_view bytes, const std::string& name, RecordingVisitor& visitor,
                          const RecordingLimits& limits = {});
-void read_mcap(const std::string& path, RecordingVisitor& visitor, const RecordingLimits& limits = {});
+void read_mcap(const std::string& path, RecordingVisitor& visitor,
+               const RecordingLimits& limits = {});
 void read_mcap_bytes(std::string_view bytes, const std::string& name, RecordingVisitor& visitor,
                      const RecordingLimits& limits = {});
 void read_rosbag2_db3(const std::string& path, RecordingVisitor& visitor,

@@ -34,8 +34,9 @@ std::string builtin_definition(const std::string& type, Encoding encoding);
 // levels of nesting.
 class MessageType {
  public:
-  static std::shared_ptr<const MessageType> parse(const std::string& type, const std::string& definition,
-                                                  Encoding encoding, const std::string& origin);
+  static std::shared_ptr<const MessageType> parse(const std::string& type,
+                                                  const std::string& definition, Encoding encoding,
+                                                  const std::string& origin);
   virtual ~MessageType() = default;
   const std::string& name() const { return name_; }
 
@@ -59,7 +60,7 @@ struct DecodedMessage {
 // Decodes `data` as `type`. An array may hold at most `max_elements` elements
 // in all (the flattened message's size bound). InputError naming `origin` when
 // the bytes end early, a length exceeds what is left, or bytes are left over.
-DecodedMessage decode_message(const MessageType& type, std::string_view data, const std::string& origin,
-                              std::size_t max_elements = 1u << 20);
+DecodedMessage decode_message(const MessageType& type, std::string_view data,
+                              const std::string& origin, std::size_t max_elements = 1u << 20);
 
 }  // namespace hapticcal::recording

@@ -21,11 +21,11 @@ namespace hapticcal::recording {
 // A sample the tracker lost (an empty field: an occluded marker) is left out, and
 // counted in `lost`.
 struct TrackerStream {
-  std::string source;                      // "Motive CSV 1.23, rigid body 'stylus'", ...
-  std::vector<double> t;                   // s
-  std::vector<std::array<double, 3>> p;    // m, one a sample (empty with markers)
-  std::vector<std::array<double, 4>> q;    // w, x, y, z; empty without orientations
-  std::vector<std::string> marker_names;   // several markers: their names, in order
+  std::string source;                     // "Motive CSV 1.23, rigid body 'stylus'", ...
+  std::vector<double> t;                  // s
+  std::vector<std::array<double, 3>> p;   // m, one a sample (empty with markers)
+  std::vector<std::array<double, 4>> q;   // w, x, y, z; empty without orientations
+  std::vector<std::string> marker_names;  // several markers: their names, in order
   std::vector<std::vector<std::array<double, 3>>> markers;  // [sample][marker], m
   std::size_t lost = 0;
 };
