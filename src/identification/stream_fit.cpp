@@ -483,6 +483,41 @@ ClockStep held_clock_step(const DeviceModel& model, const ReadingInterpolator& r
   return solve_clock(columns.G, columns.e, std::nan(""));
 }
 
+// The clocks before any step: the streams' sizes, the options, and the coarse
+// search's offset (the reference: the tracker stream's first stamp).
+ClockEstimate coarse_estimate(const DeviceModel& model, const Log& device, const Log& tracker,
+                              int tracker_rows, const StreamOptions& stream) {
+  ClockEstimate estimate;
+  estimate.search_range = stream.search_range;
+  estimate.drift_fitted = stream.drift;
+  estimate.device_rows = device.rows;
+  estimate.tracker_rows = tracker_rows;
+  const auto [coarse, correlation] =
+      coarse_clock_offset(model, device, tracker, stream.search_range);
+  estimate.coarse_offset = coarse;
+  estimate.coarse_correlation = correlation;
+  estimate.clock = {coarse, 0, tracker.t[0]};
+  return estimate;
+}
+
+// Moves the clock by a Gauss-Newton step (step `it`) and takes its sd; whether
+// it settled: moved (the offset, and the drift over the session's span) by less
+// than kClockSds of its sd, or kClockTolerance.
+bool take_clock_step(const ClockStep& step, double span, bool drift, int it,
+                     ClockEstimate& estimate) {
+  estimate.clock.offset += step.step[0];
+  if (drift) estimate.clock.drift += step.step[1];
+  estimate.offset_sd = std::sqrt(step.covariance(0, 0));
+  if (drift) estimate.drift_sd = std::sqrt(step.covariance(1, 1));
+  estimate.iterations = it + 1;
+  const double moved = std::abs(step.step[0]) + (drift ? std::abs(step.step[1]) * span : 0.0);
+  if (std::getenv("HAPTICCAL_DEBUG_STREAM"))
+    fmt::print(stderr, "clock step {}: offset {:.7f} s (+{:.3g}), drift {:.4g}, sd {:.3g}\n", it,
+               estimate.clock.offset, step.step[0], estimate.clock.drift, estimate.offset_sd);
+  estimate.converged = moved < std::max(kClockTolerance, kClockSds * estimate.offset_sd);
+  return estimate.converged;
+}
+
 }  // namespace
 
 StreamAlignment align_streams(const DeviceModel& model, const Log& device, const Log& tracker_in,
@@ -497,16 +532,8 @@ StreamAlignment align_streams(const DeviceModel& model, const Log& device, const
   check_streams(device, tracker);
   check_readings(device, model);
   StreamAlignment out;
+  out.clock = coarse_estimate(model, device, tracker, tracker_in.rows, stream);
   ClockEstimate& estimate = out.clock;
-  estimate.search_range = stream.search_range;
-  estimate.drift_fitted = stream.drift;
-  estimate.device_rows = device.rows;
-  estimate.tracker_rows = tracker_in.rows;
-  const auto [coarse, correlation] =
-      coarse_clock_offset(model, device, tracker, stream.search_range);
-  estimate.coarse_offset = coarse;
-  estimate.coarse_correlation = correlation;
-  estimate.clock = {coarse, 0, tracker.t[0]};
   const ReadingInterpolator readings(device);
   const std::vector<int> rows =
       fit_rows(model, readings, device, tracker, estimate.clock, stream, estimate);
@@ -522,17 +549,7 @@ StreamAlignment align_streams(const DeviceModel& model, const Log& device, const
           tracker_in.origin, 0, "t",
           "the motion does not determine the clocks' offset (the tool point hardly moves)");
     }
-    estimate.clock.offset += step.step[0];
-    if (stream.drift) estimate.clock.drift += step.step[1];
-    estimate.offset_sd = std::sqrt(step.covariance(0, 0));
-    if (stream.drift) estimate.drift_sd = std::sqrt(step.covariance(1, 1));
-    estimate.iterations = it + 1;
-    const double moved =
-        std::abs(step.step[0]) + (stream.drift ? std::abs(step.step[1]) * span : 0.0);
-    if (moved < std::max(kClockTolerance, kClockSds * estimate.offset_sd)) {
-      estimate.converged = true;
-      break;
-    }
+    if (take_clock_step(step, span, stream.drift, it, estimate)) break;
   }
   out.poses = readings_at_tracker(readings, device, tracker, rows, estimate.clock, kept);
   estimate.fit_samples = out.poses.rows;
@@ -581,22 +598,13 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
     if (stream.progress) stream.progress(stage, share);
   };
   StreamCalibration out;
-  ClockEstimate& estimate = out.clock;
-  estimate.search_range = stream.search_range;
-  estimate.drift_fitted = stream.drift;
-  estimate.device_rows = device.rows;
-  estimate.tracker_rows = tracker_in.rows;
   progress("clock search", 0);
-  const auto [coarse, correlation] =
-      coarse_clock_offset(nominal, device, tracked, stream.search_range);
-  estimate.coarse_offset = coarse;
-  estimate.coarse_correlation = correlation;
-  estimate.clock = {coarse, 0, tracker.t[0]};
+  out.clock = coarse_estimate(nominal, device, tracked, tracker_in.rows, stream);
+  ClockEstimate& estimate = out.clock;
   progress("clock search", 1);
 
   const ReadingInterpolator readings(device);
   const CalibrationOptions inner = inner_options(options);
-  const int c = stream.drift ? 2 : 1;
   std::vector<int> kept;
   CalibrationResult last;  // the last inner fit
   const double span = tracked.t[tracked.rows - 1] - tracked.t[0];
@@ -627,19 +635,7 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
       out.result.clock = estimate;
       return out;
     }
-    estimate.clock.offset += step.step[0];
-    if (stream.drift) estimate.clock.drift += step.step[1];
-    estimate.offset_sd = std::sqrt(step.covariance(0, 0));
-    if (stream.drift) estimate.drift_sd = std::sqrt(step.covariance(1, 1));
-    estimate.iterations = it + 1;
-    const double moved = std::abs(step.step[0]) + (c == 2 ? std::abs(step.step[1]) * span : 0.0);
-    if (std::getenv("HAPTICCAL_DEBUG_STREAM"))
-      fmt::print(stderr, "clock step {}: offset {:.7f} s (+{:.3g}), drift {:.4g}, sd {:.3g}\n", it,
-                 estimate.clock.offset, step.step[0], estimate.clock.drift, estimate.offset_sd);
-    if (moved < std::max(kClockTolerance, kClockSds * estimate.offset_sd)) {
-      estimate.converged = true;
-      break;
-    }
+    if (take_clock_step(step, span, stream.drift, it, estimate)) break;
   }
   progress("clock and kinematics", 1);
   // A clock the model cannot hold: a step refuses the session, a drift not
