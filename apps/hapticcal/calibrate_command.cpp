@@ -79,22 +79,14 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
       ->required();
   auto* tracker = calibrate->add_option(
       "--tracker", o.tracker,
-      "A tracker's stream (CSV: t and x, y, z, on its own clock): the clocks' "
-      "offset is estimated with the kinematics, the readings interpolated at "
-      "the tracker's samples");
-  calibrate
-      ->add_option("--clock-search", o.clock_search,
-                   "With --tracker: the clocks' offset is searched within +-SECONDS (default 10)")
-      ->check(within(option_range::kClockSearch))
-      ->needs(tracker);
+      "A tracker's stream (CSV: t and x, y, z [, qw..qz | x1, y1, z1, ...: a marker body], on "
+      "its own clock): the clocks' offset is estimated with the kinematics, the readings "
+      "interpolated at the tracker's samples");
+  add_clock_options(calibrate, tracker, o.clock_search, o.clock_drift);
   calibrate->add_option("--markers", o.markers,
                         "A log of several markers on one rigid body (x1, y1, z1, x2, ...): their "
                         "positions in the tool frame, X1,Y1,Z1,X2,... [m] (default: estimated "
                         "from the log)");
-  calibrate
-      ->add_flag("--clock-drift", o.clock_drift,
-                 "With --tracker: estimate the clocks' drift (rate difference) too")
-      ->needs(tracker);
   calibrate->add_flag("--no-transmission", o.no_transmission,
                       "Skip step 1: kinematic-only calibration");
   calibrate

@@ -51,15 +51,7 @@ CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& o) {
       "A second session's tracker stream (t, x, y, z [, qw..qz | x1..]) on its own "
       "clock; --log is then the device's stream (t, q1..qn): the clocks are aligned "
       "with the model held, then the model is scored on the tracker's samples");
-  evaluate
-      ->add_option("--clock-search", o.clock_search,
-                   "With --tracker: search the clocks' offset within +-this [s] (default 10)")
-      ->check(within(option_range::kClockSearch))
-      ->needs(tracker);
-  evaluate
-      ->add_flag("--clock-drift", o.clock_drift,
-                 "With --tracker: fit the clocks' drift too (else the offset alone)")
-      ->needs(tracker);
+  add_clock_options(evaluate, tracker, o.clock_search, o.clock_drift);
   evaluate->footer(
       "Examples:\n"
       "  hapticcal evaluate --model calibrated.yaml --log validation.csv --reference "
