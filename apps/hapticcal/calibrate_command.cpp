@@ -4,10 +4,14 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
 #include "commands.hpp"
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/markers.hpp"
@@ -136,6 +140,10 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
       "Calibrate even if the log looks implausible for the model (readings "
       "outside the joint limits, nominal error beyond 5 % of the reach with the base "
       "fitted)");
+  calibrate->add_option(
+      "--tool-point", o.tool_point,
+      "Where device.yaml's tool ends: X,Y,Z in metres in the last link's frame (a stylus tip), "
+      "or 'nominal' for the device file's tool (default: the point the instrument measured)");
   calibrate->add_option("--out", o.out,
                         "Output folder, replaced as a whole when the run succeeds (default "
                         "hapticcal-out/calibrate)");
@@ -159,10 +167,42 @@ void progress_bar(const std::string& stage, double share) {
   if (share >= 1) say(stderr, "\n");
 }
 
+// --tool-point: "nominal", or X,Y,Z in metres (each within 10 m).
+void read_tool_point(const std::string& text, hapticcal::CalibrateRequest& request) {
+  if (text.empty()) return;
+  if (text == "nominal") {
+    request.nominal_tool = true;
+    return;
+  }
+  std::array<double, 3> point{};
+  size_t start = 0;
+  for (int k = 0; k < 3; ++k) {
+    const size_t comma = text.find(',', start);
+    if ((k < 2) != (comma != std::string::npos)) break;
+    const std::string field =
+        text.substr(start, comma == std::string::npos ? comma : comma - start);
+    char* end = nullptr;
+    point[k] = std::strtod(field.c_str(), &end);
+    if (field.empty() || end != field.c_str() + field.size() || !std::isfinite(point[k]) ||
+        std::abs(point[k]) > 10) {
+      throw hapticcal::InputError(
+          fmt::format("--tool-point: '{}' is not a coordinate in metres (|x| <= 10)", field));
+    }
+    start = comma + 1;
+    if (k == 2) {
+      request.tool_point = point;
+      return;
+    }
+  }
+  throw hapticcal::InputError(fmt::format(
+      "--tool-point: '{}': give X,Y,Z in metres in the last link's frame, or 'nominal'", text));
+}
+
 }  // namespace
 
 int run_calibrate(const CalibrateOptions& o) {
   hapticcal::CalibrateRequest request;
+  read_tool_point(o.tool_point, request);
   request.model = o.model;
   request.tip = o.chain.tip;
   request.root = o.chain.root;

@@ -35,6 +35,7 @@ struct CalibrateOptions {
   std::string markers;       // X1,Y1,Z1,...: a marker body in the tool frame
   double clock_search = 10;  // s
   bool clock_drift = false;
+  std::string tool_point;  // X,Y,Z or "nominal": device.yaml's tool ("": the measured point)
 };
 CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& options);
 // 0, or kExitUnusable when the calibration is not usable (no calibrated model replaced).

@@ -82,6 +82,9 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
   const std::vector<std::string> tips = tip_names(request.tip);
   const bool tree = tips.size() > 1 || (request.nominal && request.nominal->tree());
   if (tree) check_tree_request(request);
+  if (tree && (request.tool_point || request.nominal_tool))
+    throw InputError(request.model, 0, "--tool-point",
+                     "a tree's calibrated.urdf keeps each tip's tool: no device.yaml is written");
   CalibrateJob job;
   const bool urdf = !request.model.empty() && is_urdf_path(request.model);
   const std::string urdf_text = urdf ? read_file(request.model, FileKind::kUrdf) : std::string();
@@ -130,9 +133,10 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
     log = std::move(streams.poses);  // the static log the fit read (the reports' rows)
   }
   if (job.out) {
-    job.written = write_calibration_outputs(
-        *job.out, job.result, job.nominal, log, options,
-        {request.model, request.log, urdf_text, request.tip, request.root});
+    job.written =
+        write_calibration_outputs(*job.out, job.result, job.nominal, log, options,
+                                  {request.model, request.log, urdf_text, request.tip, request.root,
+                                   request.tool_point, request.nominal_tool});
     job.results_json = job.written.results_json;
   } else {
     // results.json as the command line would write it into a fresh folder.

@@ -2,9 +2,12 @@
 
 #include <fmt/format.h>
 
+#include <numbers>
+
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/identification/tree.hpp"
+#include "hapticcal/kinematics/device_frame.hpp"
 #include "hapticcal/model_io/device.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/report/report.hpp"
@@ -25,12 +28,73 @@ bool keep_previous_model(const OutputSet& out, const DeviceModel& nominal, bool 
     return false;
   }
   if (urdf) out.keep_previous("calibrated.urdf");
+  out.keep_previous("device.yaml");
+  out.keep_previous("setup.yaml");
   return out.keep_previous("calibrated.yaml");
+}
+
+std::string pose_yaml(const std::array<double, 6>& v) {
+  return fmt::format("{{xyz: [{:.9g}, {:.9g}, {:.9g}], rpy: [{:.9g}, {:.9g}, {:.9g}]}}", v[0], v[1],
+                     v[2], v[3], v[4], v[5]);
+}
+
+std::array<double, 6> pose_of(const Frame<double>& f) {
+  const Eigen::Vector3d rpy = matrix_rpy(f.R);
+  return {f.p.x(), f.p.y(), f.p.z(), rpy[0], rpy[1], rpy[2]};
+}
+
+// x, y, z in mm and roll, pitch, yaw in degrees, for a sentence.
+std::string pose_words(const std::array<double, 6>& v) {
+  constexpr double deg = 180 / std::numbers::pi;
+  return fmt::format("({:.2f}, {:.2f}, {:.2f}) mm, roll/pitch/yaw ({:.2f}, {:.2f}, {:.2f}) deg",
+                     v[0] * 1e3, v[1] * 1e3, v[2] * 1e3, v[3] * deg, v[4] * deg, v[5] * deg);
+}
+
+// device.yaml and setup.yaml of a calibrated chain, and a note saying which
+// file holds what.
+void write_device_frame(const std::string& dir, CalibrationResult& result,
+                        const DeviceModel& nominal, const CalibrationSource& source) {
+  std::optional<std::array<double, 6>> tool;
+  std::string ends_at = "the point the instrument measured (the calibrated tool)";
+  if (source.nominal_tool) {
+    tool = nominal.tool;
+    ends_at = "the device file's tool";
+  } else if (source.tool_point) {
+    tool = result.calibrated.tool;
+    for (int k = 0; k < 3; ++k) (*tool)[k] = (*source.tool_point)[k];
+    ends_at = "the tool point given";
+  }
+  const DeviceFrameSplit split = split_device_frame(result.calibrated, nominal, tool);
+  save_device(split.device, dir + "/device.yaml");
+  const std::array<double, 6> frame = pose_of(split.device_in_measurement);
+  write_file_atomically(
+      dir + "/setup.yaml",
+      fmt::format("# What this calibration found of the set-up, not of the device.\n"
+                  "# device.yaml is the device's model in its own frame (its base and joint 1's\n"
+                  "# placement as the nominal model gives them); calibrated.yaml is the same\n"
+                  "# model in the measurement frame, the frame of the log's measurements.\n"
+                  "format: hapticcal-setup/1\n"
+                  "device: {}\n"
+                  "# The device's frame in the measurement frame [m, rad]: a point p of the\n"
+                  "# device's frame is R(rpy) p + xyz in the measurement frame.\n"
+                  "device_frame: {}\n"
+                  "# The point (and frame) the instrument measured, in the last link's frame.\n"
+                  "measured_tool: {}\n"
+                  "# device.yaml's tool, in the last link's frame: {}.\n"
+                  "tool: {}\n",
+                  split.device.name.empty() ? "unnamed" : split.device.name, pose_yaml(frame),
+                  pose_yaml(split.measured_tool), ends_at, pose_yaml(split.device.tool)));
+  result.notes.push_back(fmt::format(
+      "device.yaml is the model in the device's own frame, ending at {}; setup.yaml holds the "
+      "set-up: the device's frame at {} in the measurement frame, the measured point at ({:.2f}, "
+      "{:.2f}, {:.2f}) mm in the last link's frame",
+      ends_at, pose_words(frame), split.measured_tool[0] * 1e3, split.measured_tool[1] * 1e3,
+      split.measured_tool[2] * 1e3));
 }
 
 // calibrated.yaml, and for a URDF model calibrated.urdf (its notes into
 // result); a tree's calibrated.urdf alone.
-void write_models(const std::string& dir, CalibrationResult& result,
+void write_models(const std::string& dir, CalibrationResult& result, const DeviceModel& nominal,
                   const CalibrationSource& source) {
   if (result.calibrated.tree()) {
     write_file_atomically(dir + "/calibrated.urdf",
@@ -39,6 +103,7 @@ void write_models(const std::string& dir, CalibrationResult& result,
     return;
   }
   save_device(result.calibrated, dir + "/calibrated.yaml");
+  write_device_frame(dir, result, nominal, source);
   if (source.urdf_text.empty()) return;
   write_file_atomically(dir + "/calibrated.urdf",
                         calibrated_urdf(source.urdf_text, source.model_path, source.tip,
@@ -53,7 +118,7 @@ CalibrationOutputs write_calibration_outputs(OutputSet& out, CalibrationResult& 
                                              const CalibrationSource& source) {
   CalibrationOutputs written;
   if (result.status == CalibrationStatus::kConverged) {
-    write_models(out.dir(), result, source);
+    write_models(out.dir(), result, nominal, source);
     written.model_written = true;
   } else {
     written.previous_kept = keep_previous_model(out, nominal, !source.urdf_text.empty());

@@ -2,6 +2,7 @@
 // Python module fill in, the stages run once, and what they print or return.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <optional>
 #include <string>
@@ -37,6 +38,10 @@ struct CalibrateRequest {
   // kinematics (identification/stream.hpp).
   std::string tracker;
   StreamOptions stream;
+  // device.yaml's tool (CalibrationSource): a point in the last link's frame,
+  // or the device file's tool; neither: the measured point.
+  std::optional<std::array<double, 3>> tool_point;
+  bool nominal_tool = false;
 };
 
 struct CalibrateJob {

@@ -2,6 +2,8 @@
 // one function writes the set, so that the command line and the module agree.
 #pragma once
 
+#include <array>
+#include <optional>
 #include <string>
 
 #include "hapticcal/core/log.hpp"
@@ -16,6 +18,12 @@ struct CalibrationSource {
   std::string model_path, log_path;
   std::string urdf_text;  // the URDF model's text; empty for a device file
   std::string tip, root;  // the URDF chain, as parse_urdf was given them
+  // device.yaml's tool (a chain's): this point (x, y, z in the last link's
+  // frame, the measured orientation), or the device file's tool
+  // (nominal_tool); neither: the calibrated tool, the point the instrument
+  // measured.
+  std::optional<std::array<double, 3>> tool_point;
+  bool nominal_tool = false;
 };
 
 // What write_calibration_outputs did besides results.json.
@@ -28,7 +36,9 @@ struct CalibrationOutputs {
 };
 
 // Writes into out.dir() and commits the set: calibrated.yaml (and
-// calibrated.urdf for a URDF model) if the run is usable; else the previous
+// calibrated.urdf for a URDF model) if the run is usable, and a chain's
+// device.yaml (the model in the device's own frame, split_device_frame) and
+// setup.yaml (the device's frame in the measurement frame, the measured point); else the previous
 // run's model if --out held one of the same device (keep_previous), and a note
 // saying which; results.json; report.html with its figures. The notes of
 // calibrated_urdf and of the model kept are added to result.notes first, so

@@ -1,0 +1,48 @@
+// The device's own model out of a calibration in a measurement frame (a
+// tracker's, a mocap system's): the set-up's unknowns apart.
+//
+// A tracker sees the tool, never the device's housing, so where the device
+// stands in the tracker's frame and the part of joint 1's geometry before its
+// motion are one unknown: the base transform B and, of joint 1, theta and d
+// (DH), alpha, a, beta, theta and d (MDH), the origin and offset (URDF). The
+// device's frame is therefore fixed to its first joint: joint 1's axis and
+// zero lie where the nominal model puts them. The device's model keeps the
+// nominal base and joint-1 placement and every other calibrated parameter; its
+// forward kinematics are the calibrated model's expressed in that frame,
+//   FK_device(q) = D^-1 FK_calibrated(q),  D = A_cal A_nom^-1,
+// A = B * (joint 1's transform before its motion), for every reading q.
+#pragma once
+
+#include <array>
+#include <optional>
+
+#include "hapticcal/model/frame.hpp"
+#include "hapticcal/model/model.hpp"
+
+namespace hapticcal {
+
+struct DeviceFrameSplit {
+  // The calibrated chain in the device's frame, ending at the tool asked for.
+  DeviceModel device;
+  // D = T_measurement_device: the device's frame in the measurement frame.
+  Frame<double> device_in_measurement = Frame<double>::Identity();
+  // The calibrated tool: the point (and frame) the instrument measured, in the
+  // last link's frame (a marker, a tracker's target, a fixture's ball).
+  std::array<double, 6> measured_tool{};
+};
+
+// The frame before joint 1's motion in the model's measurement frame: B times
+// joint 1's transform at a zero reading without its part after the motion
+// (DH: Tx(a) Rx(alpha) Ry(beta)).
+Frame<double> first_joint_frame(const DeviceModel& model);
+
+// The calibrated chain split into the device's model and the set-up. tool: the
+// device model's tool pose (x, y, z, roll, pitch, yaw in the last link's
+// frame); none: the calibrated tool, the point the instrument measured.
+// Gravity (joint compliance) is turned into the device's base frame. Throws
+// std::invalid_argument for a tree or models of different structure.
+DeviceFrameSplit split_device_frame(
+    const DeviceModel& calibrated, const DeviceModel& nominal,
+    const std::optional<std::array<double, 6>>& tool = std::nullopt);
+
+}  // namespace hapticcal
