@@ -86,4 +86,35 @@ if(built)
   if(rc OR NOT out MATCHES "^${site}/hapticcal[^ ]*\\.so 7 ")
     message(FATAL_ERROR "the installed Python module was not the one imported: ${rc} ${err}")
   endif()
+
+  # A calibration's device.yaml (the model in the device's own frame) in the
+  # controller: the realtime example built above prints the tool point at its
+  # home readings, the installed module computes it from the same file.
+  execute_process(
+    COMMAND ${WORK_DIR}/prefix/bin/hapticcal calibrate
+            --model ${SOURCE_DIR}/examples/meca500/meca500.yaml
+            --log ${SOURCE_DIR}/examples/meca500/cal-norm_dist_data_0deg_160cube.csv
+            --tool-point 0,0,0.07 --out ${WORK_DIR}/calibrated
+    RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE err)
+  if(rc)
+    message(FATAL_ERROR "the installed hapticcal did not calibrate: ${rc} ${err}")
+  endif()
+  execute_process(COMMAND ${WORK_DIR}/realtime_controller ${WORK_DIR}/calibrated/device.yaml
+                          --seconds 0.6
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+  string(REGEX MATCH "tool point at the home readings \\(0.1 each\\): ([-0-9.]+) ([-0-9.]+) ([-0-9.]+) m"
+         line "${out}")
+  if(rc OR NOT line)
+    message(FATAL_ERROR "the realtime example on device.yaml: ${rc} ${out}")
+  endif()
+  set(printed ${CMAKE_MATCH_1} ${CMAKE_MATCH_2} ${CMAKE_MATCH_3})
+  execute_process(
+    COMMAND /usr/bin/python3 -c
+            "import hapticcal, sys; m = hapticcal.load_model(sys.argv[1]); p = m.forward([0.1] * m.dof)[0:3, 3]; c = [float(v) for v in sys.argv[2:5]]; d = max(abs(a - b) for a, b in zip(p, c)); print(f'device.yaml: C runtime {c}, Python {list(p)}, largest difference {d:.3g} m'); sys.exit(int(d > 1e-9))"
+            ${WORK_DIR}/calibrated/device.yaml ${printed}
+    RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  message("${out}")
+  if(rc)
+    message(FATAL_ERROR "the C runtime and the module differ on device.yaml: ${rc} ${err}")
+  endif()
 endif()

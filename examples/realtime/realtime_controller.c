@@ -112,6 +112,7 @@ int main(int argc, char** argv) {
   }
   for (i = 0; i < n; ++i) direction[i] = -direction[i] / gain;
   wall_offset = normal[0] * T[3] + normal[1] * T[7] + normal[2] * T[11] - 0.005;
+  printf("tool point at the home readings (0.1 each): %.9f %.9f %.9f m\n", T[3], T[7], T[11]);
 
   cycles = (long)(seconds * 1e9 / PERIOD_NS);
   period = malloc(sizeof *period * cycles);
