@@ -81,7 +81,7 @@ bench: build
 	./$(BUILD)/bench/calibrate_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
 	./$(BUILD)/bench/plan_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 
-# The generalisation benchmark (README "The model search"): the model search
+# The generalisation benchmark (docs/calibrate.md, "The model search"): the model search
 # on 48 simulated robots and the shared real sets against an oracle, a table.
 generalise: configure
 	cmake --build $(BUILD) -j$(JOBS) --target generalise

@@ -1,4 +1,4 @@
-// The generalisation benchmark (README "Model search"): simulated robots of
+// The generalisation benchmark (docs/calibrate.md, "The model search"): simulated robots of
 // many kinds, each calibrated by the default (the model search), by plain
 // least squares (--keep-all --no-search) and by every model of the full grid
 // (estimator x joint-error families x an instrument's zero, --no-search); each
@@ -546,7 +546,7 @@ int main(int argc, char** argv) {
     real_ok = real_summary(real);
   }
   if (!check) return 0;
-  // The floors: what the model search achieves here (README "Model search"),
+  // The floors: what the model search achieves here (docs/calibrate.md, "The model search"),
   // below the targets where those are out of reach.
   const bool ok = t.within5 >= 0.8 * t.n && t.within15 >= 0.9 * t.n &&
                   t.vs_keep_all >= 0.95 * t.n && t.refused == 0 &&

@@ -1,7 +1,7 @@
 // Issue 26, item 5: a one-hour hand-guided session (the Touch, 1 kHz readings:
 // 3.6 M device rows; a tracker at 120 Hz: 432 k rows) calibrated with its
 // clocks (offset and drift) in at most 60 s and 1 GB (peak memory measured
-// with /usr/bin/time -v, README). The reference in the same process: a static
+// with /usr/bin/time -v, docs/streams.md "Scale"). The reference in the same process: a static
 // calibration of as many poses as the stream's fit uses (10 000).
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/data_io/log.hpp"

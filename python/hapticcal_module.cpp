@@ -144,19 +144,26 @@ struct Calibration {
   std::vector<std::string> notes;
   std::vector<std::string> lines;  // the command line's summary (calibration_lines)
   py::object search;               // results.json's model_search
+  // A usable chain's: the model in the device's own frame (device.yaml) and
+  // the device's frame in the measurement frame (setup.yaml's device_frame).
+  std::optional<Model> device_model;
+  std::optional<Eigen::Matrix4d> device_frame;
 };
 
-Calibration calibrate(
-    const std::variant<Model, std::string>& model_arg, const std::string& log_path,
-    bool no_transmission, int samples, unsigned long long seed, std::optional<double> sigma,
-    const std::optional<Names>& fix, const std::optional<Names>& free,
-    const std::optional<Names>& point_distance, const Text& fixture_arg, bool keep_all, int folds,
-    const std::optional<Names>& columns, bool force, std::optional<int> polynomial_order,
-    double dependency_tolerance, const std::string& loss, bool strict, const Text& tip_arg,
-    const Text& root_arg, const Text& out_arg, bool select, const std::optional<Names>& tolerance,
-    std::optional<double> prior_scale, std::optional<double> encoder_resolution,
-    const std::optional<Names>& joint_errors, const Text& tracker_arg, double clock_search,
-    bool clock_drift, const Text& markers_arg, bool search, bool prior, int threads) {
+Calibration calibrate(const std::variant<Model, std::string>& model_arg,
+                      const std::string& log_path, bool no_transmission, int samples,
+                      unsigned long long seed, std::optional<double> sigma,
+                      const std::optional<Names>& fix, const std::optional<Names>& free,
+                      const std::optional<Names>& point_distance, const Text& fixture_arg,
+                      bool keep_all, int folds, const std::optional<Names>& columns, bool force,
+                      std::optional<int> polynomial_order, double dependency_tolerance,
+                      const std::string& loss, bool strict, const Text& tip_arg,
+                      const Text& root_arg, const Text& out_arg, bool select,
+                      const std::optional<Names>& tolerance, std::optional<double> prior_scale,
+                      std::optional<double> encoder_resolution,
+                      const std::optional<Names>& joint_errors, const Text& tracker_arg,
+                      double clock_search, bool clock_drift, const Text& markers_arg, bool search,
+                      bool prior, int threads, const std::optional<Numbers>& tool_point) {
   // The command line's job (jobs/calibrate_job.hpp), from keywords.
   // The command line's ranges (an out-of-range number is a ValueError).
   namespace range = option_range;
@@ -171,6 +178,16 @@ Calibration calibrate(
   check_option("--clock-search", clock_search, range::kClockSearch);
   check_option("--threads", threads, {0, range::kThreads.hi});  // 0: one a core
   CalibrateRequest request;
+  if (tool_point && std::holds_alternative<std::string>(*tool_point) &&
+      std::get<std::string>(*tool_point) == "nominal") {
+    request.nominal_tool = true;
+  } else if (tool_point) {
+    request.tool_point = fixed_numbers<3>(tool_point, "tool_point");
+    for (double x : *request.tool_point) {
+      if (!std::isfinite(x) || std::abs(x) > 10)
+        throw InputError("tool_point: a coordinate in metres (|x| <= 10), or 'nominal'");
+    }
+  }
   request.tracker = text(tracker_arg);
   request.stream.search_range = clock_search;
   request.stream.drift = clock_drift;
@@ -239,6 +256,14 @@ Calibration calibrate(
     c.model = result.calibrated.tree()
                   ? Model{result.calibrated, request.model, request.tip, request.root}
                   : Model{result.calibrated, "", "", ""};
+  }
+  if (c.usable && !result.calibrated.tree()) {
+    const DeviceFrameOutputs d =
+        device_frame_outputs(result, job.nominal,
+                             {request.model, request.log, "", request.tip, request.root,
+                              request.tool_point, request.nominal_tool});
+    c.device_model = Model{d.split.device, "", "", ""};
+    c.device_frame = homogeneous(d.split.device_in_measurement);
   }
   return c;
 }
@@ -530,6 +555,13 @@ PYBIND11_MODULE(hapticcal, m) {
                     "name -> dict(value, nominal, sd, identifiable, reason)")
       .def_readonly("results", &Calibration::results, "results.json of the command line, parsed")
       .def_readonly("notes", &Calibration::notes)
+      .def_readonly("device_model", &Calibration::device_model,
+                    "A usable chain's calibrated Model in the device's own frame (device.yaml: "
+                    "the base and joint 1 as the nominal model places them), ending at "
+                    "tool_point; None for a tree or an unusable calibration")
+      .def_readonly("device_frame", &Calibration::device_frame,
+                    "T_measurement_device (4x4): the device's frame in the measurement frame "
+                    "(setup.yaml's device_frame), or None")
       .def_readonly("search", &Calibration::search,
                     "The model search: every candidate with its held-out RMS [m] and standard "
                     "error, the one kept (results.json's model_search)")
@@ -546,6 +578,7 @@ PYBIND11_MODULE(hapticcal, m) {
         "encoder_resolution"_a = py::none(), "joint_errors"_a = py::none(),
         "tracker"_a = py::none(), "clock_search"_a = 10.0, "clock_drift"_a = false,
         "markers"_a = py::none(), "search"_a = true, "prior"_a = false, "threads"_a = 0,
+        "tool_point"_a = py::none(),
         "hapticcal calibrate: the two-step identification of a log, its model found by the "
         "model search (search=False: exactly the model the other keywords name). Does not raise "
         "when the calibration is not usable (the command line's exit 3): .usable is False, "

@@ -7,13 +7,17 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <numbers>
 #include <random>
 
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
@@ -184,6 +188,80 @@ TEST(DeviceFrame, ReproducesTheTruthsDriverPositionsToItsOwnSd) {
   EXPECT_GT(mean, 3 / 2.0);
   EXPECT_LT(mean, 3 * 2.0);
   EXPECT_LT(largest, 0.5e-3);  // against a truth 0.5 mm / 5 mrad off the drawing
+}
+
+// The twist about the axis of the last joint's zero, calibrated against
+// nominal (offsets included).
+double last_twist(const DeviceModel& calibrated, const DeviceModel& nominal) {
+  const Link& c = calibrated.links.back();
+  const Link& n = nominal.links.back();
+  if (c.geometry != Geometry::kOrigin) return c.theta - n.theta;
+  const auto rotation = [](const Link& l) {
+    return Eigen::Matrix3d(rpy_matrix(l.origin[3], l.origin[4], l.origin[5]) *
+                           Eigen::AngleAxisd(l.offset, l.axis.normalized()).toRotationMatrix());
+  };
+  const Eigen::Quaterniond q(rotation(n).transpose() * rotation(c));
+  return 2 * std::atan2(q.vec().dot(n.axis.normalized()), q.w());
+}
+
+// The last joint's turn moved into the tool: the same forward kinematics, the
+// joint's zero nominal; DH, MDH and URDF last joints.
+TEST(DeviceFrame, LastJointsTurnMovesIntoTheTool) {
+  for (int dof : {9, 8, 7}) {  // the mixed chain's j9 MDH, j8 DH, j7 origin
+    SCOPED_TRACE(dof);
+    DeviceModel nominal = mixed_chain(BaseKind::kPose);
+    nominal.links.resize(dof);
+    std::mt19937_64 rng(dof);
+    const DeviceModel calibrated = deviated(nominal, rng, 0.01, 0.3);
+    DeviceModel moved = calibrated;
+    const double turn = move_last_turn_into_tool(moved, nominal);
+    EXPECT_NEAR(turn, last_twist(calibrated, nominal), 1e-12);
+    EXPECT_GT(std::abs(turn), 1e-3);
+    EXPECT_NEAR(last_twist(moved, nominal), 0, 1e-12);
+    const PreparedModel a(calibrated), b(moved);
+    for (int k = 0; k < 20; ++k) {
+      const Eigen::VectorXd q = random_readings(nominal, rng);
+      expect_same_frame(a.forward(q.data()), b.forward(q.data()), 1e-12);
+    }
+  }
+}
+
+// A ball on the Panda's flange in a fixture's sockets sees no turn of the
+// flange: calibrated.urdf keeps panda_joint7's zero at nominal, device.yaml
+// too, and both give calibrated.yaml's ball positions.
+TEST(DeviceFrame, MukcaFlangeTurnIsNotWrittenIntoTheUrdf) {
+  const std::string dir = testing::fresh_folder("device_frame_mukca");
+  std::ofstream(dir + "/train.csv") << testing::mukca_csv({"front", "right"});
+  const std::string urdf = testing::real_data_path("mukca/panda.urdf");
+  const auto r =
+      testing::run_cli({"calibrate", "--model", urdf, "--tip", "ball_link", "--log",
+                        dir + "/train.csv", "--out", dir + "/cal", "--point-distance",
+                        "front_0:front_1=0.05", "--point-distance", "right_0:right_1=0.05"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const DeviceModel nominal = load_urdf(urdf, "ball_link");
+  const DeviceModel yaml = load_device(dir + "/cal/calibrated.yaml");
+  const DeviceModel written = load_urdf(dir + "/cal/calibrated.urdf", "ball_link");
+  const DeviceModel device = load_device(dir + "/cal/device.yaml");
+  const double fitted = last_twist(yaml, nominal);
+  std::printf("panda_joint7's zero: %.2f deg in calibrated.yaml, %.2g deg in calibrated.urdf\n",
+              fitted * 180 / std::numbers::pi,
+              last_twist(written, nominal) * 180 / std::numbers::pi);
+  EXPECT_GT(std::abs(fitted), 0.1);  // the fit turned it: the ball cannot see the turn
+  EXPECT_NEAR(last_twist(written, nominal), 0, 1e-9);
+  EXPECT_NEAR(last_twist(device, nominal), 0, 1e-9);
+  EXPECT_NE(r.out.find("keep joint panda_joint7's zero at nominal"), std::string::npos) << r.out;
+  const PreparedModel a(yaml), b(written), c(device);
+  std::mt19937_64 rng(3);
+  Eigen::Vector3d previous_a, previous_c;
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::VectorXd q = random_readings(nominal, rng);
+    const Eigen::Vector3d at_a = a.forward(q.data()).p, at_c = c.forward(q.data()).p;
+    EXPECT_LT((at_a - b.forward(q.data()).p).norm(), 1e-9);
+    // device.yaml: the same positions up to its frame (distances between them kept).
+    if (k > 0) EXPECT_NEAR((at_a - previous_a).norm(), (at_c - previous_c).norm(), 1e-9);
+    previous_a = at_a;
+    previous_c = at_c;
+  }
 }
 
 // calibrate writes device.yaml and setup.yaml; --tool-point moves the tool.

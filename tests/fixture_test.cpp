@@ -46,7 +46,7 @@ DeviceModel panda() {
 // Leave one placement out: calibrate on the other two, evaluate on it (issue 13:
 // nominal 7.5-10.3 mm; a reference fit with every joint origin free 0.96 /
 // 0.66 / 0.72 mm, mean 0.78; the issue's target, a mean of 0.70 mm, is not met:
-// see the README).
+// see docs/fixtures.md).
 TEST(Fixture, MukcaPandaHeldOutPlacements) {
   const DeviceModel nominal = panda();
   double sum[2] = {0, 0};
@@ -423,7 +423,7 @@ TEST(Fixture, SimulateMeasuresPlanesOnEveryKindOfChain) {
   std::filesystem::create_directories(dir);
   // The Panda's plane calibration is ill-conditioned: at the default contact
   // error (10 um) it ends farther from the truth than nominal (printed, not
-  // checked: see the README); at 1 nm it recovers the truth.
+  // checked: see docs/fixtures.md); at 1 nm it recovers the truth.
   struct Run {
     std::string device, chain, noise;
     bool improves;

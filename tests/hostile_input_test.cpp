@@ -266,7 +266,7 @@ TEST(Hostile, LargeDeviceFilesAndPolynomialsAreBounded) {
 // tinyxml + urdfdom: tiny elements, or a chain of 27,000 fixed joints; the log
 // reader: short rows - ends in a result or one line, never a crash (also under
 // AddressSanitizer: the test is labelled sanitize) and, outside it, within the
-// README's figures: under 200 MB for every YAML file and URDF at its limit, and
+// docs/development.md's figures: under 200 MB for every YAML file and URDF at its limit, and
 // for a log 64 MB plus 8 bytes per byte through evaluate (measured: 5-6, the
 // reader's values, the errors, the report's data).
 TEST(Hostile, EachParserAtItsLimitStaysWithinItsStatedMemory) {

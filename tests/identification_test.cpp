@@ -113,7 +113,7 @@ using testing::meca500_log;
 // (unmodelled, non-geometric error: the fit's residual is ten times the
 // tracker's repeatability), held to 0.067 mm here so that a regression still
 // fails; the significance cut (--select) reaches it on all seven. The
-// default (the model search) is held to 0.07 mm on each (README "Model
+// default (the model search) is held to 0.07 mm on each (docs/calibrate.md, "The model
 // search": the sets' 10 validation poses cannot tell the search's choice from
 // the cut's).
 TEST(Identification, Meca500ValidationRmsAfterCalibration) {
@@ -139,7 +139,7 @@ TEST(Identification, Meca500ValidationRmsAfterCalibration) {
                 set, before * 1e3, after * 1e3, r.kinematics.identified, after_selected * 1e3,
                 selected.kinematics.identified);
     EXPECT_GT(before, 0.7e-3) << set;
-    // The one set over the issue's 0.06 mm: see the README (residual floor).
+    // The one set over the issue's 0.06 mm: see docs/calibrate.md (the residual floor).
     const double bound = std::string(set) == "norm_dist_data_0deg_80cube" ? 0.067e-3 : 0.06e-3;
     // Joints 2 and 3 are parallel: the Hayati beta of j3 is the 27th parameter,
     // and j3.d duplicates j2.d (distances along parallel axes add).

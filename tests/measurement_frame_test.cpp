@@ -292,10 +292,18 @@ TEST(MeasurementFrameUrdf, ConvertCalibrateEvaluateReproducesTheYamlOrWarns) {
         testing::run_cli({"evaluate", "--model", out + "/calibrated.urdf", "--tip", "tool", "--log",
                           validation, "--json"});
     ASSERT_EQ(urdf.exit_code, 0) << urdf.err;
-    EXPECT_NE(
-        urdf.out.find("read from its measurement frame, link 'hapticcal_hapticcal_measurement'"),
-        std::string::npos)
+    // One measurement-frame link: the converted URDF's root takes the new frame.
+    const std::string calibrated_text = testing::slurp(out + "/calibrated.urdf");
+    EXPECT_EQ(calibrated_text.find("hapticcal_hapticcal_measurement"), std::string::npos);
+    EXPECT_NE(urdf.out.find("read from its root, link 'hapticcal_measurement', the measurement "
+                            "frame its calibration was fitted in"),
+              std::string::npos)
         << urdf.out;
+    // The robot alone (--root base_link) leaves the frame out, and is told.
+    const testing::CliResult robot =
+        testing::run_cli({"evaluate", "--model", out + "/calibrated.urdf", "--tip", "tool",
+                          "--root", "base_link", "--log", validation});
+    EXPECT_NE(robot.out.find("the robot alone"), std::string::npos) << robot.out;
     const bool compliant =
         c.out.find("calibrated.urdf leaves out joint compliance") != std::string::npos;
     if (!compliant) {

@@ -1,4 +1,4 @@
-// The model search (issue 39, README "Model search"): the candidates'
+// The model search (issue 39, docs/calibrate.md, "The model search"): the candidates'
 // honest held-out errors against calibrating fold by fold by hand, the rule
 // that keeps the simplest model within a standard error of the best, what the
 // options restrict, and what makes a result unusable.

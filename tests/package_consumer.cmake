@@ -28,7 +28,7 @@ if(rc OR NOT out MATCHES "core: tool point at home: 0.400")
   message(FATAL_ERROR "the core consumer did not run: ${rc}")
 endif()
 
-# The pkg-config files: the README's compile lines build the C runtime's
+# The pkg-config files: the README's link lines (docs/runtime.md) build the C runtime's
 # realtime example and the C++ consumer against the installed tree.
 set(ENV{PKG_CONFIG_PATH} ${WORK_DIR}/prefix/lib/pkgconfig)
 function(pkg_flags package out)

@@ -2,7 +2,7 @@
 // chooses 20 of cal-<set>'s 70 recorded poses (position measurements); the
 // model is calibrated on those poses' rows (all 3 repeats) and validated on
 // val-<set>, against the median of 15 random 20-pose subsets. No target (the
-// real errors are not the model's alone): the table for the README, and sane
+// real errors are not the model's alone): the table of docs/plan.md, and sane
 // results (converged, finite).
 #include <gtest/gtest.h>
 

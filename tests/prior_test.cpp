@@ -180,7 +180,7 @@ TEST(TolerancePrior, ToleranceItemsAreCheckedAndNamed) {
 // keeps what the held-out poses of each calibration log prefer, which on
 // these sets is least squares or the cut about equally; the 70 validation
 // poses cannot tell its choice from the cut's (a paired t below 2 on their
-// squared errors; README "Model search"), and every set stays below 0.07 mm.
+// squared errors; docs/calibrate.md, "The model search"), and every set stays below 0.07 mm.
 TEST(TolerancePrior, Meca500DefaultIsWithinTheValidationNoiseOfTheCut) {
   const DeviceModel nominal = testing::meca500();
   std::vector<CalibrationOptions> options(4);

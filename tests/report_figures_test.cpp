@@ -85,7 +85,7 @@ Script read_script(const std::string& path) {
            it != std::sregex_iterator(); ++it)
         s.xtics.push_back((*it)[1]);
     }
-    if (line.rfind("plot ", 0) != 0) continue;
+    if (line.rfind("plot ", 0) != 0 && line.rfind("splot ", 0) != 0) continue;
     const std::regex clause(
         "using ([0-9]+):([0-9]+)[^ ]* with ([a-z]+)((?: (?:lc rgb \"[^\"]*\"|dt [0-9]+|lw [0-9.]+|"
         "pt [0-9]+))*) (notitle|title \"[^\"]*\")");
@@ -302,7 +302,7 @@ TEST_F(ReportFigures, NonnegativeQuantitiesHaveNoNegativeAxis) {
   // the correlation map (a fixed image range), the distance error along the
   // trajectory. The wall force Fz is not one: the wall pushes.
   const std::regex signed_figure(
-      "transmission_.*|fig7_.*|monte_carlo_improvement|correlation|fig10_trajectory.*");
+      "transmission_.*|fig7_.*|monte_carlo_improvement|correlation|fig10_trajectory.*|poses");
   int checked = 0;
   for (const std::string& report : reports_) {
     for (const std::string& name : figures(report)) {
@@ -494,6 +494,38 @@ TEST_F(ReportFigures, EveryAxisLabelHasAUnit) {
         EXPECT_TRUE(std::regex_search(label, std::regex("\\[[^\\]]+\\]"))) << "'" << label << "'";
       }
     }
+  }
+}
+
+// calibrate and plan show where their poses are: a 3-D figure (splot) of the
+// tool points, x, y and z in mm, one point a pose (calibrate: the log's 200;
+// plan: the 40 planned, joined in path order), their shadows on the floor.
+TEST_F(ReportFigures, CalibrateAndPlanShowTheirPosesInTheWorkspace) {
+  for (const auto& [report, poses] :
+       std::vector<std::pair<std::string, size_t>>{{"calibrate", 200}, {"plan", 40}}) {
+    SCOPED_TRACE(report);
+    const std::string gp = testing::slurp(figure(report, "poses", ".gp"));
+    ASSERT_FALSE(gp.empty());
+    const Script s = read_script(figure(report, "poses", ".gp"));
+    EXPECT_NE(s.text.find("\nsplot "), std::string::npos) << s.text;
+    EXPECT_EQ(s.xlabel, "x [mm]");
+    EXPECT_EQ(s.ylabel, "y [mm]");
+    EXPECT_NE(s.text.find("set zlabel \"z [mm]\""), std::string::npos) << s.text;
+    EXPECT_NE(s.text.find("set view equal xyz"), std::string::npos) << s.text;
+    const auto data = read_data(figure(report, "poses", ".csv"));
+    ASSERT_EQ(data.size(), 4u);  // x, y, z, the floor
+    EXPECT_EQ(data.at(2).size(), poses);
+    // The points spread over the workspace (not one point), above the floor.
+    for (int c : {2, 3, 4}) {
+      const auto [lo, hi] = std::minmax_element(data.at(c).begin(), data.at(c).end());
+      EXPECT_GT(*hi - *lo, 10.0) << "column " << c;
+    }
+    EXPECT_LT(*std::max_element(data.at(5).begin(), data.at(5).end()),
+              *std::min_element(data.at(4).begin(), data.at(4).end()));
+    EXPECT_NE(clause_titled(s, "tool point"), nullptr) << s.text;
+    EXPECT_EQ(clause_titled(s, "path order") != nullptr, report == "plan") << s.text;
+    const std::string html = testing::slurp(dir_ + "/" + report + "/report.html");
+    EXPECT_NE(html.find("<figure id=\"poses\">"), std::string::npos);
   }
 }
 

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -207,14 +208,14 @@ TEST_F(ReportOutcome, CalibrateTablesUseTheTerminalsUnits) {
       EXPECT_EQ(cells[2], w[4]) << line;
       EXPECT_EQ(cells[4], "mrad");
     }
-    // "  j1.a  nominal identified deviation +- sd unit corr with"
-    if (in_step2 && w.size() >= 7 && w[4] == "+-") {
+    // "  j1.a  nominal identified unit deviation +- sd unit corr with"
+    if (in_step2 && w.size() >= 9 && w[5] == "+-") {
       SCOPED_TRACE(line);
       const std::vector<std::string> cells = table_row(page, w[0]);
-      ASSERT_GE(cells.size(), 6u);
-      for (int k : {1, 2, 3}) EXPECT_EQ(cells[k], w[k]);
-      EXPECT_EQ(cells[4], w[5]);  // sd
-      EXPECT_EQ(cells[5], w[6]);  // unit
+      ASSERT_GE(cells.size(), 8u);
+      for (int k : {1, 2, 3, 4}) EXPECT_EQ(cells[k], w[k]);
+      EXPECT_EQ(cells[5], w[6]);  // sd
+      EXPECT_EQ(cells[6], w[7]);  // its unit
       ++step2;
     }
   }
@@ -419,6 +420,200 @@ TEST_F(ReportOutcome, PlanTableUsesTheTerminalsUnits) {
     EXPECT_EQ(cells[4], unit.second);
     const double planned = sd[name]["planned"].get<double>() * unit.first;
     EXPECT_NEAR(std::stod(cells[1]), planned, 1e-3 * planned);
+  }
+}
+
+// A pose's angles print in deg, their small changes and sd in mrad, in the
+// terminal's table and the report's alike: the paper's device's twists of
+// -pi/2 are -90.0000 deg, never -1570.7963 mrad.
+TEST_F(ReportOutcome, CalibratePoseAnglesInDegreesTheirChangesInMrad) {
+  const testing::CliResult& r = run("calibrate");
+  const std::string page = html("calibrate");
+  for (const std::string& text : {r.out, page}) {
+    EXPECT_EQ(text.find("1570.7963"), std::string::npos);
+    EXPECT_EQ(text.find("1570.8"), std::string::npos);
+  }
+  int angles = 0;
+  for (const std::string& line : lines_of(r.out)) {
+    const std::vector<std::string> w = words(line);
+    if (w.size() < 9 || w[5] != "+-") continue;
+    SCOPED_TRACE(line);
+    const bool angle =
+        w[0].find("alpha") != std::string::npos || w[0].find("theta") != std::string::npos;
+    EXPECT_EQ(w[3], angle ? "deg" : "mm");
+    EXPECT_EQ(w[7], angle ? "mrad" : "mm");
+    if (!angle) continue;
+    // The deviation is identified - nominal, in mrad.
+    EXPECT_NEAR((std::stod(w[2]) - std::stod(w[1])) * M_PI / 180 * 1e3, std::stod(w[4]), 2e-3);
+    EXPECT_LE(std::abs(std::stod(w[1])), 360.0);
+    ++angles;
+  }
+  EXPECT_GE(angles, 10);
+  const std::vector<std::string> twist = table_row(page, "j1.alpha");
+  ASSERT_GE(twist.size(), 7u);
+  EXPECT_EQ(twist[1], "-90.0000");
+  EXPECT_EQ(twist[3], "deg");
+  EXPECT_EQ(twist[6], "mrad");
+}
+
+// The paper's own lines stay in the paper's study.
+TEST_F(ReportOutcome, SimulateOfThePapersDeviceKeepsThePapersLines) {
+  const testing::CliResult& r = run("simulate");
+  const std::string page = html("simulate");
+  for (const char* text : {"sigma_e", "kinematic-only", "the paper measured", "paper I %",
+                           "Fig. 8: position error", "fig8_orientation", "fig10_trajectory"}) {
+    EXPECT_NE(page.find(text), std::string::npos) << text;
+  }
+  EXPECT_NE(r.out.find("paper: "), std::string::npos);
+}
+
+// The shipped scenarios on other devices (the MTM and the Touch with a
+// tracker's poses, the PHANToM with a two-socket fixture): every ratio a
+// number or "n/a" with its reason, never a fake 0.000; no line of the paper's
+// study; no orientation where the measurement has none; no figure that
+// failed; the staging folder named nowhere.
+class ScenarioReports : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new std::string(testing::fresh_folder("scenario_reports"));
+    runs_ = new std::map<std::string, testing::CliResult>;
+    for (const char* name : {"phantom-two-socket", "mtm-tracker", "touch-tracker"}) {
+      (*runs_)[name] = testing::run_cli(std::vector<std::string>{
+          "simulate", "--scenario",
+          testing::source_path(std::string("data/scenarios/") + name + ".yaml"), "--threads", "2",
+          "--out", *dir_ + "/" + name});
+    }
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*dir_);
+    delete dir_;
+    delete runs_;
+  }
+  static const testing::CliResult& run(const std::string& name) {
+    const testing::CliResult& r = runs_->at(name);
+    EXPECT_EQ(r.exit_code, 0) << name << ": " << r.err;
+    return r;
+  }
+  static std::string html(const std::string& name) {
+    return testing::slurp(*dir_ + "/" + name + "/report.html");
+  }
+  static std::set<std::string> figure_names(const std::string& name) {
+    std::set<std::string> out;
+    const fs::path figures = *dir_ + "/" + name + "/figures";
+    if (!fs::exists(figures)) return out;
+    for (const auto& e : fs::directory_iterator(figures))
+      if (e.path().extension() == ".gp") out.insert(e.path().stem().string());
+    return out;
+  }
+  static std::string* dir_;
+  static std::map<std::string, testing::CliResult>* runs_;
+};
+std::string* ScenarioReports::dir_ = nullptr;
+std::map<std::string, testing::CliResult>* ScenarioReports::runs_ = nullptr;
+
+// The column's cells of every row of the report's tables whose header has `column`.
+std::vector<std::string> column_cells(const std::string& page, const std::string& column) {
+  static const std::regex header_cell("<th>([^<]*)</th>"), cell("<td[^>]*>([^<]*)</td>");
+  std::vector<std::string> cells;
+  for (size_t at = page.find("<table>"); at != std::string::npos;
+       at = page.find("<table>", at + 1)) {
+    const std::string table = page.substr(at, page.find("</table>", at) - at);
+    int index = -1, c = 0;
+    for (auto it = std::sregex_iterator(table.begin(), table.end(), header_cell);
+         it != std::sregex_iterator(); ++it, ++c)
+      if (unescape((*it)[1].str()) == column) index = c;
+    if (index < 0) continue;
+    for (size_t r = table.find("<tr><td"); r != std::string::npos;
+         r = table.find("<tr><td", r + 1)) {
+      const std::string row = table.substr(r, table.find("</tr>", r) - r);
+      int k = 0;
+      for (auto it = std::sregex_iterator(row.begin(), row.end(), cell);
+           it != std::sregex_iterator(); ++it, ++k)
+        if (k == index) cells.push_back(unescape((*it)[1].str()));
+    }
+  }
+  return cells;
+}
+
+TEST_F(ScenarioReports, TwoSocketStudyHasItsCramerRaoRatios) {
+  const testing::CliResult& r = run("phantom-two-socket");
+  const std::string page = html("phantom-two-socket");
+  const std::vector<std::string> ratios = column_cells(page, "RMSE / CRLB");
+  ASSERT_GE(ratios.size(), 5u) << page;
+  for (const std::string& v : ratios) {
+    SCOPED_TRACE(v);
+    if (v == "n/a") {
+      EXPECT_NE(page.find("RMSE / CRLB n/a: "), std::string::npos) << "n/a without its reason";
+      continue;
+    }
+    // A ratio of an estimator to its bound, never the 0.000 of a missing
+    // bound: near 1, or below it where the model search held the parameter in
+    // some trials (j1.a, seen only through the 50 mm: 0.15).
+    EXPECT_NE(v, "0.000");
+    EXPECT_GT(std::stod(v), 0.05);
+    EXPECT_LT(std::stod(v), 3.0);
+  }
+  const std::string o = outcome(page);
+  EXPECT_NE(o.find("RMSE / CRLB median"), std::string::npos) << o;
+  EXPECT_EQ(o.find("median 0.000"), std::string::npos) << o;
+  EXPECT_TRUE(figure_names("phantom-two-socket").count("monte_carlo_efficiency"));
+  // The terminal's error in bound sd too: a number, not "-".
+  int numbers = 0;
+  for (const std::string& line : lines_of(r.out)) {
+    const std::vector<std::string> w = words(line);
+    if (w.size() == 5 && w[0].find('.') != std::string::npos && w[4] != "-") ++numbers;
+  }
+  EXPECT_GE(numbers, 5) << r.out;
+}
+
+TEST_F(ScenarioReports, NoPaperLinesOutsideThePapersDevice) {
+  for (const char* name : {"phantom-two-socket", "mtm-tracker", "touch-tracker"}) {
+    SCOPED_TRACE(name);
+    run(name);
+    const std::string page = html(name);
+    for (const char* text :
+         {"sigma_e", "kinematic-only", "paper", "Fig. 8", "Fig. 10", "Table 2", "Table 3"}) {
+      EXPECT_EQ(page.find(text), std::string::npos) << text;
+    }
+    const std::set<std::string> figures = figure_names(name);
+    EXPECT_FALSE(figures.empty());
+    EXPECT_FALSE(figures.count("fig10_trajectory"));
+    EXPECT_FALSE(figures.count("fig10_trajectory_full"));
+  }
+}
+
+TEST_F(ScenarioReports, OrientationOnlyWhereTheMeasurementHasIt) {
+  const std::string fixture = html("phantom-two-socket");
+  EXPECT_EQ(outcome(fixture).find("orientation"), std::string::npos) << outcome(fixture);
+  EXPECT_FALSE(figure_names("phantom-two-socket").count("fig8_orientation"));
+  EXPECT_TRUE(figure_names("phantom-two-socket").count("fig8_position"));
+  // Poses have orientations: their errors are shown.
+  for (const char* name : {"mtm-tracker", "touch-tracker"}) {
+    EXPECT_NE(outcome(html(name)).find("orientation RMS"), std::string::npos) << name;
+    EXPECT_TRUE(figure_names(name).count("fig8_orientation")) << name;
+  }
+}
+
+TEST_F(ScenarioReports, EveryFigureDrawnAndNoStagingFolderNamed) {
+  for (const char* name : {"phantom-two-socket", "mtm-tracker", "touch-tracker"}) {
+    SCOPED_TRACE(name);
+    const testing::CliResult& r = run(name);
+    EXPECT_EQ(r.out.find("failed"), std::string::npos) << r.out;
+    const fs::path folder = *dir_ + "/" + name;
+    // The staging folder is "<parent>/.<name>.tmp-XXXXXX" (OutputSet).
+    const std::string staging = "/." + std::string(name) + ".tmp-";
+    EXPECT_EQ(r.out.find(staging), std::string::npos) << r.out;
+    for (const auto& e : fs::recursive_directory_iterator(folder)) {
+      if (!e.is_regular_file()) continue;
+      const std::string ext = e.path().extension().string();
+      if (ext != ".html" && ext != ".gp" && ext != ".svg" && ext != ".log" && ext != ".json")
+        continue;
+      const std::string text = testing::slurp(e.path().string());
+      EXPECT_EQ(text.find(".tmp-"), std::string::npos) << e.path();
+      EXPECT_EQ(text.find(staging), std::string::npos) << e.path();
+    }
+    EXPECT_EQ(html(name).find("failed"), std::string::npos);
+    EXPECT_FALSE(fs::exists(folder / "figures" / "fig8_orientation.gp.log"));
   }
 }
 

@@ -1,5 +1,7 @@
 // Every command's report opens in headless Chromium without console messages
 // and holds its figures; without gnuplot the commands still succeed.
+#include "hapticcal/report/report.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -175,10 +177,11 @@ TEST(Report, EveryReportLoadsInChromiumWithItsFigures) {
   // simulate: Figs 7, 8 (2), 9-like (3 joints: j4's is Fig. 7), 10 (and its detail), Monte Carlo
   // (2); calibrate: 4 joints x (fit, residual), errors per sample, correlations, model selection;
   // evaluate: distance and position error per sample; force: Fig. 12's normal and transverse force;
-  // plan: sd per parameter; the fixture's evaluation: each sample's distance from its point.
+  // plan: sd per parameter; the fixture's evaluation: each sample's distance from its point;
+  // calibrate and plan: the poses in the workspace.
   const std::vector<std::pair<std::string, int>> expected = {
-      {"simulate", 10}, {"calibrate", 11},         {"evaluate", 2},        {"force", 2},
-      {"plan", 1},      {"calibrate-fixture", -1}, {"evaluate-fixture", 1}};
+      {"simulate", 10}, {"calibrate", 12},         {"evaluate", 2},        {"force", 2},
+      {"plan", 2},      {"calibrate-fixture", -1}, {"evaluate-fixture", 1}};
   for (const auto& [name, figures] : expected) {
     const int shown = check_page(dir + "/" + name, shots + "/" + name + ".png");
     if (figures >= 0) EXPECT_EQ(shown, figures) << name;
@@ -223,6 +226,40 @@ TEST(Report, WithoutGnuplotTheCommandsSucceedAndSaySo) {
   EXPECT_EQ(count(html, "<figure"), 0);
   EXPECT_TRUE(fs::exists(dir + "/results.json"));
   fs::remove_all(dir);
+}
+
+// A figure gnuplot cannot draw (a log axis of zeros): the note names its log
+// within the output folder, never the folder the report was written in, which
+// for a command is the staging folder renamed to --out once it is done.
+TEST(Report, AFailedFigureNamesItsLogWithinTheOutputFolder) {
+  const std::string parent = testing::fresh_folder("report_failed_figure");
+  const std::string staging = parent + "/.out.tmp-Ab12Cd";
+  fs::create_directories(staging);
+  Report report;
+  report.title = "failing figure";
+  report.outcome.status = "done";
+  FigureSpec zeros;
+  zeros.name = "zeros";
+  zeros.title = "zeros on a log axis";
+  zeros.xlabel = "pose";
+  zeros.ylabel = "error [mm]";
+  zeros.columns = {{1, 2, 3}, {0, 0, 0}};
+  zeros.series = {{"zeros", 0, 1, "points"}};
+  zeros.log_y = true;
+  report.figures.push_back(zeros);
+  std::string note;
+  const int drawn = write_report(report, staging, note);
+  if (note.find("gnuplot not found") != std::string::npos) GTEST_SKIP() << note;
+  EXPECT_EQ(drawn, 0);
+  EXPECT_NE(note.find("figure zeros failed"), std::string::npos) << note;
+  EXPECT_NE(note.find("see figures/zeros.gp.log"), std::string::npos) << note;
+  EXPECT_EQ(note.find(parent), std::string::npos) << note;
+  EXPECT_EQ(note.find(".tmp-"), std::string::npos) << note;
+  const std::string html = testing::slurp(staging + "/report.html");
+  EXPECT_EQ(html.find(parent), std::string::npos);
+  EXPECT_EQ(html.find(".tmp-"), std::string::npos);
+  EXPECT_TRUE(fs::exists(staging + "/figures/zeros.gp.log"));
+  fs::remove_all(parent);
 }
 
 }  // namespace

@@ -127,7 +127,7 @@ std::string fmt_double(double v) {
   return buf;
 }
 
-// The README's memory statement for calibrate: peak below 200 MB + this many
+// docs/calibrate.md's memory statement ("Long logs"): peak below 200 MB + this many
 // KB per log row (a 10^6-row position log: under 1 GB).
 constexpr double kPeakKbPerRow = 0.8;
 

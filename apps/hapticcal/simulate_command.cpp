@@ -31,15 +31,17 @@ namespace {
 void print_validation_and_trajectory(const hapticcal::Scenario& sc,
                                      const hapticcal::TrialResult& t) {
   const bool paper = sc.paper_comparison();
-  fmt::print(
-      "Validation ({} poses{}): position RMS {:.4f} -> {:.4f} mm, orientation RMS "
-      "{:.4f} -> {:.4f} mrad{}\n",
-      sc.validation_poses, paper ? ", Fig. 8" : "", t.position_rms_before * 1e3,
-      t.position_rms_after * 1e3, t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3,
-      hapticcal::traits(sc.measurement).distance_column
-          ? fmt::format(", distance RMS {:.4f} -> {:.4f} mm", t.distance_rms_before * 1e3,
-                        t.distance_rms_after * 1e3)
-          : "");
+  fmt::print("Validation ({} poses{}): position RMS {:.4f} -> {:.4f} mm{}{}\n", sc.validation_poses,
+             paper ? ", Fig. 8" : "", t.position_rms_before * 1e3, t.position_rms_after * 1e3,
+             hapticcal::shows_orientation(sc)
+                 ? fmt::format(", orientation RMS {:.4f} -> {:.4f} mrad",
+                               t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3)
+                 : "",
+             hapticcal::traits(sc.measurement).distance_column
+                 ? fmt::format(", distance RMS {:.4f} -> {:.4f} mm", t.distance_rms_before * 1e3,
+                               t.distance_rms_after * 1e3)
+                 : "");
+  if (!hapticcal::shows_trajectory(sc, t)) return;
   fmt::print(
       "Trajectory ({:.0f} s at {:.0f} Hz{}): distance RMS {:.4f} mm nominal, {:.4f} mm "
       "full ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %){}\n",

@@ -102,6 +102,24 @@ def test_validation_rms_matches_the_cli(cli_calibration, py_calibration):
     assert_same(hapticcal.evaluate(str(out / "calibrated.yaml"), VAL_LOG), validation)
 
 
+def test_device_model_is_the_cli_device_yaml_in_the_devices_frame(cli_calibration, py_calibration):
+    """device_model: calibrate's device.yaml; its tool pose is device_frame^-1 times the
+    calibrated model's at every reading (the tool point moved by tool_point)."""
+    _, _, out = cli_calibration
+    r = py_calibration
+    from_file = hapticcal.load_model(str(out / "device.yaml"))
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        q = rng.uniform(-1.0, 1.0, r.model.dof)
+        assert np.abs(r.device_model.forward(q) - from_file.forward(q)).max() < 1e-12
+        expected = np.linalg.inv(r.device_frame) @ r.model.forward(q)
+        assert np.abs(r.device_model.forward(q) - expected).max() < 1e-12
+    tipped = hapticcal.calibrate(MECA, CAL_LOG, tool_point=[0.0, 0.0, 0.07])
+    assert tipped.device_model.parameters()["tool.z"] == pytest.approx(0.07, abs=1e-15)
+    with pytest.raises(ValueError, match="tool_point"):
+        hapticcal.calibrate(MECA, CAL_LOG, tool_point=[0.0, 0.07])
+
+
 def test_evaluation_with_reference_matches_the_cli(cli_calibration):
     _, _, out = cli_calibration
     calibrated = str(out / "calibrated.yaml")

@@ -86,7 +86,7 @@ void restack(CalibrationRun& run);
 // ... and, once an estimator has been applied (apply_estimator), the
 // solution's cross-validation, statistics, estimates, notes and status.
 CalibrationResult conclude_model(CalibrationRun& run);
-// The model search (model_search.cpp, README "Model search"): the candidate
+// The model search (model_search.cpp, docs/calibrate.md, "The model search"): the candidate
 // models compared on held-out poses, the one kept concluded.
 CalibrationResult search_model(CalibrationRun& run);
 // The RMS [m] of the nominal model on the run's poses with `free` slots (the

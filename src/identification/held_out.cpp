@@ -42,7 +42,7 @@ std::vector<Eigen::Index> held_columns(Eigen::Index k, const std::vector<Eigen::
   return out;
 }
 
-// The significance cut (model selection, README) on normal equations:
+// The significance cut (model selection, docs/calibrate.md) on normal equations:
 // backward elimination of the parameter of least t while it is below the
 // family-wise threshold; the held ones go back to their start. The inverse of
 // the fitted columns' normal matrix is downdated as each column goes (the

@@ -1,5 +1,5 @@
-// Internal: the honest held-out error of candidate models of step 2 (README
-// "Model search"). A candidate is a set of parameters and an estimator (least
+// Internal: the honest held-out error of candidate models of step 2 (docs/calibrate.md,
+// "The model search"). A candidate is a set of parameters and an estimator (least
 // squares, the significance cut, the tolerance prior); its held-out error is
 // that of the whole estimator, re-run on each fold's training poses (the cut's
 // elimination and the prior's evidence included), on the problem linearised at

@@ -1,4 +1,4 @@
-// The model search (README "Model search"): calibrate's candidate models -
+// The model search (docs/calibrate.md, "The model search"): calibrate's candidate models -
 // an estimator (the tolerance prior, the significance cut, least squares) x
 // the joint-error families that apply x an instrument's zero held or fitted -
 // compared by their honest held-out error (held_out.hpp), the simplest within

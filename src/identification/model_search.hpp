@@ -1,4 +1,4 @@
-// Internal: the model search's pieces (README "Model search"). model_search.cpp
+// Internal: the model search's pieces (docs/calibrate.md, "The model search"). model_search.cpp
 // runs it (the family sets' fits, their candidates judged on held-out poses,
 // the rule, the conclusion); search_checks.cpp holds its yardsticks (the
 // nominal with the set-up registered, the instrument's zero, step 1's check).

@@ -1,4 +1,4 @@
-// Internal: the tolerance prior of step 2 (README "Tolerance prior"): each link
+// Internal: the tolerance prior of step 2 (docs/calibrate.md, "Step 2's estimators"): each link
 // parameter's change from nominal is a priori normal, sd = scale x its
 // tolerance; the scale is the one that maximises the evidence (the marginal
 // likelihood of the measurements) of the problem linearised at a fit.

@@ -1,4 +1,4 @@
-// Outliers and suspect fits (README "Outliers and suspect fits"): a per-pose
+// Outliers and suspect fits (docs/outliers.md): a per-pose
 // test of step 2's residuals against the noise the fit itself estimates, the
 // robust reweighting of the poses it flags, and the checks that call a
 // converged fit suspect.

@@ -143,6 +143,13 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
     if (!job.usable()) {
       job.result.notes.push_back(fmt::format("no {} written: the calibration is not usable",
                                              tree ? "calibrated.urdf" : "calibrated.yaml"));
+    } else if (!tree) {
+      add_device_frame_notes(
+          job.result,
+          device_frame_outputs(job.result, job.nominal,
+                               {request.model, request.log, urdf_text, request.tip, request.root,
+                                request.tool_point, request.nominal_tool}),
+          urdf);
     }
     job.results_json =
         calibration_json(job.result, job.nominal, request.model, request.log, options);

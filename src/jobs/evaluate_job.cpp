@@ -29,14 +29,33 @@ DeviceModel load_evaluated_model(const EvaluateRequest& request, const std::stri
                                  std::string* said = nullptr) {
   if (!is_urdf_path(path)) return load_model(path);
   std::string root = request.root;
+  const std::string text = read_file(path, FileKind::kUrdf);
+  const std::string frame = measurement_frame_link(text, path);
+  // A measurement frame hapticcal wrote as the root (a converted device file's),
+  // calibrated: its root chain is the calibrated model.
+  const bool frame_is_root =
+      frame.empty() && text.find("<link name=\"hapticcal_measurement\"") != std::string::npos &&
+      text.find("hapticcal: calibrated joint origins") != std::string::npos;
+  const std::string fitted_in = frame_is_root ? "hapticcal_measurement" : frame;
+  if (!root.empty() && !fitted_in.empty() && root != fitted_in && said) {
+    *said = fmt::format(
+        "{}: warning: --root {} leaves out the measurement frame its calibration was fitted in "
+        "(link '{}'): this chain is the robot alone, not the calibrated model in the "
+        "measurement frame",
+        path, root, fitted_in);
+  }
   if (root.empty()) {
-    const std::string text = read_file(path, FileKind::kUrdf);
-    root = measurement_frame_link(text, path);
+    root = frame;
     if (!root.empty() && said) {
       *said = fmt::format(
           "{}: read from its measurement frame, link '{}' (the frame its calibration "
           "was fitted in; --root ROOT reads another chain)",
           path, root);
+    } else if (frame_is_root && said) {
+      *said = fmt::format(
+          "{}: read from its root, link 'hapticcal_measurement', the measurement frame its "
+          "calibration was fitted in",
+          path);
     }
     if (const size_t at = text.find(kLeftOut); at != std::string::npos && said) {
       const size_t end = text.find(" -->", at);

@@ -48,6 +48,22 @@ SimulateJob run_simulate_job(const SimulateRequest& request) {
     report.title = fmt::format("hapticcal simulate: a hand-guided session on {}", sc.nominal.name);
     report.outcome.headline.insert(report.outcome.headline.begin(), job.session->lines.begin(),
                                    job.session->lines.end());
+    // The session's calibration runs without step 1 (its device stream has no
+    // external encoders): said so, not as an option the user never gave nor
+    // as the paper's kinematic-only calibration.
+    const std::string said =
+        "--no-transmission: transmissions kept as in the device file (kinematic-only calibration)";
+    const std::string meant =
+        "the session's device stream has no external encoders: the transmissions are kept as "
+        "in the device file";
+    auto reword = [&](std::string& text) {
+      for (size_t at = text.find(said); at != std::string::npos; at = text.find(said, at)) {
+        text.replace(at, said.size(), meant);
+        at += meant.size();
+      }
+    };
+    for (std::string& note : report.outcome.notes) reword(note);
+    for (std::string& section : report.sections) reword(section);
     job.figures = write_report(report, job.out->dir(), job.report_note);
     job.out->commit();
     return job;

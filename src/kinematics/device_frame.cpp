@@ -1,5 +1,7 @@
 #include "hapticcal/kinematics/device_frame.hpp"
 
+#include <Eigen/Geometry>
+#include <cmath>
 #include <stdexcept>
 
 #include "hapticcal/kinematics/kinematics.hpp"
@@ -66,6 +68,57 @@ DeviceFrameSplit split_device_frame(const DeviceModel& calibrated, const DeviceM
   device.gravity = (split.device_in_measurement.R * base_device.R).transpose() *
                    (base_calibrated.R * calibrated.gravity);
   return split;
+}
+
+namespace {
+
+Frame<double> turn_about(const Eigen::Vector3d& axis, double angle) {
+  return {Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix(), Eigen::Vector3d::Zero()};
+}
+
+std::array<double, 6> pose_array(const Frame<double>& f) {
+  const Eigen::Vector3d rpy = matrix_rpy(f.R);
+  return {f.p.x(), f.p.y(), f.p.z(), rpy[0], rpy[1], rpy[2]};
+}
+
+Frame<double> pose_of(const std::array<double, 6>& v) {
+  return pose_frame(v[0], v[1], v[2], v[3], v[4], v[5]);
+}
+
+}  // namespace
+
+double move_last_turn_into_tool(DeviceModel& calibrated, const DeviceModel& nominal) {
+  if (calibrated.tree() || calibrated.dof() == 0 || calibrated.dof() != nominal.dof()) return 0;
+  Link& last = calibrated.links.back();
+  const Link& given = nominal.links.back();
+  if (last.prismatic() || last.geometry != given.geometry) return 0;
+  double turn = 0;
+  Frame<double> after = Frame<double>::Identity();  // X: the joint's transform after its motion
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  if (last.geometry == Geometry::kOrigin) {
+    axis = last.axis.normalized();
+    // The twist about the axis of R_nominal^-1 R_calibrated (offsets included).
+    const Eigen::Matrix3d relative =
+        (pose_of(given.origin) * turn_about(axis, given.offset)).R.transpose() *
+        (pose_of(last.origin) * turn_about(axis, last.offset)).R;
+    const Eigen::Quaterniond q(relative);
+    turn = 2 * std::atan2(q.vec().dot(axis), q.w());
+    last.origin =
+        pose_array(pose_of(last.origin) * turn_about(axis, last.offset - given.offset - turn));
+    last.offset = given.offset;
+  } else {
+    turn = last.theta - given.theta;
+    last.theta = given.theta;
+    if (last.geometry == Geometry::kDh) {
+      after = Frame<double>{Eigen::Matrix3d::Identity(), Eigen::Vector3d(last.a, 0, 0)} *
+              turn_about(Eigen::Vector3d::UnitX(), last.alpha) *
+              turn_about(Eigen::Vector3d::UnitY(), last.beta);
+    }
+  }
+  if (turn == 0) return 0;
+  calibrated.tool =
+      pose_array(after.inverse() * turn_about(axis, turn) * after * pose_of(calibrated.tool));
+  return turn;
 }
 
 }  // namespace hapticcal

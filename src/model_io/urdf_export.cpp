@@ -398,6 +398,17 @@ std::string write_measurement_frame(const std::string& urdf_text, const UrdfChai
   if (calibrated.base == nominal.base || is_identity(calibrated.base)) {
     return "the measurement frame is the robot's root";
   }
+  // A root that is a measurement frame hapticcal wrote (device_to_urdf's):
+  // calibrated again, its first fixed joint takes the new frame, o_1 -> B o_1
+  // (joint 1's origin was written against the old F_1 = o_1 o_2 ...), rather
+  // than a second measurement link being added below it.
+  if (chain.root.find("hapticcal_measurement") != std::string::npos &&
+      !chain.root_elements.empty() && !chain.folded.empty()) {
+    if (chain.root_elements.front() < 0) throw mismatch("measurement joint element not found");
+    set_origin(urdf_text, chain.doc, chain.doc.elements[chain.root_elements.front()],
+               pose_of(B * chain.root_origins.front()), edits);
+    return fmt::format("the calibrated measurement frame is the root {}", comment_safe(chain.root));
+  }
   std::set<std::string> joints, links;
   for (const auto& [name, index] : chain.doc.joints) joints.insert(name);
   for (const auto& [name, index] : chain.doc.links) links.insert(name);

@@ -123,6 +123,10 @@ struct UrdfChain {
   // (the link hapticcal adds for a calibrated base, see calibrated_urdf).
   std::vector<Frame<double>> up_origins;
   std::vector<int> up_elements;
+  // The fixed joints from the root down to the first movable joint (folded
+  // into its origin), in that order.
+  std::vector<Frame<double>> root_origins;
+  std::vector<int> root_elements;
 };
 
 // The chain root -> tip of the URDF `text`, as parse_urdf documents it, with

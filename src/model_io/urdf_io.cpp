@@ -586,6 +586,8 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
     }
     model.links.push_back(std::move(link));
     add_inertial(*urdf, *j, Frame<double>::Identity(), origin, line, model);
+    if (chain.folded.empty())  // the fixed joints from the root to the first movable one
+      std::tie(chain.root_origins, chain.root_elements) = std::tie(fixed_origins, fixed_elements);
     chain.folded.push_back(fold);
     chain.joint_elements.push_back(chain.doc.joint_index(j->name));
     fold = Frame<double>::Identity();

@@ -4,18 +4,24 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
 #include <cmath>
+
+#include "hapticcal/study/study.hpp"
+#include "report/report_parts.hpp"
 
 namespace hapticcal {
 namespace {
 
-// Values as the paper's Tables 2-5 print them: mm, mrad, deg.
-std::string kinematic_row(const ParameterEstimate& e) {
-  const DisplayUnit u = display_unit(e.unit);
-  const double f = u.scale;
-  return fmt::format("  {:<12} {:>12.4f} {:>12.4f} {:>10.4f} +- {:<9.4f} {:<4}  {:>6.3f} {}",
-                     e.name, e.nominal * f, e.value * f, (e.value - e.nominal) * f, e.sd * f,
-                     u.unit, e.max_correlation, e.max_correlation_with) +
+// Values in mm and deg (a pose's angles: detail::parameter_units), their
+// deviation and sd in mm and mrad; names padded to `width`.
+std::string kinematic_row(const ParameterEstimate& e, const DeviceModel& nominal, size_t width) {
+  const detail::ParameterUnits u = detail::parameter_units(e, nominal);
+  const double f = u.value.scale, g = u.change.scale;
+  return fmt::format("  {:<{}} {:>12.4f} {:>12.4f} {:<4} {:>10.4f} +- {:<9.4f} {:<4}  {:>6.3f} {}",
+                     e.name, width, e.nominal * f, e.value * f, u.value.unit,
+                     (e.value - e.nominal) * g, e.sd * g, u.change.unit, e.max_correlation,
+                     e.max_correlation_with) +
          (e.set_by_prior ? fmt::format("  set by the prior (data share {:.2f})", e.data_share)
                          : std::string());
 }
@@ -58,7 +64,7 @@ std::string clock_line(const ClockEstimate& c) {
 
 }  // namespace
 
-// The model search's candidates (README "Model search"): the best few by
+// The model search's candidates (docs/calibrate.md, "The model search"): the best few by
 // held-out RMS and the one kept.
 void search_lines(const ModelSearch& search, std::vector<std::string>& out) {
   if (!search.ran) {
@@ -103,8 +109,11 @@ void search_lines(const ModelSearch& search, std::vector<std::string>& out) {
 
 std::vector<std::string> calibration_lines(const CalibrationResult& r, const DeviceModel& nominal) {
   std::vector<std::string> out;
+  // The paper's table numbers name the paper's device's tables only.
+  const bool paper = is_paper_device(nominal);
   if (!r.transmissions.empty()) {
-    out.push_back(fmt::format("Step 1: transmissions from the external encoders (paper Table 4)"));
+    out.push_back(fmt::format("Step 1: transmissions from the external encoders{}",
+                              paper ? " (paper Table 4)" : ""));
     for (const TransmissionFit& t : r.transmissions) {
       const std::string& link = nominal.links[t.joint].name;
       out.push_back(fmt::format(
@@ -139,17 +148,21 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
   }
   if (r.clock) out.push_back(clock_line(*r.clock));
   const KinematicFit& k = r.kinematics;
-  out.push_back(fmt::format("Step 2: kinematic parameters from {} ({} rows) (paper Table 5)",
-                            traits(k.type).plural, k.rows));
-  out.push_back(fmt::format("  {:<12} {:>12} {:>12} {:>10}    {:<9} {:<4}  {}", "parameter",
-                            "nominal", "identified", "deviation", "sd", "unit",
+  out.push_back(fmt::format("Step 2: kinematic parameters from {} ({} rows){}",
+                            traits(k.type).plural, k.rows, paper ? " (paper Table 5)" : ""));
+  size_t width = 12;
+  for (const ParameterEstimate& e : k.parameters) {
+    if (e.identifiable) width = std::max(width, e.name.size());
+  }
+  out.push_back(fmt::format("  {:<{}} {:>12} {:>12} {:<4} {:>10}    {:<9} {:<4}  {}", "parameter",
+                            width, "nominal", "identified", "unit", "deviation", "sd", "unit",
                             "largest correlation"));
   for (const ParameterEstimate& e : k.parameters) {
-    if (e.identifiable) out.push_back(kinematic_row(e));
+    if (e.identifiable) out.push_back(kinematic_row(e, nominal, width));
   }
   out.push_back(fmt::format("  held at nominal:"));
   for (const ParameterEstimate& e : k.parameters) {
-    if (!e.identifiable) out.push_back(fmt::format("  {:<12} {}", e.name, e.reason));
+    if (!e.identifiable) out.push_back(fmt::format("  {:<{}} {}", e.name, width, e.reason));
   }
   if (k.rows > k.poses) {
     out.push_back(
@@ -199,11 +212,10 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
   }
   for (const ParameterEstimate& e : k.parameters) {
     if (!e.large_change) continue;
-    const DisplayUnit u = display_unit(e.unit);
     out.push_back(fmt::format(
-        "note: {} moved {:.4g} {} from nominal (beyond {} mm / {} mrad){}: the held-out error "
+        "note: {} moved {} from nominal (beyond {} mm / {} mrad){}: the held-out error "
         "judged the model; check the move if the device should not have it",
-        e.name, (e.value - e.nominal) * u.scale, u.unit, kLargeChangeLength * 1e3,
+        e.name, detail::change_text(e.value - e.nominal, e.unit), kLargeChangeLength * 1e3,
         kLargeChangeAngle * 1e3,
         e.max_correlation_with.empty() ? std::string()
                                        : fmt::format(", correlated {:+.2f} with {}",

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <numbers>
 
 #include "hapticcal/core/error.hpp"
@@ -50,50 +51,38 @@ std::string pose_words(const std::array<double, 6>& v) {
                      v[0] * 1e3, v[1] * 1e3, v[2] * 1e3, v[3] * deg, v[4] * deg, v[5] * deg);
 }
 
-// device.yaml and setup.yaml of a calibrated chain, and a note saying which
-// file holds what.
-void write_device_frame(const std::string& dir, CalibrationResult& result,
-                        const DeviceModel& nominal, const CalibrationSource& source) {
-  std::optional<std::array<double, 6>> tool;
-  std::string ends_at = "the point the instrument measured (the calibrated tool)";
-  if (source.nominal_tool) {
-    tool = nominal.tool;
-    ends_at = "the device file's tool";
-  } else if (source.tool_point) {
-    tool = result.calibrated.tool;
-    for (int k = 0; k < 3; ++k) (*tool)[k] = (*source.tool_point)[k];
-    ends_at = "the tool point given";
+// Whether the measurements saw the tool's orientation (a tool angle identified).
+bool tool_orientation_seen(const CalibrationResult& result) {
+  for (const ParameterEstimate& e : result.kinematics.parameters) {
+    if (e.identifiable && (e.name == "tool.roll" || e.name == "tool.pitch" || e.name == "tool.yaw"))
+      return true;
   }
-  const DeviceFrameSplit split = split_device_frame(result.calibrated, nominal, tool);
-  save_device(split.device, dir + "/device.yaml");
-  const std::array<double, 6> frame = pose_of(split.device_in_measurement);
-  write_file_atomically(
-      dir + "/setup.yaml",
-      fmt::format("# What this calibration found of the set-up, not of the device.\n"
-                  "# device.yaml is the device's model in its own frame (its base and joint 1's\n"
-                  "# placement as the nominal model gives them); calibrated.yaml is the same\n"
-                  "# model in the measurement frame, the frame of the log's measurements.\n"
-                  "format: hapticcal-setup/1\n"
-                  "device: {}\n"
-                  "# The device's frame in the measurement frame [m, rad]: a point p of the\n"
-                  "# device's frame is R(rpy) p + xyz in the measurement frame.\n"
-                  "device_frame: {}\n"
-                  "# The point (and frame) the instrument measured, in the last link's frame.\n"
-                  "measured_tool: {}\n"
-                  "# device.yaml's tool, in the last link's frame: {}.\n"
-                  "tool: {}\n",
-                  split.device.name.empty() ? "unnamed" : split.device.name, pose_yaml(frame),
-                  pose_yaml(split.measured_tool), ends_at, pose_yaml(split.device.tool)));
-  result.notes.push_back(fmt::format(
-      "device.yaml is the model in the device's own frame, ending at {}; setup.yaml holds the "
-      "set-up: the device's frame at {} in the measurement frame, the measured point at ({:.2f}, "
-      "{:.2f}, {:.2f}) mm in the last link's frame",
-      ends_at, pose_words(frame), split.measured_tool[0] * 1e3, split.measured_tool[1] * 1e3,
-      split.measured_tool[2] * 1e3));
+  return false;
+}
+
+std::string setup_yaml(const DeviceFrameOutputs& d) {
+  return fmt::format(
+      "# What this calibration found of the set-up, not of the device.\n"
+      "# device.yaml is the device's model in its own frame (its base and joint 1's\n"
+      "# placement as the nominal model gives them); calibrated.yaml is the same\n"
+      "# model in the measurement frame, the frame of the log's measurements.\n"
+      "format: hapticcal-setup/1\n"
+      "device: {}\n"
+      "# The device's frame in the measurement frame [m, rad]: a point p of the\n"
+      "# device's frame is R(rpy) p + xyz in the measurement frame.\n"
+      "device_frame: {}\n"
+      "# The point (and frame) the instrument measured, in the last link's frame.\n"
+      "measured_tool: {}\n"
+      "# device.yaml's tool, in the last link's frame: {}.\n"
+      "tool: {}\n",
+      d.split.device.name.empty() ? "unnamed" : d.split.device.name,
+      pose_yaml(pose_of(d.split.device_in_measurement)), pose_yaml(d.split.measured_tool),
+      d.ends_at, pose_yaml(d.split.device.tool));
 }
 
 // calibrated.yaml, and for a URDF model calibrated.urdf (its notes into
-// result); a tree's calibrated.urdf alone.
+// result); a chain's device.yaml and setup.yaml; a tree's calibrated.urdf
+// alone.
 void write_models(const std::string& dir, CalibrationResult& result, const DeviceModel& nominal,
                   const CalibrationSource& source) {
   if (result.calibrated.tree()) {
@@ -103,14 +92,53 @@ void write_models(const std::string& dir, CalibrationResult& result, const Devic
     return;
   }
   save_device(result.calibrated, dir + "/calibrated.yaml");
-  write_device_frame(dir, result, nominal, source);
+  const DeviceFrameOutputs d = device_frame_outputs(result, nominal, source);
+  add_device_frame_notes(result, d, !source.urdf_text.empty());
+  save_device(d.split.device, dir + "/device.yaml");
+  write_file_atomically(dir + "/setup.yaml", setup_yaml(d));
   if (source.urdf_text.empty()) return;
   write_file_atomically(dir + "/calibrated.urdf",
                         calibrated_urdf(source.urdf_text, source.model_path, source.tip,
-                                        source.root, result.calibrated, &result.notes));
+                                        source.root, d.written, &result.notes));
 }
 
 }  // namespace
+
+DeviceFrameOutputs device_frame_outputs(const CalibrationResult& result, const DeviceModel& nominal,
+                                        const CalibrationSource& source) {
+  DeviceFrameOutputs d;
+  d.written = result.calibrated;
+  if (!tool_orientation_seen(result)) d.turn = move_last_turn_into_tool(d.written, nominal);
+  std::optional<std::array<double, 6>> tool;
+  d.ends_at = "the point the instrument measured (the calibrated tool)";
+  if (source.nominal_tool) {
+    tool = nominal.tool;
+    d.ends_at = "the device file's tool";
+  } else if (source.tool_point) {
+    tool = d.written.tool;
+    for (int k = 0; k < 3; ++k) (*tool)[k] = (*source.tool_point)[k];
+    d.ends_at = "the tool point given";
+  }
+  d.split = split_device_frame(d.written, nominal, tool);
+  return d;
+}
+
+void add_device_frame_notes(CalibrationResult& result, const DeviceFrameOutputs& d, bool urdf) {
+  if (std::abs(d.turn) > 1e-6) {
+    result.notes.push_back(fmt::format(
+        "{} joint {}'s zero at nominal: the measurements do not see the tool's orientation, so "
+        "the calibrated turn of its zero about its axis ({:.2f} deg) and the tool point's "
+        "direction about that axis are one unknown, written as the tool's",
+        urdf ? "calibrated.urdf and device.yaml keep" : "device.yaml keeps",
+        d.written.links.back().name, d.turn * 180 / std::numbers::pi));
+  }
+  result.notes.push_back(fmt::format(
+      "device.yaml is the model in the device's own frame, ending at {}; setup.yaml holds the "
+      "set-up: the device's frame at {} in the measurement frame, the measured point at ({:.2f}, "
+      "{:.2f}, {:.2f}) mm in the last link's frame",
+      d.ends_at, pose_words(pose_of(d.split.device_in_measurement)), d.split.measured_tool[0] * 1e3,
+      d.split.measured_tool[1] * 1e3, d.split.measured_tool[2] * 1e3));
+}
 
 CalibrationOutputs write_calibration_outputs(OutputSet& out, CalibrationResult& result,
                                              const DeviceModel& nominal, const Log& log,

@@ -22,17 +22,20 @@ using detail::transmission_figures;
 
 std::string f4(double v) { return fmt::format("{:.4f}", v); }
 
-std::string parameter_table(const KinematicFit& k) {
+// The terminal's table (calibration_lines): nominal and identified in mm or
+// deg, deviation and sd in mm or mrad (detail::parameter_units).
+std::string parameter_table(const KinematicFit& k, const DeviceModel& nominal) {
   std::vector<std::vector<std::string>> rows;
   for (const ParameterEstimate& e : k.parameters) {
     if (!e.identifiable) continue;
-    const DisplayUnit u = display_unit(e.unit);
-    rows.push_back({e.name, f4(e.nominal * u.scale), f4(e.value * u.scale),
-                    f4((e.value - e.nominal) * u.scale), f4(e.sd * u.scale), u.unit,
+    const detail::ParameterUnits u = detail::parameter_units(e, nominal);
+    rows.push_back({e.name, f4(e.nominal * u.value.scale), f4(e.value * u.value.scale),
+                    u.value.unit, f4((e.value - e.nominal) * u.change.scale),
+                    f4(e.sd * u.change.scale), u.change.unit,
                     fmt::format("{:.3f}", e.max_correlation), e.max_correlation_with});
   }
   return "<h2>Identified kinematic parameters</h2>\n" +
-         html_table({"parameter", "nominal", "identified", "deviation", "sd", "unit",
+         html_table({"parameter", "nominal", "identified", "unit", "deviation", "sd", "unit",
                      "largest correlation", "with"},
                     rows);
 }
@@ -274,11 +277,10 @@ Outcome calibration_outcome(const CalibrationResult& result, const DeviceModel& 
   }
   for (const ParameterEstimate& e : k.parameters) {
     if (!e.large_change) continue;
-    const DisplayUnit u = display_unit(e.unit);
     o.notes.push_back(fmt::format(
-        "warning: {} moved {:.4g} {} from nominal (flagged beyond {} mm / {} mrad): plausible for "
+        "warning: {} moved {} from nominal (flagged beyond {} mm / {} mrad): plausible for "
         "a base pose measured in an unknown frame; for a link, check the model and the log",
-        e.name, (e.value - e.nominal) * u.scale, u.unit, kLargeChangeLength * 1e3,
+        e.name, detail::change_text(e.value - e.nominal, e.unit), kLargeChangeLength * 1e3,
         kLargeChangeAngle * 1e3));
   }
   for (const std::string& line : suspect_lines(k)) o.notes.push_back(line);
@@ -420,7 +422,7 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
       k.rank_deficient ? " <b>Rank-deficient: see the held parameters.</b>" : ""));
   transmission_section(result, nominal, report);
   if (!k.robust.outliers.empty()) report.sections.push_back(outlier_table(k.robust));
-  report.sections.push_back(parameter_table(k));
+  report.sections.push_back(parameter_table(k, nominal));
   report.sections.push_back(held_table(k));
   selection_section(k, report);
   search_section(k.search, report);
@@ -445,6 +447,26 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
                    after = evaluate(result.calibrated, corrected, point_distances, known_points);
   report.figures.push_back(errors_per_sample(k, log, before, after));
   if (k.correlation.size() > 0) report.figures.push_back(detail::correlation_figure(k));
+  // Where the calibration's poses were: their tool points through the calibrated model
+  // (a quarter of the other figures' points: each is drawn twice, in 3-D).
+  std::vector<int> pose_rows;
+  const size_t stride = detail::plot_stride(4 * result.rows.size());
+  for (size_t i = 0; i < result.rows.size(); i += stride) pose_rows.push_back(result.rows[i]);
+  Eigen::MatrixXd readings(static_cast<Eigen::Index>(pose_rows.size()), log.q.cols());
+  for (size_t i = 0; i < pose_rows.size(); ++i)
+    readings.row(static_cast<Eigen::Index>(i)) = log.q.row(pose_rows[i]);
+  if (readings.rows() > 0 && readings.cols() == result.calibrated.dof()) {
+    report.figures.push_back(detail::poses_figure(
+        result.calibrated, readings,
+        fmt::format("The {} calibration poses in the workspace: the tool point{} through the "
+                    "calibrated model, in the {} frame{}",
+                    k.poses, nominal.tree() ? "s (every tip)" : "",
+                    traits(k.type).fixture ? "model's base" : "measurement",
+                    readings.rows() < static_cast<Eigen::Index>(result.rows.size())
+                        ? fmt::format(" ({} of {} rows shown)", readings.rows(), result.rows.size())
+                        : ""),
+        "tool point of a pose", false));
+  }
   // The summary the terminal printed, from the same function (calibration_lines).
   report.sections.push_back(terminal_section(result, nominal));
   return report;

@@ -4,6 +4,7 @@
 
 #include "hapticcal/design/plan.hpp"
 #include "hapticcal/report/report.hpp"
+#include "report/report_parts.hpp"
 
 namespace hapticcal {
 namespace {
@@ -102,6 +103,13 @@ Report plan_report(const PlanProblem& problem, const Plan& plan) {
   f.x_max = static_cast<double>(plotted_names.size()) - 0.5;
   use_log_y(f, 8);
   report.figures.push_back(f);
+  // Where the planned poses are, in the order of the path plan.csv lists.
+  report.figures.push_back(detail::poses_figure(
+      problem.model(), plan.readings,
+      fmt::format("The {} planned poses in the workspace: the tool point{} through the nominal "
+                  "model, joined in the order of plan.csv",
+                  plan.readings.rows(), problem.model().tree() ? "s (every tip)" : ""),
+      "tool point of a planned pose", true));
   return report;
 }
 

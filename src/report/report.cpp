@@ -57,6 +57,27 @@ std::string line_style(const Series& s) {
   return out;
 }
 
+// The plot of a 3-D figure (a series with a z column): the axes to one scale
+// (`view equal xyz`), the floor at the axis' lower limit, seen from above at an
+// angle (FigureSpec::extra may enlarge it: `set view 60, 30, SCALE`).
+std::string script_3d(const FigureSpec& f, const std::string& data) {
+  std::string s = fmt::format("set zlabel {} noenhanced rotate parallel\n", quote(f.zlabel));
+  s += "set view 60, 30\nset view equal xyz\nset ticslevel 0\n";
+  if (!std::isnan(f.x_min) || !std::isnan(f.x_max))
+    s += fmt::format("set xrange {}\n", range(f.x_min, f.x_max));
+  if (!std::isnan(f.y_min) || !std::isnan(f.y_max))
+    s += fmt::format("set yrange {}\n", range(f.y_min, f.y_max));
+  s += f.extra + "\n";
+  std::string plots;
+  for (const Series& ser : f.series) {
+    const std::string x = ser.x < 0 ? "0" : fmt::format("{}", ser.x + 2);
+    plots += fmt::format("{}{} using {}:{}:{} with {}{} {}", plots.empty() ? "" : ", ", quote(data),
+                         x, ser.y + 2, ser.z + 2, ser.style, line_style(ser),
+                         ser.label.empty() ? "notitle" : "title " + quote(ser.label));
+  }
+  return s + "splot " + plots + "\n";
+}
+
 // The gnuplot commands of one figure for a terminal. `data` names the data file
 // relative to the figures folder (gnuplot runs there). The output file is the
 // variable `output_var`, defaulting to `output`: write_report sets it to a
@@ -86,6 +107,9 @@ std::string script(const FigureSpec& f, const std::string& data, const std::stri
     return s;
   }
   s += "set grid\nset key below horizontal noenhanced\n";
+  const bool three_d =
+      std::any_of(f.series.begin(), f.series.end(), [](const Series& ser) { return ser.z >= 0; });
+  if (three_d) return s + script_3d(f, data);
   // Autoscaled axes get a margin so that points on the frame show; never below
   // a fixed lower limit (a quantity that cannot be negative keeps y >= 0).
   const bool y_fixed_low = f.log_y || !std::isnan(f.y_min);
@@ -266,8 +290,12 @@ int write_report(const Report& report, const std::string& dir, std::string& note
         if (!run.error.empty()) {
           note = fmt::format("figure {} failed: {}", f.name, run.error);
         } else if (fs::exists(log, ec)) {
-          note = fmt::format("figure {} failed: gnuplot exit status {}, see {}", f.name,
-                             run.exit_code, log.string());
+          // Named within the output folder: `dir` is the staging folder a
+          // command writes into, renamed to --out (OutputSet) once it is done.
+          note = fmt::format(
+              "figure {} failed: gnuplot exit status {}, see figures/{} beside "
+              "report.html",
+              f.name, run.exit_code, log.filename().string());
         } else {
           note = fmt::format("figure {} failed: gnuplot exit status {}", f.name, run.exit_code);
         }

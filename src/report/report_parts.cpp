@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "hapticcal/kinematics/kinematics.hpp"
+
 namespace hapticcal::detail {
 
 void transmission_figures(const TransmissionFit& t, const std::string& link, const Log& log,
@@ -42,6 +44,53 @@ void transmission_figures(const TransmissionFit& t, const std::string& link, con
   figures.push_back(res);
 }
 
+FigureSpec poses_figure(const DeviceModel& model, const Eigen::MatrixXd& readings,
+                        const std::string& title, const std::string& label, bool path) {
+  const PreparedModel prepared(model);
+  std::vector<double> x, y, z;
+  for (Eigen::Index r = 0; r < readings.rows(); ++r) {
+    const Eigen::VectorXd q = readings.row(r).transpose();
+    for (int tip = 0; tip < prepared.tips(); ++tip) {
+      const Frame<double> T = prepared.forward(q.data(), tip);
+      if (!T.p.allFinite()) continue;
+      x.push_back(T.p.x() * 1e3);
+      y.push_back(T.p.y() * 1e3);
+      z.push_back(T.p.z() * 1e3);
+    }
+  }
+  // The floor below the lowest point, a whole mm: the shadows' z is exactly the
+  // axis' lower limit (a rounded limit above them would drop every shadow).
+  const auto [low, high] = std::minmax_element(z.begin(), z.end());
+  const double floor = z.empty() ? 0 : std::floor(*low - 0.05 * std::max(*high - *low, 1.0));
+  FigureSpec f =
+      figure("poses", title, "x [mm]", "y [mm]", {x, y, z, std::vector<double>(z.size(), floor)});
+  f.zlabel = "z [mm]";
+  f.series.push_back({"projection on the floor", 0, 1, "points", -1, "gray75", 0, 0, 7});
+  f.series.back().z = 3;
+  if (path) {
+    f.series.push_back({"path order", 0, 1, "lines", -1, "gray60", 0, 0.75, 0});
+    f.series.back().z = 2;
+  }
+  f.series.push_back({label, 0, 1, "points", -1, "#0072b2", 0, 1.5, 7});
+  f.series.back().z = 2;
+  // gnuplot fits any box in the canvas at scale 1, which leaves a flat
+  // workspace small on a wide figure: enlarged as far as the box's projected
+  // height allows (view 60, 30; axes to one scale, the longest spanning 2).
+  double scale = 1;
+  if (!x.empty()) {
+    const auto [x0, x1] = std::minmax_element(x.begin(), x.end());
+    const auto [y0, y1] = std::minmax_element(y.begin(), y.end());
+    const double hx = (*x1 - *x0) / 2, hy = (*y1 - *y0) / 2, hz = (*high - floor) / 2;
+    const double longest = std::max({hx, hy, hz, 1e-9});
+    const double height =
+        0.5 * (hx * 0.5 + hy * std::sqrt(0.75)) / longest + std::sqrt(0.75) * hz / longest;
+    scale = std::clamp(1.3 / height, 1.0, 1.5);
+  }
+  f.extra = fmt::format("set view 60, 30, {:.2f}\nset zrange [{:.0f}:*]\nset pointsize 0.6", scale,
+                        floor);
+  return f;
+}
+
 std::string held_table(const KinematicFit& k) {
   std::vector<std::vector<std::string>> rows;
   for (const ParameterEstimate& e : k.parameters) {
@@ -49,6 +98,25 @@ std::string held_table(const KinematicFit& k) {
   }
   return "<h2>Held at nominal (identifiability analysis and model selection)</h2>\n" +
          html_table({"parameter", "why"}, rows);
+}
+
+ParameterUnits parameter_units(const ParameterEstimate& e, const DeviceModel& nominal) {
+  const DisplayUnit small = display_unit(e.unit);
+  if (e.unit != ParameterUnit::kAngle) return {small, small};
+  const std::vector<ParameterInfo> info = nominal.parameter_info();
+  const bool pose =
+      e.slot >= 0 && e.slot < static_cast<int>(info.size()) && info[e.slot].name == e.name &&
+      (info[e.slot].block == ParameterBlock::kBase || info[e.slot].block == ParameterBlock::kLink ||
+       info[e.slot].block == ParameterBlock::kTool);
+  if (!pose) return {small, small};
+  return {{180 / M_PI, "deg"}, small};
+}
+
+std::string change_text(double change, ParameterUnit unit) {
+  if (unit == ParameterUnit::kAngle && std::abs(change) >= 0.1)
+    return fmt::format("{:.4g} deg", change * 180 / M_PI);
+  const DisplayUnit u = display_unit(unit);
+  return fmt::format("{:.4g} {}", change * u.scale, u.unit);
 }
 
 }  // namespace hapticcal::detail

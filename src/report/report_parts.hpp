@@ -51,7 +51,28 @@ void transmission_figures(const TransmissionFit& t, const std::string& link, con
                           const std::vector<int>& rows, const Transmission& fitted,
                           const Transmission* truth, std::vector<FigureSpec>& figures);
 
+// The poses in the workspace: the tool point (every tip's, of a tree) of each
+// row of `readings` (poses x dof) through `model`, in mm in its base frame (the
+// measurement frame), as a 3-D figure named "poses", each point's shadow on the
+// floor in grey; `path`: the points joined in their order (a plan's path).
+FigureSpec poses_figure(const DeviceModel& model, const Eigen::MatrixXd& readings,
+                        const std::string& title, const std::string& label, bool path);
+
 // The parameters held at nominal, with why.
 std::string held_table(const KinematicFit& k);
+
+// How the terminal's and the reports' tables print a kinematic parameter: the
+// angles of a pose (a joint's offset or twist, the base's or the tool's roll,
+// pitch, yaw) in deg as values (-90.0000 deg, not -1570.7963 mrad), their
+// changes and sd in mrad; lengths in mm throughout; a joint-error family's or
+// an instrument's terms (small by nature) as display_unit gives them.
+struct ParameterUnits {
+  DisplayUnit value;   // nominal and identified
+  DisplayUnit change;  // deviation and sd
+};
+ParameterUnits parameter_units(const ParameterEstimate& e, const DeviceModel& nominal);
+// A change of a kinematic parameter in words: "1.234 mm", "12.34 mrad", or for
+// an angle of 0.1 rad or more "5.73 deg" (a pose's turn, not a small error).
+std::string change_text(double change, ParameterUnit unit);
 
 }  // namespace hapticcal::detail

@@ -109,7 +109,7 @@ nlohmann::ordered_json outliers_json(const RobustFit& robust) {
   return outliers;
 }
 
-// The model search (README "Model search"): every candidate compared, SI.
+// The model search (docs/calibrate.md, "The model search"): every candidate compared, SI.
 nlohmann::ordered_json search_json(const ModelSearch& s) {
   using json = nlohmann::ordered_json;
   json candidates = json::array();
@@ -140,8 +140,7 @@ nlohmann::ordered_json search_json(const ModelSearch& s) {
           {"candidates", candidates}};
 }
 
-// The checks of a fit: suspect, what the joint-error families bought (README
-// "Joint errors in step 2"), the model search (README "Model search").
+// The checks of a fit: suspect, what the joint-error families bought (docs/joint-errors.md), the model search (docs/calibrate.md, "The model search").
 void checks_json(const KinematicFit& k, const CalibrationOptions& options,
                  nlohmann::ordered_json& j) {
   using json = nlohmann::ordered_json;

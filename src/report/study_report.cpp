@@ -22,6 +22,13 @@ using detail::order_by;
 using detail::transmission_figures;
 using detail::truth_line;
 
+// What a study's report shows beyond what every study has. The first trial's
+// step 1 ran (its log has external encoders): sigma_e applies.
+bool step_one_ran(const TrialResult& t) { return !t.full.transmissions.empty(); }
+// Why a parameter has no RMSE / CRLB ("n/a" in the tables).
+constexpr const char* kNoBound =
+    "n/a: no Cramer-Rao bound (the trials' information about the parameter is singular)";
+
 // simulate's outcome: the validation and trajectory errors before and after,
 // the Monte Carlo summary, and why a distance measurement leaves the position
 // error where it is.
@@ -31,39 +38,49 @@ Outcome study_outcome(const Scenario& sc, const StudyResult& r) {
   o.usable = t.full.status == CalibrationStatus::kConverged;
   o.status = fmt::format("{} trial(s), seed {}; the first trial's calibration: {}", r.trials,
                          sc.seed, to_string(t.full.status));
-  std::string validation = fmt::format(
-      "validation ({} poses): position RMS {:.4f} -> {:.4f} mm, orientation RMS {:.4f} -> "
-      "{:.4f} mrad",
-      sc.validation_poses, t.position_rms_before * 1e3, t.position_rms_after * 1e3,
-      t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
-  if (traits(sc.measurement).distance_column) {
+  std::string validation =
+      fmt::format("validation ({} poses): position RMS {:.4f} -> {:.4f} mm", sc.validation_poses,
+                  t.position_rms_before * 1e3, t.position_rms_after * 1e3);
+  if (shows_orientation(sc)) {
+    validation += fmt::format(", orientation RMS {:.4f} -> {:.4f} mrad",
+                              t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
+  }
+  if (measures_distance(sc.measurement)) {
     validation += fmt::format(", distance RMS {:.4f} -> {:.4f} mm", t.distance_rms_before * 1e3,
                               t.distance_rms_after * 1e3);
   }
   o.headline.push_back(validation);
-  o.headline.push_back(fmt::format(
-      "trajectory ({:.0f} s at {:.0f} Hz): distance RMS {:.4f} mm nominal, {:.4f} mm full "
-      "calibration ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %){}",
-      sc.trajectory_seconds, sc.trajectory_rate_hz, t.trajectory_rms_before * 1e3,
-      t.trajectory_rms_full * 1e3,
-      rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
-      t.trajectory_rms_kinematic * 1e3,
-      rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before),
-      sc.paper_comparison()
-          ? fmt::format("; the paper measured {:.1f} % and {:.1f} %", kPaperImprovementFullPct,
-                        kPaperImprovementKinematicOnlyPct)
-          : ""));
+  if (shows_trajectory(sc, t)) {
+    o.headline.push_back(fmt::format(
+        "trajectory ({:.0f} s at {:.0f} Hz): distance RMS {:.4f} mm nominal, {:.4f} mm full "
+        "calibration ({:.1f} %), {:.4f} mm kinematic-only ({:.1f} %){}",
+        sc.trajectory_seconds, sc.trajectory_rate_hz, t.trajectory_rms_before * 1e3,
+        t.trajectory_rms_full * 1e3,
+        rms_improvement_pct(t.trajectory_rms_full, t.trajectory_rms_before),
+        t.trajectory_rms_kinematic * 1e3,
+        rms_improvement_pct(t.trajectory_rms_kinematic, t.trajectory_rms_before),
+        sc.paper_comparison()
+            ? fmt::format("; the paper measured {:.1f} % and {:.1f} %", kPaperImprovementFullPct,
+                          kPaperImprovementKinematicOnlyPct)
+            : ""));
+  }
   if (r.trials > 1 && !r.monte_carlo.empty()) {
     std::vector<double> e;
     for (const auto& [name, m] : r.monte_carlo) {
       if (std::isfinite(m.efficiency)) e.push_back(m.efficiency);
     }
     std::sort(e.begin(), e.end());
+    const size_t missing = r.monte_carlo.size() - e.size();
+    const std::string without =
+        missing > 0 ? fmt::format("; {} parameter(s) {}", missing, kNoBound) : std::string();
     if (!e.empty()) {
       o.headline.push_back(fmt::format(
           "Monte Carlo over {} trials: RMSE / CRLB median {:.3f} over {} parameters (range "
-          "{:.3f} - {:.3f}); 1 is an efficient estimator",
-          r.trials, e[e.size() / 2], e.size(), e.front(), e.back()));
+          "{:.3f} - {:.3f}); 1 is an efficient estimator{}",
+          r.trials, e[e.size() / 2], e.size(), e.front(), e.back(), without));
+    } else {
+      o.headline.push_back(
+          fmt::format("Monte Carlo over {} trials: RMSE / CRLB {}", r.trials, kNoBound));
     }
   }
   std::string unseen;  // held because the measurement cannot see them at all
@@ -71,7 +88,7 @@ Outcome study_outcome(const Scenario& sc, const StudyResult& r) {
     if (!e.identifiable && e.reason.starts_with("no effect"))
       unseen += (unseen.empty() ? "" : ", ") + e.name;
   }
-  if (traits(sc.measurement).distance_column && !unseen.empty()) {
+  if (measures_distance(sc.measurement) && !unseen.empty()) {
     o.notes.push_back(fmt::format(
         "A distance from a fixed anchor does not change when the device turns about the anchor, "
         "nor with the tool's orientation: {} have no effect on it and stay at nominal, so the "
@@ -91,11 +108,17 @@ void parameter_tables(const Scenario& sc, const StudyResult& r, Report& report) 
     const auto p = paper_improvement_pct(name);
     return p ? fmt::format("{:.2f}", *p) : std::string("-");
   };
+  // The Monte Carlo columns: of a study of several trials only.
+  const bool monte_carlo = r.trials > 1;
+  bool unbounded = false;  // a parameter without RMSE / CRLB: "n/a", and why under the table
   auto mc = [&](const std::string& name, bool efficiency) {
     const auto it = r.monte_carlo.find(name);
-    if (r.trials < 2 || it == r.monte_carlo.end()) return std::string("-");
-    return fmt::format("{:.3f}",
-                       efficiency ? it->second.efficiency : it->second.mean_improvement_pct);
+    if (it == r.monte_carlo.end()) return std::string("-");  // identified in no trial
+    const double v = efficiency ? it->second.efficiency : it->second.mean_improvement_pct;
+    if (std::isfinite(v)) return fmt::format("{:.3f}", v);
+    if (!efficiency) return std::string("-");  // I % of a parameter without deviation
+    unbounded = true;
+    return std::string("n/a");
   };
   for (const StudyRow& row : study_rows(sc, t.full)) {
     if (!row.held.empty()) continue;
@@ -109,8 +132,10 @@ void parameter_tables(const Scenario& sc, const StudyResult& r, Report& report) 
     };
     std::vector<std::string> cells = {row.name, value(row.assigned), value(row.identified), ip};
     if (paper_study) cells.push_back(paper(row.name));  // the paper's columns: its study only
-    cells.push_back(mc(row.name, false));
-    cells.push_back(mc(row.name, true));
+    if (monte_carlo) {
+      cells.push_back(mc(row.name, false));
+      cells.push_back(mc(row.name, true));
+    }
     cells.push_back(row.paper_unit.empty() ? "-" : row.paper_unit);
     (row.capstan ? t2 : t3).push_back(cells);
   }
@@ -118,7 +143,8 @@ void parameter_tables(const Scenario& sc, const StudyResult& r, Report& report) 
     std::vector<std::string> h = {"parameter", deviations ? "assigned deviation" : "assigned",
                                   deviations ? "identified deviation" : "identified", "I %"};
     if (paper_study) h.push_back("paper I %");
-    h.insert(h.end(), {"mean I %", "RMSE / CRLB", "unit"});
+    if (monte_carlo) h.insert(h.end(), {"mean I %", "RMSE / CRLB"});
+    h.push_back("unit");
     return h;
   };
   if (!t2.empty()) {
@@ -133,6 +159,15 @@ void parameter_tables(const Scenario& sc, const StudyResult& r, Report& report) 
            : "<h2>Kinematic deviations from nominal (assigned = truth - nominal): assigned and "
              "identified</h2>\n") +
       html_table(header(true), t3));
+  std::string notes;
+  if (unbounded) notes += fmt::format("RMSE / CRLB {}. ", kNoBound);
+  if (monte_carlo && !sc.keep_all) {
+    notes +=
+        "The trials calibrate as an owner would, with the model search (calibration: keep_all: "
+        "false): a parameter it holds at nominal in some trials is estimated with a bias, so its "
+        "RMSE / CRLB (the bound of the unbiased full model) may fall below 1.";
+  }
+  if (!notes.empty()) report.sections.push_back("<p>" + html_escape(notes) + "</p>\n");
 }
 
 // Fig. 7: the parallelogram joint's error.
@@ -165,21 +200,29 @@ std::vector<double> scaled(std::vector<double> x) {
   return x;
 }
 
-// Fig. 8: validation errors per pose.
-void fig8_figures(const TrialResult& t, Report& report) {
+// Fig. 8: validation errors per pose; orientation errors where the
+// measurement has them (shows_orientation).
+void fig8_figures(const Scenario& sc, const TrialResult& t, Report& report) {
   const auto& v = t.figures.fig8;
-  FigureSpec fig8p = figure("fig8_position", "Fig. 8: position error per validation pose", "pose",
-                            "position error [mm]", {v[0], scaled(v[1]), scaled(v[2])});
+  // The paper's figure number in the paper's study only.
+  const bool paper = sc.paper_comparison();
+  FigureSpec fig8p = figure("fig8_position",
+                            fmt::format("{}osition error per validation pose (against the truth)",
+                                        paper ? "Fig. 8: p" : "P"),
+                            "pose", "position error [mm]", {v[0], scaled(v[1]), scaled(v[2])});
   // Errors are norms, before and after orders of magnitude apart: a log axis.
   fig8p.series = {detail::before_series("before calibration", 0, 1, "linespoints"),
                   detail::after_series("after calibration", 0, 2, "linespoints")};
   use_log_y(fig8p);
-  FigureSpec fig8o = figure("fig8_orientation", "Fig. 8: orientation error per validation pose",
-                            "pose", "orientation error [mrad]", {v[0], scaled(v[3]), scaled(v[4])});
+  FigureSpec fig8o =
+      figure("fig8_orientation",
+             fmt::format("{}rientation error per validation pose (against the truth)",
+                         paper ? "Fig. 8: o" : "O"),
+             "pose", "orientation error [mrad]", {v[0], scaled(v[3]), scaled(v[4])});
   fig8o.series = fig8p.series;
   use_log_y(fig8o);
   report.figures.push_back(fig8p);
-  report.figures.push_back(fig8o);
+  if (shows_orientation(sc)) report.figures.push_back(fig8o);
 }
 
 // Fig. 9-like: every joint's transmission fit but the polynomial one's, which
@@ -218,20 +261,26 @@ void fig10_figures(const TrialResult& t, Report& report) {
 }
 
 // Monte Carlo: the I % spread and RMSE / CRLB per parameter.
-void monte_carlo_figures(const StudyResult& r, Report& report) {
-  std::vector<std::string> names;
+void monte_carlo_figures(const Scenario& sc, const StudyResult& r, Report& report) {
+  std::vector<std::string> names, bounded;
   std::vector<double> mean, half, efficiency;
   for (const auto& [name, m] : r.monte_carlo) {
     names.push_back(name);
     mean.push_back((m.improvement_p05 + m.improvement_p95) / 2);
     half.push_back((m.improvement_p95 - m.improvement_p05) / 2);
+    // RMSE / CRLB of the parameters with a bound only: no point at a fake 0.
+    if (!std::isfinite(m.efficiency)) continue;
+    bounded.push_back(name);
     efficiency.push_back(m.efficiency);
   }
   const double n = static_cast<double>(names.size());
   FigureSpec spread =
       figure("monte_carlo_improvement",
              fmt::format("I % over {} trials: 5th to 95th percentile per parameter", r.trials),
-             "parameter", "I [%] (paper eq. 8)", {mean, half});
+             "parameter",
+             sc.paper_comparison() ? "I [%] (paper eq. 8)"
+                                   : "I [%] = 100 (1 - |identified - truth| / |nominal - truth|)",
+             {mean, half});
   spread.xtics = names;
   spread.series = {{"5-95 % of trials", -1, 0, "yerrorbars", 1, "#0072b2", 0, 1.5, 7}};
   // Every bar inside the frame, with a margin.
@@ -250,24 +299,34 @@ void monte_carlo_figures(const StudyResult& r, Report& report) {
   const double trials = r.trials;
   const double band_lo = std::sqrt(chi_square_quantile(0.05, trials) / trials);
   const double band_hi = std::sqrt(chi_square_quantile(0.95, trials) / trials);
+  report.figures.push_back(spread);
+  if (bounded.empty()) return;
+  const double m_bounded = static_cast<double>(bounded.size());
   FigureSpec eff =
       figure("monte_carlo_efficiency", fmt::format("RMSE / CRLB over {} trials", r.trials),
              "parameter", "RMSE / CRLB [-]",
-             {efficiency, std::vector<double>(names.size(), band_lo),
-              std::vector<double>(names.size(), band_hi)});
-  eff.xtics = names;
+             {efficiency, std::vector<double>(bounded.size(), band_lo),
+              std::vector<double>(bounded.size(), band_hi)});
+  eff.xtics = bounded;
   eff.series = {{"RMSE / CRLB", -1, 0, "points", -1, "#0072b2", 0, 1.5, 7},
                 {fmt::format("5-95 % for {} trials if efficient", r.trials), -1, 1, "lines", -1,
                  "gray40", 2, 1.5, 0},
                 {"", -1, 2, "lines", -1, "gray40", 2, 1.5, 0}};
   eff.x_min = -0.5;
-  eff.x_max = n - 0.5;
+  eff.x_max = m_bounded - 0.5;
   eff.y_min = 0;
-  report.figures.push_back(spread);
   report.figures.push_back(eff);
 }
 
 }  // namespace
+
+bool shows_orientation(const Scenario& sc) {
+  return measures_orientation(sc.measurement) || sc.paper_comparison();
+}
+
+bool shows_trajectory(const Scenario& sc, const TrialResult& t) {
+  return sc.paper_comparison() || (measures_distance(sc.measurement) && step_one_ran(t));
+}
 
 Report study_report(const Scenario& sc, const StudyResult& r) {
   const TrialResult& t = r.first;
@@ -278,11 +337,17 @@ Report study_report(const Scenario& sc, const StudyResult& r) {
                      : fmt::format("hapticcal simulate: {} measured by {}", sc.nominal.name,
                                    traits(sc.measurement).plural);
   // The set-up; the validation and trajectory errors are in the outcome block.
+  // sigma_e: the external encoders' noise, where the log has them (step 1 ran).
   report.sections.push_back(fmt::format(
-      "<p>{} trial(s), seed {}; {} identification and {} validation poses; sigma_e {:.4g} rad, "
-      "sigma_m {:.4g} m ({}).{}</p>\n",
-      r.trials, sc.seed, sc.identification_poses, sc.validation_poses, sc.noise.sigma_ext,
+      "<p>{} trial(s), seed {}; {} identification and {} validation poses; {}sigma_m {:.4g} m "
+      "({}){}.{}</p>\n",
+      r.trials, sc.seed, sc.identification_poses, sc.validation_poses,
+      paper_study || step_one_ran(t) ? fmt::format("sigma_e {:.4g} rad, ", sc.noise.sigma_ext)
+                                     : std::string(),
       measurement_sigma(sc), sc.sigma_m_formula,
+      measures_orientation(sc.measurement)
+          ? fmt::format(", sigma_r {:.4g} rad", sc.noise.sigma_orientation)
+          : std::string(),
       paper_study ? std::string()
                   : fmt::format(" Truth: {} transmissions, {} kinematics.",
                                 sc.paper_transmissions ? "the paper's" : "the device's own",
@@ -292,10 +357,10 @@ Report study_report(const Scenario& sc, const StudyResult& r) {
   report.outcome = study_outcome(sc, r);
 
   fig7_figures(sc, t, report);
-  fig8_figures(t, report);
+  fig8_figures(sc, t, report);
   transmission_fit_figures(sc, t, report);
-  fig10_figures(t, report);
-  if (r.trials > 1) monte_carlo_figures(r, report);
+  if (shows_trajectory(sc, t)) fig10_figures(t, report);
+  if (r.trials > 1) monte_carlo_figures(sc, r, report);
   return report;
 }
 

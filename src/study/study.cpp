@@ -23,6 +23,7 @@
 #include "hapticcal/model_io/device.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/study/evaluate.hpp"
+#include "identification/stack.hpp"
 #include "study/simulated_limits.hpp"
 
 namespace hapticcal {
@@ -47,9 +48,48 @@ Eigen::VectorXd readings(const Log& log, int r) { return log.q.row(r).transpose(
 // distances, J_k^T J_k / sigma_m^2, plus the step-1 bounds carried in through the
 // compensated angles: d kin = G d trans with G = -(J_k^T J_k)^-1 J_k^T J_t, J_t
 // the distances' sensitivity to the transmission parameters.
+// A fixture's (points or planes, no external encoders): sigma^2 (J^T J)^-1 of
+// the fit's own rows at the truth, the unknown sockets or planes projected out
+// and a given distance's row included, as the fit weighs them
+// (tests/fixture_test's two_socket_study), over the parameters this trial's
+// calibration identified.
+std::map<std::string, double> fixture_crlb(const Scenario& sc, const Log& ident,
+                                           const CalibrationResult& full,
+                                           const CalibrationOptions& options) {
+  const KinematicProblem problem = kinematic_problem(sc.actual, ident, {}, options);
+  const Eigen::VectorXd p = sc.actual.kinematic_parameters();
+  std::vector<int> slots;
+  std::vector<std::string> names;
+  for (const ParameterEstimate& e : full.kinematics.parameters) {
+    if (!e.identifiable || e.slot >= p.size()) continue;  // the instrument's zero: none here
+    slots.push_back(e.slot);
+    names.push_back(e.name);
+  }
+  if (slots.empty()) return {};
+  const detail::Stack at =
+      detail::stack(sc.actual.structure(), p, problem.joints, detail::rows_of(problem),
+                    problem.measured, problem.weights);
+  Eigen::MatrixXd J(at.J.rows(), static_cast<Eigen::Index>(slots.size()));
+  for (size_t c = 0; c < slots.size(); ++c)
+    J.col(static_cast<Eigen::Index>(c)) = at.J.col(slots[c]);
+  const Eigen::MatrixXd information = J.transpose() * J;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(information);
+  if (ldlt.info() != Eigen::Success) return {};
+  const Eigen::MatrixXd covariance =
+      std::pow(measurement_sigma(sc), 2) *
+      ldlt.solve(Eigen::MatrixXd::Identity(information.rows(), information.cols()));
+  std::map<std::string, double> out;
+  for (size_t c = 0; c < names.size(); ++c) {
+    const double v = covariance(static_cast<Eigen::Index>(c), static_cast<Eigen::Index>(c));
+    if (std::isfinite(v) && v > 0) out[names[c]] = v;
+  }
+  return out;
+}
+
 std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
-                                   const CalibrationResult& full) {
-  if (is_fixture(sc.measurement)) return {};  // not derived for fixtures (tests/fixture_test)
+                                   const CalibrationResult& full,
+                                   const CalibrationOptions& options) {
+  if (is_fixture(sc.measurement)) return fixture_crlb(sc, ident, full, options);
   std::vector<int> slots;
   std::vector<std::string> names;
   for (const ParameterEstimate& e : full.kinematics.parameters) {
@@ -325,7 +365,7 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
   t.orientation_rms_after = rms_of_values(orientation_after);
   t.distance_rms_before = distance_rms(sc.nominal, val);
   t.distance_rms_after = distance_rms(t.full.calibrated, val);
-  t.crlb_variance = crlb(sc, ident, t.full);
+  t.crlb_variance = crlb(sc, ident, t.full, options);
   if (!files) return t;
 
   // Fig. 10: the continuous motion, and the series for the figures.
@@ -512,7 +552,8 @@ StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
     double var = 0;
     for (double v : variance[name]) var += v;
     m.crlb_sd = variance[name].empty() ? 0 : std::sqrt(var / variance[name].size());
-    m.efficiency = m.crlb_sd > 0 ? m.rmse / m.crlb_sd : 0;
+    // No bound (none derived for the parameter): no ratio, never a fake 0.
+    m.efficiency = m.crlb_sd > 0 ? m.rmse / m.crlb_sd : std::numeric_limits<double>::quiet_NaN();
     result.monte_carlo[name] = m;
   }
   result.first = std::move(trials[0]);

@@ -9,7 +9,7 @@ namespace hapticcal {
 // Writes text to path atomically (temporary file in the same directory, then
 // rename); creates missing parent directories.
 void write_file_atomically(const std::string& path, const std::string& text);
-// What an input file is, for its size limit (README "Bounded input"). Each
+// What an input file is, for its size limit (docs/development.md, "Bounded input"). Each
 // bound is far above any real file of the kind and keeps the parsers' memory
 // (a few tens of bytes per input byte) within a few hundred megabytes.
 enum class FileKind {

@@ -42,7 +42,7 @@ enum class CalibrationStatus {
 // "implausible".
 const char* to_string(CalibrationStatus status);
 
-// Step 1 cannot overfit (README "Step 1"): a model is fitted only with at least
+// Step 1 cannot overfit (docs/calibrate.md, "The procedure"): a model is fitted only with at least
 // this many samples a parameter (the encoder zero c counted), and among the
 // models the samples support (polynomials of order 1 up to the model's; a
 // capstan with both, one or no eccentric drum) the one of least generalised
@@ -160,7 +160,7 @@ const char* to_string(RobustLoss loss);
 // From its name; throws InputError for any other.
 RobustLoss robust_loss(const std::string& name);
 
-// A pose whose residual the outlier test rejects (README "Outliers and suspect fits").
+// A pose whose residual the outlier test rejects (docs/outliers.md).
 struct OutlierPose {
   int pose = 0;            // index in CalibrationResult::poses
   std::vector<int> lines;  // the log lines of its rows
@@ -206,10 +206,10 @@ struct SuspectFit {
 // or markers in another order) give 29-200.
 constexpr double kWorseThanNominalRatio = 1.5;
 // A training RMS more than this many times the measured repeatability is
-// suspect (README: clean Meca500 sets give 15-20x, a tracker bumped 3 mm 670x).
+// suspect (docs/outliers.md: clean Meca500 sets give 15-20x, a tracker bumped 3 mm 670x).
 constexpr double kSuspectRepeatabilityRatio = 100;
 
-// The tolerance prior of step 2 as fitted (README "Tolerance prior").
+// The tolerance prior of step 2 as fitted (docs/calibrate.md, "Step 2's estimators").
 struct PriorFit {
   bool used = false;
   std::string note;  // why it was not used ("" if it was)
@@ -298,7 +298,7 @@ struct KinematicFit {
 // the device's |p|, and what `calibrated` (which leaves it out) does not predict.
 double identified_instrument_zero(const KinematicFit& fit);
 
-// The tolerance prior's widths (README "Tolerance prior"): a link parameter's
+// The tolerance prior's widths (docs/calibrate.md, "Step 2's estimators"): a link parameter's
 // change from nominal is a priori normal with sd scale x its tolerance; the base,
 // the tool and an instrument's zero (the set-up's, not manufactured) are free.
 // Defaults from ISO 2768-m general tolerances (lengths of 120-400 mm +-0.5 mm;
@@ -351,7 +351,7 @@ struct CalibrationOptions {
   bool keep_all = false;
   bool select = false;
   bool prior = false;  // the tolerance prior alone
-  // The model search (README "Model search"): the candidate models (estimator
+  // The model search (docs/calibrate.md, "The model search"): the candidate models (estimator
   // x joint-error families x an instrument's zero held or fitted) compared on
   // held-out poses, the simplest within one standard error of the best kept.
   // keep_all, select, prior, a given prior scale, joint_errors and --fix /
@@ -370,7 +370,7 @@ struct CalibrationOptions {
   std::vector<KnownPoint> known_points;
   double selection_alpha = 0.05;  // family-wise significance level of the model selection
   // Joint-error families step 2 fits with the geometry from the measurements
-  // (README "Joint errors in step 2"): "harmonic", the first and second harmonic
+  // (docs/joint-errors.md): "harmonic", the first and second harmonic
   // of each turning joint's angle, and of its motor's where a capstan gives the
   // ratio; "compliance", each joint's k; "coupling", the coupling's
   // coefficients between joints; "backlash", an offset per approach direction
@@ -381,7 +381,7 @@ struct CalibrationOptions {
   // K of the K-fold cross-validated RMS (poses, repeats together, in K folds);
   // 0: no cross-validation.
   int folds = 5;
-  // The loss of step 2 for poses the outlier test flags (README "Outliers and
+  // The loss of step 2 for poses the outlier test flags (docs/outliers.md: "Outliers and
   // suspect fits"); no pose flagged: plain least squares whatever it is.
   RobustLoss loss = RobustLoss::kCauchy;
   double outlier_alpha = 0.05;  // family-wise level of the outlier test (Bonferroni over poses)
@@ -402,7 +402,7 @@ struct CalibrationOptions {
 // (the largest distance of the tool point from the base over the log's poses),
 // even after the base pose alone is fitted, is refused unless forced: it is
 // probably from another device. A Meca500 log: 0.8 mm of 324 mm (0.25 %); the
-// paper study's: see README.
+// paper study's: see docs/calibrate.md, "Plausibility".
 constexpr double kImplausibleErrorFraction = 0.05;
 
 struct CalibrationResult {
@@ -514,7 +514,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
                                                 const std::vector<int>& candidates,
                                                 double tolerance = 1e-6);
 
-// Model selection (README "Model selection"): backward elimination over the
+// Model selection (docs/calibrate.md, "Model selection"): backward elimination over the
 // identified parameters, linearised at the full fit `solution`. At each step
 // the parameter whose estimated change from its start value is the fewest
 // standard deviations (t, the residual's sigma) is the candidate to hold; the
@@ -576,7 +576,7 @@ struct KinematicSolution {
 KinematicSolution solve_kinematics(const KinematicProblem& problem,
                                    const std::vector<int>& identified, int max_iterations = 100);
 
-// The outlier test at the fit `solution` (README "Outliers and suspect fits"):
+// The outlier test at the fit `solution` (docs/outliers.md):
 // each pose's weighted residual e_i (d components) against the robust sd s of
 // all components (1.4826 MAD); the pose is an outlier when |e_i|^2 / s^2
 // exceeds the chi-square quantile with d dof at 1 - alpha / m (Bonferroni over

@@ -112,6 +112,10 @@ std::optional<MeasurementType> measurement_type_named(const std::string& name);
 
 // Fixture points and planes: labels, no measured values.
 inline bool is_fixture(MeasurementType t) { return traits(t).fixture; }
+// A measurement with rotation rows (poses): orientation errors to report.
+inline bool measures_orientation(MeasurementType t) { return traits(t).rotation; }
+// A measurement with a distance column (a cable encoder's).
+inline bool measures_distance(MeasurementType t) { return traits(t).distance_column; }
 
 // What a log measures: the last registered kind it holds (so fixture points
 // or planes if it has labels, a pose if it has orientations, else positions,

@@ -1,5 +1,5 @@
-// The model search's result types (identification.hpp's calibrate, README
-// "Model search"): the estimators step 2 can use, the candidate models it
+// The model search's result types (identification.hpp's calibrate, docs/calibrate.md,
+// "The model search"): the estimators step 2 can use, the candidate models it
 // compared on held-out poses, and the one kept.
 #pragma once
 
@@ -10,7 +10,7 @@
 
 namespace hapticcal {
 
-// How step 2 estimates a model's parameters (README "What step 2 changes"):
+// How step 2 estimates a model's parameters (docs/calibrate.md, "Step 2's estimators"):
 // each parameter pulled toward nominal by its tolerance (the tolerance prior,
 // MAP at the scale of highest evidence), the significance cut (parameters the
 // data do not support held at nominal), or plain least squares.
@@ -18,7 +18,7 @@ enum class Estimator { kPrior, kCut, kLeastSquares };
 // "tolerance prior", "significance cut", "least squares".
 const char* to_string(Estimator estimator);
 
-// One model the search compared (README "Model search"): its joint-error
+// One model the search compared (docs/calibrate.md, "The model search"): its joint-error
 // families, whether the instrument's zero was fitted, its estimator, and its
 // honest held-out error.
 struct SearchCandidate {
@@ -42,7 +42,7 @@ struct SearchCandidate {
   std::string note;
 };
 
-// The model search of calibrate (README "Model search"): the candidates
+// The model search of calibrate (docs/calibrate.md, "The model search"): the candidates
 // compared on held-out poses and the one kept.
 struct ModelSearch {
   bool ran = false;

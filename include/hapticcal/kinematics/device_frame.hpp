@@ -45,4 +45,17 @@ DeviceFrameSplit split_device_frame(
     const DeviceModel& calibrated, const DeviceModel& nominal,
     const std::optional<std::array<double, 6>>& tool = std::nullopt);
 
+// The turn of the last joint's zero about its own axis, calibrated against
+// nominal, moved into the tool: the joint's zero as nominal (DH, MDH: theta;
+// URDF: the origin's twist about the axis, the offset nominal) and the tool
+// turned instead, tool' = X^-1 R_axis(phi) X tool (X: the joint's transform
+// after its motion, DH's Tx(a) Rx(alpha) Ry(beta)). The forward kinematics are
+// the same for every reading. Measurements that do not see the tool's
+// orientation (positions, distances, a fixture's points) cannot tell this turn
+// from the direction of the tool point about the axis (a ball on a flange):
+// written as a joint's zero it would turn the flange by what the data never
+// saw. Returns the turn moved [rad]; 0 (nothing changed) for a tree or a
+// prismatic last joint.
+double move_last_turn_into_tool(DeviceModel& calibrated, const DeviceModel& nominal);
+
 }  // namespace hapticcal

@@ -39,7 +39,7 @@ struct Channel {
   std::string message_encoding;
 };
 
-// The bounds every reader keeps (README "Bounded input"). A file beyond one is
+// The bounds every reader keeps (docs/development.md, "Bounded input"). A file beyond one is
 // an InputError naming the bound, never a larger allocation.
 struct RecordingLimits {
   std::uint64_t max_file_bytes = std::uint64_t{64} << 30;   // 64 GiB

@@ -9,6 +9,7 @@
 #include "hapticcal/core/log.hpp"
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/kinematics/device_frame.hpp"
 
 namespace hapticcal {
 
@@ -25,6 +26,26 @@ struct CalibrationSource {
   std::optional<std::array<double, 3>> tool_point;
   bool nominal_tool = false;
 };
+
+// What calibrate writes of a chain besides calibrated.yaml: the model of
+// calibrated.urdf and device.yaml (where the measurements do not see the
+// tool's orientation, the last joint's turn about its axis moved into the tool,
+// move_last_turn_into_tool: `turn` [rad]) and its split into the device's
+// frame (device.yaml) and the set-up (setup.yaml), ending at the tool that
+// `source` asks for (`ends_at` says which, for a sentence).
+struct DeviceFrameOutputs {
+  DeviceModel written;
+  double turn = 0;
+  DeviceFrameSplit split;
+  std::string ends_at;
+};
+DeviceFrameOutputs device_frame_outputs(const CalibrationResult& result, const DeviceModel& nominal,
+                                        const CalibrationSource& source);
+
+// The notes on device.yaml and setup.yaml (and the last joint's turn) that
+// write_calibration_outputs adds; urdf: a URDF model (calibrated.urdf written too).
+void add_device_frame_notes(CalibrationResult& result, const DeviceFrameOutputs& outputs,
+                            bool urdf);
 
 // What write_calibration_outputs did besides results.json.
 struct CalibrationOutputs {

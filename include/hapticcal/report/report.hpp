@@ -20,12 +20,16 @@ struct Series {
   int dash = 0;
   double width = 0;
   int point = 0;
+  // A third data column (zero-based): the figure is drawn in 3-D (splot) if
+  // any series has one.
+  int z = -1;
 };
 
 // One figure. The title is the HTML caption only: gnuplot draws none.
 struct FigureSpec {
   std::string name;  // file stem
   std::string title, xlabel, ylabel;
+  std::string zlabel;                        // a 3-D figure's (Series::z)
   std::vector<std::vector<double>> columns;  // the data, column by column
   std::vector<std::string> xtics;            // category labels by row (empty: numeric x)
   std::vector<Series> series;
@@ -91,6 +95,15 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
 // RMSE / CRLB per parameter, with the Table 2 and 3 analogues, from the series
 // the first trial keeps in memory (TrialResult::figures).
 Report study_report(const Scenario& scenario, const StudyResult& result);
+// What a study shows beyond what every study has (the report and simulate's
+// terminal alike). Orientation errors: of a measurement that has them (poses),
+// and the paper's Fig. 8; a distance, position, point or plane measurement has
+// none (a fixture's truth then moves no angle the validation could see).
+bool shows_orientation(const Scenario& scenario);
+// The trajectory of Fig. 10 (the distance from the paper's anchor, full against
+// kinematic-only calibration): the paper's study, or a distance study whose
+// step 1 ran (else the two calibrations are one).
+bool shows_trajectory(const Scenario& scenario, const TrialResult& trial);
 // force: the Fig. 12 analogue for the nominal and the calibrated model.
 Report force_report(const ForceRun& nominal, const ForceRun& calibrated);
 // force's outcome block: the transverse force before and after, the final Fz

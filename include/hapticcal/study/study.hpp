@@ -239,7 +239,9 @@ std::vector<StudyRow> study_rows(const Scenario& scenario, const CalibrationResu
 std::uint64_t trial_seed(std::uint64_t study_seed, int trial);
 
 // Per dotted name, over the trials: assigned value, mean identified value, mean
-// I % (paper eq. 8), RMSE, CRLB sd and efficiency RMSE / CRLB.
+// I % (paper eq. 8), RMSE, CRLB sd and efficiency RMSE / CRLB (crlb_sd 0 and
+// efficiency NaN where no bound could be derived: the trials' information about
+// the parameter was singular; the reports print "n/a", never a ratio of 0).
 struct MonteCarloStats {
   double assigned = 0, nominal = 0, mean = 0, mean_improvement_pct = 0, rmse = 0, crlb_sd = 0,
          efficiency = 0;
