@@ -140,7 +140,8 @@ nlohmann::ordered_json search_json(const ModelSearch& s) {
           {"candidates", candidates}};
 }
 
-// The checks of a fit: suspect, what the joint-error families bought (docs/joint-errors.md), the model search (docs/calibrate.md, "The model search").
+// The checks of a fit: suspect, what the joint-error families bought (docs/joint-errors.md), the
+// model search (docs/calibrate.md, "The model search").
 void checks_json(const KinematicFit& k, const CalibrationOptions& options,
                  nlohmann::ordered_json& j) {
   using json = nlohmann::ordered_json;
