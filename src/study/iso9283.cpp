@@ -1,0 +1,97 @@
+#include "hapticcal/study/iso9283.hpp"
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace hapticcal {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// An angle into (-pi, pi].
+double wrapped(double angle) {
+  const double turned = std::remainder(angle, 2 * std::numbers::pi);
+  return turned == -std::numbers::pi ? std::numbers::pi : turned;
+}
+
+// The sample standard deviation (n - 1) of values about their mean.
+double sample_sd(const std::vector<double>& values, double mean) {
+  if (values.size() < 2) return kNaN;
+  double sum = 0;
+  for (double v : values) sum += (v - mean) * (v - mean);
+  return std::sqrt(sum / static_cast<double>(values.size() - 1));
+}
+
+double mean_of(const std::vector<double>& values) {
+  double sum = 0;
+  for (double v : values) sum += v;
+  return values.empty() ? kNaN : sum / static_cast<double>(values.size());
+}
+
+}  // namespace
+
+IsoPoseCriteria iso_pose_criteria(const IsoPoseRuns& runs) {
+  IsoPoseCriteria c;
+  c.label = runs.label;
+  c.cycles = static_cast<int>(runs.attained.size());
+  c.commanded = runs.commanded.p;
+  c.orientation = runs.orientation;
+  c.mean.setZero();
+  for (const Frame<double>& f : runs.attained) c.mean += f.p;
+  if (c.cycles == 0) {
+    c.mean.setConstant(kNaN);
+    c.ap_xyz.setConstant(kNaN);
+    c.ap = c.rp = kNaN;
+    c.ap_abc.setConstant(kNaN);
+    c.rp_abc.setConstant(kNaN);
+    return c;
+  }
+  c.mean /= c.cycles;
+  c.ap_xyz = c.mean - c.commanded;
+  c.ap = c.ap_xyz.norm();
+  std::vector<double> l;
+  for (const Frame<double>& f : runs.attained) l.push_back((f.p - c.mean).norm());
+  const double l_mean = mean_of(l);
+  c.rp = l_mean + 3 * sample_sd(l, l_mean);
+  if (!runs.orientation) return c;
+  const Eigen::Vector3d commanded = matrix_rpy(runs.commanded.R);
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> turn;  // a_j - a_c, into (-pi, pi]
+    for (const Frame<double>& f : runs.attained)
+      turn.push_back(wrapped(matrix_rpy(f.R)[axis] - commanded[axis]));
+    const double mean = mean_of(turn);
+    c.ap_abc[axis] = mean;
+    c.rp_abc[axis] = 3 * sample_sd(turn, mean);
+  }
+  return c;
+}
+
+IsoDistanceCriteria iso_distance_criteria(const IsoPoseRuns& from, const IsoPoseRuns& to) {
+  IsoDistanceCriteria d;
+  d.from = from.label;
+  d.to = to.label;
+  d.commanded = (from.commanded.p - to.commanded.p).norm();
+  std::vector<double> distances;
+  for (size_t i = 0; i < from.cycles.size(); ++i) {
+    for (size_t j = 0; j < to.cycles.size(); ++j) {
+      if (from.cycles[i] == to.cycles[j])
+        distances.push_back((from.attained[i].p - to.attained[j].p).norm());
+    }
+  }
+  d.cycles = static_cast<int>(distances.size());
+  d.mean = mean_of(distances);
+  d.ad = d.mean - d.commanded;
+  d.rd = 3 * sample_sd(distances, d.mean);
+  return d;
+}
+
+IsoCriteria iso_criteria(const std::vector<IsoPoseRuns>& poses) {
+  IsoCriteria out;
+  for (const IsoPoseRuns& p : poses) out.poses.push_back(iso_pose_criteria(p));
+  for (size_t k = 1; k < poses.size(); ++k)
+    out.distances.push_back(iso_distance_criteria(poses.front(), poses[k]));
+  return out;
+}
+
+}  // namespace hapticcal
