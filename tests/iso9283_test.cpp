@@ -6,17 +6,24 @@
 // subtracting 2 pi until it lies in (-pi, pi].
 #include "hapticcal/study/iso9283.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <random>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/design/iso9283_plan.hpp"
+#include "hapticcal/identification/identification.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/study/simulation.hpp"
+#include "run_cli.hpp"
 #include "test_models.hpp"
 
 namespace hapticcal {
@@ -213,6 +220,162 @@ void check_cube(const DeviceModel& model) {
 TEST(Iso9283, TestCubeOfA6RAndA7RArmLiesWithinTheJointLimits) {
   check_cube(testing::meca500());
   check_cube(testing::panda_like());
+}
+
+// A simulated 6R arm with geometric errors, calibrated on 100 tracker
+// positions, then put through the ISO test at its cube's five poses (30
+// cycles, 10 um attained-pose scatter). Over 30 calibrations: AP falls from the
+// nominal model's to within 10 % of the calibration's own prediction,
+// sqrt(trace(J C J^T) + 3 sigma^2 / n) (J the position's derivatives by the
+// identified parameters, C their covariance); RP is the robot's and the same
+// for both models.
+TEST(Iso9283, CalibrationBringsApToItsPredictionAndLeavesRpAlone) {
+  const DeviceModel nominal = testing::meca500();
+  const IsoCubePlan plan = plan_iso_cube(nominal);
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  DeviceModel truth = nominal;
+  Eigen::VectorXd values = truth.kinematic_parameters();
+  for (const ParameterInfo& info : truth.parameter_info())
+    values[info.slot] += u(rng) * (info.unit == ParameterUnit::kLength ? 5e-4 : 5e-3);
+  truth.set_kinematic_parameters(values);
+  const PreparedModel actual(truth), before(nominal);
+  constexpr double kScatter = 1e-5;
+  constexpr int kCycles = 30, kTrials = 30;
+  CalibrationOptions options;
+  options.search = false;
+  options.keep_all = true;
+  double ap2_nominal = 0, ap2_calibrated = 0, predicted2 = 0;
+  int terms = 0;
+  for (int trial = 0; trial < kTrials; ++trial) {
+    SimulationNoise noise;
+    noise.sigma_position = 2e-5;
+    const Log cal = simulate_log(truth, 100, noise, 100 + trial, false, true);
+    const CalibrationResult result = calibrate(nominal, cal, options);
+    ASSERT_EQ(result.status, CalibrationStatus::kConverged);
+    const KinematicFit& fit = result.kinematics;
+    std::vector<int> slots;
+    std::vector<double> sd;
+    for (const std::string& name : fit.identified_names) {
+      for (const ParameterEstimate& e : fit.parameters) {
+        if (e.name == name) slots.push_back(e.slot), sd.push_back(e.sd);
+      }
+    }
+    const int n = static_cast<int>(slots.size());
+    Eigen::MatrixXd covariance(n, n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) covariance(i, j) = sd[i] * sd[j] * fit.correlation(i, j);
+    const PreparedModel after(result.calibrated);
+    // The ISO test: the poses' readings, the attained positions scattered.
+    std::normal_distribution<double> g(0, kScatter);
+    std::vector<IsoPoseRuns> runs_nominal, runs_calibrated;
+    for (const IsoTestPose& pose : plan.poses) {
+      IsoPoseRuns r;
+      r.label = pose.label;
+      const Eigen::Vector3d at = actual.forward(pose.readings.data()).p;
+      for (int j = 1; j <= kCycles; ++j) {
+        r.cycles.push_back(j);
+        r.attained.push_back(
+            {Eigen::Matrix3d::Identity(), at + Eigen::Vector3d(g(rng), g(rng), g(rng))});
+      }
+      r.commanded = before.forward(pose.readings.data());
+      runs_nominal.push_back(r);
+      r.commanded = after.forward(pose.readings.data());
+      runs_calibrated.push_back(r);
+      // The prediction: the position's covariance through the identified parameters.
+      Eigen::MatrixXd J(3, n);
+      const Eigen::VectorXd p = result.calibrated.kinematic_parameters();
+      for (int i = 0; i < n; ++i) {
+        DeviceModel moved = result.calibrated;
+        Eigen::VectorXd shifted = p;
+        shifted[slots[i]] += 1e-7;
+        moved.set_kinematic_parameters(shifted);
+        J.col(i) = (PreparedModel(moved).forward(pose.readings.data()).p - r.commanded.p) / 1e-7;
+      }
+      predicted2 += (J * covariance * J.transpose()).trace() + 3 * kScatter * kScatter / kCycles;
+    }
+    const IsoCriteria a = iso_criteria(runs_nominal), b = iso_criteria(runs_calibrated);
+    for (size_t k = 0; k < a.poses.size(); ++k) {
+      ap2_nominal += a.poses[k].ap * a.poses[k].ap;
+      ap2_calibrated += b.poses[k].ap * b.poses[k].ap;
+      EXPECT_EQ(a.poses[k].rp, b.poses[k].rp);  // the robot's, not the model's
+      EXPECT_NEAR(a.poses[k].rp, kScatter * 3.6,
+                  kScatter * 1.5);  // about l + 3 S_l of a 3-D scatter
+      ++terms;
+    }
+  }
+  const double nominal_ap = std::sqrt(ap2_nominal / terms),
+               calibrated_ap = std::sqrt(ap2_calibrated / terms),
+               predicted_ap = std::sqrt(predicted2 / terms);
+  std::printf(
+      "AP (RMS over %d poses and calibrations): nominal %.4f mm, calibrated %.4f mm, "
+      "predicted %.4f mm\n",
+      terms, nominal_ap * 1e3, calibrated_ap * 1e3, predicted_ap * 1e3);
+  EXPECT_GT(nominal_ap, 10 * calibrated_ap);
+  EXPECT_NEAR(calibrated_ap / predicted_ap, 1.0, 0.10);
+}
+
+// The command line: plan --iso9283 writes the plan, a test log follows it row
+// by row, evaluate --iso9283 scores the model and the reference as the
+// library does; a log that does not follow the plan is refused in one line.
+TEST(Iso9283, PlanThenEvaluateOnTheCommandLine) {
+  const std::string dir = testing::fresh_folder("iso9283_cli");
+  const std::string model = testing::source_path("examples/meca500/meca500.yaml");
+  const auto planned = testing::run_cli(
+      {"plan", "--model", model, "--iso9283", "--cycles", "5", "--out", dir + "/plan"});
+  ASSERT_EQ(planned.exit_code, 0) << planned.err;
+  const Log plan = read_log(dir + "/plan/plan.csv");
+  ASSERT_EQ(plan.rows, 25);
+  ASSERT_TRUE(plan.has_point);
+  EXPECT_EQ(plan.label[1], "P5");  // P1, P5, P4, P3, P2
+  // The attained poses: a deviated arm's, scattered.
+  DeviceModel truth = testing::meca500();
+  truth.links[1].a += 3e-4;
+  truth.links[2].theta += 2e-3;
+  const PreparedModel actual(truth);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> g(0, 1e-5);
+  std::string csv = "q1,q2,q3,q4,q5,q6,x,y,z\n";
+  for (int r = 0; r < plan.rows; ++r) {
+    const Eigen::VectorXd q = plan.q.row(r).transpose();
+    const Eigen::Vector3d p = actual.forward(q.data()).p;
+    for (int i = 0; i < 6; ++i) csv += fmt::format("{:.17g},", q[i]);
+    csv += fmt::format("{:.17g},{:.17g},{:.17g}\n", p.x() + g(rng), p.y() + g(rng), p.z() + g(rng));
+  }
+  std::ofstream(dir + "/test.csv") << csv;
+  const auto scored =
+      testing::run_cli({"evaluate", "--model", model, "--log", dir + "/test.csv", "--iso9283",
+                        dir + "/plan/plan.csv", "--reference", model, "--json"});
+  ASSERT_EQ(scored.exit_code, 0) << scored.err;
+  const nlohmann::json j = nlohmann::json::parse(scored.out)["iso9283"];
+  const IsoCriteria expected =
+      iso_criteria(iso_runs(testing::meca500(), read_log(dir + "/test.csv"), plan.label));
+  ASSERT_EQ(j["model"]["poses"].size(), 5u);
+  for (size_t k = 0; k < 5; ++k) {
+    EXPECT_EQ(j["model"]["poses"][k]["pose"], expected.poses[k].label);
+    EXPECT_NEAR(j["model"]["poses"][k]["AP"].get<double>(), expected.poses[k].ap, 1e-15);
+    EXPECT_NEAR(j["model"]["poses"][k]["RP"].get<double>(), expected.poses[k].rp, 1e-15);
+    EXPECT_NEAR(j["reference"]["poses"][k]["AP"].get<double>(), expected.poses[k].ap, 1e-15);
+  }
+  EXPECT_EQ(j["model"]["distances"].size(), 4u);
+  const auto text = testing::run_cli({"evaluate", "--model", model, "--log", dir + "/test.csv",
+                                      "--iso9283", dir + "/plan/plan.csv"});
+  EXPECT_NE(text.out.find("ISO 9283 pose characteristics"), std::string::npos) << text.out;
+  // Refused: a log of other rows, one whose readings are not the plan's, a plan without labels.
+  std::ofstream(dir + "/short.csv") << csv.substr(0, csv.rfind('\n', csv.size() - 2) + 1);
+  std::string moved = csv;
+  moved.replace(moved.find('\n') + 1, 1, "1");  // row 1's q1: 1 rad instead of 0
+  std::ofstream(dir + "/moved.csv") << moved;
+  for (const std::string& bad : {dir + "/short.csv", dir + "/moved.csv"}) {
+    const auto refused = testing::run_cli(
+        {"evaluate", "--model", model, "--log", bad, "--iso9283", dir + "/plan/plan.csv"});
+    EXPECT_EQ(refused.exit_code, 2) << refused.out << refused.err;
+    EXPECT_NE(refused.err.find("--iso9283"), std::string::npos) << refused.err;
+  }
+  const auto no_plan = testing::run_cli(
+      {"evaluate", "--model", model, "--log", dir + "/test.csv", "--iso9283", dir + "/test.csv"});
+  EXPECT_EQ(no_plan.exit_code, 2);
+  EXPECT_NE(no_plan.err.find("not a test plan"), std::string::npos) << no_plan.err;
 }
 
 }  // namespace

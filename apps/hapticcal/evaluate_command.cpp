@@ -22,6 +22,10 @@ CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& o) {
   evaluate->add_option("--model", o.model, "Device file (YAML) or URDF (.urdf)")->required();
   add_chain_options(evaluate, o.chain);
   evaluate->add_option("--log", o.log, "Measurement log (CSV)")->required();
+  evaluate->add_option("--iso9283", o.iso9283,
+                       "An ISO 9283 test: the plan.csv of plan --iso9283, which the log follows "
+                       "row by row; adds the pose and distance accuracy and repeatability (AP, "
+                       "RP, AD, RD) of the model (and --reference)");
   evaluate->add_option("--markers", o.markers,
                        "A log of several markers on one rigid body: their positions in the tool "
                        "frame, X1,Y1,Z1,X2,... [m] (calibrate's results.json markers; default: "
@@ -75,6 +79,7 @@ int run_evaluate(const EvaluateOptions& o) {
   request.point_distances = o.point_distance;
   if (o.register_given) request.registration = hapticcal::parse_register(o.register_what);
   request.tracker = o.tracker;
+  request.iso9283 = o.iso9283;
   request.stream.search_range = o.clock_search;
   request.stream.drift = o.clock_drift;
   // --json writes no files unless --out is given.

@@ -11,8 +11,10 @@
 #include <vector>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/core/files.hpp"
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/data_io/log.hpp"
+#include "hapticcal/design/iso9283_plan.hpp"
 #include "hapticcal/design/plan.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/jobs/calibrate_job.hpp"
@@ -64,10 +66,21 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
       "plan", "Choose N poses that make the calibration predict best (experiment design)");
   plan->add_option("--model", o.model, "Device file (YAML) or URDF (.urdf, with --tip)")
       ->required();
-  plan->add_option("--measurement", o.measurement, "distance, position or pose")->required();
-  plan->add_option("--poses", o.poses, "Number of poses to plan")
-      ->required()
+  plan->add_option("--measurement", o.measurement,
+                   "distance, position or pose (required unless --iso9283)");
+  plan->add_option("--poses", o.poses, "Number of poses to plan (required unless --iso9283)")
       ->check(whole_number(option_range::kPlanPoses));
+  plan->add_flag("--iso9283", options.iso9283,
+                 "An ISO 9283 test instead: the test cube, its five poses P1..P5 as joint "
+                 "targets and the cycles (plan.csv, a row a pose visited; iso9283.json)");
+  plan->add_option("--cube-centre", options.cube_centre,
+                   "X,Y,Z: the test cube's centre in the measurement frame [m] (default: the "
+                   "tool point at the middle of every joint's range)");
+  plan->add_option("--cube-size", options.cube_size,
+                   "The test cube's edge [m] (default: the largest the joint limits allow)")
+      ->check(within(1e-3, 10.0, "m"));
+  plan->add_option("--cycles", options.cycles, "ISO 9283 cycles (default 30, the standard's)")
+      ->check(whole_number(1, 1000));
   auto* candidates =
       plan->add_option("--candidates", o.candidates,
                        "A log of recorded poses to choose from (repeated rows count as one pose)");
@@ -109,7 +122,85 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
   return plan;
 }
 
+// plan --iso9283: the test cube and its poses; plan.csv holds a row a pose
+// visited (q1..qN and its label in `point`, cycle after cycle), iso9283.json
+// the cube and the poses.
+int run_iso_plan(const PlanCommandOptions& options) {
+  const PlanRequest& o = options.request;
+  if (!o.measurement.empty() || o.poses != 0 || !o.candidates.empty())
+    throw InputError(
+        "--iso9283: the test's poses are the standard's: no --measurement, --poses "
+        "or --candidates");
+  const DeviceModel model = load_model(o.model, o.tip, o.root);
+  IsoCubeOptions cube;
+  if (!options.cube_centre.empty()) {
+    const std::array<double, 3> c = numbers<3>(options.cube_centre, "--cube-centre");
+    cube.centre = Eigen::Vector3d(c[0], c[1], c[2]);
+  }
+  if (options.cube_size > 0) cube.size = options.cube_size;
+  cube.cycles = options.cycles;
+  OutputSet out(options.out, "plan");
+  const IsoCubePlan plan = plan_iso_cube(model, cube);
+  std::string csv;
+  for (int i = 1; i <= model.dof(); ++i) csv += fmt::format("q{},", i);
+  csv += "point\n";
+  for (int cycle = 0; cycle < plan.cycles; ++cycle) {
+    for (int k : plan.order) {
+      const IsoTestPose& p = plan.poses[static_cast<size_t>(k)];
+      for (int i = 0; i < model.dof(); ++i) csv += fmt::format("{:.17g},", p.readings[i]);
+      csv += p.label + "\n";
+    }
+  }
+  nlohmann::ordered_json poses = nlohmann::ordered_json::array();
+  for (const IsoTestPose& p : plan.poses) {
+    const Eigen::Vector3d rpy = matrix_rpy(p.pose.R);
+    poses.push_back({{"pose", p.label},
+                     {"xyz", {p.pose.p.x(), p.pose.p.y(), p.pose.p.z()}},
+                     {"rpy", {rpy[0], rpy[1], rpy[2]}},
+                     {"readings", std::vector<double>(p.readings.data(),
+                                                      p.readings.data() + p.readings.size())}});
+  }
+  nlohmann::ordered_json corners = nlohmann::ordered_json::array();
+  for (const Eigen::Vector3d& c : plan.corners) corners.push_back({c.x(), c.y(), c.z()});
+  const nlohmann::ordered_json json = {
+      {"format", "hapticcal-iso9283-plan/1"},
+      {"model", o.model},
+      {"centre", {plan.centre.x(), plan.centre.y(), plan.centre.z()}},
+      {"size", plan.size},
+      {"plane", "C1-C2-C7-C8"},
+      {"corners", corners},
+      {"orientation_held", plan.orientation_held},
+      {"cycles", plan.cycles},
+      {"order", {"P1", "P5", "P4", "P3", "P2"}},
+      {"poses", poses}};
+  write_file_atomically(out.dir() + "/plan.csv", csv);
+  write_file_atomically(out.dir() + "/iso9283.json", json.dump(2) + "\n");
+  out.commit();
+  fmt::print("hapticcal plan --iso9283: {} ({} joints)\n", model.name, model.dof());
+  fmt::print(
+      "  test cube: edge {:.1f} mm{} about ({:.1f}, {:.1f}, {:.1f}) mm, its edges along the base "
+      "frame's axes; measuring plane C1-C2-C7-C8\n",
+      plan.size * 1e3, cube.size ? "" : " (the largest the joint limits allow)",
+      plan.centre.x() * 1e3, plan.centre.y() * 1e3, plan.centre.z() * 1e3);
+  for (const IsoTestPose& p : plan.poses) {
+    fmt::print("  {}: ({:9.3f}, {:9.3f}, {:9.3f}) mm\n", p.label, p.pose.p.x() * 1e3,
+               p.pose.p.y() * 1e3, p.pose.p.z() * 1e3);
+  }
+  fmt::print("  {}; {} cycles of P1, P5, P4, P3, P2 ({} rows)\n",
+             plan.orientation_held ? "every pose at the centre's orientation"
+                                   : "orientation not held (fewer than six joints)",
+             plan.cycles, plan.cycles * 5);
+  fmt::print("{}", output_summary(out, options.out,
+                                  fmt::format(" (plan.csv: q1..q{} in radians and the pose's "
+                                              "label, a row a pose visited)",
+                                              model.dof())));
+  return 0;
+}
+
 int run_plan(const PlanCommandOptions& options) {
+  if (options.iso9283) return run_iso_plan(options);
+  if (options.request.measurement.empty() || options.request.poses == 0)
+    throw InputError("plan: --measurement and --poses are required (or --iso9283)");
   PlanRequest o = options.request;
   o.columns = list(options.columns);
   o.fix = list(options.fix);

@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <cstring>
 #include <nlohmann/json.hpp>
 
@@ -17,6 +18,7 @@
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/report/results_json.hpp"
+#include "hapticcal/study/iso9283.hpp"
 
 namespace hapticcal {
 namespace {
@@ -190,6 +192,103 @@ void add_clock(const StreamAlignment& a, EvaluateJob& job) {
   job.json = json.dump();
 }
 
+// The model as evaluated: registered to the log (its base and tool) if it was.
+DeviceModel as_evaluated(DeviceModel model, const Evaluation& evaluation) {
+  if (!evaluation.registered) return model;
+  if (model.base_is_pose()) model.base = evaluation.registered->base;
+  if (evaluation.registered->tool) model.tool = *evaluation.registered->tool;
+  return model;
+}
+
+nlohmann::ordered_json iso_json(const IsoCriteria& c) {
+  const auto number = [](double v) {
+    return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json();
+  };
+  nlohmann::ordered_json poses = nlohmann::ordered_json::array(), distances = poses;
+  for (const IsoPoseCriteria& p : c.poses) {
+    nlohmann::ordered_json j = {{"pose", p.label},
+                                {"cycles", p.cycles},
+                                {"AP", number(p.ap)},
+                                {"AP_x", number(p.ap_xyz.x())},
+                                {"AP_y", number(p.ap_xyz.y())},
+                                {"AP_z", number(p.ap_xyz.z())},
+                                {"RP", number(p.rp)}};
+    if (p.orientation) {
+      j["AP_a"] = number(p.ap_abc[0]), j["AP_b"] = number(p.ap_abc[1]);
+      j["AP_c"] = number(p.ap_abc[2]), j["RP_a"] = number(p.rp_abc[0]);
+      j["RP_b"] = number(p.rp_abc[1]), j["RP_c"] = number(p.rp_abc[2]);
+    }
+    poses.push_back(j);
+  }
+  for (const IsoDistanceCriteria& d : c.distances) {
+    distances.push_back({{"from", d.from},
+                         {"to", d.to},
+                         {"cycles", d.cycles},
+                         {"commanded", d.commanded},
+                         {"AD", number(d.ad)},
+                         {"RD", number(d.rd)}});
+  }
+  return {{"poses", poses}, {"distances", distances}};
+}
+
+// --iso9283: the log follows the test plan row by row; the characteristics of
+// the model (and the reference) into the lines and the JSON. Values in m and
+// rad in the JSON, mm and mrad in the lines.
+void add_iso(const std::string& plan_path, const Log& log, const DeviceModel& model,
+             const DeviceModel* reference, EvaluateJob& job) {
+  const Log plan = read_log(plan_path);
+  if (!plan.has_point) {
+    throw InputError(plan_path, 0, "--iso9283",
+                     "not a test plan: no point column naming each row's pose (plan --iso9283 "
+                     "writes one)");
+  }
+  if (plan.rows == log.rows && plan.dof() == log.dof()) {
+    for (int r = 0; r < log.rows; ++r) {
+      const double off = (log.q.row(r) - plan.q.row(r)).cwiseAbs().maxCoeff();
+      if (off > 0.05) {
+        throw InputError(log.origin, log.line[static_cast<size_t>(r)], "--iso9283",
+                         fmt::format("the readings are {:.3f} rad from the plan's pose {}: is "
+                                     "this log from this test plan?",
+                                     off, plan.label[static_cast<size_t>(r)]));
+      }
+    }
+  }
+  const IsoCriteria mine = iso_criteria(iso_runs(model, log, plan.label));
+  std::optional<IsoCriteria> theirs;
+  if (reference) theirs = iso_criteria(iso_runs(*reference, log, plan.label));
+  const auto both = [&](double m, double r, double scale) {
+    return theirs ? fmt::format("{:8.4f} ({:.4f})", m * scale, r * scale)
+                  : fmt::format("{:8.4f}", m * scale);
+  };
+  job.lines.push_back(
+      fmt::format("ISO 9283 pose characteristics (commanded: the model's pose at each pose's mean "
+                  "readings{}):",
+                  theirs ? "; in brackets the reference's" : ""));
+  for (size_t k = 0; k < mine.poses.size(); ++k) {
+    const IsoPoseCriteria& p = mine.poses[k];
+    const IsoPoseCriteria* q = theirs ? &theirs->poses[k] : nullptr;
+    std::string line = fmt::format("  {:<4} n {:2}  AP {} mm  RP {:.4f} mm", p.label, p.cycles,
+                                   both(p.ap, q ? q->ap : 0, 1e3), p.rp * 1e3);
+    if (p.orientation) {
+      line +=
+          fmt::format("  AP_a/b/c {:.3f} {:.3f} {:.3f} mrad  RP_a/b/c {:.3f} {:.3f} {:.3f} mrad",
+                      p.ap_abc[0] * 1e3, p.ap_abc[1] * 1e3, p.ap_abc[2] * 1e3, p.rp_abc[0] * 1e3,
+                      p.rp_abc[1] * 1e3, p.rp_abc[2] * 1e3);
+    }
+    job.lines.push_back(line);
+  }
+  for (size_t k = 0; k < mine.distances.size(); ++k) {
+    const IsoDistanceCriteria& d = mine.distances[k];
+    job.lines.push_back(fmt::format("  {}-{} n {:2}  AD {} mm  RD {:.4f} mm", d.from, d.to,
+                                    d.cycles, both(d.ad, theirs ? theirs->distances[k].ad : 0, 1e3),
+                                    d.rd * 1e3));
+  }
+  nlohmann::ordered_json json = nlohmann::ordered_json::parse(job.json);
+  json["iso9283"] = {{"plan", plan_path}, {"model", iso_json(mine)}};
+  if (theirs) json["iso9283"]["reference"] = iso_json(*theirs);
+  job.json = json.dump();
+}
+
 }  // namespace
 
 EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
@@ -198,6 +297,8 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
     if (!request.tracker.empty())
       throw InputError(request.tracker, 0, "--tracker",
                        "a tree's second session is not aligned: give one tip");
+    if (!request.iso9283.empty())
+      throw InputError(request.iso9283, 0, "--iso9283", "a test of one tool point: give one tip");
     return tree_evaluate_job(request, tips);
   }
   EvaluateJob job;
@@ -219,11 +320,11 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   job.rows = log.rows;
   const Fixture known = fixture_facts(request.fixture, request.point_distances);
   const bool referenced = request.given_reference || !request.reference.empty();
+  std::optional<DeviceModel> reference;
   if (referenced) {
-    const DeviceModel reference = request.given_reference
-                                      ? *request.given_reference
-                                      : load_evaluated_model(request, request.reference);
-    job.comparison = compare_to_reference(job.model, reference, log, known.distances, known.points,
+    reference = request.given_reference ? *request.given_reference
+                                        : load_evaluated_model(request, request.reference);
+    job.comparison = compare_to_reference(job.model, *reference, log, known.distances, known.points,
                                           request.registration);
     job.evaluation = job.comparison->model;
   } else if (request.registration) {
@@ -236,6 +337,15 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   job.json = evaluation_json(cmp, job.evaluation);
   job.lines = evaluation_lines(cmp, job.evaluation, request.reference);
   if (job.alignment) add_clock(*job.alignment, job);
+  if (!request.iso9283.empty()) {
+    if (job.alignment)
+      throw InputError(request.iso9283, 0, "--iso9283",
+                       "a test's log is static poses: no --tracker");
+    const DeviceModel reference_used =
+        reference ? as_evaluated(*reference, cmp->reference) : DeviceModel();
+    add_iso(request.iso9283, log, as_evaluated(job.model, job.evaluation),
+            reference ? &reference_used : nullptr, job);
+  }
   if (!frame_said.empty()) job.lines.insert(job.lines.begin(), frame_said);
   if (!request.out) return job;
   job.out = std::make_unique<OutputSet>(*request.out, "evaluate");

@@ -1,8 +1,15 @@
 #include "hapticcal/study/iso9283.hpp"
 
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
+
+#include "hapticcal/core/error.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
 namespace {
@@ -91,6 +98,47 @@ IsoCriteria iso_criteria(const std::vector<IsoPoseRuns>& poses) {
   for (const IsoPoseRuns& p : poses) out.poses.push_back(iso_pose_criteria(p));
   for (size_t k = 1; k < poses.size(); ++k)
     out.distances.push_back(iso_distance_criteria(poses.front(), poses[k]));
+  return out;
+}
+
+std::vector<IsoPoseRuns> iso_runs(const DeviceModel& model, const Log& log,
+                                  const std::vector<std::string>& labels) {
+  if (!log.has_position)
+    throw InputError(log.origin, 0, "--iso9283", "the log has no measured x, y, z to score");
+  if (static_cast<int>(labels.size()) != log.rows) {
+    throw InputError(log.origin, 0, "--iso9283",
+                     fmt::format("{} rows, but the test plan has {}: the log must follow the "
+                                 "plan row by row",
+                                 log.rows, labels.size()));
+  }
+  std::vector<std::string> names = labels;
+  std::sort(names.begin(), names.end());
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  const PreparedModel prepared(model);
+  std::vector<IsoPoseRuns> out;
+  for (const std::string& name : names) {
+    IsoPoseRuns runs;
+    runs.label = name;
+    runs.orientation = log.has_orientation;
+    Eigen::VectorXd mean = Eigen::VectorXd::Zero(log.dof());
+    int cycle = 0;
+    for (int r = 0; r < log.rows; ++r) {
+      if (labels[static_cast<size_t>(r)] != name) continue;
+      mean += log.q.row(r).transpose();
+      runs.cycles.push_back(++cycle);
+      Frame<double> attained = Frame<double>::Identity();
+      attained.p = log.position.row(r).transpose();
+      if (log.has_orientation) {
+        const Eigen::Quaterniond q(log.orientation(r, 0), log.orientation(r, 1),
+                                   log.orientation(r, 2), log.orientation(r, 3));
+        attained.R = q.normalized().toRotationMatrix();
+      }
+      runs.attained.push_back(attained);
+    }
+    mean /= cycle;
+    runs.commanded = prepared.forward(mean.data());
+    out.push_back(std::move(runs));
+  }
   return out;
 }
 

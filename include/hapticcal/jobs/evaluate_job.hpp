@@ -33,6 +33,10 @@ struct EvaluateRequest {
   // (align_streams) and the model scored on the tracker's samples.
   std::string tracker;
   StreamOptions stream;
+  // An ISO 9283 test (--iso9283 PLAN): the plan's plan.csv (plan --iso9283),
+  // which the log follows row by row; its pose and distance characteristics
+  // are added to the lines and the JSON ("iso9283").
+  std::string iso9283;
 };
 
 struct EvaluateJob {

@@ -10,7 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "hapticcal/core/log.hpp"
 #include "hapticcal/model/frame.hpp"
+#include "hapticcal/model/model.hpp"
 
 namespace hapticcal {
 
@@ -59,5 +61,14 @@ struct IsoCriteria {
   std::vector<IsoDistanceCriteria> distances;
 };
 IsoCriteria iso_criteria(const std::vector<IsoPoseRuns>& poses);
+
+// The runs of a test log: row r attained the pose labels[r] (P1 .. P5, as the
+// plan's plan.csv names them), the k-th row of a label in cycle k. A pose's
+// commanded pose is the model's at the mean of its rows' readings; the
+// attained ones the log's positions (and orientations, a pose log's). Poses in
+// the labels' order. Throws InputError for a log without positions or labels
+// of another count than its rows.
+std::vector<IsoPoseRuns> iso_runs(const DeviceModel& model, const Log& log,
+                                  const std::vector<std::string>& labels);
 
 }  // namespace hapticcal
