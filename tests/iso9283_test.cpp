@@ -361,6 +361,23 @@ TEST(Iso9283, PlanThenEvaluateOnTheCommandLine) {
   const auto text = testing::run_cli({"evaluate", "--model", model, "--log", dir + "/test.csv",
                                       "--iso9283", dir + "/plan/plan.csv"});
   EXPECT_NE(text.out.find("ISO 9283 pose characteristics"), std::string::npos) << text.out;
+  // The reports: the plan's poses and cube; the test laid out as the standard's report.
+  EXPECT_NE(testing::slurp(dir + "/plan/report.html").find("<h2>Test poses</h2>"),
+            std::string::npos);
+  EXPECT_TRUE(std::ifstream(dir + "/plan/figures/iso9283_cube.svg").good());
+  const auto reported =
+      testing::run_cli({"evaluate", "--model", model, "--log", dir + "/test.csv", "--iso9283",
+                        dir + "/plan/plan.csv", "--reference", model, "--conditions",
+                        "load 0.5 kg, 21 C", "--out", dir + "/scored"});
+  ASSERT_EQ(reported.exit_code, 0) << reported.err;
+  const std::string html = testing::slurp(dir + "/scored/report.html");
+  EXPECT_NE(html.find("Test conditions: load 0.5 kg, 21 C."), std::string::npos);
+  EXPECT_NE(html.find("AP reference [mm]"), std::string::npos);
+  EXPECT_NE(html.find("RD [mm]"), std::string::npos);
+  const auto no_test = testing::run_cli(
+      {"evaluate", "--model", model, "--log", dir + "/test.csv", "--conditions", "21 C"});
+  EXPECT_EQ(no_test.exit_code, 2);
+  EXPECT_NE(no_test.err.find("--conditions"), std::string::npos) << no_test.err;
   // Refused: a log of other rows, one whose readings are not the plan's, a plan without labels.
   std::ofstream(dir + "/short.csv") << csv.substr(0, csv.rfind('\n', csv.size() - 2) + 1);
   std::string moved = csv;

@@ -56,6 +56,7 @@ struct EvaluateOptions {
   bool out_given = false;  // --json writes no files unless --out is given
   std::string markers;     // X1,Y1,Z1,...: a marker body in the tool frame
   std::string iso9283;     // an ISO 9283 test plan's plan.csv the log follows
+  std::string conditions;  // its test conditions, as the user states them
 };
 CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& options);
 // register_given and out_given are set from the parsed command first.

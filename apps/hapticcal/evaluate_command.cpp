@@ -26,6 +26,9 @@ CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& o) {
                        "An ISO 9283 test: the plan.csv of plan --iso9283, which the log follows "
                        "row by row; adds the pose and distance accuracy and repeatability (AP, "
                        "RP, AD, RD) of the model (and --reference)");
+  evaluate->add_option("--conditions", o.conditions,
+                       "The ISO 9283 test's conditions for its report, e.g. \"load 1 kg, speed "
+                       "100 %, 21 C\"");
   evaluate->add_option("--markers", o.markers,
                        "A log of several markers on one rigid body: their positions in the tool "
                        "frame, X1,Y1,Z1,X2,... [m] (calibrate's results.json markers; default: "
@@ -80,6 +83,7 @@ int run_evaluate(const EvaluateOptions& o) {
   if (o.register_given) request.registration = hapticcal::parse_register(o.register_what);
   request.tracker = o.tracker;
   request.iso9283 = o.iso9283;
+  request.conditions = o.conditions;
   request.stream.search_range = o.clock_search;
   request.stream.drift = o.clock_drift;
   // --json writes no files unless --out is given.

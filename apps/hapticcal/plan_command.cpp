@@ -20,6 +20,7 @@
 #include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/jobs/plan_job.hpp"
 #include "hapticcal/model_io/model_source.hpp"
+#include "hapticcal/report/iso9283_report.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/paper.hpp"
 #include "number_options.hpp"
@@ -175,6 +176,8 @@ int run_iso_plan(const PlanCommandOptions& options) {
       {"poses", poses}};
   write_file_atomically(out.dir() + "/plan.csv", csv);
   write_file_atomically(out.dir() + "/iso9283.json", json.dump(2) + "\n");
+  std::string note;
+  const int figures = write_report(iso_plan_report(model, plan), out.dir(), note);
   out.commit();
   fmt::print("hapticcal plan --iso9283: {} ({} joints)\n", model.name, model.dof());
   fmt::print(
@@ -190,6 +193,8 @@ int run_iso_plan(const PlanCommandOptions& options) {
              plan.orientation_held ? "every pose at the centre's orientation"
                                    : "orientation not held (fewer than six joints)",
              plan.cycles, plan.cycles * 5);
+  fmt::print("report: {}/report.html ({} figures)\n", options.out, figures);
+  if (!note.empty()) fmt::print("note: {}\n", note);
   fmt::print("{}", output_summary(out, options.out,
                                   fmt::format(" (plan.csv: q1..q{} in radians and the pose's "
                                               "label, a row a pose visited)",

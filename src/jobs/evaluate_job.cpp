@@ -16,6 +16,7 @@
 #include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/model_io/urdf.hpp"
+#include "hapticcal/report/iso9283_report.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/report/results_json.hpp"
 #include "hapticcal/study/iso9283.hpp"
@@ -234,8 +235,8 @@ nlohmann::ordered_json iso_json(const IsoCriteria& c) {
 // --iso9283: the log follows the test plan row by row; the characteristics of
 // the model (and the reference) into the lines and the JSON. Values in m and
 // rad in the JSON, mm and mrad in the lines.
-void add_iso(const std::string& plan_path, const Log& log, const DeviceModel& model,
-             const DeviceModel* reference, EvaluateJob& job) {
+void add_iso(const std::string& plan_path, const std::string& conditions, const Log& log,
+             const DeviceModel& model, const DeviceModel* reference, EvaluateJob& job) {
   const Log plan = read_log(plan_path);
   if (!plan.has_point) {
     throw InputError(plan_path, 0, "--iso9283",
@@ -284,9 +285,11 @@ void add_iso(const std::string& plan_path, const Log& log, const DeviceModel& mo
                                     d.rd * 1e3));
   }
   nlohmann::ordered_json json = nlohmann::ordered_json::parse(job.json);
-  json["iso9283"] = {{"plan", plan_path}, {"model", iso_json(mine)}};
+  json["iso9283"] = {{"plan", plan_path}, {"conditions", conditions}, {"model", iso_json(mine)}};
   if (theirs) json["iso9283"]["reference"] = iso_json(*theirs);
   job.json = json.dump();
+  job.iso = mine;
+  job.iso_reference = theirs;
 }
 
 }  // namespace
@@ -337,13 +340,15 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   job.json = evaluation_json(cmp, job.evaluation);
   job.lines = evaluation_lines(cmp, job.evaluation, request.reference);
   if (job.alignment) add_clock(*job.alignment, job);
+  if (!request.conditions.empty() && request.iso9283.empty())
+    throw InputError("--conditions: applies to an ISO 9283 test (--iso9283)");
   if (!request.iso9283.empty()) {
     if (job.alignment)
       throw InputError(request.iso9283, 0, "--iso9283",
                        "a test's log is static poses: no --tracker");
     const DeviceModel reference_used =
         reference ? as_evaluated(*reference, cmp->reference) : DeviceModel();
-    add_iso(request.iso9283, log, as_evaluated(job.model, job.evaluation),
+    add_iso(request.iso9283, request.conditions, log, as_evaluated(job.model, job.evaluation),
             reference ? &reference_used : nullptr, job);
   }
   if (!frame_said.empty()) job.lines.insert(job.lines.begin(), frame_said);
@@ -353,6 +358,10 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   Report report = evaluation_report(job.model, request.model, log, job.evaluation,
                                     cmp ? &cmp->reference : nullptr, request.reference, job.lines);
   if (job.alignment) clock_section(job.alignment->clock, "model held", report);
+  if (job.iso) {
+    add_iso_section(*job.iso, job.iso_reference ? &*job.iso_reference : nullptr, request.conditions,
+                    report);
+  }
   job.figures = write_report(report, job.out->dir(), job.report_note);
   job.out->commit();
   return job;

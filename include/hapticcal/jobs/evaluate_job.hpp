@@ -11,6 +11,7 @@
 #include "hapticcal/identification/stream.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/study/evaluate.hpp"
+#include "hapticcal/study/iso9283.hpp"
 
 namespace hapticcal {
 
@@ -37,6 +38,7 @@ struct EvaluateRequest {
   // which the log follows row by row; its pose and distance characteristics
   // are added to the lines and the JSON ("iso9283").
   std::string iso9283;
+  std::string conditions;  // the test's conditions as the user states them (load, speed, ...)
 };
 
 struct EvaluateJob {
@@ -56,6 +58,8 @@ struct EvaluateJob {
   std::vector<Evaluation> tip_evaluations;
   std::vector<std::optional<EvaluationComparison>> tip_comparisons;
   std::optional<StreamAlignment> alignment;  // with --tracker
+  // With --iso9283: the model's characteristics and the reference's.
+  std::optional<IsoCriteria> iso, iso_reference;
 };
 
 // --tip / --root given without a URDF among the models is bad input, as every
