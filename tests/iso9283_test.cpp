@@ -155,6 +155,7 @@ TEST(Iso9283, DistanceCriteriaPairTheCyclesThatAttainedBoth) {
   EXPECT_NEAR(d.rd, three_s, 1e-12);           // RD = 3 S_D
   const IsoCriteria all = iso_criteria({p1, p2, runs(rng, "P3", 30, 2e-5, {0, 0, 0})});
   ASSERT_EQ(all.poses.size(), 3u);
+  EXPECT_EQ(all.distances[0].from, "P1");
   ASSERT_EQ(all.distances.size(), 2u);
   EXPECT_EQ(all.distances[1].to, "P3");
 }
@@ -208,8 +209,11 @@ void check_cube(const DeviceModel& model) {
   EXPECT_NEAR(diagonal, plan.size * std::sqrt(3.0), 1e-12);
   EXPECT_LT((plan.poses[0].pose.p - c).norm(), 1e-12);
   const Eigen::Vector3d corners[4] = {c1, c2, c7, c8};
-  for (int k = 0; k < 4; ++k)
+  const Eigen::Vector3d opposite[4] = {c7, c8, c1, c2};
+  for (int k = 0; k < 4; ++k) {
     EXPECT_NEAR((plan.poses[k + 1].pose.p - corners[k]).norm(), 0.1 * diagonal, 1e-12);
+    EXPECT_LT((plan.poses[k + 1].pose.p - (0.9 * corners[k] + 0.1 * opposite[k])).norm(), 1e-12);
+  }
   // A larger cube about the same centre leaves some pose out of reach.
   IsoCubeOptions larger;
   larger.centre = plan.centre;
@@ -357,7 +361,10 @@ TEST(Iso9283, PlanThenEvaluateOnTheCommandLine) {
     EXPECT_NEAR(j["model"]["poses"][k]["RP"].get<double>(), expected.poses[k].rp, 1e-15);
     EXPECT_NEAR(j["reference"]["poses"][k]["AP"].get<double>(), expected.poses[k].ap, 1e-15);
   }
-  EXPECT_EQ(j["model"]["distances"].size(), 4u);
+  ASSERT_EQ(j["model"]["distances"].size(), 5u);  // P2-P4, then P1 to each other pose
+  EXPECT_EQ(j["model"]["distances"][0]["from"], "P2");
+  EXPECT_EQ(j["model"]["distances"][0]["to"], "P4");
+  EXPECT_NEAR(j["model"]["distances"][0]["AD"].get<double>(), expected.distances[0].ad, 1e-15);
   const auto text = testing::run_cli({"evaluate", "--model", model, "--log", dir + "/test.csv",
                                       "--iso9283", dir + "/plan/plan.csv"});
   EXPECT_NE(text.out.find("ISO 9283 pose characteristics"), std::string::npos) << text.out;

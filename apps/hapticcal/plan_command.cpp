@@ -204,6 +204,9 @@ int run_iso_plan(const PlanCommandOptions& options) {
 
 int run_plan(const PlanCommandOptions& options) {
   if (options.iso9283) return run_iso_plan(options);
+  if (!options.cube_centre.empty() || options.cube_size > 0 || options.cycles != 30)
+    throw InputError(
+        "--cube-centre, --cube-size and --cycles: apply to an ISO 9283 plan (--iso9283)");
   if (options.request.measurement.empty() || options.request.poses == 0)
     throw InputError("plan: --measurement and --poses are required (or --iso9283)");
   PlanRequest o = options.request;

@@ -138,7 +138,7 @@ IsoCubePlan plan_iso_cube(const DeviceModel& model, const IsoCubeOptions& option
       (place_poses(model, *centre_q, at, plan) ? good : bad) = plan.size;
     }
     plan.size = good;
-    if (!(good > 0) || !place_poses(model, *centre_q, at, plan)) {
+    if (!(good >= 0.01) || !place_poses(model, *centre_q, at, plan)) {
       throw InputError(
           "--iso9283: no cube of 10 mm or more about the centre keeps its test poses within "
           "the joint limits; give --cube-centre elsewhere");

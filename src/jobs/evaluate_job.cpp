@@ -243,20 +243,28 @@ void add_iso(const std::string& plan_path, const std::string& conditions, const 
                      "not a test plan: no point column naming each row's pose (plan --iso9283 "
                      "writes one)");
   }
-  if (plan.rows == log.rows && plan.dof() == log.dof()) {
+  if (plan.dof() != log.dof()) {
+    throw InputError(plan_path, 0, "--iso9283",
+                     fmt::format("a plan of {} joints for a log of {}: is this log from this "
+                                 "test plan?",
+                                 plan.dof(), log.dof()));
+  }
+  if (plan.rows == log.rows) {
     for (int r = 0; r < log.rows; ++r) {
       const double off = (log.q.row(r) - plan.q.row(r)).cwiseAbs().maxCoeff();
       if (off > 0.05) {
-        throw InputError(log.origin, log.line[static_cast<size_t>(r)], "--iso9283",
-                         fmt::format("the readings are {:.3f} rad from the plan's pose {}: is "
-                                     "this log from this test plan?",
-                                     off, plan.label[static_cast<size_t>(r)]));
+        throw InputError(
+            log.origin, log.line[static_cast<size_t>(r)], "--iso9283",
+            fmt::format("the readings are {:.3f} (rad or m) from the plan's pose {}: is "
+                        "this log from this test plan?",
+                        off, plan.label[static_cast<size_t>(r)]));
       }
     }
   }
   const IsoCriteria mine = iso_criteria(iso_runs(model, log, plan.label));
   std::optional<IsoCriteria> theirs;
   if (reference) theirs = iso_criteria(iso_runs(*reference, log, plan.label));
+  const auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.4f}", v * 1e3) : "-"; };
   const auto both = [&](double m, double r, double scale) {
     return theirs ? fmt::format("{:8.4f} ({:.4f})", m * scale, r * scale)
                   : fmt::format("{:8.4f}", m * scale);
@@ -268,8 +276,8 @@ void add_iso(const std::string& plan_path, const std::string& conditions, const 
   for (size_t k = 0; k < mine.poses.size(); ++k) {
     const IsoPoseCriteria& p = mine.poses[k];
     const IsoPoseCriteria* q = theirs ? &theirs->poses[k] : nullptr;
-    std::string line = fmt::format("  {:<4} n {:2}  AP {} mm  RP {:.4f} mm", p.label, p.cycles,
-                                   both(p.ap, q ? q->ap : 0, 1e3), p.rp * 1e3);
+    std::string line = fmt::format("  {:<4} n {:2}  AP {} mm  RP {} mm", p.label, p.cycles,
+                                   both(p.ap, q ? q->ap : 0, 1e3), mm(p.rp));
     if (p.orientation) {
       line +=
           fmt::format("  AP_a/b/c {:.3f} {:.3f} {:.3f} mrad  RP_a/b/c {:.3f} {:.3f} {:.3f} mrad",
@@ -280,9 +288,9 @@ void add_iso(const std::string& plan_path, const std::string& conditions, const 
   }
   for (size_t k = 0; k < mine.distances.size(); ++k) {
     const IsoDistanceCriteria& d = mine.distances[k];
-    job.lines.push_back(fmt::format("  {}-{} n {:2}  AD {} mm  RD {:.4f} mm", d.from, d.to,
-                                    d.cycles, both(d.ad, theirs ? theirs->distances[k].ad : 0, 1e3),
-                                    d.rd * 1e3));
+    job.lines.push_back(fmt::format("  {}-{} n {:2}  AD {} mm  RD {} mm", d.from, d.to, d.cycles,
+                                    both(d.ad, theirs ? theirs->distances[k].ad : 0, 1e3),
+                                    mm(d.rd)));
   }
   nlohmann::ordered_json json = nlohmann::ordered_json::parse(job.json);
   json["iso9283"] = {{"plan", plan_path}, {"conditions", conditions}, {"model", iso_json(mine)}};

@@ -11,7 +11,7 @@
 namespace hapticcal {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kNoValue = std::numeric_limits<double>::quiet_NaN();  // gnuplot draws nothing
 
 // A number in a table, "-" where it does not apply (fewer than two cycles).
 std::string cell(double v, double scale) {
@@ -25,7 +25,7 @@ FigureSpec cube_figure(const IsoCubePlan& plan) {
   static const int path[] = {0, 1, 2, 3, 0, 4, 5, 1, 5, 6, 2, 6, 7, 3, 7, 4};
   static const int plane[] = {0, 1, 6, 7, 0};
   constexpr size_t kRows = std::size(path);
-  std::vector<std::vector<double>> columns(9, std::vector<double>(kRows, kNaN));
+  std::vector<std::vector<double>> columns(9, std::vector<double>(kRows, kNoValue));
   for (size_t r = 0; r < kRows; ++r) {
     for (int a = 0; a < 3; ++a) columns[a][r] = plan.corners[path[r]][a] * 1e3;
   }

@@ -36,6 +36,25 @@ double mean_of(const std::vector<double>& values) {
   return values.empty() ? kNaN : sum / static_cast<double>(values.size());
 }
 
+// P1 < P2 < ... < P10 by number; other labels after them, as strings.
+bool pose_order(const std::string& a, const std::string& b) {
+  const auto number = [](const std::string& s) {
+    const bool numbered =
+        s.size() > 1 && s.size() < 9 && s[0] == 'P' &&
+        std::all_of(s.begin() + 1, s.end(), [](char c) { return c >= '0' && c <= '9'; });
+    return numbered ? std::stoi(s.substr(1)) : -1;
+  };
+  const int x = number(a), y = number(b);
+  if ((x >= 0) != (y >= 0)) return x >= 0;
+  return x >= 0 && x != y ? x < y : a < b;
+}
+
+const IsoPoseRuns* find_pose(const std::vector<IsoPoseRuns>& poses, const std::string& label) {
+  for (const IsoPoseRuns& p : poses)
+    if (p.label == label) return &p;
+  return nullptr;
+}
+
 }  // namespace
 
 IsoPoseCriteria iso_pose_criteria(const IsoPoseRuns& runs) {
@@ -96,8 +115,14 @@ IsoDistanceCriteria iso_distance_criteria(const IsoPoseRuns& from, const IsoPose
 IsoCriteria iso_criteria(const std::vector<IsoPoseRuns>& poses) {
   IsoCriteria out;
   for (const IsoPoseRuns& p : poses) out.poses.push_back(iso_pose_criteria(p));
-  for (size_t k = 1; k < poses.size(); ++k)
-    out.distances.push_back(iso_distance_criteria(poses.front(), poses[k]));
+  const IsoPoseRuns* p2 = find_pose(poses, "P2");
+  const IsoPoseRuns* p4 = find_pose(poses, "P4");
+  if (p2 && p4) out.distances.push_back(iso_distance_criteria(*p2, *p4));  // the standard's pair
+  const IsoPoseRuns* first = find_pose(poses, "P1");
+  if (!first && !poses.empty()) first = &poses.front();
+  for (const IsoPoseRuns& p : poses) {
+    if (&p != first) out.distances.push_back(iso_distance_criteria(*first, p));
+  }
   return out;
 }
 
@@ -112,7 +137,7 @@ std::vector<IsoPoseRuns> iso_runs(const DeviceModel& model, const Log& log,
                                  log.rows, labels.size()));
   }
   std::vector<std::string> names = labels;
-  std::sort(names.begin(), names.end());
+  std::sort(names.begin(), names.end(), pose_order);
   names.erase(std::unique(names.begin(), names.end()), names.end());
   const PreparedModel prepared(model);
   std::vector<IsoPoseRuns> out;

@@ -54,8 +54,9 @@ struct IsoDistanceCriteria {
 IsoPoseCriteria iso_pose_criteria(const IsoPoseRuns& runs);
 IsoDistanceCriteria iso_distance_criteria(const IsoPoseRuns& from, const IsoPoseRuns& to);
 
-// Every pose's characteristics, and the distances of P1 (the cube's centre) to
-// each other pose (the first pose to each later one).
+// Every pose's characteristics, and the distances: P2 to P4 (the standard's
+// pair) if both are there, then P1 (the cube's centre; without one, the first
+// pose) to each other pose.
 struct IsoCriteria {
   std::vector<IsoPoseCriteria> poses;
   std::vector<IsoDistanceCriteria> distances;
@@ -66,8 +67,8 @@ IsoCriteria iso_criteria(const std::vector<IsoPoseRuns>& poses);
 // plan's plan.csv names them), the k-th row of a label in cycle k. A pose's
 // commanded pose is the model's at the mean of its rows' readings; the
 // attained ones the log's positions (and orientations, a pose log's). Poses in
-// the labels' order. Throws InputError for a log without positions or labels
-// of another count than its rows.
+// the order P1, P2, ... (other labels after them, by name). Throws InputError for a log without
+// positions or labels of another count than its rows.
 std::vector<IsoPoseRuns> iso_runs(const DeviceModel& model, const Log& log,
                                   const std::vector<std::string>& labels);
 
