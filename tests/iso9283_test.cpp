@@ -22,6 +22,7 @@
 #include "hapticcal/design/iso9283_plan.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
@@ -340,31 +341,59 @@ TEST(Iso9283, PlanThenEvaluateOnTheCommandLine) {
   std::mt19937_64 rng(5);
   std::normal_distribution<double> g(0, 1e-5);
   std::string csv = "q1,q2,q3,q4,q5,q6,x,y,z\n";
+  std::vector<Eigen::Vector3d> attained;
   for (int r = 0; r < plan.rows; ++r) {
     const Eigen::VectorXd q = plan.q.row(r).transpose();
-    const Eigen::Vector3d p = actual.forward(q.data()).p;
+    const Eigen::Vector3d p = actual.forward(q.data()).p + Eigen::Vector3d(g(rng), g(rng), g(rng));
+    attained.push_back(p);
     for (int i = 0; i < 6; ++i) csv += fmt::format("{:.17g},", q[i]);
-    csv += fmt::format("{:.17g},{:.17g},{:.17g}\n", p.x() + g(rng), p.y() + g(rng), p.z() + g(rng));
+    csv += fmt::format("{:.17g},{:.17g},{:.17g}\n", p.x(), p.y(), p.z());
   }
   std::ofstream(dir + "/test.csv") << csv;
+  save_device(truth, dir + "/truth.yaml");
+  // Scored against the truth (the model: AP the scatter's) and the nominal model
+  // (the reference: AP its error).
   const auto scored =
-      testing::run_cli({"evaluate", "--model", model, "--log", dir + "/test.csv", "--iso9283",
-                        dir + "/plan/plan.csv", "--reference", model, "--json"});
+      testing::run_cli({"evaluate", "--model", dir + "/truth.yaml", "--log", dir + "/test.csv",
+                        "--iso9283", dir + "/plan/plan.csv", "--reference", model, "--json"});
   ASSERT_EQ(scored.exit_code, 0) << scored.err;
   const nlohmann::json j = nlohmann::json::parse(scored.out)["iso9283"];
-  const IsoCriteria expected =
-      iso_criteria(iso_runs(testing::meca500(), read_log(dir + "/test.csv"), plan.label));
+  // The expected runs built here from the plan's rows: pose P<k>'s rows in
+  // order are its cycles; its commanded pose a model's at the plan's readings.
+  const auto expected_for = [&](const DeviceModel& m) {
+    const PreparedModel prepared(m);
+    std::vector<IsoPoseRuns> runs;
+    for (const char* label : {"P1", "P2", "P3", "P4", "P5"}) {
+      IsoPoseRuns run;
+      run.label = label;
+      for (int r = 0; r < plan.rows; ++r) {
+        if (plan.label[static_cast<size_t>(r)] != label) continue;
+        const Eigen::VectorXd q = plan.q.row(r).transpose();
+        run.commanded = prepared.forward(q.data());
+        run.cycles.push_back(static_cast<int>(run.cycles.size()) + 1);
+        run.attained.push_back({Eigen::Matrix3d::Identity(), attained[static_cast<size_t>(r)]});
+      }
+      runs.push_back(run);
+    }
+    return iso_criteria(runs);
+  };
+  const IsoCriteria expected = expected_for(truth), nominal = expected_for(testing::meca500());
   ASSERT_EQ(j["model"]["poses"].size(), 5u);
   for (size_t k = 0; k < 5; ++k) {
     EXPECT_EQ(j["model"]["poses"][k]["pose"], expected.poses[k].label);
-    EXPECT_NEAR(j["model"]["poses"][k]["AP"].get<double>(), expected.poses[k].ap, 1e-15);
-    EXPECT_NEAR(j["model"]["poses"][k]["RP"].get<double>(), expected.poses[k].rp, 1e-15);
-    EXPECT_NEAR(j["reference"]["poses"][k]["AP"].get<double>(), expected.poses[k].ap, 1e-15);
+    EXPECT_NEAR(j["model"]["poses"][k]["AP"].get<double>(), expected.poses[k].ap, 1e-12);
+    EXPECT_NEAR(j["model"]["poses"][k]["RP"].get<double>(), expected.poses[k].rp, 1e-12);
+    EXPECT_NEAR(j["reference"]["poses"][k]["AP"].get<double>(), nominal.poses[k].ap, 1e-12);
+    EXPECT_GT(nominal.poses[k].ap, 10 * expected.poses[k].ap);  // the nominal model's error
   }
   ASSERT_EQ(j["model"]["distances"].size(), 5u);  // P2-P4, then P1 to each other pose
   EXPECT_EQ(j["model"]["distances"][0]["from"], "P2");
   EXPECT_EQ(j["model"]["distances"][0]["to"], "P4");
-  EXPECT_NEAR(j["model"]["distances"][0]["AD"].get<double>(), expected.distances[0].ad, 1e-15);
+  for (size_t k = 0; k < 5; ++k) {
+    EXPECT_NEAR(j["model"]["distances"][k]["AD"].get<double>(), expected.distances[k].ad, 1e-12);
+    EXPECT_NEAR(j["reference"]["distances"][k]["AD"].get<double>(), nominal.distances[k].ad, 1e-12);
+    EXPECT_NEAR(j["model"]["distances"][k]["RD"].get<double>(), expected.distances[k].rd, 1e-12);
+  }
   const auto text = testing::run_cli({"evaluate", "--model", model, "--log", dir + "/test.csv",
                                       "--iso9283", dir + "/plan/plan.csv"});
   EXPECT_NE(text.out.find("ISO 9283 pose characteristics"), std::string::npos) << text.out;
