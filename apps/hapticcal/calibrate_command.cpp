@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -174,28 +173,12 @@ void read_tool_point(const std::string& text, hapticcal::CalibrateRequest& reque
     request.nominal_tool = true;
     return;
   }
-  std::array<double, 3> point{};
-  size_t start = 0;
-  for (int k = 0; k < 3; ++k) {
-    const size_t comma = text.find(',', start);
-    if ((k < 2) != (comma != std::string::npos)) break;
-    const std::string field =
-        text.substr(start, comma == std::string::npos ? comma : comma - start);
-    char* end = nullptr;
-    point[k] = std::strtod(field.c_str(), &end);
-    if (field.empty() || end != field.c_str() + field.size() || !std::isfinite(point[k]) ||
-        std::abs(point[k]) > 10) {
+  request.tool_point = numbers<3>(text, "--tool-point");
+  for (double x : *request.tool_point) {
+    if (std::abs(x) > 10)
       throw hapticcal::InputError(
-          fmt::format("--tool-point: '{}' is not a coordinate in metres (|x| <= 10)", field));
-    }
-    start = comma + 1;
-    if (k == 2) {
-      request.tool_point = point;
-      return;
-    }
+          fmt::format("--tool-point: {} is not a coordinate in metres (|x| <= 10)", x));
   }
-  throw hapticcal::InputError(fmt::format(
-      "--tool-point: '{}': give X,Y,Z in metres in the last link's frame, or 'nominal'", text));
 }
 
 }  // namespace

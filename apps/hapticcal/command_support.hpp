@@ -5,6 +5,10 @@
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -59,6 +63,30 @@ inline std::string report(const hapticcal::Report& r, const std::string& dir,
   std::string note;
   const int drawn = hapticcal::write_report(r, dir, note);
   return report_said(drawn, note, shown);
+}
+
+// "A,B,..." as `N` finite numbers, or InputError naming the option.
+template <size_t N>
+std::array<double, N> numbers(const std::string& text, const std::string& option) {
+  std::vector<double> out;
+  for (const std::string& part : hapticcal::split_columns(text)) {
+    try {
+      size_t used = 0;
+      const double v = std::stod(part, &used);
+      if (used != part.size() || !std::isfinite(v)) throw std::invalid_argument("");
+      out.push_back(v);
+    } catch (const std::exception&) {
+      throw hapticcal::InputError(
+          fmt::format("{} '{}': '{}' is not a number", option, printable(text), printable(part)));
+    }
+  }
+  if (out.size() != N) {
+    throw hapticcal::InputError(
+        fmt::format("{} '{}': expected {} comma-separated numbers", option, printable(text), N));
+  }
+  std::array<double, N> a{};
+  std::copy(out.begin(), out.end(), a.begin());
+  return a;
 }
 
 // The items of a comma-separated list (none for "").

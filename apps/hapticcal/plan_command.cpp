@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "command_support.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/core/output_set.hpp"
@@ -28,38 +29,6 @@
 #include "terminal.hpp"
 
 namespace hapticcal::cli {
-namespace {
-
-// "A,B,..." as `N` finite numbers, or InputError naming the option.
-template <size_t N>
-std::array<double, N> numbers(const std::string& text, const std::string& option) {
-  std::vector<double> out;
-  for (const std::string& part : split_columns(text)) {
-    try {
-      size_t used = 0;
-      const double v = std::stod(part, &used);
-      if (used != part.size() || !std::isfinite(v)) throw std::invalid_argument("");
-      out.push_back(v);
-    } catch (const std::exception&) {
-      throw InputError(
-          fmt::format("{} '{}': '{}' is not a number", option, printable(text), printable(part)));
-    }
-  }
-  if (out.size() != N) {
-    throw InputError(
-        fmt::format("{} '{}': expected {} comma-separated numbers", option, printable(text), N));
-  }
-  std::array<double, N> a{};
-  std::copy(out.begin(), out.end(), a.begin());
-  return a;
-}
-
-// The items of a comma-separated option (none for "").
-std::vector<std::string> list(const std::string& text) {
-  return text.empty() ? std::vector<std::string>{} : split_columns(text);
-}
-
-}  // namespace
 
 CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
   PlanRequest& o = options.request;
@@ -210,9 +179,9 @@ int run_plan(const PlanCommandOptions& options) {
   if (options.request.measurement.empty() || options.request.poses == 0)
     throw InputError("plan: --measurement and --poses are required (or --iso9283)");
   PlanRequest o = options.request;
-  o.columns = list(options.columns);
-  o.fix = list(options.fix);
-  o.free = list(options.free);
+  o.columns = names(options.columns);
+  o.fix = names(options.fix);
+  o.free = names(options.free);
   if (!options.distance_range.empty())
     o.distance_range = numbers<2>(options.distance_range, "--distance-range");
   if (!options.box.empty()) o.box = numbers<6>(options.box, "--box");
