@@ -257,13 +257,9 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
                   ? Model{result.calibrated, request.model, request.tip, request.root}
                   : Model{result.calibrated, "", "", ""};
   }
-  if (c.usable && !result.calibrated.tree()) {
-    const DeviceFrameOutputs d =
-        device_frame_outputs(result, job.nominal,
-                             {request.model, request.log, "", request.tip, request.root,
-                              request.tool_point, request.nominal_tool});
-    c.device_model = Model{d.split.device, "", "", ""};
-    c.device_frame = homogeneous(d.split.device_in_measurement);
+  if (job.device_frame) {
+    c.device_model = Model{job.device_frame->split.device, "", "", ""};
+    c.device_frame = homogeneous(job.device_frame->split.device_in_measurement);
   }
   return c;
 }

@@ -138,18 +138,18 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
                                   {request.model, request.log, urdf_text, request.tip, request.root,
                                    request.tool_point, request.nominal_tool});
     job.results_json = job.written.results_json;
+    job.device_frame = job.written.device_frame;
   } else {
     // results.json as the command line would write it into a fresh folder.
     if (!job.usable()) {
       job.result.notes.push_back(fmt::format("no {} written: the calibration is not usable",
                                              tree ? "calibrated.urdf" : "calibrated.yaml"));
     } else if (!tree) {
-      add_device_frame_notes(
-          job.result,
+      job.device_frame =
           device_frame_outputs(job.result, job.nominal,
                                {request.model, request.log, urdf_text, request.tip, request.root,
-                                request.tool_point, request.nominal_tool}),
-          urdf);
+                                request.tool_point, request.nominal_tool});
+      add_device_frame_notes(job.result, *job.device_frame, urdf);
     }
     job.results_json =
         calibration_json(job.result, job.nominal, request.model, request.log, options);

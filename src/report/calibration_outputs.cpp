@@ -84,7 +84,7 @@ std::string setup_yaml(const DeviceFrameOutputs& d) {
 // result); a chain's device.yaml and setup.yaml; a tree's calibrated.urdf
 // alone.
 void write_models(const std::string& dir, CalibrationResult& result, const DeviceModel& nominal,
-                  const CalibrationSource& source) {
+                  const CalibrationSource& source, CalibrationOutputs& written) {
   if (result.calibrated.tree()) {
     write_file_atomically(dir + "/calibrated.urdf",
                           tree_urdf(source.urdf_text, source.model_path, source.root,
@@ -92,7 +92,8 @@ void write_models(const std::string& dir, CalibrationResult& result, const Devic
     return;
   }
   save_device(result.calibrated, dir + "/calibrated.yaml");
-  const DeviceFrameOutputs d = device_frame_outputs(result, nominal, source);
+  written.device_frame = device_frame_outputs(result, nominal, source);
+  const DeviceFrameOutputs& d = *written.device_frame;
   add_device_frame_notes(result, d, !source.urdf_text.empty());
   save_device(d.split.device, dir + "/device.yaml");
   write_file_atomically(dir + "/setup.yaml", setup_yaml(d));
@@ -146,7 +147,7 @@ CalibrationOutputs write_calibration_outputs(OutputSet& out, CalibrationResult& 
                                              const CalibrationSource& source) {
   CalibrationOutputs written;
   if (result.status == CalibrationStatus::kConverged) {
-    write_models(out.dir(), result, nominal, source);
+    write_models(out.dir(), result, nominal, source, written);
     written.model_written = true;
   } else {
     written.previous_kept = keep_previous_model(out, nominal, !source.urdf_text.empty());

@@ -51,6 +51,9 @@ struct CalibrateJob {
   CalibrationOutputs written;      // what write_calibration_outputs did
   std::string results_json;        // as written (or as it would be into a fresh folder)
   std::vector<std::string> lines;  // the summary (calibration_lines)
+  // A usable chain's model in the device's own frame and the set-up
+  // (device.yaml and setup.yaml, written or as they would be).
+  std::optional<DeviceFrameOutputs> device_frame;
   bool usable() const { return result.status == CalibrationStatus::kConverged; }
 };
 

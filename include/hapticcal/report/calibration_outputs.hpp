@@ -54,6 +54,8 @@ struct CalibrationOutputs {
   int figures = 0;             // drawn into the report
   std::string report_note;     // write_report's note (gnuplot missing), or empty
   std::string results_json;    // the results.json written
+  // A usable chain's device.yaml and setup.yaml as written (device_frame_outputs).
+  std::optional<DeviceFrameOutputs> device_frame;
 };
 
 // Writes into out.dir() and commits the set: calibrated.yaml (and
