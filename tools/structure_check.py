@@ -26,7 +26,7 @@ CEILINGS = {
     # What a review of every file counted and the enum-name counts above miss,
     # at their counts when first measured (a ratchet: the one pipeline for a
     # chain and a tree, families as members, lowers them):
-    "trait_flag_branches": 57,     # a measurement trait flag read outside the family
+    "trait_flag_branches": 56,     # a measurement trait flag read outside the family
     "slot_decoding": 3,           # a line decoding a parameter's block from ParameterInfo.joint
     "transmission_kind_checks": 23,  # a transmission's kind asked outside its family
     "layer_violations": 0,

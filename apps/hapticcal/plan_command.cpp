@@ -15,7 +15,7 @@
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/data_io/log.hpp"
-#include "hapticcal/design/iso9283_plan.hpp"
+#include "hapticcal/study/iso9283_cube.hpp"
 #include "hapticcal/design/plan.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/jobs/calibrate_job.hpp"

@@ -1,6 +1,7 @@
 // `hapticcal simulate`: the paper's simulation study (its Tables 2-3 and
 // Figs 8 and 10), or a study of any device and measurement from a scenario.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -37,7 +38,7 @@ void print_validation_and_trajectory(const hapticcal::Scenario& sc,
                  ? fmt::format(", orientation RMS {:.4f} -> {:.4f} mrad",
                                t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3)
                  : "",
-             hapticcal::traits(sc.measurement).distance_column
+             hapticcal::measures_distance(sc.measurement)
                  ? fmt::format(", distance RMS {:.4f} -> {:.4f} mm", t.distance_rms_before * 1e3,
                                t.distance_rms_after * 1e3)
                  : "");
@@ -73,7 +74,7 @@ void print_general_study(const hapticcal::Scenario& sc, const hapticcal::StudyRe
   fmt::print("Truth: {} transmissions; kinematics {}. Measurement: {} (sigma_m {:.3g} m{})\n",
              sc.paper_transmissions ? "the paper's (Table 2)" : "the device's own", kinematics,
              hapticcal::traits(sc.measurement).plural, hapticcal::measurement_sigma(sc),
-             hapticcal::traits(sc.measurement).rotation
+             hapticcal::measures_orientation(sc.measurement)
                  ? fmt::format(", sigma_r {:.3g} rad", sc.noise.sigma_orientation)
                  : "");
   const std::vector<hapticcal::StudyRow> rows = hapticcal::study_rows(sc, t.full);
@@ -163,6 +164,39 @@ void print_study(const hapticcal::Scenario& sc, const hapticcal::StudyResult& r)
   print_validation_and_trajectory(sc, t);
 }
 
+// The ISO 9283 tests after the calibrations (a scenario's iso9283): each
+// pose's AP over the trials, simulated against predicted.
+void print_iso_study(const hapticcal::IsoSimulation& iso, const hapticcal::IsoStudy& study) {
+  fmt::print(
+      "ISO 9283 test after each calibration: cube {:.1f} mm, {} cycles, attained positions "
+      "scattered {:.4f} mm per coordinate; AP as RMS over {} trial(s) (iso9283.csv)\n",
+      iso.plan.size * 1e3, iso.plan.cycles, iso.scatter * 1e3, study.trials.size());
+  fmt::print("  {:<5} {:>10} {:>12} {:>12} {:>10} {:>9}\n", "pose", "AP nominal", "calibrated",
+             "predicted", "ratio", "RP");
+  const auto mm = [](double v) {
+    return std::isfinite(v) ? fmt::format("{:.4f}", v * 1e3) : std::string("-");
+  };
+  const auto line = [&](const std::string& label, double nominal, double calibrated,
+                        double predicted, double rp) {
+    fmt::print("  {:<5} {:>10} {:>12} {:>12} {:>10} {:>9}  mm\n", label, mm(nominal),
+               mm(calibrated), mm(predicted),
+               predicted > 0 ? fmt::format("{:.2f}", calibrated / predicted) : std::string("-"),
+               mm(rp));
+  };
+  for (const hapticcal::IsoPoseSummary& p : study.poses)
+    line(p.label, p.ap_nominal, p.ap_calibrated, p.ap_predicted, p.rp);
+  line("all", study.ap_nominal, study.ap_calibrated, study.ap_predicted, NAN);
+  fmt::print(
+      "  predicted: from each calibration's covariance and the scatter's mean; ratio: calibrated "
+      "/ predicted; RP: the robot's (the same for both models)\n");
+  if (!study.unseen.empty()) {
+    fmt::print(
+        "  the truth deviates in parameters the calibration held ({}): their error is in the "
+        "simulated AP, not in the prediction\n",
+        fmt::join(study.unseen, ", "));
+  }
+}
+
 }  // namespace
 
 CLI::App* add_simulate_command(CLI::App& app, SimulateOptions& o) {
@@ -223,6 +257,7 @@ int run_simulate(const SimulateOptions& o) {
     return 0;
   }
   print_study(job.scenario, job.result);
+  if (job.result.iso) print_iso_study(*job.scenario.iso9283, *job.result.iso);
   fmt::print("{}", report_said(job.figures, job.report_note, o.out));
   fmt::print("{}", hapticcal::cli::output_summary(*job.out, o.out));
   return 0;

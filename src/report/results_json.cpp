@@ -1,5 +1,6 @@
 #include "hapticcal/report/results_json.hpp"
 
+#include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
 
@@ -412,6 +413,33 @@ void general_study_json(const Scenario& sc, const StudyResult& r, nlohmann::orde
   j["trajectory"].erase("paper_improvement_kinematic_only_pct");
 }
 
+// A study's ISO 9283 tests (StudyResult::iso): the test as simulated, each
+// pose's AP over the trials, and all of them.
+nlohmann::ordered_json iso_study_json(const IsoSimulation& iso, const IsoStudy& study) {
+  using json = nlohmann::ordered_json;
+  const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  json poses = json::array();
+  for (const IsoPoseSummary& p : study.poses) {
+    poses.push_back({{"label", p.label},
+                     {"position", {p.point.x(), p.point.y(), p.point.z()}},
+                     {"ap_nominal", number(p.ap_nominal)},
+                     {"ap_calibrated", number(p.ap_calibrated)},
+                     {"ap_predicted", number(p.ap_predicted)},
+                     {"rp", number(p.rp)}});
+  }
+  return {{"cycles", iso.plan.cycles},
+          {"scatter", iso.scatter},
+          {"cube",
+           {{"centre", {iso.plan.centre.x(), iso.plan.centre.y(), iso.plan.centre.z()}},
+            {"size", iso.plan.size}}},
+          {"trials", study.trials.size()},
+          {"poses", poses},
+          {"ap_nominal", number(study.ap_nominal)},
+          {"ap_calibrated", number(study.ap_calibrated)},
+          {"ap_predicted", number(study.ap_predicted)},
+          {"csv", "iso9283.csv"}};
+}
+
 }  // namespace
 
 std::string study_json(const Scenario& sc, const StudyResult& r) {
@@ -485,6 +513,7 @@ std::string study_json(const Scenario& sc, const StudyResult& r) {
     j["monte_carlo"] = mc;
   }
   if (!sc.paper_comparison()) general_study_json(sc, r, j);
+  if (r.iso) j["iso9283"] = iso_study_json(*sc.iso9283, *r.iso);
   return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "hapticcal/report/iso9283_report.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "report/figures.hpp"
@@ -355,6 +356,7 @@ Report study_report(const Scenario& sc, const StudyResult& r) {
   parameter_tables(sc, r, report);
   report.sections.push_back(held_table(t.full.kinematics));
   report.outcome = study_outcome(sc, r);
+  if (r.iso) add_iso_study_section(*sc.iso9283, *r.iso, report);
 
   fig7_figures(sc, t, report);
   fig8_figures(sc, t, report);

@@ -13,6 +13,7 @@
 #include <numbers>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/yaml_reader.hpp"
@@ -23,6 +24,7 @@
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/model_io/model_source.hpp"
+#include "hapticcal/study/iso9283_cube.hpp"
 #include "hapticcal/study/paper.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "hapticcal/study/study.hpp"
@@ -46,6 +48,7 @@ constexpr double kMaxSigmaAngle = 1;                     // rad
 constexpr double kMaxSigmaLength = 1;                    // m
 constexpr double kMaxLengthDeviation = 1;                // m
 constexpr double kMaxAngleDeviation = std::numbers::pi;  // rad
+constexpr int kMaxIsoCycles = 1000;
 
 // The YAML reader's strict values, and the bounded integers of seeds and counts.
 class ScenarioReader : public detail::YamlReader {
@@ -83,7 +86,7 @@ ScenarioFile parse_scenario_file(const std::string& path) {
   r.check_keys(root, "",
                {"format", "device", "tip", "root", "seed", "trials", "poses", "trajectory", "noise",
                 "deviations", "random_deviations", "transmissions", "measurement", "calibration",
-                "sockets", "socket_distances", "planes", "session"});
+                "sockets", "socket_distances", "planes", "session", "iso9283"});
   const std::string format = r.string(r.require(root, "", "format"), "format");
   if (format != "hapticcal-scenario/1") {
     r.fail(root["format"], "format",
@@ -532,6 +535,61 @@ void read_session(const ScenarioFile& file, Scenario& sc) {
   }
 }
 
+// iso9283: {cycles, scatter, cube_size, cube_centre}: ISO 9283's test after
+// each calibration, at the nominal model's test cube (planned here, so that a
+// cube the limits do not allow is refused with the file's line).
+void read_iso9283(const ScenarioFile& file, Scenario& sc) {
+  const ScenarioReader& r = file.r;
+  const YAML::Node node = file.root["iso9283"];
+  if (!node) return;
+  r.expect_map(node, "iso9283");
+  r.check_keys(node, "iso9283", {"cycles", "scatter", "cube_size", "cube_centre"});
+  if (sc.session) r.fail(node, "iso9283", "a hand-guided session study runs no ISO 9283 test");
+  IsoSimulation iso;
+  if (node["cycles"])
+    iso.cube.cycles = r.integer(node["cycles"], "iso9283.cycles", 1, kMaxIsoCycles);
+  if (const YAML::Node scatter = node["scatter"]) {
+    iso.scatter = r.number(scatter, "iso9283.scatter");
+    if (!(iso.scatter >= 0 && iso.scatter <= kMaxSigmaLength))
+      r.fail(scatter, "iso9283.scatter",
+             fmt::format("{} is outside [0, {}] m", iso.scatter, kMaxSigmaLength));
+  }
+  if (const YAML::Node size = node["cube_size"]) {
+    iso.cube.size = r.number(size, "iso9283.cube_size");
+    if (!(*iso.cube.size > 0 && *iso.cube.size <= kMaxSocketCoordinate))
+      r.fail(size, "iso9283.cube_size",
+             fmt::format("{} is outside (0, {}] m", *iso.cube.size, kMaxSocketCoordinate));
+  }
+  if (const YAML::Node centre = node["cube_centre"]) {
+    if (!centre.IsSequence() || centre.size() != 3)
+      r.fail(centre, "iso9283.cube_centre", "expected [X, Y, Z] in metres");
+    Eigen::Vector3d c;
+    for (int k = 0; k < 3; ++k) {
+      c[k] = r.number(centre[k], "iso9283.cube_centre");
+      if (!(std::abs(c[k]) <= kMaxSocketCoordinate))
+        r.fail(centre[k], "iso9283.cube_centre",
+               fmt::format("{} m is beyond {} m", c[k], kMaxSocketCoordinate));
+    }
+    iso.cube.centre = c;
+  }
+  try {
+    iso.plan = plan_iso_cube(sc.nominal, iso.cube);
+  } catch (const InputError& e) {
+    // The planner speaks of plan's options; here they are this section's keys.
+    std::string why = e.message();
+    for (const auto& [option, key] : {std::pair<std::string, std::string>{"--iso9283: ", ""},
+                                      {"--cube-centre", "cube_centre"},
+                                      {"--cube-size", "cube_size"}}) {
+      for (size_t at = why.find(option); at != std::string::npos; at = why.find(option, at)) {
+        why.replace(at, option.size(), key);
+        at += key.size();
+      }
+    }
+    r.fail(node, "iso9283", why);
+  }
+  sc.iso9283 = std::move(iso);
+}
+
 }  // namespace
 
 Scenario load_scenario(const std::string& path, const std::string& default_device_path,
@@ -551,6 +609,7 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
   read_noise(file, sc);
   read_deviations(file, sc);
   read_session(file, sc);
+  read_iso9283(file, sc);
   detail::check_simulated_limits(sc);
   assign_truth(sc, path);
   return sc;

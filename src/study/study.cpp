@@ -366,6 +366,7 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
   t.distance_rms_before = distance_rms(sc.nominal, val);
   t.distance_rms_after = distance_rms(t.full.calibrated, val);
   t.crlb_variance = crlb(sc, ident, t.full, options);
+  if (sc.iso9283) t.iso = simulate_iso_test(sc, ident, t.full, trial_seed(seed, 3));
   if (!files) return t;
 
   // Fig. 10: the continuous motion, and the series for the figures.
@@ -555,6 +556,19 @@ StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
     // No bound (none derived for the parameter): no ratio, never a fake 0.
     m.efficiency = m.crlb_sd > 0 ? m.rmse / m.crlb_sd : std::numeric_limits<double>::quiet_NaN();
     result.monte_carlo[name] = m;
+  }
+  if (sc.iso9283) {
+    std::vector<IsoTrial> tests;
+    for (TrialResult& t : trials) tests.push_back(std::move(*t.iso));
+    result.iso = summarise_iso_trials(sc.iso9283->plan, std::move(tests));
+    for (const StudyRow& row : study_rows(sc, trials[0].full)) {
+      if (row.capstan || row.held.empty() || row.assigned == row.nominal) continue;
+      result.iso->unseen.push_back(fmt::format("{} {:+.3f} {}", row.name,
+                                               (row.assigned - row.nominal) * row.paper_scale,
+                                               row.paper_unit));
+    }
+    if (!out.empty()) write_file_atomically(out + "/iso9283.csv", iso_trials_csv(*result.iso));
+    trials[0].iso = result.iso->trials.front();
   }
   result.first = std::move(trials[0]);
   return result;

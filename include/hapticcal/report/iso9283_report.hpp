@@ -3,10 +3,10 @@
 
 #include <string>
 
-#include "hapticcal/design/iso9283_plan.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/iso9283.hpp"
+#include "hapticcal/study/iso9283_cube.hpp"
 
 namespace hapticcal {
 
@@ -20,5 +20,11 @@ Report iso_plan_report(const DeviceModel& model, const IsoCubePlan& plan);
 // distances' (AD, RD), laid out as the standard's report.
 void add_iso_section(const IsoCriteria& model, const IsoCriteria* reference,
                      const std::string& conditions, Report& report);
+
+// simulate with an ISO test (a scenario's iso9283): a table of each pose's AP
+// over the trials, the nominal model's, the calibrated model's and the one
+// predicted from the calibrations' covariance, the cube, and a figure of each
+// trial's simulated AP against its prediction; a headline line.
+void add_iso_study_section(const IsoSimulation& iso, const IsoStudy& study, Report& report);
 
 }  // namespace hapticcal

@@ -11,8 +11,10 @@
 #include <vector>
 
 #include "hapticcal/core/log.hpp"
+#include "hapticcal/identification/identification.hpp"
 #include "hapticcal/model/frame.hpp"
 #include "hapticcal/model/model.hpp"
+#include "hapticcal/study/iso9283_cube.hpp"
 
 namespace hapticcal {
 
@@ -71,5 +73,68 @@ IsoCriteria iso_criteria(const std::vector<IsoPoseRuns>& poses);
 // positions or labels of another count than its rows.
 std::vector<IsoPoseRuns> iso_runs(const DeviceModel& model, const Log& log,
                                   const std::vector<std::string>& labels);
+
+// The test simulated after a calibration (a simulate scenario's `iso9283`
+// key): at each pose of the nominal model's test cube the robot (the truth)
+// attains the truth's tool point at the pose's joint targets, scattered by
+// `scatter` per coordinate in each cycle; the nominal and the calibrated model
+// command it (their tool points at the same targets). Positions only.
+struct IsoSimulation {
+  IsoCubeOptions cube;  // centre, edge and cycles (the standard's 30)
+  // sd of each coordinate of an attained position [m]: the robot's repetition
+  // and the instrument's noise together.
+  double scatter = 1e-5;
+  IsoCubePlan plan;  // on the nominal model
+};
+
+struct IsoTrial {
+  IsoCriteria nominal, calibrated;  // commanded by the nominal, by the calibrated model
+  // The calibrated model's expected AP at each pose (iso_predicted_ap) [m].
+  std::vector<double> predicted_ap;
+};
+
+// The instruments' noise as a user states it (their data sheets): the sd of
+// a distance or of each position coordinate [m], of a pose's rotation about
+// each axis [rad], of an external encoder [rad].
+struct IsoInstrumentNoise {
+  double measurement = 0, rotation = 0, encoder = 0;
+};
+
+// The calibrated model's expected AP at each pose of `plan` from the
+// covariance C of the calibration's parameters:
+//   sqrt(trace(G C G^T) + 3 scatter^2 / cycles),
+// G the tool point's derivatives by the parameters at the pose's targets; the
+// second term the mean of `cycles` scattered positions. C: that of calibrate's
+// least-squares estimate on `identification` at the calibrated model, each row
+// with the instruments' noise (a pose's rotation rows differ from its position
+// rows), with step-1 transmissions fitted from external encoders carried into
+// the kinematic parameters (the two-step covariance); a fixture's: the
+// covariance the calibration states (its sd and correlations, the unknown
+// sockets or planes accounted for). NaN where C is not finite.
+std::vector<double> iso_predicted_ap(const CalibrationResult& calibration,
+                                     const Log& identification, const IsoInstrumentNoise& noise,
+                                     const IsoCubePlan& plan, double scatter);
+
+// A study's tests over its trials: per pose (the plan's order) the RMS of AP
+// over the trials for each model and predicted, the mean RP; over every pose
+// and trial the RMS of each.
+struct IsoPoseSummary {
+  std::string label;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();  // the commanded (nominal) position [m]
+  double ap_nominal = 0, ap_calibrated = 0, ap_predicted = 0, rp = 0;  // [m]
+};
+struct IsoStudy {
+  std::vector<IsoPoseSummary> poses;
+  double ap_nominal = 0, ap_calibrated = 0, ap_predicted = 0;  // [m]
+  std::vector<IsoTrial> trials;                                // in trial order
+  // The truth's deviations in parameters the first trial's calibration held
+  // ("base.alpha +1.500 mrad"): their error is in the simulated AP, not in the
+  // prediction (study.cpp fills it).
+  std::vector<std::string> unseen;
+};
+IsoStudy summarise_iso_trials(const IsoCubePlan& plan, std::vector<IsoTrial> trials);
+// iso9283.csv: trial,pose,ap_nominal,ap_calibrated,ap_predicted,rp [m], a row a
+// pose of a trial.
+std::string iso_trials_csv(const IsoStudy& study);
 
 }  // namespace hapticcal

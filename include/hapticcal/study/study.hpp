@@ -14,6 +14,7 @@
 #include "hapticcal/identification/clock.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/model/model.hpp"
+#include "hapticcal/study/iso9283.hpp"
 #include "hapticcal/study/paper.hpp"
 #include "hapticcal/study/session.hpp"
 #include "hapticcal/study/simulation.hpp"
@@ -96,6 +97,8 @@ struct Scenario {
   std::optional<SessionOptions> session;
   double session_search_range = 10;
   bool session_fit_drift = false;
+  // iso9283: ISO 9283's test after each trial's calibration (simulate_iso_test).
+  std::optional<IsoSimulation> iso9283;
 
   // The paper's comparisons apply (its Table 2/3 I % column, its Fig. 10
   // percentages): the paper's device with the paper's truth, measured by distance.
@@ -177,6 +180,9 @@ void assign_truth(Scenario& scenario, const std::string& source);
 //                                           and distance only); sigma_r: a pose's rotation
 //   deviations: {DOTTED_NAME: VALUE, ...}   replaces Table 3's (or the random) deviation
 //                                           of a kinematic parameter (SI, added to nominal)
+//   iso9283: {cycles: N, scatter: METRES,   ISO 9283's test after each calibration, at the
+//             cube_size: METRES,            nominal model's test cube (plan_iso_cube: the
+//             cube_centre: [X, Y, Z]}       largest about the middle readings unless given)
 // Anything that does not apply to the device is refused, never replaced.
 // Unknown keys are errors naming the file, line and key.
 Scenario load_scenario(const std::string& path, const std::string& default_device_path,
@@ -209,7 +215,13 @@ struct TrialResult {
     std::map<std::string, std::vector<std::vector<double>>> fig7;  // by link: q, measured,
                                                                    // identified, truth
   } figures;
+  std::optional<IsoTrial> iso;  // the scenario's ISO test
 };
+
+// The scenario's ISO 9283 test (Scenario::iso9283) of a trial's calibration
+// `full` on `identification`, its scatter drawn from `seed`.
+IsoTrial simulate_iso_test(const Scenario& scenario, const Log& identification,
+                           const CalibrationResult& full, std::uint64_t seed);
 
 // One trial with its seed. If `out` is not empty the logs (identification.csv,
 // validation.csv, trajectory.csv), nominal.yaml, actual.yaml and calibrated.yaml
@@ -252,6 +264,7 @@ struct MonteCarloStats {
 struct StudyResult {
   TrialResult first;  // trial 0, whose files are written
   std::map<std::string, MonteCarloStats> monte_carlo;
+  std::optional<IsoStudy> iso;  // the scenario's ISO tests over the trials (iso9283.csv)
   int trials = 0, threads = 1;
 };
 

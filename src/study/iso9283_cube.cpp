@@ -1,4 +1,4 @@
-#include "hapticcal/design/iso9283_plan.hpp"
+#include "hapticcal/study/iso9283_cube.hpp"
 
 #include <fmt/format.h>
 
