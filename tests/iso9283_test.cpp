@@ -26,6 +26,7 @@
 #include "hapticcal/identification/two_step.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/study/iso9283_cube.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "hapticcal/study/study.hpp"
@@ -436,85 +437,172 @@ TEST(Iso9283, PlanThenEvaluateOnTheCommandLine) {
   EXPECT_NE(no_plan.err.find("not a test plan"), std::string::npos) << no_plan.err;
 }
 
-// The prediction of a simulated ISO test after a two-step calibration (the
-// paper's device: capstans and a polynomial from external encoders, then the
-// kinematics from distances): iso_predicted_ap against the prediction built
-// here from information.hpp's two_step_covariance (every distance with the same
-// sd: the sandwich is that covariance) and the tool point's derivatives by
-// central differences of the forward kinematics in every fitted parameter.
-TEST(Iso9283, PredictedApIsTheTwoStepCovarianceThroughTheToolPoint) {
-  Scenario sc = default_scenario(testing::source_path("data/devices/baser-7dof.yaml"));
-  sc.random = {5e-4, 5e-3, 3};
-  assign_truth(sc, "test");
-  IsoSimulation iso;
-  iso.scatter = 2e-5;
-  iso.plan = plan_iso_cube(sc.nominal);
-  sc.iso9283 = iso;
-  const std::string dir = testing::fresh_folder("iso9283_predicted");
-  const TrialResult t = run_trial(sc, 17, dir);
-  ASSERT_TRUE(t.iso.has_value());
-  const CalibrationResult& full = t.full;
-  ASSERT_FALSE(full.transmissions.empty());  // step 1 ran: the two-step covariance
-  const Log& ident = t.figures.identification;
-  std::vector<int> slots;
-  for (const std::string& name : full.kinematics.identified_names) {
-    for (const ParameterEstimate& e : full.kinematics.parameters) {
-      if (e.name == name) slots.push_back(e.slot);
-    }
-  }
-  std::vector<StepOneModel> step_one;
-  for (const TransmissionFit& f : full.transmissions) {
-    const Transmission& m = full.calibrated.links[f.joint].transmission;
-    step_one.push_back({f.joint, m, {f.names.begin(), f.names.begin() + m.num_parameters()}});
-  }
-  const TwoStepJacobians J = two_step_jacobians(full.calibrated, MeasurementType::kDistance, 1.0,
-                                                slots, step_one, ident.q);
-  const Eigen::MatrixXd C =
-      two_step_covariance(J.kinematic, measurement_sigma(sc), J.step_one, sc.noise.sigma_ext);
-  // The tool point's derivatives: each joint's step-1 parameters, then the kinematic ones.
-  const auto point = [&](const DeviceModel& m, const Eigen::VectorXd& q) {
+// The prediction of a simulated ISO test, built here: the tool point's
+// derivatives by central differences of the forward kinematics in each fitted
+// step-1 parameter (joint by joint), then each identified kinematic parameter,
+// through the covariance C given in that order.
+std::vector<double> expected_ap(const CalibrationResult& full, const Eigen::MatrixXd& C,
+                                const IsoSimulation& iso) {
+  const auto point = [](const DeviceModel& m, const Eigen::VectorXd& q) {
     return PreparedModel(m).forward(q.data()).p;
   };
-  ASSERT_EQ(t.iso->predicted_ap.size(), iso.plan.poses.size());
-  for (size_t k = 0; k < iso.plan.poses.size(); ++k) {
-    const Eigen::VectorXd& q = iso.plan.poses[k].readings;
+  std::vector<double> out;
+  for (const IsoTestPose& pose : iso.plan.poses) {
+    const Eigen::VectorXd& q = pose.readings;
     Eigen::MatrixXd G(3, C.cols());
     int column = 0;
-    for (const StepOneModel& s : step_one) {
-      const Eigen::VectorXd p = full.calibrated.links[s.joint].transmission.parameters();
+    for (const TransmissionFit& f : full.transmissions) {
+      const Eigen::VectorXd p = full.calibrated.links[f.joint].transmission.parameters();
       for (int i = 0; i < p.size(); ++i) {
         const double h = 1e-6 * std::max(1.0, std::abs(p[i]));
         DeviceModel up = full.calibrated, down = full.calibrated;
         Eigen::VectorXd pu = p, pd = p;
         pu[i] += h;
         pd[i] -= h;
-        up.links[s.joint].transmission.set_parameters(pu.data());
-        down.links[s.joint].transmission.set_parameters(pd.data());
+        up.links[f.joint].transmission.set_parameters(pu.data());
+        down.links[f.joint].transmission.set_parameters(pd.data());
         G.col(column++) = (point(up, q) - point(down, q)) / (2 * h);
       }
     }
     const Eigen::VectorXd p = full.calibrated.kinematic_parameters();
-    for (int slot : slots) {
-      const double h = 1e-7;
-      DeviceModel up = full.calibrated, down = full.calibrated;
-      Eigen::VectorXd pu = p, pd = p;
-      pu[slot] += h;
-      pd[slot] -= h;
-      up.set_kinematic_parameters(pu);
-      down.set_kinematic_parameters(pd);
-      G.col(column++) = (point(up, q) - point(down, q)) / (2 * h);
+    for (const std::string& name : full.kinematics.identified_names) {
+      for (const ParameterEstimate& e : full.kinematics.parameters) {
+        if (e.name != name) continue;
+        const double h = 1e-7;
+        DeviceModel up = full.calibrated, down = full.calibrated;
+        Eigen::VectorXd pu = p, pd = p;
+        pu[e.slot] += h;
+        pd[e.slot] -= h;
+        up.set_kinematic_parameters(pu);
+        down.set_kinematic_parameters(pd);
+        G.col(column++) = (point(up, q) - point(down, q)) / (2 * h);
+      }
     }
-    ASSERT_EQ(column, C.cols());
-    const double expected = std::sqrt((G * C * G.transpose()).trace() +
-                                      3 * iso.scatter * iso.scatter / iso.plan.cycles);
-    EXPECT_NEAR(t.iso->predicted_ap[k] / expected, 1.0, 1e-4) << iso.plan.poses[k].label;
+    EXPECT_EQ(column, C.cols());
+    out.push_back(std::sqrt((G * C * G.transpose()).trace() +
+                            3 * iso.scatter * iso.scatter / iso.plan.cycles));
   }
-  // The test's own numbers: the calibrated model's AP from its commanded
-  // points, the nominal model's AP its error, RP the same for both.
-  for (size_t k = 0; k < iso.plan.poses.size(); ++k) {
-    EXPECT_EQ(t.iso->nominal.poses[k].rp, t.iso->calibrated.poses[k].rp);
-    EXPECT_GT(t.iso->nominal.poses[k].ap, 10 * t.iso->calibrated.poses[k].ap);
+  return out;
+}
+
+std::vector<int> identified_slots(const KinematicFit& fit) {
+  std::vector<int> slots;
+  for (const std::string& name : fit.identified_names) {
+    for (const ParameterEstimate& e : fit.parameters) {
+      if (e.name == name) slots.push_back(e.slot);
+    }
   }
+  return slots;
+}
+
+// One trial of `sc` with the test at its cube (20 um scatter), its files in a
+// fresh folder (the identification log read back into the figures).
+TrialResult trial_with_test(Scenario sc, const std::string& name) {
+  IsoSimulation iso;
+  iso.scatter = 2e-5;
+  iso.plan = plan_iso_cube(sc.nominal);
+  sc.iso9283 = iso;
+  sc.trajectory_seconds = 1;
+  sc.trajectory_rate_hz = 100;
+  const TrialResult t = run_trial(sc, 17, testing::fresh_folder(name));
+  EXPECT_TRUE(t.iso.has_value());
+  return t;
+}
+
+void expect_prediction(const TrialResult& t, const Eigen::MatrixXd& C, const Scenario& sc) {
+  IsoSimulation iso;
+  iso.scatter = 2e-5;
+  iso.plan = plan_iso_cube(sc.nominal);
+  const std::vector<double> expected = expected_ap(t.full, C, iso);
+  ASSERT_EQ(t.iso->predicted_ap.size(), expected.size());
+  for (size_t k = 0; k < expected.size(); ++k) {
+    EXPECT_NEAR(t.iso->predicted_ap[k] / expected[k], 1.0, 1e-4) << iso.plan.poses[k].label;
+    EXPECT_EQ(t.iso->nominal.poses[k].rp, t.iso->calibrated.poses[k].rp);  // the robot's
+  }
+}
+
+// After a two-step calibration (the paper's device: capstans and a polynomial
+// from external encoders, then the kinematics from distances, every distance
+// with the same sd): the prediction is information.hpp's two_step_covariance
+// through the tool point.
+TEST(Iso9283, PredictedApIsTheTwoStepCovarianceThroughTheToolPoint) {
+  Scenario sc = default_scenario(testing::source_path("data/devices/baser-7dof.yaml"));
+  sc.random = {5e-4, 5e-3, 3};
+  assign_truth(sc, "test");
+  const TrialResult t = trial_with_test(sc, "iso9283_two_step");
+  const CalibrationResult& full = t.full;
+  ASSERT_FALSE(full.transmissions.empty());  // step 1 ran
+  std::vector<StepOneModel> step_one;
+  for (const TransmissionFit& f : full.transmissions) {
+    const Transmission& m = full.calibrated.links[f.joint].transmission;
+    step_one.push_back({f.joint, m, {f.names.begin(), f.names.begin() + m.num_parameters()}});
+  }
+  const TwoStepJacobians J =
+      two_step_jacobians(full.calibrated, MeasurementType::kDistance, 1.0,
+                         identified_slots(full.kinematics), step_one, t.figures.identification.q);
+  expect_prediction(
+      t, two_step_covariance(J.kinematic, measurement_sigma(sc), J.step_one, sc.noise.sigma_ext),
+      sc);
+}
+
+// After a calibration on a tracker's poses (a Meca500: no transmissions), the
+// rotation rows (scaled by the fit's length scale) noisier than the position
+// rows: the prediction is the least-squares sandwich A J^T V J A, A = (J^T J)^-1,
+// V the rows' variances, built here.
+TEST(Iso9283, PredictedApOfAPoseCalibrationIsTheSandwich) {
+  Scenario sc = default_scenario(testing::source_path("examples/meca500/meca500.yaml"));
+  sc.measurement = MeasurementType::kPose;
+  sc.noise.sigma_distance = sc.noise.sigma_position = 2e-5;
+  sc.noise.sigma_orientation = 2e-4;
+  sc.identification_poses = 100;
+  sc.validation_poses = 20;
+  assign_truth(sc, "test");
+  const TrialResult t = trial_with_test(sc, "iso9283_pose");
+  const KinematicFit& fit = t.full.kinematics;
+  ASSERT_TRUE(t.full.transmissions.empty());
+  const Eigen::MatrixXd J =
+      two_step_jacobians(t.full.calibrated, MeasurementType::kPose, fit.rotation_scale,
+                         identified_slots(fit), {}, t.figures.identification.q)
+          .kinematic;
+  Eigen::VectorXd v(J.rows());
+  for (Eigen::Index r = 0; r < v.size(); ++r) {
+    v[r] = r % 6 < 3 ? std::pow(2e-5, 2) : std::pow(fit.rotation_scale * 2e-4, 2);
+  }
+  const Eigen::MatrixXd A = (J.transpose() * J).inverse();
+  const Eigen::MatrixXd C = A * J.transpose() * v.asDiagonal() * J * A;
+  expect_prediction(t, C, sc);
+  // One sd for every row (the calibration's own sigma) predicts otherwise: the
+  // check tells the two apart.
+  IsoSimulation iso;
+  iso.scatter = 2e-5;
+  iso.plan = plan_iso_cube(sc.nominal);
+  const std::vector<double> one_sd = expected_ap(t.full, std::pow(fit.sigma, 2) * A, iso);
+  double ratio = 0;
+  for (size_t k = 0; k < one_sd.size(); ++k) ratio += t.iso->predicted_ap[k] / one_sd[k];
+  ratio /= static_cast<double>(one_sd.size());
+  std::printf("the sandwich's AP / one sd's: %.3f\n", ratio);
+  EXPECT_GT(std::abs(ratio - 1), 0.05);
+}
+
+// After a fixture's calibration (the PHANToM's two sockets, their positions
+// unknown): the covariance the calibration states, its sd and correlations.
+TEST(Iso9283, PredictedApOfAFixtureCalibrationIsItsStatedCovariance) {
+  const Scenario sc = load_scenario(testing::source_path("data/scenarios/phantom-two-socket.yaml"),
+                                    builtin_device_path());
+  const TrialResult t = trial_with_test(sc, "iso9283_fixture");
+  const KinematicFit& fit = t.full.kinematics;
+  const auto n = static_cast<Eigen::Index>(fit.identified_names.size());
+  Eigen::MatrixXd C(n, n);
+  std::vector<double> sd;
+  for (const std::string& name : fit.identified_names) {
+    for (const ParameterEstimate& e : fit.parameters) {
+      if (e.name == name) sd.push_back(e.sd);
+    }
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (Eigen::Index j = 0; j < n; ++j) C(i, j) = sd[i] * sd[j] * fit.correlation(i, j);
+  }
+  expect_prediction(t, C, sc);
 }
 
 // simulate with an ISO test on three kinds of device: the paper's (distances,
@@ -601,7 +689,11 @@ TEST(Iso9283, ScenarioSectionIsChecked) {
       {"iso9283: {cycles: 2.5}\n", "iso9283.cycles", "integer"},
       {"iso9283: {scatter: -1e-5}\n", "iso9283.scatter", "outside"},
       {"iso9283: {cube_size: 5}\n", "iso9283", "cube_size: a cube of 5000.0 mm"},
-      {"iso9283: {cube_size: .nan}\n", "iso9283.cube_size", ""},
+      {"iso9283: {cube_size: .nan}\n", "iso9283.cube_size", "not finite"},
+      {"iso9283: {cube_size: .inf}\n", "iso9283.cube_size", "not finite"},
+      {"iso9283: {cycles: 1001}\n", "iso9283.cycles", "[1, 1000]"},
+      {"iso9283: {scatter: 2}\n", "iso9283.scatter", "outside"},
+      {"iso9283: {cube_centre: [0.5, .nan, 0]}\n", "iso9283.cube_centre", "not finite"},
       {"iso9283: {cube_centre: [1, 2]}\n", "iso9283.cube_centre", "[X, Y, Z]"},
       {"iso9283: {cube_centre: [9, 9, 9]}\n", "iso9283", "cube_centre: the tool cannot reach"},
       {"measurement: position\nsession: {seconds: 10}\niso9283: {}\n", "iso9283",
@@ -619,6 +711,18 @@ TEST(Iso9283, ScenarioSectionIsChecked) {
     EXPECT_EQ(r.err.find("--cube"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
   }
+  // No scatter is a test of its own: RP 0 at every pose.
+  const std::string exact = dir + "/exact.yaml";
+  std::ofstream(exact) << "format: hapticcal-scenario/1\nmeasurement: position\ntrials: 1\n"
+                       << "poses: {identification: 50, validation: 10}\n"
+                       << "trajectory: {seconds: 1, rate_hz: 10}\n"
+                       << "iso9283: {cycles: 3, scatter: 0}\n";
+  const auto ran = testing::run_cli({"simulate", "--scenario", exact, "--out", dir + "/exact"});
+  ASSERT_EQ(ran.exit_code, 0) << ran.err;
+  std::ifstream in(dir + "/exact/results.json");
+  const nlohmann::json j = nlohmann::json::parse(in)["iso9283"];
+  ASSERT_EQ(j["poses"].size(), 5u);
+  for (const auto& pose : j["poses"]) EXPECT_EQ(pose["rp"].get<double>(), 0.0);
 }
 
 }  // namespace

@@ -1,7 +1,6 @@
 // `hapticcal simulate`: the paper's simulation study (its Tables 2-3 and
 // Figs 8 and 10), or a study of any device and measurement from a scenario.
 #include <fmt/format.h>
-#include <fmt/ranges.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -180,7 +179,9 @@ void print_iso_study(const hapticcal::IsoSimulation& iso, const hapticcal::IsoSt
                         double predicted, double rp) {
     fmt::print("  {:<5} {:>10} {:>12} {:>12} {:>10} {:>9}  mm\n", label, mm(nominal),
                mm(calibrated), mm(predicted),
-               predicted > 0 ? fmt::format("{:.2f}", calibrated / predicted) : std::string("-"),
+               std::isfinite(calibrated) && predicted > 0
+                   ? fmt::format("{:.2f}", calibrated / predicted)
+                   : std::string("-"),
                mm(rp));
   };
   for (const hapticcal::IsoPoseSummary& p : study.poses)
@@ -189,14 +190,8 @@ void print_iso_study(const hapticcal::IsoSimulation& iso, const hapticcal::IsoSt
   fmt::print(
       "  predicted: from each calibration's covariance and the scatter's mean; ratio: calibrated "
       "/ predicted; RP: the robot's (the same for both models)\n");
-  if (!study.unseen.empty()) {
-    fmt::print(
-        "  the truth deviates in parameters the calibration held ({}): their error is in the "
-        "simulated AP, not in the prediction\n",
-        fmt::join(study.unseen, ", "));
-  }
+  for (const std::string& note : study.notes) fmt::print("  {}\n", note);
 }
-
 }  // namespace
 
 CLI::App* add_simulate_command(CLI::App& app, SimulateOptions& o) {

@@ -3,7 +3,6 @@
 #include "hapticcal/report/iso9283_report.hpp"
 
 #include <fmt/format.h>
-#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
@@ -169,10 +168,10 @@ FigureSpec predicted_ap_figure(const IsoStudy& study) {
 void add_iso_study_section(const IsoSimulation& iso, const IsoStudy& study, Report& report) {
   const size_t trials = study.trials.size();
   report.outcome.headline.push_back(fmt::format(
-      "ISO 9283 AP (RMS over {} trial(s) and {} poses): nominal {:.4f} mm, calibrated {:.4f} mm, "
-      "predicted from the calibration's covariance {:.4f} mm",
-      trials, study.poses.size(), study.ap_nominal * 1e3, study.ap_calibrated * 1e3,
-      study.ap_predicted * 1e3));
+      "ISO 9283 AP (RMS over {} trial(s) and {} poses): nominal {} mm, calibrated {} mm, "
+      "predicted from the calibration's covariance {} mm",
+      trials, study.poses.size(), cell(study.ap_nominal, 1e3), cell(study.ap_calibrated, 1e3),
+      cell(study.ap_predicted, 1e3)));
   std::string html = "<h2>ISO 9283 test after calibration (simulated)</h2>\n";
   html += fmt::format(
       "<p>After each trial's calibration the robot (the truth) runs {} cycles of the test at the "
@@ -188,7 +187,9 @@ void add_iso_study_section(const IsoSimulation& iso, const IsoStudy& study, Repo
   const auto row = [&](const std::string& label, const std::string& at, double nominal,
                        double calibrated, double predicted, double rp) {
     rows.push_back({label, at, cell(nominal, 1e3), cell(calibrated, 1e3), cell(predicted, 1e3),
-                    predicted > 0 ? fmt::format("{:.2f}", calibrated / predicted) : "-",
+                    std::isfinite(calibrated) && predicted > 0
+                        ? fmt::format("{:.2f}", calibrated / predicted)
+                        : "-",
                     cell(rp, 1e3)});
   };
   for (const IsoPoseSummary& p : study.poses) {
@@ -201,11 +202,7 @@ void add_iso_study_section(const IsoSimulation& iso, const IsoStudy& study, Repo
   html += html_table({"pose", "position [mm]", "AP nominal [mm]", "AP calibrated [mm]",
                       "AP predicted [mm]", "calibrated / predicted", "RP [mm]"},
                      rows);
-  if (!study.unseen.empty()) {
-    const std::string note = fmt::format(
-        "The truth deviates in parameters the calibration held ({}): their error is in the "
-        "simulated AP, not in the prediction.",
-        fmt::join(study.unseen, ", "));
+  for (const std::string& note : study.notes) {
     html += "<p>" + html_escape(note) + "</p>\n";
     report.outcome.notes.push_back(note);
   }

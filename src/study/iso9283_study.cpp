@@ -2,13 +2,16 @@
 // IsoSimulation), its expected AP from the calibration's covariance, and the
 // tests summarised over the trials.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <Eigen/Dense>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <random>
 #include <utility>
 
+#include "hapticcal/identification/information.hpp"
 #include "hapticcal/identification/two_step.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/iso9283.hpp"
@@ -68,18 +71,16 @@ Eigen::MatrixXd two_step_sandwich(const TwoStepJacobians& J, const Eigen::Vector
   const Eigen::Index k = Jk.cols();
   Eigen::Index t = 0;
   for (const StepOneSensitivity& s : J.step_one) t += s.encoder.cols() - 1;
-  const Eigen::MatrixXd A = (Jk.transpose() * Jk).ldlt().solve(Eigen::MatrixXd::Identity(k, k));
+  // (J^T J)^-1 with an infinite variance where the rows do not see a
+  // direction (parameter_covariance), so that the prediction is NaN, not small.
+  const Eigen::MatrixXd A = parameter_covariance(Jk, 1.0);
   const Eigen::MatrixXd AJt = A * Jk.transpose();
   Eigen::MatrixXd C = Eigen::MatrixXd::Zero(t + k, t + k);
   C.bottomRightCorner(k, k) = AJt * row_variance.asDiagonal() * AJt.transpose();
   Eigen::Index at = 0;
   for (const StepOneSensitivity& s : J.step_one) {
     const Eigen::Index np = s.encoder.cols() - 1;
-    const Eigen::MatrixXd C1 = (sigma_encoder * sigma_encoder *
-                                (s.encoder.transpose() * s.encoder)
-                                    .ldlt()
-                                    .solve(Eigen::MatrixXd::Identity(np + 1, np + 1)))
-                                   .topLeftCorner(np, np);
+    const Eigen::MatrixXd C1 = parameter_covariance(s.encoder, sigma_encoder).topLeftCorner(np, np);
     const Eigen::MatrixXd GC1 = -AJt * s.measurement * C1;
     C.block(at, at, np, np) = C1;
     C.block(t, at, k, np) = GC1;
@@ -107,12 +108,13 @@ std::vector<double> iso_predicted_ap(const CalibrationResult& calibration,
     const TwoStepJacobians at_identification = two_step_jacobians(
         calibration.calibrated, fit.type, fit.rotation_scale, slots, step_one, identification.q);
     // Each row's variance: a distance's or a position coordinate's, a pose's
-    // rotation rows scaled as the fit scales them.
+    // rotation rows (the last three of each tip's six) scaled as the fit scales them.
     const int d = at_identification.dimension;
     Eigen::VectorXd variance(at_identification.kinematic.rows());
     for (Eigen::Index r = 0; r < variance.size(); ++r) {
-      variance[r] = r % d < 3 ? noise.measurement * noise.measurement
-                              : std::pow(fit.rotation_scale * noise.rotation, 2);
+      const bool rotation_row = measures_orientation(fit.type) && (r % d) % 6 >= 3;
+      variance[r] = rotation_row ? std::pow(fit.rotation_scale * noise.rotation, 2)
+                                 : noise.measurement * noise.measurement;
     }
     C = two_step_sandwich(at_identification, variance, noise.encoder);
   }
@@ -146,7 +148,7 @@ IsoTrial simulate_iso_test(const Scenario& sc, const Log& identification,
   const IsoSimulation& iso = *sc.iso9283;
   const PreparedModel truth(sc.actual), nominal(sc.nominal), calibrated(full.calibrated);
   std::mt19937_64 rng(seed);
-  std::normal_distribution<double> scatter(0, iso.scatter);
+  std::normal_distribution<double> scatter(0, iso.scatter > 0 ? iso.scatter : 1.0);
   std::vector<IsoPoseRuns> by_nominal, by_calibrated;
   for (const IsoTestPose& pose : iso.plan.poses) {
     IsoPoseRuns runs;
@@ -154,7 +156,9 @@ IsoTrial simulate_iso_test(const Scenario& sc, const Log& identification,
     const Frame<double> attained = truth.forward(pose.readings.data());
     for (int cycle = 1; cycle <= iso.plan.cycles; ++cycle) {
       Frame<double> at = attained;
-      for (int a = 0; a < 3; ++a) at.p[a] += scatter(rng);  // one draw at a time: reproducible
+      // One draw at a time (reproducible); none without scatter (an sd of 0
+      // is not a normal distribution's).
+      for (int a = 0; a < 3 && iso.scatter > 0; ++a) at.p[a] += scatter(rng);
       runs.cycles.push_back(cycle);
       runs.attained.push_back(at);
     }
@@ -172,39 +176,85 @@ IsoTrial simulate_iso_test(const Scenario& sc, const Log& identification,
   return t;
 }
 
+IsoStudy iso_study(const Scenario& sc, const std::vector<TrialResult>& trials) {
+  std::vector<IsoTrial> tests;
+  std::map<std::string, std::string> unseen;  // by name, over every trial
+  for (const TrialResult& t : trials) {
+    tests.push_back(*t.iso);
+    for (const StudyRow& row : study_rows(sc, t.full)) {
+      if (row.capstan || row.held.empty() || row.assigned == row.nominal) continue;
+      unseen[row.name] =
+          fmt::format("{} {:+.3f} {}", row.name, (row.assigned - row.nominal) * row.paper_scale,
+                      row.paper_unit);
+    }
+  }
+  IsoStudy study = summarise_iso_trials(sc.iso9283->plan, std::move(tests));
+  if (!unseen.empty()) {
+    std::vector<std::string> named;
+    for (const auto& [name, text] : unseen) named.push_back(text);
+    study.notes.push_back(fmt::format(
+        "The truth deviates in parameters the calibration held ({}): their error is in the "
+        "simulated AP, not in the prediction.",
+        fmt::join(named, ", ")));
+  }
+  if (!sc.keep_all) {
+    study.notes.push_back(
+        "The trials ran calibrate's model search with its tolerance prior (calibration: "
+        "{keep_all: false}); the prediction treats the parameters kept as a least-squares "
+        "estimate and does not account for the prior.");
+  }
+  if (study.left_out > 0) {
+    study.notes.push_back(fmt::format(
+        "{} of {} poses of the trials have no prediction (the calibration's covariance is not "
+        "finite) and are left out of the calibrated and predicted AP.",
+        study.left_out, study.trials.size() * sc.iso9283->plan.poses.size()));
+  }
+  return study;
+}
+
 IsoStudy summarise_iso_trials(const IsoCubePlan& plan, std::vector<IsoTrial> trials) {
   IsoStudy out;
-  const auto rms = [](double sum_of_squares, size_t n) {
-    return n ? std::sqrt(sum_of_squares / static_cast<double>(n))
-             : std::numeric_limits<double>::quiet_NaN();
+  const auto rms = [](double sum_of_squares, int n) {
+    return n > 0 ? std::sqrt(sum_of_squares / n) : std::numeric_limits<double>::quiet_NaN();
   };
   double all_nominal = 0, all_calibrated = 0, all_predicted = 0;
-  size_t all = 0;
+  int all = 0, all_compared = 0;
   for (size_t k = 0; k < plan.poses.size(); ++k) {
     IsoPoseSummary pose;
     pose.label = plan.poses[k].label;
     pose.point = plan.poses[k].pose.p;
     double nominal = 0, calibrated = 0, predicted = 0, rp = 0;
+    int n = 0, compared = 0, repeated = 0;
     for (const IsoTrial& t : trials) {
+      const double ap = t.calibrated.poses[k].ap, expected = t.predicted_ap[k];
       nominal += std::pow(t.nominal.poses[k].ap, 2);
-      calibrated += std::pow(t.calibrated.poses[k].ap, 2);
-      predicted += std::pow(t.predicted_ap[k], 2);
-      rp += t.calibrated.poses[k].rp;
+      ++n;
+      // The calibrated model and its prediction side by side where both are numbers.
+      if (std::isfinite(ap) && std::isfinite(expected)) {
+        calibrated += ap * ap;
+        predicted += expected * expected;
+        ++compared;
+      }
+      if (std::isfinite(t.calibrated.poses[k].rp)) {
+        rp += t.calibrated.poses[k].rp;
+        ++repeated;
+      }
     }
-    pose.ap_nominal = rms(nominal, trials.size());
-    pose.ap_calibrated = rms(calibrated, trials.size());
-    pose.ap_predicted = rms(predicted, trials.size());
-    pose.rp = trials.empty() ? std::numeric_limits<double>::quiet_NaN()
-                             : rp / static_cast<double>(trials.size());
+    pose.ap_nominal = rms(nominal, n);
+    pose.ap_calibrated = rms(calibrated, compared);
+    pose.ap_predicted = rms(predicted, compared);
+    pose.rp = repeated > 0 ? rp / repeated : std::numeric_limits<double>::quiet_NaN();
     out.poses.push_back(pose);
     all_nominal += nominal;
     all_calibrated += calibrated;
     all_predicted += predicted;
-    all += trials.size();
+    all += n;
+    all_compared += compared;
   }
   out.ap_nominal = rms(all_nominal, all);
-  out.ap_calibrated = rms(all_calibrated, all);
-  out.ap_predicted = rms(all_predicted, all);
+  out.ap_calibrated = rms(all_calibrated, all_compared);
+  out.ap_predicted = rms(all_predicted, all_compared);
+  out.left_out = all - all_compared;
   out.trials = std::move(trials);
   return out;
 }

@@ -579,7 +579,8 @@ void read_iso9283(const ScenarioFile& file, Scenario& sc) {
     std::string why = e.message();
     for (const auto& [option, key] : {std::pair<std::string, std::string>{"--iso9283: ", ""},
                                       {"--cube-centre", "cube_centre"},
-                                      {"--cube-size", "cube_size"}}) {
+                                      {"--cube-size", "cube_size"},
+                                      {"--tip", "tip"}}) {
       for (size_t at = why.find(option); at != std::string::npos; at = why.find(option, at)) {
         why.replace(at, option.size(), key);
         at += key.size();
@@ -609,8 +610,8 @@ Scenario load_scenario(const std::string& path, const std::string& default_devic
   read_noise(file, sc);
   read_deviations(file, sc);
   read_session(file, sc);
-  read_iso9283(file, sc);
   detail::check_simulated_limits(sc);
+  read_iso9283(file, sc);  // the cube within limits a simulation can draw
   assign_truth(sc, path);
   return sc;
 }

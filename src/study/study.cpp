@@ -558,17 +558,8 @@ StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
     result.monte_carlo[name] = m;
   }
   if (sc.iso9283) {
-    std::vector<IsoTrial> tests;
-    for (TrialResult& t : trials) tests.push_back(std::move(*t.iso));
-    result.iso = summarise_iso_trials(sc.iso9283->plan, std::move(tests));
-    for (const StudyRow& row : study_rows(sc, trials[0].full)) {
-      if (row.capstan || row.held.empty() || row.assigned == row.nominal) continue;
-      result.iso->unseen.push_back(fmt::format("{} {:+.3f} {}", row.name,
-                                               (row.assigned - row.nominal) * row.paper_scale,
-                                               row.paper_unit));
-    }
+    result.iso = iso_study(sc, trials);
     if (!out.empty()) write_file_atomically(out + "/iso9283.csv", iso_trials_csv(*result.iso));
-    trials[0].iso = result.iso->trials.front();
   }
   result.first = std::move(trials[0]);
   return result;

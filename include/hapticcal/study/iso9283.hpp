@@ -117,7 +117,9 @@ std::vector<double> iso_predicted_ap(const CalibrationResult& calibration,
 
 // A study's tests over its trials: per pose (the plan's order) the RMS of AP
 // over the trials for each model and predicted, the mean RP; over every pose
-// and trial the RMS of each.
+// and trial the RMS of each. The calibrated model's AP and its prediction are
+// taken where both are numbers (a prediction is NaN where the calibration's
+// covariance is not finite): left_out counts the poses of trials left out.
 struct IsoPoseSummary {
   std::string label;
   Eigen::Vector3d point = Eigen::Vector3d::Zero();  // the commanded (nominal) position [m]
@@ -127,10 +129,12 @@ struct IsoStudy {
   std::vector<IsoPoseSummary> poses;
   double ap_nominal = 0, ap_calibrated = 0, ap_predicted = 0;  // [m]
   std::vector<IsoTrial> trials;                                // in trial order
-  // The truth's deviations in parameters the first trial's calibration held
-  // ("base.alpha +1.500 mrad"): their error is in the simulated AP, not in the
-  // prediction (study.cpp fills it).
-  std::vector<std::string> unseen;
+  int left_out = 0;
+  // What a reader of the numbers should know, one sentence each (run_study
+  // adds them): the truth's deviations in parameters a trial's calibration
+  // held, whose error is in the simulated AP and not in the prediction; a
+  // prediction of least squares beside calibrate's model search.
+  std::vector<std::string> notes;
 };
 IsoStudy summarise_iso_trials(const IsoCubePlan& plan, std::vector<IsoTrial> trials);
 // iso9283.csv: trial,pose,ap_nominal,ap_calibrated,ap_predicted,rp [m], a row a

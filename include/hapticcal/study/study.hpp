@@ -222,6 +222,10 @@ struct TrialResult {
 // `full` on `identification`, its scatter drawn from `seed`.
 IsoTrial simulate_iso_test(const Scenario& scenario, const Log& identification,
                            const CalibrationResult& full, std::uint64_t seed);
+// The trials' tests summarised (summarise_iso_trials) with their notes: the
+// truth's deviations in parameters any trial's calibration held, and the
+// model search's estimate beside a least-squares prediction.
+IsoStudy iso_study(const Scenario& scenario, const std::vector<TrialResult>& trials);
 
 // One trial with its seed. If `out` is not empty the logs (identification.csv,
 // validation.csv, trajectory.csv), nominal.yaml, actual.yaml and calibrated.yaml
