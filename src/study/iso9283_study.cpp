@@ -16,6 +16,7 @@
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/iso9283.hpp"
 #include "hapticcal/study/study.hpp"
+#include "study/fitted_step_one.hpp"
 
 namespace hapticcal {
 namespace {
@@ -29,18 +30,6 @@ std::vector<int> identified_slots(const KinematicFit& fit) {
     }
   }
   return slots;
-}
-
-// The step-1 models as the calibration fitted them.
-std::vector<StepOneModel> fitted_step_one(const CalibrationResult& calibration) {
-  std::vector<StepOneModel> out;
-  for (const TransmissionFit& t : calibration.transmissions) {
-    const Transmission& model = calibration.calibrated.links[t.joint].transmission;
-    out.push_back(
-        {t.joint, model,
-         std::vector<std::string>(t.names.begin(), t.names.begin() + model.num_parameters())});
-  }
-  return out;
 }
 
 // The covariance the kinematic fit states: its sd and correlations.
@@ -100,7 +89,7 @@ std::vector<double> iso_predicted_ap(const CalibrationResult& calibration,
   const std::vector<int> slots = identified_slots(fit);
   const bool fixture = is_fixture(fit.type);
   const std::vector<StepOneModel> step_one =
-      fixture ? std::vector<StepOneModel>{} : fitted_step_one(calibration);
+      fixture ? std::vector<StepOneModel>{} : detail::fitted_step_one(calibration);
   Eigen::MatrixXd C;
   if (fixture) {
     C = stated_covariance(fit);

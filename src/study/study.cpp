@@ -24,6 +24,7 @@
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "identification/stack.hpp"
+#include "study/fitted_step_one.hpp"
 #include "study/simulated_limits.hpp"
 
 namespace hapticcal {
@@ -99,13 +100,7 @@ std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
     names.push_back(e.name);
   }
   // The step-1 models as fitted (a polynomial in its basis), at the truth's readings.
-  std::vector<StepOneModel> step_one;
-  for (const TransmissionFit& t : full.transmissions) {
-    const Transmission& model = full.calibrated.links[t.joint].transmission;
-    step_one.push_back(
-        {t.joint, model,
-         std::vector<std::string>(t.names.begin(), t.names.begin() + model.num_parameters())});
-  }
+  const std::vector<StepOneModel> step_one = detail::fitted_step_one(full);
   // Every residual row with the sd sigma_m: a pose's rotation rows scaled by
   // sigma_m / sigma_r.
   const double sigma_m = measurement_sigma(sc);
