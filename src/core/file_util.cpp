@@ -99,6 +99,13 @@ std::string printable(const std::string& text, std::size_t max_chars) {
   return out;
 }
 
+std::string replace_all(std::string text, const std::string& from, const std::string& to) {
+  for (std::size_t at = text.find(from); !from.empty() && at != std::string::npos;
+       at = text.find(from, at + to.size()))
+    text.replace(at, from.size(), to);
+  return text;
+}
+
 std::string text_problem(const std::string& text) {
   for (std::size_t i = 0; i < text.size();) {
     char32_t cp = 0;

@@ -56,14 +56,8 @@ SimulateJob run_simulate_job(const SimulateRequest& request) {
     const std::string meant =
         "the session's device stream has no external encoders: the transmissions are kept as "
         "in the device file";
-    auto reword = [&](std::string& text) {
-      for (size_t at = text.find(said); at != std::string::npos; at = text.find(said, at)) {
-        text.replace(at, said.size(), meant);
-        at += meant.size();
-      }
-    };
-    for (std::string& note : report.outcome.notes) reword(note);
-    for (std::string& section : report.sections) reword(section);
+    for (std::string& note : report.outcome.notes) note = replace_all(note, said, meant);
+    for (std::string& section : report.sections) section = replace_all(section, said, meant);
     job.figures = write_report(report, job.out->dir(), job.report_note);
     job.out->commit();
     return job;

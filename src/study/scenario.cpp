@@ -581,10 +581,7 @@ void read_iso9283(const ScenarioFile& file, Scenario& sc) {
                                       {"--cube-centre", "cube_centre"},
                                       {"--cube-size", "cube_size"},
                                       {"--tip", "tip"}}) {
-      for (size_t at = why.find(option); at != std::string::npos; at = why.find(option, at)) {
-        why.replace(at, option.size(), key);
-        at += key.size();
-      }
+      why = replace_all(why, option, key);
     }
     r.fail(node, "iso9283", why);
   }

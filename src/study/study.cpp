@@ -454,10 +454,7 @@ InputError study_failure(const Scenario& sc, int trial, const InputError& e) {
   for (const auto& [option, instead] :
        {std::pair<std::string, std::string>{"--point-distance", "the scenario's socket distances"},
         {"--fixture", "the scenario's sockets"}}) {
-    for (size_t at = what.find(option); at != std::string::npos; at = what.find(option, at)) {
-      what.replace(at, option.size(), instead);
-      at += instead.size();
-    }
+    what = replace_all(what, option, instead);
   }
   const bool simulated = e.file().find("/identification.csv") != std::string::npos ||
                          e.file().find("/validation.csv") != std::string::npos ||

@@ -40,6 +40,11 @@ class IoError : public std::runtime_error {
 // is not valid UTF-8 written as \xNN. Used wherever an InputError echoes input.
 std::string printable(const std::string& text, std::size_t max_chars = 40);
 
+// `text` with every occurrence of `from` (not empty) replaced by `to`, left to
+// right (a replacement is not searched again): a message reworded for its
+// reader, e.g. a command-line option named as the scenario key that set it.
+std::string replace_all(std::string text, const std::string& from, const std::string& to);
+
 // Why `text` cannot be a name that reaches output (a device name, a column):
 // empty when it is valid UTF-8 without control characters, else the reason,
 // e.g. "control character \x0a at byte 4" or "invalid UTF-8 at byte 2".
