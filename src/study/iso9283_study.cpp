@@ -21,29 +21,26 @@
 namespace hapticcal {
 namespace {
 
-// The identified kinematic parameters' slots, in the fit's order.
-std::vector<int> identified_slots(const KinematicFit& fit) {
-  std::vector<int> slots;
+// The identified kinematic parameters' estimates, in the fit's order (that of
+// its correlation matrix).
+std::vector<const ParameterEstimate*> identified(const KinematicFit& fit) {
+  std::vector<const ParameterEstimate*> out;
   for (const std::string& name : fit.identified_names) {
     for (const ParameterEstimate& e : fit.parameters) {
-      if (e.name == name) slots.push_back(e.slot);
+      if (e.name == name) out.push_back(&e);
     }
   }
-  return slots;
+  return out;
 }
 
 // The covariance the kinematic fit states: its sd and correlations.
-Eigen::MatrixXd stated_covariance(const KinematicFit& fit) {
-  std::vector<double> sd;
-  for (const std::string& name : fit.identified_names) {
-    for (const ParameterEstimate& e : fit.parameters) {
-      if (e.name == name) sd.push_back(e.sd);
-    }
-  }
-  const auto n = static_cast<Eigen::Index>(sd.size());
+Eigen::MatrixXd stated_covariance(const KinematicFit& fit,
+                                  const std::vector<const ParameterEstimate*>& estimates) {
+  const auto n = static_cast<Eigen::Index>(estimates.size());
   Eigen::MatrixXd C(n, n);
   for (Eigen::Index i = 0; i < n; ++i) {
-    for (Eigen::Index j = 0; j < n; ++j) C(i, j) = sd[i] * sd[j] * fit.correlation(i, j);
+    for (Eigen::Index j = 0; j < n; ++j)
+      C(i, j) = estimates[i]->sd * estimates[j]->sd * fit.correlation(i, j);
   }
   return C;
 }
@@ -86,13 +83,15 @@ std::vector<double> iso_predicted_ap(const CalibrationResult& calibration,
                                      const Log& identification, const IsoInstrumentNoise& noise,
                                      const IsoCubePlan& plan, double scatter) {
   const KinematicFit& fit = calibration.kinematics;
-  const std::vector<int> slots = identified_slots(fit);
+  const std::vector<const ParameterEstimate*> estimates = identified(fit);
+  std::vector<int> slots;
+  for (const ParameterEstimate* e : estimates) slots.push_back(e->slot);
   const bool fixture = is_fixture(fit.type);
   const std::vector<StepOneModel> step_one =
       fixture ? std::vector<StepOneModel>{} : detail::fitted_step_one(calibration);
   Eigen::MatrixXd C;
   if (fixture) {
-    C = stated_covariance(fit);
+    C = stated_covariance(fit, estimates);
   } else {
     const TwoStepJacobians at_identification = two_step_jacobians(
         calibration.calibrated, fit.type, fit.rotation_scale, slots, step_one, identification.q);
