@@ -28,6 +28,15 @@ namespace {
 // Geomagic Touch: L1 = L2 = 133.35 mm (Ubitrack PhantomForwardKinematics,
 // "Phantom Omni defaults"); the elbow turns by q3 - q2 (the public drivers).
 constexpr double kTouchL = 0.13335;
+// OpenHaptics' HD_CURRENT_POSITION at home (every reading 0): (0, -110, -35) mm.
+// bharatm11/Geomagic_Touch_ROS_Drivers issue 4: an uncalibrated Touch at zero
+// joint readings published /phantom/pose (0, 0.035, -0.11) m; omni_state.cpp
+// (commit 0340cbe1) publishes HD_CURRENT_TRANSFORM's translation (X, Y, Z) as
+// (X, -Z, Y) / 1000, so (X, Y, Z) = (0, -0.110, -0.035) m.
+Eigen::Vector3d touch_home() {
+  const Eigen::Vector3d published(0, 0.035, -0.11);       // the issue's /phantom/pose [m]
+  return {published.x(), published.z(), -published.y()};  // (X, -Z, Y) undone
+}
 
 KDL::Chain touch_chain() {
   using KDL::Frame, KDL::Joint, KDL::Segment, KDL::Vector;
@@ -35,7 +44,9 @@ KDL::Chain touch_chain() {
     return Joint(Vector::Zero(), Vector(x, y, z), Joint::RotAxis);
   };
   KDL::Chain c;
-  c.addSegment(Segment(Joint(Joint::None), Frame(Vector(0, kTouchL, -kTouchL))));
+  const Eigen::Vector3d home = touch_home();
+  c.addSegment(
+      Segment(Joint(Joint::None), Frame(Vector(home.x(), home.y() + kTouchL, home.z() - kTouchL))));
   c.addSegment(Segment(joint(0, -1, 0)));
   c.addSegment(Segment(joint(-1, 0, 0)));
   c.addSegment(Segment(Joint(Joint::None), Frame(Vector(0, 0, kTouchL))));
@@ -53,11 +64,14 @@ Eigen::Matrix<double, 6, 6> touch_coupling() {
   return C;
 }
 
-// The Touch's closed form (Ubitrack): position and the handle's rotation.
+// The driver's position (HD_CURRENT_POSITION): the closed form (Ubitrack),
+// zero at home, moved to the driver's origin; and the handle's rotation.
 Eigen::Vector3d touch_position(const Eigen::VectorXd& q) {
   const double r = kTouchL * std::cos(q[1]) + kTouchL * std::sin(q[2]);
-  return {-r * std::sin(q[0]), kTouchL * std::sin(q[1]) - kTouchL * std::cos(q[2]) + kTouchL,
-          r * std::cos(q[0]) - kTouchL};
+  return touch_home() +
+         Eigen::Vector3d(-r * std::sin(q[0]),
+                         kTouchL * std::sin(q[1]) - kTouchL * std::cos(q[2]) + kTouchL,
+                         r * std::cos(q[0]) - kTouchL);
 }
 
 Eigen::Matrix3d touch_rotation(const Eigen::VectorXd& q) {
@@ -140,8 +154,11 @@ TEST(BuiltinDevices, TouchMatchesKdlAndItsSourcesClosedForm) {
   }
   EXPECT_LT(worst_p, 1e-12);
   EXPECT_LT(worst_R, 1e-12);
-  // Home: the reported point at the driver's origin.
-  EXPECT_LT(prepared.forward(Eigen::VectorXd::Zero(6).eval().data()).p.norm(), 1e-15);
+  // Home: the reported point where the driver reports it, (0, -110, -35) mm.
+  EXPECT_LT((prepared.forward(Eigen::VectorXd::Zero(6).eval().data()).p -
+             Eigen::Vector3d(0, -0.110, -0.035))
+                .norm(),
+            1e-15);
 }
 
 TEST(BuiltinDevices, MtmMatchesKdlFromItsDhTableAndCoupling) {

@@ -107,9 +107,17 @@ TEST(DeviceFrame, ReproducesTheTruthsDriverPositionsToItsOwnSd) {
   CalibrationOptions options;
   options.search = false;
   options.keep_all = true;
+  // The device's (the driver's) frame at the placement: its base the
+  // placement composed with the driver's base.
+  const Frame<double> placed = pose_frame(placement_pose[0], placement_pose[1], placement_pose[2],
+                                          placement_pose[3], placement_pose[4], placement_pose[5]) *
+                               pose_frame(nominal.base[0], nominal.base[1], nominal.base[2],
+                                          nominal.base[3], nominal.base[4], nominal.base[5]);
+  const Eigen::Vector3d placed_rpy = matrix_rpy(placed.R);
   const auto seen_by_tracker = [&](std::uint64_t seed) {
     DeviceModel seen = truth;  // the tracker's frame
-    seen.base = placement_pose;
+    seen.base = {placed.p.x(),  placed.p.y(),  placed.p.z(),
+                 placed_rpy[0], placed_rpy[1], placed_rpy[2]};
     return simulate_log(seen, 400, noise, seed, /*distance=*/false, /*position=*/true);
   };
   // The truth as the data can tell it: what no tool measurement can see (the
