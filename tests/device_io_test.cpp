@@ -7,6 +7,8 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
+#include "hapticcal/identification/tree.hpp"
+#include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/device.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
@@ -113,6 +115,93 @@ TEST(DeviceIo, ShippedMeca500FileIsWhatTheConverterMakesFromTheRealData) {
         << name;
   }
   std::filesystem::remove_all(out);
+}
+
+// A tree (the humanoid's two arms on a torso, with a passive coupled joint,
+// masses and compliances) in one device file: its parents, tips and tools
+// read back bit-identical, every tip's pose at random readings equal to the
+// URDF's tree to 1e-12 m.
+TEST(DeviceIo, TreeLoadsBackWithItsTipsAndParents) {
+  DeviceModel tree = tree_model(load_tree(testing::source_path("examples/humanoid/upper_body.urdf"),
+                                          {"left_hand", "right_hand"}));
+  std::mt19937_64 rng(58);
+  tree = testing::perturbed(tree, rng, 1e-3);
+  tree.links[3].compliance = 4e-4;
+  tree.links[5].lateral_compliance = -2e-4;
+  const std::string path = testing::fresh_folder("device_io_tree") + "/tree.yaml";
+  save_device(tree, path);
+  const DeviceModel back = load_device(path);
+  expect_bit_identical(tree, back);
+  EXPECT_EQ(back.parents, tree.parents);
+  ASSERT_EQ(back.tips(), 2);
+  EXPECT_EQ(back.tip_name(0), "left_hand");
+  EXPECT_EQ(back.tip_link_of(1), tree.tip_link_of(1));
+  const PreparedModel a(tree), b(back);
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::VectorXd q = testing::random_readings(tree, rng);
+    for (int t = 0; t < 2; ++t) {
+      EXPECT_LT((a.forward(q.data(), t).p - b.forward(q.data(), t).p).norm(), 1e-12);
+      EXPECT_LT((a.forward(q.data(), t).R - b.forward(q.data(), t).R).norm(), 1e-12);
+    }
+  }
+}
+
+// A tree's keys refused with the file's line and key.
+TEST(DeviceIo, MalformedTreesAreRefusedNamingTheKey) {
+  const std::string links =
+      "format: hapticcal-device/2\nname: t\nconvention: urdf\n"
+      "base: {pose: {xyz: [0, 0, 0], rpy: [0, 0, 0]}}\nlinks:\n"
+      "  - {name: a, origin: {xyz: [0, 0, 0], rpy: [0, 0, 0]}, axis: [0, 0, 1], limits: [-1, 1]}\n"
+      "  - {name: b, PARENT_B origin: {xyz: [0, 0, 0.1], rpy: [0, 0, 0]}, axis: [0, 1, 0], "
+      "limits: [-1, 1]}\n"
+      "  - {name: c, PARENT_C origin: {xyz: [0, 0, 0.1], rpy: [0, 0, 0]}, axis: [0, 1, 0], "
+      "limits: [-1, 1]}\n";
+  const auto file = [&](const std::string& b, const std::string& c, const std::string& rest) {
+    std::string text = links;
+    text.replace(text.find("PARENT_B "), 9, b);
+    text.replace(text.find("PARENT_C "), 9, c);
+    return text + rest;
+  };
+  const std::string tips =
+      "tips:\n  - {name: one, link: b, pose: {xyz: [0, 0, 0], rpy: [0, 0, 0]}}\n"
+      "  - {name: two, link: c, pose: {xyz: [0, 0, 0.1], rpy: [0, 0, 0]}}\n";
+  // The good one: b and c both on a.
+  const DeviceModel good = parse_device(file("parent: a, ", "parent: a, ", tips), "t.yaml");
+  EXPECT_EQ(good.parents, (std::vector<int>{-1, 0, 0}));
+  EXPECT_EQ(good.tip_name(1), "two");
+  const std::vector<std::tuple<std::string, std::string>> bad = {
+      {file("parent: z, ", "parent: a, ", tips),
+       "t.yaml:7: links[1].parent: 'z' is not a link or base"},
+      {file("parent: c, ", "parent: a, ", tips),
+       "links[1].parent: the parent must be a link before"},
+      {file("parent: a, ", "", tips),
+       "tip one ends at link b, which another tip ends at or passes"},
+      {file("parent: a, ", "parent: a, ", ""),
+       "links[1].parent: a link's parent belongs to a tree"},
+      {file("parent: a, ", "parent: a, ",
+            "tips:\n  - {name: one, link: b, pose: {xyz: [0, 0, 0], rpy: [0, 0, 0]}}\n"),
+       "tips: expected a list of 2 to"},
+      {file("parent: a, ", "parent: a, ",
+            tips + "tool: {pose: {xyz: [0, 0, 0], rpy: [0, 0, 0]}}\n"),
+       "tool: a tree's tools are its tips'"},
+      {file("parent: a, ", "parent: a, ",
+            "tips:\n  - {name: one, link: b, pose: {xyz: [0, 0, 0], rpy: [0, 0, 0]}}\n"
+            "  - {name: one, link: c, pose: {xyz: [0, 0, 0], rpy: [0, 0, 0]}}\n"),
+       "tips[1].name: 'one' repeats tips[0]"},
+      {file("parent: a, ", "parent: a, ",
+            "tips:\n  - {name: one, link: b, pose: {xyz: [0, 0, 0], rpy: [0, 0, 0]}}\n"
+            "  - {name: two, link: q, pose: {xyz: [0, 0, 0], rpy: [0, 0, 0]}}\n"),
+       "tips[1].link: 'q' is not a link"},
+  };
+  for (const auto& [text, says] : bad) {
+    try {
+      parse_device(text, "t.yaml");
+      ADD_FAILURE() << "accepted:\n" << text;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace

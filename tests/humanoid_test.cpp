@@ -10,14 +10,19 @@
 
 #include <array>
 #include <cstdio>
+#include <nlohmann/json.hpp>
 #include <random>
 
 #include "hapticcal/core/files.hpp"
+#include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/tree.hpp"
+#include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "held_out.hpp"
+#include "run_cli.hpp"
 #include "test_models.hpp"
 
 namespace hapticcal {
@@ -68,8 +73,8 @@ DeviceModel actual_robot(const DeviceModel& nominal) {
 }
 
 // `rows` poses within the joint limits, each hand's marker with noise `sigma`
-// a coordinate, as one sample a tip (tip_samples).
-Log marker_samples(const DeviceModel& actual, int rows, double sigma, std::uint64_t seed) {
+// a coordinate (x1, y1, z1 the left hand's, x2, ... the right's).
+Log marker_log(const DeviceModel& actual, int rows, double sigma, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   Log log = testing::blank_marker_log("mocap.csv", rows, actual.dof(), actual.tips());
@@ -85,7 +90,12 @@ Log marker_samples(const DeviceModel& actual, int rows, double sigma, std::uint6
       for (int x = 0; x < 3; ++x) log.markers(r, 3 * t + x) = p[x] + sigma * gauss(rng);
     }
   }
-  return tip_samples(actual, log);
+  return log;
+}
+
+// The same as one sample a tip (tip_samples).
+Log marker_samples(const DeviceModel& actual, int rows, double sigma, std::uint64_t seed) {
+  return tip_samples(actual, marker_log(actual, rows, sigma, seed));
 }
 
 // RMS of |predicted - measured| over a tree's samples.
@@ -186,6 +196,73 @@ TEST(Humanoid, UpperBodyWithComplianceCalibratesAsOneTree) {
       "arm alone %.4f, right arm alone %.4f, default %.4f\n",
       1e3 * floor, 1e3 * with, 1e3 * rigid, 1e3 * arm_rms[0], 1e3 * arm_rms[1],
       1e3 * held_out(found.calibrated, test));
+}
+
+// The tree's whole model (both families) in calibrated.yaml, read back to the
+// in-memory model's error to 1e-9 m by evaluate (which takes a device file's
+// own tips); calibrated.urdf, the geometry alone fitted as such, read by
+// evaluate from its measurement frame without --root, to the geometry-only
+// model's error.
+TEST(Humanoid, WholeTreeIsWrittenAndReadBack) {
+  const DeviceModel nominal = tree_model(load_tree(kUpperBody, kHands));
+  const DeviceModel actual = actual_robot(nominal);
+  const std::string dir = testing::fresh_folder("humanoid_whole");
+  write_file_atomically(dir + "/fit.csv", log_to_csv(marker_log(actual, 350, 2e-4, 52)));
+  write_file_atomically(dir + "/test.csv", log_to_csv(marker_log(actual, 150, 2e-4, 53)));
+  const Log test = marker_samples(actual, 150, 2e-4, 53);
+  CalibrateRequest request;
+  request.model = kUpperBody;
+  request.tip = "left_hand,right_hand";
+  request.log = dir + "/fit.csv";
+  request.options.joint_errors = {"compliance", "lateral"};
+  const CalibrateJob job = run_calibrate_job(request);
+  ASSERT_TRUE(job.usable()) << job.result.status_reason;
+  ASSERT_TRUE(job.result.geometry);  // the URDF's model: the geometry fitted alone
+  const testing::CliResult c = testing::run_cli(
+      {"calibrate", "--model", kUpperBody, "--tip", "left_hand,right_hand", "--log",
+       dir + "/fit.csv", "--joint-errors", "compliance,lateral", "--out", dir + "/cal"});
+  ASSERT_EQ(c.exit_code, 0) << c.out << c.err;
+  const DeviceModel whole = load_device(dir + "/cal/calibrated.yaml");
+  ASSERT_EQ(whole.tips(), 2);
+  EXPECT_EQ(whole.tip_name(1), "right_hand");
+  EXPECT_NE(
+      whole.links[static_cast<size_t>(link_named(whole, "r_shoulder_yaw"))].lateral_compliance,
+      0.0);
+  const CalibrationResult& urdf_model = geometry_model(job.result);
+  const auto per_tip = [&](const DeviceModel& m, int tip) {
+    Log only = test;
+    std::vector<int> rows;
+    for (int r = 0; r < test.rows; ++r) {
+      if (test.tip[static_cast<size_t>(r)] == tip) rows.push_back(r);
+    }
+    double sum = 0;
+    const PreparedModel prepared(m);
+    for (int r : rows) {
+      const Eigen::VectorXd q = test.q.row(r).transpose();
+      sum += (prepared.forward(q.data(), tip).p - test.position.row(r).transpose()).squaredNorm();
+    }
+    return std::sqrt(sum / static_cast<double>(rows.size()));
+  };
+  const testing::CliResult e = testing::run_cli(
+      {"evaluate", "--model", dir + "/cal/calibrated.yaml", "--log", dir + "/test.csv", "--json"});
+  ASSERT_EQ(e.exit_code, 0) << e.err;
+  const testing::CliResult u =
+      testing::run_cli({"evaluate", "--model", dir + "/cal/calibrated.urdf", "--tip",
+                        "left_hand,right_hand", "--log", dir + "/test.csv", "--json"});
+  ASSERT_EQ(u.exit_code, 0) << u.err;
+  const nlohmann::json yaml_rms = nlohmann::json::parse(e.out)["tips"];
+  const nlohmann::json urdf_rms = nlohmann::json::parse(u.out)["tips"];
+  for (int t = 0; t < 2; ++t) {
+    const std::string& hand = kHands[static_cast<size_t>(t)];
+    const double in_memory = per_tip(job.result.calibrated, t);
+    EXPECT_NEAR(yaml_rms[hand]["rms_position"].get<double>(), in_memory, 1e-9) << hand;
+    EXPECT_NEAR(urdf_rms[hand]["rms_position"].get<double>(), per_tip(urdf_model.calibrated, t),
+                1e-9)
+        << hand;
+    std::printf("%s held out: calibrated.yaml %.4f mm, calibrated.urdf %.4f mm\n", hand.c_str(),
+                1e3 * yaml_rms[hand]["rms_position"].get<double>(),
+                1e3 * urdf_rms[hand]["rms_position"].get<double>());
+  }
 }
 
 }  // namespace

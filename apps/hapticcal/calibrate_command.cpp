@@ -225,7 +225,7 @@ int run_calibrate(const CalibrateOptions& o) {
   for (const std::string& line : job.lines) fmt::print("{}\n", line);
   fmt::print("{}", report_said(job.written.figures, job.written.report_note, o.out));
   fmt::print("{}", output_summary(*job.out, o.out, fmt::format(" (seed {})", o.seed)));
-  const char* model_file = job.nominal.tree() ? "calibrated.urdf" : "calibrated.yaml";
+  const char* model_file = "calibrated.yaml";
   if (!job.written.model_written) {
     fmt::print("status: {}: {}; {}\n", to_string(job.result.status), job.result.status_reason,
                job.written.previous_kept ? fmt::format("the previous {} is kept", model_file)

@@ -41,6 +41,14 @@ int run_convert(const ConvertOptions& o) {
           "XML comments in {}\n",
           links, o.out);
     }
+    if (!job.families_left_out.empty()) {
+      hapticcal::cli::say(
+          stderr,
+          "hapticcal: warning: URDF cannot express the {} of {}: {} is the model without it (XML "
+          "comments hold it), not a model fitted without it; calibrate from a URDF writes "
+          "calibrated.urdf, the geometry fitted alone\n",
+          job.families_left_out, o.in, o.out);
+    }
     fmt::print("wrote {} ({}, {} joints; its chain is hapticcal_measurement -> tool)\n", o.out,
                job.model.name, job.model.dof());
   } else {

@@ -758,6 +758,11 @@ def test_calibrate_a_tree_of_two_tips(tmp_path):
     again = hapticcal.calibrate(c.model, str(tmp_path / "tree.csv"))  # its URDF and tips kept
     assert again.usable and again.model.tips == ["left_hand", "right_hand"]
     assert (tmp_path / "out" / "calibrated.urdf").exists()
+    # The whole tree in one device file, loaded back as the calibrated Model.
+    whole = hapticcal.load_model(str(tmp_path / "out" / "calibrated.yaml"))
+    assert whole.tips == ["left_hand", "right_hand"]
+    for tip in (0, 1):
+        assert np.abs(whole.forward(q, tip=tip) - c.model.forward(q, tip=tip)).max() < 1e-12
 
 
 def test_every_xml_file_of_the_repository_is_well_formed():

@@ -6,6 +6,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <set>
@@ -109,6 +110,14 @@ class YamlReader {
       values.push_back(number(node[i], fmt::format("{}[{}]", key, i)));
     }
     return values;
+  }
+
+  // A pose {xyz: [x, y, z], rpy: [roll, pitch, yaw]} into `out`.
+  void pose(const YAML::Node& node, const std::string& path, std::array<double, 6>& out) const {
+    check_keys(node, path, {"xyz", "rpy"});
+    const auto xyz = numbers(require(node, path, "xyz"), join(path, "xyz"), 3);
+    const auto rpy = numbers(require(node, path, "rpy"), join(path, "rpy"), 3);
+    out = {xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2]};
   }
 
  protected:

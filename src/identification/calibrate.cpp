@@ -693,7 +693,7 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   detail::apply_estimator(run, options.keep_all ? Estimator::kLeastSquares
                                : options.select ? Estimator::kCut
                                                 : Estimator::kPrior);
-  return detail::conclude_model(run);
+  return detail::conclude_with_geometry(run);
 }
 
 }  // namespace hapticcal

@@ -102,6 +102,13 @@ void offer_joint_errors(CalibrationRun& run);
 // The fitted stages folded into the links' transmissions; joint_errors cleared.
 // Returns why a stage cannot be a transmission ("" if every one can).
 std::string fold_joint_errors(DeviceModel& model);
+// The run's options for its geometry alone (CalibrationResult::geometry): no
+// joint-error family, and no --fix, --free or tolerance naming a family's
+// parameter (the run's problem holds the families it fits).
+CalibrationOptions geometry_options(const CalibrationRun& run);
+// conclude_model, and where the model holds a joint-error family the geometry
+// alone fitted as such with geometry_options (CalibrationResult::geometry).
+CalibrationResult conclude_with_geometry(CalibrationRun& run);
 // The joint-error families that apply to the run's model and log: compliance
 // (a model with gravity), harmonic (a turning joint whose angle is its own
 // reading), coupling (coefficients between joints), backlash (the log's dir<i>).

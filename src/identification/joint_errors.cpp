@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <set>
 #include <utility>
 
@@ -26,6 +27,32 @@ void offer_joint_errors(CalibrationRun& run) {
     FamilyOffer offer{run.model, run.step2_nominal, run.poses, run.result.notes};
     family->offer(offer);
   }
+}
+
+CalibrationResult conclude_with_geometry(CalibrationRun& run) {
+  const CalibrationOptions geometry = geometry_options(run);
+  CalibrationResult result = conclude_model(run);
+  if (!result.kinematics.joint_error_families.empty())
+    result.geometry =
+        std::make_shared<const CalibrationResult>(calibrate(run.nominal, run.log, geometry));
+  return result;
+}
+
+CalibrationOptions geometry_options(const CalibrationRun& run) {
+  CalibrationOptions geometry = run.options;
+  geometry.joint_errors = {"none"};
+  // Options naming the families' parameters name nothing in the geometry.
+  std::vector<std::string> families;
+  for (const ParameterInfo& pi : run.problem.model.parameter_info()) {
+    if (pi.block == ParameterBlock::kJointError) families.push_back(pi.name);
+  }
+  const auto family = [&](const std::string& name) {
+    return std::find(families.begin(), families.end(), name) != families.end();
+  };
+  std::erase_if(geometry.fix, family);
+  std::erase_if(geometry.free, family);
+  std::erase_if(geometry.tolerances.by_name, [&](const auto& item) { return family(item.first); });
+  return geometry;
 }
 
 // The joint-error stages as fitted, folded into the calibrated model's
@@ -100,3 +127,11 @@ std::vector<std::string> applicable_families(const CalibrationRun& run) {
 }
 
 }  // namespace hapticcal::detail
+
+namespace hapticcal {
+
+const CalibrationResult& geometry_model(const CalibrationResult& result) {
+  return result.geometry ? *result.geometry : result;
+}
+
+}  // namespace hapticcal

@@ -373,6 +373,68 @@ CalibrationResult Search::run() {
   return conclude();
 }
 
+CalibrationResult Search::finish(FamilyFit& f, Estimator estimator, bool zero, bool compared) {
+  std::unique_ptr<CalibrationRun> final_run = std::move(f.run);
+  if (final_run->data.J.size() == 0) restack(*final_run);
+  if (!zero && f.zero_column >= 0) {
+    // The zero held: its own problem (no slot for it).
+    final_run = std::make_unique<CalibrationRun>(base_);
+    CalibrationOptions& o = final_run->options;
+    o.joint_errors = f.families.empty() ? std::vector<std::string>{"none"} : f.families;
+    if (!names_it(o.fix, "instrument.zero")) o.fix.push_back("instrument.zero");
+    std::erase(o.free, "instrument.zero");
+    prepare_model(*final_run);
+  }
+  // Least squares is the fit itself: to rounding (the prior and the cut
+  // solve again from it).
+  if (estimator == Estimator::kLeastSquares) polish(*final_run);
+  // The search's held-out error is the one reported: no second cross-validation
+  // of the model kept (nor the suspect check's, which compares it).
+  if (compared) final_run->options.folds = 0;
+  apply_estimator(*final_run, estimator);
+  return conclude_model(*final_run);
+}
+
+std::shared_ptr<const CalibrationResult> Search::conclude_geometry(bool compared) {
+  // The geometry's candidates (allowed or a reference beside named families):
+  // the best, and the simplest within one standard error of it, as choose().
+  int best = -1, pick = -1;
+  const auto geometry = [&](const Entry& e) { return e.family_fit == 0 && std::isfinite(e.mse); };
+  for (int i = 0; i < static_cast<int>(entries_.size()); ++i) {
+    if (geometry(entries_[i]) && (best < 0 || entries_[i].mse < entries_[best].mse)) best = i;
+  }
+  for (int i = 0; compared && best >= 0 && i < static_cast<int>(entries_.size()); ++i) {
+    const Entry& e = entries_[i];
+    if (!geometry(e) || e.mse - entries_[best].mse > difference_se(e, entries_[best], rows_))
+      continue;
+    const auto simplicity = [](const Entry& x) {
+      return std::make_tuple(x.candidate.zero, x.candidate.parameters, x.mse);
+    };
+    if (pick < 0 || simplicity(e) < simplicity(entries_[pick])) pick = i;
+  }
+  const Estimator estimator =
+      pick >= 0 ? entries_[pick].candidate.estimator : space_.estimators.front();
+  const bool zero =
+      pick >= 0 ? entries_[pick].candidate.zero : !space_.zero.empty() && space_.zero.front();
+  auto out = std::make_shared<CalibrationResult>(finish(fits_.front(), estimator, zero, pick >= 0));
+  if (pick < 0) return out;
+  const SearchCandidate& c = entries_[pick].candidate;
+  KinematicFit& fit = out->kinematics;
+  fit.cv_rms = c.cv_rms;
+  fit.cv_folds = out_.folds;
+  fit.cv_note.clear();
+  fit.choice = to_string(c.estimator);
+  if (!c.usable && out->status == CalibrationStatus::kConverged) {
+    out->status = CalibrationStatus::kImplausible;
+    out->status_reason = fmt::format(
+        "the geometry alone predicts held-out poses no better than the nominal model with its {} "
+        "fitted ({:.4f} mm against {:.4f} mm)",
+        out_.nominal_fitted.empty() ? "set-up" : out_.nominal_fitted, c.cv_rms * 1e3,
+        out_.nominal_rms * 1e3);
+  }
+  return out;
+}
+
 CalibrationResult Search::conclude() {
   // The kept candidate; if none is usable, the best allowed one, concluded and
   // refused; if none could be compared (no held-out poses, a fixture of one
@@ -405,25 +467,12 @@ CalibrationResult Search::conclude() {
   }
   FamilyFit& f = fits_[family_fit];
   if (pick >= 0) check_step_one(f);
-  std::unique_ptr<CalibrationRun> final_run = std::move(f.run);
-  if (final_run->data.J.size() == 0) restack(*final_run);
-  if (!zero && f.zero_column >= 0) {
-    // The zero held: its own problem (no slot for it).
-    final_run = std::make_unique<CalibrationRun>(base_);
-    CalibrationOptions& o = final_run->options;
-    o.joint_errors = f.families.empty() ? std::vector<std::string>{"none"} : f.families;
-    if (!names_it(o.fix, "instrument.zero")) o.fix.push_back("instrument.zero");
-    std::erase(o.free, "instrument.zero");
-    prepare_model(*final_run);
-  }
-  // Least squares is the fit itself: to rounding (the prior and the cut
-  // solve again from it).
-  if (estimator == Estimator::kLeastSquares) polish(*final_run);
-  // The search's held-out error is the one reported: no second cross-validation
-  // of the model kept (nor the suspect check's, which compares it).
-  if (out_.kept >= 0 || pick >= 0) final_run->options.folds = 0;
-  apply_estimator(*final_run, estimator);
-  CalibrationResult result = conclude_model(*final_run);
+  // The geometry alone first: the whole model's conclusion takes its run.
+  std::shared_ptr<const CalibrationResult> geometry;
+  if (!f.families.empty() && family_fit != 0 && fits_.front().run)
+    geometry = conclude_geometry(pick >= 0);
+  CalibrationResult result = finish(f, estimator, zero, pick >= 0);
+  result.geometry = std::move(geometry);
   KinematicFit& fit = result.kinematics;
   out_.ran = pick >= 0;
   // Without a comparison the first note is the reason, in out_.note.

@@ -112,6 +112,14 @@ class Search {
   // The best candidate and the simplest within one standard error of it.
   void choose();
   CalibrationResult conclude();
+  // Family fit `f` refitted on every pose by `estimator` (the instrument's
+  // zero fitted or held) and concluded; `compared`: its held-out error is the
+  // search's (no cross-validation of its own).
+  CalibrationResult finish(FamilyFit& f, Estimator estimator, bool zero, bool compared);
+  // The geometry alone as a format that holds no joint-error family writes
+  // it (CalibrationResult::geometry): its simplest candidate within one
+  // standard error of its best, refitted on every pose.
+  std::shared_ptr<const CalibrationResult> conclude_geometry(bool compared);
 
   // The joint-error parameters' names of every family searched, by family:
   // options naming them (--fix, --free, --tolerance) apply to the family sets

@@ -272,10 +272,6 @@ std::string tree_urdf(const std::string& text, const std::string& origin, const 
     std::vector<std::string> said;
     out = calibrated_urdf(out, origin, tree.tip_name(t), from, tip_chain(tree, t), &said);
     for (std::string& note : said) {
-      // A tree's set has no calibrated.yaml: the calibrated tree is the URDF's.
-      const std::string yaml = "reproduces calibrated.yaml";
-      if (const size_t at = note.find(yaml); at != std::string::npos)
-        note.replace(at, yaml.size(), "gives the calibrated tree");
       if (std::find(notes.begin(), notes.end(), note) == notes.end()) notes.push_back(note);
     }
     if (t == 0) {

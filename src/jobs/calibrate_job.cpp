@@ -38,14 +38,12 @@ std::vector<std::string> tip_names(const std::string& tip) {
 
 namespace {
 
-// Several tips (a tree) are a URDF's; a tree in memory (Python's calibrated
-// Model) needs it too for calibrated.urdf.
+// Several tips named (--tip A,B) are a URDF's: a device file holds its own.
 void check_tree_request(const CalibrateRequest& request) {
-  if (request.nominal && !is_urdf_path(request.model) && request.out)
-    throw InputError(request.model, 0, "--tip",
-                     "a tree in memory is written back as calibrated.urdf: give its URDF's path");
   if (!request.nominal && !is_urdf_path(request.model))
-    throw InputError(request.model, 0, "--tip", "several tips (a tree) need a URDF model");
+    throw InputError(request.model, 0, "--tip",
+                     "several tips (a tree) need a URDF model: a device file holding a "
+                     "tree names its own tips");
 }
 
 // A tree's log refused as not from this device: does it fit the tips in
@@ -80,22 +78,23 @@ std::string tip_order_hint(const CalibrateRequest& request, const std::string& u
 
 CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
   const std::vector<std::string> tips = tip_names(request.tip);
-  const bool tree = tips.size() > 1 || (request.nominal && request.nominal->tree());
-  if (tree) check_tree_request(request);
-  if (tree && (request.tool_point || request.nominal_tool))
-    throw InputError(request.model, 0, "--tool-point",
-                     "a tree's calibrated.urdf keeps each tip's tool: no device.yaml is written");
+  if (tips.size() > 1) check_tree_request(request);
   CalibrateJob job;
   const bool urdf = !request.model.empty() && is_urdf_path(request.model);
   const std::string urdf_text = urdf ? read_file(request.model, FileKind::kUrdf) : std::string();
   if (request.nominal) {
     job.nominal = *request.nominal;
-  } else if (tree) {
+  } else if (tips.size() > 1) {
     job.nominal = tree_model(parse_tree(urdf_text, request.model, tips, request.root));
   } else {
     job.nominal = urdf ? parse_urdf(urdf_text, request.model, request.tip, request.root)
                        : load_model(request.model, request.tip, request.root);
   }
+  // A URDF's tips named, or a device file's (or a model in memory) holding them.
+  const bool tree = job.nominal.tree();
+  if (tree && (request.tool_point || request.nominal_tool))
+    throw InputError(request.model, 0, "--tool-point",
+                     "a tree's calibrated.yaml keeps each tip's tool: no device.yaml is written");
   if (!request.tracker.empty() && (!request.fixture.empty() || !request.point_distances.empty())) {
     throw InputError(request.tracker, 0, "--tracker",
                      "a tracker's stream measures positions: it takes no fixture points");
@@ -142,8 +141,7 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
   } else {
     // results.json as the command line would write it into a fresh folder.
     if (!job.usable()) {
-      job.result.notes.push_back(fmt::format("no {} written: the calibration is not usable",
-                                             tree ? "calibrated.urdf" : "calibrated.yaml"));
+      job.result.notes.push_back("no calibrated.yaml written: the calibration is not usable");
     } else if (!tree) {
       job.device_frame =
           device_frame_outputs(job.result, job.nominal,

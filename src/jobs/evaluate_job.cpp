@@ -2,6 +2,7 @@
 #include "hapticcal/jobs/evaluate_job.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 #include <cstring>
@@ -83,27 +84,55 @@ void check_chain_used(const EvaluateRequest& request) {
                                request.tip.empty() ? "--root" : "--tip"));
 }
 
-// The tree of a URDF path at these tips, as one model (tree_model).
+// The tree of a URDF path at these tips, as one model (tree_model); a
+// calibrated URDF without --root read from the measurement frame its
+// calibration wrote (said in `said`), as a chain's is. A device file holds its
+// own tree: `tips` empty or its tips.
 DeviceModel evaluated_tree(const EvaluateRequest& request, const std::string& path,
-                           const std::vector<std::string>& tips) {
-  if (!is_urdf_path(path))
-    throw InputError(path, 0, "--tip", "several tips (a tree) need URDF models");
-  return tree_model(load_tree(path, tips, request.root));
+                           const std::vector<std::string>& tips, std::string* said = nullptr) {
+  if (!is_urdf_path(path)) {
+    DeviceModel model = load_model(path);
+    std::vector<std::string> own;
+    for (int t = 0; t < model.tips() && model.tree(); ++t) own.push_back(model.tip_name(t));
+    if (own.empty() || (!tips.empty() && tips != own))
+      throw InputError(path, 0, "--tip",
+                       own.empty() ? std::string("several tips (a tree) need URDF models or a "
+                                                 "device file of a tree")
+                                   : fmt::format("the device file's tree has the tips {}: give "
+                                                 "no --tip",
+                                                 fmt::join(own, ", ")));
+    return model;
+  }
+  std::string root = request.root;
+  const std::string text = read_file(path, FileKind::kUrdf);
+  if (root.empty()) {
+    root = measurement_frame_link(text, path);
+    if (!root.empty() && said)
+      *said = fmt::format(
+          "{}: read from its measurement frame, link '{}' (the frame its calibration was "
+          "fitted in; --root ROOT reads another tree)",
+          path, root);
+  }
+  return tree_model(parse_tree(text, path, tips, root));
 }
 
 // Each tip of a tree evaluated on its samples (the log's x<k> its point), by
 // the chain's evaluation of the tree model.
-EvaluateJob tree_evaluate_job(const EvaluateRequest& request,
-                              const std::vector<std::string>& tips) {
+EvaluateJob tree_evaluate_job(const EvaluateRequest& request, std::vector<std::string> tips) {
   if (request.given || request.given_reference || !request.fixture.empty() ||
       !request.point_distances.empty() || request.registration)
     throw InputError(request.model, 0, "--tip",
                      "a tree is evaluated on its tips' points or marker bodies (no fixture, "
                      "--register or models in memory)");
   EvaluateJob job;
-  const DeviceModel tree = evaluated_tree(request, request.model, tips);
+  std::string frame_said;
+  const DeviceModel tree = evaluated_tree(request, request.model, tips, &frame_said);
+  if (tips.empty()) {  // a device file's own tips
+    for (int t = 0; t < tree.tips(); ++t) tips.push_back(tree.tip_name(t));
+  }
   std::optional<DeviceModel> reference;
   if (!request.reference.empty()) reference = evaluated_tree(request, request.reference, tips);
+  if (!frame_said.empty()) job.lines.push_back(frame_said);
   const Log log = read_log(request.log, request.columns);
   std::vector<Log> parts;
   for (size_t c = 0; c < tips.size(); ++c) {  // a marker body's: its poses (--markers)
@@ -316,6 +345,11 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   std::string frame_said;
   job.model =
       request.given ? *request.given : load_evaluated_model(request, request.model, &frame_said);
+  if (job.model.tree() && !request.given) {  // a device file's own tree
+    if (!request.tracker.empty() || !request.iso9283.empty())
+      throw InputError(request.model, 0, "", "a tree: no --tracker or --iso9283 (give one tip)");
+    return tree_evaluate_job(request, {});
+  }
   Log log = read_log(request.log, request.columns);
   if (!request.tracker.empty()) {
     if (request.registration || !request.fixture.empty() || !request.point_distances.empty()) {

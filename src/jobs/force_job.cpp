@@ -97,9 +97,16 @@ ConvertJob run_convert_job(const ConvertRequest& given) {
   }
   job.model = load_model(request.in, request.tip, request.root);
   if (job.to_urdf) {
+    if (job.model.tree())
+      throw InputError(request.in, 0, "tips",
+                       "a tree of several tips: convert writes one chain's URDF (calibrate from "
+                       "the tree's URDF writes its calibrated.urdf)");
     for (const Link& l : job.model.links) {
       if (!l.transmission.is_none()) job.with_transmission.push_back(l.name);
     }
+    DeviceModel without = job.model;  // its parts besides the transmissions
+    for (Link& l : without.links) l.transmission = Transmission();
+    job.families_left_out = not_in_urdf(without);
     write_file_atomically(request.out, device_to_urdf(job.model));
   } else {
     save_device(job.model, request.out);

@@ -36,6 +36,11 @@ PlanSetup prepare_plan(const PlanRequest& o) {
                                  o.tip.empty() ? "--root" : "--tip"));
   }
   if (const std::vector<std::string> tips = tip_names(o.tip); tips.size() > 1) {
+    setup.model = tree_model(load_tree(o.model, tips, o.root));
+  } else {
+    setup.model = load_model(o.model, o.tip, o.root);  // a device file may hold a tree
+  }
+  if (setup.model.tree()) {
     // A tree: each pose measures every tip's point (tree_model).
     if (*type != MeasurementType::kPosition)
       throw InputError(o.model, 0, "--measurement",
@@ -43,9 +48,6 @@ PlanSetup prepare_plan(const PlanRequest& o) {
     if (o.distance_range || o.box)
       throw InputError(o.model, 0, o.box ? "--box" : "--distance-range",
                        "no workspace constraints on a tree yet");
-    setup.model = tree_model(load_tree(o.model, tips, o.root));
-  } else {
-    setup.model = load_model(o.model, o.tip, o.root);
   }
   setup.type = *type;
   const DeviceModel& model = setup.model;

@@ -11,8 +11,13 @@
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/device.hpp"
+#include "model_io/device_tree.hpp"
 
 namespace hapticcal {
+
+using detail::device_name_problem;
+using detail::quoted;
+
 namespace {
 
 // Version 1: one convention (dh, mdh) for every link, revolute joints. Version 2
@@ -145,14 +150,6 @@ class Reader : public detail::YamlReader {
          fmt::format("'{}' is not {}", printable(text), v2 ? "dh, mdh or urdf" : "dh or mdh"));
   }
 
-  // A pose {xyz: [x, y, z], rpy: [roll, pitch, yaw]} into `out`.
-  void pose(const YAML::Node& node, const std::string& path, std::array<double, 6>& out) const {
-    check_keys(node, path, {"xyz", "rpy"});
-    const auto xyz = numbers(require(node, path, "xyz"), join(path, "xyz"), 3);
-    const auto rpy = numbers(require(node, path, "rpy"), join(path, "rpy"), 3);
-    out = {xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2]};
-  }
-
  private:
   std::string origin_;
 };
@@ -197,12 +194,12 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
   if (!link.dh_parameters()) {
     r.check_keys(node, path,
                  {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission",
-                  "coupling", "mass", "compliance", "lateral_compliance", "backlash"});
+                  "coupling", "mass", "compliance", "lateral_compliance", "backlash", "parent"});
   } else if (file.v2) {
     r.check_keys(
         node, path,
         {"name", "geometry", "type", "a", "alpha", "d", "theta", "beta", "limits", "transmission",
-         "coupling", "mass", "compliance", "lateral_compliance", "backlash"});
+         "coupling", "mass", "compliance", "lateral_compliance", "backlash", "parent"});
   } else {
     r.check_keys(node, path,
                  {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
@@ -304,13 +301,16 @@ bool usable_link_name(const std::string& name) {
   return name != "base" && name != "tool";
 }
 
-// Why the device name cannot be used (it reaches reports and saved files), or empty.
-std::string device_name_problem(const std::string& name) {
+}  // namespace
+
+std::string detail::device_name_problem(const std::string& name) {
   if (name.size() > kMaxDeviceName)
     return fmt::format("longer than {} bytes ({})", kMaxDeviceName, name.size());
   const std::string why = text_problem(name);
   return why.empty() ? why : fmt::format("'{}': {}", printable(name), why);
 }
+
+namespace {
 
 // Semantic checks shared by the loader and check_device: (key, reason) or empty.
 std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) {
@@ -378,7 +378,9 @@ std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) 
 
 std::string num(double v) { return fmt::format("{}", v); }
 
-std::string quoted(const std::string& s) {
+}  // namespace
+
+std::string detail::quoted(const std::string& s) {
   std::string out = "\"";
   for (const char ch : s) {
     if (ch == '"' || ch == '\\') {
@@ -392,6 +394,8 @@ std::string quoted(const std::string& s) {
   }
   return out + "\"";
 }
+
+namespace {
 
 std::string numbers_text(const std::vector<double>& values) {
   std::string out = "[";
@@ -456,7 +460,8 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
   }
   const Reader r(origin);
   if (!root || root.IsNull()) throw InputError(origin, 0, "", "empty device file");
-  r.check_keys(root, "", {"format", "name", "convention", "base", "links", "tool", "gravity"});
+  r.check_keys(root, "",
+               {"format", "name", "convention", "base", "links", "tool", "gravity", "tips"});
   const std::string format = r.string(r.require(root, "", "format"), "format");
   if (format != kFormat && format != kFormat2) {
     r.fail(root["format"], "format",
@@ -491,6 +496,8 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
     }
   }
   read_coupling(r, links, model);
+  if (root["tips"] && !v2) r.fail(root["tips"], "tips", "belongs to format hapticcal-device/2");
+  detail::read_tree(r, root, links, model);
 
   if (root["gravity"]) {  // in the base frame [m/s^2]
     if (!v2) r.fail(root["gravity"], "gravity", "belongs to format hapticcal-device/2");
@@ -516,9 +523,7 @@ std::string check_device(const DeviceModel& model) {
   if (const std::string why = device_name_problem(model.name); !why.empty()) return "name: " + why;
   if (model.links.empty()) return "links: no links";
   if (model.dof() > kMaxDof) return fmt::format("links: at most {} links are supported", kMaxDof);
-  if (model.tree())
-    return fmt::format("a tree of {} tips: a device file holds one chain (a tree is its URDF's)",
-                       model.tips());
+  if (const std::string why = detail::tips_problem(model); !why.empty()) return why;
   for (double v : model.base) {
     if (!std::isfinite(v)) return "base: non-finite value";
   }
@@ -540,9 +545,8 @@ std::string check_device(const DeviceModel& model) {
 }
 
 std::string device_to_yaml(const DeviceModel& model) {
-  if (model.tree())
-    throw InputError("", 0, "",
-                     "refusing to write a tree as a device file: " + check_device(model));
+  if (const std::string why = tree_problem(model); !why.empty())
+    throw InputError("", 0, "", "refusing to write a model whose tree is not one: " + why);
   std::string out;
   // Version 1 holds a model whose links are all revolute with one DH or MDH geometry.
   const Geometry first = model.links.empty() ? Geometry::kDh : model.links[0].geometry;
@@ -553,7 +557,7 @@ std::string device_to_yaml(const DeviceModel& model) {
   bool masses = false;  // masses, compliance, gravity and backlash are version 2's, like a coupling
   for (const Link& l : model.links)
     masses = masses || l.mass != 0 || l.compliance != 0 || l.lateral_compliance != 0;
-  uniform = uniform && !model.coupled() && !masses && !model.has_backlash();
+  uniform = uniform && !model.coupled() && !masses && !model.has_backlash() && !model.tree();
   auto geometry_name = [](Geometry g) { return traits(g).name; };
   out += fmt::format("format: {}\n", uniform ? kFormat : kFormat2);
   out += fmt::format("name: {}\n", quoted(model.name));
@@ -569,6 +573,7 @@ std::string device_to_yaml(const DeviceModel& model) {
   out += "links:\n";
   for (const Link& l : model.links) {
     out += fmt::format("  - name: {}\n", quoted(l.name));
+    if (model.tree()) out += detail::parent_yaml(model, static_cast<int>(&l - model.links.data()));
     if (!uniform) {
       out += fmt::format("    geometry: {}\n", geometry_name(l.geometry));
       out += fmt::format("    type: {}\n", to_string(l.type));
@@ -612,6 +617,7 @@ std::string device_to_yaml(const DeviceModel& model) {
     const Eigen::Vector3d& g = model.gravity;
     out += fmt::format("gravity: [{}, {}, {}]\n", num(g[0]), num(g[1]), num(g[2]));
   }
+  if (model.tree()) return out + detail::tips_yaml(model);
   const auto& t = model.tool;
   out += fmt::format("tool:\n  pose: {{xyz: [{}, {}, {}], rpy: [{}, {}, {}]}}\n", num(t[0]),
                      num(t[1]), num(t[2]), num(t[3]), num(t[4]), num(t[5]));

@@ -288,6 +288,11 @@ std::string device_to_urdf(const DeviceModel& model) {
   if (const std::string why = check_device(model); !why.empty()) {
     throw InputError("", 0, "", "cannot write an unusable model as URDF: " + why);
   }
+  if (model.tree())
+    throw InputError("", 0, "tips",
+                     fmt::format("a tree of {} tips: a URDF is written from one chain (calibrate "
+                                 "from the tree's URDF writes its calibrated.urdf)",
+                                 model.tips()));
   const ChainStructure s = model.structure();
   const Eigen::VectorXd params = model.kinematic_parameters();
   const Frame<double> base = base_frame(s, params.data());
@@ -430,7 +435,8 @@ std::string write_measurement_frame(const std::string& urdf_text, const UrdfChai
   if (notes) {
     notes->push_back(fmt::format(
         "calibrated.urdf holds the measurement frame as link '{}' (fixed joint '{}' below the "
-        "root '{}'): --root {} reproduces calibrated.yaml, --root {} gives the robot alone",
+        "root '{}'), where evaluate reads it from: --root {} gives the calibrated model in the "
+        "measurement frame, --root {} the robot alone",
         link, joint, chain.root, link, chain.root));
   }
   return fmt::format("the measurement frame is the link {}", comment_safe(link));
@@ -540,10 +546,8 @@ std::string calibrated_urdf(const std::string& urdf_text, const std::string& ori
   // What URDF cannot hold is said in the file (evaluate reads it) and the notes.
   const std::string left_out = not_in_urdf(calibrated);
   if (!left_out.empty() && notes) {
-    notes->push_back(
-        "calibrated.urdf leaves out " + left_out +
-        " (URDF cannot express it): calibrated.yaml holds the whole model, and predicts "
-        "better than the URDF alone");
+    notes->push_back("calibrated.urdf leaves out " + left_out +
+                     " (URDF cannot express it): calibrated.yaml holds the whole model");
   }
   edits.push_back(
       {robot.tag_end, robot.tag_end,

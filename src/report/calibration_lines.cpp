@@ -204,6 +204,7 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
     out.push_back(fmt::format("  model selection: {}", k.selection_note));
   }
   search_lines(k.search, out);
+  if (const std::string line = geometry_model_line(r); !line.empty()) out.push_back("  " + line);
   outlier_lines(k.robust, out);
   for (const std::string& reason : k.suspect.reasons) {
     out.push_back(
@@ -225,6 +226,29 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
     out.push_back(fmt::format("{}{}", note.rfind("warning: ", 0) == 0 ? "" : "note: ", note));
   }
   return out;
+}
+
+std::string geometry_model_line(const CalibrationResult& result) {
+  if (!result.geometry) return "";
+  const KinematicFit& g = result.geometry->kinematics;
+  const KinematicFit& k = result.kinematics;
+  const auto mm = [](double v) {
+    return std::isfinite(v) ? fmt::format("{:.4f} mm", v * 1e3) : std::string("-");
+  };
+  std::string line = fmt::format(
+      "geometry alone (what calibrated.urdf, a DH table or a driver's file holds), fitted as such "
+      "by the {}: RMS {} on these poses, {} held out; the whole model (geometry + {}): {}, {} "
+      "held out",
+      to_string(g.estimator), mm(g.rms_after), mm(g.cv_rms),
+      fmt::join(k.joint_error_families, " + "), mm(k.rms_after), mm(k.cv_rms));
+  if (std::isfinite(g.cv_rms) && std::isfinite(k.cv_rms)) {
+    line += fmt::format(": its families take {:.4f} mm off the held-out error",
+                        (g.cv_rms - k.cv_rms) * 1e3);
+  }
+  if (result.geometry->status != CalibrationStatus::kConverged)
+    line += fmt::format(" (the geometry alone is {}: {})", to_string(result.geometry->status),
+                        result.geometry->status_reason);
+  return line;
 }
 
 std::vector<std::string> tip_rms_lines(const KinematicFit& fit, const DeviceModel& nominal) {

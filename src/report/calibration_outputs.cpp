@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -17,20 +18,21 @@
 namespace hapticcal {
 namespace {
 
-// The previous run's calibrated.yaml (and calibrated.urdf of a URDF model),
-// carried into a failed run's set only if that run calibrated the same device.
-// A tree's calibrated.urdf alone (a device file holds one chain).
+// The previous run's calibrated.yaml (and calibrated.urdf of a URDF model, a
+// chain's device.yaml and setup.yaml), carried into a failed run's set only if
+// that run calibrated the same device.
 bool keep_previous_model(const OutputSet& out, const DeviceModel& nominal, bool urdf) {
   if (out.previous_command() != "calibrate") return false;
-  if (nominal.tree()) return out.keep_previous("calibrated.urdf");
   try {
     if (load_device(out.target() + "/calibrated.yaml").name != nominal.name) return false;
   } catch (const InputError&) {
     return false;
   }
   if (urdf) out.keep_previous("calibrated.urdf");
-  out.keep_previous("device.yaml");
-  out.keep_previous("setup.yaml");
+  if (!nominal.tree()) {
+    out.keep_previous("device.yaml");
+    out.keep_previous("setup.yaml");
+  }
   return out.keep_previous("calibrated.yaml");
 }
 
@@ -83,24 +85,45 @@ std::string setup_yaml(const DeviceFrameOutputs& d) {
 // calibrated.yaml, and for a URDF model calibrated.urdf (its notes into
 // result); a chain's device.yaml and setup.yaml; a tree's calibrated.urdf
 // alone.
-void write_models(const std::string& dir, CalibrationResult& result, const DeviceModel& nominal,
-                  const CalibrationSource& source, CalibrationOutputs& written) {
-  if (result.calibrated.tree()) {
-    write_file_atomically(dir + "/calibrated.urdf",
-                          tree_urdf(source.urdf_text, source.model_path, source.root,
-                                    result.calibrated, result.notes));
+// calibrated.urdf: the geometry-only model (geometry_model), unless it
+// predicts held-out poses no better than the nominal with its set-up fitted.
+void write_urdf(const std::string& dir, CalibrationResult& result, const DeviceModel& nominal,
+                const CalibrationSource& source, CalibrationOutputs& written) {
+  const CalibrationResult& urdf = geometry_model(result);
+  if (urdf.status != CalibrationStatus::kConverged) {
+    result.notes.push_back("no calibrated.urdf written: " + urdf.status_reason);
     return;
   }
+  std::vector<std::string> said;
+  if (result.calibrated.tree()) {
+    write_file_atomically(dir + "/calibrated.urdf", tree_urdf(source.urdf_text, source.model_path,
+                                                              source.root, urdf.calibrated, said));
+  } else {
+    const DeviceFrameOutputs d = device_frame_outputs(urdf, nominal, source);
+    write_file_atomically(dir + "/calibrated.urdf",
+                          calibrated_urdf(source.urdf_text, source.model_path, source.tip,
+                                          source.root, d.written, &said));
+  }
+  for (std::string& note : said) {
+    if (std::find(result.notes.begin(), result.notes.end(), note) == result.notes.end())
+      result.notes.push_back(std::move(note));
+  }
+  written.urdf_written = true;
+}
+
+void write_models(const std::string& dir, CalibrationResult& result, const DeviceModel& nominal,
+                  const CalibrationSource& source, CalibrationOutputs& written) {
   save_device(result.calibrated, dir + "/calibrated.yaml");
+  if (result.calibrated.tree()) {  // a tree's tips keep their tools: no device.yaml
+    if (!source.urdf_text.empty()) write_urdf(dir, result, nominal, source, written);
+    return;
+  }
   written.device_frame = device_frame_outputs(result, nominal, source);
   const DeviceFrameOutputs& d = *written.device_frame;
   add_device_frame_notes(result, d, !source.urdf_text.empty());
   save_device(d.split.device, dir + "/device.yaml");
   write_file_atomically(dir + "/setup.yaml", setup_yaml(d));
-  if (source.urdf_text.empty()) return;
-  write_file_atomically(dir + "/calibrated.urdf",
-                        calibrated_urdf(source.urdf_text, source.model_path, source.tip,
-                                        source.root, d.written, &result.notes));
+  if (!source.urdf_text.empty()) write_urdf(dir, result, nominal, source, written);
 }
 
 }  // namespace
@@ -151,10 +174,9 @@ CalibrationOutputs write_calibration_outputs(OutputSet& out, CalibrationResult& 
     written.model_written = true;
   } else {
     written.previous_kept = keep_previous_model(out, nominal, !source.urdf_text.empty());
-    const char* file = nominal.tree() ? "calibrated.urdf" : "calibrated.yaml";
     result.notes.push_back(written.previous_kept
-                               ? fmt::format("{} is the previous run's model: not replaced", file)
-                               : fmt::format("no {} written: the calibration is not usable", file));
+                               ? "calibrated.yaml is the previous run's model: not replaced"
+                               : "no calibrated.yaml written: the calibration is not usable");
   }
   written.results_json =
       calibration_json(result, nominal, source.model_path, source.log_path, options);

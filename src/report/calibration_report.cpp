@@ -254,18 +254,17 @@ Outcome calibration_outcome(const CalibrationResult& result, const DeviceModel& 
   const bool usable = result.status == CalibrationStatus::kConverged;
   Outcome o;
   o.usable = usable;
-  o.status =
-      fmt::format("{} ({}){}", to_string(result.status), result.status_reason,
-                  usable ? ""
-                         : fmt::format(": this calibration is not usable; no new {} was "
-                                       "written",
-                                       nominal.tree() ? "calibrated.urdf" : "calibrated.yaml"));
+  o.status = fmt::format(
+      "{} ({}){}", to_string(result.status), result.status_reason,
+      usable ? "" : ": this calibration is not usable; no new calibrated.yaml was written");
   const std::string measured = traits(k.type).name;
   if (result.step_one_only) {
     o.headline.push_back("step 1 alone: the log has external encoders and no measurements");
   } else {
     kinematic_headlines(k, measured, o);
     for (const std::string& line : tip_rms_lines(k, nominal)) o.headline.push_back("  " + line);
+    if (const std::string line = geometry_model_line(result); !line.empty())
+      o.headline.push_back(line);
   }
   for (const TransmissionFit& t : result.transmissions) {
     o.headline.push_back(fmt::format(

@@ -180,6 +180,19 @@ nlohmann::ordered_json tips_json(const KinematicFit& k, const DeviceModel& nomin
   return tips;
 }
 
+// What calibrated.urdf (a URDF model's) and the geometry-only formats hold:
+// the geometry alone fitted as such, beside the whole model.
+nlohmann::ordered_json geometry_model_json(const CalibrationResult& result) {
+  const KinematicFit& g = result.geometry->kinematics;
+  return {{"status", to_string(result.geometry->status)},
+          {"status_reason", result.geometry->status_reason},
+          {"usable", result.geometry->status == CalibrationStatus::kConverged},
+          {"estimator", to_string(g.estimator)},
+          {"rms_after", g.rms_after},
+          {"cv_rms", number_or_null(g.cv_rms)},
+          {"families_add", number_or_null(g.cv_rms - result.kinematics.cv_rms)}};
+}
+
 }  // namespace
 
 // Two streams' clocks (calibrate --tracker): SI (s; the drift dimensionless).
@@ -244,6 +257,7 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
                            {"rms", number_or_null(k.cv_rms)},
                            {"seed", options.seed},
                            {"note", k.cv_note}};
+  if (result.geometry) j["geometry_model"] = geometry_model_json(result);
   j["model_selection"] = selection_json(k, options);
   j["prior"] = prior_json(k.prior, options.tolerances);
   j["parameter_choice"] = k.choice;

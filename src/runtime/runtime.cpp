@@ -81,6 +81,14 @@ hapticcal_status hapticcal_load(const char* path, const char* tip, const char* r
   try {
     const hapticcal::DeviceModel device =
         hapticcal::load_model(path, tip ? tip : "", root ? root : "");
+    if (device.tree()) {
+      write_message(message, message_size,
+                    (std::string(path) +
+                     ": a tree of several tips: the runtime holds one chain (a URDF read to one "
+                     "tip, or a chain's device file)")
+                        .c_str());
+      return HAPTICCAL_E_INPUT;
+    }
     *model = new hapticcal_model(device);
     write_message(message, message_size, "");
     return HAPTICCAL_OK;

@@ -285,6 +285,10 @@ Scenario default_scenario(const std::string& device_path, const std::string& tip
   sc.tip = tip;
   sc.root = root;
   sc.nominal = load_model(device_path, tip, root);
+  if (sc.nominal.tree())
+    throw InputError(device_path, 0, "",
+                     "a tree of several tips: simulate studies one chain (calibrate, evaluate and "
+                     "plan take the tree)");
   sc.paper_device = is_paper_device(sc.nominal);
   sc.noise.sigma_orientation = kDefaultSigmaR;  // a pose's, if one is measured
   if (sc.paper_device) {

@@ -421,7 +421,19 @@ struct CalibrationResult {
   std::optional<ClockEstimate> clock;
   // A marker log's body as used (given or estimated), 3 x K [m]; empty: none.
   Eigen::Matrix3Xd marker_body;
+  // The best model a format that holds the geometry alone can express (a URDF,
+  // a DH table, a driver's file): the model search's best geometry-only
+  // candidate refitted on every pose by its own estimator, fitted as such, not
+  // the whole model with its joint-error families dropped. Its status says
+  // whether it may be written (not kConverged: it predicts held-out poses no
+  // better than the nominal model with the set-up fitted). Null when the whole
+  // model holds no joint-error family: it is that model.
+  std::shared_ptr<const CalibrationResult> geometry;
 };
+
+// The model a geometry-only format (a URDF, a DH table, a driver's file) is
+// written from: result.geometry, or result itself when that is null.
+const CalibrationResult& geometry_model(const CalibrationResult& result);
 
 // The stages of calibrate, callable one by one.
 

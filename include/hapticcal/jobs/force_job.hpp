@@ -47,10 +47,13 @@ struct ConvertJob {
   bool to_urdf = false;
   // Links with a transmission, which a URDF holds only as comments.
   std::vector<std::string> with_transmission;
+  // Joint compliance, lateral compliance, backlash: the model's parts besides
+  // transmissions that a URDF holds only as comments (empty: none).
+  std::string families_left_out;
 };
 
 // Reads `in`, writes `out` (atomically). InputError for a pair that is not a
-// device file and a URDF.
+// device file and a URDF, or a tree to a URDF (a URDF is written from one chain).
 ConvertJob run_convert_job(const ConvertRequest& request);
 
 }  // namespace hapticcal

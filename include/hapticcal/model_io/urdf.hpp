@@ -35,6 +35,10 @@ DeviceModel parse_urdf(const std::string& text, const std::string& origin, const
 DeviceModel load_urdf(const std::string& path, const std::string& tip,
                       const std::string& root = "");
 
+// What of `model` a URDF cannot hold ("joint compliance, backlash, the
+// transmissions' errors"), or empty: written only as comments.
+std::string not_in_urdf(const DeviceModel& model);
+
 // Written in a calibrated URDF's comment before what it leaves out (joint
 // compliance, backlash, transmissions: URDF cannot express them).
 inline constexpr const char* kLeftOut = "left out (URDF cannot express it): ";

@@ -50,6 +50,9 @@ void add_device_frame_notes(CalibrationResult& result, const DeviceFrameOutputs&
 // What write_calibration_outputs did besides results.json.
 struct CalibrationOutputs {
   bool model_written = false;  // calibrated.yaml (and .urdf) of this run
+  // calibrated.urdf written: the geometry-only model (geometry_model) beat the
+  // nominal with its set-up fitted; else a note says why there is none.
+  bool urdf_written = false;
   bool previous_kept = false;  // not usable: the previous run's model is in the set
   int figures = 0;             // drawn into the report
   std::string report_note;     // write_report's note (gnuplot missing), or empty
@@ -58,8 +61,10 @@ struct CalibrationOutputs {
   std::optional<DeviceFrameOutputs> device_frame;
 };
 
-// Writes into out.dir() and commits the set: calibrated.yaml (and
-// calibrated.urdf for a URDF model) if the run is usable, and a chain's
+// Writes into out.dir() and commits the set: calibrated.yaml (and, for a URDF
+// model, calibrated.urdf: the geometry-only model, geometry_model, fitted as
+// such, written if it predicts held-out poses better than the nominal with its
+// set-up fitted) if the run is usable, and a chain's
 // device.yaml (the model in the device's own frame, split_device_frame) and
 // setup.yaml (the device's frame in the measurement frame, the measured point); else the previous
 // run's model if --out held one of the same device (keep_previous), and a note
