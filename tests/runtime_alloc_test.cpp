@@ -1,7 +1,8 @@
 // The runtime's hot calls allocate nothing: every allocation of the process is
 // counted (operator new / delete replaced, malloc, calloc, realloc and
 // aligned_alloc interposed over glibc's __libc_* functions), and 10^5 calls of
-// compensate + forward + jacobian + joint_torques must leave the count unchanged.
+// compensate + forward + jacobian + joint_torques (and 10^4 of inverse) must leave
+// the count unchanged.
 // Not run under AddressSanitizer, which replaces malloc itself.
 #include <cstdio>
 #include <cstdlib>
@@ -78,7 +79,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   const int n = hapticcal_dof(model);
-  std::vector<double> q(n), joint(n), J(6 * n), tau(n);
+  std::vector<double> q(n), joint(n), J(6 * n), tau(n), start(n), back(n);
+  long inverse_calls = 0, inverse_converged = 0;
   double T[16];
   const double F[6] = {1, -2, 3, 0.1, 0.2, -0.3};
   int failures = 0;
@@ -94,15 +96,27 @@ int main(int argc, char** argv) {
                                         tau.data()) != HAPTICCAL_OK;
     failures += hapticcal_joint_torques(model, q.data(), F, HAPTICCAL_FRAME_TOOL, tau.data()) !=
                 HAPTICCAL_OK;
+    // Inverse kinematics back to the pose at q, from readings 0.01 rad away:
+    // every tenth cycle (it evaluates the model many times).
+    if (k % 10 == 0) {
+      for (int i = 0; i < n; ++i) start[i] = q[i] + 0.01;
+      hapticcal_inverse_result found;
+      failures +=
+          hapticcal_inverse(model, T, 1, start.data(), 0, back.data(), &found) != HAPTICCAL_OK;
+      inverse_converged += found.status != HAPTICCAL_INVERSE_NOT_CONVERGED;
+      ++inverse_calls;
+    }
   };
   cycle(0);  // anything lazily set up on a first call is not the loop's
   const unsigned long before = g_allocations;
   for (long k = 1; k <= 100000; ++k) cycle(k);
   const unsigned long during = g_allocations - before;
   hapticcal_free(model);
-  std::printf("allocations in 10^5 cycles: %lu; failed calls: %d; check value %.6f\n", during,
-              failures, T[3] + J[0] + tau[0] + joint[0]);
-  if (during != 0 || failures != 0) {
+  std::printf(
+      "allocations in 10^5 cycles: %lu; failed calls: %d; inverse kinematics reached %ld of %ld; "
+      "check value %.6f\n",
+      during, failures, inverse_converged, inverse_calls, T[3] + J[0] + tau[0] + joint[0]);
+  if (during != 0 || failures != 0 || inverse_converged < inverse_calls * 9 / 10) {
     std::fprintf(stderr, "FAIL\n");
     return 1;
   }

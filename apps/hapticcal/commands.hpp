@@ -91,6 +91,15 @@ CLI::App* add_convert_command(CLI::App& app, ConvertOptions& options);
 // kExitBadInput, with a line on stderr, when the files are not a pair to convert.
 int run_convert(const ConvertOptions& options);
 
+// `hapticcal compensate`: a program's targets for a controller running the nominal model.
+struct CompensateOptions {
+  std::string model, nominal, targets, columns, out = "hapticcal-out/compensate";
+  double load = 0;  // kg at the tool point
+  ChainOptions chain;
+};
+CLI::App* add_compensate_command(CLI::App& app, CompensateOptions& options);
+int run_compensate(const CompensateOptions& options);
+
 // `hapticcal import`: a recording or a tracker's export in, hapticcal's streams out.
 struct ImportOptions {
   std::string recording, joints, tracker_topic, frames, time = "header", model, convention;

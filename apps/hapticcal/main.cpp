@@ -37,6 +37,8 @@ int main(int argc, char** argv) {
   CLI::App* plan = hapticcal::cli::add_plan_command(app, plan_options);
   hapticcal::cli::ImportOptions import_options;
   CLI::App* import_command = hapticcal::cli::add_import_command(app, import_options);
+  hapticcal::cli::CompensateOptions compensate_options;
+  CLI::App* compensate = hapticcal::cli::add_compensate_command(app, compensate_options);
   CLI::App* devices = hapticcal::cli::add_devices_command(app);
 
   try {
@@ -48,7 +50,7 @@ int main(int argc, char** argv) {
     if (dynamic_cast<const CLI::RequiredError*>(&e) && app.get_subcommands().empty()) {
       hapticcal::cli::say(stderr,
                           "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, "
-                          "convert, import, devices); see hapticcal --help\n");
+                          "convert, import, compensate, devices); see hapticcal --help\n");
       return kExitBadInput;
     }
     // One line, whatever the argument held (a newline, a control byte).
@@ -69,6 +71,7 @@ int main(int argc, char** argv) {
     if (*convert) code = hapticcal::cli::run_convert(conv);
     if (*plan) code = hapticcal::cli::run_plan(plan_options);
     if (*devices) code = hapticcal::cli::run_devices();
+    if (*compensate) code = hapticcal::cli::run_compensate(compensate_options);
     if (*import_command) code = hapticcal::cli::run_import(import_options);
   } catch (const hapticcal::InputError& e) {
     hapticcal::finish_if_interrupted();

@@ -1,8 +1,8 @@
 /* hapticcal runtime: a calibrated model in a controller's loop, through a C ABI.
  *
  * Load a model once (a device file or a URDF chain; the only call that parses,
- * allocates or may take long), then call compensate, forward, jacobian and
- * joint_torques at the control rate: they write into the caller's buffers,
+ * allocates or may take long), then call compensate, forward, jacobian,
+ * joint_torques and inverse at the control rate: they write into the caller's buffers,
  * allocate nothing, take no lock and throw nothing. A loaded model is never
  * modified, so any number of threads may call them on one model at once.
  * Valid C99 and C++.
@@ -109,6 +109,39 @@ HAPTICCAL_RUNTIME_API hapticcal_status hapticcal_joint_torques(const hapticcal_m
                                                                const double* wrench,
                                                                hapticcal_frame frame,
                                                                double* torques);
+
+/* What hapticcal_inverse found. */
+typedef enum hapticcal_inverse_status {
+  HAPTICCAL_INVERSE_CONVERGED = 0,      /* at the target, the readings within their limits */
+  HAPTICCAL_INVERSE_NEAR_SINGULARITY = 1, /* at the target, near a singularity */
+  HAPTICCAL_INVERSE_OUTSIDE_LIMITS = 2, /* at the target, a reading outside its limits */
+  HAPTICCAL_INVERSE_NOT_CONVERGED = 3   /* not at the target: unreachable from the start */
+} hapticcal_inverse_status;
+
+typedef struct hapticcal_inverse_result {
+  hapticcal_inverse_status status;
+  int iterations;                 /* Jacobians evaluated */
+  double position_error;          /* [m] at the readings returned */
+  double rotation_error;          /* [rad]; 0 without orientation */
+  double smallest_singular_value; /* of d pose / d readings, rotation rows x 0.1 m [m/rad] */
+  int outside_limit;              /* the first reading outside its limits, or -1 */
+} hapticcal_inverse_result;
+
+/* The n readings at which the model's tool is at T_target (16 doubles,
+ * row-major; its rotation ignored when orientation is 0): damped least squares
+ * (Levenberg-Marquardt) from readings_start, at most max_iterations Jacobians
+ * (0: 100), to 1e-9 m and 1e-9 rad. Every effect the model holds is in it
+ * (transmissions, couplings, compliance under the links' weights). A solution
+ * outside the readings' limits is returned and said, never clipped; below a
+ * smallest singular value of 1e-3 m/rad it is near a singularity. readings may
+ * be readings_start. HAPTICCAL_OK when it ran (result->status says whether it
+ * reached the target); HAPTICCAL_E_ARGUMENT for a null pointer or a negative
+ * max_iterations. Allocates nothing. */
+HAPTICCAL_RUNTIME_API hapticcal_status hapticcal_inverse(const hapticcal_model* model,
+                                                         const double* T_target, int orientation,
+                                                         const double* readings_start,
+                                                         int max_iterations, double* readings,
+                                                         hapticcal_inverse_result* result);
 
 #ifdef __cplusplus
 } /* extern "C" */

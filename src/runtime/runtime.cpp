@@ -9,12 +9,19 @@
 #include <string>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/kinematics/inverse.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 
 struct hapticcal_model {
-  explicit hapticcal_model(const hapticcal::DeviceModel& model) : prepared(model) {}
-  const hapticcal::PreparedModel prepared;  // const: concurrent readers share it
+  explicit hapticcal_model(const hapticcal::DeviceModel& model) : prepared(model) {
+    for (int i = 0; i < model.dof(); ++i) {
+      lower[static_cast<size_t>(i)] = model.links[static_cast<size_t>(i)].lower;
+      upper[static_cast<size_t>(i)] = model.links[static_cast<size_t>(i)].upper;
+    }
+  }
+  const hapticcal::PreparedModel prepared;                  // const: concurrent readers share it
+  std::array<double, hapticcal::kMaxDof> lower{}, upper{};  // the readings' limits
 };
 
 namespace {
@@ -172,6 +179,36 @@ hapticcal_status hapticcal_joint_torques(const hapticcal_model* model, const dou
       for (int i = 0; i < n; ++i) sum += column[i] * tau[i];
       torques[r] = sum;
     }
+    return HAPTICCAL_OK;
+  } catch (...) {
+    return HAPTICCAL_E_INTERNAL;
+  }
+}
+
+hapticcal_status hapticcal_inverse(const hapticcal_model* model, const double* T_target,
+                                   int orientation, const double* readings_start,
+                                   int max_iterations, double* readings,
+                                   hapticcal_inverse_result* result) {
+  if (!model || !T_target || !readings_start || !readings || !result || max_iterations < 0)
+    return HAPTICCAL_E_ARGUMENT;
+  try {
+    Frame<double> target;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) target.R(r, c) = T_target[4 * r + c];
+      target.p[r] = T_target[4 * r + 3];
+    }
+    hapticcal::InverseOptions options;
+    options.orientation = orientation != 0;
+    if (max_iterations > 0) options.max_iterations = max_iterations;
+    const hapticcal::InverseResult found =
+        hapticcal::inverse_kinematics(model->prepared, target, readings_start, readings, options,
+                                      model->lower.data(), model->upper.data());
+    result->status = static_cast<hapticcal_inverse_status>(found.status);
+    result->iterations = found.iterations;
+    result->position_error = found.position_error;
+    result->rotation_error = found.rotation_error;
+    result->smallest_singular_value = found.smallest_singular_value;
+    result->outside_limit = found.outside_limit;
     return HAPTICCAL_OK;
   } catch (...) {
     return HAPTICCAL_E_INTERNAL;
