@@ -8,6 +8,9 @@
 // (hapticcal/runtime.h), against the library's call.
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
+#include <chrono>
 #include <filesystem>
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <kdl/chainjnttojacsolver.hpp>
@@ -164,6 +167,61 @@ void BM_Runtime_FkJacobian(benchmark::State& state) {
   hapticcal_free(runtime);
 }
 
+// Inverse kinematics through the C ABI on the compliant 7-DOF (every effect in
+// the model: capstans, joint 4's polynomial, compliance): a pose of the tool
+// from readings `away` rad off on every joint (0.01: a 1 kHz loop tracking a
+// moving target; 0.3: a new target; `out_of_reach`: each target moved 1 m away,
+// the bound's case). The worst call is a counter (worst_us): the work is
+// bounded (100 Jacobians, 300 evaluations of the model).
+void runtime_inverse(benchmark::State& state, double away, bool out_of_reach = false) {
+  const DeviceModel model = compliant_7dof();
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("inverse_bench_" + std::to_string(::getpid()) + ".yaml"))
+                               .string();
+  save_device(model, path);
+  hapticcal_model* runtime = nullptr;
+  char message[256];
+  const hapticcal_status status =
+      hapticcal_load(path.c_str(), nullptr, nullptr, &runtime, message, sizeof message);
+  std::filesystem::remove(path);
+  if (status != HAPTICCAL_OK) {
+    state.SkipWithError(message);
+    return;
+  }
+  const auto qs = configurations(model);
+  std::vector<std::array<double, 16>> targets(qs.size());
+  for (size_t k = 0; k < qs.size(); ++k) {
+    hapticcal_forward(runtime, qs[k].data(), targets[k].data());
+    if (out_of_reach) targets[k][3] += 1.0;
+  }
+  std::vector<double> start(model.dof()), q(model.dof());
+  hapticcal_inverse_result result{};
+  double worst = 0;
+  long reached = 0, calls = 0, iterations = 0;
+  size_t k = 0;
+  for (auto _ : state) {
+    const size_t at = k++ & 1023;
+    for (int i = 0; i < model.dof(); ++i) start[i] = qs[at][i] + (i % 2 ? away : -away);
+    const auto begin = std::chrono::steady_clock::now();
+    hapticcal_inverse(runtime, targets[at].data(), 1, start.data(), 0, q.data(), &result);
+    worst = std::max(
+        worst, std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
+    reached += result.status != HAPTICCAL_INVERSE_NOT_CONVERGED;
+    iterations += result.iterations;
+    ++calls;
+    benchmark::DoNotOptimize(q.data());
+    benchmark::ClobberMemory();
+  }
+  state.counters["worst_us"] = worst * 1e6;
+  state.counters["reached"] = calls ? static_cast<double>(reached) / calls : 0;
+  state.counters["iterations"] = calls ? static_cast<double>(iterations) / calls : 0;
+  hapticcal_free(runtime);
+}
+
+void BM_Runtime_Inverse_Tracking(benchmark::State& state) { runtime_inverse(state, 0.01); }
+void BM_Runtime_Inverse_NewTarget(benchmark::State& state) { runtime_inverse(state, 0.3); }
+void BM_Runtime_Inverse_OutOfReach(benchmark::State& state) { runtime_inverse(state, 0.01, true); }
+
 void BM_FkJacobian_Hapticcal(benchmark::State& state) {
   fk_jacobian_hapticcal(state, calibrated_7dof());
 }
@@ -197,6 +255,9 @@ BENCHMARK(BM_FkJacobian_Coupled_KDL);
 BENCHMARK(BM_FkJacobian_Compliant_Hapticcal);
 BENCHMARK(BM_FkJacobian_Compliant_KDL);
 BENCHMARK(BM_Fk_Hapticcal);
+BENCHMARK(BM_Runtime_Inverse_Tracking);
+BENCHMARK(BM_Runtime_Inverse_NewTarget);
+BENCHMARK(BM_Runtime_Inverse_OutOfReach);
 
 }  // namespace
 
@@ -210,5 +271,8 @@ int main(int argc, char** argv) {
                               {"BM_FkJacobian_Coupled_Hapticcal", "BM_FkJacobian_Hapticcal"},
                               {"BM_FkJacobian_Compliant_Hapticcal", "BM_FkJacobian_Compliant_KDL"},
                               {"BM_FkJacobian_Compliant_Hapticcal", "BM_FkJacobian_Hapticcal"},
-                              {"BM_Fk_Hapticcal", "BM_FkJacobian_Hapticcal"}});
+                              {"BM_Fk_Hapticcal", "BM_FkJacobian_Hapticcal"},
+                              {"BM_Runtime_Inverse_Tracking", "BM_FkJacobian_Hapticcal"},
+                              {"BM_Runtime_Inverse_NewTarget", "BM_FkJacobian_Hapticcal"},
+                              {"BM_Runtime_Inverse_OutOfReach", "BM_FkJacobian_Hapticcal"}});
 }

@@ -46,14 +46,14 @@ bool within(const ToolError& e, const InverseOptions& o) {
 }
 
 // The Jacobian of the tool's pose with respect to the readings (rows as
-// ToolError's, rotation rows scaled): the geometric Jacobian times d theta / d r.
-void reading_jacobian(const PreparedModel& model, const double* q, const InverseOptions& o,
-                      Jacobian& J) {
+// ToolError's, rotation rows scaled): the geometric Jacobian times d theta / d r,
+// the latter at the start (a transmission's slope barely changes over a step;
+// the steps are judged by the model's own errors).
+void reading_jacobian(const PreparedModel& model, const double* q, const Square& joint_reading,
+                      const InverseOptions& o, Jacobian& J) {
   const int n = model.dof();
   Jacobian geometric(6, n);
-  Square joint_reading(n, n);
   model.forward_jacobian(q, o.tip, JacobianFrame::kMeasurement, geometric.data());
-  model.reading_jacobian(q, joint_reading.data());
   J.resize(6, n);
   J.noalias() = geometric * joint_reading;
   J.bottomRows<3>() *= o.rotation_scale;
@@ -99,13 +99,17 @@ InverseResult inverse_kinematics(const PreparedModel& model, const Frame<double>
   Readings trial(n), step(n);
   ToolError error = tool_error(model, target, x.data(), o);
   Jacobian J(6, n);
+  Square joint_reading(n, n);
+  model.reading_jacobian(x.data(), joint_reading.data());
   Square A(n, n);
   Readings g(n);
   InverseResult result;
-  double lambda = -1;  // set from the first Jacobian's scale
-  while (!within(error, o) && result.iterations < o.max_iterations) {
+  double lambda = -1;   // set from the first Jacobian's scale
+  int evaluations = 0;  // of the model: at most 3 an iteration over the call
+  while (!within(error, o) && result.iterations < o.max_iterations &&
+         evaluations < 3 * o.max_iterations) {
     ++result.iterations;
-    reading_jacobian(model, x.data(), o, J);
+    reading_jacobian(model, x.data(), joint_reading, o, J);
     const auto used = J.topRows(rows);
     A.noalias() = used.transpose() * used;
     g.noalias() = used.transpose() * error.r.head(rows);
@@ -113,7 +117,8 @@ InverseResult inverse_kinematics(const PreparedModel& model, const Frame<double>
     if (lambda < 0) lambda = 1e-6 * scale;
     // Larger damping until a step lowers the error (Levenberg-Marquardt).
     bool improved = false;
-    while (!improved && lambda <= 1e10 * scale) {
+    while (!improved && lambda <= 1e10 * scale && evaluations < 3 * o.max_iterations) {
+      ++evaluations;
       Square damped = A;
       damped.diagonal().array() += lambda;
       step = damped.ldlt().solve(g);
@@ -125,7 +130,7 @@ InverseResult inverse_kinematics(const PreparedModel& model, const Frame<double>
         lambda = std::max(lambda / 3, 1e-15 * scale);
         improved = true;
       } else {
-        lambda *= 4;
+        lambda *= 10;
       }
     }
     if (!improved) break;  // no step lowers the error: a local minimum off the target
@@ -133,7 +138,7 @@ InverseResult inverse_kinematics(const PreparedModel& model, const Frame<double>
   Eigen::Map<Eigen::VectorXd>(q, n) = x;
   result.position_error = error.position;
   result.rotation_error = o.orientation ? error.rotation : 0;
-  reading_jacobian(model, x.data(), o, J);
+  reading_jacobian(model, x.data(), joint_reading, o, J);
   result.smallest_singular_value = smallest_singular_value(J, rows);
   for (int i = 0; lower && upper && i < n && result.outside_limit < 0; ++i) {
     if (!(x[i] >= lower[i] && x[i] <= upper[i])) result.outside_limit = i;

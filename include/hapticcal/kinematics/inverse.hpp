@@ -2,8 +2,9 @@
 // (every effect it holds: transmissions and joint errors, couplings,
 // compliance under its links' weights) puts the tool at a target, by damped
 // least squares (Levenberg-Marquardt) from a start. Bounded time (at most
-// max_iterations evaluations of the model and its Jacobian), no allocation: a
-// controller may call it in its loop.
+// max_iterations Jacobians and 3 max_iterations evaluations of the model, one
+// derivative of its readings' map), no allocation: a controller may call it in
+// its loop.
 #pragma once
 
 #include "hapticcal/kinematics/kinematics.hpp"
