@@ -35,6 +35,7 @@
 #include "hapticcal/jobs/force_job.hpp"
 #include "hapticcal/jobs/plan_job.hpp"
 #include "hapticcal/jobs/simulate_job.hpp"
+#include "hapticcal/kinematics/inverse.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/device.hpp"
 #include "hapticcal/model_io/model_source.hpp"
@@ -491,6 +492,42 @@ void bind_model(py::module_& m) {
           "q"_a,
           "d theta / d q = C diag(1 + dtheta'(q)) (dof x dof): jacobian(q) @ reading_jacobian(q) "
           "is the Jacobian w.r.t. the readings, its transpose maps a wrench to the actuators")
+      .def(
+          "inverse",
+          [](const Model& s, const Eigen::Matrix4d& target, const Eigen::VectorXd& q0,
+             bool orientation, int tip) {
+            const Eigen::VectorXd start = readings(s, q0);
+            hapticcal::Frame<double> T;
+            T.R = target.topLeftCorner<3, 3>();
+            T.p = target.topRightCorner<3, 1>();
+            hapticcal::InverseOptions o;
+            o.orientation = orientation;
+            o.tip = tip_of(s, tip);
+            std::vector<double> lower, upper;
+            for (const hapticcal::Link& l : s.model.links) {
+              lower.push_back(l.lower);
+              upper.push_back(l.upper);
+            }
+            Eigen::VectorXd q(s.model.dof());
+            const hapticcal::InverseResult r =
+                hapticcal::inverse_kinematics(hapticcal::PreparedModel(s.model), T, start.data(),
+                                              q.data(), o, lower.data(), upper.data());
+            return py::dict("q"_a = q, "status"_a = hapticcal::to_string(r.status),
+                            "converged"_a = r.status != hapticcal::InverseStatus::kNotConverged,
+                            "iterations"_a = r.iterations, "position_error"_a = r.position_error,
+                            "rotation_error"_a = r.rotation_error,
+                            "smallest_singular_value"_a = r.smallest_singular_value,
+                            "outside_limit"_a = r.outside_limit < 0
+                                                    ? py::object(py::none())
+                                                    : py::object(py::int_(r.outside_limit)));
+          },
+          "target"_a, "q0"_a, "orientation"_a = true, "tip"_a = 0,
+          "The readings at which tip `tip` is at `target` (T_meas_tool, 4x4; its rotation "
+          "ignored without orientation), by damped least squares from the readings q0: a dict "
+          "of q, status ('converged', 'near a singularity', 'outside the joint limits', 'not "
+          "converged'), iterations, position_error [m], rotation_error [rad], "
+          "smallest_singular_value and outside_limit (a joint's index, or None). Every effect "
+          "of the model is in it; a solution outside the limits is returned, not clipped")
       .def_property_readonly(
           "coupling",
           [](const Model& s) {
@@ -528,6 +565,7 @@ PYBIND11_MODULE(hapticcal, m) {
 
   bind_model(m);
   add_recording_functions(m);
+  add_compensate_function(m);
 
   m.def(
       "load_model",

@@ -69,5 +69,7 @@ inline std::string text(const Text& t) { return t.value_or(""); }
 
 // The recording functions (recording_module.cpp): import_recording.
 void add_recording_functions(py::module_& m);
+// compensate (compensate_module.cpp).
+void add_compensate_function(py::module_& m);
 
 }  // namespace hapticcal::python

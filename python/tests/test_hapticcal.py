@@ -826,3 +826,36 @@ def test_ctrl_c_interrupts_a_running_job_and_keeps_the_previous_set(tmp_path):
     # The next run is not cancelled.
     assert hapticcal.calibrate(MECA, CAL_LOG, out=str(out)).usable
 
+
+
+def test_inverse_and_compensate_match_the_cli(cli_calibration, tmp_path):
+    """Model.inverse puts the calibrated Meca500's tool on a pose (every effect of the model in
+    it, checked by its own forward kinematics), says when it cannot; compensate gives the
+    command line's compensated.csv."""
+    _, _, out = cli_calibration
+    device = hapticcal.load_model(str(out / "device.yaml"))
+    nominal = hapticcal.load_model(MECA)
+    rng = np.random.default_rng(57)
+    q = np.array([rng.uniform(0.8 * lo, 0.8 * hi) for lo, hi in
+                  [(-2.9, 2.9), (-0.6, 1.5), (-2.2, 1.2), (-2.9, 2.9), (-1.7, -0.3), (-3, 3)]])
+    target = nominal.forward(q)
+    found = device.inverse(target, q)
+    assert found["converged"], found
+    assert found["position_error"] <= 1e-9 and found["rotation_error"] <= 1e-9
+    reached = device.forward(found["q"])
+    assert np.abs(reached - target).max() < 1e-8
+    far = target.copy()
+    far[0, 3] += 5.0
+    assert not device.inverse(far, q)["converged"]
+    program = tmp_path / "program.csv"
+    program.write_text("q1,q2,q3,q4,q5,q6\n" + ",".join(f"{v:.17g}" for v in q) + "\n")
+    code, stdout, stderr = cli("compensate", "--model", str(out / "device.yaml"), "--nominal", MECA,
+                               "--targets", str(program), "--out", str(tmp_path / "cli"))
+    assert code == 0, stderr
+    mine = hapticcal.compensate(str(out / "device.yaml"), MECA, str(program),
+                                out=str(tmp_path / "py"))
+    assert mine["results"]["usable"] == 1
+    assert (tmp_path / "py" / "compensated.csv").read_text() == \
+        (tmp_path / "cli" / "compensated.csv").read_text()
+    row = (tmp_path / "py" / "compensated.csv").read_text().splitlines()[1].split(",")
+    assert np.abs(np.array([float(v) for v in row[1:7]]) - found["q"]).max() < 1e-7
