@@ -11,6 +11,7 @@
 #include "hapticcal/identification/tree.hpp"
 #include "hapticcal/kinematics/device_frame.hpp"
 #include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/driver_files.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/report/results_json.hpp"
@@ -32,6 +33,7 @@ bool keep_previous_model(const OutputSet& out, const DeviceModel& nominal, bool 
   if (!nominal.tree()) {
     out.keep_previous("device.yaml");
     out.keep_previous("setup.yaml");
+    out.keep_previous("sawSensablePhantom.json");  // a Touch's driver file, if it had one
   }
   return out.keep_previous("calibrated.yaml");
 }
@@ -111,6 +113,22 @@ void write_urdf(const std::string& dir, CalibrationResult& result, const DeviceM
   written.urdf_written = true;
 }
 
+// A built-in device's driver file (driver_file), from the geometry-only model
+// in the device's frame: a driver holds no joint-error family.
+void write_driver_file(const std::string& dir, CalibrationResult& result,
+                       const DeviceModel& nominal, const CalibrationSource& source) {
+  const CalibrationResult& g = geometry_model(result);
+  const DeviceModel device = device_frame_outputs(g, nominal, source).split.device;
+  const std::optional<DriverFile> f = driver_file(device, nominal);
+  if (!f) return;
+  if (g.status != CalibrationStatus::kConverged) {
+    result.notes.push_back(fmt::format("no {} written: {}", f->name, g.status_reason));
+    return;
+  }
+  write_file_atomically(dir + "/" + f->name, f->text);
+  result.notes.push_back(f->note);
+}
+
 void write_models(const std::string& dir, CalibrationResult& result, const DeviceModel& nominal,
                   const CalibrationSource& source, CalibrationOutputs& written) {
   save_device(result.calibrated, dir + "/calibrated.yaml");
@@ -124,6 +142,7 @@ void write_models(const std::string& dir, CalibrationResult& result, const Devic
   save_device(d.split.device, dir + "/device.yaml");
   write_file_atomically(dir + "/setup.yaml", setup_yaml(d));
   if (!source.urdf_text.empty()) write_urdf(dir, result, nominal, source, written);
+  write_driver_file(dir, result, nominal, source);
 }
 
 }  // namespace
