@@ -137,10 +137,9 @@ void fk_jacobian_kdl(benchmark::State& state, const DeviceModel& model) {
   }
 }
 
-// Compensation + FK + Jacobian through the C ABI: the model saved as a device
-// file and loaded by hapticcal_load, as a controller would.
-void BM_Runtime_FkJacobian(benchmark::State& state) {
-  const DeviceModel model = calibrated_7dof();
+// The model saved as a device file and loaded by hapticcal_load, as a
+// controller would; null (the benchmark skipped with the message) if it fails.
+hapticcal_model* load_runtime(const DeviceModel& model, benchmark::State& state) {
   const std::string path = (std::filesystem::temp_directory_path() /
                             ("fk_jacobian_bench_" + std::to_string(::getpid()) + ".yaml"))
                                .string();
@@ -150,10 +149,15 @@ void BM_Runtime_FkJacobian(benchmark::State& state) {
   const hapticcal_status status =
       hapticcal_load(path.c_str(), nullptr, nullptr, &runtime, message, sizeof message);
   std::filesystem::remove(path);
-  if (status != HAPTICCAL_OK) {
-    state.SkipWithError(message);
-    return;
-  }
+  if (status != HAPTICCAL_OK) state.SkipWithError(message);
+  return runtime;
+}
+
+// Compensation + FK + Jacobian through the C ABI.
+void BM_Runtime_FkJacobian(benchmark::State& state) {
+  const DeviceModel model = calibrated_7dof();
+  hapticcal_model* runtime = load_runtime(model, state);
+  if (!runtime) return;
   const auto qs = configurations(model);
   std::vector<double> J(6 * model.dof());
   double T[16];
@@ -175,19 +179,8 @@ void BM_Runtime_FkJacobian(benchmark::State& state) {
 // bounded (100 Jacobians, 300 evaluations of the model).
 void runtime_inverse(benchmark::State& state, double away, bool out_of_reach = false) {
   const DeviceModel model = compliant_7dof();
-  const std::string path = (std::filesystem::temp_directory_path() /
-                            ("inverse_bench_" + std::to_string(::getpid()) + ".yaml"))
-                               .string();
-  save_device(model, path);
-  hapticcal_model* runtime = nullptr;
-  char message[256];
-  const hapticcal_status status =
-      hapticcal_load(path.c_str(), nullptr, nullptr, &runtime, message, sizeof message);
-  std::filesystem::remove(path);
-  if (status != HAPTICCAL_OK) {
-    state.SkipWithError(message);
-    return;
-  }
+  hapticcal_model* runtime = load_runtime(model, state);
+  if (!runtime) return;
   const auto qs = configurations(model);
   std::vector<std::array<double, 16>> targets(qs.size());
   for (size_t k = 0; k < qs.size(); ++k) {

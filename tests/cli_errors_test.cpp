@@ -240,7 +240,7 @@ TEST(CliErrors, BareCommandPointsToHelp) {
   testing::expect_input_error(r, "");
   EXPECT_EQ(r.err,
             "hapticcal: give a command (calibrate, evaluate, simulate, plan, force, convert, "
-            "import, devices); see "
+            "import, compensate, devices); see "
             "hapticcal --help\n");
 }
 

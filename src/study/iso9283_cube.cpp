@@ -3,11 +3,11 @@
 #include <fmt/format.h>
 
 #include <Eigen/Geometry>
-#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/kinematics/inverse.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
@@ -56,35 +56,16 @@ bool place_poses(const DeviceModel& model, const Eigen::VectorXd& start, const F
 
 std::optional<Eigen::VectorXd> reach_pose(const DeviceModel& model, const Eigen::VectorXd& start,
                                           const Frame<double>& target, bool orientation) {
-  const PreparedModel prepared(model);
-  const int n = model.dof();
-  const int rows = orientation ? 6 : 3;
-  Eigen::VectorXd q = start;
-  Jacobian6<double> J(6, n);
-  Eigen::MatrixXd reading(n, n);
-  for (int step = 0; step < 300; ++step) {
-    const Frame<double> T = prepared.forward_jacobian(q.data(), JacobianFrame::kMeasurement, J);
-    Eigen::VectorXd e(rows);
-    e.head<3>() = target.p - T.p;
-    double turn = 0;
-    if (orientation) {
-      const Eigen::AngleAxisd rotation(Eigen::Matrix3d(target.R * T.R.transpose()));
-      turn = rotation.angle();
-      e.tail<3>() = rotation.axis() * rotation.angle() * kLengthScale;
-    }
-    if (!q.allFinite()) return std::nullopt;
-    if (e.head<3>().norm() < kReached && turn < kReached)
-      return within_limits(model, q) ? std::optional<Eigen::VectorXd>(q) : std::nullopt;
-    prepared.reading_jacobian(q.data(), reading.data());
-    Eigen::MatrixXd A = J.topRows(rows) * reading;
-    if (orientation) A.bottomRows(3) *= kLengthScale;
-    const Eigen::MatrixXd AAt = A * A.transpose() + 1e-12 * Eigen::MatrixXd::Identity(rows, rows);
-    Eigen::VectorXd dq = A.transpose() * AAt.partialPivLu().solve(e);
-    const double largest = dq.cwiseAbs().maxCoeff();
-    if (largest > 0.2) dq *= 0.2 / largest;  // rad or m a step
-    q += dq;
-  }
-  return std::nullopt;
+  InverseOptions options;
+  options.orientation = orientation;
+  options.position_tolerance = options.rotation_tolerance = kReached;
+  options.rotation_scale = kLengthScale;
+  options.max_iterations = 300;
+  Eigen::VectorXd q(model.dof());
+  const InverseResult found =
+      inverse_kinematics(PreparedModel(model), target, start.data(), q.data(), options);
+  if (found.status == InverseStatus::kNotConverged || !q.allFinite()) return std::nullopt;
+  return within_limits(model, q) ? std::optional<Eigen::VectorXd>(q) : std::nullopt;
 }
 
 IsoCubePlan plan_iso_cube(const DeviceModel& model, const IsoCubeOptions& options) {
