@@ -138,5 +138,61 @@ TEST(DriverFiles, CalibrateWritesTheTouchsDriverFile) {
   EXPECT_NEAR(file["devices"][0]["joint-offsets"][4].get<double>(), 0.03, 1e-3);
 }
 
+// The dVRK MTM's kinematic file: its tool pose by cisst's standard DH
+// (robDH: Rz(theta + offset + q), then (A cos, A sin, D), then Rx(alpha)),
+// restated here, after base-offset, at the joints ActuatorToJointPosition
+// makes of the actuators, is the calibrated model's to 1e-12 m; what it cannot
+// hold (a link's beta, the tool) is said.
+TEST(DriverFiles, TheMtmsKinematicFileIsTheCalibratedModel) {
+  const DeviceModel mtm = testing::builtin("dvrk-mtm");
+  std::mt19937_64 rng(59);
+  DeviceModel calibrated = testing::perturbed(mtm, rng, 1e-3);
+  calibrated.tool = {};
+  for (Link& l : calibrated.links) l.beta = 0;
+  const std::optional<DriverFile> f = driver_file(calibrated, mtm);
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->name, "dvrk-mtm.json");
+  const nlohmann::json file = nlohmann::json::parse(f->text);
+  ASSERT_EQ(file["DH"]["convention"], "standard");
+  const nlohmann::json& links = file["DH"]["links"];
+  ASSERT_EQ(links.size(), 7u);
+  Eigen::Matrix4d base;
+  Eigen::MatrixXd C(7, 7);
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) base(r, c) = file["base-offset"][r][c].get<double>();
+  for (int r = 0; r < 7; ++r)
+    for (int c = 0; c < 7; ++c) C(r, c) = file["coupling"]["ActuatorToJointPosition"][r][c];
+  const PreparedModel model(calibrated);
+  double worst = 0;
+  for (int k = 0; k < 100; ++k) {
+    const Eigen::VectorXd actuators = testing::random_readings(mtm, rng);
+    const Eigen::VectorXd q = C * actuators;
+    Eigen::Matrix4d T = base;
+    for (int i = 0; i < 7; ++i) {
+      const nlohmann::json& l = links[static_cast<size_t>(i)];
+      const double theta = l["theta"].get<double>() + l["offset"].get<double>() + q[i];
+      const double alpha = l["alpha"].get<double>(), a = l["A"].get<double>();
+      const double ct = std::cos(theta), st = std::sin(theta), ca = std::cos(alpha),
+                   sa = std::sin(alpha);
+      Eigen::Matrix4d A;
+      A << ct, -st * ca, st * sa, a * ct, st, ct * ca, -ct * sa, a * st, 0, sa, ca,
+          l["D"].get<double>(), 0, 0, 0, 1;
+      T = T * A;
+    }
+    const Frame<double> mine = model.forward(actuators.data());
+    worst = std::max(worst, (T.topRightCorner<3, 1>() - mine.p).norm());
+    worst = std::max(worst, (T.topLeftCorner<3, 3>() - mine.R).norm());
+  }
+  EXPECT_LT(worst, 1e-12);
+  EXPECT_EQ(f->note.find("not the links' beta"), std::string::npos) << f->note;
+  // A beta and a tool the file cannot hold: said.
+  calibrated.links[1].beta = 2e-3;
+  calibrated.tool[0] = 0.01;
+  EXPECT_NE(driver_file(calibrated, mtm)
+                ->note.find("not the links' beta (up to 2.000 mrad) or the "
+                            "tool (10.000 mm)"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace hapticcal

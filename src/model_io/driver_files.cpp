@@ -144,7 +144,78 @@ ReadingMap reading_map(const DeviceModel& calibrated, const DeviceModel& nominal
   return map;
 }
 
+namespace {
+
+// The dVRK MTM's joint limits [rad] as its kinematic file states them
+// (jhu-dvrk/sawIntuitiveResearchKit share/kinematic/mtmr.json, commit 2a3ae486):
+// the device file's limits are a box in the actuators' readings, not these.
+constexpr double kMtmLimits[7][2] = {
+    {-1.13446, 0.698132}, {-0.261799, 0.872665}, {-0.872665, 0.610865}, {-1.22173, 4.01426},
+    {-1.5708, 3.14159},   {-0.785398, 0.785398}, {-8.37758, 7.85398}};
+
+std::string matrix_text(const Eigen::MatrixXd& m, const std::string& indent) {
+  std::string out = "[";
+  for (Eigen::Index r = 0; r < m.rows(); ++r) {
+    out += fmt::format("{}\n{}  [", r ? "," : "", indent);
+    for (Eigen::Index c = 0; c < m.cols(); ++c)
+      out += fmt::format("{}{:.17g}", c ? ", " : "", m(r, c));
+    out += "]";
+  }
+  return out + "\n" + indent + "]";
+}
+
+// The MTM's kinematic file (sawIntuitiveResearchKit: "base-offset", the
+// standard DH links as cisst's robDH reads them, theta + offset + q, upper-case
+// A and D, and the coupling), or none if the model is not standard DH with
+// revolute joints.
+std::optional<DriverFile> mtm_file(const DeviceModel& m) {
+  if (m.base_kind != BaseKind::kPose) return std::nullopt;
+  for (const Link& l : m.links) {
+    if (l.geometry != Geometry::kDh || l.prismatic() || !l.transmission.is_none())
+      return std::nullopt;
+  }
+  const Frame<double> base =
+      pose_frame(m.base[0], m.base[1], m.base[2], m.base[3], m.base[4], m.base[5]);
+  Eigen::Matrix4d base_offset = Eigen::Matrix4d::Identity();
+  base_offset.topLeftCorner<3, 3>() = base.R;
+  base_offset.topRightCorner<3, 1>() = base.p;
+  std::string links;
+  for (int i = 0; i < m.dof(); ++i) {
+    const Link& l = m.links[static_cast<size_t>(i)];
+    links += fmt::format(
+        "{}\n      {{\"name\": \"{}\", \"alpha\": {:.17g}, \"A\": {:.17g}, \"theta\": 0.0, "
+        "\"D\": {:.17g}, \"type\": \"revolute\", \"mode\": \"active\", \"offset\": {:.17g}, "
+        "\"qmin\": {}, \"qmax\": {}}}",
+        i ? "," : "", l.name, l.alpha, l.a, l.d, l.theta, kMtmLimits[i][0], kMtmLimits[i][1]);
+  }
+  const Eigen::MatrixXd C = m.coupled() ? m.coupling : Eigen::MatrixXd::Identity(m.dof(), m.dof());
+  double beta = 0;
+  for (const Link& l : m.links) beta = std::max(beta, std::abs(l.beta));
+  const double tool = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(m.tool.data()).norm();
+  DriverFile f;
+  f.name = "dvrk-mtm.json";
+  f.text = fmt::format(
+      "{{\n  \"base-offset\": {},\n  \"DH\": {{\n    \"convention\": \"standard\",\n"
+      "    \"links\": [{}\n    ]\n  }},\n  \"coupling\": {{\n    \"ActuatorToJointPosition\": "
+      "{}\n  }}\n}}\n",
+      matrix_text(base_offset, "  "), links, matrix_text(C, "    "));
+  f.note = fmt::format(
+      "dvrk-mtm.json holds the calibrated DH links (alpha, A, D, offset), base-offset and "
+      "coupling as sawIntuitiveResearchKit's kinematic file (qmin and qmax mtmr.json's; merge "
+      "ftmax and the dynamics of your own file){}",
+      beta > 1e-12 || tool > 1e-12
+          ? fmt::format(": not the links' beta (up to {:.3f} mrad) or the tool ({:.3f} mm), which "
+                        "device.yaml holds",
+                        beta * 1e3, tool * 1e3)
+          : "");
+  return f;
+}
+
+}  // namespace
+
 std::optional<DriverFile> driver_file(const DeviceModel& calibrated, const DeviceModel& nominal) {
+  if (nominal.name == "dvrk-mtm" && nominal.dof() == 7 && calibrated.dof() == 7)
+    return mtm_file(calibrated);
   if (nominal.name != "geomagic-touch" || nominal.dof() != 6) return std::nullopt;
   const ReadingMap map = reading_map(calibrated, nominal);
   DriverFile f;

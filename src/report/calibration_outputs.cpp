@@ -33,7 +33,8 @@ bool keep_previous_model(const OutputSet& out, const DeviceModel& nominal, bool 
   if (!nominal.tree()) {
     out.keep_previous("device.yaml");
     out.keep_previous("setup.yaml");
-    out.keep_previous("sawSensablePhantom.json");  // a Touch's driver file, if it had one
+    for (const char* driver : {"sawSensablePhantom.json", "dvrk-mtm.json"})
+      out.keep_previous(driver);  // a built-in device's driver file, if it had one
   }
   return out.keep_previous("calibrated.yaml");
 }

@@ -35,7 +35,8 @@ struct DriverFile {
 // Geomagic Touch's sawSensablePhantom configuration (its joint-scales and
 // joint-offsets, applied by the driver as q = scale raw + offset before it
 // negates the waist and makes the elbow relative: relative to the driver's
-// defaults, scales 1 and offsets 0).
+// defaults, scales 1 and offsets 0); the dVRK MTM's kinematic file
+// (base-offset, standard DH links, ActuatorToJointPosition).
 std::optional<DriverFile> driver_file(const DeviceModel& calibrated, const DeviceModel& nominal);
 
 }  // namespace hapticcal
