@@ -8,16 +8,21 @@
 // each file.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "hapticcal/core/files.hpp"
+#include "hapticcal/core/output_set.hpp"
 #include "hapticcal/data_io/log.hpp"
+#include "hapticcal/identification/identification.hpp"
 #include "hapticcal/model_io/urdf.hpp"
+#include "hapticcal/report/calibration_outputs.hpp"
 #include "hapticcal/study/simulation.hpp"
 #include "support/run_cli.hpp"
 #include "support/test_models.hpp"
@@ -136,6 +141,36 @@ TEST(UrdfFitted, CalibratedUrdfIsTheGeometryFittedAsSuch) {
                 gm["cv_rms"].get<double>() - results["cross_validation"]["rms"].get<double>(),
                 1e-15);
   }
+}
+
+// Where the geometry alone does not beat the nominal model with its set-up on
+// held-out poses, no calibrated.urdf is written and one line says why; the
+// whole model is written as ever.
+TEST(UrdfFitted, NoUrdfWhereTheGeometryAloneIsNoBetterThanTheNominal) {
+  const std::vector<Truth> all = truths();
+  const std::string dir = testing::fresh_folder("urdf_fitted_refused");
+  const std::string cal = tracker_session(all.front().model, 150, 3, dir + "/cal.csv");
+  const DeviceModel nominal = load_urdf(arm_path(), "tool");
+  const std::string urdf_text = read_file(arm_path(), FileKind::kUrdf);
+  CalibrationOptions options;
+  const Log log = read_log(cal);
+  CalibrationResult result = calibrate(nominal, log, options);
+  ASSERT_EQ(result.status, CalibrationStatus::kConverged) << result.status_reason;
+  ASSERT_TRUE(result.geometry);
+  auto geometry = std::make_shared<CalibrationResult>(*result.geometry);
+  geometry->status = CalibrationStatus::kImplausible;
+  geometry->status_reason = "the geometry alone predicts held-out poses no better (a test's)";
+  result.geometry = geometry;
+  OutputSet out(dir + "/out", "calibrate");
+  const CalibrationOutputs written = write_calibration_outputs(
+      out, result, nominal, log, options, {arm_path(), cal, urdf_text, "tool", "", {}, false});
+  EXPECT_FALSE(written.urdf_written);
+  EXPECT_FALSE(fs::exists(dir + "/out/calibrated.urdf"));
+  EXPECT_TRUE(fs::exists(dir + "/out/calibrated.yaml"));
+  EXPECT_NE(std::find(result.notes.begin(), result.notes.end(),
+                      "no calibrated.urdf written: the geometry alone predicts held-out poses no "
+                      "better (a test's)"),
+            result.notes.end());
 }
 
 }  // namespace
