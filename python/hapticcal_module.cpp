@@ -503,11 +503,8 @@ void bind_model(py::module_& m) {
             hapticcal::InverseOptions o;
             o.orientation = orientation;
             o.tip = tip_of(s, tip);
-            std::vector<double> lower, upper;
-            for (const hapticcal::Link& l : s.model.links) {
-              lower.push_back(l.lower);
-              upper.push_back(l.upper);
-            }
+            std::vector<double> lower(static_cast<size_t>(s.model.dof())), upper(lower);
+            hapticcal::reading_limits(s.model, lower.data(), upper.data());
             Eigen::VectorXd q(s.model.dof());
             const hapticcal::InverseResult r =
                 hapticcal::inverse_kinematics(hapticcal::PreparedModel(s.model), T, start.data(),

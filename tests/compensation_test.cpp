@@ -239,7 +239,7 @@ TEST(Compensation, CommandLineWritesTheCompensatedProgram) {
     std::vector<std::string> fields;
     std::stringstream cells(line);
     for (std::string cell; std::getline(cells, cell, ',');) fields.push_back(cell);
-    ASSERT_GE(fields.size(), 15u) << line;
+    ASSERT_GE(fields.size(), 16u) << line;
     if (k == program.rows) {
       EXPECT_EQ(fields[1], "") << line;
       EXPECT_EQ(fields[14], "not converged") << line;
@@ -252,6 +252,23 @@ TEST(Compensation, CommandLineWritesTheCompensatedProgram) {
           << line;
     EXPECT_NEAR(std::stod(fields[7]), expected[static_cast<size_t>(k)].command.p.x(), 1e-9);
   }
+  // A calibrated model ending at another tool (a tracker's target 40 mm out)
+  // than the controller's is refused, not compensated to the wrong point.
+  DeviceModel other_tool = load_device(dir + "/calibrated.yaml");
+  other_tool.tool[2] += 0.04;
+  save_device(other_tool, dir + "/target.yaml");
+  const testing::CliResult tool = testing::run_cli({"compensate", "--model", dir + "/target.yaml",
+                                                    "--nominal", dir + "/nominal.yaml", "--targets",
+                                                    dir + "/program.csv", "--out", dir + "/tool"});
+  EXPECT_EQ(tool.exit_code, 2);
+  EXPECT_NE(tool.err.find("--tool-point nominal"), std::string::npos) << tool.err;
+  // A continuous joint's reading has no limits to leave.
+  DeviceModel endless = nominal;
+  endless.links[5].type = JointType::kContinuous;
+  std::vector<double> lower(6), upper(6);
+  reading_limits(endless, lower.data(), upper.data());
+  EXPECT_TRUE(std::isinf(lower[5]) && std::isinf(upper[5]) && upper[5] > 0);
+  EXPECT_EQ(lower[4], nominal.links[4].lower);
   // Models of two devices are refused with one line.
   const testing::CliResult other = testing::run_cli(
       {"compensate", "--model", dir + "/calibrated.yaml", "--nominal", "geomagic-touch",

@@ -188,9 +188,10 @@ TEST(DriverFiles, TheMtmsKinematicFileIsTheCalibratedModel) {
   // A beta and a tool the file cannot hold: said.
   calibrated.links[1].beta = 2e-3;
   calibrated.tool[0] = 0.01;
+  calibrated.tool[5] = 0.05;
   EXPECT_NE(driver_file(calibrated, mtm)
                 ->note.find("not the links' beta (up to 2.000 mrad) or the "
-                            "tool (10.000 mm)"),
+                            "tool (10.000 mm, 50.000 mrad)"),
             std::string::npos);
 }
 

@@ -135,8 +135,9 @@ typedef struct hapticcal_inverse_result {
  * outside the readings' limits is returned and said, never clipped; below a
  * smallest singular value of 1e-3 m/rad it is near a singularity. readings may
  * be readings_start. HAPTICCAL_OK when it ran (result->status says whether it
- * reached the target); HAPTICCAL_E_ARGUMENT for a null pointer or a negative
- * max_iterations. Allocates nothing. */
+ * reached the target); HAPTICCAL_E_ARGUMENT for a null pointer or a
+ * max_iterations outside [0, 100000]. A continuous joint's reading has no
+ * limits. Allocates nothing; uses about 40 KB of stack. */
 HAPTICCAL_RUNTIME_API hapticcal_status hapticcal_inverse(const hapticcal_model* model,
                                                          const double* T_target, int orientation,
                                                          const double* readings_start,

@@ -20,13 +20,27 @@ DeviceModel load_compensated_model(const CompensateRequest& request, const std::
   return is_urdf_path(path) ? load_model(path, request.tip, request.root) : load_model(path);
 }
 
+bool reached(InverseStatus s) {
+  return s == InverseStatus::kConverged || s == InverseStatus::kNear;
+}
+
+// The outcome of a target: the first stage that failed (the nominal
+// controller's inverse kinematics of a Cartesian target, the calibrated one,
+// the controller's of the command), or near a singularity, or converged.
+std::string outcome(const CompensatedTarget& t) {
+  if (!reached(t.nominal.status)) return to_string(t.nominal.status);
+  if (!reached(t.calibrated.status)) return to_string(t.calibrated.status);
+  if (!t.usable()) return "controller leaves the configuration";
+  return t.near_singularity() ? "near a singularity" : "converged";
+}
+
 // Why a target has no command, or is near a singularity.
 std::string why_not(const CompensatedTarget& t) {
   if (t.usable())
     return fmt::format(
         "near a singularity (smallest singular value {:.3g} m/rad): the readings move far for a "
         "small change of the target",
-        std::min(t.nominal.smallest_singular_value, t.calibrated.smallest_singular_value));
+        std::min(t.calibrated.smallest_singular_value, t.controller.smallest_singular_value));
   if (t.nominal.status != InverseStatus::kConverged && t.nominal.status != InverseStatus::kNear)
     return fmt::format("the nominal controller's inverse kinematics is {} (position {:.4f} mm)",
                        to_string(t.nominal.status), t.nominal.position_error * 1e3);
@@ -50,8 +64,8 @@ std::string compensated_csv(const std::vector<CompensatedTarget>& targets, int n
   std::string out = "line";
   for (int i = 1; i <= n; ++i) out += fmt::format(",q{}", i);
   out +=
-      ",x,y,z,qw,qx,qy,qz,status,position_error,rotation_error,uncompensated_position,"
-      "uncompensated_rotation\n";
+      ",x,y,z,qw,qx,qy,qz,status,position_error,rotation_error,controller_position,"
+      "uncompensated_position,uncompensated_rotation\n";
   for (const CompensatedTarget& t : targets) {
     out += std::to_string(t.line);
     const bool usable = t.usable();
@@ -63,10 +77,8 @@ std::string compensated_csv(const std::vector<CompensatedTarget>& targets, int n
     } else {
       out += ",,,,,,,";
     }
-    const InverseStatus status =
-        t.nominal.status != InverseStatus::kConverged ? t.nominal.status : t.calibrated.status;
-    out += fmt::format(",{},{},{},{},{}\n", to_string(status), t.calibrated.position_error,
-                       t.calibrated.rotation_error, t.uncompensated_position,
+    out += fmt::format(",{},{},{},{},{},{}\n", outcome(t), t.calibrated.position_error,
+                       t.calibrated.rotation_error, t.controller_position, t.uncompensated_position,
                        t.uncompensated_rotation);
   }
   return out;
@@ -77,7 +89,9 @@ double rms(const std::vector<CompensatedTarget>& targets, bool uncompensated) {
   int count = 0;
   for (const CompensatedTarget& t : targets) {
     if (!t.usable()) continue;
-    const double e = uncompensated ? t.uncompensated_position : t.calibrated.position_error;
+    // The compensated program's: where the calibrated model puts the tool at
+    // the readings the controller will solve the command to.
+    const double e = uncompensated ? t.uncompensated_position : t.controller_position;
     sum += e * e;
     ++count;
   }
@@ -108,7 +122,8 @@ CompensateJob run_compensate_job(const CompensateRequest& request) {
   const double before = rms(job.targets, true), after = rms(job.targets, false);
   job.lines.push_back(fmt::format(
       "{} of {} targets compensated ({}, {}): the calibrated model's tool at the program's "
-      "readings is {:.4f} mm RMS from its targets, at the compensated readings {:.2g} mm",
+      "readings is {:.4f} mm RMS from its targets, at the readings the controller solves the "
+      "compensated poses to {:.2g} mm",
       job.usable, total, targets.has_position ? "Cartesian targets" : "joint targets",
       job.targets.empty() || job.targets.front().orientation ? "position and orientation"
                                                              : "position",

@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace hapticcal {
 namespace {
@@ -88,6 +89,15 @@ const char* to_string(InverseStatus status) {
       return "not converged";
   }
   return "?";
+}
+
+void reading_limits(const DeviceModel& model, double* lower, double* upper) {
+  constexpr double kFree = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < model.dof(); ++i) {
+    const Link& l = model.links[static_cast<size_t>(i)];
+    lower[i] = l.continuous() ? -kFree : l.lower;
+    upper[i] = l.continuous() ? kFree : l.upper;
+  }
 }
 
 InverseResult inverse_kinematics(const PreparedModel& model, const Frame<double>& target,

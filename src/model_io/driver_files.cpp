@@ -191,7 +191,10 @@ std::optional<DriverFile> mtm_file(const DeviceModel& m) {
   const Eigen::MatrixXd C = m.coupled() ? m.coupling : Eigen::MatrixXd::Identity(m.dof(), m.dof());
   double beta = 0;
   for (const Link& l : m.links) beta = std::max(beta, std::abs(l.beta));
-  const double tool = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(m.tool.data()).norm();
+  const Frame<double> tool_frame =
+      pose_frame(m.tool[0], m.tool[1], m.tool[2], m.tool[3], m.tool[4], m.tool[5]);
+  const double tool = tool_frame.p.norm();
+  const double tool_turn = Eigen::AngleAxisd(Mat3<double>(tool_frame.R)).angle();
   DriverFile f;
   f.name = "dvrk-mtm.json";
   f.text = fmt::format(
@@ -203,10 +206,10 @@ std::optional<DriverFile> mtm_file(const DeviceModel& m) {
       "dvrk-mtm.json holds the calibrated DH links (alpha, A, D, offset), base-offset and "
       "coupling as sawIntuitiveResearchKit's kinematic file (qmin and qmax mtmr.json's; merge "
       "ftmax and the dynamics of your own file){}",
-      beta > 1e-12 || tool > 1e-12
-          ? fmt::format(": not the links' beta (up to {:.3f} mrad) or the tool ({:.3f} mm), which "
-                        "device.yaml holds",
-                        beta * 1e3, tool * 1e3)
+      beta > 1e-12 || tool > 1e-12 || tool_turn > 1e-12
+          ? fmt::format(": not the links' beta (up to {:.3f} mrad) or the tool ({:.3f} mm, "
+                        "{:.3f} mrad), which device.yaml holds",
+                        beta * 1e3, tool * 1e3, tool_turn * 1e3)
           : "");
   return f;
 }

@@ -15,16 +15,15 @@
 
 struct hapticcal_model {
   explicit hapticcal_model(const hapticcal::DeviceModel& model) : prepared(model) {
-    for (int i = 0; i < model.dof(); ++i) {
-      lower[static_cast<size_t>(i)] = model.links[static_cast<size_t>(i)].lower;
-      upper[static_cast<size_t>(i)] = model.links[static_cast<size_t>(i)].upper;
-    }
+    hapticcal::reading_limits(model, lower.data(), upper.data());
   }
   const hapticcal::PreparedModel prepared;                  // const: concurrent readers share it
   std::array<double, hapticcal::kMaxDof> lower{}, upper{};  // the readings' limits
 };
 
 namespace {
+
+constexpr int kMaxInverseIterations = 100000;  // hapticcal_inverse's bound (runtime.h)
 
 using hapticcal::Frame;
 using hapticcal::JacobianFrame;
@@ -189,7 +188,8 @@ hapticcal_status hapticcal_inverse(const hapticcal_model* model, const double* T
                                    int orientation, const double* readings_start,
                                    int max_iterations, double* readings,
                                    hapticcal_inverse_result* result) {
-  if (!model || !T_target || !readings_start || !readings || !result || max_iterations < 0)
+  if (!model || !T_target || !readings_start || !readings || !result || max_iterations < 0 ||
+      max_iterations > kMaxInverseIterations)
     return HAPTICCAL_E_ARGUMENT;
   try {
     Frame<double> target;

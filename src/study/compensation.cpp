@@ -31,10 +31,23 @@ void check_same_joints(const DeviceModel& calibrated, const DeviceModel& nominal
   }
 }
 
-std::vector<double> limits(const DeviceModel& m, bool upper) {
-  std::vector<double> out;
-  for (const Link& l : m.links) out.push_back(upper ? l.upper : l.lower);
-  return out;
+// The calibrated model's tool must be the controller's: a tracker's target
+// (device.yaml's default tool) is not the controller's TCP.
+constexpr double kSameToolLength = 5e-3;  // m
+constexpr double kSameToolAngle = 0.05;   // rad
+
+void check_same_tool(const DeviceModel& calibrated, const DeviceModel& nominal) {
+  const Frame<double> a = pose_frame(calibrated.tool[0], calibrated.tool[1], calibrated.tool[2],
+                                     calibrated.tool[3], calibrated.tool[4], calibrated.tool[5]);
+  const Frame<double> b = pose_frame(nominal.tool[0], nominal.tool[1], nominal.tool[2],
+                                     nominal.tool[3], nominal.tool[4], nominal.tool[5]);
+  const double length = (a.p - b.p).norm();
+  const double angle = Eigen::AngleAxisd(Mat3<double>(a.R * b.R.transpose())).angle();
+  if (length > kSameToolLength || angle > kSameToolAngle)
+    throw InputError(fmt::format(
+        "compensate: the calibrated model's tool is {:.1f} mm and {:.1f} mrad from the nominal "
+        "model's: give the controller's tool (calibrate --tool-point nominal, or X,Y,Z)",
+        length * 1e3, angle * 1e3));
 }
 
 }  // namespace
@@ -56,14 +69,15 @@ std::vector<CompensatedTarget> compensate_targets(const DeviceModel& calibrated_
                                                   const Log& targets,
                                                   const CompensationOptions& options) {
   check_same_joints(calibrated_model, nominal_model);
+  check_same_tool(calibrated_model, nominal_model);
   if (targets.dof() != nominal_model.dof())
     throw InputError(targets.origin, 0, "q1",
                      fmt::format("{} joint columns for a device of {} joints", targets.dof(),
                                  nominal_model.dof()));
   const PreparedModel calibrated(with_load(calibrated_model, options.load));
   const PreparedModel nominal(nominal_model);
-  const std::vector<double> lower = limits(nominal_model, false),
-                            upper = limits(nominal_model, true);
+  std::vector<double> lower(static_cast<size_t>(nominal_model.dof())), upper(lower);
+  reading_limits(nominal_model, lower.data(), upper.data());
   // A joint program holds the tool's pose; a Cartesian one what it gives.
   const bool orientation = !targets.has_position || targets.has_orientation;
   InverseOptions inverse = options.inverse;
@@ -104,7 +118,6 @@ std::vector<CompensatedTarget> compensate_targets(const DeviceModel& calibrated_
     t.controller_rotation =
         orientation ? Eigen::AngleAxisd(Mat3<double>(t.target.R * reached.R.transpose())).angle()
                     : 0;
-    if (!orientation) t.command.R = t.target.R;  // a point's target: its orientation as given
     const Frame<double> uncompensated = calibrated.forward(t.nominal_readings.data());
     t.uncompensated_position = (uncompensated.p - t.target.p).norm();
     t.uncompensated_rotation =

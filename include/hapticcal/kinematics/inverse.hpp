@@ -52,6 +52,10 @@ struct InverseResult {
 // not null, are the readings' limits (n values each): a solution outside them
 // is returned and said (kOutsideLimits), never clipped. The readings returned
 // are the best found, also when not converged.
+// The readings' limits inverse_kinematics checks (n values each): the links'
+// limits, a continuous joint's unbounded.
+void reading_limits(const DeviceModel& model, double* lower, double* upper);
+
 InverseResult inverse_kinematics(const PreparedModel& model, const Frame<double>& target,
                                  const double* q_start, double* q,
                                  const InverseOptions& options = {}, const double* lower = nullptr,

@@ -63,8 +63,8 @@ struct CalibrationOutputs {
 
 // Writes into out.dir() and commits the set: calibrated.yaml (and, for a URDF
 // model, calibrated.urdf: the geometry-only model, geometry_model, fitted as
-// such, written if it predicts held-out poses better than the nominal with its
-// set-up fitted) if the run is usable, and a chain's
+// such, written unless its status says it predicts held-out poses no better
+// than the nominal with its set-up fitted) if the run is usable, and a chain's
 // device.yaml (the model in the device's own frame, split_device_frame) and
 // setup.yaml (the device's frame in the measurement frame, the measured point); else the previous
 // run's model if --out held one of the same device (keep_previous), and a note
