@@ -250,6 +250,13 @@ TEST(Humanoid, WholeTreeIsWrittenAndReadBack) {
       testing::run_cli({"evaluate", "--model", dir + "/cal/calibrated.urdf", "--tip",
                         "left_hand,right_hand", "--log", dir + "/test.csv", "--json"});
   ASSERT_EQ(u.exit_code, 0) << u.err;
+  // plan reads the tree's device file: its poses measure both hands (17 readings).
+  const testing::CliResult p =
+      testing::run_cli({"plan", "--model", dir + "/cal/calibrated.yaml", "--measurement",
+                        "position", "--poses", "20", "--out", dir + "/plan"});
+  ASSERT_EQ(p.exit_code, 0) << p.err;
+  EXPECT_EQ(testing::slurp(dir + "/plan/plan.csv").rfind("q1,", 0), 0u);
+  EXPECT_NE(testing::slurp(dir + "/plan/plan.csv").find("q17"), std::string::npos);
   const nlohmann::json yaml_rms = nlohmann::json::parse(e.out)["tips"];
   const nlohmann::json urdf_rms = nlohmann::json::parse(u.out)["tips"];
   for (int t = 0; t < 2; ++t) {
