@@ -109,10 +109,7 @@ TEST(DeviceFrame, ReproducesTheTruthsDriverPositionsToItsOwnSd) {
   options.keep_all = true;
   // The device's (the driver's) frame at the placement: its base the
   // placement composed with the driver's base.
-  const Frame<double> placed = pose_frame(placement_pose[0], placement_pose[1], placement_pose[2],
-                                          placement_pose[3], placement_pose[4], placement_pose[5]) *
-                               pose_frame(nominal.base[0], nominal.base[1], nominal.base[2],
-                                          nominal.base[3], nominal.base[4], nominal.base[5]);
+  const Frame<double> placed = pose_frame(placement_pose) * pose_frame(nominal.base);
   const Eigen::Vector3d placed_rpy = matrix_rpy(placed.R);
   const auto seen_by_tracker = [&](std::uint64_t seed) {
     DeviceModel seen = truth;  // the tracker's frame
@@ -135,9 +132,7 @@ TEST(DeviceFrame, ReproducesTheTruthsDriverPositionsToItsOwnSd) {
   truth.links[0].origin = nominal.links[0].origin;
   truth.links[0].offset = nominal.links[0].offset;
   const PreparedModel actual(truth);
-  const Frame<double> placement =
-      pose_frame(placement_pose[0], placement_pose[1], placement_pose[2], placement_pose[3],
-                 placement_pose[4], placement_pose[5]);
+  const Frame<double> placement = pose_frame(placement_pose);
 
   constexpr int kTrials = 12, kPoses = 30;
   double chi2 = 0, largest = 0;

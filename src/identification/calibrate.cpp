@@ -76,13 +76,11 @@ std::string instrument_zero_note(const ParameterEstimate& zero) {
 // How far the measurement frame (base) and the tool point moved: the set-up's
 // unknowns, reported, not flagged.
 std::string setup_change_note(const DeviceModel& nominal, const DeviceModel& calibrated) {
-  const auto frame = [](const std::array<double, 6>& v) {
-    return pose_frame(v[0], v[1], v[2], v[3], v[4], v[5]);
-  };
-  const Frame<double> b0 = frame(nominal.base), b1 = frame(calibrated.base);
+  const Frame<double> b0 = pose_frame(nominal.base), b1 = pose_frame(calibrated.base);
   double tool = 0;  // the largest move of a tool point (a tree's tips each have one)
   for (int t = 0; t < nominal.tips(); ++t)
-    tool = std::max(tool, (frame(calibrated.tip_tool(t)).p - frame(nominal.tip_tool(t)).p).norm());
+    tool = std::max(
+        tool, (pose_frame(calibrated.tip_tool(t)).p - pose_frame(nominal.tip_tool(t)).p).norm());
   return fmt::format(
       "the measurement frame (base) moved {:.1f} mm and {:.2f} deg from the model's, the tool "
       "point {:.1f} mm: the set-up's unknowns (the tracker's frame, the marker's offset), not "

@@ -81,10 +81,6 @@ std::array<double, 6> pose_array(const Frame<double>& f) {
   return {f.p.x(), f.p.y(), f.p.z(), rpy[0], rpy[1], rpy[2]};
 }
 
-Frame<double> pose_of(const std::array<double, 6>& v) {
-  return pose_frame(v[0], v[1], v[2], v[3], v[4], v[5]);
-}
-
 }  // namespace
 
 double move_last_turn_into_tool(DeviceModel& calibrated, const DeviceModel& nominal) {
@@ -99,12 +95,12 @@ double move_last_turn_into_tool(DeviceModel& calibrated, const DeviceModel& nomi
     axis = last.axis.normalized();
     // The twist about the axis of R_nominal^-1 R_calibrated (offsets included).
     const Eigen::Matrix3d relative =
-        (pose_of(given.origin) * turn_about(axis, given.offset)).R.transpose() *
-        (pose_of(last.origin) * turn_about(axis, last.offset)).R;
+        (pose_frame(given.origin) * turn_about(axis, given.offset)).R.transpose() *
+        (pose_frame(last.origin) * turn_about(axis, last.offset)).R;
     const Eigen::Quaterniond q(relative);
     turn = 2 * std::atan2(q.vec().dot(axis), q.w());
     last.origin =
-        pose_array(pose_of(last.origin) * turn_about(axis, last.offset - given.offset - turn));
+        pose_array(pose_frame(last.origin) * turn_about(axis, last.offset - given.offset - turn));
     last.offset = given.offset;
   } else {
     turn = last.theta - given.theta;
@@ -117,7 +113,7 @@ double move_last_turn_into_tool(DeviceModel& calibrated, const DeviceModel& nomi
   }
   if (turn == 0) return 0;
   calibrated.tool =
-      pose_array(after.inverse() * turn_about(axis, turn) * after * pose_of(calibrated.tool));
+      pose_array(after.inverse() * turn_about(axis, turn) * after * pose_frame(calibrated.tool));
   return turn;
 }
 

@@ -174,8 +174,7 @@ std::optional<DriverFile> mtm_file(const DeviceModel& m) {
     if (l.geometry != Geometry::kDh || l.prismatic() || !l.transmission.is_none())
       return std::nullopt;
   }
-  const Frame<double> base =
-      pose_frame(m.base[0], m.base[1], m.base[2], m.base[3], m.base[4], m.base[5]);
+  const Frame<double> base = pose_frame(m.base);
   Eigen::Matrix4d base_offset = Eigen::Matrix4d::Identity();
   base_offset.topLeftCorner<3, 3>() = base.R;
   base_offset.topRightCorner<3, 1>() = base.p;
@@ -191,8 +190,7 @@ std::optional<DriverFile> mtm_file(const DeviceModel& m) {
   const Eigen::MatrixXd C = m.coupled() ? m.coupling : Eigen::MatrixXd::Identity(m.dof(), m.dof());
   double beta = 0;
   for (const Link& l : m.links) beta = std::max(beta, std::abs(l.beta));
-  const Frame<double> tool_frame =
-      pose_frame(m.tool[0], m.tool[1], m.tool[2], m.tool[3], m.tool[4], m.tool[5]);
+  const Frame<double> tool_frame = pose_frame(m.tool);
   const double tool = tool_frame.p.norm();
   const double tool_turn = Eigen::AngleAxisd(Mat3<double>(tool_frame.R)).angle();
   DriverFile f;

@@ -22,7 +22,6 @@ namespace hapticcal {
 namespace {
 
 using detail::Document;
-using detail::frame_of;
 using detail::pose_of;
 using detail::read_chain;
 using detail::UrdfChain;
@@ -177,7 +176,7 @@ JointSplit split_joint(const Link& l) {
               rot_z_frame(l.theta) * translation({0, 0, l.d});
       break;
     case Geometry::kOrigin:
-      s.pre = frame_of(l.origin) * motion(l.axis, l.prismatic(), l.offset);
+      s.pre = pose_frame(l.origin) * motion(l.axis, l.prismatic(), l.offset);
       s.axis = l.axis;
       break;
   }
@@ -387,7 +386,7 @@ std::string write_measurement_frame(const std::string& urdf_text, const UrdfChai
                                     const DeviceModel& nominal, const DeviceModel& calibrated,
                                     std::vector<Edit>& edits, std::vector<std::string>* notes,
                                     const Mismatch& mismatch) {
-  const Frame<double> B = frame_of(calibrated.base);
+  const Frame<double> B = pose_frame(calibrated.base);
   if (!chain.up_origins.empty()) {
     if (calibrated.base == nominal.base) {
       return fmt::format("the measurement frame is the root {}", comment_safe(chain.root));
@@ -429,7 +428,7 @@ std::string write_measurement_frame(const std::string& urdf_text, const UrdfChai
   added += fmt::format("  <link name=\"{}\"/>\n", xml_escaped(link));
   // The chain from `link` is T_link_root * (the root's own fixed joints, the
   // nominal base N) * the joints: with T_root_link = N B^-1 it starts with B.
-  write_joint(added, joint, "fixed", chain.root, link, frame_of(nominal.base) * B.inverse(),
+  write_joint(added, joint, "fixed", chain.root, link, pose_frame(nominal.base) * B.inverse(),
               nullptr);
   edits.push_back({close, close, added});
   if (notes) {
@@ -500,13 +499,13 @@ std::string calibrated_urdf(const std::string& urdf_text, const std::string& ori
     }
     // origin_k = F_k^-1 * O_k * motion(axis, offset_k)
     const Frame<double> unfolded =
-        chain.folded[i].inverse() * frame_of(c.origin) * motion(c.axis, c.prismatic(), c.offset);
+        chain.folded[i].inverse() * pose_frame(c.origin) * motion(c.axis, c.prismatic(), c.offset);
     set_origin(urdf_text, chain.doc, chain.doc.elements[chain.joint_elements[i]], pose_of(unfolded),
                edits);
   }
 
   if (calibrated.tool != nominal.tool) {
-    const Frame<double> T_tool = frame_of(calibrated.tool);
+    const Frame<double> T_tool = pose_frame(calibrated.tool);
     const size_t m = chain.tool_elements.size();
     if (m > 0 && chain.tool_elements.back() >= 0) {
       // G_1 ... G_m' = T_tool

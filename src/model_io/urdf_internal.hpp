@@ -102,7 +102,6 @@ void check_xml(const std::string& text, const std::string& origin);
 
 // x, y, z, roll, pitch, yaw of a frame (a negative zero written as 0).
 std::array<double, 6> pose_of(const Frame<double>& f);
-Frame<double> frame_of(const std::array<double, 6>& v);
 
 // ---------------------------------------------------------------------------
 // The chain root -> tip.

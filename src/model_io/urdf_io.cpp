@@ -135,10 +135,6 @@ std::array<double, 6> pose_of(const Frame<double>& f) {
   return {f.p[0] + 0.0, f.p[1] + 0.0, f.p[2] + 0.0, rpy[0] + 0.0, rpy[1] + 0.0, rpy[2] + 0.0};
 }
 
-Frame<double> frame_of(const std::array<double, 6>& v) {
-  return pose_frame(v[0], v[1], v[2], v[3], v[4], v[5]);
-}
-
 namespace {
 
 // Three numbers separated by blanks, as urdfdom reads xyz and rpy.
@@ -187,7 +183,7 @@ std::array<double, 6> joint_origin(const urdf::Joint& joint, const Document& doc
       }
     }
     // Taken only if it is the transform urdfdom read (as it should be).
-    const Frame<double> f = frame_of(exact);
+    const Frame<double> f = pose_frame(exact);
     if (read && (f.R - held.R).cwiseAbs().maxCoeff() < 1e-9 &&
         (f.p - held.p).cwiseAbs().maxCoeff() < 1e-9) {
       return exact;
@@ -518,7 +514,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
   model.base_kind = BaseKind::kPose;
   Frame<double> base = Frame<double>::Identity();
   for (const auto& j : up) {
-    const Frame<double> o = frame_of(joint_origin(*j, chain.doc));
+    const Frame<double> o = pose_frame(joint_origin(*j, chain.doc));
     chain.up_origins.push_back(o);
     chain.up_elements.push_back(chain.doc.joint_index(j->name));
     base = base * o.inverse();
@@ -539,10 +535,10 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
             origin, terms.front()->line, joint_key(j->name),
             fmt::format("<{}> on a fixed joint, which has no value to drive", kCouplingElement));
       }
-      fold = fold * frame_of(o);
+      fold = fold * pose_frame(o);
       add_inertial(*urdf, *j, fold, origin, line, model);
       folding = true;
-      fixed_origins.push_back(frame_of(o));
+      fixed_origins.push_back(pose_frame(o));
       fixed_elements.push_back(chain.doc.joint_index(j->name));
       continue;
     }
@@ -571,7 +567,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
     link.type = j->type == urdf::Joint::REVOLUTE     ? JointType::kRevolute
                 : j->type == urdf::Joint::CONTINUOUS ? JointType::kContinuous
                                                      : JointType::kPrismatic;
-    link.origin = folding ? pose_of(fold * frame_of(o)) : o;
+    link.origin = folding ? pose_of(fold * pose_frame(o)) : o;
     link.axis = Eigen::Vector3d(j->axis.x, j->axis.y, j->axis.z);
     if (!link.axis.allFinite() || !(link.axis.norm() > 0)) {
       throw InputError(origin, line, joint_key(j->name), "axis: zero or not finite");

@@ -107,10 +107,7 @@ FrameFit frame_fit(const DeviceModel& model, const DeviceModel& fitted, Register
   fit.rms_position_before = rms_before;
   if (what == RegisterWhat::kFrameAndTool) {
     fit.tool = fitted.tool;
-    const Frame<double> T0 = pose_frame(model.tool[0], model.tool[1], model.tool[2], model.tool[3],
-                                        model.tool[4], model.tool[5]);
-    const Frame<double> T1 = pose_frame(fitted.tool[0], fitted.tool[1], fitted.tool[2],
-                                        fitted.tool[3], fitted.tool[4], fitted.tool[5]);
+    const Frame<double> T0 = pose_frame(model.tool), T1 = pose_frame(fitted.tool);
     fit.tool_offset = T1.p - T0.p;
     fit.tool_turned = Eigen::AngleAxisd(Eigen::Matrix3d(T1.R * T0.R.transpose())).angle();
   }

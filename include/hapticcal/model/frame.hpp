@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <array>
 #include <cmath>
 
 namespace hapticcal {
@@ -67,6 +68,12 @@ template <typename T>
 Frame<T> pose_frame(const T& x, const T& y, const T& z, const T& roll, const T& pitch,
                     const T& yaw) {
   return {rpy_matrix(roll, pitch, yaw), Vec3<T>(x, y, z)};
+}
+
+// The same from a pose array {x, y, z, roll, pitch, yaw} (a device file's base,
+// tool or URDF origin).
+inline Frame<double> pose_frame(const std::array<double, 6>& v) {
+  return pose_frame(v[0], v[1], v[2], v[3], v[4], v[5]);
 }
 
 // Inverse of rpy_matrix for a proper rotation; pitch in [-pi/2, pi/2].
