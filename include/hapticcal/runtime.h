@@ -112,10 +112,10 @@ HAPTICCAL_RUNTIME_API hapticcal_status hapticcal_joint_torques(const hapticcal_m
 
 /* What hapticcal_inverse found. */
 typedef enum hapticcal_inverse_status {
-  HAPTICCAL_INVERSE_CONVERGED = 0,      /* at the target, the readings within their limits */
+  HAPTICCAL_INVERSE_CONVERGED = 0,        /* at the target, the readings within their limits */
   HAPTICCAL_INVERSE_NEAR_SINGULARITY = 1, /* at the target, near a singularity */
-  HAPTICCAL_INVERSE_OUTSIDE_LIMITS = 2, /* at the target, a reading outside its limits */
-  HAPTICCAL_INVERSE_NOT_CONVERGED = 3   /* not at the target: unreachable from the start */
+  HAPTICCAL_INVERSE_OUTSIDE_LIMITS = 2,   /* at the target, a reading outside its limits */
+  HAPTICCAL_INVERSE_NOT_CONVERGED = 3     /* not at the target: unreachable from the start */
 } hapticcal_inverse_status;
 
 typedef struct hapticcal_inverse_result {

@@ -85,28 +85,23 @@ std::string setup_yaml(const DeviceFrameOutputs& d) {
       d.ends_at, pose_yaml(d.split.device.tool));
 }
 
-// calibrated.yaml, and for a URDF model calibrated.urdf (its notes into
-// result); a chain's device.yaml and setup.yaml; a tree's calibrated.urdf
-// alone.
 // calibrated.urdf: the geometry-only model (geometry_model), unless it
-// predicts held-out poses no better than the nominal with its set-up fitted.
-void write_urdf(const std::string& dir, CalibrationResult& result, const DeviceModel& nominal,
-                const CalibrationSource& source, CalibrationOutputs& written) {
+// predicts held-out poses no better than the nominal with its set-up fitted; a
+// chain's as `frame` (that model in the device's frame) writes it, a tree's as
+// fitted. Its notes into result, once each.
+void write_urdf(const std::string& dir, CalibrationResult& result, const CalibrationSource& source,
+                const DeviceFrameOutputs* frame, CalibrationOutputs& written) {
   const CalibrationResult& urdf = geometry_model(result);
   if (urdf.status != CalibrationStatus::kConverged) {
     result.notes.push_back("no calibrated.urdf written: " + urdf.status_reason);
     return;
   }
   std::vector<std::string> said;
-  if (result.calibrated.tree()) {
-    write_file_atomically(dir + "/calibrated.urdf", tree_urdf(source.urdf_text, source.model_path,
-                                                              source.root, urdf.calibrated, said));
-  } else {
-    const DeviceFrameOutputs d = device_frame_outputs(urdf, nominal, source);
-    write_file_atomically(dir + "/calibrated.urdf",
-                          calibrated_urdf(source.urdf_text, source.model_path, source.tip,
-                                          source.root, d.written, &said));
-  }
+  write_file_atomically(
+      dir + "/calibrated.urdf",
+      frame ? calibrated_urdf(source.urdf_text, source.model_path, source.tip, source.root,
+                              frame->written, &said)
+            : tree_urdf(source.urdf_text, source.model_path, source.root, urdf.calibrated, said));
   for (std::string& note : said) {
     if (std::find(result.notes.begin(), result.notes.end(), note) == result.notes.end())
       result.notes.push_back(std::move(note));
@@ -115,12 +110,11 @@ void write_urdf(const std::string& dir, CalibrationResult& result, const DeviceM
 }
 
 // A built-in device's driver file (driver_file), from the geometry-only model
-// in the device's frame: a driver holds no joint-error family.
+// in the device's frame (`frame`): a driver holds no joint-error family.
 void write_driver_file(const std::string& dir, CalibrationResult& result,
-                       const DeviceModel& nominal, const CalibrationSource& source) {
+                       const DeviceModel& nominal, const DeviceFrameOutputs& frame) {
   const CalibrationResult& g = geometry_model(result);
-  const DeviceModel device = device_frame_outputs(g, nominal, source).split.device;
-  const std::optional<DriverFile> f = driver_file(device, nominal);
+  const std::optional<DriverFile> f = driver_file(frame.split.device, nominal);
   if (!f) return;
   if (g.status != CalibrationStatus::kConverged) {
     result.notes.push_back(fmt::format("no {} written: {}", f->name, g.status_reason));
@@ -130,11 +124,13 @@ void write_driver_file(const std::string& dir, CalibrationResult& result,
   result.notes.push_back(f->note);
 }
 
+// calibrated.yaml; a chain's device.yaml and setup.yaml; calibrated.urdf of a
+// URDF model and a built-in device's driver file, from the geometry-only model.
 void write_models(const std::string& dir, CalibrationResult& result, const DeviceModel& nominal,
                   const CalibrationSource& source, CalibrationOutputs& written) {
   save_device(result.calibrated, dir + "/calibrated.yaml");
   if (result.calibrated.tree()) {  // a tree's tips keep their tools: no device.yaml
-    if (!source.urdf_text.empty()) write_urdf(dir, result, nominal, source, written);
+    if (!source.urdf_text.empty()) write_urdf(dir, result, source, nullptr, written);
     return;
   }
   written.device_frame = device_frame_outputs(result, nominal, source);
@@ -142,8 +138,14 @@ void write_models(const std::string& dir, CalibrationResult& result, const Devic
   add_device_frame_notes(result, d, !source.urdf_text.empty());
   save_device(d.split.device, dir + "/device.yaml");
   write_file_atomically(dir + "/setup.yaml", setup_yaml(d));
-  if (!source.urdf_text.empty()) write_urdf(dir, result, nominal, source, written);
-  write_driver_file(dir, result, nominal, source);
+  // The geometry-only model in the device's frame: device.yaml's own where
+  // the whole model is the geometry alone.
+  const std::optional<DeviceFrameOutputs> geometry =
+      result.geometry ? std::optional(device_frame_outputs(*result.geometry, nominal, source))
+                      : std::nullopt;
+  const DeviceFrameOutputs& g = geometry ? *geometry : d;
+  if (!source.urdf_text.empty()) write_urdf(dir, result, source, &g, written);
+  write_driver_file(dir, result, nominal, g);
 }
 
 }  // namespace
