@@ -71,12 +71,7 @@ double conditioning(const DeviceModel& nominal, const Eigen::VectorXd& q) {
 // model, as a program is planned: away from singularities.
 Log joint_program(const DeviceModel& nominal, int rows, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
-  Log log;
-  log.origin = "program.csv";
-  log.rows = rows;
-  log.q.resize(rows, nominal.dof());
-  log.ext = Eigen::MatrixXd::Zero(rows, nominal.dof());
-  log.has_ext.assign(nominal.dof(), false);
+  Log log = testing::blank_marker_log("program.csv", rows, nominal.dof(), 0);
   for (int r = 0; r < rows; ++r) {
     Eigen::VectorXd q = testing::random_readings(nominal, rng);
     // Away from the limits' edges: a compensation moves a reading a little.
@@ -89,7 +84,6 @@ Log joint_program(const DeviceModel& nominal, int rows, std::uint64_t seed) {
       continue;
     }
     log.q.row(r) = q.transpose();
-    log.line.push_back(r + 2);
   }
   return log;
 }

@@ -117,8 +117,10 @@ DeviceModel evaluated_tree(const EvaluateRequest& request, const std::string& pa
 }
 
 // Each tip of a tree evaluated on its samples (the log's x<k> its point), by
-// the chain's evaluation of the tree model.
-EvaluateJob tree_evaluate_job(const EvaluateRequest& request, std::vector<std::string> tips) {
+// the chain's evaluation of the tree model (`loaded`: a device file's tree
+// already read, its own tips).
+EvaluateJob tree_evaluate_job(const EvaluateRequest& request, std::vector<std::string> tips,
+                              const DeviceModel* loaded = nullptr) {
   if (request.given || request.given_reference || !request.fixture.empty() ||
       !request.point_distances.empty() || request.registration)
     throw InputError(request.model, 0, "--tip",
@@ -126,7 +128,8 @@ EvaluateJob tree_evaluate_job(const EvaluateRequest& request, std::vector<std::s
                      "--register or models in memory)");
   EvaluateJob job;
   std::string frame_said;
-  const DeviceModel tree = evaluated_tree(request, request.model, tips, &frame_said);
+  const DeviceModel tree =
+      loaded ? *loaded : evaluated_tree(request, request.model, tips, &frame_said);
   if (tips.empty()) {  // a device file's own tips
     for (int t = 0; t < tree.tips(); ++t) tips.push_back(tree.tip_name(t));
   }
@@ -348,7 +351,7 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
   if (job.model.tree() && !request.given) {  // a device file's own tree
     if (!request.tracker.empty() || !request.iso9283.empty())
       throw InputError(request.model, 0, "", "a tree: no --tracker or --iso9283 (give one tip)");
-    return tree_evaluate_job(request, {});
+    return tree_evaluate_job(request, {}, &job.model);
   }
   Log log = read_log(request.log, request.columns);
   if (!request.tracker.empty()) {

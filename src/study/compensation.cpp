@@ -6,6 +6,8 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <tuple>
+#include <utility>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
@@ -31,18 +33,21 @@ void check_same_joints(const DeviceModel& calibrated, const DeviceModel& nominal
   }
 }
 
+// How far the tool at `at` is from `target`: distance [m] and turn [rad] (0
+// without orientation).
+std::pair<double, double> gap(const Frame<double>& target, const Frame<double>& at,
+                              bool orientation) {
+  return {(at.p - target.p).norm(),
+          orientation ? Eigen::AngleAxisd(Mat3<double>(target.R * at.R.transpose())).angle() : 0};
+}
+
 // The calibrated model's tool must be the controller's: a tracker's target
 // (device.yaml's default tool) is not the controller's TCP.
 constexpr double kSameToolLength = 5e-3;  // m
 constexpr double kSameToolAngle = 0.05;   // rad
 
 void check_same_tool(const DeviceModel& calibrated, const DeviceModel& nominal) {
-  const Frame<double> a = pose_frame(calibrated.tool[0], calibrated.tool[1], calibrated.tool[2],
-                                     calibrated.tool[3], calibrated.tool[4], calibrated.tool[5]);
-  const Frame<double> b = pose_frame(nominal.tool[0], nominal.tool[1], nominal.tool[2],
-                                     nominal.tool[3], nominal.tool[4], nominal.tool[5]);
-  const double length = (a.p - b.p).norm();
-  const double angle = Eigen::AngleAxisd(Mat3<double>(a.R * b.R.transpose())).angle();
+  const auto [length, angle] = gap(pose_frame(nominal.tool), pose_frame(calibrated.tool), true);
   if (length > kSameToolLength || angle > kSameToolAngle)
     throw InputError(fmt::format(
         "compensate: the calibrated model's tool is {:.1f} mm and {:.1f} mrad from the nominal "
@@ -113,17 +118,10 @@ std::vector<CompensatedTarget> compensate_targets(const DeviceModel& calibrated_
     t.controller = inverse_kinematics(nominal, t.command, t.nominal_readings.data(), solved.data(),
                                       inverse, lower.data(), upper.data());
     t.controller_deviation = (solved - t.readings).cwiseAbs().maxCoeff();
-    const Frame<double> reached = calibrated.forward(solved.data());
-    t.controller_position = (reached.p - t.target.p).norm();
-    t.controller_rotation =
-        orientation ? Eigen::AngleAxisd(Mat3<double>(t.target.R * reached.R.transpose())).angle()
-                    : 0;
-    const Frame<double> uncompensated = calibrated.forward(t.nominal_readings.data());
-    t.uncompensated_position = (uncompensated.p - t.target.p).norm();
-    t.uncompensated_rotation =
-        orientation
-            ? Eigen::AngleAxisd(Mat3<double>(t.target.R * uncompensated.R.transpose())).angle()
-            : 0;
+    std::tie(t.controller_position, t.controller_rotation) =
+        gap(t.target, calibrated.forward(solved.data()), orientation);
+    std::tie(t.uncompensated_position, t.uncompensated_rotation) =
+        gap(t.target, calibrated.forward(t.nominal_readings.data()), orientation);
     out.push_back(std::move(t));
   }
   return out;
