@@ -82,7 +82,8 @@ TEST(Evaluate, Meca500ValidationRmsIs0837MillimetresAsTheRawDataGive) {
   const std::string log = "val-norm_dist_data_0deg_160cube.csv";
   ASSERT_TRUE(std::filesystem::exists(dir + "/" + log)) << "missing from the repository: " << dir;
   const testing::CliResult r = testing::run_cli(
-      "evaluate --json --model " + testing::source_path("examples/meca500/meca500.yaml") +
+      "evaluate --json --model " +
+      testing::write_meca500_on_tracker(::testing::TempDir() + "/meca500-on-tracker.yaml") +
       " --log " + dir + "/" + log + " --columns " + kMecaColumns);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
@@ -144,8 +145,9 @@ TEST(Evaluate, DistanceLogReportsDistanceKeysOnly) {
 
 TEST(Evaluate, HumanReadableOutputGivesMillimetres) {
   const auto r = testing::run_cli(
-      "evaluate --model " + testing::source_path("examples/meca500/meca500.yaml") + " --log " +
-      testing::source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv"));
+      "evaluate --model " +
+      testing::write_meca500_on_tracker(::testing::TempDir() + "/meca500-on-tracker.yaml") +
+      " --log " + testing::source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv"));
   ASSERT_EQ(r.exit_code, 0);
   EXPECT_NE(r.out.find("position error: RMS 0.837"), std::string::npos) << r.out;
 }
@@ -176,12 +178,18 @@ TEST(Evaluate, PoseLogsReportTheOrientationError) {
 
 // Without --register nothing is fitted: stdout is byte for byte what evaluate
 // printed before the option existed (tests/reference/evaluate-*, written by
-// that version), JSON and terminal lines alike.
+// that version, when the example's device file held the tracker's placement:
+// it is written again here, under the same relative name), JSON and terminal
+// lines alike.
 TEST(Evaluate, OutputWithoutRegisterIsUnchanged) {
   const std::string meca = "examples/meca500/meca500.yaml";
   const std::string val = "examples/meca500/val-norm_dist_data_0deg_160cube.csv";
   const std::string cal = "examples/meca500/cal-norm_dist_data_0deg_160cube.csv";
-  const std::string dir = testing::source_path("");
+  const std::string dir = testing::fresh_folder("evaluate_unchanged_in");
+  std::filesystem::create_directories(dir + "/examples/meca500");
+  testing::write_meca500_on_tracker(dir + "/" + meca);
+  for (const std::string& log : {val, cal})
+    std::filesystem::copy_file(testing::source_path(log), dir + "/" + log);
   const auto json = testing::run_cli_in(dir, {"evaluate", "--json", "--model", meca, "--log", val});
   EXPECT_EQ(json.out,
             testing::slurp(testing::source_path("tests/reference/evaluate-meca500-val.json")));

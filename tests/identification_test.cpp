@@ -117,7 +117,7 @@ using testing::meca500_log;
 // search": the sets' 10 validation poses cannot tell the search's choice from
 // the cut's).
 TEST(Identification, Meca500ValidationRmsAfterCalibration) {
-  const DeviceModel nominal = testing::meca500();
+  const DeviceModel nominal = testing::meca500_on_tracker();
   CalibrationOptions all, cut;
   all.keep_all = true;
   all.search = cut.search = false;
@@ -483,9 +483,9 @@ TEST(Identification, CommandWritesALoadableModelAndResults) {
 // base is first registered in closed form (Horn / Kabsch) and LM finds the same
 // minimum. The note says so; with T_base.txt no registration happens.
 TEST(Identification, Meca500WithUnknownTrackerFrameCalibratesLikeWithItsBasePose) {
-  const DeviceModel known = testing::meca500();
-  DeviceModel unknown = known;
-  unknown.base = {};
+  const DeviceModel known = testing::meca500_on_tracker();
+  const DeviceModel unknown = testing::meca500();  // the example: the robot's own frame
+  ASSERT_EQ(unknown.base, (std::array<double, 6>{}));
   ASSERT_GT(Eigen::Vector3d(known.base[0], known.base[1], known.base[2]).norm(), 0.1);
   for (const char* set : kMeca500Sets) {
     SCOPED_TRACE(set);
@@ -515,7 +515,7 @@ TEST(Identification, Meca500WithUnknownTrackerFrameCalibratesLikeWithItsBasePose
 // base and tool rotations come back to the truth.
 TEST(Identification, PoseMeasurementsIdentifyToolRotationsThatPositionsCannot) {
   std::mt19937_64 rng(11);
-  DeviceModel nominal = testing::meca500();
+  DeviceModel nominal = testing::meca500_on_tracker();
   nominal.tool = {0.01, -0.02, 0.05, 0, 0, 0};
   DeviceModel truth = testing::perturbed(nominal, rng, 0.002);
   truth.tool[3] = 0.03;
@@ -587,7 +587,7 @@ TEST(Identification, Meca500ThroughItsUrdfValidatesLikeTheMdhModel) {
 // slots and parameters on the Meca500 (issue 11). An empty selection solves
 // nothing and says so.
 TEST(Identification, StagesCalledOneByOneReproduceCalibrate) {
-  const DeviceModel nominal = testing::meca500();
+  const DeviceModel nominal = testing::meca500_on_tracker();
   const Log log =
       read_log(testing::source_path("examples/meca500/cal-norm_dist_data_0deg_160cube.csv"));
   CalibrationOptions all;

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <random>
 
@@ -93,8 +94,15 @@ TEST(JointErrors, HarmonicGearErrorIsRecoveredFromTrackerPositions) {
       floor * 1e3, geometric_rms * 1e3, rms * 1e3, r.kinematics.cv_rms_without_joint_errors * 1e3,
       r.kinematics.cv_rms * 1e3);
   EXPECT_LT(rms, 1.1 * floor);
-  // What the family bought, on the same held-out folds.
-  EXPECT_NEAR(r.kinematics.cv_rms_without_joint_errors, geometric.kinematics.cv_rms, 1e-12);
+  // What the family bought, on the same held-out folds: the best of the
+  // geometry's own candidates (the geometric run keeps the simplest within one
+  // SE of it, which need not be the best).
+  double best_geometry = std::numeric_limits<double>::infinity();
+  for (const SearchCandidate& c : geometric.kinematics.search.candidates) {
+    if (c.families.empty() && std::isfinite(c.cv_rms))
+      best_geometry = std::min(best_geometry, c.cv_rms);
+  }
+  EXPECT_NEAR(r.kinematics.cv_rms_without_joint_errors, best_geometry, 1e-12);
   EXPECT_LT(r.kinematics.cv_rms, 0.5 * r.kinematics.cv_rms_without_joint_errors);
   const CalibrationResult found = calibrate(nominal, cal, {});
   ASSERT_EQ(found.status, CalibrationStatus::kConverged) << found.status_reason;

@@ -114,7 +114,7 @@ TEST(ModelSelection, Meca500TenPosesValidateBetterThanKeepingEveryParameter) {
 // tens of standard deviations) and holds most of the other 21, and the model it
 // keeps predicts 500 noise-free poses closer to the truth than --keep-all.
 TEST(ModelSelection, HoldsWhatTheTruthLeavesAtNominalAndPredictsTheTruthBetter) {
-  const DeviceModel nominal = testing::meca500();
+  const DeviceModel nominal = testing::meca500_on_tracker();
   DeviceModel truth = nominal;
   const std::map<std::string, double> deviated = {{"j1.a", 5e-4},      {"j2.alpha", 1e-3},
                                                   {"j3.a", -4e-4},     {"j4.theta", 1e-3},
@@ -238,7 +238,8 @@ TEST(ModelSelection, PaperStudyStillIdentifiesWhatThePaperIdentifies) {
 TEST(ModelSelection, CommandLineKeepAllFoldsAndTheirErrors) {
   const std::string out = ::testing::TempDir() + "/hapticcal_selection_cli";
   std::filesystem::remove_all(out);
-  const std::string model = testing::source_path("examples/meca500/meca500.yaml");
+  const std::string model = testing::write_meca500_on_tracker(::testing::TempDir() +
+                                                              "/selection-meca500-on-tracker.yaml");
   const std::string log =
       testing::source_path("examples/meca500/cal-norm_dist_data_0deg_160cube.csv");
   const testing::CliResult bad = testing::run_cli(

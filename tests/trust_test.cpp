@@ -273,7 +273,7 @@ TEST_F(Trust, RepeatedPosesCountOnce) {
   EXPECT_EQ(ja["rows_used"], 210);
   EXPECT_EQ(ja["poses"], 70);
   EXPECT_EQ(jo["poses"], 70);
-  for (const char* name : {"j3.beta", "j2.a", "j1.theta", "tool.x"}) {
+  for (const char* name : {"j3.beta", "j2.a", "j2.theta", "tool.x"}) {
     const double sd_all = ja["parameters"][name]["sd"], sd_one = jo["parameters"][name]["sd"];
     EXPECT_NEAR(sd_all / sd_one, 1.0, 0.10) << name;
   }

@@ -1,8 +1,10 @@
 // Converts the Meca500 laser-tracker data set (data/real/meca500, see its
 // README) into a hapticcal device file and header-carrying logs:
 //   convert_meca500 SOURCE_DIR OUTPUT_DIR
-// The device: modified DH from mdh_nominal.csv (mm -> m), base pose from
-// T_base.txt (tracker <- robot base), tool point from T_tool.txt (flange <- SMR).
+// The device: modified DH from mdh_nominal.csv (mm -> m) in the robot's own base
+// frame, tool point from T_tool.txt (flange <- SMR). The tracker's placement
+// (T_base.txt) is the measurement set-up, not the robot: calibrate finds it by
+// registration and writes it to its setup.yaml.
 #include <fmt/format.h>
 
 #include <filesystem>
@@ -47,10 +49,7 @@ int main(int argc, char** argv) {
     hapticcal::DeviceModel model;
     model.name = "meca500";
     model.base_kind = hapticcal::BaseKind::kPose;
-    const Eigen::Matrix4d T_base = read_matrix(source / "T_base.txt");
-    const Eigen::Vector3d base_rpy = hapticcal::matrix_rpy(T_base.topLeftCorner<3, 3>());
-    model.base = {T_base(0, 3) / 1000, T_base(1, 3) / 1000, T_base(2, 3) / 1000,
-                  base_rpy[0],         base_rpy[1],         base_rpy[2]};
+    model.base = {0, 0, 0, 0, 0, 0};
     const Eigen::Matrix4d T_tool = read_matrix(source / "T_tool.txt");
     const Eigen::Vector3d tool_rpy = hapticcal::matrix_rpy(T_tool.topLeftCorner<3, 3>());
     model.tool = {T_tool(0, 3) / 1000, T_tool(1, 3) / 1000, T_tool(2, 3) / 1000,

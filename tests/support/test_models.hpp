@@ -10,6 +10,7 @@
 
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model/frame.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/model_io/device.hpp"
 
@@ -51,7 +52,27 @@ inline Log blank_marker_log(const std::string& origin, int rows, int dof, int ma
 inline DeviceModel builtin(const std::string& name) {
   return load_device(source_path("data/devices/" + name + ".yaml"));
 }
+// The Meca500 example in the robot's own base frame.
 inline DeviceModel meca500() { return load_device(source_path("examples/meca500/meca500.yaml")); }
+// The same model placed in the laser tracker's frame by the data set's own
+// placement (data/real/meca500/T_base.txt, tracker <- robot base, mm): the
+// nominal model whose errors on the tracker logs the data set's authors state.
+inline DeviceModel meca500_on_tracker() {
+  DeviceModel model = meca500();
+  std::ifstream in(real_data_path("meca500/T_base.txt"));
+  Eigen::Matrix4d T;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      if (!(in >> T(r, c))) throw std::runtime_error("T_base.txt: expected 4x4 numbers");
+  const Eigen::Vector3d rpy = matrix_rpy(T.topLeftCorner<3, 3>());
+  model.base = {T(0, 3) / 1000, T(1, 3) / 1000, T(2, 3) / 1000, rpy[0], rpy[1], rpy[2]};
+  return model;
+}
+// meca500_on_tracker() written as a device file at `path`; returns `path`.
+inline std::string write_meca500_on_tracker(const std::string& path) {
+  save_device(meca500_on_tracker(), path);
+  return path;
+}
 
 // The seven Meca500 laser-tracker sets (examples/meca500/, converted from data/real/meca500).
 inline constexpr const char* kMeca500Sets[] = {
