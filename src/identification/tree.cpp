@@ -16,6 +16,7 @@
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 
 namespace hapticcal {
@@ -179,6 +180,28 @@ DeviceTree parse_tree(const std::string& text, const std::string& origin,
 DeviceTree load_tree(const std::string& path, const std::vector<std::string>& tips,
                      const std::string& root) {
   return parse_tree(read_file(path, FileKind::kUrdf), path, tips, root);
+}
+
+std::vector<std::string> tip_names(const std::string& tip) {
+  std::vector<std::string> out;
+  if (tip.empty()) return out;
+  size_t from = 0;
+  for (size_t comma = tip.find(','); comma != std::string::npos; comma = tip.find(',', from)) {
+    out.push_back(tip.substr(from, comma - from));
+    from = comma + 1;
+  }
+  out.push_back(tip.substr(from));
+  for (const std::string& name : out) {
+    if (name.empty()) throw InputError("--tip: an empty tip name in '" + tip + "'");
+  }
+  return out;
+}
+
+DeviceModel load_model_or_tree(const std::string& path, const std::string& tip,
+                               const std::string& root) {
+  if (const std::vector<std::string> tips = tip_names(tip); tips.size() > 1)
+    return tree_model(load_tree(path, tips, root));
+  return load_model(path, tip, root);
 }
 
 DeviceModel tree_model(const DeviceTree& tree) {

@@ -21,21 +21,6 @@
 
 namespace hapticcal {
 
-std::vector<std::string> tip_names(const std::string& tip) {
-  std::vector<std::string> out;
-  if (tip.empty()) return out;
-  size_t from = 0;
-  for (size_t comma = tip.find(','); comma != std::string::npos; comma = tip.find(',', from)) {
-    out.push_back(tip.substr(from, comma - from));
-    from = comma + 1;
-  }
-  out.push_back(tip.substr(from));
-  for (const std::string& name : out) {
-    if (name.empty()) throw InputError("--tip: an empty tip name in '" + tip + "'");
-  }
-  return out;
-}
-
 namespace {
 
 // Several tips named (--tip A,B) are a URDF's: a device file holds its own.

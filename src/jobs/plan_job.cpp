@@ -35,11 +35,7 @@ PlanSetup prepare_plan(const PlanRequest& o) {
     throw InputError(fmt::format("{}: applies to URDF models (.urdf); none is given",
                                  o.tip.empty() ? "--root" : "--tip"));
   }
-  if (const std::vector<std::string> tips = tip_names(o.tip); tips.size() > 1) {
-    setup.model = tree_model(load_tree(o.model, tips, o.root));
-  } else {
-    setup.model = load_model(o.model, o.tip, o.root);  // a device file may hold a tree
-  }
+  setup.model = load_model_or_tree(o.model, o.tip, o.root);
   if (setup.model.tree()) {
     // A tree: each pose measures every tip's point (tree_model).
     if (*type != MeasurementType::kPosition)

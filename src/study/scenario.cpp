@@ -214,6 +214,12 @@ void read_measurement(const ScenarioFile& file, Scenario& sc) {
                        "point or plane",
                        printable(name)));
   }
+  if (sc.nominal.tree() && *type != MeasurementType::kPosition) {
+    r.fail(m, "measurement",
+           fmt::format("a tree of several tips is simulated with one point a tip: position, not "
+                       "{}",
+                       name));
+  }
   sc.measurement = *type;
 }
 
@@ -497,6 +503,8 @@ void read_session(const ScenarioFile& file, Scenario& sc) {
            "a hand-guided session is measured by a tracker's positions: give "
            "measurement: position");
   }
+  if (sc.nominal.tree())
+    r.fail(node, "session", "a hand-guided session study is of one chain, not a tree of tips");
   SessionOptions o;
   const auto value = [&](const char* key, double lo, double hi, double fallback) {
     if (!node[key]) return fallback;
@@ -545,6 +553,8 @@ void read_iso9283(const ScenarioFile& file, Scenario& sc) {
   r.expect_map(node, "iso9283");
   r.check_keys(node, "iso9283", {"cycles", "scatter", "cube_size", "cube_centre"});
   if (sc.session) r.fail(node, "iso9283", "a hand-guided session study runs no ISO 9283 test");
+  if (sc.nominal.tree())
+    r.fail(node, "iso9283", "ISO 9283's test is of one tool: a tree of several tips runs none");
   IsoSimulation iso;
   if (node["cycles"])
     iso.cube.cycles = r.integer(node["cycles"], "iso9283.cycles", 1, kMaxIsoCycles);

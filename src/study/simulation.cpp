@@ -114,6 +114,15 @@ template <typename Draw>
 Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, std::uint64_t seed,
             const Columns& columns, Draw draw) {
   const bool distance = columns.distance, position = columns.position;
+  // A tree's measurement: every tip's point, one marker a tip (x1 .. z<tips>).
+  const int tips = actual.tree() ? actual.tips() : 0;
+  if (tips && (distance || columns.orientation || !position)) {
+    throw InputError(actual.name, 0, "measurement",
+                     "a tree of several tips is simulated with one point a tip (position)");
+  }
+  if (tips && actual.has_backlash()) {
+    throw InputError(actual.name, 0, "backlash", "backlash on a tree is not simulated");
+  }
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   const int n = actual.dof();
@@ -128,9 +137,11 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
   log.has_ext.resize(n);
   log.has_ext = encoder_joints(actual);
   log.has_distance = distance;
-  log.has_position = position;
+  log.has_position = position && !tips;
   if (distance) log.distance.resize(poses);
-  if (position) log.position.resize(poses, 3);
+  if (log.has_position) log.position.resize(poses, 3);
+  log.marker_count = tips;
+  if (tips) log.markers.resize(poses, 3 * tips);
   log.has_orientation = columns.orientation;
   if (columns.orientation) log.orientation.resize(poses, 4);
   // A joint with backlash approaches each pose from a side drawn at random,
@@ -164,7 +175,15 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
     for (int j = 0; j < n; ++j) {
       log.q(r, j) = quantized_reading(q[j], ratio[j], noise.motor_counts_per_rev);
     }
-    simulated_measurement(T_meas_tool, columns, noise, rng, gauss, log, r);
+    if (!tips) {
+      simulated_measurement(T_meas_tool, columns, noise, rng, gauss, log, r);
+      continue;
+    }
+    for (int t = 0; t < tips; ++t) {
+      const Eigen::Vector3d p = prepared.forward(q.data(), t).p;
+      for (int k = 0; k < 3; ++k)
+        log.markers(r, 3 * t + k) = p[k] + noise.sigma_position * gauss(rng);
+    }
   }
   return log;
 }
@@ -220,8 +239,19 @@ std::vector<std::pair<std::string, Eigen::Vector3d>> default_sockets(const Devic
   Eigen::VectorXd q(model.dof());
   for (int j = 0; j < model.dof(); ++j)
     q[j] = model.links[j].lower + 0.45 * (model.links[j].upper - model.links[j].lower);
-  const Eigen::Vector3d a = PreparedModel(model).forward(q.data()).p;
-  return {{"a", a}, {"b", a + Eigen::Vector3d(0.05, 0, 0)}};
+  const PreparedModel prepared(model);
+  const Eigen::Vector3d a = prepared.forward(q.data()).p;
+  // The first of +x, -x, +y, -y, +z, -z that the tool reaches from there
+  // within the limits (a device whose +x leaves its workspace gets another).
+  for (int axis = 0; axis < 6; ++axis) {
+    const Eigen::Vector3d b = a + (axis % 2 ? -0.05 : 0.05) * Eigen::Vector3d::Unit(axis / 2);
+    const ReachResult r = reach(prepared, q, ToolTarget::at(b));
+    bool inside = r.error < 1e-9;
+    for (int j = 0; j < model.dof() && inside; ++j)
+      inside = r.q[j] >= model.links[j].lower && r.q[j] <= model.links[j].upper;
+    if (inside) return {{"a", a}, {"b", b}};
+  }
+  return {{"a", a}, {"b", a + Eigen::Vector3d(0.05, 0, 0)}};  // contact_log names it
 }
 
 namespace {

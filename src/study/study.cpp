@@ -18,6 +18,7 @@
 #include "hapticcal/core/option_ranges.hpp"
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/information.hpp"
+#include "hapticcal/identification/tree.hpp"
 #include "hapticcal/identification/two_step.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/device.hpp"
@@ -54,7 +55,7 @@ Eigen::VectorXd readings(const Log& log, int r) { return log.q.row(r).transpose(
 // and a given distance's row included, as the fit weighs them
 // (tests/fixture_test's two_socket_study), over the parameters this trial's
 // calibration identified.
-std::map<std::string, double> fixture_crlb(const Scenario& sc, const Log& ident,
+std::map<std::string, double> stacked_crlb(const Scenario& sc, const Log& ident,
                                            const CalibrationResult& full,
                                            const CalibrationOptions& options) {
   const KinematicProblem problem = kinematic_problem(sc.actual, ident, {}, options);
@@ -90,7 +91,7 @@ std::map<std::string, double> fixture_crlb(const Scenario& sc, const Log& ident,
 std::map<std::string, double> crlb(const Scenario& sc, const Log& ident,
                                    const CalibrationResult& full,
                                    const CalibrationOptions& options) {
-  if (is_fixture(sc.measurement)) return fixture_crlb(sc, ident, full, options);
+  if (is_fixture(sc.measurement) || sc.actual.tree()) return stacked_crlb(sc, ident, full, options);
   std::vector<int> slots;
   std::vector<std::string> names;
   for (const ParameterEstimate& e : full.kinematics.parameters) {
@@ -133,6 +134,12 @@ Log simulated_log(const Scenario& sc, const SimulationNoise& noise, const Device
                               noise.sigma_position, seed);
   }
   return simulate_measurement_log(model, sc.measurement, poses, readings, noise, seed);
+}
+
+// What calibrate and the bounds take of a scenario's log: a tree's as one
+// sample a tip (tip_samples), a chain's as it is.
+Log samples(const Scenario& sc, const Log& log) {
+  return sc.nominal.tree() ? tip_samples(sc.nominal, log) : log;
 }
 
 }  // namespace
@@ -223,7 +230,7 @@ std::vector<int> identifiable_slots(const DeviceModel& nominal, const Scenario& 
   exact.sigma_ext = exact.sigma_distance = exact.sigma_position = exact.sigma_orientation = 0;
   CalibrationOptions options;
   options.fix = fix;
-  const Log log = simulated_log(sc, exact, nominal, kPoses, {}, kSeed);
+  const Log log = samples(sc, simulated_log(sc, exact, nominal, kPoses, {}, kSeed));
   if (traits(type).label_points && known) options.point_distances = socket_distances(sockets);
   KinematicProblem problem = kinematic_problem(nominal, log, {}, options);
   const std::vector<int> candidates = candidate_slots(nominal, fix, {});
@@ -284,11 +291,9 @@ Scenario default_scenario(const std::string& device_path, const std::string& tip
   sc.device_path = device_path;
   sc.tip = tip;
   sc.root = root;
-  sc.nominal = load_model(device_path, tip, root);
-  if (sc.nominal.tree())
-    throw InputError(device_path, 0, "",
-                     "a tree of several tips: simulate studies one chain (calibrate, evaluate and "
-                     "plan take the tree)");
+  sc.nominal = load_model_or_tree(device_path, tip, root);
+  // A tree is measured by one point a tip (simulate_measurement_log).
+  if (sc.nominal.tree()) sc.measurement = MeasurementType::kPosition;
   sc.paper_device = is_paper_device(sc.nominal);
   sc.noise.sigma_orientation = kDefaultSigmaR;  // a pose's, if one is measured
   if (sc.paper_device) {
@@ -311,6 +316,58 @@ std::uint64_t trial_seed(std::uint64_t study_seed, int trial) {
   return z ^ (z >> 31);
 }
 
+namespace {
+
+// Fig. 10: the continuous motion of the first trial (its files in `out`), and
+// the series for the figures.
+void trajectory_figure(const Scenario& sc, std::uint64_t seed, const std::string& out,
+                       TrialResult& t) {
+  Log traj = simulate_trajectory(sc.actual, sc.trajectory_seconds, sc.trajectory_rate_hz, sc.noise,
+                                 trial_seed(seed, 2));
+  write_file_atomically(out + "/trajectory.csv", log_to_csv(traj));
+  traj = read_log(out + "/trajectory.csv");
+  const Evaluation eb = evaluate(sc.nominal, traj), ef = evaluate(t.full.calibrated, traj),
+                   ek = evaluate(t.kinematic_only.calibrated, traj);
+  t.trajectory_rms_before = eb.distance->rms;
+  t.trajectory_rms_full = ef.distance->rms;
+  t.trajectory_rms_kinematic = ek.distance->rms;
+  std::string fig10 = "t,distance,error_nominal,error_full,error_kinematic_only\n";
+  t.figures.fig10.assign(5, {});
+  const int step = std::max(1, static_cast<int>(sc.trajectory_rate_hz / 100));  // 100 Hz
+  for (int r = 0; r < traj.rows; r += step) {
+    const double row[] = {traj.t[r], traj.distance[r], eb.distance_error[r], ef.distance_error[r],
+                          ek.distance_error[r]};
+    fig10 += fmt::format("{},{},{},{},{}\n", row[0], row[1], row[2], row[3], row[4]);
+    for (int c = 0; c < 5; ++c) t.figures.fig10[c].push_back(row[c]);
+  }
+  write_file_atomically(out + "/fig10_trajectory.csv", fig10);
+}
+
+// Fig. 7: each polynomial transmission's error: measured (ext - q - c),
+// identified, true.
+void transmission_error_figures(const Scenario& sc, const Log& ident, const std::string& out,
+                                TrialResult& t) {
+  for (const TransmissionFit& f : t.full.transmissions) {
+    if (f.kind != TransmissionKind::kPolynomial) continue;
+    const Transmission& fitted = t.full.calibrated.links[f.joint].transmission;
+    const Transmission& real = sc.actual.links[f.joint].transmission;
+    std::string fig7 = "q,measured,identified,truth\n";
+    auto& series = t.figures.fig7[t.full.calibrated.links[f.joint].name];
+    series.assign(4, {});
+    for (int r = 0; r < ident.rows; ++r) {
+      const double q = ident.q(r, f.joint);
+      const double row[] = {q, ident.ext(r, f.joint) - q - f.offset, fitted.error(q),
+                            real.error(q)};
+      fig7 += fmt::format("{},{},{},{}\n", row[0], row[1], row[2], row[3]);
+      for (int c = 0; c < 4; ++c) series[c].push_back(row[c]);
+    }
+    write_file_atomically(out + fmt::format("/fig7_{}.csv", t.full.calibrated.links[f.joint].name),
+                          fig7);
+  }
+}
+
+}  // namespace
+
 TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string& out) {
   TrialResult t;
   t.seed = seed;
@@ -318,7 +375,11 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
                             sc.identification_readings, trial_seed(seed, 0));
   SimulationNoise exact = sc.noise;
   exact.sigma_position = 0;  // a perfect tracker: validation scores against the truth
-  Log val = simulate_log(sc.actual, sc.validation_poses, exact, trial_seed(seed, 1), true, true);
+  const bool tree = sc.actual.tree();
+  Log val =
+      tree ? simulate_measurement_log(sc.actual, MeasurementType::kPosition, sc.validation_poses,
+                                      {}, exact, trial_seed(seed, 1))
+           : simulate_log(sc.actual, sc.validation_poses, exact, trial_seed(seed, 1), true, true);
   const bool files = !out.empty();
   if (files) {
     // The honest pipeline: what calibration sees comes from the files a real
@@ -341,18 +402,21 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
   options.instrument_zero = false;
   if (traits(sc.measurement).label_points && sc.socket_distances_known)
     options.point_distances = socket_distances(sc.sockets);
-  t.full = calibrate(sc.nominal, ident, options);
+  const Log fit_log = samples(sc, ident);
+  const Log check_log = samples(sc, val);  // a tree's: one sample a tip, each with its tip
+  t.full = calibrate(sc.nominal, fit_log, options);
   CalibrationOptions kin = options;
   kin.transmissions = false;
-  t.kinematic_only = calibrate(sc.nominal, ident, kin);
+  t.kinematic_only = calibrate(sc.nominal, fit_log, kin);
 
   // Fig. 8: validation poses against the truth.
   const PreparedModel truth(sc.actual), before(sc.nominal), after(t.full.calibrated);
   std::vector<double> position_before, position_after, orientation_before, orientation_after;
-  for (int r = 0; r < val.rows; ++r) {
-    const Eigen::VectorXd q = readings(val, r);
-    const Frame<double> Ta = truth.forward(q.data()), Tb = before.forward(q.data()),
-                        Tc = after.forward(q.data());
+  for (int r = 0; r < check_log.rows; ++r) {
+    const Eigen::VectorXd q = readings(check_log, r);
+    const int tip = check_log.tip.empty() ? 0 : check_log.tip[static_cast<size_t>(r)];
+    const Frame<double> Ta = truth.forward(q.data(), tip), Tb = before.forward(q.data(), tip),
+                        Tc = after.forward(q.data(), tip);
     position_before.push_back((Tb.p - Ta.p).norm());
     position_after.push_back((Tc.p - Ta.p).norm());
     orientation_before.push_back(rotation_angle(Ta.R.transpose() * Tb.R));
@@ -362,36 +426,18 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
   t.position_rms_after = rms_of_values(position_after);
   t.orientation_rms_before = rms_of_values(orientation_before);
   t.orientation_rms_after = rms_of_values(orientation_after);
-  t.distance_rms_before = distance_rms(sc.nominal, val);
-  t.distance_rms_after = distance_rms(t.full.calibrated, val);
-  t.crlb_variance = crlb(sc, ident, t.full, options);
+  constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+  t.distance_rms_before = tree ? kNone : distance_rms(sc.nominal, val);
+  t.distance_rms_after = tree ? kNone : distance_rms(t.full.calibrated, val);
+  t.crlb_variance = crlb(sc, fit_log, t.full, options);
   if (sc.iso9283) t.iso = simulate_iso_test(sc, ident, t.full, trial_seed(seed, 3));
+  if (tree) {  // no trajectory: a cable encoder measures one tool point
+    t.trajectory_rms_before = t.trajectory_rms_full = t.trajectory_rms_kinematic = kNone;
+  }
   if (!files) return t;
-
-  // Fig. 10: the continuous motion, and the series for the figures.
-  Log traj = simulate_trajectory(sc.actual, sc.trajectory_seconds, sc.trajectory_rate_hz, sc.noise,
-                                 trial_seed(seed, 2));
-  write_file_atomically(out + "/trajectory.csv", log_to_csv(traj));
-  traj = read_log(out + "/trajectory.csv");
-  const Evaluation eb = evaluate(sc.nominal, traj), ef = evaluate(t.full.calibrated, traj),
-                   ek = evaluate(t.kinematic_only.calibrated, traj);
-  t.trajectory_rms_before = eb.distance->rms;
-  t.trajectory_rms_full = ef.distance->rms;
-  t.trajectory_rms_kinematic = ek.distance->rms;
   save_device(t.full.calibrated, out + "/calibrated.yaml");
   save_device(t.kinematic_only.calibrated, out + "/calibrated-kinematic-only.yaml");
-
   t.figures.identification = ident;
-  std::string fig10 = "t,distance,error_nominal,error_full,error_kinematic_only\n";
-  t.figures.fig10.assign(5, {});
-  const int step = std::max(1, static_cast<int>(sc.trajectory_rate_hz / 100));  // 100 Hz
-  for (int r = 0; r < traj.rows; r += step) {
-    const double row[] = {traj.t[r], traj.distance[r], eb.distance_error[r], ef.distance_error[r],
-                          ek.distance_error[r]};
-    fig10 += fmt::format("{},{},{},{},{}\n", row[0], row[1], row[2], row[3], row[4]);
-    for (int c = 0; c < 5; ++c) t.figures.fig10[c].push_back(row[c]);
-  }
-  write_file_atomically(out + "/fig10_trajectory.csv", fig10);
   std::string fig8 = "pose,position_before,position_after,orientation_before,orientation_after\n";
   t.figures.fig8.assign(5, {});
   for (size_t r = 0; r < position_before.size(); ++r) {
@@ -401,24 +447,9 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
     for (int c = 0; c < 5; ++c) t.figures.fig8[c].push_back(row[c]);
   }
   write_file_atomically(out + "/fig8_validation.csv", fig8);
-  // Fig. 7: joint 4's transmission error: measured (ext - q - c), identified, true.
-  for (const TransmissionFit& f : t.full.transmissions) {
-    if (f.kind != TransmissionKind::kPolynomial) continue;
-    const Transmission& fitted = t.full.calibrated.links[f.joint].transmission;
-    const Transmission& real = sc.actual.links[f.joint].transmission;
-    std::string fig7 = "q,measured,identified,truth\n";
-    auto& series = t.figures.fig7[t.full.calibrated.links[f.joint].name];
-    series.assign(4, {});
-    for (int r = 0; r < ident.rows; ++r) {
-      const double q = ident.q(r, f.joint);
-      const double row[] = {q, ident.ext(r, f.joint) - q - f.offset, fitted.error(q),
-                            real.error(q)};
-      fig7 += fmt::format("{},{},{},{}\n", row[0], row[1], row[2], row[3]);
-      for (int c = 0; c < 4; ++c) series[c].push_back(row[c]);
-    }
-    write_file_atomically(out + fmt::format("/fig7_{}.csv", t.full.calibrated.links[f.joint].name),
-                          fig7);
-  }
+
+  if (!tree) trajectory_figure(sc, seed, out, t);  // Fig. 10
+  transmission_error_figures(sc, ident, out, t);   // Fig. 7
   return t;
 }
 

@@ -61,6 +61,13 @@ DeviceTree parse_tree(const std::string& text, const std::string& origin,
 DeviceTree load_tree(const std::string& path, const std::vector<std::string>& tips,
                      const std::string& root = "");
 
+// The tips of a --tip value: its comma-separated names (one: a chain).
+std::vector<std::string> tip_names(const std::string& tip);
+// The model of `path` with a --tip value: several tips, the URDF's tree
+// (tree_model of load_tree); else load_model's (a device file may hold a tree).
+DeviceModel load_model_or_tree(const std::string& path, const std::string& tip,
+                               const std::string& root = "");
+
 // The tree as one model (DeviceModel::tree): its links the tree's joints in
 // order (a log's q1..qN), each with its parent on the path from the root, the
 // first chain's tip and tool, and the other chains' as branches. Tip k's

@@ -64,7 +64,5 @@ struct CalibrateJob {
 // same procedure and writers; its set holds calibrated.urdf, no device file.
 // Throws InputError for bad input (a tree: a model that is not a URDF).
 CalibrateJob run_calibrate_job(const CalibrateRequest& request);
-// The tips of a --tip value: its comma-separated names (one: a chain).
-std::vector<std::string> tip_names(const std::string& tip);
 
 }  // namespace hapticcal

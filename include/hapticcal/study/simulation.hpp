@@ -46,7 +46,9 @@ Log simulate_log_at(const DeviceModel& actual, const Eigen::MatrixXd& readings,
 // readings within the limits, as simulate_log): a distance (noise
 // sigma_distance), a position (sigma_position per coordinate) or a pose (the
 // position, and the orientation turned by a random rotation vector of
-// sigma_orientation per axis). The extension point of the measurement family:
+// sigma_orientation per axis). A tree's position is every tip's point
+// with that noise, one marker a tip (x1 .. z<tips>; tip_samples turns it into
+// one sample a tip). The extension point of the measurement family:
 // a new MeasurementType fills its columns here (simulated_measurement in
 // simulation.cpp). For kDistance the same log as simulate_log(_at).
 Log simulate_measurement_log(const DeviceModel& actual, MeasurementType type, int poses,
@@ -92,7 +94,10 @@ Log simulate_plane_log(const DeviceModel& actual, const std::vector<SimulatedPla
 std::vector<SimulatedPlane> default_planes(const DeviceModel& model);
 
 // Two sockets 50 mm apart where a fixture would stand: the tool point of
-// `model` at readings 45 % into each joint's range, and 50 mm along x from it.
+// `model` at readings 45 % into each joint's range, and 50 mm from it along
+// the first of +x, -x, +y, -y, +z, -z of the base frame that the tool reaches
+// from those readings within the limits (+x where none does: simulate then
+// says the socket cannot be reached).
 std::vector<std::pair<std::string, Eigen::Vector3d>> default_sockets(const DeviceModel& model);
 
 // The experiment analogue of paper Fig. 10: a continuous random motion of
