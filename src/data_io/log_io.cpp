@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "data_io/log_columns.hpp"
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/data_io/log.hpp"
@@ -153,7 +154,7 @@ Table read_table(const std::string& text, const std::string& origin,
     if (eol == std::string::npos) eol = text.size();
     const std::string line = trim(text.substr(pos, eol - pos));
     pos = eol + 1;
-    ++line_no;
+    if ((++line_no & 4095) == 0) throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp)
     if (line.empty() || line[0] == '#') continue;
     // Fields are counted before they are split: a line of commas costs no memory.
     const size_t field_count = static_cast<size_t>(std::count(line.begin(), line.end(), ',')) + 1;
@@ -396,6 +397,7 @@ std::string log_to_csv(const Log& log) {
   out += '\n';
   fmt::memory_buffer row;
   for (int r = 0; r < log.rows; ++r) {
+    if ((r & 4095) == 4095) throw_if_cancelled();
     row.clear();
     auto put = [&](double v) {
       fmt::format_to(std::back_inserter(row), "{}{}", row.size() ? "," : "", v);

@@ -11,13 +11,11 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <exception>
 #include <limits>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <numeric>
 #include <set>
 #include <thread>
@@ -25,6 +23,7 @@
 
 #include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/core/parallel.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "identification/calibration_run.hpp"
 #include "identification/held_out.hpp"
@@ -198,23 +197,7 @@ void Search::round(const std::vector<std::vector<std::string>>& sets, bool named
                            ? static_cast<size_t>(base_.options.threads)
                            : std::max(1u, std::thread::hardware_concurrency());
   const size_t threads = std::min<size_t>(sets.size(), bytes > kParallelBytes ? 1 : cores);
-  std::atomic<size_t> next{0};
-  std::vector<std::thread> pool;
-  std::exception_ptr failure;
-  std::mutex failure_mutex;
-  for (size_t t = 1; t < threads; ++t) {
-    pool.emplace_back([&] {
-      try {
-        for (size_t i; (i = next++) < sets.size();) work(i);
-      } catch (...) {
-        const std::lock_guard<std::mutex> lock(failure_mutex);
-        failure = std::current_exception();
-      }
-    });
-  }
-  for (size_t i; (i = next++) < sets.size();) work(i);
-  for (std::thread& t : pool) t.join();
-  if (failure) std::rethrow_exception(failure);
+  parallel_for(sets.size(), threads, work);
   for (size_t i = 0; i < sets.size(); ++i) {
     if (!notes[i].empty()) notes_.push_back(notes[i]);
     fits_.push_back(std::move(fits[i]));

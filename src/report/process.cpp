@@ -11,6 +11,7 @@
 #include <cstring>
 
 #include "core/interrupt.hpp"
+#include "hapticcal/core/cancel.hpp"
 
 extern char** environ;
 
@@ -81,13 +82,25 @@ ProcessStatus run_program(const std::vector<std::string>& argv, const std::strin
   posix_spawnattr_destroy(&attr);
   if (pid < 0) return failed(program, "", err != 0 ? err : EINTR);
 
+  // Waited for in steps of 5 ms, so that a cancelled run (Python's Ctrl-C,
+  // core/cancel.hpp) stops the program and unwinds at once.
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) {
+  for (;;) {
+    const pid_t done = ::waitpid(pid, &status, WNOHANG);
+    if (done == pid) break;
+    if (done < 0 && errno != EINTR) {
       const int wait_err = errno;
       untrack_child(pid);
       return failed(program, "waiting: ", wait_err);
     }
+    if (cancel_requested()) {
+      ::kill(pid, SIGKILL);
+      while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+      }
+      untrack_child(pid);
+      throw Cancelled();
+    }
+    ::usleep(5000);
   }
   untrack_child(pid);
   ProcessStatus s;

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <limits>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/files.hpp"
 #include "report/process.hpp"
 
@@ -260,6 +261,7 @@ int write_report(const Report& report, const std::string& dir, std::string& note
   } else if (!report.figures.empty()) {
     const fs::path fig_dir = fs::path(dir) / "figures";
     for (const FigureSpec& f : report.figures) {
+      throw_if_cancelled();  // Python's Ctrl-C between figures (core/cancel.hpp)
       const std::string data = f.name + ".csv", gp = f.name + ".gp";
       const fs::path svg = fig_dir / (f.name + ".svg"), png = fig_dir / (f.name + ".png");
       const fs::path log = fig_dir / (gp + ".log");

@@ -10,6 +10,7 @@
 #include <optional>
 #include <random>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
@@ -388,6 +389,7 @@ Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_h
   const std::vector<double> ratio = drive_ratios(actual);
   Eigen::VectorXd q(n);
   for (int r = 0; r < rows; ++r) {
+    if ((r & 4095) == 4095) throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp)
     const double t = r / rate_hz;
     const double u = std::clamp((std::min(t, seconds - t) - rest) / rest, 0.0, 1.0);
     const double envelope = u * u * (3 - 2 * u);

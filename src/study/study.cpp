@@ -11,11 +11,12 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <random>
-#include <thread>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/core/option_ranges.hpp"
+#include "hapticcal/core/parallel.hpp"
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/information.hpp"
 #include "hapticcal/identification/tree.hpp"
@@ -369,6 +370,7 @@ void transmission_error_figures(const Scenario& sc, const Log& ident, const std:
 }  // namespace
 
 TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string& out) {
+  throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp); its solvers look too
   TrialResult t;
   t.seed = seed;
   Log ident = simulated_log(sc, sc.noise, sc.actual, sc.identification_poses,
@@ -515,33 +517,23 @@ StudyResult run_study(const Scenario& sc, const std::string& out, int threads,
   detail::check_simulated_limits(sc);
   const int n = sc.trials;
   std::vector<TrialResult> trials(n);
-  std::atomic<int> next{0}, done{0};
+  std::atomic<int> done{0};
   std::mutex report;
-  std::exception_ptr failure;
-  auto worker = [&] {
-    for (int k = next++; k < n; k = next++) {
-      try {
-        trials[k] = run_trial(sc, trial_seed(sc.seed, k), k == 0 ? out : "");
-      } catch (const InputError& e) {
-        const std::lock_guard<std::mutex> lock(report);
-        if (!failure) failure = std::make_exception_ptr(study_failure(sc, k, e));
-      } catch (...) {
-        const std::lock_guard<std::mutex> lock(report);
-        if (!failure) failure = std::current_exception();
-      }
-      const int finished = ++done;
-      if (progress) {
-        const std::lock_guard<std::mutex> lock(report);
-        progress(finished, n);
-      }
-    }
-  };
+  // A trial's bad input names the trial; the first failure stops the study.
   threads = std::max(1, std::min(threads, n));
-  std::vector<std::thread> pool;
-  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
-  worker();
-  for (std::thread& th : pool) th.join();
-  if (failure) std::rethrow_exception(failure);
+  parallel_for(static_cast<size_t>(n), static_cast<size_t>(threads), [&](size_t k) {
+    const int trial = static_cast<int>(k);
+    try {
+      trials[k] = run_trial(sc, trial_seed(sc.seed, trial), k == 0 ? out : "");
+    } catch (const InputError& e) {
+      throw study_failure(sc, trial, e);
+    }
+    const int finished = ++done;
+    if (progress) {
+      const std::lock_guard<std::mutex> lock(report);
+      progress(finished, n);
+    }
+  });
 
   StudyResult result;
   result.trials = n;

@@ -1,0 +1,94 @@
+"""Ctrl-C at random moments of the module's long calls, each in a process of its own (an
+abort must not take pytest with it): the call ends in KeyboardInterrupt within a second of
+the signal, never in an abort, and the output folder keeps the previous set, with no
+staging folder left beside it.
+
+Run by ctest (python_test) with PYTHONPATH=<build>/python and HAPTICCAL_SOURCE the source
+tree; by hand:
+    PYTHONPATH=build/python python3 -m pytest -q python/tests/test_interrupt.py
+"""
+
+import os
+import pathlib
+import random
+import signal
+import subprocess
+import sys
+import time
+
+import hapticcal
+
+SOURCE = pathlib.Path(os.environ.get("HAPTICCAL_SOURCE", pathlib.Path(__file__).parents[2]))
+MECA = str(SOURCE / "examples" / "meca500" / "meca500.yaml")
+CAL_LOG = str(SOURCE / "examples" / "meca500" / "cal-norm_dist_data_0deg_160cube.csv")
+
+# The child: says when the call starts, and when KeyboardInterrupt reached it (the
+# system-wide monotonic clock, the parent's too).
+CHILD = """
+import sys, time
+import hapticcal
+print("ready", flush=True)
+try:
+    {call}
+except KeyboardInterrupt:
+    print("interrupted", time.monotonic(), flush=True)
+    sys.exit(130)
+print("finished", flush=True)
+"""
+
+TRIALS = 20
+
+
+def files_of(folder):
+    return {p.name: p.read_bytes() for p in sorted(pathlib.Path(folder).iterdir()) if p.is_file()}
+
+
+def interrupt_at_random(call, out, delays, seed):
+    """TRIALS runs of `call` (Python text writing to `out`), each sent SIGINT after a delay
+    drawn from `delays` once it has started. Returns the delays from the signal to
+    KeyboardInterrupt of the runs it interrupted."""
+    rng = random.Random(seed)
+    env = dict(os.environ)
+    latencies = []
+    for trial in range(TRIALS):
+        before = files_of(out)
+        child = subprocess.Popen([sys.executable, "-c", CHILD.format(call=call)], env=env,
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        assert child.stdout.readline().strip() == "ready", child.stderr.read()
+        time.sleep(rng.uniform(*delays))
+        sent = time.monotonic()
+        child.send_signal(signal.SIGINT)
+        stdout, stderr = child.communicate(timeout=60)
+        what = f"trial {trial} (seed {seed}): exit {child.returncode}\n{stdout}{stderr[-2000:]}"
+        assert child.returncode in (0, 130), what  # never an abort (134, -6)
+        assert "terminate called" not in stderr, what
+        staging = [p.name for p in pathlib.Path(out).parent.iterdir() if ".tmp-" in p.name]
+        assert staging == [], what
+        if child.returncode == 130:
+            latencies.append(float(stdout.split()[-1]) - sent)
+            assert files_of(out) == before, what  # the previous set, untouched
+    return latencies
+
+
+def check(latencies, name):
+    # Most signals land inside the call (the delays are drawn within its usual length).
+    assert len(latencies) >= TRIALS // 2, f"{name}: {len(latencies)} of {TRIALS} interrupted"
+    assert max(latencies) < 1.0, f"{name}: {max(latencies):.2f} s after the signal"
+    print(f"{name}: {len(latencies)} of {TRIALS} interrupted, "
+          f"KeyboardInterrupt {1e3 * max(latencies):.0f} ms after the signal at most")
+
+
+def test_ctrl_c_during_a_parallel_model_search(tmp_path):
+    """calibrate's model search on two threads (its rounds run candidates in parallel)."""
+    out = tmp_path / "cal"
+    assert hapticcal.calibrate(MECA, CAL_LOG, threads=2, out=str(out)).usable
+    call = f"hapticcal.calibrate({MECA!r}, {CAL_LOG!r}, threads=2, out={str(out)!r})"
+    check(interrupt_at_random(call, out, (0.0, 0.35), seed=58), "calibrate")
+
+
+def test_ctrl_c_during_a_parallel_study(tmp_path):
+    """simulate's trials on two threads, each calibrating with the model search."""
+    out = tmp_path / "sim"
+    hapticcal.simulate(trials=2, threads=2, out=str(out))
+    call = f"hapticcal.simulate(trials=40, threads=2, out={str(out)!r})"
+    check(interrupt_at_random(call, out, (0.05, 1.5), seed=59), "simulate")
