@@ -685,7 +685,8 @@ CalibrationResult calibrate(const DeviceModel& nominal, const Log& log,
   // The poses, and step 1: transmissions from the external encoders.
   detail::step_one(run);
   if (step_one_only) return conclude_step_one(run);
-  if (options.search) return detail::search_model(run);
+  if (options.search)
+    return detail::without_held_out_outliers(nominal, log, options, detail::search_model(run));
   // Step 2: kinematic parameters from the compensated readings.
   prepare_model(run);
   detail::apply_estimator(run, options.keep_all ? Estimator::kLeastSquares

@@ -89,6 +89,12 @@ CalibrationResult conclude_model(CalibrationRun& run);
 // The model search (model_search.cpp, docs/calibrate.md, "The model search"): the candidate
 // models compared on held-out poses, the one kept concluded.
 CalibrationResult search_model(CalibrationRun& run);
+// A small log's poses whose held-out error stood out in the search
+// (ModelSearch::outliers): the calibration of `log` again without them, they
+// named (robust.cpp).
+CalibrationResult without_held_out_outliers(const DeviceModel& nominal, const Log& log,
+                                            const CalibrationOptions& options,
+                                            CalibrationResult result);
 // The RMS [m] of the nominal model on the run's poses with `free` slots (the
 // set-up's: base, tool, an instrument's zero) fitted by Levenberg-Marquardt
 // (input_checks.cpp), and the fitted parameter vector.

@@ -271,11 +271,13 @@ void Search::choose() {
     return e.candidate.allowed && e.candidate.usable && std::isfinite(e.mse);
   };
   for (Entry& e : entries_) {
-    // Worse than the nominal (both held out) beyond the standard error of the
-    // difference (and a nanometre, for exact data) is unusable.
+    // A held-out error not below the nominal's by the standard error of
+    // their difference (paired over the same held-out poses; a nanometre for
+    // exact data) is unusable: a calibration must predict better than none,
+    // and be seen to on these poses.
     e.candidate.usable =
         !std::isfinite(nominal_.mse) || !std::isfinite(e.mse) ||
-        e.mse - nominal_.mse <= difference_se(e, nominal_, rows) + kExactFloor * kExactFloor;
+        e.mse + difference_se(e, nominal_, rows) <= nominal_.mse + kExactFloor * kExactFloor;
   }
   out_.best = out_.kept = -1;
   for (int i = 0; i < static_cast<int>(entries_.size()); ++i) {
@@ -318,6 +320,7 @@ CalibrationResult Search::run() {
   out_.repeats = plan_.repeats;
   out_.seed = plan_.seed;
   out_.units = units;
+  out_.measured_rows = geometry.system.measuring.sum();
   out_.unit = is_fixture(geometry.run->problem.type) ? "fixture group" : "pose";
   if (note.empty() && (o.folds < 2 || units < kMinUnits)) {
     notes_.push_back(o.folds < 2 ? std::string("--folds 0: no held-out poses")
@@ -435,6 +438,7 @@ CalibrationResult Search::conclude() {
     }
     out_.best = pick;
   }
+  if (pick >= 0 && fits_.front().run) held_out_outliers(entries_[pick]);
   Estimator estimator = space_.estimators.front();
   int family_fit = 0;
   bool zero = !space_.zero.empty() && space_.zero.front();

@@ -75,6 +75,9 @@ void release(FamilyFit& f);
 // The fewest units (poses, fixture groups) the search compares on: with two,
 // each fold's fit rests on the other alone.
 constexpr int kMinUnits = 3;
+// The held-out outlier test's floor, in the poses' robust scales: a held-out
+// error holds the model's own error beside the noise, with heavier tails.
+constexpr double kHeldOutFloor = 2.3;
 // Held-out errors this close [m] are equal (exact, noise-free data).
 constexpr double kExactFloor = 1e-9;
 constexpr double kFreeColumn = std::numeric_limits<double>::infinity();
@@ -104,6 +107,9 @@ class Search {
   // Whether the geometry's least-squares fit supports an instrument's zero;
   // if not, the zero is held in every candidate.
   void test_zero(const FamilyFit& geometry);
+  // On a log too small for the fit's own outlier test: the poses whose held-out
+  // error under `kept` stands out (ModelSearch::outliers).
+  void held_out_outliers(const Entry& kept);
   // Step 1's own held-out check on the kept model's families: their least
   // squares with step 1's transmissions against the same without them (the
   // nominal's).

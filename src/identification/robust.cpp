@@ -1,7 +1,8 @@
 // Outliers and suspect fits (docs/outliers.md): a per-pose
 // test of step 2's residuals against the noise the fit itself estimates, the
-// robust reweighting of the poses it flags, and the checks that call a
-// converged fit suspect.
+// robust reweighting of the poses it flags, the refit of a small log without
+// the poses its held-out errors name, and the checks that call a converged fit
+// suspect.
 #include <fmt/format.h>
 
 #include <Eigen/Core>
@@ -12,7 +13,9 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/stream.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "identification/calibration_run.hpp"
 #include "identification/stack.hpp"
 
 namespace hapticcal {
@@ -255,5 +258,75 @@ SuspectFit check_suspect(const KinematicFit& fit, const KinematicProblem& proble
   out.suspect = !out.reasons.empty();
   return out;
 }
+
+namespace detail {
+
+// The rows of `rows` in all (ascending) that are not in `left_out`.
+std::vector<int> kept_rows(int rows, const std::vector<int>& left_out) {
+  std::vector<int> out;
+  for (int r = 0; r < rows; ++r) {
+    if (!std::binary_search(left_out.begin(), left_out.end(), r)) out.push_back(r);
+  }
+  return out;
+}
+
+// A small log's poses whose held-out error stood out (ModelSearch::outliers):
+// the calibration again without them (at most held_out_outlier_rounds times),
+// they named (weight 0); unusable (kImplausible) if too few poses are left.
+CalibrationResult without_held_out_outliers(const DeviceModel& nominal, const Log& log,
+                                            const CalibrationOptions& options,
+                                            CalibrationResult result) {
+  const ModelSearch& search = result.kinematics.search;
+  if (search.outliers.empty() || options.held_out_outlier_rounds <= 0) return result;
+  std::vector<int> rows;
+  std::vector<OutlierPose> named;
+  for (const ModelSearch::HeldOutOutlier& o : search.outliers) {
+    rows.insert(rows.end(), o.rows.begin(), o.rows.end());
+    OutlierPose pose;
+    pose.pose = -1;  // not among the poses fitted
+    for (int r : o.rows) pose.lines.push_back(log.line[static_cast<size_t>(r)]);
+    pose.residual = o.error;
+    pose.statistic = o.statistic;
+    pose.weight = 0;
+    named.push_back(std::move(pose));
+  }
+  std::sort(rows.begin(), rows.end());
+  std::string lines;
+  for (const OutlierPose& p : named) {
+    for (int line : p.lines) lines += (lines.empty() ? "" : ", ") + std::to_string(line);
+  }
+  const std::string note = fmt::format(
+      "outliers on few poses: log line{} {} held out predicted beyond {:.1f} robust scales of "
+      "the poses' held-out errors (a pose held out cannot hide in the fit): calibrated again "
+      "without {}",
+      rows.size() == 1 ? "" : "s", lines, search.outlier_threshold,
+      named.size() == 1 ? "it" : "them");
+  CalibrationOptions once = options;
+  --once.held_out_outlier_rounds;
+  CalibrationResult again;
+  try {
+    again = calibrate(nominal, without_rows(log, rows), once);
+  } catch (const InputError& e) {
+    result.status = CalibrationStatus::kImplausible;
+    result.status_reason = note + "; too few poses are left: " + e.message();
+    return result;
+  }
+  RobustFit& robust = again.kinematics.robust;
+  robust.outliers.insert(robust.outliers.begin(), named.begin(), named.end());
+  if (robust.threshold == 0) robust.threshold = search.outlier_threshold;
+  // The rows as the caller's log numbers them (a later round's are of fewer).
+  std::vector<ModelSearch::HeldOutOutlier> all = search.outliers;
+  const std::vector<int> kept = kept_rows(log.rows, rows);
+  for (ModelSearch::HeldOutOutlier& o : again.kinematics.search.outliers) {
+    for (int& r : o.rows) r = kept[static_cast<size_t>(r)];
+    all.push_back(o);
+  }
+  again.kinematics.search.outliers = all;
+  again.kinematics.search.outlier_threshold = search.outlier_threshold;
+  again.notes.insert(again.notes.begin(), note);
+  return again;
+}
+
+}  // namespace detail
 
 }  // namespace hapticcal

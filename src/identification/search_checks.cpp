@@ -132,4 +132,54 @@ double difference_se(const Entry& a, const Entry& b, double rows) {
   return std::sqrt(units * (d - d.mean()).square().sum() / std::max(units - 1, 1.0)) / rows;
 }
 
+// A pose held out cannot hide in the fit: where the poses are too few for the
+// fit's own outlier test (robust.cpp: fewer residual freedoms than parameters),
+// each pose's held-out RMS component under the kept candidate is compared with
+// the poses' robust scale, the median component over the normal's median
+// (sqrt(chi^2_d(1/2) / d)). Beyond the Bonferroni quantile over the poses, and
+// at least kHeldOutFloor scales, a pose is named.
+void Search::held_out_outliers(const Entry& kept) {
+  const CalibrationRun& run = *fits_.front().run;
+  const KinematicProblem& problem = run.problem;
+  if (out_.unit != "pose" || kept.unit_error.size() == 0) return;  // a fixture: groups
+  const std::vector<int> unit = pose_units(problem);
+  const Eigen::Index units = kept.unit_error.size();
+  // Measured rows a sample (a tree's tips are a pose's samples).
+  const double d = out_.measured_rows / static_cast<double>(problem.joints.size());
+  // Where the fit's own test ran, only on few poses (fewer than three measured
+  // rows a parameter): there it has the freedoms, but a pose still pulls the
+  // fit towards itself.
+  const bool few = out_.measured_rows < 3.0 * static_cast<double>(run.identified.size());
+  if (run.fit().robust.tested && !(few && run.fit().robust.outliers.empty())) return;
+  std::vector<double> rows_of(static_cast<size_t>(units), 0), component(rows_of.size());
+  for (int u : unit) rows_of[static_cast<size_t>(u)] += d;
+  for (Eigen::Index u = 0; u < units; ++u) {
+    const size_t k = static_cast<size_t>(u);
+    component[k] = std::sqrt(kept.unit_error[u] / std::max(rows_of[k], 1.0));
+  }
+  std::vector<double> sorted = component;
+  std::nth_element(sorted.begin(), sorted.begin() + units / 2, sorted.end());
+  const double scale =
+      sorted[static_cast<size_t>(units / 2)] / std::sqrt(chi_square_quantile(0.5, d) / d);
+  if (!(scale > 0)) return;
+  out_.outlier_threshold = std::max(
+      std::sqrt(
+          chi_square_quantile(1 - base_.options.outlier_alpha / static_cast<double>(units), d) / d),
+      kHeldOutFloor);
+  for (Eigen::Index u = 0; u < units; ++u) {
+    const double statistic = component[static_cast<size_t>(u)] / scale;
+    if (!(statistic > out_.outlier_threshold)) continue;
+    ModelSearch::HeldOutOutlier o;
+    o.error = component[static_cast<size_t>(u)];
+    o.statistic = statistic;
+    for (size_t i = 0; i < unit.size(); ++i) {
+      if (unit[i] != u) continue;
+      const std::vector<int>& rows = run.result.poses[i];
+      o.rows.insert(o.rows.end(), rows.begin(), rows.end());
+    }
+    std::sort(o.rows.begin(), o.rows.end());
+    out_.outliers.push_back(std::move(o));
+  }
+}
+
 }  // namespace hapticcal::detail::search

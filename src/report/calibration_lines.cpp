@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "hapticcal/study/study.hpp"
 #include "report/report_parts.hpp"
@@ -24,6 +25,32 @@ std::string kinematic_row(const ParameterEstimate& e, const DeviceModel& nominal
                      e.max_correlation_with) +
          (e.set_by_prior ? fmt::format("  set by the prior (data share {:.2f})", e.data_share)
                          : std::string());
+}
+
+// The held-out RMS (the model search's, with its standard error, warned of
+// where the poses are too few to trust it; or the cross-validation's).
+void held_out_lines(const KinematicFit& k, std::vector<std::string>& out) {
+  if (k.search.ran && std::isfinite(k.cv_rms)) {
+    const SearchCandidate* kept =
+        k.search.kept >= 0 ? &k.search.candidates[static_cast<size_t>(k.search.kept)] : nullptr;
+    const double se = kept ? kept->se : std::numeric_limits<double>::quiet_NaN();
+    out.push_back(fmt::format(
+        "  held-out RMS (the model search's: {} folds x {} shuffles by {}): {:.4f}{} mm",
+        k.search.folds, k.search.repeats, k.search.unit, k.cv_rms * 1e3,
+        std::isfinite(se) ? fmt::format(" +- {:.4f}", se * 1e3) : ""));
+    if (kept && k.search.measured_rows < 3 * kept->parameters) {
+      out.push_back(fmt::format(
+          "  warning: the held-out error rests on {} {}s for {:.1f} parameters: too few to trust "
+          "it closely (+- {:.4f} mm, and held-out poses drawn from so few tend to flatter it); "
+          "measure more poses",
+          k.search.units, k.search.unit, kept->parameters, se * 1e3));
+    }
+  } else if (k.cv_folds > 0 && std::isfinite(k.cv_rms)) {
+    out.push_back(fmt::format("  held-out RMS ({}-fold cross-validation by pose): {:.4f} mm",
+                              k.cv_folds, k.cv_rms * 1e3));
+  } else if (!k.cv_note.empty()) {
+    out.push_back(fmt::format("  held-out RMS (cross-validation): {}", k.cv_note));
+  }
 }
 
 // A warning line a flagged pose, at most kShownOutliers, then how many more.
@@ -179,16 +206,7 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
   out.push_back(fmt::format("  RMS residual: {:.4f} mm before, {:.4f} mm after (training)",
                             k.rms_before * 1e3, k.rms_after * 1e3));
   for (const std::string& line : tip_rms_lines(k, nominal)) out.push_back("    " + line);
-  if (k.search.ran && std::isfinite(k.cv_rms)) {
-    out.push_back(
-        fmt::format("  held-out RMS (the model search's: {} folds x {} shuffles by {}): {:.4f} mm",
-                    k.search.folds, k.search.repeats, k.search.unit, k.cv_rms * 1e3));
-  } else if (k.cv_folds > 0 && std::isfinite(k.cv_rms)) {
-    out.push_back(fmt::format("  held-out RMS ({}-fold cross-validation by pose): {:.4f} mm",
-                              k.cv_folds, k.cv_rms * 1e3));
-  } else if (!k.cv_note.empty()) {
-    out.push_back(fmt::format("  held-out RMS (cross-validation): {}", k.cv_note));
-  }
+  held_out_lines(k, out);
   if (k.model_selection) {
     out.push_back(fmt::format(
         "  model selection: {} of {} identifiable parameters kept (5 % family-wise significance; "

@@ -385,6 +385,10 @@ struct CalibrationOptions {
   // suspect fits"); no pose flagged: plain least squares whatever it is.
   RobustLoss loss = RobustLoss::kCauchy;
   double outlier_alpha = 0.05;  // family-wise level of the outlier test (Bonferroni over poses)
+  // Where the poses are too few for that test, the model search's held-out
+  // errors are tested instead and the calibration fitted again without the
+  // poses named (docs/outliers.md, "Few poses"), at most this many times.
+  int held_out_outlier_rounds = 3;
   // A suspect fit (SuspectFit) is unusable: status kSuspect.
   bool strict = false;
   // A distance log: the instrument's own zero d0 (a cable encoder reads

@@ -50,6 +50,7 @@ struct ModelSearch {
   int folds = 0, repeats = 0;
   std::uint64_t seed = 0;
   int units = 0;              // poses (a fixture: groups of labels) the folds hold out
+  double measured_rows = 0;   // their rows that measure a length (a pose's rotation rows not)
   std::string unit = "pose";  // "pose" or "fixture group"
   std::vector<SearchCandidate> candidates;
   int best = -1;  // lowest held-out error
@@ -63,6 +64,16 @@ struct ModelSearch {
   // with step 1's transmissions and with the model's own (NaN: no step 1).
   double with_step_one_rms = std::numeric_limits<double>::quiet_NaN();
   double without_step_one_rms = std::numeric_limits<double>::quiet_NaN();
+  // Poses (their log rows, 0-based) whose held-out error under the kept
+  // candidate stands out (docs/outliers.md, "Few poses"): looked for where the
+  // fit's own outlier test cannot be made; calibrate fits again without them.
+  struct HeldOutOutlier {
+    std::vector<int> rows;
+    double error = 0;      // its held-out RMS component [m]
+    double statistic = 0;  // that in the units' robust scale
+  };
+  std::vector<HeldOutOutlier> outliers;
+  double outlier_threshold = 0;  // in robust scales
 };
 
 }  // namespace hapticcal
