@@ -10,6 +10,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -256,6 +258,45 @@ TEST(McapTruncated, UnchunkedCutInsideAMessageNamesIt) {
   edited[at + 3] = static_cast<char>(edited[at + 3] ^ 0x40);
   expect_refused("edited-message.mcap", edited, side["data_end_offset"].get<std::uint64_t>(),
                  "data end", "the data section's CRC-32");
+}
+
+// A message record's channel id changed (and the data section's CRC-32 zeroed,
+// as a writer that computes none leaves it): the summary's Statistics record
+// counts another number of messages on the channel, an error naming it.
+TEST(McapCorrupt, AMessageOnAnotherChannelDisagreesWithTheStatistics) {
+  ASSERT_EQ(written().error, "");
+  const std::string bytes = file_bytes(written().dir + "/unchunked.mcap");
+  const json side = side_file(written().dir + "/unchunked.json");
+  Seen seen;
+  rec::read_mcap_bytes(bytes, "clean.mcap", seen);
+  const Seen::Message& m = seen.messages.at(50);
+  ASSERT_EQ(static_cast<unsigned char>(bytes[m.offset]), 0x05) << "a message record";
+  std::uint16_t channel;
+  std::memcpy(&channel, bytes.data() + m.offset + 9, 2);
+  ASSERT_EQ(channel, m.id);
+  std::uint16_t other = 0;
+  for (const auto& [id, c] : seen.channels)
+    if (id != channel) other = static_cast<std::uint16_t>(id);
+  ASSERT_NE(other, channel);
+  const auto on = [&](std::uint32_t id) {
+    return std::count_if(seen.messages.begin(), seen.messages.end(),
+                         [&](const Seen::Message& n) { return n.id == id; });
+  };
+  std::string edited = bytes;
+  std::memcpy(edited.data() + m.offset + 9, &other, 2);
+  const auto data_end = side["data_end_offset"].get<std::size_t>();
+  ASSERT_EQ(edited[data_end], '\x0f');
+  std::memset(edited.data() + data_end + 9, 0, 4);  // data_section_crc: 0, not computed
+  Seen read;
+  const std::string error = error_of([&] { rec::read_mcap_bytes(edited, "edited.mcap", read); });
+  const std::uint16_t first = std::min(channel, other);
+  EXPECT_NE(error.find(fmt::format("statistics: channel {} ({}): {} messages in the data section, "
+                                   "but the statistics count {}",
+                                   first, seen.channels.at(first).topic,
+                                   on(first) + (first == other ? 1 : -1), on(first))),
+            std::string::npos)
+      << error;
+  EXPECT_EQ(error.rfind("edited.mcap: byte ", 0), 0u) << error;
 }
 
 TEST(McapCorrupt, CompressedDataAndCrcAreChecked) {
