@@ -63,6 +63,10 @@ class RecordingVisitor {
   virtual void channel(std::uint32_t id, const Channel& channel) = 0;
   virtual void message(std::uint32_t channel_id, std::int64_t receive_ns, std::string_view data,
                        std::uint64_t offset) = 0;
+  // Whether message() needs the data of this channel's messages: a reader
+  // that must fetch them (a .db3) hands out an empty view for a channel that
+  // does not (a topic only counted, --list).
+  virtual bool wants_data(std::uint32_t /*channel_id*/) const { return true; }
 };
 
 // The file's format by its first bytes: "ROS 1 bag", "MCAP", "rosbag2 sqlite3";
