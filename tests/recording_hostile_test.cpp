@@ -143,8 +143,13 @@ TEST(Decoding, ADefinitionOf100000FieldsParsesAndNamesItsDuplicate) {
   const auto type = recording::MessageType::parse("pkg/Wide", text, Encoding::kRos1, "wide.bag");
   const recording::DecodedMessage m = recording::decode_message(*type, bytes, "wide.bag");
   ASSERT_EQ(m.numbers.size(), 100000u);
-  EXPECT_EQ(*m.number("f99999"), 99999.0);
-  EXPECT_EQ(*m.number("f12345"), 12345.0);
+  int found = 0;  // every field by its name
+  for (int k = 0; k < 100000; ++k) {
+    const double* v = m.number(fmt::format("f{}", k));
+    found += v != nullptr && *v == k;
+  }
+  EXPECT_EQ(found, 100000);
+  EXPECT_EQ(m.number("f100000"), nullptr);
   try {
     recording::MessageType::parse("pkg/Wide", text + "int32 f500\n", Encoding::kRos1, "wide.bag");
     ADD_FAILURE() << "no error";
