@@ -299,6 +299,51 @@ TEST(McapCorrupt, AMessageOnAnotherChannelDisagreesWithTheStatistics) {
   EXPECT_EQ(error.rfind("edited.mcap: byte ", 0), 0u) << error;
 }
 
+// An MCAP file of one schema of `schema_bytes` and `channels` channels naming
+// it, built record by record (https://mcap.dev/spec): each channel is handed a
+// copy of the schema.
+std::string shared_schema_mcap(std::size_t schema_bytes, int channels) {
+  const auto le = [](std::uint64_t v, int n) {
+    std::string out;
+    for (int i = 0; i < n; ++i) out += static_cast<char>((v >> (8 * i)) & 0xFF);
+    return out;
+  };
+  const auto text = [&](const std::string& s) { return le(s.size(), 4) + s; };
+  const auto record = [&](int op, const std::string& content) {
+    return std::string(1, static_cast<char>(op)) + le(content.size(), 8) + content;
+  };
+  const std::string magic("\x89MCAP0\r\n", 8);
+  std::string out = magic + record(0x01, text("") + text(""));
+  out += record(
+      0x03, le(1, 2) + text("pkg/Big") + text("ros1msg") + text(std::string(schema_bytes, '#')));
+  for (int k = 1; k <= channels; ++k)
+    out +=
+        record(0x04, le(k, 2) + le(1, 2) + text(fmt::format("/t{}", k)) + text("ros1") + le(0, 4));
+  out += record(0x0F, le(0, 4));
+  out += record(0x02, le(0, 8) + le(0, 8) + le(0, 4));
+  return out + magic;
+}
+
+// Many channels naming one schema: their copies within the file's size and
+// max_definition_bytes more.
+TEST(McapCorrupt, ChannelsCopyingALargeSchemaAreBounded) {
+  const std::string bytes = shared_schema_mcap(100000, 50);
+  Seen seen;
+  rec::read_mcap_bytes(bytes, "shared.mcap", seen);  // 5 MB of copies: within 64 MiB
+  EXPECT_EQ(seen.channels.size(), 50u);
+  RecordingLimits limits;
+  limits.max_definition_bytes = 1000000;
+  Seen bounded;
+  const std::string error =
+      error_of([&] { rec::read_mcap_bytes(bytes, "shared.mcap", bounded, limits); });
+  EXPECT_NE(error.find("channel: the channels' schemas add up to 1200000 bytes, more than the "
+                       "file's"),
+            std::string::npos)
+      << error;
+  EXPECT_NE(error.find("and 1000000 more (max_definition_bytes)"), std::string::npos) << error;
+  EXPECT_EQ(bounded.channels.size(), 11u);
+}
+
 TEST(McapCorrupt, CompressedDataAndCrcAreChecked) {
   ASSERT_EQ(written().error, "");
   for (const std::string name : {"chunked-zstd", "chunked-lz4"}) {

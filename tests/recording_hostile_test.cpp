@@ -520,6 +520,41 @@ TEST(Db3, MoreDataThanTheFileHoldsIsRefused) {
   EXPECT_TRUE(kept.messages.empty()) << "refused before any message is handed out";
 }
 
+// Topics of one type share its definition: each is handed a copy, within the
+// file's size and max_definition_bytes more.
+TEST(Db3, TopicsSharingALargeDefinitionAreBounded) {
+  const std::string path = folder("db3_shared") + "/shared.db3";
+  {
+    Db3File db(path);
+    std::string rows;
+    for (int k = 1; k <= 50; ++k)
+      rows += fmt::format("{}({}, '/t{}', 'pkg/msg/Big', 'cdr', '')", k > 1 ? ", " : "", k, k);
+    db.topics(rows);
+    db.exec(
+        "CREATE TABLE message_definitions(id INTEGER PRIMARY KEY, topic_type TEXT NOT NULL, "
+        "encoding TEXT NOT NULL, encoded_message_definition TEXT NOT NULL, "
+        "type_description_hash TEXT NOT NULL)");
+    db.exec("INSERT INTO message_definitions VALUES (1, 'pkg/msg/Big', 'ros2msg', '" +
+            std::string(100000, '#') + "', '')");
+    db.rosbag2_messages();
+  }
+  Kept kept;
+  recording::read_rosbag2_db3(path, kept);  // 5 MB of copies: within 64 MiB
+  recording::RecordingLimits limits;
+  limits.max_definition_bytes = 1000000;
+  try {
+    recording::read_rosbag2_db3(path, kept, limits);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("topics row "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("the topics' definitions add up to"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("and 1000000 more (max_definition_bytes)"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 // A JointState topic the import cannot decode (its definition IDL, not .msg)
 // beside a tracker's: refused naming the topic and why, not a tracker.csv
 // alone without a word.

@@ -141,6 +141,7 @@ class McapReader {
   std::unordered_map<std::uint16_t, ChannelRecord> channels_;
   std::unordered_map<std::uint16_t, std::uint64_t> counts_;  // messages read a channel
   std::uint64_t messages_ = 0;
+  std::uint64_t definition_bytes_ = 0;  // the schemas handed out with the channels
 };
 
 Record McapReader::next_record(std::string_view block, std::size_t pos, std::uint64_t base,
@@ -368,6 +369,12 @@ void McapReader::channel(ByteReader& r) {
   }
   if (channels_.size() >= limits_.max_channels)
     r.fail(fmt::format("more than the bound of {} channels", limits_.max_channels));
+  definition_bytes_ += schema == nullptr ? 0 : schema->data.size();
+  if (definition_bytes_ > bytes_.size() + limits_.max_definition_bytes)
+    r.fail(fmt::format(
+        "the channels' schemas add up to {} bytes, more than the file's {} bytes and {} more "
+        "(max_definition_bytes): many channels naming a large schema",
+        definition_bytes_, bytes_.size(), limits_.max_definition_bytes));
   channels_.emplace(id, c);
   visitor_.channel(id, make_channel(c, schema));
 }

@@ -149,7 +149,11 @@ class Db3Reader {
  public:
   Db3Reader(const std::string& path, RecordingVisitor& visitor, const RecordingLimits& limits,
             std::uint64_t file_bytes)
-      : path_(path), visitor_(visitor), limits_(limits), budget_(file_bytes) {}
+      : path_(path),
+        visitor_(visitor),
+        limits_(limits),
+        file_bytes_(file_bytes),
+        budget_(file_bytes) {}
   ~Db3Reader() { sqlite3_close(db_); }
 
   void read();
@@ -183,7 +187,9 @@ class Db3Reader {
   // Bytes of text and data still to be handed out: at most the file's. In a
   // sound file every byte read is stored once; a value computed on reading (a
   // column's default) or pages shared by many rows would hand out more.
+  std::uint64_t file_bytes_;
   std::uint64_t budget_;
+  std::uint64_t definition_bytes_ = 0;  // the definitions handed out with the topics
 };
 
 void Db3Reader::open() {
@@ -346,6 +352,12 @@ void Db3Reader::topics() {
     const auto d = defined.find(type);
     const std::string definition_encoding = d == defined.end() ? "" : d->second.first;
     if (definition_encoding == "ros2msg") c.definition = d->second.second;
+    definition_bytes_ += c.definition.size();
+    if (definition_bytes_ > file_bytes_ + limits_.max_definition_bytes)
+      fail(where, fmt::format("the topics' definitions add up to {} bytes, more than the file's "
+                              "{} bytes and {} more (max_definition_bytes): many topics of a "
+                              "type with a large definition",
+                              definition_bytes_, file_bytes_, limits_.max_definition_bytes));
     if (c.message_encoding == "cdr" &&
         (definition_encoding == "ros2msg" || d == defined.end() || d->second.second.empty())) {
       c.encoding =

@@ -47,6 +47,10 @@ struct RecordingLimits {
   std::uint64_t max_uncompressed_bytes = std::uint64_t{1} << 30;  // a chunk decompressed: 1 GiB
   std::uint64_t max_message_bytes = std::uint64_t{64} << 20;      // one message's payload: 64 MiB
   std::uint32_t max_channels = 10000;
+  // The channels' definitions handed out in all, beyond the file's own size:
+  // many channels may name one schema (a .db3's type, an MCAP schema), each
+  // handed a copy; 10,000 naming one of 16 MiB would be 160 GB.
+  std::uint64_t max_definition_bytes = std::uint64_t{64} << 20;
   std::uint64_t max_messages = std::uint64_t{100} << 20;  // 100 M messages
 };
 
