@@ -177,10 +177,11 @@ void match_joints(Stream& s, const ImportRequest& request, ImportResult& result)
   for (std::size_t i = 0; i < wanted.size(); ++i) {
     const auto at = place.find(wanted[i]);
     if (at == place.end()) {
-      throw InputError(request.model, 0, "joints",
-                       fmt::format("the model's joint '{}' is not among {}'s {} joints ({}){}",
-                                   printable(wanted[i]), s.what, names.size(), bounded_list(names),
-                                   did_you_mean(wanted[i], names)));
+      throw InputError(
+          request.model, 0, "joints",
+          fmt::format("the model's joint '{}' is not among {}'s {} joints ({}){}",
+                      printable(wanted[i]), request.recording + ": " + s.what, names.size(),
+                      bounded_list(names), did_you_mean(wanted[i], names)));
     }
     s.take.push_back(at->second);
     s.columns.push_back(fmt::format("q{}", i + 1));
