@@ -306,7 +306,7 @@ TEST(Import, AMissingJointOfA64000JointMessageIsOneShortLine) {
     const testing::CliResult r = cli({"import", dir + "/wide.bag", "--model", "geomagic-touch",
                                       "--convention", convention, "--out", dir + "/out"});
     expect_refused(r, "'waist' is not among ");
-    EXPECT_NE(r.err.find("/joint_states (sensor_msgs/JointState, 3 messages)'s "),
+    EXPECT_NE(r.err.find(dir + "/wide.bag: /joint_states (sensor_msgs/JointState, 3 messages)'s "),
               std::string::npos)
         << r.err.substr(0, 400);
     EXPECT_NE(r.err.find("j0, j1, j2, j3, j4, j5, j6, j7, ... and 63992 more"), std::string::npos)
