@@ -80,6 +80,7 @@ bench: build
 	./$(BUILD)/bench/fk_jacobian_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
 	./$(BUILD)/bench/calibrate_bench --benchmark_repetitions=7 --benchmark_report_aggregates_only=true
 	./$(BUILD)/bench/plan_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+	./$(BUILD)/bench/recording_bench
 
 # The generalisation benchmark (docs/calibrate.md, "The model search"): the model search
 # on 48 simulated robots and the shared real sets against an oracle, a table.

@@ -2,7 +2,8 @@
 # Runs each libFuzzer target of fuzz/ for SECONDS seconds on a scratch corpus
 # (BUILD/corpus/TARGET, seeded from the repository's device files, logs,
 # malformed inputs and fuzz/seeds; the repository is not modified) and fails if
-# any of them finds a crash, a leak, a timeout or an out-of-memory input.
+# any of them finds a crash, a leak, a timeout or an out-of-memory input (each
+# target's bounds: bounds() below).
 # Usage: fuzz/run.sh BUILD_DIR SECONDS [TARGET...]   (make fuzz calls it)
 set -uo pipefail
 src="$(cd "$(dirname "$0")/.." && pwd)"
@@ -11,7 +12,7 @@ seconds="$2"
 shift 2
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(fuzz_device fuzz_fixture fuzz_log fuzz_log_columns fuzz_scenario fuzz_urdf
-  fuzz_ros1_bag fuzz_mcap fuzz_ros_message fuzz_tracker_export)
+  fuzz_ros1_bag fuzz_mcap fuzz_ros_message fuzz_db3 fuzz_import fuzz_tracker_export)
 
 seeds() {
   case "$1" in
@@ -30,8 +31,24 @@ seeds() {
       ls "$src"/fuzz/seeds/scenario/* ;;
     fuzz_urdf)
       ls "$src"/tests/data/urdf/*.urdf "$src"/fuzz/seeds/urdf/*.urdf ;;
-    fuzz_ros1_bag | fuzz_mcap | fuzz_ros_message | fuzz_tracker_export)
+    fuzz_ros1_bag | fuzz_mcap | fuzz_ros_message | fuzz_db3 | fuzz_tracker_export)
       ls "$src"/fuzz/seeds/"${1#fuzz_}"/* ;;
+    fuzz_import)  # any recording
+      ls "$src"/fuzz/seeds/ros1_bag/* "$src"/fuzz/seeds/mcap/*.mcap "$src"/fuzz/seeds/db3/* \
+        "$src"/fuzz/seeds/import/* ;;
+  esac
+}
+# Each input's bounds: its largest size, the time it may take (-timeout, s) and
+# the memory (-rss_limit_mb). The recording targets take inputs up to 4 MiB, so
+# that what was quadratic is within reach (a JointState of 64,000 joints is
+# 1.2 MB, a definition of 100,000 fields 1.3 MB), and 5 s an input: their
+# readers are linear (a 4 MiB input takes well under a second, sanitizers on).
+bounds() {
+  case "$1" in
+    fuzz_ros1_bag | fuzz_mcap | fuzz_ros_message | fuzz_db3 | fuzz_import)
+      echo "-max_len=4194304 -timeout=5 -rss_limit_mb=1024" ;;
+    *)
+      echo "-max_len=1048576 -timeout=10 -rss_limit_mb=2048" ;;
   esac
 }
 dict() {
@@ -53,8 +70,9 @@ for t in "${targets[@]}"; do
   seeds "$t" | while read -r f; do cp "$f" "$corpus/seed-$(basename "$f")"; done
   echo "== $t: ${seconds}s, corpus $(ls "$corpus" | wc -l) inputs"
   # TMPDIR: fuzz_scenario's scratch directory stays in the build tree.
+  # shellcheck disable=SC2046 # the bounds are several words
   if TMPDIR="$build/tmp" "$build/fuzz/$t" "$corpus" -dict="$src/fuzz/$(dict "$t").dict" \
-      -max_len=1048576 -rss_limit_mb=2048 -timeout=10 -max_total_time="$seconds" \
+      $(bounds "$t") -max_total_time="$seconds" \
       -print_final_stats=1 -artifact_prefix="$artifacts/" >"$build/$t.log" 2>&1; then
     grep -E '^stat::number_of_executed_units|^Done' "$build/$t.log" || true
     echo "== $t: no crash; corpus now $(ls "$corpus" | wc -l) inputs"

@@ -36,8 +36,8 @@ py::dict import_recording(const Text& recording, const Text& joints, const Text&
                           const Text& tracker_export, const Text& body,
                           const std::optional<Names>& markers, const Text& column_map,
                           const Text& length_unit, const Text& time_unit, double still,
-                          double still_tolerance, double tracker_still, const std::string& out,
-                          bool list) {
+                          std::optional<double> still_tolerance,
+                          std::optional<double> tracker_still, const Text& out, bool list) {
   recording::ImportRequest request;
   request.recording = text(recording);
   request.joints_topic = text(joints);
@@ -58,14 +58,14 @@ py::dict import_recording(const Text& recording, const Text& joints, const Text&
   request.export_options.time_unit = text(time_unit);
   if (!(still == 0 || (still >= 1e-3 && still <= 3600)))
     throw InputError("", 0, "static", fmt::format("{}: not 0 or in [0.001, 3600] s", still));
-  if (!(still_tolerance >= 0 && still_tolerance <= 1))
-    throw InputError("", 0, "still_tolerance", fmt::format("{}: not in [0, 1]", still_tolerance));
+  if (still_tolerance && !(*still_tolerance >= 0 && *still_tolerance <= 1))
+    throw InputError("", 0, "still_tolerance", fmt::format("{}: not in [0, 1]", *still_tolerance));
   request.still_seconds = still;
   request.still_tolerance = still_tolerance;
-  if (!(tracker_still >= 0 && tracker_still <= 1))
-    throw InputError("", 0, "tracker_still", fmt::format("{}: not in [0, 1] m", tracker_still));
+  if (tracker_still && !(*tracker_still >= 0 && *tracker_still <= 1))
+    throw InputError("", 0, "tracker_still", fmt::format("{}: not in [0, 1] m", *tracker_still));
   request.tracker_still = tracker_still;
-  request.out = out;
+  request.out = text(out);
   request.list = list;
   return summary(interruptible([&] { return recording::run_import(request); }));
 }
@@ -78,14 +78,15 @@ void add_recording_functions(py::module_& m) {
         "field"_a = py::none(), "time"_a = "header", "model"_a = py::none(),
         "convention"_a = py::none(), "tracker_export"_a = py::none(), "body"_a = py::none(),
         "markers"_a = py::none(), "column_map"_a = py::none(), "length_unit"_a = py::none(),
-        "time_unit"_a = py::none(), "static"_a = 0.0, "still_tolerance"_a = 1e-4,
-        "tracker_still"_a = 1e-3, "out"_a = "hapticcal-out/import", "list"_a = false,
+        "time_unit"_a = py::none(), "static"_a = 0.0, "still_tolerance"_a = py::none(),
+        "tracker_still"_a = py::none(), "out"_a = py::none(), "list"_a = false,
         "hapticcal import: a ROS 1 bag, MCAP file, rosbag2 .db3 (or tracker_export: a Motive, "
         "Vicon or mapped "
         "CSV) into device.csv and tracker.csv (static=SECONDS: log.csv of still poses) in out; "
         "returns the "
         "summary (format, topics with their counts, rates and gaps, joints, rows, notes, written). "
-        "list=True writes nothing.");
+        "list=True writes nothing (out, model or a topic given with it is refused); "
+        "still_tolerance (default 1e-4) and tracker_still (1e-3) need static.");
 }
 
 }  // namespace hapticcal::python

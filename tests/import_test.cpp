@@ -245,12 +245,13 @@ TEST(Import, TopicsAndJointsAreChosenNotGuessed) {
                "/tf", "--frames", "world,table", "--out", bag + ".tf"});
   ASSERT_EQ(c.exit_code, 0) << c.err;
   EXPECT_GT(read_log(bag + ".tf/tracker.csv").rows, 10);
-  // --list writes nothing and names every topic.
-  c = run_cli({"import", bag, "--list", "--out", bag + ".list"});
+  // --list writes nothing (not even the default output folder) and names every topic.
+  const std::string listing = testing::fresh_folder("import_list");
+  c = testing::run_cli_in(listing, {"import", bag, "--list"});
   ASSERT_EQ(c.exit_code, 0) << c.err;
   for (const char* topic : {"/touch/joint_states", "/tracker/pose", "/tf", "/rosout_note"})
     EXPECT_NE(c.out.find(topic), std::string::npos) << c.out;
-  EXPECT_FALSE(fs::exists(bag + ".list"));
+  EXPECT_TRUE(fs::is_empty(listing));
   // A field by its path: the gripper's position as q1 of another stream.
   c = run_cli(
       {"import", bag, "--field", "q1=/touch/joint_states:position[1]", "--out", bag + ".field"});

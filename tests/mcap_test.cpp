@@ -10,6 +10,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -256,6 +258,90 @@ TEST(McapTruncated, UnchunkedCutInsideAMessageNamesIt) {
   edited[at + 3] = static_cast<char>(edited[at + 3] ^ 0x40);
   expect_refused("edited-message.mcap", edited, side["data_end_offset"].get<std::uint64_t>(),
                  "data end", "the data section's CRC-32");
+}
+
+// A message record's channel id changed (and the data section's CRC-32 zeroed,
+// as a writer that computes none leaves it): the summary's Statistics record
+// counts another number of messages on the channel, an error naming it.
+TEST(McapCorrupt, AMessageOnAnotherChannelDisagreesWithTheStatistics) {
+  ASSERT_EQ(written().error, "");
+  const std::string bytes = file_bytes(written().dir + "/unchunked.mcap");
+  const json side = side_file(written().dir + "/unchunked.json");
+  Seen seen;
+  rec::read_mcap_bytes(bytes, "clean.mcap", seen);
+  const Seen::Message& m = seen.messages.at(50);
+  ASSERT_EQ(static_cast<unsigned char>(bytes[m.offset]), 0x05) << "a message record";
+  std::uint16_t channel;
+  std::memcpy(&channel, bytes.data() + m.offset + 9, 2);
+  ASSERT_EQ(channel, m.id);
+  std::uint16_t other = 0;
+  for (const auto& [id, c] : seen.channels)
+    if (id != channel) other = static_cast<std::uint16_t>(id);
+  ASSERT_NE(other, channel);
+  const auto on = [&](std::uint32_t id) {
+    return std::count_if(seen.messages.begin(), seen.messages.end(),
+                         [&](const Seen::Message& n) { return n.id == id; });
+  };
+  std::string edited = bytes;
+  std::memcpy(edited.data() + m.offset + 9, &other, 2);
+  const auto data_end = side["data_end_offset"].get<std::size_t>();
+  ASSERT_EQ(edited[data_end], '\x0f');
+  std::memset(edited.data() + data_end + 9, 0, 4);  // data_section_crc: 0, not computed
+  Seen read;
+  const std::string error = error_of([&] { rec::read_mcap_bytes(edited, "edited.mcap", read); });
+  const std::uint16_t first = std::min(channel, other);
+  EXPECT_NE(error.find(fmt::format("statistics: channel {} ({}): {} messages in the data section, "
+                                   "but the statistics count {}",
+                                   first, seen.channels.at(first).topic,
+                                   on(first) + (first == other ? 1 : -1), on(first))),
+            std::string::npos)
+      << error;
+  EXPECT_EQ(error.rfind("edited.mcap: byte ", 0), 0u) << error;
+}
+
+// An MCAP file of one schema of `schema_bytes` and `channels` channels naming
+// it, built record by record (https://mcap.dev/spec): each channel is handed a
+// copy of the schema.
+std::string shared_schema_mcap(std::size_t schema_bytes, int channels) {
+  const auto le = [](std::uint64_t v, int n) {
+    std::string out;
+    for (int i = 0; i < n; ++i) out += static_cast<char>((v >> (8 * i)) & 0xFF);
+    return out;
+  };
+  const auto text = [&](const std::string& s) { return le(s.size(), 4) + s; };
+  const auto record = [&](int op, const std::string& content) {
+    return std::string(1, static_cast<char>(op)) + le(content.size(), 8) + content;
+  };
+  const std::string magic("\x89MCAP0\r\n", 8);
+  std::string out = magic + record(0x01, text("") + text(""));
+  out += record(
+      0x03, le(1, 2) + text("pkg/Big") + text("ros1msg") + text(std::string(schema_bytes, '#')));
+  for (int k = 1; k <= channels; ++k)
+    out +=
+        record(0x04, le(k, 2) + le(1, 2) + text(fmt::format("/t{}", k)) + text("ros1") + le(0, 4));
+  out += record(0x0F, le(0, 4));
+  out += record(0x02, le(0, 8) + le(0, 8) + le(0, 4));
+  return out + magic;
+}
+
+// Many channels naming one schema: their copies within the file's size and
+// max_definition_bytes more.
+TEST(McapCorrupt, ChannelsCopyingALargeSchemaAreBounded) {
+  const std::string bytes = shared_schema_mcap(100000, 50);
+  Seen seen;
+  rec::read_mcap_bytes(bytes, "shared.mcap", seen);  // 5 MB of copies: within 64 MiB
+  EXPECT_EQ(seen.channels.size(), 50u);
+  RecordingLimits limits;
+  limits.max_definition_bytes = 1000000;
+  Seen bounded;
+  const std::string error =
+      error_of([&] { rec::read_mcap_bytes(bytes, "shared.mcap", bounded, limits); });
+  EXPECT_NE(error.find("channel: the channels' schemas add up to 1200000 bytes, more than the "
+                       "file's"),
+            std::string::npos)
+      << error;
+  EXPECT_NE(error.find("and 1000000 more (max_definition_bytes)"), std::string::npos) << error;
+  EXPECT_EQ(bounded.channels.size(), 11u);
 }
 
 TEST(McapCorrupt, CompressedDataAndCrcAreChecked) {

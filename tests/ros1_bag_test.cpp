@@ -268,6 +268,51 @@ TEST_P(WrittenBag, KeepsEveryOtherBound) {
 
 INSTANTIATE_TEST_SUITE_P(Compressions, WrittenBag, ::testing::Values("none", "bz2", "lz4"));
 
+// One changed byte of a message record's header in rosbag's uncompressed bag
+// (its connection, its time): the chunk's messages no longer agree with the
+// index data after it, an error naming the connection, its topic and the
+// counts, not a message handed to another topic or lost.
+TEST(WrittenBag, AMessageHeaderChangedDisagreesWithTheIndex) {
+  const Written& w = written("none");
+  Seen seen;
+  read_ros1_bag_bytes(w.bytes, "x.bag", seen);
+  ASSERT_GT(seen.messages.size(), 100u);
+  std::size_t k = 100;
+  while (k < seen.messages.size() && seen.messages[k].id != 0) ++k;
+  ASSERT_LT(k, seen.messages.size());
+  const Seen::Message& m = seen.messages[k];  // on connection 0, moved to 1 below
+  ASSERT_EQ(seen.channels.count(1), 1u);
+  const std::uint32_t header_bytes = u32_at(w.bytes, m.offset);
+  const std::size_t conn = w.bytes.find(std::string("conn=", 5), m.offset + 4);
+  const std::size_t time = w.bytes.find(std::string("time=", 5), m.offset + 4);
+  ASSERT_LT(conn, m.offset + 4 + header_bytes);
+  ASSERT_LT(time, m.offset + 4 + header_bytes);
+  ASSERT_EQ(u32_at(w.bytes, conn + 5), 0u);
+  // The chunk holding it (the last to start before it), and its messages on connection 0.
+  const auto chunk_of = [&](std::uint64_t offset) {
+    std::uint64_t at = 0;
+    for (const json& c : w.side["chunks"])
+      if (c["pos"].get<std::uint64_t>() < offset) at = c["pos"].get<std::uint64_t>();
+    return at;
+  };
+  const std::uint64_t chunk = chunk_of(m.offset);
+  std::size_t in_chunk = 0;
+  for (const Seen::Message& n : seen.messages) in_chunk += n.id == 0 && chunk_of(n.offset) == chunk;
+  std::string moved = w.bytes;
+  set_u32(moved, conn + 5, 1);
+  const std::string topic = seen.channels.at(0).topic;
+  EXPECT_HAS(error_of(moved, "moved.bag"),
+             fmt::format("moved.bag: byte {}: chunk: connection 0 ({}): {} messages in the chunk, "
+                         "but its index data list {}",
+                         chunk, topic, in_chunk - 1, in_chunk));
+  std::string later = w.bytes;
+  set_u32(later, time + 9, u32_at(later, time + 9) + 1);  // nsec + 1
+  EXPECT_HAS(error_of(later, "later.bag"),
+             fmt::format("later.bag: byte {}: chunk: connection 0 ({}): the message at byte", chunk,
+                         topic));
+  EXPECT_HAS(error_of(later, "later.bag"), "is not the one its index data list");
+}
+
 // The chunk of `compression` with bytes `from`..`from + n` of its data overwritten.
 std::string corrupted(const Written& w, std::size_t from, std::size_t n, char with) {
   std::string bytes = w.bytes;
@@ -378,6 +423,7 @@ struct HandBag {
   std::string bag_header_extra;
   std::optional<std::uint64_t> index_pos;
   std::uint32_t conn_count = 1;
+  std::string chunk_info_data = u32(0) + u32(1);  // connection 0: one message
 
   std::string chunk_contents() const {
     return record(connection, connection_data) + record(message, message_data);
@@ -401,13 +447,13 @@ struct HandBag {
     const std::string chunk = record(chunk_header(), chunk_contents());
     const std::string index_data =
         record(op(4) + field("ver", u32(1)) + field("conn", u32(0)) + field("count", u32(1)),
-               u64(10) + u32(record(connection, connection_data).size()));
+               u32(10) + u32(20) + u32(record(connection, connection_data).size()));
     const std::string index =
         record(index_connection, index_connection_data) +
         record(op(6) + field("ver", u32(1)) + field("chunk_pos", u64(chunk_pos())) +
                    time_field("start_time", 10, 20) + time_field("end_time", 10, 20) +
-                   field("count", u32(1)),
-               u32(0) + u32(1));
+                   field("count", u32(chunk_info_data.size() / 8)),
+               chunk_info_data);
     const std::uint64_t at = index_pos.value_or(chunk_pos() + chunk.size() + index_data.size());
     return "#ROSBAG V2.0\n" + bag_header(at) + chunk + index_data + index;
   }
@@ -536,6 +582,19 @@ TEST(HandBuiltBag, RefusesAnUnclosedEncryptedOrInconsistentBag) {
   bag.index_pos = bag.chunk_pos();  // the chunk after the index
   EXPECT_HAS(hand_error(bag),
              fmt::format("byte {}: chunk: not expected after the index", bag.chunk_pos()));
+}
+
+// The chunk info record's count a connection against the chunk's messages.
+TEST(HandBuiltBag, RefusesAChunkInfoCountingOtherMessages) {
+  HandBag bag;
+  bag.chunk_info_data = u32(0) + u32(2);
+  const std::string at = fmt::format("the chunk at byte {}: connection 0 (/a): ", bag.chunk_pos());
+  EXPECT_HAS(hand_error(bag), at + "1 messages in the chunk, but its chunk info counts 2");
+  bag.chunk_info_data = u32(0) + u32(1) + u32(3) + u32(1);
+  EXPECT_HAS(hand_error(bag),
+             fmt::format("the chunk at byte {}: connection 3 (undefined): 0 messages in the chunk, "
+                         "but its chunk info counts 1",
+                         bag.chunk_pos()));
 }
 
 }  // namespace

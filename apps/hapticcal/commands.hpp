@@ -6,6 +6,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -105,9 +106,10 @@ struct ImportOptions {
   std::string recording, joints, tracker_topic, frames, time = "header", model, convention;
   std::vector<std::string> fields;
   std::string tracker_export, body, markers, column_map, length_unit, time_unit;
-  std::string out = "hapticcal-out/import";
+  std::string out;  // empty: recording::kDefaultImportOut
   bool list = false;
-  double still_seconds = 0, still_tolerance = 1e-4, tracker_still = 1e-3;
+  double still_seconds = 0;
+  std::optional<double> still_tolerance, tracker_still;  // unset: the library's defaults
 };
 CLI::App* add_import_command(CLI::App& app, ImportOptions& options);
 int run_import(const ImportOptions& options);

@@ -54,27 +54,26 @@ CLI::App* add_import_command(CLI::App& app, ImportOptions& o) {
                   "The export's length unit where it states none (m, cm, mm, um)");
   cmd->add_option("--time-unit", o.time_unit,
                   "The export's time unit where it states none (s, ms)");
-  auto* still =
-      cmd->add_option("--static", o.still_seconds,
-                      "Write a static log (log.csv: one row a pose) instead of the streams: "
-                      "the windows of at least SECONDS in which the readings stay within "
-                      "--still-tolerance, each averaged with the tracker's samples in it");
-  still->check(CLI::Range(1e-3, 3600.0));
-  cmd->add_option(
-         "--still-tolerance", o.still_tolerance,
+  cmd->add_option("--static", o.still_seconds,
+                  "Write a static log (log.csv: one row a pose) instead of the streams: "
+                  "the windows of at least SECONDS in which the readings stay within "
+                  "--still-tolerance, each averaged with the tracker's samples in it")
+      ->check(CLI::Range(1e-3, 3600.0));
+  // Without --static these are refused by the import itself (as in Python).
+  cmd->add_option_function<double>(
+         "--still-tolerance", [&o](double v) { o.still_tolerance = v; },
          "With --static: how far a reading may move in a still window [rad or m] (default 1e-4)")
-      ->check(CLI::Range(0.0, 1.0))
-      ->needs(still);
-  cmd->add_option(
-         "--tracker-still", o.tracker_still,
+      ->check(CLI::Range(0.0, 1.0));
+  cmd->add_option_function<double>(
+         "--tracker-still", [&o](double v) { o.tracker_still = v; },
          "With --static: how far the tracker's samples in a still window may lie from their "
          "median [m] (default 1e-3; a window in which the tracker moved is left out)")
-      ->check(CLI::Range(0.0, 1.0))
-      ->needs(still);
+      ->check(CLI::Range(0.0, 1.0));
   cmd->add_flag("--list", o.list,
                 "List the recording's topics (counts, rates, span, gaps); write nothing");
   cmd->add_option("--out", o.out,
-                  "Output folder (replaced as a whole when the import is complete)");
+                  "Output folder (replaced as a whole when the import is complete; default "
+                  "hapticcal-out/import)");
   cmd->footer(
       "Examples:\n"
       "  hapticcal import session.bag --model geomagic-touch --convention ros-geomagic --out "
@@ -130,14 +129,22 @@ int run_import(const ImportOptions& o) {
   }
   for (const std::string& note : r.notes) fmt::print("{}\n", note);
   if (o.list) return 0;
-  if (r.device_rows > 0)
-    fmt::print("device.csv: {} rows, q1..q{} = {}\n", r.device_rows, r.joint_names.size(),
-               fmt::join(r.joint_names, ", "));
+  if (r.device_rows > 0) {
+    // At most the first joints' names: a recording may name 100,000.
+    constexpr std::size_t kShown = 12;
+    const std::size_t n = r.joint_names.size();
+    std::string names;
+    for (std::size_t k = 0; k < n && k < kShown; ++k)
+      names += (k == 0 ? "" : ", ") + printable(r.joint_names[k], 80);
+    if (n > kShown) names += fmt::format(", ... and {} more", n - kShown);
+    fmt::print("device.csv: {} rows, q1..q{} = {}\n", r.device_rows, n, names);
+  }
   if (r.static_rows > 0) fmt::print("log.csv: {} still poses\n", r.static_rows);
   if (r.tracker_rows > 0)
     fmt::print("tracker.csv: {} rows, {}\n", r.tracker_rows,
                r.tracker_orientation ? "positions and orientations" : "positions");
-  fmt::print("wrote {}/: {}\n", o.out, fmt::join(r.written, ", "));
+  fmt::print("wrote {}/: {}\n", o.out.empty() ? recording::kDefaultImportOut : o.out,
+             fmt::join(r.written, ", "));
   return 0;
 }
 

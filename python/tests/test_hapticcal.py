@@ -695,8 +695,24 @@ def test_import_a_ros1_bag(tmp_path):
     assert rows[0] == ["t", "q1", "q2", "q3", "q4", "q5", "q6"]
     assert [float(v) for v in rows[3][1:]] == [0.1 * 2, 0.2, 0.3, 0.4, 0.5, 0.6]
     assert rows[3][0] == "0.002000000"
-    listed = hapticcal.import_recording(str(bag), list=True, out=str(tmp_path / "listed"))
-    assert not (tmp_path / "listed").exists() and len(listed["topics"]) == 2
+    listed = hapticcal.import_recording(str(bag), list=True)
+    assert len(listed["topics"]) == 2
+    # Options that would have no effect are refused, with the command line's words.
+    for kwargs, args, says in [
+            (dict(list=True, out=str(tmp_path / "listed")), ["--list", "--out", str(tmp_path / "listed")],
+             "--out would have no effect"),
+            (dict(list=True, model="geomagic-touch"), ["--list", "--model", "geomagic-touch"],
+             "--model would have no effect"),
+            (dict(still_tolerance=1e-3, out=str(tmp_path / "x")),
+             ["--still-tolerance", "0.001", "--out", str(tmp_path / "x")],
+             "--still-tolerance: applies to the still windows of a static log"),
+            (dict(tracker_still=1e-3, out=str(tmp_path / "x")),
+             ["--tracker-still", "0.001", "--out", str(tmp_path / "x")], "--tracker-still: applies")]:
+        with pytest.raises(ValueError, match=says) as refused:
+            hapticcal.import_recording(str(bag), **kwargs)
+        code, stdout, stderr = cli("import", str(bag), *args)
+        assert code == 2 and stderr == f"hapticcal: {refused.value}\n", (stderr, str(refused.value))
+    assert not (tmp_path / "listed").exists() and not (tmp_path / "x").exists()
     # Two publishers of one topic (two connections of the bag) are one stream in
     # stamp order; a second JointState topic makes the choice the user's, and
     # list=True still lists.
@@ -830,6 +846,72 @@ def test_ctrl_c_interrupts_a_running_job_and_keeps_the_previous_set(tmp_path):
     # The next run is not cancelled.
     assert hapticcal.calibrate(MECA, CAL_LOG, out=str(out)).usable
 
+
+
+def write_bz2_bag(path, chunks, messages_per_chunk, message_bytes):
+    """A ROS 1 bag (format 2.0) of bz2 chunks, each of `messages_per_chunk` messages of
+    `message_bytes` zeros on /camera/image: a few kilobytes that take a reader seconds to
+    decompress. Every chunk the same (compressed once), the index as rosbag writes it."""
+    import bz2
+    import struct
+
+    u32 = lambda v: struct.pack("<I", v)
+    field = lambda name, value: u32(len(name) + 1 + len(value)) + name + b"=" + value
+    record = lambda header, data: u32(len(header)) + header + u32(len(data)) + data
+    op = lambda code: field(b"op", bytes([code]))
+    time = u32(1733390000) + u32(0)
+    connection = record(op(7) + field(b"conn", u32(0)) + field(b"topic", b"/camera/image"),
+                        field(b"topic", b"/camera/image") + field(b"type", b"sensor_msgs/Image") +
+                        field(b"md5sum", b"0" * 32) + field(b"message_definition", b"uint8[] data\n"))
+    contents, offsets = connection, []
+    for _ in range(messages_per_chunk):
+        offsets.append(len(contents))
+        contents += record(op(2) + field(b"conn", u32(0)) + field(b"time", time), bytes(message_bytes))
+    packed = bz2.compress(contents, 1)
+    chunk = record(op(5) + field(b"compression", b"bz2") + field(b"size", u32(len(contents))), packed)
+    index = record(op(4) + field(b"ver", u32(1)) + field(b"conn", u32(0)) +
+                   field(b"count", u32(len(offsets))), b"".join(time + u32(o) for o in offsets))
+    header_bytes = 13 + 4096
+    body = (chunk + index) * chunks
+    infos = b"".join(
+        record(op(6) + field(b"ver", u32(1)) +
+               field(b"chunk_pos", struct.pack("<Q", header_bytes + k * len(chunk + index))) +
+               field(b"start_time", time) + field(b"end_time", time) + field(b"count", u32(1)),
+               u32(0) + u32(len(offsets))) for k in range(chunks))
+    fields = (op(3) + field(b"index_pos", struct.pack("<Q", header_bytes + len(body))) +
+              field(b"conn_count", u32(1)) + field(b"chunk_count", u32(chunks)))
+    bag_header = record(fields, b" " * (4096 - len(fields) - 8))
+    pathlib.Path(path).write_bytes(b"#ROSBAG V2.0\n" + bag_header + body + connection + infos)
+
+
+def test_ctrl_c_interrupts_an_import_and_keeps_the_previous_set(tmp_path):
+    """Ctrl-C 1 s into an import that decompresses for seconds (eight bz2 chunks of 128 MB of
+    zeros, a few kilobytes on disk) ends it within a second, KeyboardInterrupt raised; the output
+    folder keeps the previous set and no staging folder is left."""
+    small, large = tmp_path / "small.bag", tmp_path / "large.bag"
+    write_bz2_bag(small, 1, 2, 1000)
+    write_bz2_bag(large, 8, 4, 32 << 20)
+    assert large.stat().st_size < 100000
+    out = tmp_path / "out"
+    listed = hapticcal.import_recording(str(small), list=True)
+    assert listed["topics"][0]["messages"] == 2
+    # The previous set: an import of a JointState bag.
+    import rosbag
+    import rospy
+    from sensor_msgs.msg import JointState
+    with rosbag.Bag(str(tmp_path / "joints.bag"), "w") as b:
+        for k in range(20):
+            js = JointState(name=["a"], position=[0.01 * k])
+            js.header.stamp = rospy.Time(1733390000, 1000000 * k)
+            b.write("/joint_states", js, t=js.header.stamp)
+    hapticcal.import_recording(str(tmp_path / "joints.bag"), out=str(out))
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    took = interrupted_after(1.0, lambda: hapticcal.import_recording(str(large), out=str(out)))
+    assert took < 1.0, f"{took:.2f} s after the signal"
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["joints.bag", "large.bag", "out", "small.bag"]
+    # The next run is not cancelled.
+    assert hapticcal.import_recording(str(small), list=True)["topics"][0]["messages"] == 2
 
 
 def test_inverse_and_compensate_match_the_cli(cli_calibration, tmp_path):

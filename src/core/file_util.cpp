@@ -285,7 +285,13 @@ std::string did_you_mean(const std::string& name, const std::vector<std::string>
   if (name.empty() || name.size() > 200) return {};
   const std::string* best = nullptr;
   std::size_t best_distance = 0;
+  const std::size_t close = std::max<std::size_t>(2, name.size() / 3);
   for (const std::string& k : known) {
+    // At least the lengths' difference apart: never close, so not worth the
+    // table (a recording's 100,000 long names cost nothing).
+    const std::size_t apart =
+        k.size() > name.size() ? k.size() - name.size() : name.size() - k.size();
+    if (apart > close) continue;
     const std::size_t d = edit_distance(name, k);
     if (!best || d < best_distance) {
       best = &k;
@@ -293,7 +299,7 @@ std::string did_you_mean(const std::string& name, const std::vector<std::string>
     }
   }
   if (!best || best_distance == 0) return {};
-  if (best_distance > std::max<std::size_t>(2, name.size() / 3)) return {};
+  if (best_distance > close) return {};
   return fmt::format(" (did you mean '{}'?)", printable(*best));
 }
 

@@ -9,11 +9,13 @@
 #include <unistd.h>
 #include <zstd.h>
 
+#include <algorithm>
 #include <bit>
 #include <cerrno>
 #include <cstring>
 #include <limits>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 
 namespace hapticcal::recording {
@@ -75,6 +77,11 @@ MappedFile::~MappedFile() {
 
 namespace {
 
+// A decompressor writes at most this much a call, and a host's Ctrl-C
+// (core/cancel.hpp) is looked for between calls: a chunk of 1 GiB of bz2 takes
+// seconds.
+constexpr std::size_t kStepBytes = std::size_t{4} << 20;
+
 // The output buffer of a decompressor: exactly `expected` bytes, or an error.
 void check_size(std::size_t got, std::uint64_t expected, const std::string& name,
                 std::uint64_t offset, const std::string& record, const char* codec) {
@@ -109,8 +116,9 @@ std::string decompress_lz4_frame(std::string_view in, std::uint64_t expected,
   std::size_t in_pos = 0, out_pos = 0;
   std::size_t status = 1;
   while (in_pos < in.size() && status != 0) {
+    throw_if_cancelled();
     std::size_t in_size = in.size() - in_pos;
-    std::size_t out_size = out.size() - out_pos;
+    std::size_t out_size = std::min(out.size() - out_pos, kStepBytes);
     char spare;  // a full buffer still lets lz4 report data beyond it
     char* dst = out_size > 0 ? out.data() + out_pos : &spare;
     if (out_size == 0) out_size = 1;
@@ -141,9 +149,14 @@ std::string decompress_zstd(std::string_view in, std::uint64_t expected, const s
   ZSTD_DCtx* ctx = ZSTD_createDCtx();
   if (ctx == nullptr) fail_at(name, offset, record, "zstd: cannot create a decompression context");
   ZSTD_inBuffer src{in.data(), in.size(), 0};
-  ZSTD_outBuffer dst{out.data(), out.size(), 0};
+  ZSTD_outBuffer dst{out.data(), 0, 0};
   std::size_t status = 1;
   while (src.pos < src.size) {
+    if (cancel_requested()) {
+      ZSTD_freeDCtx(ctx);
+      throw Cancelled();
+    }
+    dst.size = std::min(out.size(), dst.pos + kStepBytes);  // a step's room at a time
     const std::size_t before_in = src.pos, before_out = dst.pos;
     status = ZSTD_decompressStream(ctx, &dst, &src);
     if (ZSTD_isError(status)) {
@@ -151,7 +164,8 @@ std::string decompress_zstd(std::string_view in, std::uint64_t expected, const s
       ZSTD_freeDCtx(ctx);
       fail_at(name, offset, record, "zstd: " + reason);
     }
-    if (src.pos == before_in && dst.pos == before_out) break;  // output full
+    if (src.pos == before_in && dst.pos == before_out && dst.size == out.size())
+      break;  // output full
   }
   ZSTD_freeDCtx(ctx);
   if (src.pos < src.size)
@@ -168,20 +182,43 @@ std::string decompress_bz2(std::string_view in, std::uint64_t expected, const st
   if (in.size() > std::numeric_limits<unsigned>::max() ||
       expected > std::numeric_limits<unsigned>::max() - 1)
     fail_at(name, offset, record, "bz2: a chunk over 4 GiB");
-  std::string out(static_cast<std::size_t>(expected) + 1,
-                  '\0');  // one spare byte: more data is an error
-  unsigned out_size = static_cast<unsigned>(out.size());
-  const int status = BZ2_bzBuffToBuffDecompress(out.data(), &out_size, const_cast<char*>(in.data()),
-                                                static_cast<unsigned>(in.size()), 0, 0);
+  // One spare byte: more data is an error.
+  std::string out(static_cast<std::size_t>(expected) + 1, '\0');
+  bz_stream stream{};
+  if (BZ2_bzDecompressInit(&stream, 0, 0) != BZ_OK)
+    fail_at(name, offset, record, "bz2: cannot create a decompression context");
+  stream.next_in = const_cast<char*>(in.data());
+  stream.avail_in = static_cast<unsigned>(in.size());
+  std::size_t done = 0;
+  int status = BZ_OK;
+  while (status == BZ_OK) {
+    if (cancel_requested()) {
+      BZ2_bzDecompressEnd(&stream);
+      throw Cancelled();
+    }
+    const std::size_t room = std::min(out.size() - done, kStepBytes);
+    stream.next_out = out.data() + done;
+    stream.avail_out = static_cast<unsigned>(room);
+    const unsigned in_before = stream.avail_in;
+    status = BZ2_bzDecompress(&stream);
+    const std::size_t made = room - stream.avail_out;
+    done += made;
+    if (status != BZ_OK) break;
+    if (done == out.size())
+      status = BZ_OUTBUFF_FULL;
+    else if (in_before == 0 && made == 0)  // every byte read, nothing more made: cut short
+      status = BZ_UNEXPECTED_EOF;
+  }
+  BZ2_bzDecompressEnd(&stream);
   if (status == BZ_OUTBUFF_FULL)
     fail_at(name, offset, record,
             fmt::format("bz2 data hold more than the {} bytes the record states", expected));
   if (status == BZ_UNEXPECTED_EOF)
     fail_at(name, offset, record, "bz2 data end early (a truncated chunk)");
-  if (status != BZ_OK)
+  if (status != BZ_STREAM_END)
     fail_at(name, offset, record, fmt::format("bz2: corrupt data (error {})", status));
-  check_size(out_size, expected, name, offset, record, "bz2");
-  out.resize(out_size);
+  check_size(done, expected, name, offset, record, "bz2");
+  out.resize(done);
   return out;
 }
 

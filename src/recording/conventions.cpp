@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "hapticcal/core/error.hpp"
+#include "recording/import_topics.hpp"
 
 namespace hapticcal::recording {
 
@@ -24,12 +25,20 @@ void Convention::bind(const std::vector<std::string>& names, const std::string& 
       if (found == names.end()) {
         throw InputError("", 0, "--convention",
                          fmt::format("{}: the joint '{}' is not among {}'s joints ({})", name_,
-                                     t.joint, what, fmt::join(names, ", ")));
+                                     t.joint, what, bounded_list(names)));
       }
       at.push_back(static_cast<int>(found - names.begin()));
     }
     index_.push_back(std::move(at));
   }
+}
+
+std::vector<int> Convention::positions_used() const {
+  std::vector<int> out;
+  for (const std::vector<int>& at : index_) out.insert(out.end(), at.begin(), at.end());
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
 }
 
 void Convention::readings_of(const double* positions, std::vector<double>& out) const {

@@ -34,6 +34,8 @@ class Convention {
   // Finds each term's joint among a topic's `names`: InputError naming the
   // topic (`what`) and the missing joint otherwise.
   void bind(const std::vector<std::string>& names, const std::string& what);
+  // After bind: the positions (in the topic's order) the readings use, sorted.
+  std::vector<int> positions_used() const;
   // The readings of one message's positions (in the topic's order).
   void readings_of(const double* positions, std::vector<double>& out) const;
   // One line for the terminal: the convention, its device and source.

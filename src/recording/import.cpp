@@ -9,16 +9,23 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <string_view>
+#include <unordered_map>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "recording/conventions.hpp"
+#include "recording/import_request.hpp"
 #include "recording/import_topics.hpp"
 
 namespace hapticcal::recording {
 namespace {
+
+constexpr double kStillTolerance = 1e-4;  // rad or m
+constexpr double kTrackerStill = 1e-3;    // m
 
 // A stream chosen for a file: its samples, the columns it gives and where it
 // came from (the topic, and a TF topic's frames).
@@ -30,6 +37,7 @@ struct Stream {
   std::vector<int> take;             // the value index of each column (device: joint matching)
   int width = 0;                     // values a sample
   std::optional<Convention> convention;
+  std::vector<std::string> field_paths;  // --field streams: each value's path
 };
 
 std::string topic_text(const TopicBuffer& t) {
@@ -50,14 +58,6 @@ std::string listing(const std::vector<const TopicBuffer*>& topics) {
 void check_chosen(const TopicBuffer& t, const std::string& file, const char* option) {
   if (!t.error.empty()) throw InputError(t.error);
   if (t.messages == 0) throw InputError(file, 0, option, topic_text(t) + ": no messages to import");
-}
-
-// --frames PARENT,CHILD.
-std::pair<std::string, std::string> frames_of(const std::string& frames) {
-  const std::size_t comma = frames.find(',');
-  if (comma == std::string::npos || comma == 0 || comma + 1 == frames.size())
-    throw InputError("", 0, "--frames", "'" + printable(frames) + "': not PARENT,CHILD");
-  return {frames.substr(0, comma), frames.substr(comma + 1)};
 }
 
 // The --field columns of one stream (device or tracker) from one topic.
@@ -83,6 +83,7 @@ std::optional<Stream> field_stream(const std::vector<TopicBuffer>& topics,
     for (const FieldRequest& f : fields) {
       if (f.topic != t.channel.topic) continue;
       if (f.device == device) s.columns.push_back(f.column), s.take.push_back(k);
+      s.field_paths.push_back(f.path);
       ++k;
     }
     s.topic = &t, s.samples = &t.samples, s.width = k, s.what = topic_text(t);
@@ -170,15 +171,19 @@ void match_joints(Stream& s, const ImportRequest& request, ImportResult& result)
     wanted.clear();
     for (const Link& l : model->links) wanted.push_back(l.name);
   }
+  std::unordered_map<std::string_view, int> place;  // the topic's names are unique
+  place.reserve(names.size());
+  for (std::size_t k = 0; k < names.size(); ++k) place.emplace(names[k], static_cast<int>(k));
   for (std::size_t i = 0; i < wanted.size(); ++i) {
-    const auto at = std::find(names.begin(), names.end(), wanted[i]);
-    if (at == names.end()) {
-      throw InputError(request.model, 0, "joints",
-                       fmt::format("the model's joint '{}' is not among {}'s joints ({}){}",
-                                   printable(wanted[i]), s.what, fmt::join(names, ", "),
-                                   did_you_mean(wanted[i], names)));
+    const auto at = place.find(wanted[i]);
+    if (at == place.end()) {
+      throw InputError(
+          request.model, 0, "joints",
+          fmt::format("the model's joint '{}' is not among {}'s {} joints ({}){}",
+                      printable(wanted[i]), request.recording + ": " + s.what, names.size(),
+                      bounded_list(names), did_you_mean(wanted[i], names)));
     }
-    s.take.push_back(static_cast<int>(at - names.begin()));
+    s.take.push_back(at->second);
     s.columns.push_back(fmt::format("q{}", i + 1));
   }
   result.joint_names = wanted;
@@ -200,6 +205,7 @@ std::optional<Stream> tracker_stream(const std::vector<TopicBuffer>& topics,
   const std::string parent = request.frames.empty() ? "" : frames_of(request.frames).first;
   const std::string child = request.frames.empty() ? "" : frames_of(request.frames).second;
   std::vector<std::pair<const TopicBuffer*, const Samples*>> found;
+  const std::string* tf_error = nullptr;  // a TF topic that failed before giving the frames
   for (const TopicBuffer& t : topics) {
     if (!request.tracker_topic.empty() && t.channel.topic != request.tracker_topic) continue;
     if (t.kind == TopicKind::kTf) {
@@ -216,6 +222,7 @@ std::optional<Stream> tracker_stream(const std::vector<TopicBuffer>& topics,
       if (parent.empty()) continue;  // a TF tree is read with --frames only
       const auto f = t.frames.find({parent, child});
       if (f != t.frames.end()) found.emplace_back(&t, &f->second);
+      if (f == t.frames.end() && !t.error.empty() && tf_error == nullptr) tf_error = &t.error;
     } else if ((t.kind == TopicKind::kPose || t.kind == TopicKind::kPoint ||
                 t.kind == TopicKind::kTransform) &&
                t.messages > 0) {
@@ -223,6 +230,7 @@ std::optional<Stream> tracker_stream(const std::vector<TopicBuffer>& topics,
     }
   }
   if (found.empty()) {
+    if (tf_error != nullptr) throw InputError(*tf_error);
     if (!request.tracker_topic.empty() || !parent.empty()) {
       throw InputError(
           file, 0, request.tracker_topic.empty() ? "--frames" : "--tracker-topic",
@@ -297,6 +305,43 @@ void check_increasing(const Stream& s, const std::string& file, StampSource stam
   }
 }
 
+// The message field a stream's value `k` comes from ("position[3] (joint
+// 'elbow')", "pose.orientation.w", a --field path).
+std::string value_field(const Stream& s, int k) {
+  if (!s.field_paths.empty()) return printable(s.field_paths[static_cast<std::size_t>(k)], 80);
+  static constexpr const char* kAxes[] = {"x", "y", "z", "w", "x", "y", "z"};
+  switch (s.topic->kind) {
+    case TopicKind::kJointState:
+      return fmt::format("position[{}] (joint '{}')", k,
+                         printable(s.topic->names[static_cast<std::size_t>(k)], 80));
+    case TopicKind::kPoint:
+      return fmt::format("point.{}", kAxes[k]);
+    case TopicKind::kPose:
+      return fmt::format("pose.{}.{}", k < 3 ? "position" : "orientation", kAxes[k]);
+    default:
+      return fmt::format("transform.{}.{}", k < 3 ? "translation" : "rotation", kAxes[k]);
+  }
+}
+
+// Every value written is a number: a NaN or an infinity (a driver's fault, a
+// corrupt message) is refused naming the message, its stamp and the field.
+void check_finite(const Stream& s, const std::string& file) {
+  std::vector<int> used = s.convention ? s.convention->positions_used() : s.take;
+  const std::size_t width = static_cast<std::size_t>(s.width);
+  const std::vector<double>& v = s.samples->values;
+  for (std::size_t i = 0; i < s.samples->stamp_ns.size(); ++i) {
+    if ((i & 4095) == 0) throw_if_cancelled();
+    for (const int k : used) {
+      const double value = v[i * width + static_cast<std::size_t>(k)];
+      if (std::isfinite(value)) continue;
+      throw InputError(
+          fmt::format("{}: {} message {} (stamped {} s): {} is {}: a reading must be a number",
+                      place(file, s.samples->offset[i]), s.what, i + 1,
+                      seconds_text(s.samples->stamp_ns[i]), value_field(s, k), value));
+    }
+  }
+}
+
 // One sample's values as written: the columns taken, or a convention's readings.
 void row_values(const Stream& s, std::size_t i, std::vector<double>& out) {
   const double* row = s.samples->values.data() + static_cast<std::size_t>(s.width) * i;
@@ -313,6 +358,7 @@ std::string stream_csv(const Stream& s, std::int64_t origin, const std::string& 
   const std::size_t n = s.samples->stamp_ns.size();
   std::vector<double> values;
   for (std::size_t i = 0; i < n; ++i) {
+    if ((i & 4095) == 0) throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp)
     out += seconds_text(s.samples->stamp_ns[i] - origin);
     row_values(s, i, values);
     for (const double v : values) out += fmt::format(",{}", v);
@@ -388,6 +434,8 @@ std::string static_csv(const Stream& device, const Stream& tracker, const Import
   for (const std::string& c : device.columns) out += "," + c;
   for (const std::string& c : tracker.columns) out += "," + c;
   out += "\n";
+  const double still_tolerance = request.still_tolerance.value_or(kStillTolerance);
+  const double tracker_still = request.tracker_still.value_or(kTrackerStill);
   std::vector<double> values, low, high;
   std::size_t windows = 0, empty = 0, moved = 0;
   const auto close = [&](std::size_t a, std::size_t b) {  // device rows [a, b]
@@ -395,7 +443,7 @@ std::string static_csv(const Stream& device, const Stream& tracker, const Import
     ++windows;
     std::string why;
     const std::optional<std::vector<double>> row =
-        still_row(device, tracker, a, b, request.tracker_still, why);
+        still_row(device, tracker, a, b, tracker_still, why);
     if (!row) return void(++(why == "moved" ? moved : empty));
     out += seconds_text((td[a] + td[b]) / 2 - origin);
     for (const double v : *row) out += fmt::format(",{}", v);
@@ -404,6 +452,7 @@ std::string static_csv(const Stream& device, const Stream& tracker, const Import
   };
   std::size_t start = 0;
   for (std::size_t i = 0; i < td.size(); ++i) {
+    if ((i & 4095) == 0) throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp)
     row_values(device, i, values);
     if (i == start) {
       low = high = values;
@@ -412,7 +461,7 @@ std::string static_csv(const Stream& device, const Stream& tracker, const Import
     bool still = true;
     for (std::size_t k = 0; k < values.size(); ++k) {
       low[k] = std::min(low[k], values[k]), high[k] = std::max(high[k], values[k]);
-      still = still && high[k] - low[k] <= request.still_tolerance;
+      still = still && high[k] - low[k] <= still_tolerance;
     }
     if (still) continue;
     close(start, i - 1);
@@ -424,15 +473,14 @@ std::string static_csv(const Stream& device, const Stream& tracker, const Import
       fmt::format("{} still windows of at least {:g} s (readings within {:g}); left out: {} "
                   "without a tracker sample, {} in "
                   "which the tracker moved by more than {:g} m (its clock not the device's?)",
-                  windows, request.still_seconds, request.still_tolerance, empty, moved,
-                  request.tracker_still));
+                  windows, request.still_seconds, still_tolerance, empty, moved, tracker_still));
   if (result.static_rows == 0) {
     throw InputError(
         request.recording, 0, "--static",
         fmt::format("no window of at least {:g} s with the readings within {:g} and the tracker "
                     "still ({} still windows: {} without a tracker sample, {} with the tracker "
                     "moving; if the clocks differ, --time receive takes the recorder's)",
-                    request.still_seconds, request.still_tolerance, windows, empty, moved));
+                    request.still_seconds, still_tolerance, windows, empty, moved));
   }
   return out;
 }
@@ -513,49 +561,6 @@ std::string export_csv(const TrackerStream& s) {
   return out;
 }
 
-// Options that would have no effect are refused: nothing is silently ignored.
-void check_request(const ImportRequest& request, const std::vector<FieldRequest>& fields) {
-  if (request.recording.empty() && request.tracker_export.empty())
-    throw InputError("", 0, "RECORDING",
-                     "give a recording (a bag, .mcap or .db3) or --tracker-export FILE");
-  if (request.recording.empty() && request.list)
-    throw InputError("", 0, "--list", "lists a recording's topics: give the recording");
-  const TrackerExportOptions& e = request.export_options;
-  const bool export_options = !e.body.empty() || !e.markers.empty() || !e.column_map.empty() ||
-                              !e.length_unit.empty() || !e.time_unit.empty();
-  if (request.tracker_export.empty() && export_options) {
-    throw InputError("", 0, "--tracker-export",
-                     "--body, --markers, --column-map, --length-unit and --time-unit read a "
-                     "tracker's export: give --tracker-export FILE");
-  }
-  const bool tracker_field =
-      std::any_of(fields.begin(), fields.end(), [](const FieldRequest& f) { return !f.device; });
-  if (!request.tracker_export.empty() &&
-      (!request.tracker_topic.empty() || !request.frames.empty() || tracker_field)) {
-    throw InputError("", 0, "--tracker-export",
-                     "the tracker's stream comes from the export: no --tracker-topic, --frames or "
-                     "--field of x, y, z or distance with it");
-  }
-  if (request.recording.empty() &&
-      (!request.joints_topic.empty() || !fields.empty() || !request.model.empty() ||
-       !request.convention.empty() || request.still_seconds > 0)) {
-    throw InputError(
-        "", 0, "RECORDING",
-        "--joints, --field, --model, --convention and --static read a recording: give it");
-  }
-}
-
-Wanted wanted_of(const ImportRequest& request, const std::vector<FieldRequest>& fields) {
-  Wanted w;
-  w.joints_topic = request.joints_topic;
-  w.tracker_topic = request.tracker_topic;
-  if (!request.frames.empty()) w.frames = frames_of(request.frames);
-  w.fields = fields;
-  w.stamps = request.stamps;
-  w.list = request.list;
-  return w;
-}
-
 // Every topic's summary: the imported ones on the import's time origin (the
 // stamps written), the others on the recorder's clock from the recording's
 // first message.
@@ -606,9 +611,12 @@ ImportResult run_import(const ImportRequest& request) {
                          "); --field COLUMN=TOPIC:PATH reads others");
   }
   if (device) match_joints(*device, request, result);
+  for (const std::optional<Stream>* s : {&device, &tracker}) {
+    if (!*s) continue;
+    check_finite(**s, file);
+    check_increasing(**s, file, request.stamps);
+  }
   if (tracker) check_orientations(*tracker, file, result);
-  for (const std::optional<Stream>* s : {&device, &tracker})
-    if (*s) check_increasing(**s, file, request.stamps);
   // One origin for both streams: their offset is what the clocks' search finds.
   std::int64_t origin = std::numeric_limits<std::int64_t>::max();
   for (const std::optional<Stream>* s : {&device, &tracker})
@@ -623,7 +631,7 @@ ImportResult run_import(const ImportRequest& request) {
   result.time_origin_ns = origin;
   summarise(topics, device, tracker, origin, result);
 
-  OutputSet out(request.out, "import");
+  OutputSet out(request.out.empty() ? kDefaultImportOut : request.out, "import");
   const std::string what = file.empty() ? "" : fmt::format("{} ({})", file, result.format);
   if (request.still_seconds > 0) {
     if (!device || !tracker) {

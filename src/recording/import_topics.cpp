@@ -3,9 +3,11 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <set>
+#include <unordered_map>
 #include <utility>
 
 #include "hapticcal/core/cancel.hpp"
@@ -37,8 +39,8 @@ class Collector : public RecordingVisitor {
 
   // A channel of a topic already seen (another publisher of a bag) joins it.
   void channel(std::uint32_t id, const Channel& channel) override {
-    for (std::size_t k = 0; k < topics_.size(); ++k) {
-      if (topics_[k].channel.topic != channel.topic) continue;
+    if (const auto seen = by_topic_.find(channel.topic); seen != by_topic_.end()) {
+      const std::size_t k = seen->second;
       if (topics_[k].channel.type != channel.type && topics_[k].error.empty()) {
         topics_[k].error = fmt::format("{}: topic {} is recorded as {} and as {}", file_,
                                        printable(channel.topic, 80), topics_[k].channel.type,
@@ -50,13 +52,22 @@ class Collector : public RecordingVisitor {
     }
     TopicBuffer buffer;
     buffer.channel = channel;
-    // A channel hapticcal cannot decode (JSON, protobuf, an IDL schema) is
-    // listed, never decoded.
-    const bool decodable = channel.message_encoding.empty() || channel.message_encoding == "ros1" ||
-                           channel.message_encoding == "cdr";
-    buffer.kind = decodable ? kind_of(channel.type) : TopicKind::kOther;
+    buffer.kind = kind_of(channel.type);
     for (const FieldRequest& f : wanted_.fields)
       if (f.topic == channel.topic) buffer.kind = TopicKind::kFields;
+    // A channel hapticcal cannot decode (JSON, protobuf, an IDL schema) is
+    // listed, never decoded; one of a kind the import reads carries why, as
+    // its error (the import's, if it is the topic imported; else a note).
+    const bool decodable = channel.message_encoding.empty() || channel.message_encoding == "ros1" ||
+                           channel.message_encoding == "cdr";
+    if (!decodable && buffer.kind != TopicKind::kOther) {
+      buffer.error = fmt::format(
+          "{}: {} ({}): its messages are {}, which hapticcal does not decode (ros1, or cdr with "
+          "a ros2msg definition)",
+          file_, printable(channel.topic, 80), printable(channel.type, 80),
+          printable(channel.message_encoding, 80));
+    }
+    by_topic_.emplace(channel.topic, topics_.size());
     index_[id] = topics_.size();
     topics_.push_back(std::move(buffer));
   }
@@ -69,7 +80,7 @@ class Collector : public RecordingVisitor {
                        fmt::format("byte {}: a message on channel {}, which was never defined",
                                    offset, channel_id));
     TopicBuffer& t = topics_[found->second];
-    if ((++seen_ & 4095) == 0) throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp)
+    throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp): a relaxed load a message
     ++t.messages;
     t.receive_ns.push_back(receive_ns);
     if (!decoded(t)) return;
@@ -94,6 +105,12 @@ class Collector : public RecordingVisitor {
     } catch (const InputError& e) {
       t.error = e.what();  // the import fails with it if it imports this topic
     }
+  }
+
+  // Only a topic decoded needs its messages' bytes (a .db3 fetches no others).
+  bool wants_data(std::uint32_t channel_id) const override {
+    const auto found = index_.find(channel_id);
+    return found == index_.end() || decoded(topics_[found->second]);
   }
 
   std::vector<TopicBuffer> take() { return std::move(topics_); }
@@ -161,16 +178,27 @@ class Collector : public RecordingVisitor {
     s.offset.push_back(offset);
   }
 
+  // `prefix`[k]: a path of an array's element, built in one buffer.
+  const std::string& element(const char* prefix, std::size_t k) {
+    path_.assign(prefix);
+    path_ += '[';
+    char digits[24];
+    path_.append(digits, std::to_chars(digits, digits + sizeof digits, k).ptr);
+    path_ += ']';
+    return path_;
+  }
+
   void joint_state(TopicBuffer& t, const DecodedMessage& m, std::int64_t receive_ns,
                    std::uint64_t offset, const std::string& origin) {
     std::vector<std::string> names;
     for (std::size_t k = 0;; ++k) {
-      const std::string* name = m.string(fmt::format("name[{}]", k));
+      const std::string* name = m.string(element("name", k));
       if (name == nullptr) break;
       names.push_back(*name);
     }
     if (t.samples.stamp_ns.empty()) {
       if (names.empty()) throw InputError(origin + ": a JointState without joint names");
+      check_unique(names, origin);
       t.names = names;
     } else if (names != t.names) {
       throw InputError(
@@ -179,16 +207,30 @@ class Collector : public RecordingVisitor {
                       origin, names.size(), names.empty() ? "" : printable(names[0]),
                       t.names.size(), printable(t.names[0])));
     }
-    if (m.number(fmt::format("position[{}]", names.size())) != nullptr ||
-        m.number(fmt::format("position[{}]", names.size() - 1)) == nullptr) {
+    if (m.number(element("position", names.size())) != nullptr ||
+        m.number(element("position", names.size() - 1)) == nullptr) {
       std::size_t positions = 0;
-      while (m.number(fmt::format("position[{}]", positions)) != nullptr) ++positions;
+      while (m.number(element("position", positions)) != nullptr) ++positions;
       throw InputError(
           fmt::format("{}: {} joint names and {} positions", origin, names.size(), positions));
     }
     add(t.samples, stamp(m, "", receive_ns, origin), receive_ns, offset);
     for (std::size_t k = 0; k < names.size(); ++k)
-      t.samples.values.push_back(*m.number(fmt::format("position[{}]", k)));
+      t.samples.values.push_back(*m.number(element("position", k)));
+  }
+
+  // One name, one joint: a JointState naming a joint twice has no one reading for it.
+  static void check_unique(const std::vector<std::string>& names, const std::string& origin) {
+    std::unordered_map<std::string_view, std::size_t> first;
+    first.reserve(names.size());
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      const auto [at, inserted] = first.emplace(names[k], k);
+      if (!inserted) {
+        throw InputError(fmt::format(
+            "{}: the joint '{}' is named twice (name[{}] and name[{}]): one name, one joint",
+            origin, printable(names[k], 80), at->second, k));
+      }
+    }
   }
 
   // A pose, point or transform at `prefix` (a TFMessage's "transforms[k].").
@@ -218,7 +260,7 @@ class Collector : public RecordingVisitor {
   void tf(TopicBuffer& t, const DecodedMessage& m, std::int64_t receive_ns, std::uint64_t offset,
           const std::string& origin) {
     for (std::size_t k = 0;; ++k) {
-      const std::string prefix = fmt::format("transforms[{}].", k);
+      const std::string prefix = element("transforms", k) + ".";
       const std::string* parent = m.string(prefix + "header.frame_id");
       const std::string* child = m.string(prefix + "child_frame_id");
       if (parent == nullptr || child == nullptr) break;
@@ -255,9 +297,10 @@ class Collector : public RecordingVisitor {
   std::string file_;
   const Wanted& wanted_;
   bool offsets_ = true;  // the reader gives byte offsets (not a .db3)
-  std::uint64_t seen_ = 0;
   std::vector<TopicBuffer> topics_;
+  std::unordered_map<std::string, std::size_t> by_topic_;  // a topic's place in topics_
   std::map<std::uint32_t, std::size_t> index_;
+  std::string path_;  // element()'s buffer
 };
 
 }  // namespace
@@ -345,6 +388,14 @@ std::vector<TopicBuffer> read_topics(const std::string& path, const Wanted& want
 
 std::string place(const std::string& file, std::uint64_t offset) {
   return offset == kNoOffset ? file : fmt::format("{}: byte {}", file, offset);
+}
+
+std::string bounded_list(const std::vector<std::string>& items, std::size_t shown) {
+  std::string out;
+  for (std::size_t k = 0; k < items.size() && k < shown; ++k)
+    out += (k == 0 ? "" : ", ") + printable(items[k], 80);
+  if (items.size() > shown) out += fmt::format(", ... and {} more", items.size() - shown);
+  return out;
 }
 
 std::string seconds_text(std::int64_t ns) {

@@ -75,6 +75,11 @@ std::vector<TopicBuffer> read_topics(const std::string& path, const Wanted& want
 inline constexpr std::uint64_t kNoOffset = ~std::uint64_t{0};
 std::string place(const std::string& file, std::uint64_t offset);
 
+// The first `shown` of `items`, printable and comma-separated, then "... and N
+// more" when there are more: an error naming a message's 64,000 joints stays
+// one short line.
+std::string bounded_list(const std::vector<std::string>& items, std::size_t shown = 8);
+
 // The nanoseconds since the epoch as seconds, exactly as decimal text
 // ("12.000000345"): the CSV reader then rounds it once, as it would the same
 // time typed in a log.

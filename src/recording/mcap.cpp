@@ -2,16 +2,21 @@
 // https://mcap.dev/spec (records, chunks) and the encodings of
 // https://mcap.dev/spec/registry. The summary section is not needed (nor
 // trusted): every Schema, Channel and Message record of the data section is
-// read in file order, chunks decompressed and their CRC-32 checked. Errors name
-// the record's byte offset (for a record inside a chunk: the chunk's).
+// read in file order, chunks decompressed and their CRC-32 checked; then the
+// summary's Statistics record, when there is one, must count as many messages
+// on each channel as were read (a message whose channel id changed is an
+// error, not a sample lost). Errors name the record's byte offset (for a
+// record inside a chunk: the chunk's).
 #include <fmt/format.h>
 #include <zstd.h>
 
 #include <array>
 #include <cstring>
 #include <limits>
+#include <set>
 #include <unordered_map>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/recording/recording.hpp"
 #include "recording/byte_reader.hpp"
@@ -29,8 +34,10 @@ enum Opcode : std::uint8_t {
   kChannel = 0x04,
   kMessage = 0x05,
   kChunk = 0x06,
+  kStatistics = 0x0B,
   kDataEnd = 0x0F,
 };
+constexpr std::size_t kFooterBytes = kRecordHeaderBytes + 20;
 
 std::string record_name(std::uint8_t op) {
   static constexpr std::array<const char*, 16> kNames = {
@@ -66,6 +73,7 @@ std::uint32_t crc32(std::string_view data) {
   const auto* p = reinterpret_cast<const unsigned char*>(data.data());
   std::size_t n = data.size();
   for (; n >= 8; p += 8, n -= 8) {
+    if ((n & ((1u << 24) - 8)) == 0) throw_if_cancelled();  // every 16 MiB: a whole file's CRC
     std::uint32_t lo, hi;
     std::memcpy(&lo, p, 4);
     std::memcpy(&hi, p + 4, 4);
@@ -122,6 +130,8 @@ class McapReader {
   std::string chunk_records(ByteReader& r, std::uint64_t uncompressed_bytes,
                             const std::string& compression, std::string_view stored);
   void end_of_data(const Record& record, std::size_t end);
+  void check_statistics(std::size_t data_end);
+  void statistics(ByteReader& r) const;
 
   std::string_view bytes_;
   const std::string& name_;
@@ -129,7 +139,9 @@ class McapReader {
   const RecordingLimits& limits_;
   std::unordered_map<std::uint16_t, SchemaRecord> schemas_;
   std::unordered_map<std::uint16_t, ChannelRecord> channels_;
+  std::unordered_map<std::uint16_t, std::uint64_t> counts_;  // messages read a channel
   std::uint64_t messages_ = 0;
+  std::uint64_t definition_bytes_ = 0;  // the schemas handed out with the channels
 };
 
 Record McapReader::next_record(std::string_view block, std::size_t pos, std::uint64_t base,
@@ -175,6 +187,7 @@ void McapReader::read() {
   }
   std::size_t pos = kMagic.size();
   for (bool first = true;; first = false) {
+    throw_if_cancelled();  // a host's Ctrl-C (core/cancel.hpp): a relaxed load a record
     if (pos == bytes_.size())
       fail_at(name_, pos, "",
               "the file ends without a Data End or Footer record (a truncated file)");
@@ -224,6 +237,76 @@ void McapReader::end_of_data(const Record& record, std::size_t end) {
   if (bytes_.size() < end + kMagic.size() || !bytes_.ends_with(kMagic))
     fail_at(name_, bytes_.size(), "magic",
             "the file does not end with MCAP's magic (a truncated file)");
+  check_statistics(record.op == kDataEnd ? end : record.offset);
+}
+
+// The Footer before the closing magic locates the summary section; its
+// Statistics record, if any, must count what the data section held.
+void McapReader::check_statistics(std::size_t data_end) {
+  if (bytes_.size() < data_end + kFooterBytes + kMagic.size())
+    fail_at(name_, data_end, "footer", "no room for the Footer record (a truncated file)");
+  const std::size_t footer = bytes_.size() - kMagic.size() - kFooterBytes;
+  const Record f = next_record(bytes_, footer, 0, false);
+  if (f.op != kFooter || f.content.size() != 20)
+    fail_at(name_, footer, record_name(f.op),
+            "not the Footer record the file must end with (a corrupt file)");
+  ByteReader r(f.content, name_, footer, false);
+  r.set_record("footer");
+  const std::uint64_t summary_start = r.u64();
+  const std::uint64_t summary_offset_start = r.u64();
+  if (summary_start == 0) return;  // no summary section
+  const std::uint64_t summary_end = summary_offset_start != 0 ? summary_offset_start : footer;
+  if (summary_start < data_end || summary_start > summary_end || summary_end > footer)
+    r.fail(fmt::format(
+        "summary_start {} and summary_offset_start {}: not within the summary section's bytes {} "
+        "to {} (a corrupt file)",
+        summary_start, summary_offset_start, data_end, footer));
+  const std::string_view summary = bytes_.substr(0, summary_end);
+  for (std::size_t pos = summary_start; pos < summary.size();) {
+    const Record record = next_record(summary, pos, 0, false);
+    if (record.op == kStatistics) {
+      ByteReader s(record.content, name_, record.offset, false);
+      s.set_record("statistics");
+      statistics(s);
+    }
+    pos += kRecordHeaderBytes + record.content.size();
+  }
+}
+
+// A Statistics record's message counts against the messages read.
+void McapReader::statistics(ByteReader& r) const {
+  const std::uint64_t message_count = r.u64();
+  r.skip(2 + 4 + 4 + 4 + 4 + 8 + 8, "counts and times");  // schemas .. message_end_time
+  const std::uint32_t map_bytes = r.u32();
+  if (map_bytes % 10 != 0)
+    r.fail(fmt::format("channel_message_counts of {} bytes: not entries of 10", map_bytes));
+  ByteReader map(r.bytes(map_bytes, "channel_message_counts"), r.name(), r.offset(), false);
+  map.set_record(r.record());
+  std::unordered_map<std::uint16_t, std::uint64_t> stated;
+  while (!map.done()) {
+    const std::uint16_t id = map.u16();
+    stated[id] = map.u64();
+  }
+  const auto fail = [&](std::uint16_t id, std::uint64_t read, std::uint64_t counted) {
+    const auto c = channels_.find(id);
+    r.fail(fmt::format(
+        "channel {} ({}): {} messages in the data section, but the statistics count {} (a "
+        "corrupt file: a message's channel or the summary changed)",
+        id, c == channels_.end() ? "undefined" : printable(c->second.topic, 80), read, counted));
+  };
+  std::set<std::uint16_t> ids;  // in order: the first channel that differs is named
+  for (const auto& [id, n] : counts_) ids.insert(id);
+  for (const auto& [id, n] : stated) ids.insert(id);
+  for (const std::uint16_t id : ids) {
+    const auto read = counts_.find(id);
+    const auto counted = stated.find(id);
+    const std::uint64_t a = read == counts_.end() ? 0 : read->second;
+    const std::uint64_t b = counted == stated.end() ? 0 : counted->second;
+    if (a != b) fail(id, a, b);
+  }
+  if (message_count != messages_)
+    r.fail(fmt::format("message_count {}, but the data section holds {} messages (a corrupt file)",
+                       message_count, messages_));
 }
 
 void McapReader::schema(ByteReader& r) {
@@ -286,6 +369,12 @@ void McapReader::channel(ByteReader& r) {
   }
   if (channels_.size() >= limits_.max_channels)
     r.fail(fmt::format("more than the bound of {} channels", limits_.max_channels));
+  definition_bytes_ += schema == nullptr ? 0 : schema->data.size();
+  if (definition_bytes_ > bytes_.size() + limits_.max_definition_bytes)
+    r.fail(fmt::format(
+        "the channels' schemas add up to {} bytes, more than the file's {} bytes and {} more "
+        "(max_definition_bytes): many channels naming a large schema",
+        definition_bytes_, bytes_.size(), limits_.max_definition_bytes));
   channels_.emplace(id, c);
   visitor_.channel(id, make_channel(c, schema));
 }
@@ -305,6 +394,7 @@ void McapReader::message(ByteReader& r, std::uint64_t offset) {
     r.fail(fmt::format("log_time {} ns is beyond the year 2262", log_time_ns));
   if (++messages_ > limits_.max_messages)
     r.fail(fmt::format("more than the bound of {} messages", limits_.max_messages));
+  ++counts_[channel_id];
   const std::string_view data = r.bytes(r.left(), "data");
   visitor_.message(channel_id, static_cast<std::int64_t>(log_time_ns), data, offset);
 }
@@ -325,6 +415,7 @@ void McapReader::chunk(ByteReader& r, std::uint64_t offset) {
                          actual, stated_crc));
   }
   for (std::size_t pos = 0; pos < records.size();) {
+    throw_if_cancelled();
     const Record record = next_record(records, pos, offset, true);
     ByteReader inner(record.content, name_, offset, false);
     inner.set_record(

@@ -1,10 +1,13 @@
 // ROS 1 bags, format 2.0, as specified at http://wiki.ros.org/Bags/Format/2.0:
 // "#ROSBAG V2.0\n", then records, each a header (uint32 length, then fields
 // "name=value" each behind a uint32 length) and data (uint32 length, bytes).
-// The records are walked in file order from the start; the index (connection
-// and chunk info records after index_pos) is checked, not relied on. A bag cut
-// short (a record that the file ends inside, an index_pos beyond the end) or
-// whose recording never closed (index_pos 0) is an error: nothing is guessed.
+// The records are walked in file order from the start; the index is checked,
+// not relied on: each chunk's messages against the index data records after it
+// (every message's connection, time and place) and against its chunk info
+// record's count a connection, so that a changed byte of a message's header
+// is an error, not a sample handed to the wrong topic or lost. A bag cut short
+// (a record that the file ends inside, an index_pos beyond the end) or whose
+// recording never closed (index_pos 0) is an error: nothing is guessed.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -17,6 +20,7 @@
 #include <utility>
 #include <vector>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/recording/recording.hpp"
 #include "recording/byte_reader.hpp"
@@ -234,6 +238,24 @@ struct Connection {
   std::string md5sum;
 };
 
+// A message as a chunk holds it and as its index data state it: its
+// connection, the record's offset in the chunk's (uncompressed) contents and
+// its time. Sorted by connection, then offset.
+struct IndexEntry {
+  std::uint32_t conn = 0;
+  std::uint32_t offset = 0;
+  std::int64_t time_ns = 0;
+  auto operator<=>(const IndexEntry&) const = default;
+};
+
+// The messages of one chunk (as read, and as its index data state them) and
+// its count a connection (for its chunk info record).
+struct ChunkTally {
+  std::uint64_t offset = 0;  // the chunk record's
+  std::vector<IndexEntry> read, indexed;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> counts;  // (conn, messages), by conn
+};
+
 class BagReader {
  public:
   BagReader(std::string_view bytes, const std::string& name, RecordingVisitor& visitor,
@@ -251,10 +273,12 @@ class BagReader {
   void check_framing(std::size_t first) const;
   void read_chunk(const Record& chunk);
   void read_connection(const Record& r);
-  void read_message(const Record& r);
-  void read_index_data(const Record& r) const;
+  void read_message(const Record& r, std::size_t pos_in_chunk);
+  void read_index_data(const Record& r);
+  void check_chunk_index();
   void read_chunk_info(const Record& r) const;
   void check_counts() const;
+  std::string topic_of(std::uint32_t conn) const;
 
   std::string_view bytes_;
   const std::string& name_;
@@ -264,6 +288,7 @@ class BagReader {
   std::uint32_t conn_count_ = 0, chunk_count_ = 0;
   std::unordered_map<std::uint32_t, Connection> connections_;
   std::vector<std::uint64_t> chunk_offsets_;  // increasing
+  std::vector<ChunkTally> chunks_;            // counts only, once checked against the index
   std::uint64_t messages_ = 0;
 };
 
@@ -306,6 +331,7 @@ void BagReader::check_framing(std::size_t first) const {
   for (std::size_t pos = first;;) {
     index_found = index_found || index_pos_ == pos;
     if (pos >= bytes_.size()) break;
+    throw_if_cancelled();  // a host's Ctrl-C (core/cancel.hpp): a relaxed load a record
     Record r(Where{name_, pos, ""});
     file_record(pos, r);
     chunks += r.op == kChunk;
@@ -339,6 +365,7 @@ void BagReader::read() {
     Record r(Where{name_, pos, ""});
     file_record(pos, r);
     const bool before_index = pos < index_pos_;
+    if (!(before_index && r.op == kIndexData)) check_chunk_index();  // the last chunk's is read
     if (before_index && r.op == kChunk) {
       read_chunk(r);
     } else if (before_index && r.op == kIndexData) {
@@ -353,6 +380,7 @@ void BagReader::read() {
     }
     pos += r.size;
   }
+  check_chunk_index();
   check_counts();
 }
 
@@ -385,7 +413,9 @@ void BagReader::read_chunk(const Record& chunk) {
     w.fail(fmt::format("compression {}: not none, bz2 or lz4", quoted(compression)));
   }
   chunk_offsets_.push_back(w.offset);
+  chunks_.push_back({w.offset, {}, {}, {}});
   for (std::size_t pos = 0; pos < contents.size();) {
+    throw_if_cancelled();
     // Records of an uncompressed chunk are reported at their own offset in the
     // file; those of a compressed one at the chunk's, with their place in it.
     Record r(Where{name_, compressed ? w.offset : chunk.data_offset + pos, ""});
@@ -393,7 +423,7 @@ void BagReader::read_chunk(const Record& chunk) {
     if (r.op == kConnection) {
       read_connection(r);
     } else if (r.op == kMessageData) {
-      read_message(r);
+      read_message(r, pos);
     } else {
       r.where.fail("not expected inside a chunk");
     }
@@ -433,9 +463,10 @@ void BagReader::read_connection(const Record& r) {
   visitor_.channel(id, channel);
 }
 
-void BagReader::read_message(const Record& r) {
+void BagReader::read_message(const Record& r, std::size_t pos_in_chunk) {
   const auto id = r.header->number<std::uint32_t>("conn");
   const std::int64_t receive_ns = r.header->time_ns("time");
+  chunks_.back().read.push_back({id, static_cast<std::uint32_t>(pos_in_chunk), receive_ns});
   if (connections_.count(id) == 0)
     r.where.fail(fmt::format("connection {}, which no connection record before it defines", id));
   if (r.data.size() > limits_.max_message_bytes)
@@ -449,7 +480,9 @@ void BagReader::read_message(const Record& r) {
   visitor_.message(id, receive_ns, r.data, r.where.offset);
 }
 
-void BagReader::read_index_data(const Record& r) const {
+// An index data record: the messages of one connection in the chunk before it
+// (time and offset in the chunk each), kept for check_chunk_index.
+void BagReader::read_index_data(const Record& r) {
   const auto version = r.header->number<std::uint32_t>("ver");
   const auto id = r.header->number<std::uint32_t>("conn");
   const auto count = r.header->number<std::uint32_t>("count");
@@ -458,6 +491,75 @@ void BagReader::read_index_data(const Record& r) const {
     r.where.fail(fmt::format("connection {}, which no connection record before it defines", id));
   if (r.data.size() != std::uint64_t{count} * 12)
     r.where.fail(fmt::format("{} entries of 12 bytes, but {} bytes of data", count, r.data.size()));
+  if (chunks_.empty()) r.where.fail("index data before any chunk");
+  std::vector<IndexEntry>& indexed = chunks_.back().indexed;
+  for (std::size_t k = 0; k < count; ++k) {
+    std::uint32_t sec, nsec, offset;
+    std::memcpy(&sec, r.data.data() + 12 * k, 4);
+    std::memcpy(&nsec, r.data.data() + 12 * k + 4, 4);
+    std::memcpy(&offset, r.data.data() + 12 * k + 8, 4);
+    if (nsec >= 1000000000u)
+      r.where.fail(fmt::format("entry {}: nsec {} is not below 1e9", k, nsec));
+    indexed.push_back({id, offset, std::int64_t{sec} * 1000000000 + nsec});
+  }
+}
+
+std::string BagReader::topic_of(std::uint32_t conn) const {
+  const auto found = connections_.find(conn);
+  return fmt::format(
+      "connection {} ({})", conn,
+      found == connections_.end() ? "undefined" : printable(found->second.channel.topic, 80));
+}
+
+// (conn, messages) of entries sorted by connection.
+std::vector<std::pair<std::uint32_t, std::uint32_t>> counts_of(
+    const std::vector<IndexEntry>& entries) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> out;
+  for (const IndexEntry& e : entries) {
+    if (out.empty() || out.back().first != e.conn) out.emplace_back(e.conn, 0);
+    ++out.back().second;
+  }
+  return out;
+}
+
+// The messages of the last chunk read against its index data: the same
+// connections, counts, offsets and times, else an error at the chunk naming
+// the connection (a message's header changed, or the index).
+void BagReader::check_chunk_index() {
+  if (chunks_.empty()) return;
+  ChunkTally& c = chunks_.back();
+  if (c.read.empty() && c.indexed.empty()) return;  // checked, or a chunk without messages
+  std::sort(c.read.begin(), c.read.end());
+  std::sort(c.indexed.begin(), c.indexed.end());
+  c.counts = counts_of(c.read);
+  const auto listed = counts_of(c.indexed);
+  const Where w{name_, c.offset, "chunk"};
+  for (std::size_t i = 0, j = 0; i < c.counts.size() || j < listed.size();) {
+    const bool from_read =
+        j == listed.size() || (i < c.counts.size() && c.counts[i].first <= listed[j].first);
+    const std::uint32_t conn = from_read ? c.counts[i].first : listed[j].first;
+    const std::uint32_t read =
+        i < c.counts.size() && c.counts[i].first == conn ? c.counts[i++].second : 0;
+    const std::uint32_t indexed =
+        j < listed.size() && listed[j].first == conn ? listed[j++].second : 0;
+    if (read != indexed)
+      w.fail(fmt::format(
+          "{}: {} messages in the chunk, but its index data list {} (a corrupt bag: a message's "
+          "connection or the index changed)",
+          topic_of(conn), read, indexed));
+  }
+  for (std::size_t k = 0; k < c.read.size(); ++k) {
+    const IndexEntry& a = c.read[k];
+    const IndexEntry& b = c.indexed[k];
+    if (a == b) continue;
+    w.fail(fmt::format(
+        "{}: the message at byte {} of the chunk, time {} ns, is not the one its index data "
+        "list (byte {}, time {} ns): a corrupt bag",
+        topic_of(a.conn), a.offset, a.time_ns, b.offset, b.time_ns));
+  }
+  // Their memory freed (assigning {} would keep it): only the counts are kept.
+  std::vector<IndexEntry>().swap(c.read);
+  std::vector<IndexEntry>().swap(c.indexed);
 }
 
 void BagReader::read_chunk_info(const Record& r) const {
@@ -467,10 +569,34 @@ void BagReader::read_chunk_info(const Record& r) const {
   r.header->time_ns("end_time");
   const auto count = r.header->number<std::uint32_t>("count");
   if (version != 1) r.header->fail(fmt::format("version {}, not 1", version));
-  if (!std::binary_search(chunk_offsets_.begin(), chunk_offsets_.end(), chunk_pos))
+  const auto at = std::lower_bound(chunk_offsets_.begin(), chunk_offsets_.end(), chunk_pos);
+  if (at == chunk_offsets_.end() || *at != chunk_pos)
     r.where.fail(fmt::format("chunk_pos {} is not a chunk's offset", chunk_pos));
   if (r.data.size() != std::uint64_t{count} * 8)
     r.where.fail(fmt::format("{} entries of 8 bytes, but {} bytes of data", count, r.data.size()));
+  // Its count a connection against the chunk's messages.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> stated(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    std::memcpy(&stated[k].first, r.data.data() + 8 * k, 4);
+    std::memcpy(&stated[k].second, r.data.data() + 8 * k + 4, 4);
+  }
+  std::sort(stated.begin(), stated.end());
+  const auto& read = chunks_[static_cast<std::size_t>(at - chunk_offsets_.begin())].counts;
+  if (stated == read) return;
+  std::size_t k = 0;
+  while (k < stated.size() && k < read.size() && stated[k] == read[k]) ++k;
+  const std::uint32_t conn = k == read.size()     ? stated[k].first
+                             : k == stated.size() ? read[k].first
+                                                  : std::min(stated[k].first, read[k].first);
+  const auto count_of = [&](const auto& list) {
+    for (const auto& [c, n] : list)
+      if (c == conn) return n;
+    return std::uint32_t{0};
+  };
+  r.where.fail(fmt::format(
+      "the chunk at byte {}: {}: {} messages in the chunk, but its chunk info counts {} (a corrupt "
+      "bag)",
+      chunk_pos, topic_of(conn), count_of(read), count_of(stated)));
 }
 
 // The bag header's count of connections against the file's (its chunks are

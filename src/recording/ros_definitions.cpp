@@ -17,6 +17,8 @@
 #include <charconv>
 #include <map>
 #include <optional>
+#include <unordered_map>
+#include <unordered_set>
 
 #include "hapticcal/core/error.hpp"
 #include "recording/ros_message_internal.hpp"
@@ -227,18 +229,20 @@ class DefinitionParser {
                                  line, what));
   }
 
+  // A section defined again must be the same (a full definition repeats the
+  // types two fields use); found by name in constant time.
   void add_section(RawSection section) {
-    for (const RawSection& s : sections_) {
-      if (s.name != section.name) continue;
-      const bool same = std::equal(s.fields.begin(), s.fields.end(), section.fields.begin(),
+    if (const RawSection* s = find_section(section.name)) {
+      const bool same = std::equal(s->fields.begin(), s->fields.end(), section.fields.begin(),
                                    section.fields.end(), [](const RawField& a, const RawField& b) {
                                      return a.type == b.type && a.name == b.name;
                                    });
       if (!same)
         fail(section.line,
-             fmt::format("{} is defined twice, differently (first at line {})", s.name, s.line));
+             fmt::format("{} is defined twice, differently (first at line {})", s->name, s->line));
       return;
     }
+    section_index_.emplace(section.name, sections_.size());
     sections_.push_back(std::move(section));
   }
 
@@ -267,6 +271,8 @@ class DefinitionParser {
                fmt::format("'{}' after MSG: is not package/Type", printable(std::string(name))));
         add_section(std::move(current));
         current = RawSection{*normalised, line_no, {}};
+        // A fresh table, not clear(): clear() costs the buckets the largest section grew.
+        std::unordered_set<std::string>().swap(field_names_);
         expect_msg = false;
         continue;
       }
@@ -298,9 +304,8 @@ class DefinitionParser {
     if (!after_name.empty() && after_name[0] != '#' && encoding_ == Encoding::kRos1)
       fail(line_no, fmt::format("'{}' after the field {}: ROS 1 fields have no default value",
                                 printable(std::string(after_name)), name));
-    for (const RawField& f : section.fields)
-      if (f.name == name)
-        fail(line_no, fmt::format("field {} is defined twice in {}", name, section.name));
+    if (!field_names_.insert(name).second)
+      fail(line_no, fmt::format("field {} is defined twice in {}", name, section.name));
     section.fields.push_back({type, name, line_no});
   }
 
@@ -320,17 +325,17 @@ class DefinitionParser {
   // definition that uses them without their section still means them. ROS 1's
   // time and duration are primitives, compiled as two-field structs.
   void add_implicit_sections() {
-    const auto has = [&](const std::string& name) {
-      return std::any_of(sections_.begin(), sections_.end(),
-                         [&](const RawSection& s) { return s.name == name; });
+    const auto add = [&](RawSection section) {
+      if (find_section(section.name) != nullptr) return;
+      section_index_.emplace(section.name, sections_.size());
+      sections_.push_back(std::move(section));
     };
     if (encoding_ == Encoding::kCdr) {
       for (const char* name : {"builtin_interfaces/Time", "builtin_interfaces/Duration"})
-        if (!has(name))
-          sections_.push_back({name, 0, {{"int32", "sec", 0}, {"uint32", "nanosec", 0}}});
+        add({name, 0, {{"int32", "sec", 0}, {"uint32", "nanosec", 0}}});
     } else {
-      sections_.push_back({"time", 0, {{"uint32", "sec", 0}, {"uint32", "nsec", 0}}});
-      sections_.push_back({"duration", 0, {{"int32", "sec", 0}, {"int32", "nsec", 0}}});
+      add({"time", 0, {{"uint32", "sec", 0}, {"uint32", "nsec", 0}}});
+      add({"duration", 0, {{"int32", "sec", 0}, {"int32", "nsec", 0}}});
     }
   }
 
@@ -389,9 +394,8 @@ class DefinitionParser {
   }
 
   const RawSection* find_section(const std::string& name) const {
-    for (const RawSection& s : sections_)
-      if (s.name == name) return &s;
-    return nullptr;
+    const auto found = section_index_.find(name);
+    return found == section_index_.end() ? nullptr : &sections_[found->second];
   }
 
   CompiledField compile_field(const RawField& raw, const RawSection& section,
@@ -498,6 +502,8 @@ class DefinitionParser {
   Encoding encoding_;
   const std::string& origin_;
   std::vector<RawSection> sections_;
+  std::unordered_map<std::string, std::size_t> section_index_;  // by name
+  std::unordered_set<std::string> field_names_;  // the fields of the section being split
   std::vector<CompiledStruct> structs_;
   std::map<std::string, int> index_;
 };

@@ -17,6 +17,7 @@
 
 #include <charconv>
 #include <cstring>
+#include <functional>
 #include <type_traits>
 
 #include "hapticcal/core/error.hpp"
@@ -311,16 +312,52 @@ class Decoder {
 
 }  // namespace
 
-const double* DecodedMessage::number(std::string_view path) const {
-  for (const auto& [name, value] : numbers)
-    if (name == path) return &value;
+namespace {
+
+// Below this many entries a linear scan is as fast as hashing the path.
+constexpr std::size_t kIndexedFrom = 16;
+
+// The entry of `entries` at `path`: a scan for a few entries, else through
+// `index`, (re)built when it does not cover every entry.
+template <class Entries>
+const typename Entries::value_type* find_path(const Entries& entries,
+                                              DecodedMessage::PathIndex& index,
+                                              std::string_view path) {
+  if (entries.size() < kIndexedFrom) {
+    for (const auto& entry : entries)
+      if (entry.first == path) return &entry;
+    return nullptr;
+  }
+  const std::hash<std::string_view> hash;
+  if (index.entries != entries.size()) {
+    std::size_t slots = 1;
+    while (slots < 2 * entries.size()) slots *= 2;
+    index.slots.assign(slots, 0);
+    for (std::size_t i = 0; i < entries.size(); ++i) {
+      std::size_t k = hash(entries[i].first) & (slots - 1);
+      while (index.slots[k] != 0) k = (k + 1) & (slots - 1);
+      index.slots[k] = static_cast<std::uint32_t>(i + 1);
+    }
+    index.entries = entries.size();
+  }
+  const std::size_t mask = index.slots.size() - 1;
+  for (std::size_t k = hash(path) & mask; index.slots[k] != 0; k = (k + 1) & mask) {
+    const auto& entry = entries[index.slots[k] - 1];
+    if (entry.first == path) return &entry;
+  }
   return nullptr;
 }
 
+}  // namespace
+
+const double* DecodedMessage::number(std::string_view path) const {
+  const auto* entry = find_path(numbers, number_index_, path);
+  return entry == nullptr ? nullptr : &entry->second;
+}
+
 const std::string* DecodedMessage::string(std::string_view path) const {
-  for (const auto& [name, value] : strings)
-    if (name == path) return &value;
-  return nullptr;
+  const auto* entry = find_path(strings, string_index_, path);
+  return entry == nullptr ? nullptr : &entry->second;
 }
 
 DecodedMessage decode_message(const MessageType& type, std::string_view data,

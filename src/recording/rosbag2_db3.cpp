@@ -8,6 +8,11 @@
 // the last only from Iron on (definitions encoded as in
 // https://github.com/ros2/rosbag2/blob/rolling/docs/message_definition_encoding.md).
 // Messages are handed out as rosbag2 plays them: by timestamp, then row id.
+// The tables must be tables of stored columns (a view, a virtual table or a
+// generated column is refused: sqlite would compute what is read); a first
+// pass reads each message's size without its data and the reader orders the
+// rows itself, so sqlite sorts nothing, writes no temporary file, and no more
+// text and data are read than the file holds.
 // The file is opened read-only and immutable (sqlite touches no journal, -wal
 // or -shm file); a file header is checked first (https://www.sqlite.org/fileformat.html)
 // so that a truncated file is named so. A .db3 has no byte offsets worth
@@ -17,6 +22,8 @@
 #include <sqlite3.h>
 #include <sys/stat.h>
 
+#include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
 #include <climits>
@@ -24,8 +31,11 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <tuple>
 #include <unordered_set>
+#include <vector>
 
+#include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/recording/recording.hpp"
 #include "recording/byte_reader.hpp"
@@ -44,7 +54,7 @@ std::uint32_t big_endian(const unsigned char* p, int n) {
 // download is named so, not left to sqlite's "malformed"), and no journal or
 // write-ahead log beside it (changes not in the file: reading it immutable
 // would miss them).
-void check_file(const std::string& path, const RecordingLimits& limits) {
+std::uint64_t check_file(const std::string& path, const RecordingLimits& limits) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0)
     throw InputError(path, 0, "", "cannot open: " + std::string(std::strerror(errno)));
@@ -89,6 +99,7 @@ void check_file(const std::string& path, const RecordingLimits& limits) {
               "cleanly, or is still being written)",
               printable(std::filesystem::path(path).filename().string(), 200), suffix));
   }
+  return file_bytes;
 }
 
 // sqlite's URI of `path`, read-only and immutable (https://www.sqlite.org/uri.html).
@@ -117,13 +128,32 @@ class Statement {
 };
 
 struct Topic {
-  std::string name, type, serialization_format;
+  std::int64_t id = 0;
+  Channel channel;
 };
+
+// A message row as the first pass finds it: the order rosbag2 plays it in
+// (timestamp, then id), where to fetch its data and how much there is.
+struct MessageRow {
+  std::int64_t timestamp = 0, id = 0, rowid = 0;
+  std::uint32_t topic = 0;
+  std::int64_t bytes = 0;
+  auto order() const { return std::tie(timestamp, id, rowid); }
+};
+
+// sqlite's progress handler: a host's Ctrl-C (core/cancel.hpp) interrupts a
+// statement that runs long within one step.
+int interrupt_if_cancelled(void*) { return cancel_requested() ? 1 : 0; }
 
 class Db3Reader {
  public:
-  Db3Reader(const std::string& path, RecordingVisitor& visitor, const RecordingLimits& limits)
-      : path_(path), visitor_(visitor), limits_(limits) {}
+  Db3Reader(const std::string& path, RecordingVisitor& visitor, const RecordingLimits& limits,
+            std::uint64_t file_bytes)
+      : path_(path),
+        visitor_(visitor),
+        limits_(limits),
+        file_bytes_(file_bytes),
+        budget_(file_bytes) {}
   ~Db3Reader() { sqlite3_close(db_); }
 
   void read();
@@ -133,17 +163,20 @@ class Db3Reader {
     throw InputError(path_, 0, "", where + ": " + what);
   }
   [[noreturn]] void fail_sqlite(const std::string& where) const {
+    if (cancel_requested()) throw Cancelled();  // the progress handler interrupted sqlite
     fail(where, fmt::format("sqlite: {} (a corrupt or truncated .db3)", sqlite3_errmsg(db_)));
   }
-  Statement prepare(const char* sql, const std::string& where) const;
+  void open();
+  Statement prepare(const std::string& sql, const std::string& where) const;
   bool step(const Statement& s, const std::string& where) const;
-  bool has_table(const char* table) const;
-  std::string text(const Statement& s, int column, const std::string& where,
-                   const char* field) const;
+  void check_table(const char* table, std::initializer_list<const char*> columns) const;
+  void charge(const Statement& s, int column, const std::string& where);
+  std::string text(const Statement& s, int column, const std::string& where, const char* field);
   std::int64_t integer(const Statement& s, int column, const std::string& where,
                        const char* field) const;
-  std::map<std::string, std::pair<std::string, std::string>> definitions() const;
+  std::map<std::string, std::pair<std::string, std::string>> definitions();
   void topics();
+  std::vector<MessageRow> message_rows();
   void messages();
 
   const std::string& path_;
@@ -151,12 +184,38 @@ class Db3Reader {
   const RecordingLimits& limits_;
   sqlite3* db_ = nullptr;
   std::unordered_set<std::int64_t> topic_ids_;
+  // Bytes of text and data still to be handed out: at most the file's. In a
+  // sound file every byte read is stored once; a value computed on reading (a
+  // column's default) or pages shared by many rows would hand out more.
+  std::uint64_t file_bytes_;
+  std::uint64_t budget_;
+  std::uint64_t definition_bytes_ = 0;  // the definitions handed out with the topics
 };
 
-Statement Db3Reader::prepare(const char* sql, const std::string& where) const {
+void Db3Reader::open() {
+  const int rc = sqlite3_open_v2(immutable_uri(path_).c_str(), &db_,
+                                 SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, nullptr);
+  if (rc != SQLITE_OK)
+    fail("open",
+         fmt::format("sqlite: {}", db_ != nullptr ? sqlite3_errmsg(db_) : sqlite3_errstr(rc)));
+  // No string or blob longer than a message's bound (or 16 MiB, for the
+  // definitions) is made by sqlite itself.
+  const std::uint64_t longest = std::min<std::uint64_t>(
+      std::max<std::uint64_t>(limits_.max_message_bytes, std::uint64_t{16} << 20), INT_MAX);
+  sqlite3_limit(db_, SQLITE_LIMIT_LENGTH, static_cast<int>(longest));
+  // The file's schema is not trusted: no function of it (a view's, a
+  // trigger's) runs with side effects, and the file is checked as it is read.
+  sqlite3_db_config(db_, SQLITE_DBCONFIG_TRUSTED_SCHEMA, 0, nullptr);
+  sqlite3_db_config(db_, SQLITE_DBCONFIG_DEFENSIVE, 1, nullptr);
+  sqlite3_exec(db_, "PRAGMA cell_size_check = ON", nullptr, nullptr, nullptr);
+  sqlite3_progress_handler(db_, 10000, interrupt_if_cancelled, nullptr);
+}
+
+Statement Db3Reader::prepare(const std::string& sql, const std::string& where) const {
   sqlite3_stmt* s = nullptr;
-  if (sqlite3_prepare_v2(db_, sql, -1, &s, nullptr) != SQLITE_OK) {
+  if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &s, nullptr) != SQLITE_OK) {
     sqlite3_finalize(s);
+    if (cancel_requested()) throw Cancelled();
     fail(where,
          fmt::format("sqlite: {} (not a rosbag2 .db3, or a corrupt one)", sqlite3_errmsg(db_)));
   }
@@ -170,17 +229,62 @@ bool Db3Reader::step(const Statement& s, const std::string& where) const {
   fail_sqlite(where);
 }
 
-bool Db3Reader::has_table(const char* table) const {
+// A table as rosbag2 creates it: a table of stored columns with a rowid. A
+// view, a virtual table or a generated column would compute what is read
+// (a blob of any size, rows in any number) from a file of a few kilobytes.
+void Db3Reader::check_table(const char* table, std::initializer_list<const char*> columns) const {
+  const std::string where = fmt::format("table {}", table);
   const Statement s =
-      prepare("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?1", "the schema");
+      prepare("SELECT type, sql FROM sqlite_master WHERE name = ?1 COLLATE NOCASE", "the schema");
   sqlite3_bind_text(s.get(), 1, table, -1, SQLITE_STATIC);
-  return step(s, "the schema");
+  if (!step(s, "the schema"))
+    fail("the schema", fmt::format("no table '{}': not a rosbag2 .db3", table));
+  const auto* type = reinterpret_cast<const char*>(sqlite3_column_text(s.get(), 0));
+  const auto* sql = reinterpret_cast<const char*>(sqlite3_column_text(s.get(), 1));
+  const std::string kind = type == nullptr ? "" : type;
+  if (kind != "table")
+    fail(where, fmt::format("a {}, not a table (rosbag2 writes a table)", printable(kind)));
+  if (sql != nullptr && sqlite3_strnicmp(sql, "CREATE VIRTUAL", 14) == 0)
+    fail(where,
+         "a virtual table (computed on reading), not a table of stored rows as rosbag2 "
+         "writes");
+  const Statement info = prepare("SELECT name, hidden FROM pragma_table_xinfo(?1)", where);
+  sqlite3_bind_text(info.get(), 1, table, -1, SQLITE_STATIC);
+  std::unordered_set<std::string> names;
+  while (step(info, where)) {
+    const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(info.get(), 0));
+    std::string name = p == nullptr ? "" : p;
+    for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (sqlite3_column_int64(info.get(), 1) != 0)
+      fail(where, fmt::format("column {} is generated (computed on reading): rosbag2 stores "
+                              "every column",
+                              printable(name)));
+    if (name == "rowid" || name == "_rowid_" || name == "oid")
+      fail(where, fmt::format("a column named {}: rosbag2's rows are found by their rowid",
+                              printable(name)));
+    names.insert(std::move(name));
+  }
+  for (const char* column : columns)
+    if (names.count(column) == 0)
+      fail(where, fmt::format("no column '{}': not a rosbag2 .db3", column));
+  prepare(fmt::format("SELECT rowid FROM \"{}\" LIMIT 0", table), where + " (without rowid)");
+}
+
+// Takes a text or blob's bytes from the budget before they are copied.
+void Db3Reader::charge(const Statement& s, int column, const std::string& where) {
+  const auto bytes = static_cast<std::uint64_t>(sqlite3_column_bytes(s.get(), column));
+  if (bytes > budget_)
+    fail(where,
+         "more text and data than the file's bytes hold (values computed on reading, or "
+         "pages shared by rows: a corrupt .db3)");
+  budget_ -= bytes;
 }
 
 std::string Db3Reader::text(const Statement& s, int column, const std::string& where,
-                            const char* field) const {
+                            const char* field) {
   if (sqlite3_column_type(s.get(), column) != SQLITE_TEXT)
     fail(where, fmt::format("{} is not text", field));
+  charge(s, column, where);
   const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(s.get(), column));
   return std::string(p, static_cast<std::size_t>(sqlite3_column_bytes(s.get(), column)));
 }
@@ -193,36 +297,54 @@ std::int64_t Db3Reader::integer(const Statement& s, int column, const std::strin
 }
 
 // topic_type -> (encoding, definition), from message_definitions when the
-// file has that table (Iron and later).
-std::map<std::string, std::pair<std::string, std::string>> Db3Reader::definitions() const {
+// file has that table (Iron and later); the first row by id of a type wins.
+// Every query here and below is one pass over one table, without ORDER BY: the
+// reader orders what it kept, so sqlite sorts nothing and writes no temporary
+// file, and each bound is checked row by row.
+std::map<std::string, std::pair<std::string, std::string>> Db3Reader::definitions() {
   std::map<std::string, std::pair<std::string, std::string>> out;
-  if (!has_table("message_definitions")) return out;
+  const Statement exists =
+      prepare("SELECT 1 FROM sqlite_master WHERE name = 'message_definitions' COLLATE NOCASE",
+              "the schema");
+  if (!step(exists, "the schema")) return out;
+  check_table("message_definitions",
+              {"id", "topic_type", "encoding", "encoded_message_definition"});
   const Statement s = prepare(
-      "SELECT id, topic_type, encoding, encoded_message_definition FROM message_definitions ORDER "
-      "BY id",
+      "SELECT id, topic_type, encoding, encoded_message_definition FROM message_definitions",
       "message_definitions");
+  std::vector<std::pair<std::int64_t, std::array<std::string, 3>>> rows;
   while (step(s, "message_definitions")) {
-    const std::string where =
-        fmt::format("message_definitions row {}", sqlite3_column_int64(s.get(), 0));
+    const std::int64_t id = integer(s, 0, "message_definitions", "id");
+    const std::string where = fmt::format("message_definitions row {}", id);
+    if (rows.size() >= limits_.max_channels)
+      fail(where, fmt::format("more than the bound of {} definitions", limits_.max_channels));
     std::string type = text(s, 1, where, "topic_type");
     std::string encoding = text(s, 2, where, "encoding");
-    out.emplace(std::move(type), std::make_pair(std::move(encoding),
-                                                text(s, 3, where, "encoded_message_definition")));
+    rows.push_back(
+        {id,
+         {std::move(type), std::move(encoding), text(s, 3, where, "encoded_message_definition")}});
   }
+  std::stable_sort(rows.begin(), rows.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (auto& [id, row] : rows)
+    out.emplace(std::move(row[0]), std::make_pair(std::move(row[1]), std::move(row[2])));
   return out;
 }
 
 void Db3Reader::topics() {
   const auto defined = definitions();
-  const Statement s =
-      prepare("SELECT id, name, type, serialization_format FROM topics ORDER BY id", "topics");
+  const Statement s = prepare("SELECT id, name, type, serialization_format FROM topics", "topics");
+  std::vector<Topic> found;
   while (step(s, "topics")) {
     const std::int64_t id = integer(s, 0, "topics", "id");
     const std::string where = fmt::format("topics row {}", id);
     if (id < 0 || id > std::int64_t{UINT32_MAX}) fail(where, "an id beyond 0 to 4294967295");
-    if (topic_ids_.size() >= limits_.max_channels)
+    if (found.size() >= limits_.max_channels)
       fail(where, fmt::format("more than the bound of {} topics", limits_.max_channels));
-    Channel c;
+    if (!topic_ids_.insert(id).second) fail(where, "a second topic of this id");
+    Topic t;
+    t.id = id;
+    Channel& c = t.channel;
     c.topic = text(s, 1, where, "name");
     const std::string type = text(s, 2, where, "type");
     c.type = normalised_type(type);
@@ -230,6 +352,12 @@ void Db3Reader::topics() {
     const auto d = defined.find(type);
     const std::string definition_encoding = d == defined.end() ? "" : d->second.first;
     if (definition_encoding == "ros2msg") c.definition = d->second.second;
+    definition_bytes_ += c.definition.size();
+    if (definition_bytes_ > file_bytes_ + limits_.max_definition_bytes)
+      fail(where, fmt::format("the topics' definitions add up to {} bytes, more than the file's "
+                              "{} bytes and {} more (max_definition_bytes): many topics of a "
+                              "type with a large definition",
+                              definition_bytes_, file_bytes_, limits_.max_definition_bytes));
     if (c.message_encoding == "cdr" &&
         (definition_encoding == "ros2msg" || d == defined.end() || d->second.second.empty())) {
       c.encoding =
@@ -237,61 +365,82 @@ void Db3Reader::topics() {
     } else if (c.message_encoding == "cdr") {
       c.message_encoding = fmt::format("cdr with a {} definition", printable(definition_encoding));
     }
-    topic_ids_.insert(id);
-    visitor_.channel(static_cast<std::uint32_t>(id), c);
+    found.push_back(std::move(t));
   }
+  std::sort(found.begin(), found.end(), [](const Topic& a, const Topic& b) { return a.id < b.id; });
+  for (const Topic& t : found) visitor_.channel(static_cast<std::uint32_t>(t.id), t.channel);
 }
 
-void Db3Reader::messages() {
-  // The data is fetched only within the bound (length() and typeof() read
-  // neither the blob nor its overflow pages): an over-long message is named,
-  // never copied.
-  const Statement s = prepare(
-      "SELECT id, topic_id, timestamp, typeof(data), length(data), "
-      "CASE WHEN length(data) <= ?1 THEN data END FROM messages ORDER BY timestamp, id",
-      "messages");
-  sqlite3_bind_int64(
-      s.get(), 1,
-      static_cast<sqlite3_int64>(std::min<std::uint64_t>(limits_.max_message_bytes, INT64_MAX)));
-  std::uint64_t count = 0;
-  std::int64_t last_id = 0;
-  while (step(
-      s, count == 0 ? std::string("messages") : fmt::format("messages, after row {}", last_id))) {
-    last_id = integer(s, 0, "messages", "id");
-    const std::string where = fmt::format("messages row {}", last_id);
-    const std::int64_t topic_id = integer(s, 1, where, "topic_id");
+// The first pass: every row's place and size, its data's length read without
+// the data (length() and typeof() of a stored blob read neither it nor its
+// overflow pages); each bound checked before a byte of data is fetched.
+std::vector<MessageRow> Db3Reader::message_rows() {
+  const Statement s =
+      prepare("SELECT rowid, id, topic_id, timestamp, typeof(data), length(data) FROM messages",
+              "messages");
+  const auto most =
+      static_cast<std::int64_t>(std::min<std::uint64_t>(limits_.max_message_bytes, INT64_MAX));
+  std::vector<MessageRow> rows;
+  while (step(s, rows.empty() ? std::string("messages")
+                              : fmt::format("messages, after row {}", rows.back().id))) {
+    if ((rows.size() & 4095) == 0) throw_if_cancelled();
+    MessageRow m;
+    m.rowid = sqlite3_column_int64(s.get(), 0);
+    m.id = integer(s, 1, "messages", "id");
+    const std::string where = fmt::format("messages row {}", m.id);
+    const std::int64_t topic_id = integer(s, 2, where, "topic_id");
     if (topic_ids_.find(topic_id) == topic_ids_.end())
       fail(where, fmt::format("topic_id {} is not in the topics table", topic_id));
-    const std::int64_t timestamp_ns = integer(s, 2, where, "timestamp");
-    if (text(s, 3, where, "typeof(data)") != "blob") fail(where, "data is not a blob");
-    const std::int64_t data_bytes = integer(s, 4, where, "length(data)");
-    if (sqlite3_column_type(s.get(), 5) == SQLITE_NULL && data_bytes > 0)
+    m.topic = static_cast<std::uint32_t>(topic_id);
+    m.timestamp = integer(s, 3, where, "timestamp");
+    const auto* type = reinterpret_cast<const char*>(sqlite3_column_text(s.get(), 4));
+    if (type == nullptr || std::strcmp(type, "blob") != 0) fail(where, "data is not a blob");
+    m.bytes = integer(s, 5, where, "length(data)");
+    if (m.bytes > most)
       fail(where, fmt::format("{} bytes of data: more than the bound of {} bytes for a message",
-                              data_bytes, limits_.max_message_bytes));
-    if (++count > limits_.max_messages)
+                              m.bytes, limits_.max_message_bytes));
+    if (static_cast<std::uint64_t>(m.bytes) > budget_)
+      fail(where,
+           "more data than the file's bytes hold (values computed on reading, or pages "
+           "shared by rows: a corrupt .db3)");
+    budget_ -= static_cast<std::uint64_t>(m.bytes);
+    if (rows.size() >= limits_.max_messages)
       fail(where, fmt::format("more than the bound of {} messages", limits_.max_messages));
-    const void* blob = sqlite3_column_blob(s.get(), 5);
-    const int got = sqlite3_column_bytes(s.get(), 5);
-    if (got != data_bytes) fail_sqlite(where);  // the blob could not be read whole
+    rows.push_back(m);
+  }
+  return rows;
+}
+
+// Messages as rosbag2 plays them: by timestamp, then id; each one's data
+// fetched by its rowid (only for a channel whose data the visitor wants).
+void Db3Reader::messages() {
+  std::vector<MessageRow> rows = message_rows();
+  std::sort(rows.begin(), rows.end(),
+            [](const MessageRow& a, const MessageRow& b) { return a.order() < b.order(); });
+  const Statement s = prepare("SELECT data FROM messages WHERE rowid = ?1", "messages");
+  for (const MessageRow& m : rows) {
+    throw_if_cancelled();
+    if (!visitor_.wants_data(m.topic)) {
+      visitor_.message(m.topic, m.timestamp, {}, 0);
+      continue;
+    }
+    const std::string where = fmt::format("messages row {}", m.id);
+    sqlite3_reset(s.get());
+    sqlite3_bind_int64(s.get(), 1, m.rowid);
+    if (!step(s, where)) fail(where, "the row is gone (a corrupt .db3)");
+    const void* blob = sqlite3_column_blob(s.get(), 0);
+    const int got = sqlite3_column_bytes(s.get(), 0);
+    if (got != m.bytes) fail_sqlite(where);  // the blob could not be read whole
     const std::string_view data(static_cast<const char*>(blob),
                                 blob == nullptr ? 0 : static_cast<std::size_t>(got));
-    visitor_.message(static_cast<std::uint32_t>(topic_id), timestamp_ns, data, 0);
+    visitor_.message(m.topic, m.timestamp, data, 0);
   }
 }
 
 void Db3Reader::read() {
-  const int rc = sqlite3_open_v2(immutable_uri(path_).c_str(), &db_,
-                                 SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, nullptr);
-  if (rc != SQLITE_OK)
-    fail("open",
-         fmt::format("sqlite: {}", db_ != nullptr ? sqlite3_errmsg(db_) : sqlite3_errstr(rc)));
-  // A string or blob over the record bound is refused by sqlite itself (its
-  // default is a bound of 10^9 bytes).
-  const std::uint64_t longest = std::min<std::uint64_t>(limits_.max_record_bytes, INT_MAX);
-  sqlite3_limit(db_, SQLITE_LIMIT_LENGTH, static_cast<int>(longest));
-  for (const char* table : {"topics", "messages"})
-    if (!has_table(table))
-      fail("the schema", fmt::format("no table '{}': not a rosbag2 .db3", table));
+  open();
+  check_table("topics", {"id", "name", "type", "serialization_format"});
+  check_table("messages", {"id", "topic_id", "timestamp", "data"});
   topics();
   messages();
 }
@@ -300,8 +449,8 @@ void Db3Reader::read() {
 
 void read_rosbag2_db3(const std::string& path, RecordingVisitor& visitor,
                       const RecordingLimits& limits) {
-  check_file(path, limits);
-  Db3Reader(path, visitor, limits).read();
+  const std::uint64_t file_bytes = check_file(path, limits);
+  Db3Reader(path, visitor, limits, file_bytes).read();
 }
 
 }  // namespace hapticcal::recording

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -38,18 +39,24 @@ struct ImportRequest {
   std::string convention;      // a driver's published joints mapped to the device's readings
   std::string tracker_export;  // a tracker's CSV export instead of (or beside) a recording
   TrackerExportOptions export_options;
-  std::string out = "hapticcal-out/import";
+  std::string out;  // the output folder; empty: kDefaultImportOut
   RecordingLimits limits;
-  bool list = false;  // list the recording's topics; write nothing
+  // List the recording's topics; write nothing (so an output folder, a model
+  // or a topic to import given with it is refused: it would have no effect).
+  bool list = false;
   // A static log (log.csv) instead of the streams: one row a window of at least
   // this many seconds in which every reading stays within still_tolerance (rad
-  // or m), the readings and the tracker's samples in it averaged. 0: streams.
+  // or m; unset: 1e-4), the readings and the tracker's samples in it averaged.
+  // 0: streams (and still_tolerance or tracker_still set is refused).
   double still_seconds = 0;
-  double still_tolerance = 1e-4;
+  std::optional<double> still_tolerance;
   // A still window whose tracker samples lie further than this from their
   // median [m] is left out: the tracker moved (its clock is not the device's).
-  double tracker_still = 1e-3;
+  // Unset: 1e-3.
+  std::optional<double> tracker_still;
 };
+
+inline constexpr const char* kDefaultImportOut = "hapticcal-out/import";
 
 // What one topic held.
 struct TopicSummary {

@@ -47,6 +47,10 @@ struct RecordingLimits {
   std::uint64_t max_uncompressed_bytes = std::uint64_t{1} << 30;  // a chunk decompressed: 1 GiB
   std::uint64_t max_message_bytes = std::uint64_t{64} << 20;      // one message's payload: 64 MiB
   std::uint32_t max_channels = 10000;
+  // The channels' definitions handed out in all, beyond the file's own size:
+  // many channels may name one schema (a .db3's type, an MCAP schema), each
+  // handed a copy; 10,000 naming one of 16 MiB would be 160 GB.
+  std::uint64_t max_definition_bytes = std::uint64_t{64} << 20;
   std::uint64_t max_messages = std::uint64_t{100} << 20;  // 100 M messages
 };
 
@@ -63,6 +67,10 @@ class RecordingVisitor {
   virtual void channel(std::uint32_t id, const Channel& channel) = 0;
   virtual void message(std::uint32_t channel_id, std::int64_t receive_ns, std::string_view data,
                        std::uint64_t offset) = 0;
+  // Whether message() needs the data of this channel's messages: a reader
+  // that must fetch them (a .db3) hands out an empty view for a channel that
+  // does not (a topic only counted, --list).
+  virtual bool wants_data(std::uint32_t /*channel_id*/) const { return true; }
 };
 
 // The file's format by its first bytes: "ROS 1 bag", "MCAP", "rosbag2 sqlite3";
