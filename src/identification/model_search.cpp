@@ -271,13 +271,10 @@ void Search::choose() {
     return e.candidate.allowed && e.candidate.usable && std::isfinite(e.mse);
   };
   for (Entry& e : entries_) {
-    // A held-out error not below the nominal's by the standard error of
-    // their difference (paired over the same held-out poses; a nanometre for
-    // exact data) is unusable: a calibration must predict better than none,
-    // and be seen to on these poses.
-    e.candidate.usable =
-        !std::isfinite(nominal_.mse) || !std::isfinite(e.mse) ||
-        e.mse + difference_se(e, nominal_, rows) <= nominal_.mse + kExactFloor * kExactFloor;
+    // A held-out error above the nominal's (by more than a nanometre, for
+    // exact data) is unusable: a calibration must predict no worse than none.
+    e.candidate.usable = !std::isfinite(nominal_.mse) || !std::isfinite(e.mse) ||
+                         e.mse <= nominal_.mse + kExactFloor * kExactFloor;
   }
   out_.best = out_.kept = -1;
   for (int i = 0; i < static_cast<int>(entries_.size()); ++i) {
