@@ -180,8 +180,8 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
       simulated_measurement(T_meas_tool, columns, noise, rng, gauss, log, r);
       continue;
     }
-    for (int t = 0; t < tips; ++t) {
-      const Eigen::Vector3d p = prepared.forward(q.data(), t).p;
+    for (int t = 0; t < tips; ++t) {  // tip 0's frame is T_meas_tool
+      const Eigen::Vector3d p = t == 0 ? T_meas_tool.p : prepared.forward(q.data(), t).p;
       for (int k = 0; k < 3; ++k)
         log.markers(r, 3 * t + k) = p[k] + noise.sigma_position * gauss(rng);
     }
