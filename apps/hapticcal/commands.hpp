@@ -107,7 +107,7 @@ struct ImportOptions {
   std::string tracker_export, body, markers, column_map, length_unit, time_unit;
   std::string out = "hapticcal-out/import";
   bool list = false;
-  double still_seconds = 0, still_tolerance = 1e-4, tracker_still = 1e-3;
+  double still_seconds = 0, still_tolerance = 1e-4, tracker_still = 1e-3, clock_offset = 0;
 };
 CLI::App* add_import_command(CLI::App& app, ImportOptions& options);
 int run_import(const ImportOptions& options);

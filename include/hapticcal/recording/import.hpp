@@ -49,6 +49,10 @@ struct ImportRequest {
   // A still window whose tracker samples lie further than this from their
   // median [m] is left out: the tracker moved (its clock is not the device's).
   double tracker_still = 1e-3;
+  // How far the tracker's clock is ahead of the device's [s]: a still window's
+  // tracker samples are those stamped within it plus this. A window whose
+  // samples the speeds place at another time is left out (still_poses.cpp).
+  double clock_offset = 0;
 };
 
 // What one topic held.
