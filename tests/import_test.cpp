@@ -498,5 +498,42 @@ TEST(Import, DriverConventionsGiveTheDevicesReadings) {
   EXPECT_NE(c.err.find("did you mean 'ros-geomagic'"), std::string::npos) << c.err;
 }
 
+// A session imported with the wrong driver's convention (phantom_omni's bag
+// read as ros_geomagic's: the roll's sign flipped and a turn off): calibrate
+// names the device log's readings and the convention, not the tracker's clock
+// (which the speeds found) nor degrees (a recording's joint states are radians).
+TEST(Import, AWrongConventionIsNamedAsTheLikelyCause) {
+  const Recordings& r = recordings();
+  const std::string dir = testing::fresh_folder("import_wrong_convention");
+  const testing::CliResult w =
+      run_program(HAPTICCAL_DEBIAN_PYTHON,
+                  {std::string(HAPTICCAL_SOURCE_DIR) + "/tests/writers/convention_bag.py",
+                   r.dir + "/device.csv", dir});
+  ASSERT_EQ(w.exit_code, 0) << w.err;
+  for (const std::string& convention : {std::string("phantom-omni"), std::string("ros-geomagic")}) {
+    SCOPED_TRACE(convention);
+    const std::string out = dir + "/" + convention;
+    const testing::CliResult i = run_cli({"import", dir + "/phantom-omni.bag", "--model", r.nominal,
+                                          "--convention", convention, "--out", out});
+    ASSERT_EQ(i.exit_code, 0) << i.err;
+    const testing::CliResult c =
+        run_cli({"calibrate", "--model", r.nominal, "--log", out + "/device.csv", "--tracker",
+                 r.dir + "/tracker.csv", "--out", out + "/cal"});
+    if (convention == "phantom-omni") {  // the driver's own: calibrated
+      EXPECT_EQ(c.exit_code, 0) << c.err;
+      continue;
+    }
+    EXPECT_EQ(c.exit_code, 2) << c.out;
+    EXPECT_NE(c.err.find(out + "/device.csv: q6: "), std::string::npos) << c.err;
+    EXPECT_NE(c.err.find("the readings were mapped at import by --convention ros-geomagic: another "
+                         "driver's signs and offsets give such readings"),
+              std::string::npos)
+        << c.err;
+    EXPECT_EQ(c.err.find("[deg]"), std::string::npos) << c.err;
+    EXPECT_EQ(c.err.find("tracker.csv"), std::string::npos) << c.err;
+    EXPECT_FALSE(fs::exists(out + "/cal"));
+  }
+}
+
 }  // namespace
 }  // namespace hapticcal

@@ -494,6 +494,9 @@ ImportResult run_import(const ImportRequest& request) {
   summarise(topics, device, tracker, origin, result);
 
   OutputSet out(request.out, "import");
+  // Said in the files' comment: calibrate names it when the readings do not fit the model.
+  const std::string convention =
+      request.convention.empty() ? "" : "; --convention " + request.convention;
   const std::string what = file.empty() ? "" : fmt::format("{} ({})", file, result.format);
   if (request.still_seconds > 0) {
     if (!device || !tracker) {
@@ -501,10 +504,11 @@ ImportResult run_import(const ImportRequest& request) {
           file, 0, "--static",
           "a static log needs the device's readings and the tracker's samples from the recording");
     }
-    const std::string comment = fmt::format(
-        "# hapticcal import of {}: still poses of {} and {}; {} stamps less {} s\n", what,
-        device->what, tracker->what,
-        request.stamps == StampSource::kHeader ? "header" : "recorder's", seconds_text(origin));
+    const std::string comment =
+        fmt::format("# hapticcal import of {}: still poses of {} and {}; {} stamps less {} s{}\n",
+                    what, device->what, tracker->what,
+                    request.stamps == StampSource::kHeader ? "header" : "recorder's",
+                    seconds_text(origin), convention);
     write_file_atomically(
         out.dir() + "/log.csv",
         static_csv(*device, *tracker, request, model ? &*model : nullptr, origin, comment, result));
@@ -513,9 +517,9 @@ ImportResult run_import(const ImportRequest& request) {
   if (device) {
     result.device_rows = device->samples->stamp_ns.size();
     const std::string comment =
-        fmt::format("# hapticcal import of {}: {}; {} stamps less {} s; joints: {}\n", what,
+        fmt::format("# hapticcal import of {}: {}; {} stamps less {} s; joints: {}{}\n", what,
                     device->what, request.stamps == StampSource::kHeader ? "header" : "recorder's",
-                    seconds_text(origin), fmt::join(result.joint_names, ", "));
+                    seconds_text(origin), fmt::join(result.joint_names, ", "), convention);
     write_file_atomically(out.dir() + "/device.csv", stream_csv(*device, origin, comment));
   }
   if (tracker) {
