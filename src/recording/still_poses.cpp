@@ -2,12 +2,12 @@
 // stood still at, its readings and the tracker's samples averaged. A window's
 // tracker samples must be of that pose: a window in which the tracker moved is
 // left out, and so is one whose samples the clocks place at another time. The
-// clocks are compared as calibrate's coarse search compares them
-// (identification/stream.cpp, a layer above this one): the speed of the tool
-// point (the model's, from the readings; without a model, of the readings
-// themselves) against the tracker's, on a 10 ms grid, correlated over lags; a
-// tracker stopping and starting a pose period late still stops where the
-// readings stop, but its speeds match the readings' at the lag alone.
+// clocks are compared as calibrate's coarse search (coarse_clock_offset, in the
+// library that links this one, so not callable here) compares them: the speed
+// of the tool point (the model's, from the readings; without a model, of the
+// readings themselves) against the tracker's, on a 10 ms grid, correlated over
+// lags. A tracker stopping and starting a pose period late still stops where
+// the readings stop, but its speeds match the readings' at the lag alone.
 #include <fmt/format.h>
 
 #include <Eigen/Core>

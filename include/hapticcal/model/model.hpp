@@ -334,9 +334,9 @@ struct DeviceModel {
 };
 
 // Why `coupling` cannot be the coupling of a model with these links, or empty:
-// dof x dof, finite, each C_ik 0 or of magnitude in [1e-6, 100], every joint using some reading, no
-// transmission on an unused reading. A C equal to the identity is refused too
-// (it is written as no coupling).
+// dof x dof, finite, each C_ik 0 or of magnitude in [1e-6, 100], every joint
+// using some reading, no transmission on an unused reading. A C equal to the
+// identity is refused too (it is written as no coupling).
 std::string coupling_problem(const Eigen::MatrixXd& coupling, const std::vector<Link>& links);
 
 // Why a model's tree (parents, tips) is not one, or empty: at most kMaxDof
