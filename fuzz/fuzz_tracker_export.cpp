@@ -76,6 +76,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   choices[2].time_unit = "s";
   choices[3].body = "stylus";
   choices[3].markers = {"M1"};
+  choices.emplace_back().markers = {"Marker1", "stylus:Marker1"};  // one marker named twice
   for (const TrackerExportOptions& o : choices) {
     attempt([&] { return rec::read_motive_csv(text, "fuzz.csv", o); });
     attempt([&] { return rec::read_vicon_csv(text, "fuzz.csv", o); });

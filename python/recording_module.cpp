@@ -37,7 +37,8 @@ py::dict import_recording(const Text& recording, const Text& joints, const Text&
                           const std::optional<Names>& markers, const Text& column_map,
                           const Text& length_unit, const Text& time_unit, double still,
                           std::optional<double> still_tolerance,
-                          std::optional<double> tracker_still, const Text& out, bool list) {
+                          std::optional<double> tracker_still, double clock_offset, const Text& out,
+                          bool list) {
   recording::ImportRequest request;
   request.recording = text(recording);
   request.joints_topic = text(joints);
@@ -65,6 +66,10 @@ py::dict import_recording(const Text& recording, const Text& joints, const Text&
   if (tracker_still && !(*tracker_still >= 0 && *tracker_still <= 1))
     throw InputError("", 0, "tracker_still", fmt::format("{}: not in [0, 1] m", *tracker_still));
   request.tracker_still = tracker_still;
+  if (!(clock_offset >= -3600 && clock_offset <= 3600))
+    throw InputError("", 0, "clock_offset",
+                     fmt::format("{}: not in [-3600, 3600] s", clock_offset));
+  request.clock_offset = clock_offset;
   request.out = text(out);
   request.list = list;
   return summary(interruptible([&] { return recording::run_import(request); }));
@@ -79,7 +84,8 @@ void add_recording_functions(py::module_& m) {
         "convention"_a = py::none(), "tracker_export"_a = py::none(), "body"_a = py::none(),
         "markers"_a = py::none(), "column_map"_a = py::none(), "length_unit"_a = py::none(),
         "time_unit"_a = py::none(), "static"_a = 0.0, "still_tolerance"_a = py::none(),
-        "tracker_still"_a = py::none(), "out"_a = py::none(), "list"_a = false,
+        "tracker_still"_a = py::none(), "clock_offset"_a = 0.0, "out"_a = py::none(),
+        "list"_a = false,
         "hapticcal import: a ROS 1 bag, MCAP file, rosbag2 .db3 (or tracker_export: a Motive, "
         "Vicon or mapped "
         "CSV) into device.csv and tracker.csv (static=SECONDS: log.csv of still poses) in out; "

@@ -321,12 +321,9 @@ TEST(Coupling, UrdfMimicJointIsAPassiveCoupledJoint) {
   }
 }
 
-// A joint driven by several readings (a humanoid torso's passive joint,
-// theta3 = -(q1 + q2)) on a URDF: one <hapticcal_coupling> a reading under the
-// joint, which urdfdom and ROS tools ignore. Read, checked against the pose
-// composed by hand, written back and read again.
-TEST(Coupling, UrdfJointDrivenBySeveralReadings) {
-  const std::string urdf = R"(<?xml version="1.0"?>
+// A torso whose third joint is passive, theta3 = -(q1 + q2), then a wrist joint.
+std::string torso_urdf() {
+  return R"(<?xml version="1.0"?>
 <robot name="torso">
   <link name="a"/><link name="b"/><link name="c"/><link name="d"/><link name="e"/>
   <joint name="t1" type="revolute"><parent link="a"/><child link="b"/>
@@ -345,6 +342,14 @@ TEST(Coupling, UrdfJointDrivenBySeveralReadings) {
     <limit lower="-1" upper="1" effort="0" velocity="0"/></joint>
 </robot>
 )";
+}
+
+// A joint driven by several readings (a humanoid torso's passive joint,
+// theta3 = -(q1 + q2)) on a URDF: one <hapticcal_coupling> a reading under the
+// joint, which urdfdom and ROS tools ignore. Read, checked against the pose
+// composed by hand, written back and read again.
+TEST(Coupling, UrdfJointDrivenBySeveralReadings) {
+  const std::string urdf = torso_urdf();
   const DeviceModel m = parse_urdf(urdf, "torso.urdf", "e", "a");
   ASSERT_TRUE(m.coupled());
   Eigen::MatrixXd expected = Eigen::MatrixXd::Identity(4, 4);
@@ -388,7 +393,7 @@ TEST(Coupling, UrdfJointDrivenBySeveralReadings) {
           "torso.urdf:14: joint 't3': <hapticcal_coupling>: 'tx' is not a movable joint");
   refused("joint=\"t2\" multiplier=\"-1\"", "joint=\"t1\" multiplier=\"-1\"", "'t1' named twice");
   refused("joint=\"t2\" multiplier=\"-1\"", "joint=\"t2\" multiplier=\"1e400\"",
-          "multiplier '1e400': a number of magnitude in (0, 100]");
+          "multiplier '1e400': a number of magnitude in [1e-06, 100]");
   refused("joint=\"t2\" multiplier=\"-1\"", "joint=\"t2\"", "needs joint=");
   refused(
       "<hapticcal_coupling joint=\"t1\" multiplier=\"-1\"/>",
@@ -407,6 +412,73 @@ TEST(Coupling, UrdfJointDrivenBySeveralReadings) {
   const std::string minus_one = "joint=\"t1\" multiplier=\"-1\"";
   plus.replace(plus.find(minus_one), minus_one.size(), "joint=\"t1\" multiplier=\" +1 \"");
   EXPECT_EQ(parse_urdf(plus, "torso.urdf", "e", "a").coupling(2, 0), 1.0);
+}
+
+// What another program would ignore is refused here too: the element out of
+// its place (inside a <link>: the torso read as independent joints, its tool
+// 165 mm off), an attribute it does not have, a multiplier of 1e-300 (read as
+// a coupling that couples nothing); in a device file and a <mimic> alike.
+TEST(Coupling, CouplingsOutOfPlaceOrOutOfRangeAreRefused) {
+  const std::string urdf = torso_urdf();
+  const auto refused = [](const std::string& text, const std::string& why) {
+    try {
+      parse_urdf(text, "torso.urdf", "e", "a");
+      ADD_FAILURE() << "accepted: " << why;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    }
+  };
+  const auto edited = [&](const std::string& from, const std::string& to) {
+    std::string out = urdf;
+    out.replace(out.find(from), from.size(), to);
+    return out;
+  };
+  const std::string second = "\n    <hapticcal_coupling joint=\"t2\" multiplier=\"-1\"/>";
+  std::string in_link = edited(second, "");
+  in_link.replace(in_link.find("<link name=\"d\"/>"), 16,
+                  "<link name=\"d\"><hapticcal_coupling joint=\"t2\" multiplier=\"-1\"/></link>");
+  refused(in_link,
+          "torso.urdf:3: <hapticcal_coupling>: inside <link name=\"d\">: it belongs under "
+          "the <joint> whose value it gives");
+  std::string at_top = edited(second, "");
+  at_top.replace(at_top.find("</robot>"), 8,
+                 "<hapticcal_coupling joint=\"t2\" multiplier=\"-1\"/></robot>");
+  refused(at_top, "inside <robot name=\"torso\">");
+  refused(edited("joint=\"t2\" multiplier=\"-1\"", "joint=\"t2\" multiplier=\"-1\" offset=\"0.1\""),
+          "torso.urdf:14: <hapticcal_coupling>: unknown attribute 'offset' (joint= and "
+          "multiplier= only");
+  for (const char* tiny : {"1e-300", "-1e-7", "0"}) {
+    refused(edited("joint=\"t2\" multiplier=\"-1\"",
+                   std::string("joint=\"t2\" multiplier=\"") + tiny + "\""),
+            std::string("multiplier '") + tiny + "': a number of magnitude in [1e-06, 100]");
+  }
+  // The bounds are coefficients: 1e-6 is one.
+  EXPECT_EQ(parse_urdf(edited("joint=\"t2\" multiplier=\"-1\"", "joint=\"t2\" multiplier=\"1e-6\""),
+                       "torso.urdf", "e", "a")
+                .coupling(2, 1),
+            1e-6);
+  // A <mimic> and a device file's coupling: the same range.
+  std::string mimic = edited(second, "");
+  mimic = mimic.replace(mimic.find("<hapticcal_coupling joint=\"t1\" multiplier=\"-1\"/>"), 48,
+                        "<mimic joint=\"t1\" multiplier=\"1e-300\"/>");
+  refused(mimic,
+          "its <mimic> of 't1': multiplier 1e-300 and offset 0: a multiplier of magnitude "
+          "in [1e-06, 100]");
+  std::string yaml = device_to_yaml(level_arm());
+  const std::size_t at = yaml.find("coupling:");
+  ASSERT_NE(at, std::string::npos) << yaml;
+  const std::size_t minus = yaml.find("-1", at);
+  yaml.replace(minus, 2, "1e-300");
+  try {
+    parse_device(yaml, "arm.yaml");
+    ADD_FAILURE() << "accepted " << yaml;
+  } catch (const InputError& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("1e-300 is not 0 or a number of magnitude in [1e-06, 100]"),
+        std::string::npos)
+        << e.what();
+  }
 }
 
 // calibrated.urdf keeps a coupling as the source wrote it: a mimic joint

@@ -291,18 +291,16 @@ TEST(Import, MotiveAndViconExportsImportToTheSameStream) {
   }
 }
 
-// A robot that stops at poses while a tracker records: --static writes one row
-// a still window, its readings and the tracker's samples in it averaged.
-TEST(Import, StillPosesMakeAStaticLog) {
-  const std::string dir = testing::fresh_folder("import_static");
-  const DeviceModel truth = touch_truth();
+// A robot stopping at `poses` random poses: 1 s still at each, 0.5 s moving to
+// the next (linear in the readings); readings at 1 kHz, the tracker's 6-D poses
+// at 100 Hz 0.3 ms later, each stamped `ahead` s ahead of the readings' clock.
+// Written as a ROS 1 bag (lz4) into `dir`.
+std::vector<Eigen::VectorXd> still_session(const DeviceModel& truth, int poses, double ahead,
+                                           const std::string& dir) {
   const PreparedModel prepared(truth);
   std::mt19937_64 rng(9);
-  const int poses = 12;
   std::vector<Eigen::VectorXd> targets;
   for (int k = 0; k < poses; ++k) targets.push_back(testing::random_readings(truth, rng));
-  // 1 s still at each pose, 0.5 s moving to the next; readings at 1 kHz, the
-  // tracker at 100 Hz on the same clock 0.3 ms later.
   const auto readings_at = [&](double t) {
     const int k = std::min(static_cast<int>(t / 1.5), poses - 1);
     const double into = t - 1.5 * k;
@@ -320,31 +318,34 @@ TEST(Import, StillPosesMakeAStaticLog) {
     if (r % 10 != 0) continue;
     const Frame<double> T = prepared.forward(readings_at(0.001 * r + 3e-4).data());
     const Eigen::Quaterniond o(T.R);
-    tracker += fmt::format("{},{},{},{},{},{},{},{}\n", 0.001 * r + 3e-4, T.p[0], T.p[1], T.p[2],
-                           o.w(), o.x(), o.y(), o.z());
+    tracker += fmt::format("{},{},{},{},{},{},{},{}\n", 0.001 * r + 3e-4 + ahead, T.p[0], T.p[1],
+                           T.p[2], o.w(), o.x(), o.y(), o.z());
   }
+  fs::create_directories(dir);
   std::ofstream(dir + "/device.csv") << device;
   std::ofstream(dir + "/tracker.csv") << tracker;
-  // The same tracker on a clock 0.7 s ahead: its samples in a window hold motion.
-  std::string ahead = "t,x,y,z,qw,qx,qy,qz\n";
-  std::istringstream lines(tracker);
-  std::string line;
-  std::getline(lines, line);  // the header
-  while (std::getline(lines, line)) {
-    const std::size_t comma = line.find(',');
-    ahead += fmt::format("{}{}\n", std::stod(line.substr(0, comma)) + 0.7, line.substr(comma));
-  }
-  fs::create_directories(dir + "/ahead");
-  std::ofstream(dir + "/ahead/tracker.csv") << ahead;
   const testing::CliResult w = run_program(
       HAPTICCAL_DEBIAN_PYTHON, {std::string(HAPTICCAL_SOURCE_DIR) + "/tests/writers/session_bag.py",
                                 dir + "/device.csv", dir + "/tracker.csv", dir, "lz4"});
-  ASSERT_EQ(w.exit_code, 0) << w.err;
+  EXPECT_EQ(w.exit_code, 0) << w.err;
+  return targets;
+}
+
+// A robot that stops at poses while a tracker records: --static writes one row
+// a still window, its readings and the tracker's samples in it averaged.
+TEST(Import, StillPosesMakeAStaticLog) {
+  const std::string dir = testing::fresh_folder("import_static");
+  const DeviceModel truth = touch_truth();
+  const PreparedModel prepared(truth);
+  const int poses = 12;
+  const std::vector<Eigen::VectorXd> targets = still_session(truth, poses, 0, dir);
   const testing::CliResult c =
       run_cli({"import", dir + "/session.bag", "--model", recordings().nominal, "--convention",
                "none", "--static", "0.5", "--out", dir + "/out"});
   ASSERT_EQ(c.exit_code, 0) << c.err;
   EXPECT_NE(c.out.find("log.csv: 12 still poses"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find("0 whose tracker samples are of another time\n"), std::string::npos)
+      << c.out;
   const Log log = read_log(dir + "/out/log.csv");
   ASSERT_EQ(log.rows, poses);
   EXPECT_TRUE(log.has_orientation);
@@ -366,18 +367,18 @@ TEST(Import, StillPosesMakeAStaticLog) {
                "none", "--static", "0.9995", "--out", dir + "/whole"});
   ASSERT_EQ(whole.exit_code, 0) << whole.err;
   EXPECT_EQ(read_log(dir + "/whole/log.csv").rows, poses);
-  // The tracker's clock 0.7 s ahead: the windows in which it moved are left out
-  // (all but the first: before the first motion), never averaged into a pose.
-  const testing::CliResult wa =
-      run_program(HAPTICCAL_DEBIAN_PYTHON,
-                  {std::string(HAPTICCAL_SOURCE_DIR) + "/tests/writers/session_bag.py",
-                   dir + "/device.csv", dir + "/ahead/tracker.csv", dir + "/ahead", "none"});
-  ASSERT_EQ(wa.exit_code, 0) << wa.err;
+  // The tracker's clock 0.7 s ahead: the windows whose tracker samples are of
+  // another time are left out (all but the first: before the first motion),
+  // never averaged into a pose, and the offset is named.
+  still_session(truth, poses, 0.7, dir + "/ahead");
   const testing::CliResult moved =
       run_cli({"import", dir + "/ahead/session.bag", "--model", recordings().nominal,
                "--convention", "none", "--static", "0.5", "--out", dir + "/moved"});
   ASSERT_EQ(moved.exit_code, 0) << moved.err;
-  EXPECT_NE(moved.out.find("11 in which the tracker moved"), std::string::npos) << moved.out;
+  EXPECT_NE(moved.out.find("11 whose tracker samples are of another time; the tracker's clock "
+                           "seems 0.70"),
+            std::string::npos)
+      << moved.out;
   const Log first = read_log(dir + "/moved/log.csv");
   ASSERT_EQ(first.rows, 1);
   EXPECT_LT((first.position.row(0).transpose() - prepared.forward(targets[0].data()).p).norm(),
@@ -388,6 +389,62 @@ TEST(Import, StillPosesMakeAStaticLog) {
                "none", "--static", "2", "--out", dir + "/none"});
   EXPECT_EQ(none.exit_code, 2);
   EXPECT_NE(none.err.find("no window of at least 2 s"), std::string::npos) << none.err;
+}
+
+// The tracker's clock one pose period (1.5 s) ahead: each still window holds
+// the tracker still at the pose before, so no window shows motion; the speeds
+// (the model's tool point from the readings against the tracker's) name the
+// lag, the import refuses, and --clock-offset pairs every pose with its own.
+TEST(Import, StaticWindowsOfAnotherPoseAreFoundByTheSpeeds) {
+  const std::string dir = testing::fresh_folder("import_static_period");
+  const DeviceModel truth = touch_truth();
+  const PreparedModel prepared(truth);
+  const int poses = 60;
+  const std::vector<Eigen::VectorXd> targets = still_session(truth, poses, 1.5, dir);
+  save_device(touch_nominal(), dir + "/nominal.yaml");
+  const auto import = [&](const std::vector<std::string>& more, const std::string& out) {
+    std::vector<std::string> args = {"import", dir + "/session.bag", "--convention",
+                                     "none",   "--static",           "0.5",
+                                     "--out",  dir + "/" + out};
+    args.insert(args.end(), more.begin(), more.end());
+    return run_cli(args);
+  };
+  const testing::CliResult refused = import({"--model", dir + "/nominal.yaml"}, "refused");
+  EXPECT_EQ(refused.exit_code, 2) << refused.out;
+  EXPECT_NE(refused.err.find("with another time's tracker samples); the tracker's clock seems 1.5"),
+            std::string::npos)
+      << refused.err;
+  EXPECT_EQ(refused.err.find('\n'), refused.err.size() - 1) << refused.err;
+  EXPECT_FALSE(fs::exists(dir + "/refused"));
+  const std::size_t at = refused.err.find("give --clock-offset ");
+  ASSERT_NE(at, std::string::npos) << refused.err;
+  const double suggested = std::stod(refused.err.substr(at + 20));
+  EXPECT_NEAR(suggested, 1.5, 0.005);
+  fmt::print("suggested --clock-offset {}\n", suggested);
+  // Without a model the readings' own speed cannot tell one pose's motion from
+  // the next's: the windows pass, and the import says what it could not see.
+  const testing::CliResult blind = import({}, "blind");
+  EXPECT_EQ(blind.exit_code, 0) << blind.err;
+  EXPECT_NE(blind.out.find("the clocks were compared by the readings' own speed (no --model): a "
+                           "tracker a whole pose period off passes so"),
+            std::string::npos)
+      << blind.out;
+  const testing::CliResult c =
+      import({"--model", dir + "/nominal.yaml", "--clock-offset", "1.5"}, "offset");
+  ASSERT_EQ(c.exit_code, 0) << c.err;
+  EXPECT_NE(c.out.find("log.csv: 60 still poses"), std::string::npos) << c.out;
+  const Log log = read_log(dir + "/offset/log.csv");
+  ASSERT_EQ(log.rows, poses);
+  for (int k = 0; k < poses; ++k) {
+    const Eigen::VectorXd& q = targets[static_cast<size_t>(k)];
+    EXPECT_LT((log.q.row(k).transpose() - q).cwiseAbs().maxCoeff(), 1e-12) << k;
+    EXPECT_LT((log.position.row(k).transpose() - prepared.forward(q.data()).p).norm(), 1e-12) << k;
+  }
+  // --clock-offset shifts a static log's tracker only.
+  const testing::CliResult streams =
+      run_cli({"import", dir + "/session.bag", "--clock-offset", "1.5", "--out", dir + "/s"});
+  EXPECT_EQ(streams.exit_code, 2);
+  EXPECT_NE(streams.err.find("--clock-offset"), std::string::npos) << streams.err;
 }
 
 // A driver's convention maps its published joints back to the device file's
@@ -440,6 +497,43 @@ TEST(Import, DriverConventionsGiveTheDevicesReadings) {
                dir + "/x"});
   EXPECT_EQ(c.exit_code, 2);
   EXPECT_NE(c.err.find("did you mean 'ros-geomagic'"), std::string::npos) << c.err;
+}
+
+// A session imported with the wrong driver's convention (phantom_omni's bag
+// read as ros_geomagic's: the roll's sign flipped and a turn off): calibrate
+// names the device log's readings and the convention, not the tracker's clock
+// (which the speeds found) nor degrees (a recording's joint states are radians).
+TEST(Import, AWrongConventionIsNamedAsTheLikelyCause) {
+  const Recordings& r = recordings();
+  const std::string dir = testing::fresh_folder("import_wrong_convention");
+  const testing::CliResult w =
+      run_program(HAPTICCAL_DEBIAN_PYTHON,
+                  {std::string(HAPTICCAL_SOURCE_DIR) + "/tests/writers/convention_bag.py",
+                   r.dir + "/device.csv", dir});
+  ASSERT_EQ(w.exit_code, 0) << w.err;
+  for (const std::string& convention : {std::string("phantom-omni"), std::string("ros-geomagic")}) {
+    SCOPED_TRACE(convention);
+    const std::string out = dir + "/" + convention;
+    const testing::CliResult i = run_cli({"import", dir + "/phantom-omni.bag", "--model", r.nominal,
+                                          "--convention", convention, "--out", out});
+    ASSERT_EQ(i.exit_code, 0) << i.err;
+    const testing::CliResult c =
+        run_cli({"calibrate", "--model", r.nominal, "--log", out + "/device.csv", "--tracker",
+                 r.dir + "/tracker.csv", "--out", out + "/cal"});
+    if (convention == "phantom-omni") {  // the driver's own: calibrated
+      EXPECT_EQ(c.exit_code, 0) << c.err;
+      continue;
+    }
+    EXPECT_EQ(c.exit_code, 2) << c.out;
+    EXPECT_NE(c.err.find(out + "/device.csv: q6: "), std::string::npos) << c.err;
+    EXPECT_NE(c.err.find("the readings were mapped at import by --convention ros-geomagic: another "
+                         "driver's signs and offsets give such readings"),
+              std::string::npos)
+        << c.err;
+    EXPECT_EQ(c.err.find("[deg]"), std::string::npos) << c.err;
+    EXPECT_EQ(c.err.find("tracker.csv"), std::string::npos) << c.err;
+    EXPECT_FALSE(fs::exists(out + "/cal"));
+  }
 }
 
 }  // namespace

@@ -437,6 +437,99 @@ TEST(Iso9283, PlanThenEvaluateOnTheCommandLine) {
   EXPECT_NE(no_plan.err.find("not a test plan"), std::string::npos) << no_plan.err;
 }
 
+// A test's files as a careless user leaves them: a plan whose labels break its
+// pattern, positions in mm under bare x, y, z, positions in the tracker's own
+// frame, a centre 1e300 m away. Each is one line naming the file, line and
+// column (exit 2), never a score.
+TEST(Iso9283, CarelessPlansAndLogsAreRefused) {
+  const std::string dir = testing::fresh_folder("iso9283_careless");
+  const std::string model = testing::source_path("examples/meca500/meca500.yaml");
+  ASSERT_EQ(testing::run_cli(
+                {"plan", "--model", model, "--iso9283", "--cycles", "5", "--out", dir + "/plan"})
+                .exit_code,
+            0);
+  const std::string plan_csv = testing::slurp(dir + "/plan/plan.csv");
+  const Log plan = read_log(dir + "/plan/plan.csv");
+  const PreparedModel nominal(testing::meca500());
+  // The log: each row's position the nominal's, written with `header` in `scale` units,
+  // turned by `turn` about z and moved by `shift` (another frame).
+  const auto log_csv = [&](const std::string& header, double scale, double turn,
+                           const Eigen::Vector3d& shift) {
+    std::string csv = "q1,q2,q3,q4,q5,q6," + header + "\n";
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    for (int r = 0; r < plan.rows; ++r) {
+      const Eigen::VectorXd q = plan.q.row(r).transpose();
+      const Eigen::Vector3d p = scale * (R * nominal.forward(q.data()).p + shift);
+      for (int i = 0; i < 6; ++i) csv += fmt::format("{:.17g},", q[i]);
+      csv += fmt::format("{:.17g},{:.17g},{:.17g}\n", p.x(), p.y(), p.z());
+    }
+    return csv;
+  };
+  const auto score = [&](const std::string& log, const std::string& plan_file) {
+    std::ofstream(dir + "/log.csv") << log;
+    return testing::run_cli({"evaluate", "--model", model, "--log", dir + "/log.csv", "--iso9283",
+                             plan_file, "--json"});
+  };
+  const auto refused = [](const testing::CliResult& c, const std::string& what) {
+    EXPECT_EQ(c.exit_code, 2) << c.out;
+    EXPECT_NE(c.err.find(what), std::string::npos) << c.err;
+    EXPECT_EQ(c.err.find('\n'), c.err.size() - 1) << c.err;
+  };
+  const std::string metres = log_csv("x,y,z", 1, 0, Eigen::Vector3d::Zero());
+  const auto good = score(metres, dir + "/plan/plan.csv");
+  ASSERT_EQ(good.exit_code, 0) << good.err;
+  const double ap = nlohmann::json::parse(good.out)["iso9283"]["model"]["poses"][0]["AP"];
+  EXPECT_LT(ap, 1e-9);
+  // P2 labelled P1 (line 6: cycle 1's fifth row): P1's "60 cycles" are refused.
+  std::string relabelled = plan_csv;
+  for (std::size_t at = relabelled.find(",P2\n"); at != std::string::npos;
+       at = relabelled.find(",P2\n", at))
+    relabelled.replace(at, 4, ",P1\n");
+  std::ofstream(dir + "/relabelled.csv") << relabelled;
+  refused(score(metres, dir + "/relabelled.csv"),
+          dir +
+              "/relabelled.csv:6: point: 'P1' where a test plan has P2 (cycle 1, its pose 5 of "
+              "5): each cycle visits the poses in the order P1, P5, P4, P3, P2");
+  // Two poses swapped in cycle 3 (lines 12 and 13).
+  std::vector<std::string> lines;
+  std::istringstream in(plan_csv);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  std::swap(lines[11], lines[12]);
+  std::string swapped;
+  for (const std::string& line : lines) swapped += line + "\n";
+  std::ofstream(dir + "/swapped.csv") << swapped;
+  refused(score(metres, dir + "/swapped.csv"), dir + "/swapped.csv:12: point: 'P5' where a test");
+  // A plan cut inside its last cycle (and the log with it): 23 rows.
+  const auto first_lines = [](const std::string& text, int n) {
+    std::size_t at = 0;
+    for (int k = 0; k < n; ++k) at = text.find('\n', at) + 1;
+    return text.substr(0, at);
+  };
+  std::ofstream(dir + "/cut.csv") << first_lines(plan_csv, 24);
+  refused(score(first_lines(metres, 24), dir + "/cut.csv"),
+          dir + "/cut.csv:24: point: the plan ends inside cycle 5 (3 of its 5 poses)");
+  // Positions in mm under bare x, y, z: AP would be 1000 times the arm's reach.
+  refused(score(log_csv("x,y,z", 1e3, 0, Eigen::Vector3d::Zero()), dir + "/plan/plan.csv"),
+          dir + "/log.csv: x: the attained positions are");
+  refused(score(log_csv("x,y,z", 1e3, 0, Eigen::Vector3d::Zero()), dir + "/plan/plan.csv"),
+          "The positions fit it in mm: give the unit in the log's header (x[mm], y[mm], z[mm]; a "
+          "bare column is metres).");
+  const auto in_mm =
+      score(log_csv("x[mm],y[mm],z[mm]", 1e3, 0, Eigen::Vector3d::Zero()), dir + "/plan/plan.csv");
+  ASSERT_EQ(in_mm.exit_code, 0) << in_mm.err;
+  EXPECT_LT(nlohmann::json::parse(in_mm.out)["iso9283"]["model"]["poses"][0]["AP"].get<double>(),
+            1e-9);
+  // Measured in the tracker's frame, 1 m away and turned: --register says so.
+  refused(score(log_csv("x,y,z", 1, 0.5, Eigen::Vector3d(1, -0.5, 0.2)), dir + "/plan/plan.csv"),
+          "They fit its poses in another frame: give --register frame.");
+  // A cube centre 1e300 m away: refused in a short line, the number as a person writes it.
+  const auto far = testing::run_cli(
+      {"plan", "--model", model, "--iso9283", "--cube-centre", "1e300,0,0", "--out", dir + "/far"});
+  refused(far, "--cube-centre: (1e+300, 0, 0) m: each coordinate within +-100 m");
+  EXPECT_LT(far.err.size(), 200u) << far.err;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/far"));
+}
+
 // The prediction of a simulated ISO test, built here: the tool point's
 // derivatives by central differences of the forward kinematics in each fitted
 // step-1 parameter (joint by joint), then each identified kinematic parameter,

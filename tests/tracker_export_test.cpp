@@ -7,9 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <optional>
 #include <sstream>
@@ -415,6 +418,133 @@ TEST_F(TrackerExport, TruncatedFilesAreRefusedWhereTheyEnd) {
       [&] { read_vicon_csv(cut, "v.csv", body("stylus")); },
       "v.csv:250: column " + std::to_string(split(cut.substr(line_start(vicon, 250))).size() + 1),
       "a row cut short");
+}
+
+// A header that says two things: the last word must not win silently.
+TEST_F(TrackerExport, MotiveHeaderContradictingItselfIsRefused) {
+  const std::string mm = text("motive_quat_mm.csv");
+  const std::size_t eol = mm.find('\n');
+  ASSERT_EQ(fields_of_line(mm, 1).size(), 24u);
+  // Length Units twice (Millimeters in column 22): the data are not 1000 times larger.
+  const std::string twice = mm.substr(0, eol) + ",Length Units,Meters" + mm.substr(eol);
+  expect_error([&] { read_motive_csv(twice, "m.csv", body("stylus")); }, "m.csv:1: column 26: ",
+               "'Length Units' is given twice: 'Millimeters' (column 22) and 'Meters'");
+  // The same value twice says one thing.
+  const std::string agreeing = mm.substr(0, eol) + ",Length Units,Millimeters" + mm.substr(eol);
+  expect_pose(read_motive_csv(agreeing, "m.csv", body("stylus")), 1e-12);
+  // A second Name row that names other bodies.
+  const std::size_t name_row = line_start(mm, 4), id_row = line_start(mm, 5);
+  std::string names = mm.substr(name_row, id_row - name_row);
+  names.replace(names.find("stylus"), 6, "wand00");
+  const std::string rows = mm.substr(0, id_row) + names + mm.substr(id_row);
+  expect_error([&] { read_motive_csv(rows, "m.csv", body("stylus")); },
+               "m.csv:5: column 1: ", "a second \"Name\" header row, unlike line 4's");
+}
+
+// Euler angles stated above a quaternion's columns: X, Y, Z are not angles.
+TEST_F(TrackerExport, MotiveRotationTypeMustMatchTheColumns) {
+  std::string euler = text("motive_quat_mm.csv");
+  euler.replace(euler.find("Quaternion"), 10, "XYZ");
+  ASSERT_EQ(fields_of_line(euler, 7).at(13), "W");
+  expect_error([&] { read_motive_csv(euler, "m.csv", body("stylus")); }, "m.csv:7: column 14: ",
+               "rigid body 'stylus' has a Rotation W column, a quaternion's, but the first line "
+               "states Rotation Type 'XYZ'");
+  // A quaternion stated above Euler angles' columns: no W.
+  std::string quaternion = text("motive_euler_xyz.csv");
+  quaternion.replace(quaternion.find(",XYZ,"), 5, ",Quaternion,");
+  expect_error([&] { read_motive_csv(quaternion, "m.csv", body("stylus")); },
+               "m.csv:7: column 'Rotation W': ", "rigid body 'stylus' has no Rotation W column");
+}
+
+TEST_F(TrackerExport, EverySampleLostIsRefusedSayingWhy) {
+  TrackerExportOptions o;
+  o.column_map = "t=t,x=x,y=y,z=z";
+  const std::string never_seen = "t [s],x [m],y [m],z [m]\n0.00,,,\n0.01,0.1,,0.2\n0.02,,,\n";
+  expect_error([&] { read_generic_csv(never_seen, "g.csv", o); }, "g.csv:2: column 2: ",
+               "all 3 samples lost: every row has an empty field among the columns read");
+  // On the command line: exit 2, one line, and no empty tracker.csv written.
+  const std::string dir = fresh_folder("tracker_export_lost");
+  std::ofstream(dir + "/lost.csv") << never_seen;
+  const auto c = hapticcal::testing::run_cli({"import", "--tracker-export", dir + "/lost.csv",
+                                              "--column-map", o.column_map, "--out", dir + "/out"});
+  EXPECT_EQ(c.exit_code, 2);
+  EXPECT_NE(c.err.find("lost.csv:2: column 2: all 3 samples lost"), std::string::npos) << c.err;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
+  // Motive: a marker the tracker never saw (its columns blank in every frame).
+  std::string mm = text("motive_quat_mm.csv");
+  const std::vector<std::string> comps = fields_of_line(mm, 7);
+  std::string cut;
+  std::stringstream in(mm);
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (n > 7 && !line.empty()) {
+      auto f = split(line);
+      for (std::size_t c = comps.size() - 3; c < comps.size(); ++c) f.at(c).clear();
+      line.clear();
+      for (std::size_t k = 0; k < f.size(); ++k) line += (k ? "," : "") + f[k];
+    }
+    cut += line + "\n";
+  }
+  TrackerExportOptions m;
+  m.markers = {"Marker3"};
+  expect_error([&] { read_motive_csv(cut, "m.csv", m); },
+               "m.csv:8: column " + std::to_string(comps.size() - 2) + ": ",
+               "all 300 samples lost");
+}
+
+TEST_F(TrackerExport, AMarkerNamedTwiceIsRefused) {
+  TrackerExportOptions o;
+  o.markers = {"Marker1", "Marker2", "Marker1"};
+  expect_error([&] { read_motive_csv(text("motive_quat_mm.csv"), "m.csv", o); },
+               "m.csv: --markers: ", "'Marker1' is named twice");
+  expect_error([&] { read_vicon_csv(text("vicon_nexus.csv"), "v.csv", o); },
+               "v.csv: --markers: ", "'Marker1' is named twice");
+  o.markers = {"Marker1", "stylus:Marker1"};
+  expect_error(
+      [&] { read_motive_csv(text("motive_quat_mm.csv"), "m.csv", o); },
+      "m.csv: --markers: ", "'Marker1' and 'stylus:Marker1' are one marker, 'stylus:Marker1'");
+  TrackerExportOptions g;
+  g.column_map = "t=Time,x1=M1X,y1=M1Y,z1=M1Z,x2=M1X,y2=M2Y,z2=M2Z";
+  expect_error([&] { read_generic_csv(text("generic.csv"), "g.csv", g); },
+               "g.csv: --column-map: ", "column 'M1X' given for both x1 and x2");
+}
+
+TEST_F(TrackerExport, ViconFrameRateOutsideATrackersIsRefused) {
+  const std::string vicon = text("vicon_nexus.csv");
+  ASSERT_EQ(fields_of_line(vicon, 207).at(0), "Segments");
+  ASSERT_EQ(fields_of_line(vicon, 208).at(0), "120");
+  for (const char* rate : {"1e-300", "0.1", "0", "-120", "100001"}) {
+    SCOPED_TRACE(rate);
+    expect_error([&] { read_vicon_csv(with_field(vicon, 208, 0, rate), "v.csv", body("stylus")); },
+                 "v.csv:208: column 1: ", "a tracker's lies in (0.1, 100000] Hz");
+  }
+  // The bounds' insides are read: 100 kHz is a rate, if an unusual one.
+  const auto fast = read_vicon_csv(with_field(vicon, 208, 0, "100000"), "v.csv", body("stylus"));
+  const auto usual = read_vicon_csv(vicon, "v.csv", body("stylus"));
+  ASSERT_EQ(fast.t.size(), usual.t.size());
+  for (std::size_t i = 0; i < fast.t.size(); ++i)
+    EXPECT_NEAR(fast.t[i], usual.t[i] * 120 / 1e5, 1e-15);
+}
+
+// Exports saved with old Mac line endings (a lone CR) or Windows' (CR LF).
+TEST_F(TrackerExport, LineEndingsOfEverySystemAreRead) {
+  const std::string mm = text("motive_quat_mm.csv");
+  std::string cr = mm, crlf;
+  std::replace(cr.begin(), cr.end(), '\n', '\r');
+  for (const char c : mm) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
+  EXPECT_EQ(tracker_export_format(cr), "Motive");
+  expect_pose(read_motive_csv(cr, "cr.csv", body("stylus")), 1e-12);
+  expect_pose(read_motive_csv(crlf, "crlf.csv", body("stylus")), 1e-12);
+  // Lines are counted as their endings say.
+  expect_error([&] { read_motive_csv(with_field(mm, 40, 14, "1.5e"), "m.csv", body("stylus")); },
+               "m.csv:40: column 15: ", "is not a number");
+  std::string bad = with_field(mm, 40, 14, "1.5e");
+  std::replace(bad.begin(), bad.end(), '\n', '\r');
+  expect_error([&] { read_motive_csv(bad, "cr.csv", body("stylus")); },
+               "cr.csv:40: column 15: ", "is not a number");
+  std::string vicon = text("vicon_nexus.csv");
+  std::replace(vicon.begin(), vicon.end(), '\n', '\r');
+  expect_pose(read_vicon_csv(vicon, "v.csv", body("stylus")), 1e-12);
 }
 
 TEST(TrackerExportBounds, LongLinesAndWideRowsAreRefused) {

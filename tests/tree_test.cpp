@@ -653,5 +653,29 @@ TEST(Tree, CalibrateAndEvaluateOnTheCommandLine) {
   std::filesystem::remove_all(dir);
 }
 
+// A row of a tree's log holds every tip's point: the terminal counts rows as
+// rows (and says how many points they give), never one a point.
+TEST(Tree, ALogsRowsAreCountedAsRowsNotPoints) {
+  const std::string dir = urdf_folder("tree_rows");
+  const DeviceModel truth = truth_model(31);
+  std::ofstream(dir + "/five.csv") << log_to_csv(hands_log(truth, 5, 1e-4, 32));
+  testing::expect_input_error(
+      testing::run_cli({"calibrate", "--model", dir + "/two_arm.urdf", "--tip",
+                        "left_hand,right_hand", "--log", dir + "/five.csv", "--out", dir + "/b"}),
+      "too few measurements: 5 poses of 2 tips, 10 points give 30 residuals");
+  std::ofstream(dir + "/forty.csv") << log_to_csv(hands_log(truth, 40, 1e-4, 33));
+  const testing::CliResult c =
+      testing::run_cli({"calibrate", "--model", dir + "/two_arm.urdf", "--tip",
+                        "left_hand,right_hand", "--log", dir + "/forty.csv", "--out", dir + "/c"});
+  ASSERT_EQ(c.exit_code, 0) << c.err;
+  EXPECT_NE(c.out.find("Step 2: kinematic parameters from positions (40 rows of 2 tips, 80 "
+                       "points)"),
+            std::string::npos)
+      << c.out;
+  EXPECT_NE(read_file(dir + "/c/report.html").find("<p>40 rows of 2 tips, 80 points, "),
+            std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace hapticcal

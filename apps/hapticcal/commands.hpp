@@ -108,7 +108,7 @@ struct ImportOptions {
   std::string tracker_export, body, markers, column_map, length_unit, time_unit;
   std::string out;  // empty: recording::kDefaultImportOut
   bool list = false;
-  double still_seconds = 0;
+  double still_seconds = 0, clock_offset = 0;
   std::optional<double> still_tolerance, tracker_still;  // unset: the library's defaults
 };
 CLI::App* add_import_command(CLI::App& app, ImportOptions& options);

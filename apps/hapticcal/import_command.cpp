@@ -69,6 +69,10 @@ CLI::App* add_import_command(CLI::App& app, ImportOptions& o) {
          "With --static: how far the tracker's samples in a still window may lie from their "
          "median [m] (default 1e-3; a window in which the tracker moved is left out)")
       ->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--clock-offset", o.clock_offset,
+                  "With --static: how far the tracker's clock is ahead of the device's [s] "
+                  "(default 0; the import suggests it when the speeds say the clocks differ)")
+      ->check(CLI::Range(-3600.0, 3600.0));
   cmd->add_flag("--list", o.list,
                 "List the recording's topics (counts, rates, span, gaps); write nothing");
   cmd->add_option("--out", o.out,
@@ -111,6 +115,7 @@ int run_import(const ImportOptions& o) {
   request.still_seconds = o.still_seconds;
   request.still_tolerance = o.still_tolerance;
   request.tracker_still = o.tracker_still;
+  request.clock_offset = o.clock_offset;
   const recording::ImportResult r = recording::run_import(request);
   if (!r.format.empty())
     fmt::print("{}: {}\n", printable(o.recording.empty() ? o.tracker_export : o.recording, 200),

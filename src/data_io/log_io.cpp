@@ -76,6 +76,7 @@ struct Table {
   std::vector<double> values;
   std::vector<std::string> labels;
   std::vector<int> lines;  // of each row
+  std::string comment;     // the first comment line's text
 
   void set_columns(const std::vector<std::string>& names, const std::string& where, int line) {
     for (const std::string& n : names) columns.push_back(parse_column(n, where, line));
@@ -155,6 +156,8 @@ Table read_table(const std::string& text, const std::string& origin,
     const std::string line = trim(text.substr(pos, eol - pos));
     pos = eol + 1;
     if ((++line_no & 4095) == 0) throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp)
+    if (!line.empty() && line[0] == '#' && table.comment.empty())
+      table.comment = trim(line.substr(1, 1000));
     if (line.empty() || line[0] == '#') continue;
     // Fields are counted before they are split: a line of commas costs no memory.
     const size_t field_count = static_cast<size_t>(std::count(line.begin(), line.end(), ',')) + 1;
@@ -347,6 +350,7 @@ namespace {
 // The log of a table read; the table's values are released once copied.
 Log log_of_table(Table& table, const std::string& origin) {
   Log log = zero_log(table, origin);
+  log.comment = std::move(table.comment);
   fill_values(log, table);
   std::vector<double>().swap(table.values);
   if (log.has_point || log.has_plane) log.label = std::move(table.labels);

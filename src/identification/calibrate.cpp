@@ -21,6 +21,7 @@
 #include "hapticcal/identification/log_fit.hpp"
 #include "hapticcal/identification/markers.hpp"
 #include "hapticcal/identification/registration.hpp"
+#include "hapticcal/identification/tree.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "identification/calibration_run.hpp"
 #include "identification/families/family.hpp"
@@ -324,9 +325,9 @@ void check_enough_rows(const CalibrationRun& run, std::size_t parameters, const 
   if (kind_rows - nuisance > static_cast<int>(parameters)) return;
   throw InputError(
       run.log.origin, 0, "",
-      fmt::format("too few measurements: {} pose{} give{} {} residual{}{} for {} {} parameters", m,
-                  m == 1 ? "" : "s", m == 1 ? "s" : "", kind_rows - nuisance,
-                  kind_rows - nuisance == 1 ? "" : "s",
+      fmt::format("too few measurements: {} give{} {} residual{}{} for {} {} parameters",
+                  samples_text(m, run.nominal.tips(), "pose"), m == run.nominal.tips() ? "s" : "",
+                  kind_rows - nuisance, kind_rows - nuisance == 1 ? "" : "s",
                   nuisance ? fmt::format(" (less 3 a fixture point or plane)") : std::string(),
                   parameters, what));
 }

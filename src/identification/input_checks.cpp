@@ -36,11 +36,39 @@ using detail::stack;
 
 }  // namespace
 
+namespace {
+
+// What a log's readings outside a joint's limits likely are, from how the log
+// was written: a recording's joint states are radians (ROS's unit), so
+// readings hapticcal import mapped by a driver's convention and still out are
+// another driver's signs and offsets, not degrees. Empty for other logs.
+std::string imported_readings_hint(const Log& log) {
+  if (log.comment.rfind("hapticcal import of ", 0) != 0) return "";
+  const std::size_t at = log.comment.find("; --convention ");
+  if (at == std::string::npos) {
+    return "; the log is a recording's joint states (radians): if the driver publishes its own "
+           "signs and offsets, import it with the driver's --convention";
+  }
+  const std::string name = log.comment.substr(at + 15, log.comment.find(';', at + 15) - at - 15);
+  return name == "none"
+             ? "; the log is a recording's joint states as published (--convention none): if "
+               "the driver publishes its own signs and offsets, import it with the driver's "
+               "--convention"
+             : fmt::format(
+                   "; the readings were mapped at import by --convention {}: another "
+                   "driver's signs and offsets give such readings (is {} the driver's? "
+                   "import again with the driver's --convention)",
+                   name, name);
+}
+
+}  // namespace
+
 namespace detail {
 
 // Readings outside the model's joint limits: an InputError when most of a
-// joint's readings are out (a unit missing from the header, or another
-// device), unless forced; a warning otherwise.
+// joint's readings are out (a unit missing from the header, another device,
+// or an imported recording's driver convention), unless forced; a warning
+// otherwise.
 void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
                         std::vector<std::string>& notes) {
   constexpr double kSlack = 1e-9;  // rad or m: rounding in the log
@@ -62,10 +90,12 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
     }
     if (out == 0) continue;
     const double bound = std::max(std::abs(link.lower), std::abs(link.upper));
-    std::string hint;
-    if (link.prismatic() && largest * 1e-3 <= bound + kSlack) {
+    // Most out, in a log hapticcal import wrote: its convention's hint, not a unit's.
+    std::string hint = 2 * out > log.rows ? imported_readings_hint(log) : std::string();
+    if (hint.empty() && link.prismatic() && largest * 1e-3 <= bound + kSlack) {
       hint = fmt::format("; in millimetres they would fit: name the column q{}[mm]", j + 1);
-    } else if (!link.prismatic() && largest > 2 * M_PI && largest * M_PI / 180 <= bound + kSlack) {
+    } else if (hint.empty() && !link.prismatic() && largest > 2 * M_PI &&
+               largest * M_PI / 180 <= bound + kSlack) {
       hint = fmt::format("; in degrees they would fit: name the column q{}[deg]", j + 1);
     }
     const std::string message = fmt::format(

@@ -17,6 +17,7 @@
 #include "hapticcal/identification/tree.hpp"
 #include "hapticcal/identification/two_step.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "identification/stack.hpp"
 
 namespace hapticcal {
 namespace {
@@ -594,6 +595,10 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   const Log& tracked = nominal.tree() ? first : tracker;
   check_streams(device, tracked);
   check_readings(device, nominal);
+  // Readings out of the limits are the device log's whatever the clocks: named
+  // here, before the clocks are searched (the final fit's notes repeat a warning).
+  std::vector<std::string> said_again;
+  detail::check_joint_limits(device, nominal, options.force, said_again);
   const auto progress = [&](const std::string& stage, double share) {
     if (stream.progress) stream.progress(stage, share);
   };

@@ -420,4 +420,10 @@ Log chain_log(const DeviceTree& tree, const Log& log, int chain) {
   return out;
 }
 
+std::string samples_text(int samples, int tips, const char* noun) {
+  const int rows = tips > 1 ? samples / tips : samples;
+  const std::string counted = fmt::format("{} {}{}", rows, noun, rows == 1 ? "" : "s");
+  return tips > 1 ? fmt::format("{} of {} tips, {} points", counted, tips, samples) : counted;
+}
+
 }  // namespace hapticcal

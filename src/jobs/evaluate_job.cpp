@@ -281,6 +281,7 @@ void add_iso(const std::string& plan_path, const std::string& conditions, const 
                                  "test plan?",
                                  plan.dof(), log.dof()));
   }
+  check_iso_labels(plan, log);
   if (plan.rows == log.rows) {
     for (int r = 0; r < log.rows; ++r) {
       const double off = (log.q.row(r) - plan.q.row(r)).cwiseAbs().maxCoeff();
@@ -293,7 +294,9 @@ void add_iso(const std::string& plan_path, const std::string& conditions, const 
       }
     }
   }
-  const IsoCriteria mine = iso_criteria(iso_runs(model, log, plan.label));
+  const std::vector<IsoPoseRuns> runs = iso_runs(model, log, plan.label);
+  check_iso_positions(model, log, runs);
+  const IsoCriteria mine = iso_criteria(runs);
   std::optional<IsoCriteria> theirs;
   if (reference) theirs = iso_criteria(iso_runs(*reference, log, plan.label));
   const auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.4f}", v * 1e3) : "-"; };

@@ -335,9 +335,11 @@ std::string coupling_problem(const Eigen::MatrixXd& coupling, const std::vector<
   for (int i = 0; i < n; ++i) {
     for (int k = 0; k < n; ++k) {
       const double c = coupling(i, k);
-      if (!std::isfinite(c) || std::abs(c) > kMaxCouplingCoefficient) {
-        return fmt::format("{}'s coefficient of {}: {} is not a number of magnitude at most {}",
-                           links[i].name, links[k].name, c, kMaxCouplingCoefficient);
+      if (!std::isfinite(c) || std::abs(c) > kMaxCouplingCoefficient ||
+          (c != 0 && std::abs(c) < kMinCouplingCoefficient)) {
+        return fmt::format(
+            "{}'s coefficient of {}: {:.6g} is not 0 or a number of magnitude in [{:g}, {:g}]",
+            links[i].name, links[k].name, c, kMinCouplingCoefficient, kMaxCouplingCoefficient);
       }
     }
   }

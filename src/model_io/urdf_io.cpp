@@ -377,11 +377,12 @@ void couple_mimics(const std::vector<ChainMimic>& mimics, const std::string& ori
       if (other.link == k) fail("itself a mimic joint (mimic the joint it follows instead)");
     }
     if (!std::isfinite(m.mimic.multiplier) || !std::isfinite(m.mimic.offset) ||
-        std::abs(m.mimic.multiplier) > kMaxCouplingCoefficient || m.mimic.multiplier == 0) {
-      fail(
-          fmt::format("multiplier {} and offset {}: a multiplier of magnitude in (0, {}] "
-                      "and a finite offset are needed",
-                      m.mimic.multiplier, m.mimic.offset, kMaxCouplingCoefficient));
+        std::abs(m.mimic.multiplier) > kMaxCouplingCoefficient ||
+        std::abs(m.mimic.multiplier) < kMinCouplingCoefficient) {
+      fail(fmt::format(
+          "multiplier {:.6g} and offset {:.6g}: a multiplier of magnitude in [{:g}, "
+          "{:g}] and a finite offset are needed",
+          m.mimic.multiplier, m.mimic.offset, kMinCouplingCoefficient, kMaxCouplingCoefficient));
     }
     C.row(m.link).setZero();
     C(m.link, k) = m.mimic.multiplier;
@@ -407,6 +408,37 @@ constexpr std::string_view kCouplingElement = "hapticcal_coupling";
 std::vector<const XmlElement*> coupling_terms(const Document& doc, const std::string& joint) {
   const XmlElement* e = doc.joint(joint);
   return e ? doc.children(*e, kCouplingElement) : std::vector<const XmlElement*>{};
+}
+
+// hapticcal's element where it means something: under a <joint> of the robot,
+// with joint= and multiplier= alone. Anywhere else (inside a <link>, at the top)
+// or with another attribute (an offset=: the joint's own offset is its
+// <origin>'s) every other program and this one would ignore it: refused,
+// wherever it is, as the file is read.
+void check_coupling_elements(const Document& doc, const std::string& origin) {
+  const std::string key = fmt::format("<{}>", kCouplingElement);
+  for (const XmlElement& e : doc.elements) {
+    if (e.name != kCouplingElement) continue;
+    const XmlElement* parent = e.parent >= 0 ? &doc.elements[e.parent] : nullptr;
+    if (!parent || parent->name != "joint" || parent->parent != doc.robot) {
+      const XmlAttribute* name = parent ? parent->attribute("name") : nullptr;
+      throw InputError(
+          origin, e.line, key,
+          fmt::format("inside {}: it belongs under the <joint> whose value it gives (a direct "
+                      "child of <robot>)",
+                      !parent ? std::string("nothing")
+                              : fmt::format("<{}{}>", printable(parent->name, 40),
+                                            name ? " name=\"" + printable(name->value, 80) + "\""
+                                                 : std::string())));
+    }
+    for (const XmlAttribute& a : e.attributes) {
+      if (a.name == "joint" || a.name == "multiplier") continue;
+      throw InputError(origin, e.line, key,
+                       fmt::format("unknown attribute '{}' (joint= and multiplier= only; a "
+                                   "joint's offset is its <origin>'s)",
+                                   printable(a.name, 40)));
+    }
+  }
 }
 
 struct ChainCoupling {
@@ -461,10 +493,11 @@ void couple_readings(const std::vector<ChainCoupling>& couplings, const std::str
       while (!t.empty() && is_blank(t.back())) t.remove_suffix(1);
       if (t.starts_with('+')) t.remove_prefix(1);
       const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
-      if (ec != std::errc() || end != t.data() + t.size() || !std::isfinite(v) || v == 0 ||
-          std::abs(v) > kMaxCouplingCoefficient) {
-        fail(fmt::format("multiplier '{}': a number of magnitude in (0, {}] is needed",
-                         printable(multiplier->value, 40), kMaxCouplingCoefficient));
+      if (ec != std::errc() || end != t.data() + t.size() || !std::isfinite(v) ||
+          std::abs(v) < kMinCouplingCoefficient || std::abs(v) > kMaxCouplingCoefficient) {
+        fail(fmt::format("multiplier '{}': a number of magnitude in [{:g}, {:g}] is needed",
+                         printable(multiplier->value, 40), kMinCouplingCoefficient,
+                         kMaxCouplingCoefficient));
       }
       C(c.link, k) = v;
     }
@@ -484,19 +517,17 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
   check_xml(text, origin);
   UrdfChain chain;
   chain.doc = locate(text, origin);
+  check_coupling_elements(chain.doc, origin);
   const urdf::ModelInterfaceSharedPtr urdf = parse_with_urdfdom(text, origin, chain.doc);
   chain.root = root;
   chain.tip = tip;
   std::vector<urdf::JointConstSharedPtr> up;
   const std::vector<urdf::JointConstSharedPtr> joints = chain_joints(*urdf, origin, chain, up);
 
-  int movable = 0;
-  for (const auto& j : joints) {
-    if (j->type == urdf::Joint::REVOLUTE || j->type == urdf::Joint::CONTINUOUS ||
-        j->type == urdf::Joint::PRISMATIC) {
-      ++movable;
-    }
-  }
+  const auto movable = std::count_if(joints.begin(), joints.end(), [](const auto& j) {
+    return j->type == urdf::Joint::REVOLUTE || j->type == urdf::Joint::CONTINUOUS ||
+           j->type == urdf::Joint::PRISMATIC;
+  });
   if (movable == 0) {
     throw InputError(origin, 0, "tip",
                      fmt::format("no movable joint between '{}' and '{}'",

@@ -17,28 +17,12 @@
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/model_io/model_source.hpp"
-#include "recording/conventions.hpp"
 #include "recording/import_request.hpp"
+#include "recording/import_streams.hpp"
 #include "recording/import_topics.hpp"
 
 namespace hapticcal::recording {
 namespace {
-
-constexpr double kStillTolerance = 1e-4;  // rad or m
-constexpr double kTrackerStill = 1e-3;    // m
-
-// A stream chosen for a file: its samples, the columns it gives and where it
-// came from (the topic, and a TF topic's frames).
-struct Stream {
-  const TopicBuffer* topic = nullptr;
-  const Samples* samples = nullptr;
-  std::string what;                  // "/joint_states (sensor_msgs/JointState)"
-  std::vector<std::string> columns;  // without t
-  std::vector<int> take;             // the value index of each column (device: joint matching)
-  int width = 0;                     // values a sample
-  std::optional<Convention> convention;
-  std::vector<std::string> field_paths;  // --field streams: each value's path
-};
 
 std::string topic_text(const TopicBuffer& t) {
   return fmt::format("{} ({}, {} messages)", printable(t.channel.topic, 80), t.channel.type,
@@ -133,11 +117,10 @@ std::optional<Stream> device_stream(const std::vector<TopicBuffer>& topics,
 }
 
 // Joints by name: the model's (or the convention's) in its order, else the message's.
-void match_joints(Stream& s, const ImportRequest& request, ImportResult& result) {
+void match_joints(Stream& s, const ImportRequest& request, const std::optional<DeviceModel>& model,
+                  ImportResult& result) {
   if (s.topic->kind != TopicKind::kJointState) return;
   const std::vector<std::string>& names = s.topic->names;
-  const std::optional<DeviceModel> model =
-      request.model.empty() ? std::nullopt : std::optional<DeviceModel>(load_model(request.model));
   if (request.convention.empty() && model) {
     // A device whose drivers publish its joints under its own names in their
     // own conventions: which one is the user's to say.
@@ -342,14 +325,6 @@ void check_finite(const Stream& s, const std::string& file) {
   }
 }
 
-// One sample's values as written: the columns taken, or a convention's readings.
-void row_values(const Stream& s, std::size_t i, std::vector<double>& out) {
-  const double* row = s.samples->values.data() + static_cast<std::size_t>(s.width) * i;
-  if (s.convention) return s.convention->readings_of(row, out);
-  out.clear();
-  for (const int k : s.take) out.push_back(row[k]);
-}
-
 std::string stream_csv(const Stream& s, std::int64_t origin, const std::string& comment) {
   std::string out = comment;
   out += "t";
@@ -363,124 +338,6 @@ std::string stream_csv(const Stream& s, std::int64_t origin, const std::string& 
     row_values(s, i, values);
     for (const double v : values) out += fmt::format(",{}", v);
     out += "\n";
-  }
-  return out;
-}
-
-// A still window's row: the mean of its readings (device rows [a, b]) and of
-// the tracker's samples stamped within it less a tenth of it at either end (a
-// quaternion's mean its sign-aligned sum normalised). Empty when the tracker
-// has no sample there, or moved: a sample further than `tracker_still` from the
-// samples' median (the tracker's clock not the device's?); `why` says which.
-std::optional<std::vector<double>> still_row(const Stream& device, const Stream& tracker,
-                                             std::size_t a, std::size_t b, double tracker_still,
-                                             std::string& why) {
-  const std::vector<std::int64_t>& td = device.samples->stamp_ns;
-  const std::vector<std::int64_t>& tt = tracker.samples->stamp_ns;
-  const std::int64_t margin = (td[b] - td[a]) / 10;
-  const auto first = std::lower_bound(tt.begin(), tt.end(), td[a] + margin);
-  const auto last = std::upper_bound(tt.begin(), tt.end(), td[b] - margin);
-  if (first >= last) return why = "empty", std::nullopt;
-  std::vector<double> values, row(device.columns.size(), 0.0);
-  for (std::size_t i = a; i <= b; ++i) {
-    row_values(device, i, values);
-    for (std::size_t k = 0; k < row.size(); ++k)
-      row[k] += values[k] / static_cast<double>(b - a + 1);
-  }
-  std::vector<std::vector<double>> samples;
-  for (auto it = first; it != last; ++it) {
-    row_values(tracker, static_cast<std::size_t>(it - tt.begin()), values);
-    samples.push_back(values);
-  }
-  // A pose or point topic's tracker still: every sample near the median point
-  // (--field columns carry their own units and order: not checked).
-  if (tracker.topic->kind != TopicKind::kFields) {
-    Eigen::Vector3d median;
-    for (int k = 0; k < 3; ++k) {
-      std::vector<double> c;
-      for (const auto& v : samples) c.push_back(v[k]);
-      std::nth_element(c.begin(), c.begin() + static_cast<std::ptrdiff_t>(c.size() / 2), c.end());
-      median[k] = c[c.size() / 2];
-    }
-    for (const auto& v : samples)
-      if ((Eigen::Vector3d(v[0], v[1], v[2]) - median).norm() > tracker_still)
-        return why = "moved", std::nullopt;
-  }
-  const bool quaternion = tracker.columns.size() == 7 && tracker.columns[3] == "qw";
-  std::vector<double> mean(tracker.columns.size(), 0.0);
-  for (std::vector<double>& v : samples) {
-    if (quaternion &&
-        v[3] * samples[0][3] + v[4] * samples[0][4] + v[5] * samples[0][5] + v[6] * samples[0][6] <
-            0)
-      for (int k = 3; k < 7; ++k) v[k] = -v[k];  // a quaternion and its negative are one turn
-    for (std::size_t k = 0; k < mean.size(); ++k)
-      mean[k] += v[k] / static_cast<double>(samples.size());
-  }
-  if (quaternion) {
-    const double norm =
-        std::sqrt(mean[3] * mean[3] + mean[4] * mean[4] + mean[5] * mean[5] + mean[6] * mean[6]);
-    for (int k = 3; k < 7; ++k) mean[k] /= norm;
-  }
-  row.insert(row.end(), mean.begin(), mean.end());
-  return row;
-}
-
-// The static log: one row a window of at least `still_seconds` in which no
-// reading moves by more than `still_tolerance` (still_row).
-std::string static_csv(const Stream& device, const Stream& tracker, const ImportRequest& request,
-                       std::int64_t origin, const std::string& comment, ImportResult& result) {
-  const std::vector<std::int64_t>& td = device.samples->stamp_ns;
-  std::string out = comment + "t";
-  for (const std::string& c : device.columns) out += "," + c;
-  for (const std::string& c : tracker.columns) out += "," + c;
-  out += "\n";
-  const double still_tolerance = request.still_tolerance.value_or(kStillTolerance);
-  const double tracker_still = request.tracker_still.value_or(kTrackerStill);
-  std::vector<double> values, low, high;
-  std::size_t windows = 0, empty = 0, moved = 0;
-  const auto close = [&](std::size_t a, std::size_t b) {  // device rows [a, b]
-    if (1e-9 * static_cast<double>(td[b] - td[a]) < request.still_seconds) return;
-    ++windows;
-    std::string why;
-    const std::optional<std::vector<double>> row =
-        still_row(device, tracker, a, b, tracker_still, why);
-    if (!row) return void(++(why == "moved" ? moved : empty));
-    out += seconds_text((td[a] + td[b]) / 2 - origin);
-    for (const double v : *row) out += fmt::format(",{}", v);
-    out += "\n";
-    ++result.static_rows;
-  };
-  std::size_t start = 0;
-  for (std::size_t i = 0; i < td.size(); ++i) {
-    if ((i & 4095) == 0) throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp)
-    row_values(device, i, values);
-    if (i == start) {
-      low = high = values;
-      continue;
-    }
-    bool still = true;
-    for (std::size_t k = 0; k < values.size(); ++k) {
-      low[k] = std::min(low[k], values[k]), high[k] = std::max(high[k], values[k]);
-      still = still && high[k] - low[k] <= still_tolerance;
-    }
-    if (still) continue;
-    close(start, i - 1);
-    start = i;
-    low = high = values;
-  }
-  if (!td.empty()) close(start, td.size() - 1);
-  result.notes.push_back(
-      fmt::format("{} still windows of at least {:g} s (readings within {:g}); left out: {} "
-                  "without a tracker sample, {} in "
-                  "which the tracker moved by more than {:g} m (its clock not the device's?)",
-                  windows, request.still_seconds, still_tolerance, empty, moved, tracker_still));
-  if (result.static_rows == 0) {
-    throw InputError(
-        request.recording, 0, "--static",
-        fmt::format("no window of at least {:g} s with the readings within {:g} and the tracker "
-                    "still ({} still windows: {} without a tracker sample, {} with the tracker "
-                    "moving; if the clocks differ, --time receive takes the recorder's)",
-                    request.still_seconds, still_tolerance, windows, empty, moved));
   }
   return out;
 }
@@ -610,7 +467,9 @@ ImportResult run_import(const ImportRequest& request) {
                          (all.empty() ? std::string("none") : listing(all)) +
                          "); --field COLUMN=TOPIC:PATH reads others");
   }
-  if (device) match_joints(*device, request, result);
+  const std::optional<DeviceModel> model =
+      device && !request.model.empty() ? std::optional(load_model(request.model)) : std::nullopt;
+  if (device) match_joints(*device, request, model, result);
   for (const std::optional<Stream>* s : {&device, &tracker}) {
     if (!*s) continue;
     check_finite(**s, file);
@@ -632,6 +491,9 @@ ImportResult run_import(const ImportRequest& request) {
   summarise(topics, device, tracker, origin, result);
 
   OutputSet out(request.out.empty() ? kDefaultImportOut : request.out, "import");
+  // Said in the files' comment: calibrate names it when the readings do not fit the model.
+  const std::string convention =
+      request.convention.empty() ? "" : "; --convention " + request.convention;
   const std::string what = file.empty() ? "" : fmt::format("{} ({})", file, result.format);
   if (request.still_seconds > 0) {
     if (!device || !tracker) {
@@ -639,20 +501,22 @@ ImportResult run_import(const ImportRequest& request) {
           file, 0, "--static",
           "a static log needs the device's readings and the tracker's samples from the recording");
     }
-    const std::string comment = fmt::format(
-        "# hapticcal import of {}: still poses of {} and {}; {} stamps less {} s\n", what,
-        device->what, tracker->what,
-        request.stamps == StampSource::kHeader ? "header" : "recorder's", seconds_text(origin));
-    write_file_atomically(out.dir() + "/log.csv",
-                          static_csv(*device, *tracker, request, origin, comment, result));
+    const std::string comment =
+        fmt::format("# hapticcal import of {}: still poses of {} and {}; {} stamps less {} s{}\n",
+                    what, device->what, tracker->what,
+                    request.stamps == StampSource::kHeader ? "header" : "recorder's",
+                    seconds_text(origin), convention);
+    write_file_atomically(
+        out.dir() + "/log.csv",
+        static_csv(*device, *tracker, request, model ? &*model : nullptr, origin, comment, result));
     device.reset(), tracker.reset();
   }
   if (device) {
     result.device_rows = device->samples->stamp_ns.size();
     const std::string comment =
-        fmt::format("# hapticcal import of {}: {}; {} stamps less {} s; joints: {}\n", what,
+        fmt::format("# hapticcal import of {}: {}; {} stamps less {} s; joints: {}{}\n", what,
                     device->what, request.stamps == StampSource::kHeader ? "header" : "recorder's",
-                    seconds_text(origin), fmt::join(result.joint_names, ", "));
+                    seconds_text(origin), fmt::join(result.joint_names, ", "), convention);
     write_file_atomically(out.dir() + "/device.csv", stream_csv(*device, origin, comment));
   }
   if (tracker) {

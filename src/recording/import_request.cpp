@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "hapticcal/core/error.hpp"
 
@@ -56,6 +57,11 @@ void check_request(const ImportRequest& request, const std::vector<FieldRequest>
     throw InputError("", 0, request.still_tolerance ? "--still-tolerance" : "--tracker-still",
                      "applies to the still windows of a static log: give --static SECONDS");
   }
+  if (!(std::abs(request.clock_offset) <= 3600))
+    throw InputError("", 0, "--clock-offset", "at most 3600 s either way");
+  if (request.clock_offset != 0 && request.still_seconds <= 0)
+    throw InputError("", 0, "--clock-offset",
+                     "shifts the tracker's stamps of a static log: give --static SECONDS");
   const TrackerExportOptions& e = request.export_options;
   const bool export_options = !e.body.empty() || !e.markers.empty() || !e.column_map.empty() ||
                               !e.length_unit.empty() || !e.time_unit.empty();

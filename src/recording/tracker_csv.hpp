@@ -15,14 +15,26 @@ namespace hapticcal::recording::detail {
 
 inline constexpr std::size_t kMaxColumns = 4096;
 inline constexpr std::size_t kMaxLineBytes = std::size_t{1} << 20;
+// A frame rate a file states (Vicon's under each section's title) lies in
+// (kMinRateHz, kMaxRateHz]: optical trackers run at tens of Hz to a few kHz; a
+// rate outside is a damaged file (1e-300 Hz would put the second frame 1e300 s on).
+inline constexpr double kMinRateHz = 0.1;
+inline constexpr double kMaxRateHz = 1e5;
 
 // Every problem: an InputError naming the file, the line and the column (1-based;
 // the line too, 0 when the problem is not on one line).
 [[noreturn]] void fail(const std::string& name, int line, std::size_t column,
                        const std::string& message);
 
-// A text's lines one after another (a '\r' before the '\n' dropped, a UTF-8 byte
-// order mark at the start skipped), each split at commas into trimmed fields.
+// Where the line starting at `from` ends (before its "\n", "\r\n" or lone "\r":
+// exports written on any system) and where the next one starts.
+struct LineEnd {
+  std::size_t eol, next;
+};
+LineEnd line_end(std::string_view text, std::size_t from);
+
+// A text's lines one after another (ended by "\n", "\r\n" or a lone "\r"; a UTF-8
+// byte order mark at the start skipped), each split at commas into trimmed fields.
 // Exports quote nothing: a '"' is read as written.
 class CsvLines {
  public:
@@ -60,6 +72,11 @@ bool parse_number(std::string_view f, double& v);
 double number_at(const CsvLines& lines, std::size_t k, const std::string& what);
 // "'a', 'b', 'c'": names quoted through printable(), at most 20, then how many more.
 std::string name_list(const std::vector<std::string>& names);
+
+// The markers `found` for the names `wanted` (one each, in order) are distinct:
+// InputError naming --markers if one is named twice, or two names are one marker.
+void check_markers_once(const std::vector<std::string>& wanted,
+                        const std::vector<std::string>& found, const std::string& name);
 
 // The scale to metres of a length unit as files and options write it ("m", "mm",
 // "cm", "um", Motive's "Meters", "Centimeters", "Millimeters"); 0 if unknown.

@@ -34,19 +34,25 @@ CsvLines::CsvLines(std::string_view text, const std::string& name) : text_(text)
   if (text_.substr(0, 3) == "\xEF\xBB\xBF") pos_ = 3;  // a UTF-8 byte order mark
 }
 
+LineEnd line_end(std::string_view text, std::size_t from) {
+  const std::size_t eol = std::min(text.find_first_of("\r\n", from), text.size());
+  const std::size_t next = eol + (text.compare(eol, 2, "\r\n") == 0 ? 2
+                                  : eol < text.size()               ? 1
+                                                                    : 0);
+  return {eol, next};
+}
+
 bool CsvLines::next() {
   if (pos_ >= text_.size()) return false;
   start_ = pos_;
-  std::size_t eol = text_.find('\n', pos_);
-  if (eol == std::string_view::npos) eol = text_.size();
+  const auto [eol, after] = line_end(text_, pos_);
   ++number_;
   if (eol - pos_ > kMaxLineBytes) {
     fail(name_, number_, 1,
          fmt::format("a line of {} bytes: at most {} (1 MiB)", eol - pos_, kMaxLineBytes));
   }
   line_ = text_.substr(pos_, eol - pos_);
-  pos_ = eol + 1;
-  if (!line_.empty() && line_.back() == '\r') line_.remove_suffix(1);
+  pos_ = after;
   // Counted before they are split: a line of commas costs no memory.
   const auto count = static_cast<std::size_t>(std::count(line_.begin(), line_.end(), ',')) + 1;
   if (count > kMaxColumns) {
@@ -105,6 +111,21 @@ std::string name_list(const std::vector<std::string>& names) {
   }
   if (names.size() > shown) out += fmt::format(" and {} more", names.size() - shown);
   return out;
+}
+
+void check_markers_once(const std::vector<std::string>& wanted,
+                        const std::vector<std::string>& found, const std::string& name) {
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    for (std::size_t k = 0; k < i; ++k) {
+      if (found[k] != found[i]) continue;
+      throw InputError(
+          name, 0, "--markers",
+          wanted[k] == wanted[i]
+              ? fmt::format("'{}' is named twice: each marker once", printable(wanted[i]))
+              : fmt::format("'{}' and '{}' are one marker, '{}': each marker once",
+                            printable(wanted[k]), printable(wanted[i]), printable(found[i])));
+    }
+  }
 }
 
 namespace {
@@ -311,6 +332,21 @@ bool add_row(const CsvLines& lines, const SamplePlan& plan, double t, TrackerStr
   return true;
 }
 
+// The first of the row's columns read that is empty (a lost sample's), 0-based.
+std::size_t first_empty(const CsvLines& lines, const SamplePlan& plan) {
+  std::vector<std::size_t> read;
+  if (plan.has_position) read.insert(read.end(), plan.position.begin(), plan.position.end());
+  if (plan.rotation != Rotation::kNone) {
+    read.insert(read.end(), plan.rotation_columns.begin(),
+                plan.rotation_columns.begin() + (plan.rotation == Rotation::kQuaternion ? 4 : 3));
+  }
+  for (const auto& m : plan.markers) read.insert(read.end(), m.begin(), m.end());
+  std::sort(read.begin(), read.end());
+  const auto it =
+      std::find_if(read.begin(), read.end(), [&](std::size_t c) { return lines.field(c).empty(); });
+  return it == read.end() ? 0 : *it;
+}
+
 }  // namespace
 
 bool is_title(const CsvLines& lines) {
@@ -325,12 +361,25 @@ void read_samples(CsvLines& lines, const SamplePlan& plan, bool stop_at_blank,
   const int header_line = lines.number();
   double last_t = -std::numeric_limits<double>::infinity();
   int last_line = 0;
+  std::size_t lost_column = 0;  // the first lost sample's empty column
+  int lost_line = 0;
+  const std::size_t kept = stream.t.size(), lost = stream.lost;
+  // Every sample lost: nothing to import, and the rows say why.
+  const auto check_kept = [&] {
+    if (stream.t.size() > kept || stream.lost == lost) return;
+    fail(lines.name(), lost_line, lost_column + 1,
+         fmt::format("all {} samples lost: every row has an empty field among the columns read "
+                     "(a tracker leaves an occluded sample's cells blank), this row first: the "
+                     "tracker never saw what was chosen (the right --body, --markers or "
+                     "--column-map?); nothing to import",
+                     stream.lost - lost));
+  };
   while (lines.next()) {
     if (lines.blank()) {
-      if (stop_at_blank) return;
+      if (stop_at_blank) return check_kept();
       continue;
     }
-    if (stop_at_blank && is_title(lines)) return;
+    if (stop_at_blank && is_title(lines)) return check_kept();
     const std::size_t n = lines.fields().size();
     if (n != plan.width) {
       fail(lines.name(), lines.number(), std::min(n, plan.width) + 1,
@@ -345,8 +394,10 @@ void read_samples(CsvLines& lines, const SamplePlan& plan, bool stop_at_blank,
     }
     last_t = t;
     last_line = lines.number();
-    if (!add_row(lines, plan, t, stream)) ++stream.lost;
+    if (add_row(lines, plan, t, stream)) continue;
+    if (stream.lost++ == lost) lost_line = lines.number(), lost_column = first_empty(lines, plan);
   }
+  check_kept();
 }
 
 }  // namespace detail
@@ -360,9 +411,9 @@ std::string tracker_export_format(const std::string& text) {
   std::string_view rest(text);
   if (rest.substr(0, 3) == "\xEF\xBB\xBF") rest.remove_prefix(3);
   while (!rest.empty()) {
-    const std::size_t eol = std::min(rest.find('\n'), rest.size());
+    const auto [eol, next] = detail::line_end(rest, 0);
     const std::string_view line = rest.substr(0, eol);
-    rest.remove_prefix(std::min(eol + 1, rest.size()));
+    rest.remove_prefix(next);
     const std::size_t comma = std::min(line.find(','), line.size());
     const std::string_view first = detail::trim(line.substr(0, comma));
     const bool alone = line.find_first_not_of(", \t\r", comma) == std::string_view::npos;
@@ -426,9 +477,15 @@ ColumnMap parse_column_map(const std::string& map, const std::string& name) {
                       "z1, ...)",
                       printable(key)));
     }
-    if (!out.header.emplace(key, std::string(detail::trim(entry.substr(eq + 1)))).second) {
-      throw bad(fmt::format("key '{}' given twice", key));
+    const std::string column(detail::trim(entry.substr(eq + 1)));
+    if (out.header.count(key)) throw bad(fmt::format("key '{}' given twice", key));
+    for (const auto& [other, named] : out.header) {
+      if (named == column) {
+        throw bad(fmt::format("column '{}' given for both {} and {}: each key its own column",
+                              printable(column), other, key));
+      }
     }
+    out.header.emplace(key, column);
     if (!unit.empty()) out.unit[key] = unit;
   }
   const auto has = [&](const char* k) { return out.header.count(k) > 0; };

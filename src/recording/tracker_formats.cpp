@@ -105,10 +105,21 @@ MotiveHeader read_motive_header(CsvLines& lines) {
   if (!lines.next() || lines.field(0) != "Format Version") {
     fail(file, 1, 1, "not a Motive export: its first line does not begin \"Format Version,\"");
   }
+  // A key given twice must say the same (which of two length units is meant?).
   for (std::size_t k = 0; k + 1 < lines.fields().size(); k += 2) {
-    h.info[std::string(lines.field(k))] = {std::string(lines.field(k + 1)), k + 2};
+    if (lines.field(k).empty()) continue;
+    const std::string key(lines.field(k)), value(lines.field(k + 1));
+    const auto [it, added] = h.info.emplace(key, std::make_pair(value, k + 2));
+    if (!added && it->second.first != value) {
+      fail(file, 1, k + 2,
+           fmt::format("'{}' is given twice: '{}' (column {}) and '{}': the header contradicts "
+                       "itself",
+                       printable(key), printable(it->second.first), it->second.second,
+                       printable(value)));
+    }
   }
   bool frame_row = false;
+  std::map<std::string_view, int> row_lines;  // a header row's line, to refuse a second
   while (!frame_row && lines.next()) {
     if (lines.blank()) continue;
     double number = 0;
@@ -116,17 +127,22 @@ MotiveHeader read_motive_header(CsvLines& lines) {
       fail(file, lines.number(), 1, "a data row before the header's \"Frame,Time\" row");
     }
     const std::string_view label = lines.field(0).empty() ? lines.field(1) : lines.field(0);
-    if (lines.field(0) == "Frame") {
-      h.component = copy(lines.fields());
-      h.line = lines.number();
-      frame_row = true;
-    } else if (label == "Type") {
-      h.type = copy(lines.fields());
-    } else if (label == "Name") {
-      h.name = copy(lines.fields());
-    } else if (label.empty()) {
-      h.kind = copy(lines.fields());  // "Rotation", "Position", ... under an empty label
-    }  // other rows ("ID", newer exports' additions) name nothing read here
+    std::vector<std::string>* row = lines.field(0) == "Frame" ? &h.component
+                                    : label == "Type"         ? &h.type
+                                    : label == "Name"         ? &h.name
+                                    : label.empty()           ? &h.kind  // "Rotation", ...
+                                                              : nullptr;
+    if (row == nullptr) continue;  // other rows ("ID", newer exports' additions) name nothing read
+    const std::string_view key = row == &h.kind ? "Rotation/Position" : label;
+    if (const auto [it, added] = row_lines.emplace(key, lines.number());
+        !added && *row != copy(lines.fields())) {
+      fail(file, lines.number(), 1,
+           fmt::format("a second \"{}\" header row, unlike line {}'s: the header contradicts "
+                       "itself",
+                       key, it->second));
+    }
+    *row = copy(lines.fields());
+    if (row == &h.component) h.line = lines.number(), frame_row = true;
   }
   if (!frame_row) {
     fail(file, lines.number() + 1, 1,
@@ -181,6 +197,14 @@ void motive_pose(const MotiveHeader& h, const std::string& body, const std::stri
       plan.rotation_columns[k] = need(rotation, "WXYZ"[k], "Rotation");
     }
   } else if (std::find(std::begin(kOrders), std::end(kOrders), form) != std::end(kOrders)) {
+    // Euler angles have no W: X, Y, Z beside a W are a quaternion's.
+    if (const auto w = rotation.find("W"); w != rotation.end()) {
+      fail(file, h.line, w->second + 1,
+           fmt::format("rigid body '{}' has a Rotation W column, a quaternion's, but the first "
+                       "line states Rotation Type '{}' (Euler angles; column {}): the header "
+                       "contradicts itself",
+                       printable(body), printable(form), type->second.second));
+    }
     plan.rotation = Rotation::kEuler;
     plan.euler_order = form;
     plan.angle_scale = M_PI / 180;  // Motive writes Euler angles in degrees
@@ -305,6 +329,7 @@ TrackerStream read_motive_csv(const std::string& text, const std::string& name,
   for (const std::string& wanted : wanted_markers) {
     stream.marker_names.push_back(motive_marker(h, wanted, options.body, name, plan));
   }
+  detail::check_markers_once(wanted_markers, stream.marker_names, name);
   if (!wanted_markers.empty()) {
     stream.source += fmt::format(", markers {}", detail::name_list(stream.marker_names));
   }
@@ -363,10 +388,16 @@ ViconSection read_section_header(CsvLines& lines) {
   s.title_line = lines.number();
   header_line(lines, s.title);
   s.rate_line = lines.number();
-  if (!detail::parse_number(lines.field(0), s.rate_hz) || s.rate_hz <= 0) {
+  if (!detail::parse_number(lines.field(0), s.rate_hz)) {
     fail(lines.name(), lines.number(), 1,
          fmt::format("no frame rate (Hz) under the section title '{}' (line {})",
                      printable(s.title), s.title_line));
+  }
+  if (!(s.rate_hz > detail::kMinRateHz && s.rate_hz <= detail::kMaxRateHz)) {
+    fail(lines.name(), lines.number(), 1,
+         fmt::format("a frame rate of {:.6g} Hz (section '{}'): a tracker's lies in ({:g}, {:g}] "
+                     "Hz",
+                     s.rate_hz, printable(s.title), detail::kMinRateHz, detail::kMaxRateHz));
   }
   header_line(lines, s.title);
   const std::vector<std::string> names = copy(lines.fields());
@@ -576,6 +607,8 @@ TrackerStream read_vicon_csv(const std::string& text, const std::string& name,
       }
       stream.marker_names.push_back(g->name);
     }
+    if (!options.markers.empty())
+      detail::check_markers_once(options.markers, stream.marker_names, name);
     stream.source =
         fmt::format("Vicon CSV, Trajectories {}", detail::name_list(stream.marker_names));
   }

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 
+#include "hapticcal/identification/tree.hpp"
 #include "hapticcal/study/study.hpp"
 #include "report/report_parts.hpp"
 
@@ -134,6 +135,16 @@ void search_lines(const ModelSearch& search, std::vector<std::string>& out) {
   }
 }
 
+namespace {
+
+// Step 2's title: what it fits, from how many of the log's rows.
+std::string step_two_title(const KinematicFit& k, const DeviceModel& nominal, bool paper) {
+  return fmt::format("Step 2: kinematic parameters from {} ({}){}", traits(k.type).plural,
+                     samples_text(k.rows, nominal.tips(), "row"), paper ? " (paper Table 5)" : "");
+}
+
+}  // namespace
+
 std::vector<std::string> calibration_lines(const CalibrationResult& r, const DeviceModel& nominal) {
   std::vector<std::string> out;
   // The paper's table numbers name the paper's device's tables only.
@@ -175,8 +186,7 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
   }
   if (r.clock) out.push_back(clock_line(*r.clock));
   const KinematicFit& k = r.kinematics;
-  out.push_back(fmt::format("Step 2: kinematic parameters from {} ({} rows){}",
-                            traits(k.type).plural, k.rows, paper ? " (paper Table 5)" : ""));
+  out.push_back(step_two_title(k, nominal, paper));
   size_t width = 12;
   for (const ParameterEstimate& e : k.parameters) {
     if (e.identifiable) width = std::max(width, e.name.size());
@@ -192,9 +202,10 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
     if (!e.identifiable) out.push_back(fmt::format("  {:<{}} {}", e.name, width, e.reason));
   }
   if (k.rows > k.poses) {
-    out.push_back(
-        fmt::format("  {} rows are {} poses (repeats averaged); repeatability {:.4f} mm RMS",
-                    k.rows, k.poses, k.repeatability * 1e3));
+    out.push_back(fmt::format("  {} are {} (repeats averaged); repeatability {:.4f} mm RMS",
+                              samples_text(k.rows, nominal.tips(), "row"),
+                              samples_text(k.poses, nominal.tips(), "pose"),
+                              k.repeatability * 1e3));
   }
   out.push_back(fmt::format(
       "  {} parameters identified; condition number {:.4g}; observability O1 {:.4g}, O4 "

@@ -7,6 +7,7 @@
 #include <limits>
 #include <numeric>
 
+#include "hapticcal/identification/tree.hpp"
 #include "hapticcal/report/calibration_lines.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/evaluate.hpp"
@@ -411,14 +412,16 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
     return report;
   }
   const std::string repeats =
-      k.rows > k.poses ? fmt::format(" ({} poses, repeats averaged; repeatability {:.4f} mm RMS)",
-                                     k.poses, k.repeatability * 1e3)
-                       : "";
-  report.sections.push_back(fmt::format(
-      "<p>{} rows{}, {} measurements; observability O1 {:.4g}, O4 {:.4g} (angles scaled by "
-      "{:.3f} m).{}</p>\n",
-      k.rows, repeats, traits(k.type).name, k.observability.O1, k.observability.O4, k.length_scale,
-      k.rank_deficient ? " <b>Rank-deficient: see the held parameters.</b>" : ""));
+      k.rows > k.poses
+          ? fmt::format(" ({}, repeats averaged; repeatability {:.4f} mm RMS)",
+                        samples_text(k.poses, nominal.tips(), "pose"), k.repeatability * 1e3)
+          : "";
+  report.sections.push_back(
+      fmt::format("<p>{}{}, {} measurements; observability O1 {:.4g}, O4 {:.4g} (angles scaled by "
+                  "{:.3f} m).{}</p>\n",
+                  samples_text(k.rows, nominal.tips(), "row"), repeats, traits(k.type).name,
+                  k.observability.O1, k.observability.O4, k.length_scale,
+                  k.rank_deficient ? " <b>Rank-deficient: see the held parameters.</b>" : ""));
   transmission_section(result, nominal, report);
   if (!k.robust.outliers.empty()) report.sections.push_back(outlier_table(k.robust));
   report.sections.push_back(parameter_table(k, nominal));
@@ -457,9 +460,10 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
   if (readings.rows() > 0 && readings.cols() == result.calibrated.dof()) {
     report.figures.push_back(detail::poses_figure(
         result.calibrated, readings,
-        fmt::format("The {} calibration poses in the workspace: the tool point{} through the "
+        fmt::format("The {} in the workspace: the tool point{} through the "
                     "calibrated model, in the {} frame{}",
-                    k.poses, nominal.tree() ? "s (every tip)" : "",
+                    samples_text(k.poses, nominal.tips(), "calibration pose"),
+                    nominal.tree() ? "s (every tip)" : "",
                     traits(k.type).fixture ? "model's base" : "measurement",
                     readings.rows() < static_cast<Eigen::Index>(result.rows.size())
                         ? fmt::format(" ({} of {} rows shown)", readings.rows(), result.rows.size())

@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/identification/registration.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
@@ -165,6 +166,89 @@ std::vector<IsoPoseRuns> iso_runs(const DeviceModel& model, const Log& log,
     out.push_back(std::move(runs));
   }
   return out;
+}
+
+void check_iso_labels(const Log& plan, const Log& log) {
+  constexpr size_t kPoses = std::size(kIsoCycleOrder);
+  const auto line_of = [](const Log& l, size_t r) {
+    return r < l.line.size() ? l.line[r] : static_cast<int>(r) + 2;
+  };
+  for (size_t r = 0; r < plan.label.size(); ++r) {
+    const std::string& label = plan.label[r];
+    const char* expected = kIsoCycleOrder[r % kPoses];
+    if (label == expected) continue;
+    throw InputError(
+        plan.origin, line_of(plan, r), "point",
+        fmt::format("'{}' where a test plan has {} (cycle {}, its pose {} of {}): each cycle "
+                    "visits the poses in the order {}",
+                    printable(label, 40), expected, r / kPoses + 1, r % kPoses + 1, kPoses,
+                    fmt::join(kIsoCycleOrder, ", ")));
+  }
+  if (plan.label.size() % kPoses != 0) {
+    const size_t r = plan.label.size() - 1;
+    throw InputError(plan.origin, line_of(plan, r), "point",
+                     fmt::format("the plan ends inside cycle {} ({} of its {} poses): every cycle "
+                                 "visits each pose once",
+                                 r / kPoses + 1, r % kPoses + 1, kPoses));
+  }
+  if (!log.has_point) return;
+  for (size_t r = 0; r < log.label.size() && r < plan.label.size(); ++r) {
+    if (log.label[r] == plan.label[r]) continue;
+    throw InputError(
+        log.origin, line_of(log, r), "point",
+        fmt::format("'{}' where the plan ({} line {}) has {}", printable(log.label[r], 40),
+                    plan.origin, line_of(plan, r), plan.label[r]));
+  }
+}
+
+void check_iso_positions(const DeviceModel& model, const Log& log,
+                         const std::vector<IsoPoseRuns>& runs) {
+  const Eigen::Vector3d base = base_frame(model.structure(), model.kinematic_parameters().data()).p;
+  double reach = 0, sum = 0;
+  int n = 0;
+  for (const IsoPoseRuns& run : runs) {
+    reach = std::max(reach, (run.commanded.p - base).norm());
+    for (const Frame<double>& a : run.attained) sum += (a.p - run.commanded.p).squaredNorm(), ++n;
+  }
+  const double limit = kImplausibleErrorFraction * reach, rms = std::sqrt(sum / std::max(n, 1));
+  if (!(rms > limit)) return;
+  // What the positions fit best, scaled and in a frame of their own (the poses'
+  // means registered): a fit within a tenth of the poses' spread about their
+  // centre names its cause (a cube is small beside the reach: any cloud shrunk
+  // a thousandfold lies within the reach's 5 % of it).
+  Eigen::Matrix3Xd a(3, static_cast<Eigen::Index>(runs.size())), b(3, a.cols());
+  for (Eigen::Index k = 0; k < a.cols(); ++k) {
+    const IsoPoseRuns& run = runs[static_cast<size_t>(k)];
+    a.col(k) = run.commanded.p;
+    b.col(k) = Eigen::Vector3d::Zero();
+    for (const Frame<double>& f : run.attained) b.col(k) += f.p / run.attained.size();
+  }
+  const double spread = std::sqrt((a.colwise() - a.rowwise().mean()).squaredNorm() / a.cols());
+  const auto registered_rms = [&](double scale) {
+    try {
+      return register_points(a, scale * b).rms;
+    } catch (const InputError&) {  // fewer than three poses, or collinear
+      return std::numeric_limits<double>::infinity();
+    }
+  };
+  std::string hint = " Is this log from this device and this test?";
+  double best = 0.1 * spread;
+  for (const auto& [scale, unit] :
+       {std::pair{1.0, ""}, std::pair{1e-3, "mm"}, std::pair{1e-6, "um"}}) {
+    const double rms_scaled = registered_rms(scale);
+    if (!(rms_scaled <= best)) continue;
+    best = rms_scaled;
+    hint = scale == 1.0
+               ? std::string(" They fit its poses in another frame: give --register frame.")
+               : fmt::format(
+                     " The positions fit it in {0}: give the unit in the log's "
+                     "header (x[{0}], y[{0}], z[{0}]; a bare column is metres).",
+                     unit);
+  }
+  throw InputError(log.origin, 0, "x",
+                   fmt::format("the attained positions are {:.4g} mm RMS from the model's "
+                               "commanded poses, more than {:.0f} % of its reach ({:.1f} mm).{}",
+                               rms * 1e3, kImplausibleErrorFraction * 100, reach * 1e3, hint));
 }
 
 }  // namespace hapticcal

@@ -72,6 +72,13 @@ IsoCubePlan plan_iso_cube(const DeviceModel& model, const IsoCubeOptions& option
   if (model.dof() == 0) throw InputError("--iso9283: the model has no joints");
   if (model.tree()) throw InputError("--iso9283: a tree has several tips; give --tip one");
   if (options.cycles < 1) throw InputError("--cycles: at least 1");
+  if (options.centre && !(options.centre->cwiseAbs().maxCoeff() <= kMaxCubeCentre)) {
+    const Eigen::Vector3d& c = *options.centre;
+    throw InputError(fmt::format(
+        "--cube-centre: ({:.6g}, {:.6g}, {:.6g}) m: each coordinate within +-{:g} m (metres, in "
+        "the measurement frame)",
+        c.x(), c.y(), c.z(), kMaxCubeCentre));
+  }
   Eigen::VectorXd middle(model.dof());
   for (int i = 0; i < model.dof(); ++i) {
     const Link& l = model.links[i];

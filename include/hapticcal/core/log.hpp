@@ -52,6 +52,9 @@ struct Log {
   // reader does not read them (yet); repeats are averaged like the columns above.
   std::map<std::string, Eigen::MatrixXd> columns;
   std::vector<int> line;  // source line of each row
+  // The file's first comment line (after '#', trimmed): what wrote it
+  // (`hapticcal import` names its recording and --convention).
+  std::string comment;
   // A tree's samples (tip_samples: a row a tip of a log row): the tip each row
   // measures; empty: the first (a chain's only one).
   std::vector<int> tip;

@@ -98,6 +98,11 @@ std::string tree_urdf(const std::string& text, const std::string& origin, const 
 // `only` >= 0: that tip's sample of each row alone.
 Log tip_samples(const DeviceModel& tree, const Log& log, int only = -1);
 
+// How many of the log's `noun`s ("row", "pose") `samples` of a fit are: "10
+// poses" for a chain; a tree's a sample a tip of each, "5 poses of 2 tips, 10
+// points".
+std::string samples_text(int samples, int tips, const char* noun);
+
 // Chain c's log: its readings (the tree's columns of its joints) and its tip's
 // point (the tree log's marker c) as positions.
 Log chain_log(const DeviceTree& tree, const Log& log, int chain);

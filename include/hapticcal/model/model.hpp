@@ -14,7 +14,10 @@
 namespace hapticcal {
 
 constexpr int kMaxDof = 32;
-// The largest magnitude of a coupling coefficient (DeviceModel::coupling).
+// The magnitudes of a coupling coefficient (DeviceModel::coupling): 0 (the
+// reading unused) or within [kMinCouplingCoefficient, kMaxCouplingCoefficient]
+// (gear ratios and cable drives lie far inside; 1e-300 is a typing error).
+constexpr double kMinCouplingCoefficient = 1e-6;
 constexpr double kMaxCouplingCoefficient = 100.0;
 // Bounds of a link's mass [kg], its centre's distance from the link frame [m],
 // a joint compliance [rad/N m; m/N] and gravity [m/s^2] (device files, URDF).
@@ -331,9 +334,9 @@ struct DeviceModel {
 };
 
 // Why `coupling` cannot be the coupling of a model with these links, or empty:
-// dof x dof, finite, |C_ik| <= 100, every joint using some reading, no
-// transmission on an unused reading. A C equal to the identity is refused too
-// (it is written as no coupling).
+// dof x dof, finite, each C_ik 0 or of magnitude in [1e-6, 100], every joint
+// using some reading, no transmission on an unused reading. A C equal to the
+// identity is refused too (it is written as no coupling).
 std::string coupling_problem(const Eigen::MatrixXd& coupling, const std::vector<Link>& links);
 
 // Why a model's tree (parents, tips) is not one, or empty: at most kMaxDof

@@ -54,6 +54,11 @@ struct ImportRequest {
   // median [m] is left out: the tracker moved (its clock is not the device's).
   // Unset: 1e-3.
   std::optional<double> tracker_still;
+  // How far the tracker's clock is ahead of the device's [s]: a still window's
+  // tracker samples are those stamped within it plus this. A window whose
+  // samples the speeds place at another time is left out (still_poses.cpp).
+  // Nonzero without still_seconds is refused.
+  double clock_offset = 0;
 };
 
 inline constexpr const char* kDefaultImportOut = "hapticcal-out/import";

@@ -74,6 +74,23 @@ IsoCriteria iso_criteria(const std::vector<IsoPoseRuns>& poses);
 std::vector<IsoPoseRuns> iso_runs(const DeviceModel& model, const Log& log,
                                   const std::vector<std::string>& labels);
 
+// The order plan --iso9283 writes each cycle's poses in.
+inline constexpr const char* kIsoCycleOrder[] = {"P1", "P5", "P4", "P3", "P2"};
+
+// A test plan's labels (its `point` column) follow its pattern: cycle after
+// cycle the five poses in kIsoCycleOrder, every cycle whole (so each label
+// counts the cycles). A log with labels of its own must have the plan's, row by
+// row. InputError naming the first line that breaks the pattern.
+void check_iso_labels(const Log& plan, const Log& log);
+
+// The attained positions plausible for `model`: their RMS distance from the
+// commanded poses within kImplausibleErrorFraction of the reach (the farthest
+// commanded tool point from the base). Else InputError naming the log's x
+// column and what the positions fit: read in mm or um as metres (the unit
+// hint), the model's poses in another frame (--register), or nothing.
+void check_iso_positions(const DeviceModel& model, const Log& log,
+                         const std::vector<IsoPoseRuns>& runs);
+
 // The test simulated after a calibration (a simulate scenario's `iso9283`
 // key): at each pose of the nominal model's test cube the robot (the truth)
 // attains the truth's tool point at the pose's joint targets, scattered by

@@ -16,9 +16,12 @@
 
 namespace hapticcal {
 
+// A given centre's coordinates are at most this far from the frame's origin [m].
+inline constexpr double kMaxCubeCentre = 100;
+
 struct IsoCubeOptions {
-  // The cube's centre in the measurement frame [m]; none: the tool point at the
-  // middle of every joint's range.
+  // The cube's centre in the measurement frame [m], each coordinate within
+  // +-kMaxCubeCentre; none: the tool point at the middle of every joint's range.
   std::optional<Eigen::Vector3d> centre;
   // The edge [m]; none: the largest whose five poses the joint limits allow
   // (to 0.1 mm).
