@@ -92,3 +92,40 @@ def test_ctrl_c_during_a_parallel_study(tmp_path):
     hapticcal.simulate(trials=2, threads=2, out=str(out))
     call = f"hapticcal.simulate(trials=40, threads=2, out={str(out)!r})"
     check(interrupt_at_random(call, out, (0.05, 1.5), seed=59), "simulate")
+
+
+def write_session_bag(path, messages):
+    """A bz2-compressed ROS 1 bag (Debian's python3-rosbag) of a Touch's /joint_states at
+    1 kHz, one joint stepping every 0.5 s, and a tracker's /probe at 125 Hz stepping with
+    it: still windows for a static import, and chunks to decompress."""
+    import rosbag
+    import rospy
+    from geometry_msgs.msg import PointStamped
+    from sensor_msgs.msg import JointState
+
+    js = JointState(name=["waist", "shoulder", "elbow", "yaw", "pitch", "roll"])
+    p = PointStamped()
+    with rosbag.Bag(str(path), "w", compression="bz2") as b:
+        for k in range(messages):
+            stamp = rospy.Time(1733390000 + k // 1000, 1000000 * (k % 1000))
+            js.position = [0.3, 0.2, 0.01 * (k // 500), 0.4, 0.5, 0.6]
+            js.header.stamp = stamp
+            b.write("/joint_states", js, t=stamp)
+            if k % 8 == 0:
+                p.header.stamp = stamp
+                p.point.x, p.point.y, p.point.z = 0.001 * (k // 500), 0.2, -0.1
+                b.write("/probe", p, t=stamp)
+
+
+def test_ctrl_c_during_an_import(tmp_path):
+    """import_recording of a 100 s session (100,000 readings; about 0.5 s to import), as
+    streams and as a static log with the device's model (the clocks' lag searched)."""
+    bag = tmp_path / "session.bag"
+    write_session_bag(bag, 100000)
+    for name, options, seed in [("import", "", 60),
+                                ("import --static",
+                                 ", model='geomagic-touch', convention='none', static=0.2", 61)]:
+        out = tmp_path / name.replace(" ", "")
+        call = f"hapticcal.import_recording({str(bag)!r}, out={str(out)!r}{options})"
+        exec(call)  # the previous set
+        check(interrupt_at_random(call, out, (0.0, 0.4), seed=seed), name)
