@@ -44,10 +44,10 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
                  "An ISO 9283 test instead: the test cube, its five poses P1..P5 as joint "
                  "targets and the cycles (plan.csv, a row a pose visited; iso9283.json)");
   plan->add_option("--cube-centre", options.cube_centre,
-                   "X,Y,Z: the test cube's centre in the measurement frame [m] (default: the "
-                   "tool point at the middle of every joint's range)");
+                   "X,Y,Z: the test cube's centre in the measurement frame [m] (default: searched "
+                   "over the workspace for the largest cube)");
   plan->add_option("--cube-size", options.cube_size,
-                   "The test cube's edge [m] (default: the largest the joint limits allow)")
+                   "The test cube's edge [m] (default: the largest the workspace holds)")
       ->check(within(1e-3, 10.0, "m"));
   plan->add_option("--cycles", options.cycles, "ISO 9283 cycles (default 30, the standard's)")
       ->check(whole_number(1, 1000));
@@ -91,6 +91,26 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
       "  hapticcal plan --model geomagic-touch --measurement pose --poses 40 --out touch-plan");
   return plan;
 }
+
+namespace {
+
+// How the cube was found (iso9283.json's "search").
+nlohmann::ordered_json iso_search_json(const IsoCubeSearch& s) {
+  return {{"centre", s.centre_given ? "given" : "searched over the workspace"},
+          {"size", s.size_given ? "given" : "the largest that fits"},
+          {"candidates", s.candidates},
+          {"moves", s.moves},
+          {"seed", s.seed},
+          {"stopped", s.stopped},
+          {"fits",
+           "the five poses reached within the joint limits away from singularities "
+           "(smallest singular value of the Jacobian by the readings at least " +
+               fmt::format("{:g}", kIsoAwayFromSingular) +
+               " m/rad, rotation at 0.1 m/rad), the eight corners within reach"},
+          {"text", iso_search_text(s)}};
+}
+
+}  // namespace
 
 // plan --iso9283: the test cube and its poses; plan.csv holds a row a pose
 // visited (q1..qN and its label in `point`, cycle after cycle), iso9283.json
@@ -140,6 +160,7 @@ int run_iso_plan(const PlanCommandOptions& options) {
       {"plane", "C1-C2-C7-C8"},
       {"corners", corners},
       {"orientation_held", plan.orientation_held},
+      {"search", iso_search_json(plan.search)},
       {"cycles", plan.cycles},
       {"order", {"P1", "P5", "P4", "P3", "P2"}},
       {"poses", poses}};
@@ -150,10 +171,10 @@ int run_iso_plan(const PlanCommandOptions& options) {
   out.commit();
   fmt::print("hapticcal plan --iso9283: {} ({} joints)\n", model.name, model.dof());
   fmt::print(
-      "  test cube: edge {:.1f} mm{} about ({:.1f}, {:.1f}, {:.1f}) mm, its edges along the base "
-      "frame's axes; measuring plane C1-C2-C7-C8\n",
-      plan.size * 1e3, cube.size ? "" : " (the largest the joint limits allow)",
-      plan.centre.x() * 1e3, plan.centre.y() * 1e3, plan.centre.z() * 1e3);
+      "  test cube: edge {:.1f} mm about ({:.1f}, {:.1f}, {:.1f}) mm, its edges along the base "
+      "frame's axes; measuring plane C1-C2-C7-C8\n  {}\n",
+      plan.size * 1e3, plan.centre.x() * 1e3, plan.centre.y() * 1e3, plan.centre.z() * 1e3,
+      iso_search_text(plan.search));
   for (const IsoTestPose& p : plan.poses) {
     fmt::print("  {}: ({:9.3f}, {:9.3f}, {:9.3f}) mm\n", p.label, p.pose.p.x() * 1e3,
                p.pose.p.y() * 1e3, p.pose.p.z() * 1e3);

@@ -311,7 +311,8 @@ void check_marker_columns(const std::vector<Column>& columns, const std::vector<
 }
 
 // Checks the set of columns as a whole; returns the number of joints.
-int check_columns(const std::vector<Column>& columns, const std::string& origin, int line) {
+int check_columns(const std::vector<Column>& columns, const std::string& origin, int line,
+                  bool pose_names) {
   int dof = 0;
   std::vector<int> count(kQuantities, 0);
   std::vector<std::string> seen;
@@ -390,7 +391,8 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
                                      labels, label, label, label, labels));
       }
     }
-    if (xyz != 0 || count[static_cast<int>(Quantity::kDistance)] != 0) {
+    const bool named_poses = pose_names && points && unnumbered && xyz != 0;
+    if (!named_poses && (xyz != 0 || count[static_cast<int>(Quantity::kDistance)] != 0)) {
       throw InputError(origin, line, label,
                        fmt::format("a {} log has no measured x, y, z or distance: the {} label is "
                                    "the measurement",

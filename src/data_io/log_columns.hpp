@@ -63,6 +63,8 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
 // column name, and at least one is a column parse_column accepts.
 bool looks_like_header(const std::vector<std::string>& fields);
 // Checks the set of columns as a whole; returns the number of joints.
-int check_columns(const std::vector<Column>& columns, const std::string& origin, int line);
+// `pose_names`: a chain's `point` column beside x, y, z names the rows' poses.
+int check_columns(const std::vector<Column>& columns, const std::string& origin, int line,
+                  bool pose_names = false);
 
 }  // namespace hapticcal::detail

@@ -77,10 +77,11 @@ struct Table {
   std::vector<std::string> labels;
   std::vector<int> lines;  // of each row
   std::string comment;     // the first comment line's text
+  PointColumn point = PointColumn::kFixture;
 
   void set_columns(const std::vector<std::string>& names, const std::string& where, int line) {
     for (const std::string& n : names) columns.push_back(parse_column(n, where, line));
-    dof = check_columns(columns, where, line);
+    dof = check_columns(columns, where, line, point == PointColumn::kPoseName);
   }
 };
 
@@ -144,8 +145,10 @@ void add_row(Table& table, const std::vector<std::string>& fields, const std::st
 // The columns (from the header line, or `column_names` if given) and the data
 // rows of the log `text`.
 Table read_table(const std::string& text, const std::string& origin,
-                 const std::vector<std::string>& column_names) {
+                 const std::vector<std::string>& column_names,
+                 PointColumn point = PointColumn::kFixture) {
   Table table;
+  table.point = point;
   if (!column_names.empty()) table.set_columns(column_names, "--columns", 0);
   const std::vector<Column>& columns = table.columns;
   size_t pos = 0;
@@ -354,6 +357,7 @@ Log log_of_table(Table& table, const std::string& origin) {
   fill_values(log, table);
   std::vector<double>().swap(table.values);
   if (log.has_point || log.has_plane) log.label = std::move(table.labels);
+  if (log.has_point && log.has_position) log.has_point = false;  // the poses' names (kPoseName)
   if (log.has_orientation) normalise_orientations(log, table.columns);
   if (log.has_distance) {
     for (int r = 0; r < log.rows; ++r) {
@@ -431,9 +435,9 @@ std::string log_to_csv(const Log& log) {
   return out;
 }
 
-Log read_log(const std::string& path, const std::vector<std::string>& columns) {
+Log read_log(const std::string& path, const std::vector<std::string>& columns, PointColumn point) {
   std::string text = read_file(path, FileKind::kLog);
-  Table table = read_table(text, path, columns);
+  Table table = read_table(text, path, columns, point);
   std::string().swap(text);  // a one-hour stream's text is 0.5 GB: gone before the log is made
   return log_of_table(table, path);
 }

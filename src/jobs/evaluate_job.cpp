@@ -356,7 +356,9 @@ EvaluateJob run_evaluate_job(const EvaluateRequest& request) {
       throw InputError(request.model, 0, "", "a tree: no --tracker or --iso9283 (give one tip)");
     return tree_evaluate_job(request, {}, &job.model);
   }
-  Log log = read_log(request.log, request.columns);
+  // An ISO 9283 test log may keep its plan's `point` column: the poses' names.
+  Log log = read_log(request.log, request.columns,
+                     request.iso9283.empty() ? PointColumn::kFixture : PointColumn::kPoseName);
   if (!request.tracker.empty()) {
     if (request.registration || !request.fixture.empty() || !request.point_distances.empty()) {
       throw InputError(request.tracker, 0, "--tracker",

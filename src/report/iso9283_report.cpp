@@ -69,6 +69,7 @@ Report iso_plan_report(const DeviceModel& model, const IsoCubePlan& plan) {
       plan.cycles,
       plan.orientation_held ? "every pose at the centre's orientation"
                             : "orientation not held (fewer than six joints)"));
+  report.outcome.headline.push_back(iso_search_text(plan.search));
   std::vector<std::vector<std::string>> rows;
   for (const IsoTestPose& p : plan.poses) {
     std::string readings;

@@ -191,7 +191,6 @@ void check_iso_labels(const Log& plan, const Log& log) {
                                  "visits each pose once",
                                  r / kPoses + 1, r % kPoses + 1, kPoses));
   }
-  if (!log.has_point) return;
   for (size_t r = 0; r < log.label.size() && r < plan.label.size(); ++r) {
     if (log.label[r] == plan.label[r]) continue;
     throw InputError(

@@ -19,7 +19,14 @@ namespace hapticcal {
 // [um] for lengths, [s] [ms]. An orientation (beside x, y, z) is either all of qw, qx, qy, qz (no
 // unit; a norm more than 1e-3 from 1 is an error, else it is normalised) or all of rx, ry, rz, a
 // rotation vector (angle * axis, [rad] or [deg]) converted to a unit quaternion.
-Log read_log(const std::string& path, const std::vector<std::string>& columns = {});
+//
+// `point` says what a `point` column beside measured x, y, z is: refused
+// (kFixture: a fixture log's label is its measurement), or each row's pose's
+// name (kPoseName: an ISO 9283 test log that keeps its plan's column; the
+// names in Log::label, has_point false).
+enum class PointColumn { kFixture, kPoseName };
+Log read_log(const std::string& path, const std::vector<std::string>& columns = {},
+             PointColumn point = PointColumn::kFixture);
 Log parse_log(const std::string& csv_text, const std::string& origin,
               const std::vector<std::string>& columns = {});
 

@@ -182,7 +182,7 @@ void assign_truth(Scenario& scenario, const std::string& source);
 //                                           of a kinematic parameter (SI, added to nominal)
 //   iso9283: {cycles: N, scatter: METRES,   ISO 9283's test after each calibration, at the
 //             cube_size: METRES,            nominal model's test cube (plan_iso_cube: the
-//             cube_centre: [X, Y, Z]}       largest about the middle readings unless given)
+//             cube_centre: [X, Y, Z]}       largest in the workspace unless given)
 // Anything that does not apply to the device is refused, never replaced.
 // Unknown keys are errors naming the file, line and key.
 Scenario load_scenario(const std::string& path, const std::string& default_device_path,
