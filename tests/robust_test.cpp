@@ -5,8 +5,10 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
@@ -321,6 +323,77 @@ Log bumped_meca500() {
   Log bad = testing::meca500_log("cal", kMecaSet);
   for (int r = bad.rows / 2; r < bad.rows; ++r) bad.position(r, 2) += 0.003;
   return bad;
+}
+
+// Repeatability comes from genuine repeats only. The Meca500 set measures each
+// pose 3 times in a row: a static log's repeats. The same rows stamped with a
+// time are one visit a pose (a device at rest streaming); bit-identical rows are
+// one sample sent again; the rows in another order (first, second, then third
+// measurement of every pose, stamped) are three visits a pose: the same figure.
+TEST(SuspectFits, RepeatabilityComesFromGenuineRepeatsOnly) {
+  const DeviceModel meca = testing::meca500();
+  const std::string csv = log_to_csv(testing::meca500_log("cal", kMecaSet));
+  std::istringstream in(csv);
+  std::string header;
+  std::getline(in, header);
+  ASSERT_EQ(header.rfind("q1,q2,q3,q4,q5,q6,x,y,z", 0), 0u) << header;
+  // The rows by pose (their readings' text), in the file's order.
+  std::vector<std::string> rows;
+  std::vector<std::vector<std::size_t>> poses;
+  std::map<std::string, std::size_t> pose_of;
+  for (std::string line; std::getline(in, line);) {
+    std::size_t at = 0;
+    for (int k = 0; k < 6; ++k) at = line.find(',', at) + 1;
+    const auto [it, added] = pose_of.emplace(line.substr(0, at), poses.size());
+    if (added) poses.emplace_back();
+    poses[it->second].push_back(rows.size());
+    rows.push_back(line);
+  }
+  const auto log_of = [&](const std::vector<std::string>& lines, bool stamped) {
+    std::string text = (stamped ? "t," : "") + header + "\n";
+    for (std::size_t k = 0; k < lines.size(); ++k)
+      text += (stamped ? fmt::format("{},", 0.01 * static_cast<double>(k)) : "") + lines[k] + "\n";
+    return parse_log(text, "repeats.csv");
+  };
+  CalibrationOptions o;
+  o.search = false;
+  const auto fitted = [&](const Log& log) { return calibrate(meca, log, o).kinematics; };
+  const KinematicFit as_measured = fitted(log_of(rows, false));
+  // Independently: each pose's distinct positions about their mean (a row that
+  // repeats another's numbers exactly is that sample again).
+  const Log raw = log_of(rows, false);
+  double sum = 0;
+  int dof = 0;
+  for (const std::vector<std::size_t>& pose : poses) {
+    std::vector<Eigen::RowVector3d> distinct;
+    for (const std::size_t r : pose) {
+      const Eigen::RowVector3d p = raw.position.row(static_cast<Eigen::Index>(r));
+      if (std::find(distinct.begin(), distinct.end(), p) == distinct.end()) distinct.push_back(p);
+    }
+    Eigen::RowVector3d mean = Eigen::RowVector3d::Zero();
+    for (const auto& p : distinct) mean += p / static_cast<double>(distinct.size());
+    for (const auto& p : distinct) sum += (p - mean).squaredNorm();
+    dof += static_cast<int>(distinct.size()) - 1;
+  }
+  std::printf("Meca500 %s: repeatability %.4f um over %d degrees of freedom\n", kMecaSet,
+              as_measured.repeatability * 1e6, dof);
+  EXPECT_NEAR(as_measured.repeatability, std::sqrt(sum / dof), 1e-15);
+  // Visits: the k-th row of every pose, then the next, stamped.
+  std::vector<std::string> revisited, resent;
+  for (std::size_t pass = 0; pass < 3; ++pass)
+    for (const std::vector<std::size_t>& pose : poses)
+      if (pass < pose.size()) revisited.push_back(rows[pose[pass]]);
+  for (const std::vector<std::size_t>& pose : poses)
+    for (std::size_t k = 0; k < pose.size(); ++k) resent.push_back(rows[pose[0]]);
+  EXPECT_NEAR(fitted(log_of(revisited, true)).repeatability, as_measured.repeatability, 1e-15);
+  for (const auto& [what, log] : {std::pair{"at rest, stamped", log_of(rows, true)},
+                                  std::pair{"bit-identical rows", log_of(resent, false)}}) {
+    SCOPED_TRACE(what);
+    const KinematicFit fit = fitted(log);
+    EXPECT_TRUE(std::isnan(fit.repeatability)) << fit.repeatability;
+    for (const std::string& reason : fit.suspect.reasons)
+      EXPECT_EQ(reason.find("repeatability"), std::string::npos) << reason;
+  }
 }
 
 TEST(SuspectFits, ATrackerBumpedHalfWayIsSuspectWithItsRatio) {

@@ -90,25 +90,40 @@ std::string setup_change_note(const DeviceModel& nominal, const DeviceModel& cal
       tool * 1e3);
 }
 
-// RMS scatter of repeated measurements about their pose's mean (`means`, the
-// average_repeats of `log` over `poses`; Euclidean for positions), with
-// rows - poses degrees of freedom; NaN without repeats.
-double repeatability(const Log& log, const std::vector<std::vector<int>>& poses, const Log& means,
+// RMS scatter of a pose's genuine repeats about their mean (Euclidean for
+// positions), with repeats - poses degrees of freedom; NaN without any. A
+// repeat is a row whose measured values differ from the pose's earlier rows'
+// (bit-identical rows are one sample sent again); in a log with time, a run of
+// consecutive rows at one pose is one visit (a device at rest streaming: its
+// mean is the visit's sample), so only a pose left and reached again repeats.
+double repeatability(const Log& log, const std::vector<std::vector<int>>& poses,
                      const RowsOf& kind) {
   if (is_fixture(kind.type)) return std::numeric_limits<double>::quiet_NaN();  // nothing measured
   // The spread of the values that are lengths (a pose's position, not its rotation).
   const MeasurementTraits& t = traits(kind.type);
   const int lengths = std::min(t.length_rows, t.width);
-  std::vector<double> value(t.width), mean(t.width);
+  std::vector<double> value(static_cast<std::size_t>(t.width));
   double sum = 0;
   int dof = 0;
-  for (size_t g = 0; g < poses.size(); ++g) {
-    dof += static_cast<int>(poses[g].size()) - 1;
-    measured_values(kind.type, means, static_cast<int>(g), mean.data());
-    for (int r : poses[g]) {
+  for (const std::vector<int>& rows : poses) {
+    std::vector<Eigen::VectorXd> samples;  // the pose's distinct samples (or visits' means)
+    int visit_rows = 0, previous = -2;
+    for (const int r : rows) {
       measured_values(kind.type, log, r, value.data());
-      for (int k = 0; k < lengths; ++k) sum += std::pow(value[k] - mean[k], 2);
+      const Eigen::VectorXd v = Eigen::Map<const Eigen::VectorXd>(value.data(), lengths);
+      if (log.has_time && r == previous + 1 && !samples.empty()) {  // the same visit
+        samples.back() += (v - samples.back()) / ++visit_rows;
+      } else if (std::none_of(samples.begin(), samples.end(),
+                              [&](const Eigen::VectorXd& s) { return s == v; })) {
+        samples.push_back(v), visit_rows = 1;
+      }
+      previous = r;
     }
+    if (samples.size() < 2) continue;
+    Eigen::VectorXd mean = Eigen::VectorXd::Zero(lengths);
+    for (const Eigen::VectorXd& v : samples) mean += v / static_cast<double>(samples.size());
+    for (const Eigen::VectorXd& v : samples) sum += (v - mean).squaredNorm();
+    dof += static_cast<int>(samples.size()) - 1;
   }
   return dof > 0 ? std::sqrt(sum / dof) : std::numeric_limits<double>::quiet_NaN();
 }
@@ -293,7 +308,7 @@ void prepare_poses(CalibrationRun& run) {
   fit.rows = std::accumulate(run.repeats.begin(), run.repeats.end(), 0);
   fit.repeatability = encoders_only(run.log)
                           ? std::numeric_limits<double>::quiet_NaN()
-                          : repeatability(run.log, run.result.poses, run.poses, RowsOf{fit.type});
+                          : repeatability(run.log, run.result.poses, RowsOf{fit.type});
   if (run.log.has_position && run.log.has_distance) {
     run.result.notes.push_back("the log has positions and distances: positions are used");
   }
