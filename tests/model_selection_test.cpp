@@ -388,5 +388,32 @@ TEST(CrossValidation, PoseLogsReportPositionErrorsAlongTheWholePath) {
   EXPECT_GT(k.cv_rms, k.rms_after);
 }
 
+// A note about a joint-error family says who chose it: the model search (the
+// Meca500's 0deg_80cube set keeps gravity compliance, its model giving no
+// masses), or the user's --joint-errors.
+TEST(ModelSelection, AFamilysNoteSaysWhoChoseIt) {
+  const std::string out = ::testing::TempDir() + "/hapticcal_family_note";
+  std::filesystem::remove_all(out);
+  const std::string model = testing::source_path("examples/meca500/meca500.yaml");
+  const std::string log =
+      testing::source_path("examples/meca500/cal-norm_dist_data_0deg_80cube.csv");
+  const testing::CliResult searched =
+      testing::run_cli({"calibrate", "--model", model, "--log", log, "--out", out + "/searched"});
+  ASSERT_EQ(searched.exit_code, 0) << searched.err;
+  EXPECT_NE(searched.out.find("kept geometry + compliance"), std::string::npos) << searched.out;
+  EXPECT_NE(searched.out.find("note: compliance (kept by the model search): the model gives no "
+                              "masses"),
+            std::string::npos)
+      << searched.out;
+  EXPECT_EQ(searched.out.find("--joint-errors compliance"), std::string::npos) << searched.out;
+  const testing::CliResult asked =
+      testing::run_cli({"calibrate", "--model", model, "--log", log, "--joint-errors", "compliance",
+                        "--no-search", "--out", out + "/asked"});
+  ASSERT_EQ(asked.exit_code, 0) << asked.err;
+  EXPECT_NE(asked.out.find("note: --joint-errors compliance: the model gives no masses"),
+            std::string::npos)
+      << asked.out;
+}
+
 }  // namespace
 }  // namespace hapticcal

@@ -45,6 +45,20 @@ const char* to_string(Estimator estimator) {
 
 namespace detail::search {
 
+// A family's note as the user reads it: one the search chose, where the user
+// named none or others (--joint-errors), says so instead of naming the option.
+void chosen_family_notes(std::vector<std::string>& notes, const std::vector<std::string>& named) {
+  constexpr std::string_view kOption = "--joint-errors ";
+  for (std::string& note : notes) {
+    if (!note.starts_with(kOption)) continue;
+    const std::size_t end = note.find(':', kOption.size());
+    if (end == std::string::npos) continue;
+    const std::string family = note.substr(kOption.size(), end - kOption.size());
+    if (std::find(named.begin(), named.end(), family) != named.end()) continue;
+    note = fmt::format("{} (kept by the model search){}", family, note.substr(end));
+  }
+}
+
 bool names_it(const std::vector<std::string>& names, const char* name) {
   return std::find(names.begin(), names.end(), name) != names.end();
 }
@@ -456,6 +470,7 @@ CalibrationResult Search::conclude() {
   if (!f.families.empty() && family_fit != 0 && fits_.front().run)
     geometry = conclude_geometry(pick >= 0);
   CalibrationResult result = finish(f, estimator, zero, pick >= 0);
+  chosen_family_notes(result.notes, base_.options.joint_errors);
   result.geometry = std::move(geometry);
   KinematicFit& fit = result.kinematics;
   out_.ran = pick >= 0;
