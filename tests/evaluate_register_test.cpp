@@ -11,6 +11,7 @@
 
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/device.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"
@@ -279,6 +280,34 @@ TEST(EvaluateRegister, FewerThanThreePointsOrOnePlaceAreRefused) {
   testing::expect_input_error(testing::run_cli("evaluate --model " + kMeca + " --log " +
                                                write_log(still, "still") + " --register frame"),
                               "the measurement frame is not determined");
+}
+
+// An improvement that is only the set-up's says so: the Meca500 in the
+// tracker's frame against the same robot in its own base frame scores 99.9 %
+// better on the tracker's poses, the device unchanged; a model whose link moved
+// makes no such claim.
+TEST(EvaluateRegister, AnImprovementOfTheFrameAloneSaysSo) {
+  const std::string dir = testing::fresh_folder("evaluate_setup_only");
+  const std::string placed = testing::write_meca500_on_tracker(dir + "/placed.yaml");
+  DeviceModel shifted = testing::meca500_on_tracker();
+  shifted.links[2].a += 1e-4;
+  const std::string moved = dir + "/moved.yaml";
+  save_device(shifted, moved);
+  const std::string own = testing::source_path("examples/meca500/meca500.yaml");
+  const std::string log =
+      testing::source_path("examples/meca500/val-norm_dist_data_0deg_160cube.csv");
+  const auto scored = [&](const std::string& model) {
+    const testing::CliResult r =
+        testing::run_cli({"evaluate", "--model", model, "--log", log, "--reference", own});
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return r.out;
+  };
+  const std::string frame_only = scored(placed), device = scored(moved);
+  EXPECT_NE(frame_only.find("improvement 99.9 % (eq. 9); the models differ only in their set-up"),
+            std::string::npos)
+      << frame_only;
+  EXPECT_NE(device.find("improvement 99.9 % (eq. 9)\n"), std::string::npos) << device;
+  EXPECT_EQ(device.find("differ only in their set-up"), std::string::npos) << device;
 }
 
 }  // namespace

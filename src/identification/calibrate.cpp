@@ -562,6 +562,9 @@ ParameterEstimate parameter_estimate(const CalibrationRun& run, const ParameterI
         e.max_correlation_with = run.name.at(identified[o]);
       }
     }
+    e.tolerance = run.tolerance[pi.slot];
+    e.determined = setup || !((std::isfinite(e.tolerance) && e.sd > e.tolerance) ||
+                              std::abs(e.max_correlation) > kUndeterminedCorrelation);
   } else if (run.reason.count(pi.slot)) {
     e.reason = run.reason.at(pi.slot);
     e.held_by_selection = std::find(run.held_by_selection.begin(), run.held_by_selection.end(),

@@ -194,8 +194,21 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
   out.push_back(fmt::format("  {:<{}} {:>12} {:>12} {:<4} {:>10}    {:<9} {:<4}  {}", "parameter",
                             width, "nominal", "identified", "unit", "deviation", "sd", "unit",
                             "largest correlation"));
+  int undetermined = 0;
   for (const ParameterEstimate& e : k.parameters) {
-    if (e.identifiable) out.push_back(kinematic_row(e, nominal, width));
+    if (e.identifiable && e.determined) out.push_back(kinematic_row(e, nominal, width));
+    undetermined += e.identifiable && !e.determined;
+  }
+  if (undetermined > 0) {
+    out.push_back(fmt::format(
+        "  not determined by these data (fitted, but sd above the tolerance or correlated beyond "
+        "{} with another):",
+        kUndeterminedCorrelation));
+    for (const ParameterEstimate& e : k.parameters) {
+      if (!e.identifiable || e.determined) continue;
+      out.push_back(kinematic_row(e, nominal, width));
+      out.push_back(fmt::format("  {:<{}} {}", "", width, detail::undetermined_text(e, nominal)));
+    }
   }
   out.push_back(fmt::format("  held at nominal:"));
   for (const ParameterEstimate& e : k.parameters) {
@@ -208,9 +221,11 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
                               k.repeatability * 1e3));
   }
   out.push_back(fmt::format(
-      "  {} parameters identified; condition number {:.4g}; observability O1 {:.4g}, O4 "
+      "  {} parameters identified{}; condition number {:.4g}; observability O1 {:.4g}, O4 "
       "{:.4g} (angles scaled by {:.3f} m)",
-      k.identified, k.condition_number, k.observability.O1, k.observability.O4, k.length_scale));
+      k.identified - undetermined,
+      undetermined > 0 ? fmt::format(" ({} more fitted, not determined)", undetermined) : "",
+      k.condition_number, k.observability.O1, k.observability.O4, k.length_scale));
   out.push_back(fmt::format("  sd from sigma = {:.4g} mm ({}); solver: {} after {} iterations",
                             k.sigma * 1e3, k.sigma_given ? "given" : "residual estimate",
                             k.converged ? "converged" : "NOT converged", k.iterations));
@@ -243,13 +258,14 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
   for (const ParameterEstimate& e : k.parameters) {
     if (!e.large_change) continue;
     out.push_back(fmt::format(
-        "note: {} moved {} from nominal (beyond {} mm / {} mrad){}: the held-out error "
-        "judged the model; check the move if the device should not have it",
+        "note: {} moved {} from nominal (beyond {} mm / {} mrad){}{}: {}; check the move if the "
+        "device should not have it",
         e.name, detail::change_text(e.value - e.nominal, e.unit), kLargeChangeLength * 1e3,
-        kLargeChangeAngle * 1e3,
+        kLargeChangeAngle * 1e3, e.determined ? "" : ", not determined by these data",
         e.max_correlation_with.empty() ? std::string()
                                        : fmt::format(", correlated {:+.2f} with {}",
-                                                     e.max_correlation, e.max_correlation_with)));
+                                                     e.max_correlation, e.max_correlation_with),
+        detail::evidence_text(k)));
   }
   for (const std::string& note : r.notes) {
     out.push_back(fmt::format("{}{}", note.rfind("warning: ", 0) == 0 ? "" : "note: ", note));

@@ -26,19 +26,35 @@ std::string f4(double v) { return fmt::format("{:.4f}", v); }
 // The terminal's table (calibration_lines): nominal and identified in mm or
 // deg, deviation and sd in mm or mrad (detail::parameter_units).
 std::string parameter_table(const KinematicFit& k, const DeviceModel& nominal) {
-  std::vector<std::vector<std::string>> rows;
+  std::vector<std::vector<std::string>> rows[2];  // determined, not
   for (const ParameterEstimate& e : k.parameters) {
     if (!e.identifiable) continue;
     const detail::ParameterUnits u = detail::parameter_units(e, nominal);
-    rows.push_back({e.name, f4(e.nominal * u.value.scale), f4(e.value * u.value.scale),
-                    u.value.unit, f4((e.value - e.nominal) * u.change.scale),
-                    f4(e.sd * u.change.scale), u.change.unit,
-                    fmt::format("{:.3f}", e.max_correlation), e.max_correlation_with});
+    std::vector<std::string> row{e.name,
+                                 f4(e.nominal * u.value.scale),
+                                 f4(e.value * u.value.scale),
+                                 u.value.unit,
+                                 f4((e.value - e.nominal) * u.change.scale),
+                                 f4(e.sd * u.change.scale),
+                                 u.change.unit,
+                                 fmt::format("{:.3f}", e.max_correlation),
+                                 e.max_correlation_with};
+    if (!e.determined) row.push_back(detail::undetermined_text(e, nominal));
+    rows[e.determined ? 0 : 1].push_back(std::move(row));
   }
-  return "<h2>Identified kinematic parameters</h2>\n" +
-         html_table({"parameter", "nominal", "identified", "unit", "deviation", "sd", "unit",
-                     "largest correlation", "with"},
-                    rows);
+  std::vector<std::string> header{"parameter", "nominal", "identified", "unit",
+                                  "deviation", "sd",      "unit",       "largest correlation",
+                                  "with"};
+  std::string html = "<h2>Identified kinematic parameters</h2>\n" + html_table(header, rows[0]);
+  if (rows[1].empty()) return html;
+  header.push_back("why not determined");
+  return html +
+         fmt::format(
+             "<h2>Fitted, not determined by these data</h2>\n<p>Their sd is above their "
+             "tolerance, or they are correlated beyond {} with another: the data do not "
+             "tell their values apart.</p>\n",
+             kUndeterminedCorrelation) +
+         html_table(header, rows[1]);
 }
 
 // The model selection's path as a table and a figure: training and
@@ -237,10 +253,13 @@ void kinematic_headlines(const KinematicFit& k, const std::string& measured, Out
                         k.cv_rms * 1e3)
           : fmt::format("held-out RMS (cross-validation): {}",
                         k.cv_note.empty() ? std::string("not computed") : k.cv_note));
+  const auto undetermined = std::count_if(k.parameters.begin(), k.parameters.end(),
+                                          [](const auto& e) { return !e.determined; });
   o.headline.push_back(fmt::format(
-      "{} parameters identified{}; condition number {:.4g}; sd from sigma = {:.4g} mm ({}); "
+      "{} parameters identified{}{}; condition number {:.4g}; sd from sigma = {:.4g} mm ({}); "
       "solver: {} after {} iterations",
-      k.identified,
+      k.identified - undetermined,
+      undetermined > 0 ? fmt::format(" ({} more fitted, not determined)", undetermined) : "",
       k.model_selection
           ? fmt::format(" ({} identifiable; model selection)", k.structurally_identified)
           : "",

@@ -112,6 +112,26 @@ ParameterUnits parameter_units(const ParameterEstimate& e, const DeviceModel& no
   return {{180 / M_PI, "deg"}, small};
 }
 
+std::string undetermined_text(const ParameterEstimate& e, const DeviceModel& nominal) {
+  const DisplayUnit u = parameter_units(e, nominal).change;
+  if (std::isfinite(e.tolerance) && e.sd > e.tolerance) {
+    return fmt::format("sd {:.4g} {} above its tolerance {:.4g} {}", e.sd * u.scale, u.unit,
+                       e.tolerance * u.scale, u.unit);
+  }
+  return fmt::format("correlated {:+.3f} with {}: their combination is determined, not each",
+                     e.max_correlation, e.max_correlation_with);
+}
+
+std::string evidence_text(const KinematicFit& k) {
+  if (k.search.ran) return "the held-out error judged the model";
+  if (k.prior.used) {
+    return std::string("the tolerance prior's evidence judged the model (no held-out error ") +
+           (k.search.note.empty() ? "without the model search)" : "could compare candidates)");
+  }
+  if (k.model_selection) return "the significance cut chose the parameters (no held-out error)";
+  return "every identifiable parameter was fitted by least squares (no held-out error judged it)";
+}
+
 std::string change_text(double change, ParameterUnit unit) {
   if (unit == ParameterUnit::kAngle && std::abs(change) >= 0.1)
     return fmt::format("{:.4g} deg", change * 180 / M_PI);

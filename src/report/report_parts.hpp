@@ -74,5 +74,12 @@ ParameterUnits parameter_units(const ParameterEstimate& e, const DeviceModel& no
 // A change of a kinematic parameter in words: "1.234 mm", "12.34 mrad", or for
 // an angle of 0.1 rad or more "5.73 deg" (a pose's turn, not a small error).
 std::string change_text(double change, ParameterUnit unit);
+// Why the data do not determine an identifiable parameter
+// (ParameterEstimate::determined): "sd 211 mrad above its tolerance 5 mrad",
+// "correlated +0.996 with j7.y: their combination is determined, not each".
+std::string undetermined_text(const ParameterEstimate& e, const DeviceModel& nominal);
+// The evidence that chose the model: the model search's held-out error, else
+// the tolerance prior's evidence, the significance cut or least squares.
+std::string evidence_text(const KinematicFit& k);
 
 }  // namespace hapticcal::detail

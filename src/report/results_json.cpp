@@ -284,6 +284,8 @@ std::string calibration_json(const CalibrationResult& result, const DeviceModel&
       p["max_correlation"] = e.max_correlation;
       p["max_correlation_with"] = e.max_correlation_with;
       p["large_change"] = e.large_change;
+      p["determined"] = e.determined;
+      if (std::isfinite(e.tolerance)) p["tolerance"] = e.tolerance;
       if (std::isfinite(e.prior_sd)) {
         p["prior_sd"] = e.prior_sd;
         p["data_share"] = e.data_share;
@@ -391,6 +393,7 @@ std::string evaluation_json(const EvaluationComparison* comparison, const Evalua
       j["reference_rms_position"] = ref->position->rms;
       j["improvement_position_pct"] = *comparison->improvement_position_pct;
     }
+    j["setup_only"] = comparison->setup_only;
   }
   return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }

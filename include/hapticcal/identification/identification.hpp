@@ -133,7 +133,16 @@ struct ParameterEstimate {
   // kLargeChangeAngle (rad) from nominal: plausible for a base pose, suspicious
   // for a link.
   bool large_change = false;
+  // Identifiable, yet not determined by these data: its sd above its tolerance
+  // (`tolerance`, Tolerances), or correlated beyond kUndeterminedCorrelation
+  // with another (the data determine their combination, not each). Reported
+  // apart from the identified parameters; the set-up's are exempt.
+  bool determined = true;
+  double tolerance = std::numeric_limits<double>::quiet_NaN();
 };
+
+// |correlation| beyond which two parameters are one unknown to the data.
+constexpr double kUndeterminedCorrelation = 0.99;
 
 // Bounds beyond which a parameter's change is flagged (ParameterEstimate::large_change).
 constexpr double kLargeChangeLength = 0.02;  // m

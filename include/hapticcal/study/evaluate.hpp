@@ -110,6 +110,10 @@ struct EvaluationComparison {
   Evaluation model, reference;
   std::optional<double> improvement_distance_pct;  // set when the log has distances
   std::optional<double> improvement_position_pct;  // set when it has positions
+  // The model is the reference but for its set-up (base, tool, an instrument's
+  // zero): at every row of the log the two agree once the model takes the
+  // reference's set-up. The improvement is then the set-up's, not the device's.
+  bool setup_only = false;
 };
 
 // Throws InputError if the log does not fit either model. With `registration`,
