@@ -10,6 +10,7 @@
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model/frame.hpp"
 #include "hapticcal/model_io/device.hpp"
 #include "model_io/device_tree.hpp"
 
@@ -219,7 +220,7 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
     const auto axis = r.numbers(r.require(node, path, "axis"), join(path, "axis"), 3);
     link.axis = Eigen::Vector3d(axis[0], axis[1], axis[2]);
     if (!(link.axis.norm() > 0)) r.fail(node["axis"], join(path, "axis"), "zero axis");
-    link.axis.normalize();
+    link.axis = unit_axis(link.axis);
     if (node["offset"]) link.offset = r.number(node["offset"], join(path, "offset"));
   } else {
     link.a = r.number(node, path, "a");

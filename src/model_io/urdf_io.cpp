@@ -603,7 +603,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
     if (!link.axis.allFinite() || !(link.axis.norm() > 0)) {
       throw InputError(origin, line, joint_key(j->name), "axis: zero or not finite");
     }
-    link.axis.normalize();
+    link.axis = unit_axis(link.axis);
     if (link.continuous()) {
       link.lower = -std::numbers::pi;
       link.upper = std::numbers::pi;

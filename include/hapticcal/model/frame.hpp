@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cmath>
+#include <limits>
 
 namespace hapticcal {
 
@@ -74,6 +75,14 @@ Frame<T> pose_frame(const T& x, const T& y, const T& z, const T& roll, const T& 
 // tool or URDF origin).
 inline Frame<double> pose_frame(const std::array<double, 6>& v) {
   return pose_frame(v[0], v[1], v[2], v[3], v[4], v[5]);
+}
+
+// A joint's axis as a unit vector, idempotently: one already unit to a few
+// rounding errors is kept bit for bit, so that a file written from a model
+// reads back to the same model (normalising v / |v| again may move a last bit).
+inline Eigen::Vector3d unit_axis(const Eigen::Vector3d& v) {
+  const double norm = v.norm();
+  return std::abs(norm - 1) <= 4 * std::numeric_limits<double>::epsilon() ? v : v / norm;
 }
 
 // Inverse of rpy_matrix for a proper rotation; pitch in [-pi/2, pi/2].
