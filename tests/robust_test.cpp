@@ -396,6 +396,44 @@ TEST(SuspectFits, RepeatabilityComesFromGenuineRepeatsOnly) {
   }
 }
 
+// A reading beyond a limit by no more than the joint's play (10 mrad without
+// a backlash in the model) is the joint at its stop: no warning. Beyond it, the
+// warning counts them and names the first row's line and reading.
+TEST(SuspectFits, AReadingWithinThePlayOfALimitIsNoWarning) {
+  const Log log = testing::meca500_log("cal", kMecaSet);
+  double highest = -1e9;
+  for (int r = 0; r < log.rows; ++r) highest = std::max(highest, log.q(r, 4));
+  CalibrationOptions o;
+  o.search = false;
+  const auto warnings = [&](double upper) {
+    DeviceModel meca = testing::meca500();
+    meca.links[4].upper = upper;
+    std::vector<std::string> found;
+    for (const std::string& note : calibrate(meca, log, o).notes)
+      if (note.find("outside j5's limits") != std::string::npos) found.push_back(note);
+    return found;
+  };
+  EXPECT_TRUE(warnings(highest - 0.009).empty());
+  const double upper = highest - 0.05;
+  int out = 0, first = -1;
+  for (int r = 0; r < log.rows; ++r) {
+    if (log.q(r, 4) > upper + 0.01 && out++ == 0) first = r;
+  }
+  ASSERT_GT(out, 0);
+  ASSERT_LT(2 * out, log.rows);  // a warning, not a refusal
+  const std::vector<std::string> found = warnings(upper);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_NE(
+      found[0].find(fmt::format("q5: {} of {} readings are outside j5's limits", out, log.rows)),
+      std::string::npos)
+      << found[0];
+  EXPECT_NE(found[0].find(fmt::format("by more than its play (0.01 rad), the first at line {} "
+                                      "({:.4g};",
+                                      log.line[static_cast<std::size_t>(first)], log.q(first, 4))),
+            std::string::npos)
+      << found[0];
+}
+
 TEST(SuspectFits, ATrackerBumpedHalfWayIsSuspectWithItsRatio) {
   const DeviceModel meca = testing::meca500();
   const CalibrationResult r = calibrate(meca, bumped_meca500(), {});

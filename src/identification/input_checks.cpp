@@ -65,13 +65,14 @@ std::string imported_readings_hint(const Log& log) {
 
 namespace detail {
 
-// Readings outside the model's joint limits: an InputError when most of a
-// joint's readings are out (a unit missing from the header, another device,
-// or an imported recording's driver convention), unless forced; a warning
-// otherwise.
+// Readings beyond the model's joint limits by more than the joint's play (its
+// backlash, at least kReadingPlay): an InputError when most of a joint's
+// readings are out (a unit missing from the header, another device, or an
+// imported recording's driver convention), unless forced; a warning otherwise,
+// naming the first such row. A reading within the play of a limit is the
+// device at its stop, not an error.
 void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
                         std::vector<std::string>& notes) {
-  constexpr double kSlack = 1e-9;  // rad or m: rounding in the log
   for (int j = 0; j < model.dof(); ++j) {
     const Link& link = model.links[j];
     if (!model.reading_used(j)) {
@@ -81,26 +82,34 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
                       link.name, j + 1));
       continue;
     }
-    int out = 0;
+    const double play = std::max(std::abs(link.backlash),
+                                 link.prismatic() ? kReadingPlayLength : kReadingPlayAngle);
+    int out = 0, first = -1;
     double largest = 0;
     for (int r = 0; r < log.rows; ++r) {
       const double q = log.q(r, j);
-      if (q < link.lower - kSlack || q > link.upper + kSlack) ++out;
+      if (q < link.lower - play || q > link.upper + play) {
+        if (out++ == 0) first = r;
+      }
       largest = std::max(largest, std::abs(q));
     }
     if (out == 0) continue;
     const double bound = std::max(std::abs(link.lower), std::abs(link.upper));
     // Most out, in a log hapticcal import wrote: its convention's hint, not a unit's.
     std::string hint = 2 * out > log.rows ? imported_readings_hint(log) : std::string();
-    if (hint.empty() && link.prismatic() && largest * 1e-3 <= bound + kSlack) {
+    if (hint.empty() && link.prismatic() && largest * 1e-3 <= bound + play) {
       hint = fmt::format("; in millimetres they would fit: name the column q{}[mm]", j + 1);
     } else if (hint.empty() && !link.prismatic() && largest > 2 * M_PI &&
-               largest * M_PI / 180 <= bound + kSlack) {
+               largest * M_PI / 180 <= bound + play) {
       hint = fmt::format("; in degrees they would fit: name the column q{}[deg]", j + 1);
     }
+    const char* unit = link.prismatic() ? "m" : "rad";
+    const int line = first < static_cast<int>(log.line.size()) ? log.line[first] : first + 2;
     const std::string message = fmt::format(
-        "{} of {} readings are outside {}'s limits [{:.4g}, {:.4g}] {} (largest |q| {:.4g}){}", out,
-        log.rows, link.name, link.lower, link.upper, link.prismatic() ? "m" : "rad", largest, hint);
+        "{} of {} readings are outside {}'s limits [{:.4g}, {:.4g}] {} by more than its play "
+        "({:.3g} {}), the first at line {} ({:.4g}; largest |q| {:.4g}){}",
+        out, log.rows, link.name, link.lower, link.upper, unit, play, unit, line, log.q(first, j),
+        largest, hint);
     if (2 * out > log.rows && !force) {
       throw InputError(log.origin, 0, fmt::format("q{}", j + 1),
                        message + " (--force calibrates anyway)");

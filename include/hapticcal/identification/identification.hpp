@@ -1,4 +1,4 @@
-// Two-step identification (paper Fig. 6, SPEC section 2): transmission models
+// Two-step identification (paper Fig. 6): transmission models
 // from external encoders, then the kinematic parameters from distance (paper
 // eq. 5, 7) or position measurements by Levenberg-Marquardt (Ceres), after an
 // identifiability analysis that holds parameters without effect or with a
@@ -217,6 +217,10 @@ constexpr double kWorseThanNominalRatio = 1.5;
 // A training RMS more than this many times the measured repeatability is
 // suspect (docs/outliers.md: clean Meca500 sets give 15-20x, a tracker bumped 3 mm 670x).
 constexpr double kSuspectRepeatabilityRatio = 100;
+// A joint's play where its model gives no backlash: a reading this far beyond
+// a limit is the joint at its stop (its play and its encoder's), not an error.
+constexpr double kReadingPlayAngle = 0.01;   // rad
+constexpr double kReadingPlayLength = 1e-4;  // m
 
 // The tolerance prior of step 2 as fitted (docs/calibrate.md, "Step 2's estimators").
 struct PriorFit {
