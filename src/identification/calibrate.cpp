@@ -1,4 +1,4 @@
-// The whole calibration (SPEC section 4): step 1, step 2, the model selection
+// The whole calibration: step 1, step 2, the model selection
 // and the fit's statistics, composed of the public stages.
 #include <ceres/ceres.h>
 #include <fmt/format.h>
@@ -88,44 +88,6 @@ std::string setup_change_note(const DeviceModel& nominal, const DeviceModel& cal
       "changes of the robot",
       (b1.p - b0.p).norm() * 1e3, Eigen::AngleAxisd(b0.R.transpose() * b1.R).angle() * 180 / M_PI,
       tool * 1e3);
-}
-
-// RMS scatter of a pose's genuine repeats about their mean (Euclidean for
-// positions), with repeats - poses degrees of freedom; NaN without any. A
-// repeat is a row whose measured values differ from the pose's earlier rows'
-// (bit-identical rows are one sample sent again); in a log with time, a run of
-// consecutive rows at one pose is one visit (a device at rest streaming: its
-// mean is the visit's sample), so only a pose left and reached again repeats.
-double repeatability(const Log& log, const std::vector<std::vector<int>>& poses,
-                     const RowsOf& kind) {
-  if (is_fixture(kind.type)) return std::numeric_limits<double>::quiet_NaN();  // nothing measured
-  // The spread of the values that are lengths (a pose's position, not its rotation).
-  const MeasurementTraits& t = traits(kind.type);
-  const int lengths = std::min(t.length_rows, t.width);
-  std::vector<double> value(static_cast<std::size_t>(t.width));
-  double sum = 0;
-  int dof = 0;
-  for (const std::vector<int>& rows : poses) {
-    std::vector<Eigen::VectorXd> samples;  // the pose's distinct samples (or visits' means)
-    int visit_rows = 0, previous = -2;
-    for (const int r : rows) {
-      measured_values(kind.type, log, r, value.data());
-      const Eigen::VectorXd v = Eigen::Map<const Eigen::VectorXd>(value.data(), lengths);
-      if (log.has_time && r == previous + 1 && !samples.empty()) {  // the same visit
-        samples.back() += (v - samples.back()) / ++visit_rows;
-      } else if (std::none_of(samples.begin(), samples.end(),
-                              [&](const Eigen::VectorXd& s) { return s == v; })) {
-        samples.push_back(v), visit_rows = 1;
-      }
-      previous = r;
-    }
-    if (samples.size() < 2) continue;
-    Eigen::VectorXd mean = Eigen::VectorXd::Zero(lengths);
-    for (const Eigen::VectorXd& v : samples) mean += v / static_cast<double>(samples.size());
-    for (const Eigen::VectorXd& v : samples) sum += (v - mean).squaredNorm();
-    dof += static_cast<int>(samples.size()) - 1;
-  }
-  return dof > 0 ? std::sqrt(sum / dof) : std::numeric_limits<double>::quiet_NaN();
 }
 
 // The outcome: a numerical failure, then no convergence, then parameters the
@@ -308,7 +270,7 @@ void prepare_poses(CalibrationRun& run) {
   fit.rows = std::accumulate(run.repeats.begin(), run.repeats.end(), 0);
   fit.repeatability = encoders_only(run.log)
                           ? std::numeric_limits<double>::quiet_NaN()
-                          : repeatability(run.log, run.result.poses, RowsOf{fit.type});
+                          : detail::repeatability(run.log, run.result.poses, fit.type);
   if (run.log.has_position && run.log.has_distance) {
     run.result.notes.push_back("the log has positions and distances: positions are used");
   }

@@ -243,6 +243,48 @@ const char* to_string(CalibrationStatus status) {
   return "unknown";
 }
 
+namespace detail {
+
+// RMS scatter of a pose's genuine repeats about their mean (Euclidean for
+// positions), with repeats - poses degrees of freedom; NaN without any. A
+// repeat is a row whose measured values differ from the pose's earlier rows'
+// (bit-identical rows are one sample sent again); in a log with time, a run of
+// consecutive rows at one pose is one visit (a device at rest streaming: its
+// mean is the visit's sample), so only a pose left and reached again repeats.
+double repeatability(const Log& log, const std::vector<std::vector<int>>& poses,
+                     MeasurementType type) {
+  if (is_fixture(type)) return std::numeric_limits<double>::quiet_NaN();  // nothing measured
+  // The spread of the values that are lengths (a pose's position, not its rotation).
+  const MeasurementTraits& t = traits(type);
+  const int lengths = std::min(t.length_rows, t.width);
+  std::vector<double> value(static_cast<std::size_t>(t.width));
+  double sum = 0;
+  int dof = 0;
+  for (const std::vector<int>& rows : poses) {
+    std::vector<Eigen::VectorXd> samples;  // the pose's distinct samples (or visits' means)
+    int visit_rows = 0, previous = -2;
+    for (const int r : rows) {
+      measured_values(type, log, r, value.data());
+      const Eigen::VectorXd v = Eigen::Map<const Eigen::VectorXd>(value.data(), lengths);
+      if (log.has_time && r == previous + 1 && !samples.empty()) {  // the same visit
+        samples.back() += (v - samples.back()) / ++visit_rows;
+      } else if (std::none_of(samples.begin(), samples.end(),
+                              [&](const Eigen::VectorXd& s) { return s == v; })) {
+        samples.push_back(v), visit_rows = 1;
+      }
+      previous = r;
+    }
+    if (samples.size() < 2) continue;
+    Eigen::VectorXd mean = Eigen::VectorXd::Zero(lengths);
+    for (const Eigen::VectorXd& v : samples) mean += v / static_cast<double>(samples.size());
+    for (const Eigen::VectorXd& v : samples) sum += (v - mean).squaredNorm();
+    dof += static_cast<int>(samples.size()) - 1;
+  }
+  return dof > 0 ? std::sqrt(sum / dof) : std::numeric_limits<double>::quiet_NaN();
+}
+
+}  // namespace detail
+
 std::vector<std::vector<int>> repeated_poses(const Log& log, bool by_direction) {
   std::vector<std::vector<int>> groups;
   std::unordered_map<std::string, int> index;

@@ -40,6 +40,9 @@ double measurement_rms(double rss, double rows);
 // model's joint limits: an InputError when most of a joint's readings are out
 // (a unit missing from the header, or another device), unless forced; a warning
 // otherwise.
+// RMS scatter of a pose's genuine repeats about their mean (identification.cpp).
+double repeatability(const Log& log, const std::vector<std::vector<int>>& poses,
+                     MeasurementType type);
 void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
                         std::vector<std::string>& notes);
 // An external encoder's reading beyond any joint's travel: bad input naming its line.

@@ -28,6 +28,41 @@ std::string kinematic_row(const ParameterEstimate& e, const DeviceModel& nominal
                          : std::string());
 }
 
+// The step-2 table: the identified parameters, those fitted but not
+// determined by the data (apart, with why), and those held at nominal; returns
+// how many were not determined.
+int parameter_lines(const KinematicFit& k, const DeviceModel& nominal,
+                    std::vector<std::string>& out) {
+  size_t width = 12;
+  for (const ParameterEstimate& e : k.parameters) {
+    if (e.identifiable) width = std::max(width, e.name.size());
+  }
+  out.push_back(fmt::format("  {:<{}} {:>12} {:>12} {:<4} {:>10}    {:<9} {:<4}  {}", "parameter",
+                            width, "nominal", "identified", "unit", "deviation", "sd", "unit",
+                            "largest correlation"));
+  int undetermined = 0;
+  for (const ParameterEstimate& e : k.parameters) {
+    if (e.identifiable && e.determined) out.push_back(kinematic_row(e, nominal, width));
+    undetermined += e.identifiable && !e.determined;
+  }
+  if (undetermined > 0) {
+    out.push_back(fmt::format(
+        "  not determined by these data (fitted, but sd above the tolerance or correlated beyond "
+        "{} with another):",
+        kUndeterminedCorrelation));
+    for (const ParameterEstimate& e : k.parameters) {
+      if (!e.identifiable || e.determined) continue;
+      out.push_back(kinematic_row(e, nominal, width));
+      out.push_back(fmt::format("  {:<{}} {}", "", width, detail::undetermined_text(e, nominal)));
+    }
+  }
+  out.push_back(fmt::format("  held at nominal:"));
+  for (const ParameterEstimate& e : k.parameters) {
+    if (!e.identifiable) out.push_back(fmt::format("  {:<{}} {}", e.name, width, e.reason));
+  }
+  return undetermined;
+}
+
 // The held-out RMS (the model search's, with its standard error, warned of
 // where the poses are too few to trust it; or the cross-validation's).
 void held_out_lines(const KinematicFit& k, std::vector<std::string>& out) {
@@ -187,33 +222,7 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
   if (r.clock) out.push_back(clock_line(*r.clock));
   const KinematicFit& k = r.kinematics;
   out.push_back(step_two_title(k, nominal, paper));
-  size_t width = 12;
-  for (const ParameterEstimate& e : k.parameters) {
-    if (e.identifiable) width = std::max(width, e.name.size());
-  }
-  out.push_back(fmt::format("  {:<{}} {:>12} {:>12} {:<4} {:>10}    {:<9} {:<4}  {}", "parameter",
-                            width, "nominal", "identified", "unit", "deviation", "sd", "unit",
-                            "largest correlation"));
-  int undetermined = 0;
-  for (const ParameterEstimate& e : k.parameters) {
-    if (e.identifiable && e.determined) out.push_back(kinematic_row(e, nominal, width));
-    undetermined += e.identifiable && !e.determined;
-  }
-  if (undetermined > 0) {
-    out.push_back(fmt::format(
-        "  not determined by these data (fitted, but sd above the tolerance or correlated beyond "
-        "{} with another):",
-        kUndeterminedCorrelation));
-    for (const ParameterEstimate& e : k.parameters) {
-      if (!e.identifiable || e.determined) continue;
-      out.push_back(kinematic_row(e, nominal, width));
-      out.push_back(fmt::format("  {:<{}} {}", "", width, detail::undetermined_text(e, nominal)));
-    }
-  }
-  out.push_back(fmt::format("  held at nominal:"));
-  for (const ParameterEstimate& e : k.parameters) {
-    if (!e.identifiable) out.push_back(fmt::format("  {:<{}} {}", e.name, width, e.reason));
-  }
+  const int undetermined = parameter_lines(k, nominal, out);
   if (k.rows > k.poses) {
     out.push_back(fmt::format("  {} are {} (repeats averaged); repeatability {:.4f} mm RMS",
                               samples_text(k.rows, nominal.tips(), "row"),
