@@ -393,7 +393,7 @@ std::string evaluation_json(const EvaluationComparison* comparison, const Evalua
       j["reference_rms_position"] = ref->position->rms;
       j["improvement_position_pct"] = *comparison->improvement_position_pct;
     }
-    j["setup_only"] = comparison->setup_only;
+    if (comparison->setup_only) j["setup_only"] = true;  // the improvement is the set-up's
   }
   return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
