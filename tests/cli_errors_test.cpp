@@ -136,6 +136,29 @@ TEST(CliErrors, EditDistanceIsLevenshtein) {
 // Built-in devices by name (issue 26, item 1): `hapticcal devices` lists them,
 // a name loads the device's file wherever a model file is taken (a file of
 // that name in the folder wins), and convert writes one as URDF.
+// An installed program (PREFIX/bin/hapticcal beside PREFIX/share/hapticcal/
+// devices, as `cmake --install` lays them out) lists and reads its installed
+// devices, not the source tree's; the build tree's program the source tree's.
+TEST(CliErrors, AnInstalledProgramListsItsInstalledDevices) {
+  namespace fs = std::filesystem;
+  const std::string prefix = testing::fresh_folder("installed_prefix");
+  fs::create_directories(prefix + "/bin");
+  fs::copy_file(HAPTICCAL_CLI, prefix + "/bin/hapticcal");
+  fs::create_directories(prefix + "/share/hapticcal");
+  fs::copy(testing::source_path("data/devices"), prefix + "/share/hapticcal/devices");
+  const testing::CliResult installed = testing::run_program(prefix + "/bin/hapticcal", "devices");
+  EXPECT_EQ(installed.exit_code, 0) << installed.err;
+  EXPECT_NE(installed.out.find(prefix + "/share/hapticcal/devices/geomagic-touch.yaml"),
+            std::string::npos)
+      << installed.out;
+  EXPECT_EQ(installed.out.find(testing::source_path("data/devices")), std::string::npos)
+      << installed.out;
+  const testing::CliResult built = testing::run_cli("devices");
+  EXPECT_NE(built.out.find(testing::source_path("data/devices/geomagic-touch.yaml")),
+            std::string::npos)
+      << built.out;
+}
+
 TEST(CliErrors, BuiltInDevicesAreListedAndUsableByName) {
   const testing::CliResult list = testing::run_cli("devices");
   EXPECT_EQ(list.exit_code, 0) << list.err;

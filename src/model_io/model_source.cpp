@@ -50,14 +50,18 @@ DeviceModel load_model(const std::string& given, const std::string& tip, const s
   return load_device(path);
 }
 
+// An installed program's devices first (PREFIX/share/hapticcal/devices beside
+// PREFIX/bin), so that it lists and reads what was installed with it, not the
+// source tree it was built from; a program run from its build tree has none
+// there and takes the source tree's.
 std::string builtin_device_path() {
   namespace fs = std::filesystem;
-  if (fs::exists(HAPTICCAL_DEFAULT_DEVICE)) return HAPTICCAL_DEFAULT_DEVICE;
   std::error_code ec;
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
   const fs::path installed =
       exe.parent_path().parent_path() / "share/hapticcal/devices/baser-7dof.yaml";
-  return !ec && fs::exists(installed) ? installed.string() : std::string(HAPTICCAL_DEFAULT_DEVICE);
+  if (!ec && fs::exists(installed, ec)) return installed.string();
+  return HAPTICCAL_DEFAULT_DEVICE;
 }
 
 std::vector<BuiltinDevice> builtin_devices() {
