@@ -1,5 +1,5 @@
-// SPEC section 7: the full two-step calibration of the default problem (the
-// paper's device, Tables 2-3, 200 poses with the SPEC noise), against a machine
+// The full two-step calibration of the default problem (the
+// paper's device, Tables 2-3, 200 poses with the study's noise), against a machine
 // yardstick in the same process: one pass of orocos KDL FK + Jacobian over the
 // same 200 poses.
 #include <filesystem>

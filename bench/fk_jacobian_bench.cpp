@@ -1,4 +1,4 @@
-// SPEC section 7: compensation + forward kinematics + 6x7 geometric Jacobian of the
+// Compensation + forward kinematics + 6x7 geometric Jacobian of the
 // calibrated 7-DOF model (transmissions included) against orocos KDL's
 // ChainFkSolverPos_recursive + ChainJntToJacSolver on the same chain. KDL has no
 // transmissions, so it is handed the compensated joint angles: it does less work.

@@ -1,4 +1,4 @@
-// SPEC section 8 target: a plan of 200 poses from 10,000 random candidates for
+// A plan of 200 poses from 10,000 random candidates for
 // the built-in device (distances, the default I criterion, greedy start,
 // exchange, continuous refinement and path; without the report's comparison
 // with random designs) in <= 2 s. Reference in the same run: the full two-step

@@ -1,5 +1,5 @@
 // The capstan model (paper eq. (1), section "Error sources in the kinematic model
-// of a 7-DOF haptic device"; SPEC section 1; capstan_error in model/transmission.hpp) against an
+// of a 7-DOF haptic device"; capstan_error in model/transmission.hpp) against an
 // independent construction of the mechanism: two eccentric drums and a cable on their common
 // tangent, the output angle found from the conservation of the cable's length. transmission_test
 // checks that the code says what eq. (1) says; this checks what eq. (1) says against the geometry
@@ -172,7 +172,7 @@ Capstan capstan(double R, double Re, double r_out_mm, double beta_out_deg, doubl
                 double beta_in_deg) {
   Capstan c;
   c.ratio = R;
-  c.drum_distance = 0.005;  // SPEC section 3: D = 5 mm
+  c.drum_distance = 0.005;  // D = 5 mm
   c.ratio_error = Re;
   c.r_out = r_out_mm * 1e-3;
   c.beta_out = beta_out_deg * kDeg;
@@ -222,7 +222,7 @@ struct Case {
   Capstan c;
 };
 
-// Paper Table 2's capstans 1-4 (radii read in mm, SPEC section 3), and three with
+// Paper Table 2's capstans 1-4 (radii read in mm), and three with
 // one term dominant or another ratio, whose first-order terms stand clear of the
 // second-order part (Table 2's input eccentricities are below it).
 std::vector<Case> cases() {

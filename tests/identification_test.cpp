@@ -30,7 +30,7 @@ const ParameterEstimate& find(const KinematicFit& fit, const std::string& name) 
   throw std::runtime_error("no parameter " + name);
 }
 
-// Paper Tables 2 and 3, SPEC section 3 noise (sigma_m by the paper's formula),
+// Paper Tables 2 and 3, the study's noise (sigma_m by the paper's formula),
 // 200 poses: the identifiability the paper reports, and every identified
 // kinematic and capstan parameter within 4 standard deviations of the truth.
 TEST(Identification, PaperStudyFindsThePapersIdentifiabilityAndRecoversTheTruthWithin4Sd) {

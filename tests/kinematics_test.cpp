@@ -29,7 +29,7 @@ using testing::with_random_axes;
 // prepared register paths, the origin-geometry and mixed ones the generic path.
 //
 // The simulated "actual" 7-DOF: joint 4 a capstan followed by a parallelogram
-// (SPEC section 3), and a large offset on a capstan joint (the prepared path's
+// (the paper's study), and a large offset on a capstan joint (the prepared path's
 // fallback from turning sin/cos of q by a small angle).
 DeviceModel actual_7dof() {
   DeviceModel m = builtin("baser-7dof");
@@ -254,7 +254,7 @@ TEST(Kinematics, RunsWithCeresJetAndAgreesWithAnalyticDerivatives) {
 }
 
 TEST(Kinematics, PaperDeviceHomePostureIsTheDrawnOne) {
-  // SPEC section 3 lengths: at home the tool point sits at
+  // the study's lengths: at home the tool point sits at
   // base (a0 = 0.3 along x, alpha0 = -pi/2) + d1, d3, d5 (elbow bent), d7, a7.
   const DeviceModel model = builtin("baser-7dof");
   const PreparedModel prepared(model);

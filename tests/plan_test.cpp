@@ -47,7 +47,7 @@ struct Builtin {
 
 TEST(Plan, BuiltinDistanceParametersAreTheIdentifiableSetPlusStepOne) {
   const Builtin b;
-  EXPECT_EQ(b.problem.kinematic_slots().size(), 28u);  // SPEC section 2: 28 of 32
+  EXPECT_EQ(b.problem.kinematic_slots().size(), 28u);  // 28 of 32
   EXPECT_EQ(b.problem.held().size(), 10u);             // 4 of the links and base, 6 of the tool
   // Capstans 1-3: 5 parameters and c each; joint 4: polynomial order 10 and c.
   EXPECT_EQ(b.problem.parameters(), 28 + 3 * 6 + 11);

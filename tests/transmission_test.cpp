@@ -17,7 +17,7 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180;
 
-// Paper Table 2, capstan 1 (radii in metres per SPEC section 3), R = 10, D = 5 mm.
+// Paper Table 2, capstan 1 (radii in metres), R = 10, D = 5 mm.
 Capstan table2_capstan1() {
   Capstan c;
   c.ratio = 10;
@@ -31,7 +31,7 @@ Capstan table2_capstan1() {
   return c;
 }
 
-// SPEC section 3: L1 = L3 = 0.05, L2 = L4 = 0.21, with Table 2's dL1, dL2.
+// L1 = L3 = 0.05, L2 = L4 = 0.21, with Table 2's dL1, dL2.
 Parallelogram table2_parallelogram() { return {0.05 - 0.0005, 0.21 - 0.0007, 0.05, 0.21}; }
 
 Polynomial chebyshev10() {

@@ -1,4 +1,4 @@
-// URDF models (SPEC section 8): the chains read from URDFs against orocos KDL
+// URDF models: the chains read from URDFs against orocos KDL
 // chains built by an independent walk of urdfdom's tree; device files through
 // URDF and back; calibrated URDFs read back to the calibrated kinematics with the
 // rest of the document kept; malformed input; the command line.

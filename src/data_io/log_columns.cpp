@@ -1,5 +1,5 @@
-// The fields of a log's lines and the grammar of its column names (SPEC section
-// 5): each name read with its unit, and the set of columns checked as a whole.
+// The fields of a log's lines and the grammar of its column names
+// (docs/file-formats.md): each name read with its unit, and the set of columns checked as a whole.
 #include "data_io/log_columns.hpp"
 
 #include <fmt/format.h>

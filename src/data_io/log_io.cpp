@@ -1,4 +1,4 @@
-// Measurement logs (CSV), SPEC section 5: a log's lines read into a Log, and a
+// Measurement logs (CSV): a log's lines read into a Log, and a
 // Log written back as CSV. The column names are log_columns.cpp's.
 #include <fmt/format.h>
 #include <fmt/ranges.h>

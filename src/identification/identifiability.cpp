@@ -1,5 +1,5 @@
 // Which parameters these measurements identify: the candidates, the structural
-// and the data's rank test (SPEC section 4).
+// and the data's rank test.
 #include <ceres/ceres.h>
 #include <fmt/format.h>
 

@@ -2,8 +2,7 @@
 // identifiable parameters the data support, and how well the fit predicts poses
 // it has not seen. Both work on the problem linearised at a fit: the normal
 // equations of every fold are formed once, and each model of the selection's
-// path and each fold is then a small solve (a calibration stays within SPEC
-// section 7's 10 ms).
+// path and each fold is then a small solve (a calibration stays within its 10 ms).
 #include <fmt/format.h>
 
 #include <Eigen/Dense>

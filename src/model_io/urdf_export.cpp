@@ -1,4 +1,4 @@
-// Device models written as URDF (SPEC section 8): a model as a new URDF
+// Device models written as URDF: a model as a new URDF
 // (device_to_urdf), and a calibrated model put back into its source URDF by a
 // textual edit that keeps everything else of the text byte for byte
 // (calibrated_urdf), at the positions urdf_shape.cpp locates.

@@ -1,4 +1,4 @@
-// URDF models (SPEC section 8): the chain root -> tip read into a device model.
+// URDF models: the chain root -> tip read into a device model.
 // urdfdom reads and checks the document; urdf_shape.cpp checks the text before
 // it and locates the elements in it, for line numbers and for the origins
 // exactly as written.

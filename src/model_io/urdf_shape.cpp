@@ -1,4 +1,4 @@
-// The XML side of a URDF (SPEC section 8): the text's shape, checked before
+// The XML side of a URDF: the text's shape, checked before
 // tinyxml and urdfdom read it, and a small scanner of our own that locates the
 // elements in the text, for line numbers, for the origins exactly as written,
 // and for the textual edit of calibrated_urdf.

@@ -252,7 +252,7 @@ void assign_truth(Scenario& sc, const std::string& source) {
                      "(transmissions: device)");
   }
   if (sc.paper_transmissions && !sc.random.enabled()) {
-    sc.actual = paper_actual_device(sc.nominal);  // SPEC section 3, as it always was
+    sc.actual = paper_actual_device(sc.nominal);  // the paper's study, as it always was
   } else {
     sc.actual = sc.nominal;
     if (sc.paper_transmissions) {

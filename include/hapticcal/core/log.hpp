@@ -1,4 +1,4 @@
-// A measurement log in memory (SPEC section 5): joint readings, external
+// A measurement log in memory: joint readings, external
 // encoders and what the instrument measured, one row a sample, SI units. A
 // project-wide type: read by data_io/log.hpp, used by every layer above core.
 #pragma once

@@ -1,4 +1,4 @@
-// Measurement logs (CSV), SPEC section 5. Every problem with a file is an
+// Measurement logs (CSV). Every problem with a file is an
 // InputError naming the file, the line and the column.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Experiment design (SPEC section 8, issue 12): which N poses to measure so that
+// Experiment design: which N poses to measure so that
 // the two-step calibration (paper Fig. 6) predicts best.
 //
 // The parameters are the structurally identifiable kinematic ones

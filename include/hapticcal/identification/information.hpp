@@ -1,4 +1,4 @@
-// What a set of measurements says about the parameters (SPEC sections 2-3): the
+// What a set of measurements says about the parameters: the
 // Fisher information, the covariance of the least-squares estimate, the
 // conditioning and observability indices of the identification Jacobian, and
 // the Cramer-Rao bound of the two-step procedure (paper Fig. 6), in which the

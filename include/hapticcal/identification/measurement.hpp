@@ -1,4 +1,4 @@
-// The measurement family (SPEC sections 1 and 8): what an instrument measures of
+// The measurement family: what an instrument measures of
 // the tool frame T_meas_tool, as residual rows predicted - measured with an
 // analytic Jacobian w.r.t. the kinematic parameters.
 //   distance (cable encoder, paper eq. 5): |p|, 1 row (|p| + d0 while step 2

@@ -1,6 +1,6 @@
 // Closed-form registration of two corresponding point sets: the rigid transform
 // that maps one onto the other in the least-squares sense. Used to register an
-// unknown measurement frame before the iterative fit (SPEC section 8).
+// unknown measurement frame before the iterative fit.
 #pragma once
 
 #include <Eigen/Core>

@@ -1,4 +1,4 @@
-// Forward kinematics T_meas_tool = B * A_1 ... A_n * T_tool (SPEC section 1), the
+// Forward kinematics T_meas_tool = B * A_1 ... A_n * T_tool, the
 // geometric Jacobian, and analytic derivatives of the tool position and of the
 // distance (paper eq. 5) with respect to every kinematic parameter.
 //

@@ -1,5 +1,5 @@
 // The device model: a value holding the kinematic parameters, joint limits and
-// transmissions of a serial chain (SPEC sections 1, 5 and 8).
+// transmissions of a serial chain.
 #pragma once
 
 #include <Eigen/Core>
@@ -36,7 +36,7 @@ constexpr double kMaxBacklash = 0.1;
 //   A_i = Rx(alpha_i) * Tx(a_i) * Ry(beta_i) * Rz(theta_i) * Tz(d_i)
 // beta is what a small tilt of a joint axis parallel to its neighbour needs: the
 // four DH parameters cannot express it (Hayati 1983).
-// URDF origin + axis (SPEC section 8):
+// URDF origin + axis:
 //   A_i = Trans(x, y, z) * Rz(yaw) Ry(pitch) Rx(roll) * motion(axis, q_i + offset_i)
 // (over-parametrised: the identifiability analysis holds what is redundant).
 enum class Geometry { kDh, kMdh, kOrigin };

@@ -1,6 +1,6 @@
 // Transmission error models: the difference between the joint angle and the
 // device's own reading referred to the joint side, dtheta(q) = theta - q - offset.
-// Every model is referenced to home: error(0) = 0 (SPEC section 1).
+// Every model is referenced to home: error(0) = 0.
 #pragma once
 
 #include <Eigen/Core>
@@ -38,7 +38,7 @@ struct Capstan {
 };
 
 // Planar parallelogram with link lengths L1..L4, paper eq. (2) corrected
-// (SPEC section 1). Zero error for L1 = L3, L2 = L4.
+//. Zero error for L1 = L3, L2 = L4.
 struct Parallelogram {
   double L1 = 0.0, L2 = 0.0, L3 = 0.0, L4 = 0.0;  // [m]
   static constexpr int kNumParameters = 4;
@@ -198,7 +198,7 @@ T capstan_error(const Capstan& c, const T* p, const T& q) {
          atan2(ri * sin(bi), D - ri * cos(bi));
 }
 
-// SPEC eq. (2) corrected, before referencing to home; L = [L1, L2, L3, L4].
+// The paper's eq. (2) corrected, before referencing to home; L = [L1, L2, L3, L4].
 template <typename T>
 T parallelogram_raw(const T* L, const T& qa) {
   using std::acos;

@@ -1,4 +1,4 @@
-// Device files (YAML, `format: hapticcal-device/1`), SPEC section 5. Every
+// Device files (YAML, `format: hapticcal-device/1`). Every
 // problem with a file is an InputError naming the file, the line and the key.
 #pragma once
 

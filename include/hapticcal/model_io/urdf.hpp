@@ -1,4 +1,4 @@
-// Device models from and to URDF (SPEC section 8). A URDF's chain from a root
+// Device models from and to URDF. A URDF's chain from a root
 // link to a tip link becomes a DeviceModel whose links have URDF origin + axis
 // geometry; a device model is written as a URDF; a calibrated model goes back
 // into its source URDF with only the chain's joint origins changed.

@@ -1,4 +1,4 @@
-// The results.json of each command, in one place (SPEC section 5). Metres and
+// The results.json of each command, in one place. Metres and
 // radians; the terminal and the reports show display units.
 #pragma once
 
@@ -11,7 +11,7 @@
 
 namespace hapticcal {
 
-// results.json (SPEC section 5): every parameter by dotted name with nominal,
+// results.json: every parameter by dotted name with nominal,
 // value, sd and identifiable (transmission parameters included), the condition
 // number, observability indices and RMS before / after. Metres and radians.
 std::string calibration_json(const CalibrationResult& result, const DeviceModel& nominal,

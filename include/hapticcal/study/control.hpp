@@ -1,5 +1,5 @@
-// Closed-loop impedance control with a proportional force loop (paper Fig. 11,
-// SPEC section 4) against a virtual wall, with the handle fixed: what the
+// Closed-loop impedance control with a proportional force loop (paper Fig. 11)
+// against a virtual wall, with the handle fixed: what the
 // kinematic model does to the force a haptic device renders.
 #pragma once
 

@@ -1,4 +1,4 @@
-// The paper's simulated device and synthetic measurement logs (SPEC section 3).
+// The paper's simulated device and synthetic measurement logs.
 #pragma once
 
 #include <cstdint>

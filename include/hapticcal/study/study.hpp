@@ -1,4 +1,4 @@
-// The paper's simulation study (SPEC section 3; paper Tables 2-3, Figs 7, 8, 10)
+// The paper's simulation study (paper Tables 2-3, Figs 7, 8, 10)
 // as a pipeline: synthetic logs in the format of a real experiment, the same
 // `calibrate` procedure on them, and scoring against the truth; Monte Carlo over
 // trials with Cramer-Rao bounds.
@@ -139,7 +139,7 @@ SessionStudy run_session_study(const Scenario& scenario, const std::string& dir,
 // transmissions may differ).
 bool is_paper_device(const DeviceModel& model);
 
-// SPEC section 3 on the built-in device file at `device_path`; on any other
+// The paper's study on the built-in device file at `device_path`; on any other
 // device (a device file, or a URDF with `tip` and `root`) the general study: the
 // device's own transmissions as the truth, random deviations of
 // kDefault*DeviationSd, distance measurements with kDefaultSigmaM.
