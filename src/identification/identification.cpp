@@ -15,7 +15,9 @@
 #include <memory>
 #include <numeric>
 #include <random>
+#include <string>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/log_fit.hpp"
@@ -260,16 +262,27 @@ double repeatability(const Log& log, const std::vector<std::vector<int>>& poses,
   std::vector<double> value(static_cast<std::size_t>(t.width));
   double sum = 0;
   int dof = 0;
+  // A sample's numbers as a key (-0.0 and 0.0 one number): a pose's samples
+  // found by hashing, linear in its rows however many there are.
+  const auto key = [lengths](const Eigen::VectorXd& v) {
+    std::string k(sizeof(double) * static_cast<std::size_t>(lengths), '\0');
+    for (int i = 0; i < lengths; ++i) {
+      const double x = v[i] + 0.0;
+      std::memcpy(k.data() + sizeof(double) * static_cast<std::size_t>(i), &x, sizeof(double));
+    }
+    return k;
+  };
   for (const std::vector<int>& rows : poses) {
-    std::vector<Eigen::VectorXd> samples;  // the pose's distinct samples (or visits' means)
+    std::vector<Eigen::VectorXd> samples;    // the pose's distinct samples (or visits' means)
+    std::unordered_set<std::string> closed;  // the samples before the last, by their numbers
     int visit_rows = 0, previous = -2;
     for (const int r : rows) {
       measured_values(type, log, r, value.data());
       const Eigen::VectorXd v = Eigen::Map<const Eigen::VectorXd>(value.data(), lengths);
       if (log.has_time && r == previous + 1 && !samples.empty()) {  // the same visit
         samples.back() += (v - samples.back()) / ++visit_rows;
-      } else if (std::none_of(samples.begin(), samples.end(),
-                              [&](const Eigen::VectorXd& s) { return s == v; })) {
+      } else if (!(!samples.empty() && samples.back() == v) && !closed.count(key(v))) {
+        if (!samples.empty()) closed.insert(key(samples.back()));
         samples.push_back(v), visit_rows = 1;
       }
       previous = r;
