@@ -26,6 +26,18 @@ constexpr double kGain = 1.01;            // a candidate is grown when it beats 
 constexpr double kSmallestMove = 1e-3;    // m: the centre's last step
 constexpr int kMaxMoves = 60;
 
+// A test pose's inverse kinematics: reached to kReached, near a singularity
+// below kIsoAwayFromSingular (said, never refused by the solver itself).
+InverseOptions reach_options(bool orientation) {
+  InverseOptions o;
+  o.orientation = orientation;
+  o.position_tolerance = o.rotation_tolerance = kReached;
+  o.rotation_scale = kLengthScale;
+  o.max_iterations = 300;
+  o.singular_below = kIsoAwayFromSingular;
+  return o;
+}
+
 // The tool at a target: the readings, or why not.
 struct Reach {
   std::optional<Eigen::VectorXd> q;
@@ -70,12 +82,7 @@ class CubeFitter {
   // (`away`: away from singularities too; `point`: its position alone).
   Reach reach(const Eigen::VectorXd& from, const Frame<double>& target, bool away,
               bool point = false) const {
-    InverseOptions o;
-    o.orientation = orientation_ && !point;
-    o.position_tolerance = o.rotation_tolerance = kReached;
-    o.rotation_scale = kLengthScale;
-    o.max_iterations = 300;
-    o.singular_below = kIsoAwayFromSingular;
+    const InverseOptions o = reach_options(orientation_ && !point);
     Eigen::VectorXd q(model_.dof());
     const InverseResult r = inverse_kinematics(prepared_, target, from.data(), q.data(), o,
                                                lower_.data(), upper_.data());
@@ -245,11 +252,7 @@ void check_options(const DeviceModel& model, const IsoCubeOptions& options) {
 
 std::optional<Eigen::VectorXd> reach_pose(const DeviceModel& model, const Eigen::VectorXd& start,
                                           const Frame<double>& target, bool orientation) {
-  InverseOptions options;
-  options.orientation = orientation;
-  options.position_tolerance = options.rotation_tolerance = kReached;
-  options.rotation_scale = kLengthScale;
-  options.max_iterations = 300;
+  const InverseOptions options = reach_options(orientation);
   Eigen::VectorXd q(model.dof()), lower(model.dof()), upper(model.dof());
   reading_limits(model, lower.data(), upper.data());
   const InverseResult found = inverse_kinematics(PreparedModel(model), target, start.data(),
