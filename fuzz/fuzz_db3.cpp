@@ -9,19 +9,17 @@
 // names and data handed out than the file holds (a view, a generated column
 // or a default standing for many rows would compute them), or more bytes of
 // definitions than the file and max_definition_bytes.
-#include <unistd.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <set>
 #include <string>
 #include <string_view>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/recording/recording.hpp"
+#include "scratch_file.hpp"
 
 namespace {
 
@@ -62,22 +60,10 @@ class Checker : public hr::RecordingVisitor {
   std::uint64_t messages_ = 0, handed_ = 0, definitions_ = 0;
 };
 
-const std::string& scratch() {
-  static const std::string path = [] {
-    const char* dir = std::getenv("TMPDIR");
-    return std::string(dir != nullptr ? dir : "/tmp") + "/fuzz_db3_" + std::to_string(::getpid()) +
-           ".db3";
-  }();
-  return path;
-}
-
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  {
-    std::ofstream out(scratch(), std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
-  }
+  const std::string& scratch = write_scratch_file("fuzz_db3", "db3", data, size);
   hr::RecordingLimits limits;
   limits.max_message_bytes = std::uint64_t{1} << 20;
   limits.max_channels = 64;
@@ -85,9 +71,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   limits.max_definition_bytes = std::uint64_t{1} << 20;
   Checker checker(limits, size);
   try {
-    hr::read_rosbag2_db3(scratch(), checker, limits);
+    hr::read_rosbag2_db3(scratch, checker, limits);
   } catch (const hapticcal::InputError& e) {
-    if (std::string_view(e.what()).rfind(scratch() + ":", 0) != 0)
+    if (std::string_view(e.what()).rfind(scratch + ":", 0) != 0)
       finding("an error that does not start with the file");
   }
   return 0;

@@ -9,17 +9,15 @@
 // -timeout: a message of 100,000 joints, a definition of 100,000 fields fit
 // in its -max_len) or a blow-up (-rss_limit_mb) is a finding, and so is a
 // topic's samples out of step with its messages.
-#include <unistd.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <string>
 
 #include "hapticcal/core/error.hpp"
 #include "recording/import_topics.hpp"
+#include "scratch_file.hpp"
 
 namespace {
 
@@ -28,15 +26,6 @@ namespace hr = hapticcal::recording;
 [[noreturn]] void finding(const char* what) {
   std::fprintf(stderr, "fuzz_import: %s\n", what);
   std::abort();
-}
-
-const std::string& scratch() {
-  static const std::string path = [] {
-    const char* dir = std::getenv("TMPDIR");
-    return std::string(dir != nullptr ? dir : "/tmp") + "/fuzz_import_" +
-           std::to_string(::getpid()) + ".rec";
-  }();
-  return path;
 }
 
 void check(const hr::Samples& s, std::uint64_t messages, bool joint_state) {
@@ -50,10 +39,7 @@ void check(const hr::Samples& s, std::uint64_t messages, bool joint_state) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  {
-    std::ofstream out(scratch(), std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
-  }
+  const std::string& scratch = write_scratch_file("fuzz_import", "rec", data, size);
   hr::RecordingLimits limits;
   limits.max_record_bytes = std::uint64_t{8} << 20;
   limits.max_uncompressed_bytes = std::uint64_t{16} << 20;
@@ -64,7 +50,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   wanted.frames = std::make_pair(std::string("map"), std::string("tool"));
   std::string format;
   try {
-    for (const hr::TopicBuffer& t : hr::read_topics(scratch(), wanted, limits, format)) {
+    for (const hr::TopicBuffer& t : hr::read_topics(scratch, wanted, limits, format)) {
       if (t.receive_ns.size() != t.messages) finding("a topic's count out of step");
       check(t.samples, t.messages, t.kind == hr::TopicKind::kJointState);
       for (const auto& [pair, samples] : t.frames) check(samples, ~std::uint64_t{0}, false);
