@@ -264,18 +264,8 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
         fmt::format("warning: suspect fit: {}{}", reason,
                     r.status == CalibrationStatus::kSuspect ? "" : " (--strict refuses it)"));
   }
-  for (const ParameterEstimate& e : k.parameters) {
-    if (!e.large_change) continue;
-    out.push_back(fmt::format(
-        "note: {} moved {} from nominal (beyond {} mm / {} mrad){}{}: {}; check the move if the "
-        "device should not have it",
-        e.name, detail::change_text(e.value - e.nominal, e.unit), kLargeChangeLength * 1e3,
-        kLargeChangeAngle * 1e3, e.determined ? "" : ", not determined by these data",
-        e.max_correlation_with.empty() ? std::string()
-                                       : fmt::format(", correlated {:+.2f} with {}",
-                                                     e.max_correlation, e.max_correlation_with),
-        detail::evidence_text(k)));
-  }
+  for (const ParameterEstimate& e : k.parameters)
+    if (e.large_change) out.push_back("note: " + detail::large_change_text(e, k));
   for (const std::string& note : r.notes) {
     out.push_back(fmt::format("{}{}", note.rfind("warning: ", 0) == 0 ? "" : "note: ", note));
   }

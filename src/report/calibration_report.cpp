@@ -294,14 +294,8 @@ Outcome calibration_outcome(const CalibrationResult& result, const DeviceModel& 
         t.rms_after * 1e3, t.held_out_rms * 1e3, t.flagged ? " (FLAGGED)" : "",
         t.converged ? "" : " (did not converge)", t.offset * 1e3, t.offset_sd * 1e3));
   }
-  for (const ParameterEstimate& e : k.parameters) {
-    if (!e.large_change) continue;
-    o.notes.push_back(fmt::format(
-        "warning: {} moved {} from nominal (flagged beyond {} mm / {} mrad): plausible for "
-        "a base pose measured in an unknown frame; for a link, check the model and the log",
-        e.name, detail::change_text(e.value - e.nominal, e.unit), kLargeChangeLength * 1e3,
-        kLargeChangeAngle * 1e3));
-  }
+  for (const ParameterEstimate& e : k.parameters)
+    if (e.large_change) o.notes.push_back("warning: " + detail::large_change_text(e, k));
   for (const std::string& line : suspect_lines(k)) o.notes.push_back(line);
   for (const std::string& note : result.notes)
     o.notes.push_back(note.rfind("warning: ", 0) == 0 ? note : "note: " + note);

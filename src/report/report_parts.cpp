@@ -132,6 +132,18 @@ std::string evidence_text(const KinematicFit& k) {
   return "every identifiable parameter was fitted by least squares (no held-out error judged it)";
 }
 
+std::string large_change_text(const ParameterEstimate& e, const KinematicFit& k) {
+  return fmt::format(
+      "{} moved {} from nominal (beyond {} mm / {} mrad){}{}: {}; check the move if the device "
+      "should not have it",
+      e.name, change_text(e.value - e.nominal, e.unit), kLargeChangeLength * 1e3,
+      kLargeChangeAngle * 1e3, e.determined ? "" : ", not determined by these data",
+      e.max_correlation_with.empty()
+          ? std::string()
+          : fmt::format(", correlated {:+.2f} with {}", e.max_correlation, e.max_correlation_with),
+      evidence_text(k));
+}
+
 std::string change_text(double change, ParameterUnit unit) {
   if (unit == ParameterUnit::kAngle && std::abs(change) >= 0.1)
     return fmt::format("{:.4g} deg", change * 180 / M_PI);

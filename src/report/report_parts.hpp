@@ -78,6 +78,10 @@ std::string change_text(double change, ParameterUnit unit);
 // (ParameterEstimate::determined): "sd 211 mrad above its tolerance 5 mrad",
 // "correlated +0.996 with j7.y: their combination is determined, not each".
 std::string undetermined_text(const ParameterEstimate& e, const DeviceModel& nominal);
+// A parameter that moved beyond kLargeChangeLength / kLargeChangeAngle, in a
+// line (without its "note: " or "warning: "): how far, whether the data
+// determine it, its largest correlation and the evidence that judged the model.
+std::string large_change_text(const ParameterEstimate& e, const KinematicFit& k);
 // The evidence that chose the model: the model search's held-out error, else
 // the tolerance prior's evidence, the significance cut or least squares.
 std::string evidence_text(const KinematicFit& k);
