@@ -171,10 +171,13 @@ TEST(BuiltinDevices, MtmMatchesKdlFromItsDhTableAndCoupling) {
   EXPECT_LT(w.Jq, 1e-12);
 }
 
-// The limits are a box in the readings inside the sources' joint ranges: every
-// corner's joint values within them (the Touch's elbow -0.81..1.25 rad relative
-// to the shoulder; the MTM's joints 3 and 4 per mtmr.json).
-TEST(BuiltinDevices, ReadingLimitsKeepTheCoupledJointsWithinTheirRanges) {
+// The coupled joints' ranges are the sources' (the Touch's elbow -0.81..1.25
+// rad relative to the shoulder; the MTM's joints 3 and 4 per mtmr.json), on
+// the joint values the coupling forms (without the DH offset, as the JSON's):
+// readings drawn within the limits and ranges keep every joint within them and
+// reach both ends of each range (the reading limits are no narrower than the
+// ranges allow).
+TEST(BuiltinDevices, CoupledJointsKeepTheSourcesRanges) {
   struct Range {
     const char* device;
     int joint;
@@ -185,15 +188,24 @@ TEST(BuiltinDevices, ReadingLimitsKeepTheCoupledJointsWithinTheirRanges) {
         Range{"dvrk-mtm", 3, -1.22173, 4.01426}}) {
     SCOPED_TRACE(std::string(r.device) + " joint " + std::to_string(r.joint + 1));
     const DeviceModel m = testing::builtin(r.device);
-    const int n = m.dof();
-    for (int corner = 0; corner < (1 << n); ++corner) {
-      Eigen::VectorXd q(n);
-      for (int j = 0; j < n; ++j) q[j] = corner >> j & 1 ? m.links[j].upper : m.links[j].lower;
-      const double theta = m.compensate(q)[r.joint];  // without the DH offset, as the JSON's
-      EXPECT_GE(theta, r.lower - 1e-12);
-      EXPECT_LE(theta, r.upper + 1e-12);
+    EXPECT_EQ(m.links[r.joint].range_lower, r.lower);
+    EXPECT_EQ(m.links[r.joint].range_upper, r.upper);
+    std::mt19937_64 rng(17);
+    double lowest = HUGE_VAL, highest = -HUGE_VAL;
+    for (int draw = 0; draw < 20000; ++draw) {
+      const Eigen::VectorXd q = m.draw_readings(rng);
+      ASSERT_TRUE(m.within_limits(q));
+      const double theta = m.compensate(q)[r.joint];
+      ASSERT_GE(theta, r.lower - 1e-12);
+      ASSERT_LE(theta, r.upper + 1e-12);
+      lowest = std::min(lowest, theta);
+      highest = std::max(highest, theta);
     }
+    EXPECT_LT(lowest - r.lower, 0.05 * (r.upper - r.lower));
+    EXPECT_LT(r.upper - highest, 0.05 * (r.upper - r.lower));
   }
+  // The Touch's home, the stylus in its inkwell (every reading 0), is a pose it takes.
+  EXPECT_TRUE(testing::builtin("geomagic-touch").within_limits(Eigen::VectorXd::Zero(6)));
 }
 
 class BuiltinScenario : public ::testing::TestWithParam<const char*> {};
@@ -237,6 +249,7 @@ TEST_P(BuiltinScenario, RoundTripRecoversTheDeviationsWithinThreeSd) {
       EXPECT_GE(plan.q(row, k), nominal.links[k].lower);
       EXPECT_LE(plan.q(row, k), nominal.links[k].upper);
     }
+    EXPECT_TRUE(nominal.within_limits(plan.q.row(row).transpose())) << "plan row " << row;
   }
   std::filesystem::remove_all(dir);
 }

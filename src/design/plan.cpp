@@ -303,7 +303,8 @@ class Planner {
       Eigen::VectorXd trial = q + radius / g * grad;
       for (int j = 0; j < n_; ++j)
         trial[j] = std::clamp(trial[j], model_.links[j].lower, model_.links[j].upper);
-      if (!o_.constraints.any() || o_.constraints.admits(prepared.forward(trial.data()).p)) {
+      if (model_.outside_range(trial) < 0 &&
+          (!o_.constraints.any() || o_.constraints.admits(prepared.forward(trial.data()).p))) {
         const Eigen::MatrixXd add = scaled_rows(trial.transpose());
         if (exact_.swapped(add, out) > current + 1e-12 * std::abs(current)) {
           exact_.swap(add, out);

@@ -74,6 +74,7 @@ Eigen::MatrixXd random_readings(const DeviceModel& model, int count, std::uint64
       const double hi = upper.size() ? upper[j] : model.links[j].upper;
       q[j] = std::uniform_real_distribution<double>(lo, hi)(rng);
     }
+    if (model.outside_range(q) >= 0) continue;  // a coupled joint beyond its range
     if (constraints.any() && !constraints.admits(prepared.forward(q.data()).p)) continue;
     out.row(r++) = q.transpose();
   }

@@ -61,6 +61,44 @@ std::string imported_readings_hint(const Log& log) {
                    name, name);
 }
 
+// The play a reading of `link` may go beyond a stop by: its backlash, at
+// least kReadingPlay.
+double reading_play(const Link& link) {
+  return std::max(std::abs(link.backlash),
+                  link.prismatic() ? kReadingPlayLength : kReadingPlayAngle);
+}
+
+// A coupled joint's value (C q)_i beyond its range (Link::range_lower, upper)
+// by more than its play, as check_joint_limits judges a reading.
+void check_joint_ranges(const Log& log, const DeviceModel& model, bool force,
+                        std::vector<std::string>& notes) {
+  for (int i = 0; i < model.dof(); ++i) {
+    const Link& link = model.links[i];
+    if (!link.has_range()) continue;
+    const double play = reading_play(link);
+    int out = 0, first = -1;
+    double first_value = 0;
+    for (int r = 0; r < log.rows; ++r) {
+      const double value = model.coupling.row(i).dot(log.q.row(r));
+      if (value >= link.range_lower - play && value <= link.range_upper + play) continue;
+      if (out++ == 0) first = r, first_value = value;
+    }
+    if (out == 0) continue;
+    const char* unit = link.prismatic() ? "m" : "rad";
+    const int line = first < static_cast<int>(log.line.size()) ? log.line[first] : first + 2;
+    const std::string message = fmt::format(
+        "{} of {} rows put {} (its coupling of the readings) outside its range [{:.4g}, {:.4g}] {} "
+        "by more than its play ({:.3g} {}), the first at line {} ({:.4g})",
+        out, log.rows, link.name, link.range_lower, link.range_upper, unit, play, unit, line,
+        first_value);
+    if (2 * out > log.rows && !force) {
+      throw InputError(log.origin, 0, fmt::format("q{}", i + 1),
+                       message + " (--force calibrates anyway)");
+    }
+    notes.push_back(fmt::format("warning: {}: {}", link.name, message));
+  }
+}
+
 }  // namespace
 
 namespace detail {
@@ -82,8 +120,7 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
                       link.name, j + 1));
       continue;
     }
-    const double play = std::max(std::abs(link.backlash),
-                                 link.prismatic() ? kReadingPlayLength : kReadingPlayAngle);
+    const double play = reading_play(link);
     int out = 0, first = -1;
     double largest = 0;
     for (int r = 0; r < log.rows; ++r) {
@@ -116,6 +153,7 @@ void check_joint_limits(const Log& log, const DeviceModel& model, bool force,
     }
     notes.push_back(fmt::format("warning: q{}: {}", j + 1, message));
   }
+  check_joint_ranges(log, model, force, notes);
 }
 
 // An external encoder's reading beyond any joint's travel (1e308 read for a

@@ -51,7 +51,7 @@ std::string why_not(const CompensatedTarget& t) {
         "from the compensated ones, where the tool is {:.4f} mm from the target",
         to_string(t.controller.status), t.controller_deviation, t.controller_position * 1e3);
   if (t.calibrated.status == InverseStatus::kOutsideLimits)
-    return fmt::format("the compensated reading q{} is outside its limits",
+    return fmt::format("the compensated reading q{} is outside its limits (or its joint's range)",
                        t.calibrated.outside_limit + 1);
   return fmt::format(
       "the calibrated model does not reach it from the program's configuration "

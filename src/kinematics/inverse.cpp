@@ -100,6 +100,14 @@ void reading_limits(const DeviceModel& model, double* lower, double* upper) {
   }
 }
 
+void check_ranges(const DeviceModel& model, const double* q, InverseResult& result) {
+  if (result.status != InverseStatus::kConverged && result.status != InverseStatus::kNear) return;
+  const int joint = model.outside_range(Eigen::Map<const Eigen::VectorXd>(q, model.dof()));
+  if (joint < 0) return;
+  result.status = InverseStatus::kOutsideLimits;
+  result.outside_limit = joint;
+}
+
 InverseResult inverse_kinematics(const PreparedModel& model, const Frame<double>& target,
                                  const double* q_start, double* q, const InverseOptions& o,
                                  const double* lower, const double* upper) {

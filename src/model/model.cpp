@@ -2,9 +2,11 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <stdexcept>
 #include <utility>
 
 namespace hapticcal {
@@ -275,6 +277,53 @@ void DeviceModel::apply_backlash(const Eigen::Ref<const Eigen::RowVectorXd>& dir
                                  Eigen::Ref<Eigen::VectorXd> joint) const {
   if (direction.size() == 0) return;
   for (int i = 0; i < dof(); ++i) joint[i] += links[i].backlash * direction[i];
+}
+
+int DeviceModel::outside_range(const Eigen::Ref<const Eigen::VectorXd>& q, double play) const {
+  for (int i = 0; i < dof(); ++i) {
+    const Link& l = links[i];
+    if (!l.has_range()) continue;
+    const double value = coupled() ? coupling.row(i).dot(q) : q[i];
+    if (value < l.range_lower - play || value > l.range_upper + play) return i;
+  }
+  return -1;
+}
+
+bool DeviceModel::within_limits(const Eigen::Ref<const Eigen::VectorXd>& q) const {
+  for (int i = 0; i < dof(); ++i) {
+    const Link& l = links[i];
+    if (q[i] < l.lower || q[i] > l.upper) return false;
+  }
+  return outside_range(q) < 0;
+}
+
+DeviceModel::LimitCoordinates DeviceModel::limit_coordinates() const {
+  const int n = dof();
+  LimitCoordinates c;
+  Eigen::MatrixXd M = Eigen::MatrixXd::Identity(n, n);
+  c.lower.resize(n);
+  c.upper.resize(n);
+  for (int i = 0; i < n; ++i) {
+    const Link& l = links[i];
+    if (l.has_range() && coupled()) M.row(i) = coupling.row(i);
+    c.lower[i] = l.has_range() ? l.range_lower : l.lower;
+    c.upper[i] = l.has_range() ? l.range_upper : l.upper;
+  }
+  c.readings_of = M.fullPivLu().inverse();
+  return c;
+}
+
+Eigen::VectorXd DeviceModel::draw_readings(std::mt19937_64& rng) const {
+  Eigen::VectorXd q(dof());
+  for (int draw = 0; draw < kRangeDraws; ++draw) {
+    for (int j = 0; j < dof(); ++j) {
+      q[j] = std::uniform_real_distribution<double>(links[j].lower, links[j].upper)(rng);
+    }
+    if (outside_range(q) < 0) return q;
+  }
+  throw std::runtime_error(
+      fmt::format("{}: {} readings drawn within the limits all put a joint outside its range", name,
+                  kRangeDraws));
 }
 
 bool DeviceModel::has_backlash() const {

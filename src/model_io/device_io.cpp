@@ -1,6 +1,7 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include <Eigen/LU>
 #include <charconv>
 #include <cmath>
 #include <numbers>
@@ -193,14 +194,15 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
     link.geometry = r.geometry(node["geometry"], join(path, "geometry"), file.v2);
   }
   if (!link.dh_parameters()) {
-    r.check_keys(node, path,
-                 {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission",
-                  "coupling", "mass", "compliance", "lateral_compliance", "backlash", "parent"});
+    r.check_keys(
+        node, path,
+        {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission",
+         "coupling", "range", "mass", "compliance", "lateral_compliance", "backlash", "parent"});
   } else if (file.v2) {
     r.check_keys(
         node, path,
         {"name", "geometry", "type", "a", "alpha", "d", "theta", "beta", "limits", "transmission",
-         "coupling", "mass", "compliance", "lateral_compliance", "backlash", "parent"});
+         "coupling", "range", "mass", "compliance", "lateral_compliance", "backlash", "parent"});
   } else {
     r.check_keys(node, path,
                  {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
@@ -235,6 +237,11 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
   if (!(link.lower < link.upper)) {
     r.fail(node["limits"], join(path, "limits"),
            fmt::format("lower {} must be below upper {}", link.lower, link.upper));
+  }
+  if (node["range"]) {  // a coupled joint's own stops, on (C q)_i
+    const auto range = r.numbers(node["range"], join(path, "range"), 2);
+    link.range_lower = range[0];
+    link.range_upper = range[1];
   }
   if (node["transmission"]) {
     link.transmission =
@@ -348,6 +355,11 @@ std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) 
     return {key + ".limits",
             fmt::format("lower {} must be below upper {}", link.lower, link.upper)};
   }
+  if (link.has_range() && !(std::isfinite(link.range_lower) && std::isfinite(link.range_upper) &&
+                            link.range_lower < link.range_upper)) {
+    return {key + ".range", fmt::format("lower {} must be below upper {}, both finite",
+                                        link.range_lower, link.range_upper)};
+  }
   if (!(link.mass >= 0 && link.mass <= kMaxLinkMass)) {
     return {key + ".mass", fmt::format("m must be in [0, {}] kg", kMaxLinkMass)};
   }
@@ -378,6 +390,43 @@ std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) 
 }
 
 std::string num(double v) { return fmt::format("{}", v); }
+
+// Why a link's range cannot be (its index and the reason), or empty: a range
+// belongs to a coupled joint (another's is its limits), and the ranges must
+// leave readings within the limits (one box draw in a thousand at least).
+std::pair<int, std::string> range_problem(const DeviceModel& model) {
+  int first = -1;
+  for (int i = 0; i < model.dof(); ++i) {
+    if (!model.links[i].has_range()) continue;
+    if (first < 0) first = i;
+    if (!model.coupled() || model.coupling.row(i) == Eigen::RowVectorXd::Unit(model.dof(), i)) {
+      return {i,
+              "a range belongs to a coupled joint (a joint on its own reading has its "
+              "limits for a range)"};
+    }
+  }
+  if (first < 0) return {-1, ""};
+  if (!model.limit_coordinates().readings_of.allFinite() ||
+      Eigen::FullPivLU<Eigen::MatrixXd>(model.limit_coordinates().readings_of).rank() <
+          model.dof()) {
+    return {first,
+            "the ranged joints' couplings and the other readings do not determine the "
+            "readings (a joint's range must not repeat another's limits)"};
+  }
+  constexpr int kDraws = kRangeDraws / 100;
+  std::mt19937_64 rng(1);
+  Eigen::VectorXd q(model.dof());
+  for (int draw = 0; draw < kDraws; ++draw) {
+    for (int j = 0; j < model.dof(); ++j) {
+      const Link& l = model.links[j];
+      q[j] = std::uniform_real_distribution<double>(l.lower, l.upper)(rng);
+    }
+    if (model.outside_range(q) < 0) return {-1, ""};
+  }
+  return {first, fmt::format("none of {} readings drawn within the limits puts every coupled "
+                             "joint within its range",
+                             kDraws)};
+}
 
 }  // namespace
 
@@ -492,11 +541,15 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
                             : key.ends_with(".lateral_compliance") ? node["lateral_compliance"]
                             : key.ends_with(".compliance")         ? node["compliance"]
                             : key.ends_with(".backlash")           ? node["backlash"]
+                            : key.ends_with(".range")              ? node["range"]
                                                                    : node;
       r.fail(at, key, why);
     }
   }
   read_coupling(r, links, model);
+  if (const auto [i, why] = range_problem(model); !why.empty()) {
+    r.fail(links[i]["range"], fmt::format("links[{}].range", i), why);
+  }
   if (root["tips"] && !v2) r.fail(root["tips"], "tips", "belongs to format hapticcal-device/2");
   detail::read_tree(r, root, links, model);
 
@@ -540,6 +593,9 @@ std::string check_device(const DeviceModel& model) {
   }
   if (const std::string why = coupling_problem(model.coupling, model.links); !why.empty()) {
     return "coupling: " + why;
+  }
+  if (const auto [i, why] = range_problem(model); !why.empty()) {
+    return fmt::format("links[{}].range: {}", i, why);
   }
   if (!(model.gravity.norm() <= kMaxGravity)) return "gravity: not finite or too long";
   return {};
@@ -592,6 +648,9 @@ std::string device_to_yaml(const DeviceModel& model) {
       out += fmt::format("    beta: {}\n", num(l.beta));
     }
     out += fmt::format("    limits: [{}, {}]\n", num(l.lower), num(l.upper));
+    if (l.has_range()) {
+      out += fmt::format("    range: [{}, {}]\n", num(l.range_lower), num(l.range_upper));
+    }
     if (!l.transmission.is_none()) {
       out += fmt::format("    transmission: {}\n", transmission_text(l.transmission));
     }

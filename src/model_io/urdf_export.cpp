@@ -276,6 +276,10 @@ void write_joint(std::string& out, const std::string& name, const std::string& t
       out += fmt::format("    <limit lower=\"{}\" upper=\"{}\" effort=\"0\" velocity=\"0\"/>\n",
                          link->lower, link->upper);
     }
+    if (link->has_range()) {  // urdf_io.cpp reads it back; other programs ignore it
+      out += fmt::format("    <hapticcal_range lower=\"{}\" upper=\"{}\"/>\n", link->range_lower,
+                         link->range_upper);
+    }
   }
   out += extra;
   out += "  </joint>\n";

@@ -1,8 +1,11 @@
 // Internal to the URDF reader and writer: the elements located in the text
-// (urdf_shape.cpp), the chain root -> tip as read (urdf_io.cpp), and the pose
+// (urdf_shape.cpp), the chain root -> tip as read (urdf_io.cpp) with its
+// couplings and ranges (urdf_coupling.cpp), and the pose
 // conversions both the reading and the writing use. The writing
 // (urdf_export.cpp) edits the text by the positions located here.
 #pragma once
+
+#include <urdf_model/joint.h>
 
 #include <array>
 #include <cstddef>
@@ -102,6 +105,53 @@ void check_xml(const std::string& text, const std::string& origin);
 
 // x, y, z, roll, pitch, yaw of a frame (a negative zero written as 0).
 std::array<double, 6> pose_of(const Frame<double>& f);
+
+// ---------------------------------------------------------------------------
+// Couplings and ranges (urdf_coupling.cpp).
+
+// "joint 'NAME'": the key an error about a joint names.
+std::string joint_key(const std::string& name);
+
+// A mimic joint of the chain: its link index, its line and name, and what it mimics.
+struct ChainMimic {
+  int link;
+  int line;
+  std::string name;
+  urdf::JointMimic mimic;
+};
+
+void couple_mimics(const std::vector<ChainMimic>& mimics, const std::string& origin,
+                   DeviceModel& model);
+
+// A joint whose value is a combination of several readings, which <mimic>
+// (one joint) cannot say: under the <joint>, one element a reading,
+//   <hapticcal_coupling joint="torso_2" multiplier="-1"/>,
+// theta = sum multiplier_k q_k (+ the joint's offset); the joint's own reading
+// counts only where it names itself. Other programs ignore the element (a ROS
+// tool reads the joint as independent: its value is then the driver's to
+// publish). DeviceModel::coupling's row of the joint.
+constexpr std::string_view kCouplingElement = "hapticcal_coupling";
+
+// A joint whose value several readings give: its <hapticcal_coupling> elements.
+struct ChainCoupling {
+  int link;
+  std::string name;
+  std::vector<const XmlElement*> terms;
+};
+
+// A joint's <hapticcal_coupling> elements (none if its element is not in the text).
+std::vector<const XmlElement*> coupling_terms(const Document& doc, const std::string& joint);
+// hapticcal's elements anywhere but under a <joint> of the robot, or with
+// attributes of another's, refused wherever they are.
+void check_coupling_elements(const Document& doc, const std::string& origin);
+// A <mimic> of a joint driven by <hapticcal_coupling>: refused.
+void refuse_mimics_of_coupled(const std::vector<ChainMimic>& mimics,
+                              const std::vector<ChainCoupling>& couplings,
+                              const std::string& origin);
+void couple_readings(const std::vector<ChainCoupling>& couplings, const std::string& origin,
+                     DeviceModel& model);
+// The joints' <hapticcal_range> into their links' ranges.
+void read_ranges(const Document& doc, const std::string& origin, DeviceModel& model);
 
 // ---------------------------------------------------------------------------
 // The chain root -> tip.

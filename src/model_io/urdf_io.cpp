@@ -160,10 +160,6 @@ std::optional<std::array<double, 3>> three_numbers(const std::string& text) {
 // ---------------------------------------------------------------------------
 // The chain root -> tip.
 
-std::string joint_key(const std::string& name) {
-  return fmt::format("joint '{}'", printable(name, 80));
-}
-
 // The joint's origin as written in the text (exact), else as urdfdom holds it.
 std::array<double, 6> joint_origin(const urdf::Joint& joint, const Document& doc) {
   const urdf::Pose& pose = joint.parent_to_joint_origin_transform;
@@ -348,168 +344,6 @@ void add_inertial(const urdf::ModelInterface& urdf, const urdf::Joint& j,
   link.mass = total;
 }
 
-// A mimic joint of the chain: its link index, its line and name, and what it mimics.
-struct ChainMimic {
-  int link;
-  int line;
-  std::string name;
-  urdf::JointMimic mimic;
-};
-
-// A mimic joint's value is multiplier * (the mimicked joint's) + offset: a
-// passive joint coupled to one reading (DeviceModel::coupling row
-// multiplier at the mimicked joint's column, the offset added to its own).
-void couple_mimics(const std::vector<ChainMimic>& mimics, const std::string& origin,
-                   DeviceModel& model) {
-  if (mimics.empty()) return;
-  const int n = model.dof();
-  Eigen::MatrixXd C = Eigen::MatrixXd::Identity(n, n);
-  for (const ChainMimic& m : mimics) {
-    int k = 0;
-    while (k < n && model.links[k].name != m.mimic.joint_name) ++k;
-    auto fail = [&](const std::string& why) {
-      throw InputError(
-          origin, m.line, joint_key(m.name),
-          fmt::format("its <mimic> of '{}': {}", printable(m.mimic.joint_name, 80), why));
-    };
-    if (k == n) fail("not a movable joint of the chain");
-    for (const ChainMimic& other : mimics) {
-      if (other.link == k) fail("itself a mimic joint (mimic the joint it follows instead)");
-    }
-    if (!std::isfinite(m.mimic.multiplier) || !std::isfinite(m.mimic.offset) ||
-        std::abs(m.mimic.multiplier) > kMaxCouplingCoefficient ||
-        std::abs(m.mimic.multiplier) < kMinCouplingCoefficient) {
-      fail(fmt::format(
-          "multiplier {:.6g} and offset {:.6g}: a multiplier of magnitude in [{:g}, "
-          "{:g}] and a finite offset are needed",
-          m.mimic.multiplier, m.mimic.offset, kMinCouplingCoefficient, kMaxCouplingCoefficient));
-    }
-    C.row(m.link).setZero();
-    C(m.link, k) = m.mimic.multiplier;
-    model.links[m.link].offset += m.mimic.offset;
-  }
-  if (const std::string why = coupling_problem(C, model.links); !why.empty()) {
-    throw InputError(origin, mimics.front().line, joint_key(mimics.front().name),
-                     "<mimic>: " + why);
-  }
-  model.coupling = C;
-}
-
-// A joint whose value is a combination of several readings, which <mimic>
-// (one joint) cannot say: under the <joint>, one element a reading,
-//   <hapticcal_coupling joint="torso_2" multiplier="-1"/>,
-// theta = sum multiplier_k q_k (+ the joint's offset); the joint's own reading
-// counts only where it names itself. Other programs ignore the element (a ROS
-// tool reads the joint as independent: its value is then the driver's to
-// publish). DeviceModel::coupling's row of the joint.
-constexpr std::string_view kCouplingElement = "hapticcal_coupling";
-
-// A joint's <hapticcal_coupling> elements (none if its element is not in the text).
-std::vector<const XmlElement*> coupling_terms(const Document& doc, const std::string& joint) {
-  const XmlElement* e = doc.joint(joint);
-  return e ? doc.children(*e, kCouplingElement) : std::vector<const XmlElement*>{};
-}
-
-// hapticcal's element where it means something: under a <joint> of the robot,
-// with joint= and multiplier= alone. Anywhere else (inside a <link>, at the top)
-// or with another attribute (an offset=: the joint's own offset is its
-// <origin>'s) every other program and this one would ignore it: refused,
-// wherever it is, as the file is read.
-void check_coupling_elements(const Document& doc, const std::string& origin) {
-  const std::string key = fmt::format("<{}>", kCouplingElement);
-  for (const XmlElement& e : doc.elements) {
-    if (e.name != kCouplingElement) continue;
-    const XmlElement* parent = e.parent >= 0 ? &doc.elements[e.parent] : nullptr;
-    if (!parent || parent->name != "joint" || parent->parent != doc.robot) {
-      const XmlAttribute* name = parent ? parent->attribute("name") : nullptr;
-      throw InputError(
-          origin, e.line, key,
-          fmt::format("inside {}: it belongs under the <joint> whose value it gives (a direct "
-                      "child of <robot>)",
-                      !parent ? std::string("nothing")
-                              : fmt::format("<{}{}>", printable(parent->name, 40),
-                                            name ? " name=\"" + printable(name->value, 80) + "\""
-                                                 : std::string())));
-    }
-    for (const XmlAttribute& a : e.attributes) {
-      if (a.name == "joint" || a.name == "multiplier") continue;
-      throw InputError(origin, e.line, key,
-                       fmt::format("unknown attribute '{}' (joint= and multiplier= only; a "
-                                   "joint's offset is its <origin>'s)",
-                                   printable(a.name, 40)));
-    }
-  }
-}
-
-struct ChainCoupling {
-  int link;
-  std::string name;
-  std::vector<const XmlElement*> terms;
-};
-
-// A <mimic> of a joint driven by <hapticcal_coupling>: URDF's mimic follows a
-// joint's value, the coupling here a reading. Refused.
-void refuse_mimics_of_coupled(const std::vector<ChainMimic>& mimics,
-                              const std::vector<ChainCoupling>& couplings,
-                              const std::string& origin) {
-  for (const ChainMimic& m : mimics) {  // URDF's mimic follows a joint's value, ours a reading
-    for (const ChainCoupling& c : couplings) {
-      if (c.name != m.mimic.joint_name) continue;
-      throw InputError(
-          origin, m.line, joint_key(m.name),
-          fmt::format("its <mimic> of '{}', a joint driven by <{}>: give its readings with <{}> "
-                      "too",
-                      printable(c.name, 80), kCouplingElement, kCouplingElement));
-    }
-  }
-}
-
-void couple_readings(const std::vector<ChainCoupling>& couplings, const std::string& origin,
-                     DeviceModel& model) {
-  if (couplings.empty()) return;
-  const int n = model.dof();
-  Eigen::MatrixXd C = model.coupled() ? model.coupling : Eigen::MatrixXd::Identity(n, n);
-  for (const ChainCoupling& c : couplings) {
-    C.row(c.link).setZero();
-    std::set<int> named;
-    for (const XmlElement* e : c.terms) {
-      auto fail = [&](const std::string& why) {
-        throw InputError(origin, e->line, joint_key(c.name),
-                         fmt::format("<{}>: {}", kCouplingElement, why));
-      };
-      const XmlAttribute* joint = e->attribute("joint");
-      const XmlAttribute* multiplier = e->attribute("multiplier");
-      if (!joint || !multiplier)
-        fail("needs joint=\"<a joint of the chain>\" and multiplier=\"<c>\"");
-      int k = 0;
-      while (k < n && model.links[k].name != joint->value) ++k;
-      if (k == n)
-        fail(fmt::format("'{}' is not a movable joint of the chain", printable(joint->value, 80)));
-      if (!named.insert(k).second)
-        fail(fmt::format("'{}' named twice", printable(joint->value, 80)));
-      double v = 0;
-      std::string_view t = multiplier->value;  // blanks and a leading + as urdfdom reads numbers
-      while (!t.empty() && is_blank(t.front())) t.remove_prefix(1);
-      while (!t.empty() && is_blank(t.back())) t.remove_suffix(1);
-      if (t.starts_with('+')) t.remove_prefix(1);
-      const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
-      if (ec != std::errc() || end != t.data() + t.size() || !std::isfinite(v) ||
-          std::abs(v) < kMinCouplingCoefficient || std::abs(v) > kMaxCouplingCoefficient) {
-        fail(fmt::format("multiplier '{}': a number of magnitude in [{:g}, {:g}] is needed",
-                         printable(multiplier->value, 40), kMinCouplingCoefficient,
-                         kMaxCouplingCoefficient));
-      }
-      C(c.link, k) = v;
-    }
-  }
-  if (const std::string why = coupling_problem(C, model.links); !why.empty()) {
-    throw InputError(origin, couplings.front().terms.front()->line,
-                     joint_key(couplings.front().name),
-                     fmt::format("<{}>: {}", kCouplingElement, why));
-  }
-  model.coupling = C;
-}
-
 }  // namespace
 
 UrdfChain read_chain(const std::string& text, const std::string& origin, const std::string& tip,
@@ -626,6 +460,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
   refuse_mimics_of_coupled(mimics, couplings, origin);
   couple_mimics(mimics, origin, model);
   couple_readings(couplings, origin, model);
+  read_ranges(chain.doc, origin, model);
   chain.tool_origins = std::move(fixed_origins);
   chain.tool_elements = std::move(fixed_elements);
   check_chain_model(chain, origin);

@@ -106,6 +106,7 @@ std::vector<CompensatedTarget> compensate_targets(const DeviceModel& calibrated_
       }
       t.nominal = inverse_kinematics(nominal, t.target, q.data(), t.nominal_readings.data(),
                                      inverse, lower.data(), upper.data());
+      check_ranges(nominal_model, t.nominal_readings.data(), t.nominal);
     } else {
       t.target = nominal.forward(q.data());
       t.nominal.status = InverseStatus::kConverged;
@@ -113,6 +114,7 @@ std::vector<CompensatedTarget> compensate_targets(const DeviceModel& calibrated_
     t.readings.resize(n);
     t.calibrated = inverse_kinematics(calibrated, t.target, t.nominal_readings.data(),
                                       t.readings.data(), inverse, lower.data(), upper.data());
+    check_ranges(nominal_model, t.readings.data(), t.calibrated);
     t.command = nominal.forward(t.readings.data());
     Eigen::VectorXd solved(n);
     t.controller = inverse_kinematics(nominal, t.command, t.nominal_readings.data(), solved.data(),

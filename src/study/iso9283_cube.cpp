@@ -84,8 +84,9 @@ class CubeFitter {
               bool point = false) const {
     const InverseOptions o = reach_options(orientation_ && !point);
     Eigen::VectorXd q(model_.dof());
-    const InverseResult r = inverse_kinematics(prepared_, target, from.data(), q.data(), o,
-                                               lower_.data(), upper_.data());
+    InverseResult r = inverse_kinematics(prepared_, target, from.data(), q.data(), o, lower_.data(),
+                                         upper_.data());
+    check_ranges(model_, q.data(), r);
     if (!q.allFinite() || r.status == InverseStatus::kNotConverged) return {{}, "out of reach"};
     if (r.status == InverseStatus::kOutsideLimits) {
       return {{},
@@ -169,15 +170,17 @@ std::vector<Eigen::VectorXd> drawn_readings(const DeviceModel& model, int draws,
     const Link& l = model.links[static_cast<std::size_t>(i)];
     middle[i] = l.continuous() ? 0.0 : (l.lower + l.upper) / 2;
   }
-  out.push_back(middle);
+  if (model.outside_range(middle) < 0) out.push_back(middle);
   for (int k = 0; k < draws; ++k) {
     Eigen::VectorXd q(model.dof());
-    for (int i = 0; i < model.dof(); ++i) {
-      const Link& l = model.links[static_cast<std::size_t>(i)];
-      const double lo = l.continuous() ? -std::numbers::pi : l.lower,
-                   hi = l.continuous() ? std::numbers::pi : l.upper;
-      q[i] = std::uniform_real_distribution<double>(lo, hi)(rng);
-    }
+    do {
+      for (int i = 0; i < model.dof(); ++i) {
+        const Link& l = model.links[static_cast<std::size_t>(i)];
+        const double lo = l.continuous() ? -std::numbers::pi : l.lower,
+                     hi = l.continuous() ? std::numbers::pi : l.upper;
+        q[i] = std::uniform_real_distribution<double>(lo, hi)(rng);
+      }
+    } while (model.outside_range(q) >= 0);  // a device file's ranges leave 1 draw in 1000 at least
     out.push_back(q);
   }
   return out;
@@ -255,8 +258,9 @@ std::optional<Eigen::VectorXd> reach_pose(const DeviceModel& model, const Eigen:
   const InverseOptions options = reach_options(orientation);
   Eigen::VectorXd q(model.dof()), lower(model.dof()), upper(model.dof());
   reading_limits(model, lower.data(), upper.data());
-  const InverseResult found = inverse_kinematics(PreparedModel(model), target, start.data(),
-                                                 q.data(), options, lower.data(), upper.data());
+  InverseResult found = inverse_kinematics(PreparedModel(model), target, start.data(), q.data(),
+                                           options, lower.data(), upper.data());
+  check_ranges(model, q.data(), found);
   if (found.status == InverseStatus::kNotConverged ||
       found.status == InverseStatus::kOutsideLimits || !q.allFinite())
     return std::nullopt;

@@ -193,13 +193,10 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
 
 namespace {
 
-// Readings drawn uniformly within the joint limits.
+// Readings drawn uniformly within the joint limits and ranges.
 auto uniform_readings(const DeviceModel& actual) {
   return [&actual](int r, std::mt19937_64& rng, Eigen::MatrixXd& q) {
-    for (int j = 0; j < actual.dof(); ++j) {
-      const Link& l = actual.links[j];
-      q(r, j) = std::uniform_real_distribution<double>(l.lower, l.upper)(rng);
-    }
+    q.row(r) = actual.draw_readings(rng).transpose();
   };
 }
 
@@ -247,10 +244,7 @@ std::vector<std::pair<std::string, Eigen::Vector3d>> default_sockets(const Devic
   for (int axis = 0; axis < 6; ++axis) {
     const Eigen::Vector3d b = a + (axis % 2 ? -0.05 : 0.05) * Eigen::Vector3d::Unit(axis / 2);
     const ReachResult r = reach(prepared, q, ToolTarget::at(b));
-    bool inside = r.error < 1e-9;
-    for (int j = 0; j < model.dof() && inside; ++j)
-      inside = r.q[j] >= model.links[j].lower && r.q[j] <= model.links[j].upper;
-    if (inside) return {{"a", a}, {"b", b}};
+    if (r.error < 1e-9 && model.within_limits(r.q)) return {{"a", a}, {"b", b}};
   }
   return {{"a", a}, {"b", a + Eigen::Vector3d(0.05, 0, 0)}};  // contact_log names it
 }
@@ -286,17 +280,8 @@ Log contact_log(const DeviceModel& actual, const std::vector<std::string>& label
       const ToolTarget target = draw_target(l, rng, gauss);
       bool reached = false;
       for (int start = 0; start < kStarts && !reached; ++start) {
-        Eigen::VectorXd q(n);
-        for (int j = 0; j < n; ++j) {
-          q[j] = std::uniform_real_distribution<double>(actual.links[j].lower,
-                                                        actual.links[j].upper)(rng);
-        }
-        const ReachResult r = reach(prepared, q, target);
-        bool inside = true;
-        for (int j = 0; j < n; ++j) {
-          inside = inside && r.q[j] >= actual.links[j].lower && r.q[j] <= actual.links[j].upper;
-        }
-        reached = inside && r.error < kReached;
+        const ReachResult r = reach(prepared, actual.draw_readings(rng), target);
+        reached = actual.within_limits(r.q) && r.error < kReached;
         if (reached) log.q.row(row) = r.q.transpose();
       }
       if (!reached) {
@@ -387,28 +372,34 @@ Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_h
   log.t.resize(rows);
   const PreparedModel prepared(actual);
   const std::vector<double> ratio = drive_ratios(actual);
-  Eigen::VectorXd q(n);
+  // The motion sweeps the limits' coordinates (a coupled joint's value within
+  // its range), then the readings are kept within their limits.
+  const DeviceModel::LimitCoordinates box = actual.limit_coordinates();
+  const bool ranged = !box.readings_of.isIdentity(0);
+  Eigen::VectorXd x(n), q(n);
   for (int r = 0; r < rows; ++r) {
     if ((r & 4095) == 4095) throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp)
     const double t = r / rate_hz;
     const double u = std::clamp((std::min(t, seconds - t) - rest) / rest, 0.0, 1.0);
     const double envelope = u * u * (3 - 2 * u);
     for (int j = 0; j < n; ++j) {
-      const Link& l = actual.links[j];
-      // Home (0) stays the centre; a joint whose limits exclude it moves about
-      // their middle instead.
-      const bool home_inside = l.lower <= 0 && 0 <= l.upper;
-      const double centre = home_inside ? 0.0 : (l.lower + l.upper) / 2;
-      const double half =
-          0.45 * (home_inside ? std::min(-l.lower, l.upper) : (l.upper - l.lower) / 2);
+      const double lower = box.lower[j], upper = box.upper[j];
+      // Home (0) stays the centre; a coordinate whose limits exclude it moves
+      // about their middle instead.
+      const bool home_inside = lower <= 0 && 0 <= upper;
+      const double centre = home_inside ? 0.0 : (lower + upper) / 2;
+      const double half = 0.45 * (home_inside ? std::min(-lower, upper) : (upper - lower) / 2);
       double v = 0;
       for (int k = 0; k < kHarmonics; ++k) {
         v += amp[j][k] * (std::sin(2 * std::numbers::pi * freq[j][k] * t + phase[j][k]) -
                           std::sin(phase[j][k]));
       }
-      q[j] = std::clamp(home_inside ? envelope * half * v : centre + envelope * half * v, l.lower,
-                        l.upper);
+      x[j] = std::clamp(home_inside ? envelope * half * v : centre + envelope * half * v, lower,
+                        upper);
     }
+    q = ranged ? (box.readings_of * x).eval() : x;
+    for (int j = 0; j < n && ranged; ++j)
+      q[j] = std::clamp(q[j], actual.links[j].lower, actual.links[j].upper);
     log.t[r] = t;
     log.distance[r] = prepared.forward(q.data()).p.norm() + noise.sigma_distance * gauss(rng);
     for (int j = 0; j < n; ++j)

@@ -251,12 +251,9 @@ inline DeviceModel mixed_chain(BaseKind base_kind) {
   return m;
 }
 
+// Readings the device can take: within the limits, a coupled joint within its range.
 inline Eigen::VectorXd random_readings(const DeviceModel& m, std::mt19937_64& rng) {
-  Eigen::VectorXd q(m.dof());
-  for (int i = 0; i < m.dof(); ++i) {
-    q[i] = std::uniform_real_distribution<double>(m.links[i].lower, m.links[i].upper)(rng);
-  }
-  return q;
+  return m.draw_readings(rng);
 }
 
 // A 6-D pose log (x, y, z and a unit quaternion, exact) of `truth` at `rows`

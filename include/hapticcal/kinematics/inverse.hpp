@@ -43,7 +43,8 @@ struct InverseResult {
   double position_error = 0;  // m, at the readings returned
   double rotation_error = 0;  // rad (0 without orientation)
   double smallest_singular_value = 0;
-  int outside_limit = -1;  // the first reading outside [lower, upper], or -1
+  int outside_limit =
+      -1;  // the first reading outside [lower, upper] (or joint outside its range), or -1
 };
 
 // The readings q (n = model.dof() values) at which `model`'s tool (tip
@@ -55,6 +56,10 @@ struct InverseResult {
 // The readings' limits inverse_kinematics checks (n values each): the links'
 // limits, a continuous joint's unbounded.
 void reading_limits(const DeviceModel& model, double* lower, double* upper);
+// A solution within the readings' limits that puts a coupled joint outside its
+// range (DeviceModel::outside_range) is outside the limits too: the result
+// said so (kOutsideLimits, outside_limit that joint).
+void check_ranges(const DeviceModel& model, const double* q, InverseResult& result);
 
 InverseResult inverse_kinematics(const PreparedModel& model, const Frame<double>& target,
                                  const double* q_start, double* q,

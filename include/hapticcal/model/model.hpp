@@ -4,7 +4,10 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cmath>
+#include <limits>
 #include <optional>
+#include <random>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -78,6 +81,12 @@ struct Link {
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   double offset = 0.0;
   double lower = 0.0, upper = 0.0;  // joint limits on q [rad; m for prismatic joints]
+  // A coupled joint's own stops, on its coupled value (C q)_i [rad; m]: a
+  // parallelogram's elbow turns by q3 - q2, and its stops are not a box in the
+  // readings. Unbounded (the readings' limits are the joint's) unless a device
+  // file's `range` (a URDF's <hapticcal_range>) gives them.
+  double range_lower = -std::numeric_limits<double>::infinity();
+  double range_upper = std::numeric_limits<double>::infinity();
   Transmission transmission;
   // Joint compliance (issue 25): the mass of the body the joint moves up to the
   // next joint [kg] and its centre in the link's frame (the frame after A_i)
@@ -104,6 +113,7 @@ struct Link {
   double lateral_compliance = 0.0;
 
   bool prismatic() const { return type == JointType::kPrismatic; }
+  bool has_range() const { return std::isfinite(range_lower) || std::isfinite(range_upper); }
   // Turns without limits (a URDF continuous joint).
   bool continuous() const { return type == JointType::kContinuous; }
   // DH or MDH parameters (else an origin pose, an axis and an offset).
@@ -331,7 +341,32 @@ struct DeviceModel {
   // Whether some joint's value depends on reading k (false: a passive joint's
   // own reading, which nothing uses).
   bool reading_used(int k) const { return !coupled() || coupling.col(k).any(); }
+
+  // The first joint whose coupled value (C q)_i is beyond its range by more
+  // than `play` [rad; m], or -1.
+  int outside_range(const Eigen::Ref<const Eigen::VectorXd>& q, double play = 0) const;
+  // Readings within their limits (a continuous joint's: the turn its limits
+  // hold) and every joint within its range: a pose the device can take.
+  bool within_limits(const Eigen::Ref<const Eigen::VectorXd>& q) const;
+  // The coordinates in which the limits are a box, for motions that sweep
+  // them: x = M q, M's row i joint i's coupling row where the joint has a
+  // range (x_i its value, within the range), the unit row elsewhere (x_i its
+  // reading, within its limits); q = readings_of x, then within the readings'
+  // limits when clamped to them. Without ranges, M is the identity.
+  struct LimitCoordinates {
+    Eigen::MatrixXd readings_of;
+    Eigen::VectorXd lower, upper;
+  };
+  LimitCoordinates limit_coordinates() const;
+  // Readings drawn uniformly within the limits, drawn again (up to
+  // kRangeDraws times) while a joint is outside its range; throws
+  // std::runtime_error when none is found.
+  Eigen::VectorXd draw_readings(std::mt19937_64& rng) const;
 };
+
+// The draws draw_readings makes before it gives up; a device file whose ranges
+// leave fewer than one box draw in a thousand within them is refused.
+constexpr int kRangeDraws = 100000;
 
 // Why `coupling` cannot be the coupling of a model with these links, or empty:
 // dof x dof, finite, each C_ik 0 or of magnitude in [1e-6, 100], every joint

@@ -39,7 +39,8 @@ constexpr double kPaperImprovementKinematicOnlyPct = 44.7;
 std::optional<double> paper_improvement_pct(const std::string& name);
 
 // The default posture: home, with the wrist bent (j6 = 0.3 rad) for a 7-joint
-// device, because home is a wrist singularity of the built-in model.
+// device, because home is a wrist singularity of the built-in model; where the
+// limits exclude it, the middle of the limits (a coupled joint's range).
 Eigen::VectorXd default_posture(const DeviceModel& model);
 
 }  // namespace hapticcal
