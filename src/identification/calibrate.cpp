@@ -247,7 +247,8 @@ void check_options(const CalibrationOptions& options) {
 // The poses of the fit: a sample of the log's (--samples), repeats of a pose
 // averaged (one pose, one row of the fit).
 void prepare_poses(CalibrationRun& run) {
-  const std::vector<std::vector<int>> all_poses = repeated_poses(run.log);
+  std::vector<std::vector<int>> all_poses = repeated_poses(run.log);
+  detail::screen_repeats(run.log, all_poses, run.options.outlier_alpha, run.result.notes);
   for (int g :
        sample_rows(static_cast<int>(all_poses.size()), run.options.samples, run.options.seed)) {
     run.result.poses.push_back(all_poses[g]);

@@ -66,6 +66,14 @@ struct CalibrationRun {
   RowsOf kind() const { return rows_of(problem); }
 };
 
+// Rows far from their pose's other repeats (5 rows or more: a device at rest
+// streaming samples of one reading; robust.cpp): each row's deviation from the
+// pose's median against the pooled robust sd of every such deviation, beyond
+// the Bonferroni level over those rows (at least 5 sds). Flagged rows are left
+// out of their pose and named in `notes`.
+void screen_repeats(const Log& log, std::vector<std::vector<int>>& poses, double alpha,
+                    std::vector<std::string>& notes);
+
 // The poses (repeats averaged, --samples drawn) and step 1 on them
 // (calibrate.cpp): run.model is then the nominal with the fitted transmissions.
 void step_one(CalibrationRun& run);

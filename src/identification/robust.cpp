@@ -93,6 +93,71 @@ const char* to_string(RobustLoss loss) {
   return "?";
 }
 
+namespace detail {
+
+void screen_repeats(const Log& log, std::vector<std::vector<int>>& poses, double alpha,
+                    std::vector<std::string>& notes) {
+  constexpr size_t kMinRepeats = 5;  // a median and a spread worth the name
+  constexpr size_t kNamed = 10;
+  if (!log.has_position && !log.has_distance) return;
+  const int d = log.has_position ? 3 : 1;
+  const auto measured = [&](int r) {
+    return log.has_position ? Eigen::VectorXd(log.position.row(r).transpose())
+                            : Eigen::VectorXd::Constant(1, log.distance[r]);
+  };
+  // Each repeat's deviation from its pose's median, component by component.
+  std::vector<std::pair<size_t, Eigen::MatrixXd>> deviations;
+  std::vector<double> pooled;
+  for (size_t g = 0; g < poses.size(); ++g) {
+    const std::vector<int>& rows = poses[g];
+    if (rows.size() < kMinRepeats) continue;
+    Eigen::MatrixXd x(static_cast<Eigen::Index>(rows.size()), d);
+    for (size_t k = 0; k < rows.size(); ++k)
+      x.row(static_cast<Eigen::Index>(k)) = measured(rows[k]);
+    for (int c = 0; c < d; ++c) {
+      const Eigen::VectorXd column = x.col(c);
+      x.col(c).array() -= median(std::vector<double>(column.data(), column.data() + column.size()));
+    }
+    for (Eigen::Index k = 0; k < x.size(); ++k) pooled.push_back(std::abs(x.data()[k]));
+    deviations.emplace_back(g, std::move(x));
+  }
+  const double scale = kMadToSd * median(pooled);
+  if (deviations.empty() || !(scale > 0)) return;
+  const auto rows = static_cast<double>(pooled.size()) / d;
+  const double threshold =
+      std::max(std::sqrt(chi_square_quantile(1 - alpha / rows, d) / d), kThresholdFloor);
+  std::vector<std::string> named;
+  int flagged = 0;
+  for (auto& [g, x] : deviations) {
+    std::vector<int> kept;
+    for (size_t k = 0; k < poses[g].size(); ++k) {
+      const Eigen::VectorXd e = x.row(static_cast<Eigen::Index>(k)).transpose();
+      const double statistic = e.norm() / std::sqrt(d) / scale;
+      if (statistic <= threshold) {
+        kept.push_back(poses[g][k]);
+        continue;
+      }
+      const int r = poses[g][k];
+      if (++flagged <= static_cast<int>(kNamed)) {
+        named.push_back(fmt::format(
+            "warning: outlier among repeats: log line {}: {:.4f} mm from the median of its "
+            "pose's {} rows, {:.1f} robust sds of {:.4g} mm (beyond {:.2f}): left out of the "
+            "pose's mean",
+            r < static_cast<int>(log.line.size()) ? log.line[r] : r + 2, 1e3 * e.norm(),
+            poses[g].size(), statistic, 1e3 * scale, threshold));
+      }
+    }
+    if (!kept.empty()) poses[g] = std::move(kept);
+  }
+  notes.insert(notes.end(), named.begin(), named.end());
+  if (flagged > static_cast<int>(kNamed)) {
+    notes.push_back(fmt::format("warning: outlier among repeats: and {} more rows left out",
+                                flagged - static_cast<int>(kNamed)));
+  }
+}
+
+}  // namespace detail
+
 RobustLoss robust_loss(const std::string& name) {
   for (RobustLoss l : {RobustLoss::kCauchy, RobustLoss::kHuber, RobustLoss::kNone}) {
     if (name == to_string(l)) return l;

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <unordered_map>
 
 #include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
@@ -230,6 +231,37 @@ std::vector<int> tracker_glitches(const Log& tracker) {
   for (int r = 0; r < tracker.rows; ++r)
     if (glitch[static_cast<size_t>(r)]) out.push_back(r);
   return out;
+}
+
+std::string fast_motion_note(const Log& tracker, const std::vector<int>& lines) {
+  constexpr size_t kFewest = 3;
+  if (lines.size() < kFewest || tracker.rows < 3 || !tracker.has_time || !tracker.has_position)
+    return "";
+  std::vector<double> speed(static_cast<size_t>(tracker.rows), 0.0);
+  std::unordered_map<int, int> row_of;
+  for (int r = 0; r < tracker.rows; ++r) {
+    if (r < static_cast<int>(tracker.line.size())) row_of[tracker.line[r]] = r;
+    const int a = std::max(r - 1, 0), b = std::min(r + 1, tracker.rows - 1);
+    const double dt = tracker.t[b] - tracker.t[a];
+    speed[r] = dt > 0 ? (tracker.position.row(b) - tracker.position.row(a)).norm() / dt : 0.0;
+  }
+  std::vector<double> sorted = speed;
+  const auto quartile = static_cast<std::ptrdiff_t>(3 * sorted.size() / 4);
+  std::nth_element(sorted.begin(), sorted.begin() + quartile, sorted.end());
+  const double fast = sorted[static_cast<size_t>(quartile)];
+  size_t at_speed = 0, found = 0;
+  for (const int line : lines) {
+    const auto it = row_of.find(line);
+    if (it == row_of.end()) continue;
+    ++found;
+    at_speed += speed[static_cast<size_t>(it->second)] > fast;
+  }
+  if (found < kFewest || 3 * at_speed < 2 * found) return "";
+  return fmt::format(
+      "{} of the {} samples flagged as outliers are at fast motion (the tool above {:.0f} mm/s, "
+      "the session's upper quartile): residuals that grow with the speed are the clocks' (an "
+      "offset or a lag left between the streams), not bad measurements",
+      at_speed, found, 1e3 * fast);
 }
 
 Log without_rows(const Log& log, const std::vector<int>& rows) {

@@ -661,6 +661,11 @@ StreamCalibration calibrate_streams(const DeviceModel& nominal, const Log& devic
   out.result = final_fit(nominal, out.poses, options, estimate, stream, tracker.origin, drift_note);
   progress("final fit", 1);
   if (!drift_note.empty()) out.result.notes.push_back("warning: " + drift_note);
+  std::vector<int> flagged;
+  for (const OutlierPose& o : out.result.kinematics.robust.outliers)
+    flagged.insert(flagged.end(), o.lines.begin(), o.lines.end());
+  if (const std::string note = fast_motion_note(tracked, flagged); !note.empty())
+    out.result.notes.push_back("warning: " + note);
   if (out.result.status == CalibrationStatus::kConverged && !estimate.converged) {
     out.result.status = CalibrationStatus::kNotConverged;
     out.result.status_reason = fmt::format(

@@ -224,10 +224,10 @@ std::vector<std::string> calibration_lines(const CalibrationResult& r, const Dev
   out.push_back(step_two_title(k, nominal, paper));
   const int undetermined = parameter_lines(k, nominal, out);
   if (k.rows > k.poses) {
-    out.push_back(fmt::format("  {} are {} (repeats averaged); repeatability {:.4f} mm RMS",
+    out.push_back(fmt::format("  {} are {} (repeats averaged); {}",
                               samples_text(k.rows, nominal.tips(), "row"),
                               samples_text(k.poses, nominal.tips(), "pose"),
-                              k.repeatability * 1e3));
+                              detail::repeatability_text(k.repeatability)));
   }
   out.push_back(fmt::format(
       "  {} parameters identified{}; condition number {:.4g}; observability O1 {:.4g}, O4 "

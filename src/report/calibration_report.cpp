@@ -424,11 +424,11 @@ Report calibration_report(const CalibrationResult& result, const DeviceModel& no
     step_one_report(result, nominal, log, report);
     return report;
   }
-  const std::string repeats =
-      k.rows > k.poses
-          ? fmt::format(" ({}, repeats averaged; repeatability {:.4f} mm RMS)",
-                        samples_text(k.poses, nominal.tips(), "pose"), k.repeatability * 1e3)
-          : "";
+  const std::string repeats = k.rows > k.poses
+                                  ? fmt::format(" ({}, repeats averaged; {})",
+                                                samples_text(k.poses, nominal.tips(), "pose"),
+                                                detail::repeatability_text(k.repeatability))
+                                  : "";
   report.sections.push_back(
       fmt::format("<p>{}{}, {} measurements; observability O1 {:.4g}, O4 {:.4g} (angles scaled by "
                   "{:.3f} m).{}</p>\n",

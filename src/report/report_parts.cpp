@@ -151,4 +151,9 @@ std::string change_text(double change, ParameterUnit unit) {
   return fmt::format("{:.4g} {}", change * u.scale, u.unit);
 }
 
+std::string repeatability_text(double repeatability) {
+  if (std::isnan(repeatability)) return "no repeatability: no pose was left and reached again";
+  return fmt::format("repeatability {:.4f} mm RMS", repeatability * 1e3);
+}
+
 }  // namespace hapticcal::detail

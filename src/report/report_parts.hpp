@@ -85,5 +85,8 @@ std::string large_change_text(const ParameterEstimate& e, const KinematicFit& k)
 // The evidence that chose the model: the model search's held-out error, else
 // the tolerance prior's evidence, the significance cut or least squares.
 std::string evidence_text(const KinematicFit& k);
+// "repeatability 0.0019 mm RMS", or why there is none: no pose was left and
+// reached again (a device at rest streaming one reading is one visit).
+std::string repeatability_text(double repeatability);
 
 }  // namespace hapticcal::detail

@@ -80,6 +80,14 @@ void check_streams(const Log& device, const Log& tracker);
 // a gap or an end. A stream with more than 1 % glitches keeps them.
 std::vector<int> tracker_glitches(const Log& tracker);
 
+// Of the samples a stream's fit flagged as outliers (their tracker lines), how
+// many fall where the tool moves fastest (above the upper quartile of the
+// tracker's speeds, each from the samples either side): when 3 or more and two
+// thirds of them do (a quarter would by chance), a note that says so, since
+// residuals that grow with the speed are the clocks' (an offset or a lag left
+// between the streams) rather than bad measurements; else empty.
+std::string fast_motion_note(const Log& tracker, const std::vector<int>& lines);
+
 // The log without the given rows (ascending, 0-based): every per-row field.
 Log without_rows(const Log& log, const std::vector<int>& rows);
 

@@ -39,6 +39,9 @@ struct SessionOptions {
   // about the middle of its limits, within `coverage` of its half range.
   double max_frequency_hz = 0.5;
   double coverage = 0.95;
+  // The device at rest at home (every reading 0, or the middle of the limits
+  // where they exclude it) for this long, then picked up over 2 s [s].
+  double rest_seconds = 0;
 };
 
 struct Session {
