@@ -50,8 +50,9 @@ inline void add_chain_options(CLI::App* command, ChainOptions& chain) {
 
 // What to print once a set with a report of `drawn` figures is in `shown`.
 inline std::string report_said(int drawn, const std::string& note, const std::string& shown) {
-  std::string said = fmt::format("report: {}/report.html ({} figures, SVG and PNG in {}/figures)\n",
-                                 shown, drawn, shown);
+  std::string said =
+      fmt::format("report: {}/report.html ({} figure{}, SVG and PNG in {}/figures)\n", shown, drawn,
+                  drawn == 1 ? "" : "s", shown);
   if (!note.empty()) said += fmt::format("note: {}\n", note);
   return said;
 }

@@ -183,7 +183,8 @@ int run_iso_plan(const PlanCommandOptions& options) {
              plan.orientation_held ? "every pose at the centre's orientation"
                                    : "orientation not held (fewer than six joints)",
              plan.cycles, plan.cycles * 5);
-  fmt::print("report: {}/report.html ({} figures)\n", options.out, figures);
+  fmt::print("report: {}/report.html ({} figure{})\n", options.out, figures,
+             figures == 1 ? "" : "s");
   if (!note.empty()) fmt::print("note: {}\n", note);
   fmt::print("{}", output_summary(out, options.out,
                                   fmt::format(" (plan.csv: q1..q{} in radians and the pose's "
@@ -243,7 +244,8 @@ int run_plan(const PlanCommandOptions& options) {
     for (int c : plan.candidate) rows += fmt::format("{}{}", rows.empty() ? "" : " ", c + 1);
     fmt::print("  chosen poses (distinct poses of the log, 1-based, in path order): {}\n", rows);
   }
-  fmt::print("report: {}/report.html ({} figures)\n", options.out, job.figures);
+  fmt::print("report: {}/report.html ({} figure{})\n", options.out, job.figures,
+             job.figures == 1 ? "" : "s");
   if (!job.report_note.empty()) fmt::print("note: {}\n", job.report_note);
   fmt::print("{}", output_summary(*job.out, options.out,
                                   fmt::format(" (plan.csv: q1..q{} in radians, path order)",
