@@ -133,7 +133,7 @@ TEST(SmallLogs, AUsableCalibrationNeverPredictsWorseThanTheNominalWithItsSetUp) 
               all.usable, all.worse, all.refused, all.false_flags, all.clean);
   // Two cases are left, both the Touch's over its whole workspace (trial 14: 2
   // of 9 poses, trial 43: 3 of 12 poses 5-20 mm off, whose held-out errors are
-  // no larger than the model's own: nothing tells them; 0.84 and 0.72 mm
+  // no larger than the model's own: nothing tells them; 0.84 and 0.71 mm
   // beyond the stated uncertainty, one standard error). Before the held-out
   // outlier test and the usability rule: 11.
   EXPECT_LE(all.worse, 2);
