@@ -479,14 +479,6 @@ void fixture_residuals(MeasurementType type, const FixtureLabels& labels, const 
   }
 }
 
-std::vector<MeasurementGroup> measurement_groups(const Log& log) {
-  MeasurementGroup group;
-  group.type = measurement_type(log);
-  group.rows.resize(log.rows);
-  std::iota(group.rows.begin(), group.rows.end(), 0);
-  return {group};
-}
-
 Eigen::Matrix3d inverse_left_jacobian(const Eigen::Vector3d& phi) {
   const double a = phi.norm();
   Eigen::Matrix3d W;

@@ -129,16 +129,6 @@ inline void predicted_values(MeasurementType type, const Frame<double>& tool, do
   kind_of(type).predict(tool, out);
 }
 
-// A log's samples of one measurement type with their noise: the unit of the
-// fit. (One group a log today; fixture points and planes add their own unknowns
-// per group.)
-struct MeasurementGroup {
-  MeasurementType type = MeasurementType::kDistance;
-  std::vector<int> rows;  // log rows
-  double sigma = NAN;     // sd of one residual row [m]; NaN: estimated from the fit
-};
-std::vector<MeasurementGroup> measurement_groups(const Log& log);
-
 // Where a fact about the fixture was given, for its error messages: a fixture
 // file's line and key, or a command-line option (file empty, line 0).
 struct FixtureSource {
