@@ -5,22 +5,8 @@
 #pragma once
 
 #include <ceres/ceres.h>
-#include <glog/logging.h>
-
-#include "hapticcal/core/cancel.hpp"
 
 namespace hapticcal::detail {
-
-// Ceres reports a non-finite residual through glog, tens of lines on stderr
-// before hapticcal's own one-line message: glog's threshold is raised to FATAL
-// once (a host program that wants glog's warnings sets FLAGS_minloglevel back).
-inline void quiet_ceres() {
-  static const bool once = [] {
-    FLAGS_minloglevel = google::GLOG_FATAL;
-    return true;
-  }();
-  (void)once;
-}
 
 // The relative change of the cost and of the parameters that ends a solve:
 // the optimum to rounding, or (the model search's candidate fits, polished
@@ -28,37 +14,16 @@ inline void quiet_ceres() {
 constexpr double kTightTolerance = 1e-14;
 constexpr double kSearchTolerance = 1e-10;
 
-// Ends a solve at its next iteration once a host cancels the run (solve()
-// then throws Cancelled).
-class CancelCallback : public ceres::IterationCallback {
- public:
-  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
-    return cancel_requested() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
-  }
-};
-
-inline ceres::Solver::Options levenberg_marquardt(int max_iterations,
-                                                  double tolerance = kTightTolerance) {
-  quiet_ceres();
-  ceres::Solver::Options options;
-  options.minimizer_type = ceres::TRUST_REGION;
-  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  options.linear_solver_type = ceres::DENSE_QR;
-  options.logging_type = ceres::SILENT;
-  options.max_num_iterations = max_iterations;
-  options.function_tolerance = tolerance;
-  options.parameter_tolerance = tolerance;
-  options.gradient_tolerance = 1e-16;
-  static CancelCallback cancel;
-  options.callbacks.push_back(&cancel);
-  return options;
-}
+// Levenberg-Marquardt with dense QR, silent, stopping at `tolerance`, ending
+// at its next iteration once a host cancels the run (core/cancel.hpp). The
+// first call raises glog's threshold to FATAL for the process: Ceres reports a
+// non-finite residual through glog, tens of lines on stderr before hapticcal's
+// own one-line message (a host program that wants glog's warnings sets
+// FLAGS_minloglevel back).
+ceres::Solver::Options levenberg_marquardt(int max_iterations, double tolerance = kTightTolerance);
 
 // ceres::Solve, then Cancelled if the run was cancelled meanwhile.
-inline void solve(const ceres::Solver::Options& options, ceres::Problem* problem,
-                  ceres::Solver::Summary* summary) {
-  ceres::Solve(options, problem, summary);
-  throw_if_cancelled();
-}
+void solve(const ceres::Solver::Options& options, ceres::Problem* problem,
+           ceres::Solver::Summary* summary);
 
 }  // namespace hapticcal::detail
