@@ -245,6 +245,13 @@ const char* to_string(CalibrationStatus status) {
   return "unknown";
 }
 
+Eigen::MatrixXd problem_jacobian(const KinematicProblem& problem,
+                                 const Eigen::VectorXd& parameters) {
+  return detail::stack(problem.model.structure(), parameters, problem.joints,
+                       detail::rows_of(problem), problem.measured, problem.weights)
+      .J;
+}
+
 void encoders_at_readings(const DeviceModel& model, Log& poses, std::vector<std::string>& notes,
                           bool fitted_coupling) {
   if (!model.coupled() || poses.ext.cols() != model.dof()) return;

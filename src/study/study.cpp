@@ -25,7 +25,6 @@
 #include "hapticcal/model_io/device.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/study/evaluate.hpp"
-#include "identification/stack.hpp"
 #include "study/fitted_step_one.hpp"
 #include "study/simulated_limits.hpp"
 
@@ -69,12 +68,9 @@ std::map<std::string, double> stacked_crlb(const Scenario& sc, const Log& ident,
     names.push_back(e.name);
   }
   if (slots.empty()) return {};
-  const detail::Stack at =
-      detail::stack(sc.actual.structure(), p, problem.joints, detail::rows_of(problem),
-                    problem.measured, problem.weights);
-  Eigen::MatrixXd J(at.J.rows(), static_cast<Eigen::Index>(slots.size()));
-  for (size_t c = 0; c < slots.size(); ++c)
-    J.col(static_cast<Eigen::Index>(c)) = at.J.col(slots[c]);
+  const Eigen::MatrixXd all = problem_jacobian(problem, p);
+  Eigen::MatrixXd J(all.rows(), static_cast<Eigen::Index>(slots.size()));
+  for (size_t c = 0; c < slots.size(); ++c) J.col(static_cast<Eigen::Index>(c)) = all.col(slots[c]);
   const Eigen::MatrixXd information = J.transpose() * J;
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(information);
   if (ldlt.info() != Eigen::Success) return {};

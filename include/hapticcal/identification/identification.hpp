@@ -508,6 +508,11 @@ struct KinematicProblem {
 KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
                                    const std::vector<int>& repeats,
                                    const CalibrationOptions& options);
+// The Jacobian of the problem's residual rows, weighted as the fit weighs
+// them (a fixture's unknown points projected out, a given distance's row
+// included), by every slot of the kinematic vector at `parameters`.
+Eigen::MatrixXd problem_jacobian(const KinematicProblem& problem,
+                                 const Eigen::VectorXd& parameters);
 
 // An unknown measurement frame: when the base is a free pose (every base slot
 // among the candidates) and the model's tool points lie far from the measured
