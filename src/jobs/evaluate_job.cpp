@@ -170,28 +170,12 @@ EvaluateJob tree_evaluate_job(const EvaluateRequest& request, std::vector<std::s
   if (!request.out) return job;
   job.out = std::make_unique<OutputSet>(*request.out, "evaluate");
   write_file_atomically(job.out->dir() + "/results.json", job.json + "\n");
-  // One report: each tip's evaluation report in turn, its figures by tip.
-  Report report;
-  for (size_t c = 0; c < tips.size(); ++c) {
-    Report tip =
-        evaluation_report(tree, request.model, parts[c], job.tip_evaluations[c],
-                          job.tip_comparisons[c] ? &job.tip_comparisons[c]->reference : nullptr,
-                          request.reference, {});
-    if (c == 0) {
-      report.title = fmt::format("hapticcal evaluate: {}, a tree of {} tips ({}), on {}", tree.name,
-                                 tips.size(), fmt::join(tips, ", "), log.origin);
-      report.outcome = tip.outcome;
-      report.outcome.headline = job.lines;
-    }
-    report.sections.push_back(
-        fmt::format("<h2>Tip {} ({} of {})</h2>\n", html_escape(tips[c]), c + 1, tips.size()));
-    report.sections.insert(report.sections.end(), tip.sections.begin(), tip.sections.end());
-    for (FigureSpec& f : tip.figures) {
-      f.name += "_" + std::to_string(c + 1);
-      f.title = tips[c] + ": " + f.title;
-      report.figures.push_back(std::move(f));
-    }
-  }
+  std::vector<const Evaluation*> references;
+  for (const std::optional<EvaluationComparison>& cmp : job.tip_comparisons)
+    references.push_back(cmp ? &cmp->reference : nullptr);
+  const Report report =
+      tree_evaluation_report(tree, request.model, tips, parts, job.tip_evaluations, references,
+                             request.reference, log.origin, job.lines);
   job.figures = write_report(report, job.out->dir(), job.report_note);
   job.out->commit();
   return job;

@@ -1,9 +1,11 @@
 // The report of `evaluate`: a model's errors on a log, per sample, against a
 // reference model if one is given.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "report/figures.hpp"
@@ -72,8 +74,9 @@ Report evaluation_report(const DeviceModel& model, const std::string& model_path
   report.sections.push_back(fmt::format(
       "<p>Model {} ({}, {} joints); log {} ({} rows){}. Errors are the model's prediction minus "
       "the measurement, in mm and mrad; results.json holds them in metres and radians.</p>\n",
-      html_escape(model_path), html_escape(model.name), model.dof(), html_escape(log.origin), ev.n,
-      reference ? fmt::format("; reference model {}", html_escape(reference_path))
+      markup_escaped(model_path), markup_escaped(model.name), model.dof(),
+      markup_escaped(log.origin), ev.n,
+      reference ? fmt::format("; reference model {}", markup_escaped(reference_path))
                 : std::string()));
   if (ev.registered) report.sections.push_back(registration_section(*ev.registered));
   if (!ev.labels.empty()) {
@@ -118,6 +121,34 @@ Report evaluation_report(const DeviceModel& model, const std::string& model_path
     report.figures.push_back(per_sample(
         "orientation_errors_per_sample", "Orientation error per sample", "orientation error [mrad]",
         ev.orientation_error, ref ? &ref->orientation_error : nullptr, mine, theirs));
+  }
+  return report;
+}
+
+Report tree_evaluation_report(const DeviceModel& tree, const std::string& model_path,
+                              const std::vector<std::string>& tips, const std::vector<Log>& parts,
+                              const std::vector<Evaluation>& evaluations,
+                              const std::vector<const Evaluation*>& references,
+                              const std::string& reference_path, const std::string& log_origin,
+                              const std::vector<std::string>& lines) {
+  Report report;
+  for (size_t c = 0; c < tips.size(); ++c) {
+    Report tip = evaluation_report(tree, model_path, parts[c], evaluations[c], references[c],
+                                   reference_path, {});
+    if (c == 0) {
+      report.title = fmt::format("hapticcal evaluate: {}, a tree of {} tips ({}), on {}", tree.name,
+                                 tips.size(), fmt::join(tips, ", "), log_origin);
+      report.outcome = tip.outcome;
+      report.outcome.headline = lines;
+    }
+    report.sections.push_back(
+        fmt::format("<h2>Tip {} ({} of {})</h2>\n", markup_escaped(tips[c]), c + 1, tips.size()));
+    report.sections.insert(report.sections.end(), tip.sections.begin(), tip.sections.end());
+    for (FigureSpec& f : tip.figures) {
+      f.name += "_" + std::to_string(c + 1);
+      f.title = tips[c] + ": " + f.title;
+      report.figures.push_back(std::move(f));
+    }
   }
   return report;
 }

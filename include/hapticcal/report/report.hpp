@@ -71,8 +71,7 @@ struct Report {
 // without them and `note` says so.
 int write_report(const Report& report, const std::string& dir, std::string& note);
 
-// HTML helpers: escaped text and a table.
-std::string html_escape(const std::string& text);
+// An HTML table (its text escaped by markup_escaped, core/error.hpp).
 std::string html_table(const std::vector<std::string>& header,
                        const std::vector<std::vector<std::string>>& rows);
 
@@ -121,6 +120,15 @@ void clock_section(const ClockEstimate& clock, const std::string& model, Report&
 Report evaluation_report(const DeviceModel& model, const std::string& model_path, const Log& log,
                          const Evaluation& ev, const Evaluation* reference,
                          const std::string& reference_path, const std::vector<std::string>& lines);
+// A tree's evaluate: each tip's evaluation report in turn under its heading,
+// its figures named by tip; `lines` the terminal's, the outcome's headline.
+// `references[c]`: tip c's reference evaluation, or null.
+Report tree_evaluation_report(const DeviceModel& tree, const std::string& model_path,
+                              const std::vector<std::string>& tips, const std::vector<Log>& parts,
+                              const std::vector<Evaluation>& evaluations,
+                              const std::vector<const Evaluation*>& references,
+                              const std::string& reference_path, const std::string& log_origin,
+                              const std::vector<std::string>& lines);
 
 class PlanProblem;
 struct Plan;
