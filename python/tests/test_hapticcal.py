@@ -477,7 +477,7 @@ def test_calibrate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
     assert printed[len(r.lines)].startswith("report: ")
     # The report carries the same summary (one calibration_lines for both).
     report = (cli_out / "report.html").read_text()
-    # (report.cpp's html_escape: & < > and ", not ')
+    # (core's markup_escaped: & < > and ", not ')
     summary = "\n".join(html.escape(line, quote=False).replace('"', "&quot;") for line in r.lines)
     assert summary in report
 

@@ -92,6 +92,29 @@ std::string compose(const std::string& file, int line, const std::string& key,
 
 }  // namespace
 
+std::string markup_escaped(const std::string& text) {
+  std::string out;
+  for (const char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
 std::string printable(const std::string& text, std::size_t max_chars) {
   bool cut = false;
   std::string out = escaped(text, max_chars, true, &cut);

@@ -50,32 +50,6 @@ std::string triple(double a, double b, double c) {
 std::string xyz_text(const std::array<double, 6>& v) { return triple(v[0], v[1], v[2]); }
 std::string rpy_text(const std::array<double, 6>& v) { return triple(v[3], v[4], v[5]); }
 
-std::string xml_escaped(const std::string& s) {
-  std::string out;
-  for (const char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
 // Text that can stand inside <!-- -->: no "--", no '-' at the end.
 std::string comment_safe(std::string s) {
   for (size_t k; (k = s.find("--")) != std::string::npos;) s.replace(k, 2, "- -");
@@ -218,13 +192,13 @@ std::string coupling_elements(const DeviceModel& model, int i, const std::string
   row.cwiseAbs().maxCoeff(&k);
   if ((row.array() != 0).count() == 1 && k != i && !model.reading_used(i)) {
     return fmt::format("{}<mimic joint=\"{}\" multiplier=\"{}\" offset=\"0\"/>\n", indent,
-                       xml_escaped(model.links[k].name), row[k]);
+                       markup_escaped(model.links[k].name), row[k]);
   }
   std::string out;
   for (int r = 0; r < row.size(); ++r) {
     if (row[r] == 0) continue;
     out += fmt::format("{}<hapticcal_coupling joint=\"{}\" multiplier=\"{}\"/>\n", indent,
-                       xml_escaped(model.links[r].name), row[r]);
+                       markup_escaped(model.links[r].name), row[r]);
   }
   return out;
 }
@@ -266,9 +240,9 @@ void write_joint(std::string& out, const std::string& name, const std::string& t
                  const Link* link, const Eigen::Vector3d& axis = Eigen::Vector3d::UnitZ(),
                  const std::string& extra = "") {
   const std::array<double, 6> pose = pose_of(origin);
-  out += fmt::format("  <joint name=\"{}\" type=\"{}\">\n", xml_escaped(name), type);
-  out += fmt::format("    <parent link=\"{}\"/>\n", xml_escaped(parent));
-  out += fmt::format("    <child link=\"{}\"/>\n", xml_escaped(child));
+  out += fmt::format("  <joint name=\"{}\" type=\"{}\">\n", markup_escaped(name), type);
+  out += fmt::format("    <parent link=\"{}\"/>\n", markup_escaped(parent));
+  out += fmt::format("    <child link=\"{}\"/>\n", markup_escaped(child));
   out += fmt::format("    <origin xyz=\"{}\" rpy=\"{}\"/>\n", xyz_text(pose), rpy_text(pose));
   if (link) {
     out += fmt::format("    <axis xyz=\"{}\"/>\n", triple(axis[0], axis[1], axis[2]));
@@ -317,7 +291,7 @@ std::string device_to_urdf(const DeviceModel& model) {
       "<!-- Written by hapticcal from a device model. The chain for hapticcal is\n"
       "     hapticcal_measurement -> tool (the measurement frame to the tool point);\n"
       "     joint offsets are folded into the joint origins. -->\n";
-  out += fmt::format("<robot name=\"{}\">\n", xml_escaped(model.name));
+  out += fmt::format("<robot name=\"{}\">\n", markup_escaped(model.name));
   out += "  <link name=\"hapticcal_measurement\"/>\n";
   out += "  <link name=\"base_link\"/>\n";
   write_joint(out, base_joint, "fixed", "hapticcal_measurement", "base_link", base, nullptr);
@@ -327,7 +301,7 @@ std::string device_to_urdf(const DeviceModel& model) {
     const Link& l = model.links[i];
     const JointSplit split = split_joint(l);
     const std::string child = l.name + "_link";
-    out += fmt::format("  <link name=\"{}\"/>\n", xml_escaped(child));
+    out += fmt::format("  <link name=\"{}\"/>\n", markup_escaped(child));
     if (!transmissions[i].empty()) {
       out += fmt::format(
           "  <!-- hapticcal: joint {} has a transmission, which URDF cannot express (as in a "
@@ -429,7 +403,7 @@ std::string write_measurement_frame(const std::string& urdf_text, const UrdfChai
       "system's), below the root '{}': --root {} gives the calibrated chain in that frame, --root "
       "{} the robot alone -->\n",
       comment_safe(chain.root), comment_safe(link), comment_safe(chain.root));
-  added += fmt::format("  <link name=\"{}\"/>\n", xml_escaped(link));
+  added += fmt::format("  <link name=\"{}\"/>\n", markup_escaped(link));
   // The chain from `link` is T_link_root * (the root's own fixed joints, the
   // nominal base N) * the joints: with T_root_link = N B^-1 it starts with B.
   write_joint(added, joint, "fixed", chain.root, link, pose_frame(nominal.base) * B.inverse(),
@@ -531,7 +505,7 @@ std::string calibrated_urdf(const std::string& urdf_text, const std::string& ori
           "  <!-- hapticcal: the calibrated tool pose, on a link added under the tip '{}': "
           "use the tip '{}' -->\n",
           comment_safe(chain.tip), comment_safe(link));
-      added += fmt::format("  <link name=\"{}\"/>\n", xml_escaped(link));
+      added += fmt::format("  <link name=\"{}\"/>\n", markup_escaped(link));
       write_joint(added, joint, "fixed", chain.tip, link, T_tool, nullptr);
       edits.push_back({close, close, added});
       if (notes) {

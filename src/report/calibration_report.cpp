@@ -7,6 +7,7 @@
 #include <limits>
 #include <numeric>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/tree.hpp"
 #include "hapticcal/report/calibration_lines.hpp"
 #include "hapticcal/report/report.hpp"
@@ -361,7 +362,7 @@ std::string terminal_section(const CalibrationResult& result, const DeviceModel&
   std::string terminal;
   for (const std::string& line : calibration_lines(result, nominal)) terminal += line + "\n";
   return "<details><summary>The summary as the terminal printed it</summary>\n<pre>" +
-         html_escape(terminal) + "</pre></details>\n";
+         markup_escaped(terminal) + "</pre></details>\n";
 }
 
 // A log of external encoders only: step 1's tables and figures.

@@ -9,6 +9,8 @@
 #include <iterator>
 #include <limits>
 
+#include "hapticcal/core/error.hpp"
+
 namespace hapticcal {
 namespace {
 
@@ -92,7 +94,7 @@ void add_iso_section(const IsoCriteria& model, const IsoCriteria* reference,
   html += fmt::format(
       "<p>Test conditions: {}. Commanded: the model's pose at each pose's mean readings; "
       "AP and AD are the model's accuracy, RP and RD the robot's repeatability.</p>\n",
-      html_escape(conditions.empty() ? "not stated (evaluate --conditions)" : conditions));
+      markup_escaped(conditions.empty() ? "not stated (evaluate --conditions)" : conditions));
   const bool orientation = !model.poses.empty() && model.poses.front().orientation;
   std::vector<std::string> header = {"pose", "n", "AP [mm]"};
   if (reference) header.push_back("AP reference [mm]");
@@ -204,7 +206,7 @@ void add_iso_study_section(const IsoSimulation& iso, const IsoStudy& study, Repo
                       "AP predicted [mm]", "calibrated / predicted", "RP [mm]"},
                      rows);
   for (const std::string& note : study.notes) {
-    html += "<p>" + html_escape(note) + "</p>\n";
+    html += "<p>" + markup_escaped(note) + "</p>\n";
     report.outcome.notes.push_back(note);
   }
   report.sections.push_back(html);

@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "hapticcal/core/cancel.hpp"
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "report/process.hpp"
 
@@ -179,11 +180,11 @@ bool is_numeric_cell(const std::string& cell) {
 
 std::string outcome_html(const Outcome& o) {
   std::string html = fmt::format("<section id=\"outcome\"{}>\n<p><b>Status: {}</b></p>\n",
-                                 o.usable ? "" : " class=\"unusable\"", html_escape(o.status));
+                                 o.usable ? "" : " class=\"unusable\"", markup_escaped(o.status));
   auto list = [&](const std::vector<std::string>& lines, const char* cls) {
     if (lines.empty()) return;
     html += fmt::format("<ul class=\"{}\">\n", cls);
-    for (const std::string& line : lines) html += "<li>" + html_escape(line) + "</li>\n";
+    for (const std::string& line : lines) html += "<li>" + markup_escaped(line) + "</li>\n";
     html += "</ul>\n";
   };
   list(o.headline, "headline");
@@ -214,39 +215,16 @@ void use_log_y(FigureSpec& f, int decades) {
   f.y_max = std::pow(10.0, top > bottom ? top : bottom + 1);
 }
 
-std::string html_escape(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
 std::string html_table(const std::vector<std::string>& header,
                        const std::vector<std::vector<std::string>>& rows) {
   std::string out = "<table><thead><tr>";
-  for (const std::string& h : header) out += "<th>" + html_escape(h) + "</th>";
+  for (const std::string& h : header) out += "<th>" + markup_escaped(h) + "</th>";
   out += "</tr></thead><tbody>\n";
   for (const auto& row : rows) {
     out += "<tr>";
     for (const std::string& cell : row) {
       // Numbers align right, text left (a reason, a name).
-      out += (is_numeric_cell(cell) ? "<td class=\"n\">" : "<td>") + html_escape(cell) + "</td>";
+      out += (is_numeric_cell(cell) ? "<td class=\"n\">" : "<td>") + markup_escaped(cell) + "</td>";
     }
     out += "</tr>\n";
   }
@@ -304,12 +282,12 @@ int write_report(const Report& report, const std::string& dir, std::string& note
         continue;
       }
       figures += fmt::format("<figure id=\"{}\">{}<figcaption>{}</figcaption></figure>\n", f.name,
-                             inline_svg(read_file(svg.string())), html_escape(f.title));
+                             inline_svg(read_file(svg.string())), markup_escaped(f.title));
       ++drawn;
     }
   }
   std::string html = "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>" +
-                     html_escape(report.title) +
+                     markup_escaped(report.title) +
                      "</title>\n<style>\n"
                      "body{font-family:sans-serif;margin:2em;max-width:1000px;color:#222}\n"
                      "table{border-collapse:collapse;margin:1em 0;font-size:90%}\n"
@@ -320,9 +298,9 @@ int write_report(const Report& report, const std::string& dir, std::string& note
                      "#outcome{padding:0.6em 1em;border:2px solid #2a7;background:#efe}\n"
                      "#outcome.unusable{border-color:#c22;background:#fee}\n"
                      "#outcome ul{margin:0.3em 0}\n</style></head><body>\n";
-  html += "<h1>" + html_escape(report.title) + "</h1>\n";
+  html += "<h1>" + markup_escaped(report.title) + "</h1>\n";
   html += outcome_html(report.outcome);
-  if (!note.empty()) html += "<p class=\"note\">" + html_escape(note) + "</p>\n";
+  if (!note.empty()) html += "<p class=\"note\">" + markup_escaped(note) + "</p>\n";
   for (const std::string& section : report.sections) html += section;
   html += figures + "</body></html>\n";
   write_file_atomically((fs::path(dir) / "report.html").string(), html);

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "hapticcal/core/error.hpp"
 #include "hapticcal/report/iso9283_report.hpp"
 #include "hapticcal/report/report.hpp"
 #include "hapticcal/study/evaluate.hpp"
@@ -168,7 +169,7 @@ void parameter_tables(const Scenario& sc, const StudyResult& r, Report& report) 
         "false): a parameter it holds at nominal in some trials is estimated with a bias, so its "
         "RMSE / CRLB (the bound of the unbiased full model) may fall below 1.";
   }
-  if (!notes.empty()) report.sections.push_back("<p>" + html_escape(notes) + "</p>\n");
+  if (!notes.empty()) report.sections.push_back("<p>" + markup_escaped(notes) + "</p>\n");
 }
 
 // Fig. 7: the parallelogram joint's error.

@@ -40,6 +40,10 @@ class IoError : public std::runtime_error {
 // is not valid UTF-8 written as \xNN. Used wherever an InputError echoes input.
 std::string printable(const std::string& text, std::size_t max_chars = 40);
 
+// `text` in XML or HTML, as character data or a double-quoted attribute's
+// value: & < > and " as their entities (a report's text, a URDF's names).
+std::string markup_escaped(const std::string& text);
+
 // `text` with every occurrence of `from` (not empty) replaced by `to`, left to
 // right (a replacement is not searched again): a message reworded for its
 // reader, e.g. a command-line option named as the scenario key that set it.
