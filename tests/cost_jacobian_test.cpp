@@ -14,9 +14,9 @@
 #include "hapticcal/identification/derivative_check.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/study/simulation.hpp"
-#include "identification/capstan_cost.hpp"
 #include "identification/families/family.hpp"
-#include "identification/measurement_cost.hpp"
+#include "identification/problem/capstan_cost.hpp"
+#include "identification/problem/measurement_cost.hpp"
 #include "test_models.hpp"
 
 namespace hapticcal {

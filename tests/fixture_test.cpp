@@ -17,7 +17,7 @@
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/simulation.hpp"
-#include "identification/stack.hpp"
+#include "identification/problem/stack.hpp"
 #include "nlohmann/json.hpp"
 #include "run_cli.hpp"
 #include "test_models.hpp"

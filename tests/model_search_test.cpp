@@ -16,9 +16,9 @@
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/paper.hpp"
 #include "hapticcal/study/simulation.hpp"
-#include "identification/held_out.hpp"
-#include "identification/prior.hpp"
-#include "identification/stack.hpp"
+#include "identification/problem/stack.hpp"
+#include "identification/search/held_out.hpp"
+#include "identification/search/prior.hpp"
 #include "support/held_out.hpp"
 #include "support/test_models.hpp"
 

@@ -1,6 +1,6 @@
 // The tolerance prior of step 2 (issue 25): its evidence against the marginal
 // likelihood written out over the measurements, and what it does in calibrate.
-#include "identification/prior.hpp"
+#include "identification/search/prior.hpp"
 
 #include <gtest/gtest.h>
 

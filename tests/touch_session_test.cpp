@@ -132,9 +132,9 @@ TEST(TouchSession, OutliersAtFastMotionAreSaidToBeTheClocks) {
   std::vector<std::pair<double, int>> by_speed;  // (tool speed, tracker line)
   for (int r = 1; r + 1 < s.tracker.rows; ++r) {
     const auto row = [&](int k) { return s.device.q.row(k).transpose().eval(); };
-    const double speed = (touch.forward(row(r + 1).data()).p - touch.forward(row(r - 1).data()).p)
-                             .norm() /
-                         (s.device.t[r + 1] - s.device.t[r - 1]);
+    const double speed =
+        (touch.forward(row(r + 1).data()).p - touch.forward(row(r - 1).data()).p).norm() /
+        (s.device.t[r + 1] - s.device.t[r - 1]);
     by_speed.emplace_back(speed, s.tracker.line[static_cast<size_t>(r)]);
   }
   std::sort(by_speed.rbegin(), by_speed.rend());

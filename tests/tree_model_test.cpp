@@ -16,7 +16,7 @@
 #include "hapticcal/model_io/device.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "held_out.hpp"
-#include "identification/stack.hpp"
+#include "identification/problem/stack.hpp"
 #include "kdl_urdf.hpp"
 #include "test_models.hpp"
 

@@ -25,10 +25,10 @@
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "identification/calibration_run.hpp"
 #include "identification/families/family.hpp"
-#include "identification/measurement_cost.hpp"
-#include "identification/prior.hpp"
-#include "identification/solver_options.hpp"
-#include "identification/stack.hpp"
+#include "identification/problem/measurement_cost.hpp"
+#include "identification/problem/solver_options.hpp"
+#include "identification/problem/stack.hpp"
+#include "identification/search/prior.hpp"
 
 namespace hapticcal {
 namespace {

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "hapticcal/identification/identification.hpp"
-#include "identification/stack.hpp"
+#include "identification/problem/stack.hpp"
 
 namespace hapticcal::detail {
 

@@ -9,8 +9,8 @@
 #include "hapticcal/identification/registration.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/evaluate.hpp"
-#include "identification/measurement_cost.hpp"
-#include "identification/solver_options.hpp"
+#include "identification/problem/measurement_cost.hpp"
+#include "identification/problem/solver_options.hpp"
 
 namespace hapticcal {
 namespace {

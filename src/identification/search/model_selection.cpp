@@ -17,9 +17,9 @@
 #include <tuple>
 
 #include "hapticcal/identification/identification.hpp"
-#include "identification/held_out.hpp"
-#include "identification/measurement_cost.hpp"
-#include "identification/stack.hpp"
+#include "identification/problem/measurement_cost.hpp"
+#include "identification/problem/stack.hpp"
+#include "identification/search/held_out.hpp"
 
 namespace hapticcal {
 namespace {

@@ -16,7 +16,7 @@
 #include "hapticcal/identification/stream.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "identification/calibration_run.hpp"
-#include "identification/stack.hpp"
+#include "identification/problem/stack.hpp"
 
 namespace hapticcal {
 namespace {

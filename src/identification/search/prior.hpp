@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "identification/stack.hpp"
+#include "identification/problem/stack.hpp"
 
 namespace hapticcal::detail {
 

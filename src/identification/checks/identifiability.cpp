@@ -17,9 +17,9 @@
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/registration.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
-#include "identification/measurement_cost.hpp"
-#include "identification/solver_options.hpp"
-#include "identification/stack.hpp"
+#include "identification/problem/measurement_cost.hpp"
+#include "identification/problem/solver_options.hpp"
+#include "identification/problem/stack.hpp"
 
 namespace hapticcal {
 namespace {

@@ -12,8 +12,11 @@
 #include <vector>
 
 #include "hapticcal/identification/identification.hpp"
-#include "identification/calibration_run.hpp"
-#include "identification/held_out.hpp"
+#include "identification/search/held_out.hpp"
+
+namespace hapticcal::detail {
+struct CalibrationRun;  // calibration_run.hpp: the run the search fits on
+}  // namespace hapticcal::detail
 
 namespace hapticcal::detail::search {
 

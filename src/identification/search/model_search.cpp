@@ -5,7 +5,7 @@
 // one standard error of the best kept, and that one concluded. Families are
 // added forward: each round offers every family not yet in the kept set, and
 // the search stops when the kept model is not one of the new round's.
-#include "identification/model_search.hpp"
+#include "identification/search/model_search.hpp"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -26,8 +26,8 @@
 #include "hapticcal/core/parallel.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "identification/calibration_run.hpp"
-#include "identification/held_out.hpp"
-#include "identification/solver_options.hpp"
+#include "identification/problem/solver_options.hpp"
+#include "identification/search/held_out.hpp"
 
 namespace hapticcal {
 

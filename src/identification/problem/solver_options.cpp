@@ -1,6 +1,6 @@
 // The Levenberg-Marquardt settings of both identification steps
 // (solver_options.hpp), and the process-wide quieting of Ceres' glog.
-#include "identification/solver_options.hpp"
+#include "identification/problem/solver_options.hpp"
 
 #include <glog/logging.h>
 

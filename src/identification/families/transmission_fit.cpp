@@ -9,8 +9,8 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/identification.hpp"
-#include "identification/capstan_cost.hpp"
-#include "identification/solver_options.hpp"
+#include "identification/problem/capstan_cost.hpp"
+#include "identification/problem/solver_options.hpp"
 
 namespace hapticcal {
 namespace {

@@ -4,7 +4,7 @@
 #include <optional>
 
 #include "hapticcal/kinematics/kinematics.hpp"
-#include "identification/measurement_cost.hpp"
+#include "identification/problem/measurement_cost.hpp"
 
 namespace hapticcal {
 

@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "hapticcal/identification/identification.hpp"
-#include "identification/prior.hpp"
-#include "identification/stack.hpp"
+#include "identification/problem/stack.hpp"
+#include "identification/search/prior.hpp"
 
 namespace hapticcal::detail {
 

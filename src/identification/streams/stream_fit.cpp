@@ -17,7 +17,7 @@
 #include "hapticcal/identification/tree.hpp"
 #include "hapticcal/identification/two_step.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
-#include "identification/stack.hpp"
+#include "identification/problem/stack.hpp"
 
 namespace hapticcal {
 namespace {

@@ -2,7 +2,7 @@
 // interpolation"; Bishop, Pattern Recognition and Machine Learning, sec. 3.5):
 // the linearised problem's marginal likelihood as a function of the prior's
 // weight lambda, with the noise sd at its optimum for each lambda.
-#include "identification/prior.hpp"
+#include "identification/search/prior.hpp"
 
 #include <fmt/format.h>
 

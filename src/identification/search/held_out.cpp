@@ -1,6 +1,6 @@
 // The honest held-out error of step 2's candidate models (held_out.hpp): each
 // estimator re-run on each fold's normal equations.
-#include "identification/held_out.hpp"
+#include "identification/search/held_out.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -8,7 +8,7 @@
 #include <limits>
 #include <numeric>
 
-#include "identification/measurement_cost.hpp"
+#include "identification/problem/measurement_cost.hpp"
 
 namespace hapticcal::detail {
 namespace {

@@ -9,8 +9,9 @@
 #include <cmath>
 #include <numeric>
 
-#include "identification/model_search.hpp"
-#include "identification/stack.hpp"
+#include "identification/calibration_run.hpp"
+#include "identification/problem/stack.hpp"
+#include "identification/search/model_search.hpp"
 
 namespace hapticcal::detail::search {
 

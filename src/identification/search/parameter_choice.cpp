@@ -8,7 +8,7 @@
 #include <limits>
 
 #include "identification/calibration_run.hpp"
-#include "identification/prior.hpp"
+#include "identification/search/prior.hpp"
 
 namespace hapticcal::detail {
 namespace {

@@ -11,7 +11,7 @@
 
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
-#include "identification/measurement_cost.hpp"
+#include "identification/problem/measurement_cost.hpp"
 
 namespace ceres {
 class CostFunction;
