@@ -33,6 +33,7 @@
 #include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/jobs/evaluate_job.hpp"
 #include "hapticcal/jobs/force_job.hpp"
+#include "hapticcal/jobs/iso_plan_job.hpp"
 #include "hapticcal/jobs/plan_job.hpp"
 #include "hapticcal/jobs/simulate_job.hpp"
 #include "hapticcal/kinematics/inverse.hpp"
@@ -271,7 +272,7 @@ py::object evaluate(const std::variant<Model, std::string>& model_arg, const std
                     const std::optional<std::variant<Model, std::string>>& reference,
                     const Text& tip_arg, const Text& root_arg, const Text& register_arg,
                     const Text& out_arg, const Text& tracker_arg, double clock_search,
-                    bool clock_drift) {
+                    bool clock_drift, const Text& iso9283_arg, const Text& conditions_arg) {
   // The command line's job (jobs/evaluate_job.hpp), from keywords.
   EvaluateRequest request;
   request.tip = text(tip_arg);
@@ -300,24 +301,61 @@ py::object evaluate(const std::variant<Model, std::string>& model_arg, const std
   request.tracker = text(tracker_arg);
   request.stream.search_range = clock_search;
   request.stream.drift = clock_drift;
+  request.iso9283 = text(iso9283_arg);
+  request.conditions = text(conditions_arg);
   EvaluateJob job;
   job = interruptible([&] { return run_evaluate_job(request); });
   return parsed(job.json);
 }
 
-py::dict plan(const std::variant<Model, std::string>& model_arg, const std::string& measurement,
+// plan(iso9283=True): the standard's test cube (jobs/iso_plan_job.hpp).
+py::dict iso_plan(const std::string& model_path, const std::string& tip, const std::string& root,
+                  const std::optional<Numbers>& cube_centre, double cube_size, int cycles,
+                  const std::string& out) {
+  IsoPlanRequest request;
+  request.model = model_path;
+  request.tip = tip;
+  request.root = root;
+  request.cube_centre = fixed_numbers<3>(cube_centre, "cube_centre");
+  request.cube_size = cube_size;
+  request.cycles = cycles;
+  IsoPlanJob job;
+  job = interruptible([&] { return run_iso_plan_job(request, out); });
+  Eigen::MatrixXd readings(static_cast<Eigen::Index>(job.plan.poses.size()), job.model.dof());
+  for (size_t k = 0; k < job.plan.poses.size(); ++k)
+    readings.row(static_cast<Eigen::Index>(k)) = job.plan.poses[k].readings.transpose();
+  return py::dict("plan"_a = parsed(job.json), "readings"_a = readings, "out"_a = out,
+                  "files"_a = std::vector<std::string>{out + "/plan.csv", out + "/iso9283.json",
+                                                       out + "/report.html"});
+}
+
+py::dict plan(const std::variant<Model, std::string>& model_arg, const Text& measurement_arg,
               int poses, const Text& candidates_arg, const std::optional<Names>& columns,
               const std::string& criterion, unsigned long long seed, double sigma, double sigma_e,
               const std::optional<Numbers>& distance_range, const std::optional<Numbers>& box,
               int refine_passes, const std::optional<Names>& fix, const std::optional<Names>& free,
-              int pool, const Text& tip_arg, const Text& root_arg, const Text& out_arg) {
+              int pool, const Text& tip_arg, const Text& root_arg, const Text& out_arg,
+              bool iso9283, const std::optional<Numbers>& cube_centre, double cube_size,
+              int cycles) {
   const std::string* path = std::get_if<std::string>(&model_arg);
   const std::string model_path = path ? *path : std::get<Model>(model_arg).path;
   if (model_path.empty()) {
     throw InputError("plan: the model must be a file (save a Model changed in Python first)");
   }
-  const std::string candidates = text(candidates_arg), tip = text(tip_arg), root = text(root_arg),
+  const std::string measurement = text(measurement_arg), candidates = text(candidates_arg),
+                    tip = text(tip_arg), root = text(root_arg),
                     out = out_arg.value_or("hapticcal-out/plan");
+  if (iso9283) {
+    if (!measurement.empty() || poses != 0 || !candidates.empty())
+      throw InputError(
+          "plan(iso9283=True): the test's poses are the standard's: no measurement, poses or "
+          "candidates");
+    return iso_plan(model_path, tip, root, cube_centre, cube_size, cycles, out);
+  }
+  if (cube_centre || cube_size != 0 || cycles != 30)
+    throw InputError("plan: cube_centre, cube_size and cycles apply to iso9283=True");
+  if (measurement.empty() || poses == 0)
+    throw InputError("plan: measurement and poses are required (or iso9283=True)");
   // The command line's ranges; 0 (-1 for refine_passes) keeps a default.
   namespace range = option_range;
   check_option("--poses", poses, range::kPlanPoses, true);
@@ -618,18 +656,23 @@ PYBIND11_MODULE(hapticcal, m) {
         "point_distance"_a = py::none(), "fixture"_a = py::none(), "reference"_a = py::none(),
         "tip"_a = py::none(), "root"_a = py::none(), "register"_a = py::none(),
         "out"_a = py::none(), "tracker"_a = py::none(), "clock_search"_a = 10.0,
-        "clock_drift"_a = false,
+        "clock_drift"_a = false, "iso9283"_a = py::none(), "conditions"_a = py::none(),
         "hapticcal evaluate --json: the same keys, in metres (register='frame' or "
         "'frame,tool' as --register; out: a folder, the command line's report.html and "
         "results.json; tracker: a second session's tracker stream, log its device stream, the "
-        "clocks aligned with the model held, 'clock' in the result)");
-  m.def("plan", &plan, "model"_a, "measurement"_a, "poses"_a, py::kw_only(),
+        "clocks aligned with the model held, 'clock' in the result; iso9283: the plan.csv of "
+        "plan(iso9283=True) the log follows, 'iso9283' in the result, conditions for its "
+        "report)");
+  m.def("plan", &plan, "model"_a, "measurement"_a = py::none(), "poses"_a = 0, py::kw_only(),
         "candidates"_a = py::none(), "columns"_a = py::none(), "criterion"_a = "i", "seed"_a = 1ULL,
         "sigma"_a = 0.0, "sigma_e"_a = 0.0, "distance_range"_a = py::none(), "box"_a = py::none(),
         "refine_passes"_a = -1, "fix"_a = py::none(), "free"_a = py::none(), "pool"_a = 0,
         "tip"_a = py::none(), "root"_a = py::none(), "out"_a = "hapticcal-out/plan",
+        "iso9283"_a = false, "cube_centre"_a = py::none(), "cube_size"_a = 0.0, "cycles"_a = 30,
         "hapticcal plan: writes plan.csv, plan.json and the report into out; returns "
-        "dict(plan=plan.json parsed, readings=poses x dof array, out, files)");
+        "dict(plan=plan.json parsed, readings=poses x dof array, out, files). iso9283=True: "
+        "the ISO 9283 test cube instead (cube_centre [x, y, z] m and cube_size m, else "
+        "searched; cycles), plan the parsed iso9283.json, readings those of P1..P5");
   m.def("simulate", &simulate, "scenario"_a = py::none(), py::kw_only(), "trials"_a = 0,
         "seed"_a = -1LL, "threads"_a = 0, "device"_a = py::none(), "tip"_a = py::none(),
         "root"_a = py::none(), "out"_a = "hapticcal-out/simulate",

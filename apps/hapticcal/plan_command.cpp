@@ -18,6 +18,7 @@
 #include "hapticcal/design/plan.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/jobs/calibrate_job.hpp"
+#include "hapticcal/jobs/iso_plan_job.hpp"
 #include "hapticcal/jobs/plan_job.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/report/iso9283_report.hpp"
@@ -92,104 +93,30 @@ CLI::App* add_plan_command(CLI::App& app, PlanCommandOptions& options) {
   return plan;
 }
 
-namespace {
-
-// How the cube was found (iso9283.json's "search").
-nlohmann::ordered_json iso_search_json(const IsoCubeSearch& s) {
-  return {{"centre", s.centre_given ? "given" : "searched over the workspace"},
-          {"size", s.size_given ? "given" : "the largest that fits"},
-          {"candidates", s.candidates},
-          {"moves", s.moves},
-          {"seed", s.seed},
-          {"stopped", s.stopped},
-          {"fits",
-           "the five poses reached within the joint limits away from singularities "
-           "(smallest singular value of the Jacobian by the readings at least " +
-               fmt::format("{:g}", kIsoAwayFromSingular) +
-               " m/rad, rotation at 0.1 m/rad), the eight corners within reach"},
-          {"text", iso_search_text(s)}};
-}
-
-}  // namespace
-
-// plan --iso9283: the test cube and its poses; plan.csv holds a row a pose
-// visited (q1..qN and its label in `point`, cycle after cycle), iso9283.json
-// the cube and the poses.
+// plan --iso9283: the test cube and its poses (jobs/iso_plan_job.hpp).
 int run_iso_plan(const PlanCommandOptions& options) {
   const PlanRequest& o = options.request;
   if (!o.measurement.empty() || o.poses != 0 || !o.candidates.empty())
     throw InputError(
         "--iso9283: the test's poses are the standard's: no --measurement, --poses "
         "or --candidates");
-  const DeviceModel model = load_model(o.model, o.tip, o.root);
-  IsoCubeOptions cube;
-  if (!options.cube_centre.empty()) {
-    const std::array<double, 3> c = numbers<3>(options.cube_centre, "--cube-centre");
-    cube.centre = Eigen::Vector3d(c[0], c[1], c[2]);
-  }
-  if (options.cube_size > 0) cube.size = options.cube_size;
-  cube.cycles = options.cycles;
-  OutputSet out(options.out, "plan");
-  const IsoCubePlan plan = plan_iso_cube(model, cube);
-  std::string csv;
-  for (int i = 1; i <= model.dof(); ++i) csv += fmt::format("q{},", i);
-  csv += "point\n";
-  for (int cycle = 0; cycle < plan.cycles; ++cycle) {
-    for (int k : plan.order) {
-      const IsoTestPose& p = plan.poses[static_cast<size_t>(k)];
-      for (int i = 0; i < model.dof(); ++i) csv += fmt::format("{:.17g},", p.readings[i]);
-      csv += p.label + "\n";
-    }
-  }
-  nlohmann::ordered_json poses = nlohmann::ordered_json::array();
-  for (const IsoTestPose& p : plan.poses) {
-    const Eigen::Vector3d rpy = matrix_rpy(p.pose.R);
-    poses.push_back({{"pose", p.label},
-                     {"xyz", {p.pose.p.x(), p.pose.p.y(), p.pose.p.z()}},
-                     {"rpy", {rpy[0], rpy[1], rpy[2]}},
-                     {"readings", std::vector<double>(p.readings.data(),
-                                                      p.readings.data() + p.readings.size())}});
-  }
-  nlohmann::ordered_json corners = nlohmann::ordered_json::array();
-  for (const Eigen::Vector3d& c : plan.corners) corners.push_back({c.x(), c.y(), c.z()});
-  const nlohmann::ordered_json json = {
-      {"format", "hapticcal-iso9283-plan/1"},
-      {"model", o.model},
-      {"centre", {plan.centre.x(), plan.centre.y(), plan.centre.z()}},
-      {"size", plan.size},
-      {"plane", "C1-C2-C7-C8"},
-      {"corners", corners},
-      {"orientation_held", plan.orientation_held},
-      {"search", iso_search_json(plan.search)},
-      {"cycles", plan.cycles},
-      {"order", {"P1", "P5", "P4", "P3", "P2"}},
-      {"poses", poses}};
-  write_file_atomically(out.dir() + "/plan.csv", csv);
-  write_file_atomically(out.dir() + "/iso9283.json", json.dump(2) + "\n");
-  std::string note;
-  const int figures = write_report(iso_plan_report(model, plan), out.dir(), note);
-  out.commit();
-  fmt::print("hapticcal plan --iso9283: {} ({} joints)\n", model.name, model.dof());
-  fmt::print(
-      "  test cube: edge {:.1f} mm about ({:.1f}, {:.1f}, {:.1f}) mm, its edges along the base "
-      "frame's axes; measuring plane C1-C2-C7-C8\n  {}\n",
-      plan.size * 1e3, plan.centre.x() * 1e3, plan.centre.y() * 1e3, plan.centre.z() * 1e3,
-      iso_search_text(plan.search));
-  for (const IsoTestPose& p : plan.poses) {
-    fmt::print("  {}: ({:9.3f}, {:9.3f}, {:9.3f}) mm\n", p.label, p.pose.p.x() * 1e3,
-               p.pose.p.y() * 1e3, p.pose.p.z() * 1e3);
-  }
-  fmt::print("  {}; {} cycles of P1, P5, P4, P3, P2 ({} rows)\n",
-             plan.orientation_held ? "every pose at the centre's orientation"
-                                   : "orientation not held (fewer than six joints)",
-             plan.cycles, plan.cycles * 5);
-  fmt::print("report: {}/report.html ({} figure{})\n", options.out, figures,
-             figures == 1 ? "" : "s");
-  if (!note.empty()) fmt::print("note: {}\n", note);
-  fmt::print("{}", output_summary(out, options.out,
+  IsoPlanRequest request;
+  request.model = o.model;
+  request.tip = o.tip;
+  request.root = o.root;
+  if (!options.cube_centre.empty())
+    request.cube_centre = numbers<3>(options.cube_centre, "--cube-centre");
+  request.cube_size = options.cube_size;
+  request.cycles = options.cycles;
+  const IsoPlanJob job = run_iso_plan_job(request, options.out);
+  for (const std::string& line : job.lines) fmt::print("{}\n", line);
+  fmt::print("report: {}/report.html ({} figure{})\n", options.out, job.figures,
+             job.figures == 1 ? "" : "s");
+  if (!job.report_note.empty()) fmt::print("note: {}\n", job.report_note);
+  fmt::print("{}", output_summary(*job.out, options.out,
                                   fmt::format(" (plan.csv: q1..q{} in radians and the pose's "
                                               "label, a row a pose visited)",
-                                              model.dof())));
+                                              job.model.dof())));
   return 0;
 }
 

@@ -526,6 +526,44 @@ def test_plan_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
         hapticcal.plan(MECA, "position", 12, distance_range=[0.2], out=str(py_out))
 
 
+def test_iso_plan_and_its_test_are_the_cli_s(tmp_path):
+    """plan(iso9283=True) runs the command line's ISO 9283 job (jobs/iso_plan_job.hpp): the same
+    folders byte for byte, the cube the terminal prints; evaluate(iso9283=...) scores a log that
+    follows its plan.csv as evaluate --iso9283 does."""
+    cli_out, py_out = tmp_path / "cli", tmp_path / "py"
+    code, stdout, stderr = cli("plan", "--model", MECA, "--iso9283", "--cycles", "3",
+                               "--out", str(cli_out))
+    assert code == 0, stderr
+    r = hapticcal.plan(MECA, iso9283=True, cycles=3, out=str(py_out))
+    files = same_folders(cli_out, py_out)
+    assert "plan.csv" in files and "iso9283.json" in files
+    assert r["plan"] == json.loads((cli_out / "iso9283.json").read_text())
+    assert f"test cube: edge {r['plan']['size'] * 1e3:.1f} mm" in stdout
+    assert r["readings"].shape == (5, 6)
+    with pytest.raises(ValueError, match="apply to iso9283=True"):
+        hapticcal.plan(MECA, "position", 12, cycles=5, out=str(py_out))
+    with pytest.raises(ValueError, match="no measurement, poses or candidates"):
+        hapticcal.plan(MECA, "position", 12, iso9283=True, out=str(py_out))
+    # The test measured: the model's own tool points, 20 um off at P1.
+    m = hapticcal.load_model(MECA)
+    rows = (cli_out / "plan.csv").read_text().splitlines()
+    log = tmp_path / "test.csv"
+    with open(log, "w") as f:
+        f.write(rows[0] + ",x,y,z\n")
+        for line in rows[1:]:
+            cells = line.split(",")
+            p = m.forward(np.array([float(c) for c in cells[:6]]))[:3, 3]
+            if cells[6] == "P1":
+                p = p + np.array([2e-5, 0, 0])
+            f.write(line + "," + ",".join(repr(float(v)) for v in p) + "\n")
+    code, stdout, stderr = cli("evaluate", "--model", MECA, "--log", str(log), "--iso9283",
+                               str(cli_out / "plan.csv"), "--json")
+    assert code == 0, stderr
+    ev = hapticcal.evaluate(MECA, str(log), iso9283=str(cli_out / "plan.csv"))
+    assert_same(ev, json.loads(stdout))
+    assert "iso9283" in ev
+
+
 def test_simulate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
     """simulate runs one job (jobs/simulate_job.hpp) for both front ends: the same folders, byte
     for byte (trial logs, results.json, the report and its figures)."""
