@@ -238,11 +238,14 @@ double significance_threshold(double alpha, int parameters, double dof) {
   const auto key = std::make_tuple(alpha, parameters, dof);
   if (const auto it = known.find(key); it != known.end()) return it->second;
   if (known.size() > 100000) known.clear();
-  // P(|T| > t) = alpha / k, by bisection on x = nu / (nu + t^2) in (0, 1].
+  // P(|T| > t) = alpha / k, by bisection on x = nu / (nu + t^2) in (0, 1],
+  // until the midpoint is one of the ends (lo and hi adjacent doubles: further
+  // halvings would change nothing).
   const double p = alpha / std::max(parameters, 1);
   double lo = 0, hi = 1;
   for (int i = 0; i < 200; ++i) {
     const double x = 0.5 * (lo + hi);
+    if (x == lo || x == hi) break;
     (incomplete_beta(x, dof / 2, 0.5) < p ? lo : hi) = x;
   }
   const double x = 0.5 * (lo + hi);
