@@ -81,7 +81,10 @@ void check_joint_ranges(const Log& log, const DeviceModel& model, bool force,
     for (int r = 0; r < log.rows; ++r) {
       const double value = model.coupling.row(i).dot(log.q.row(r));
       if (value >= link.range_lower - play && value <= link.range_upper + play) continue;
-      if (out++ == 0) first = r, first_value = value;
+      if (out++ == 0) {
+        first = r;
+        first_value = value;
+      }
     }
     if (out == 0) continue;
     const char* unit = link.prismatic() ? "m" : "rad";
