@@ -27,7 +27,8 @@ inline constexpr int kSignalPollMs = 50;
 // interpreter's, looks for signals every 50 ms: on Ctrl-C the job is cancelled
 // (core/cancel.hpp) and unwinds at its solver's next iteration without
 // committing its output set (the previous one stays), and KeyboardInterrupt is
-// raised here.
+// raised here; a job that finished before it saw the request returns its
+// result with a RuntimeWarning.
 template <class Job>
 auto interruptible(Job&& job) {
   reset_cancel();
@@ -47,7 +48,24 @@ auto interruptible(Job&& job) {
     }
     worker.join();
   }
-  if (interrupted) throw py::error_already_set();
+  if (interrupted) {
+    // The job may have finished (its output set committed) before it saw the
+    // request: its result then stands, and the Ctrl-C is said, not raised as
+    // if the previous results were kept.
+    try {
+      auto value = result.get();
+      PyErr_Clear();
+      if (PyErr_WarnEx(PyExc_RuntimeWarning,
+                       "hapticcal: Ctrl-C came as the job finished: its results are written",
+                       1) != 0)
+        throw py::error_already_set();
+      return value;
+    } catch (const py::error_already_set&) {
+      throw;
+    } catch (...) {
+      throw py::error_already_set();  // the KeyboardInterrupt set above
+    }
+  }
   return result.get();
 }
 
