@@ -272,7 +272,8 @@ py::object evaluate(const std::variant<Model, std::string>& model_arg, const std
                     const std::optional<std::variant<Model, std::string>>& reference,
                     const Text& tip_arg, const Text& root_arg, const Text& register_arg,
                     const Text& out_arg, const Text& tracker_arg, double clock_search,
-                    bool clock_drift, const Text& iso9283_arg, const Text& conditions_arg) {
+                    bool clock_drift, const Text& iso9283_arg, const Text& conditions_arg,
+                    const Text& markers_arg) {
   // The command line's job (jobs/evaluate_job.hpp), from keywords.
   EvaluateRequest request;
   request.tip = text(tip_arg);
@@ -303,6 +304,8 @@ py::object evaluate(const std::variant<Model, std::string>& model_arg, const std
   request.stream.drift = clock_drift;
   request.iso9283 = text(iso9283_arg);
   request.conditions = text(conditions_arg);
+  if (!text(markers_arg).empty())
+    request.marker_body = parse_marker_body(text(markers_arg), "markers");
   EvaluateJob job;
   job = interruptible([&] { return run_evaluate_job(request); });
   return parsed(job.json);
@@ -657,12 +660,13 @@ PYBIND11_MODULE(hapticcal, m) {
         "tip"_a = py::none(), "root"_a = py::none(), "register"_a = py::none(),
         "out"_a = py::none(), "tracker"_a = py::none(), "clock_search"_a = 10.0,
         "clock_drift"_a = false, "iso9283"_a = py::none(), "conditions"_a = py::none(),
+        "markers"_a = py::none(),
         "hapticcal evaluate --json: the same keys, in metres (register='frame' or "
         "'frame,tool' as --register; out: a folder, the command line's report.html and "
         "results.json; tracker: a second session's tracker stream, log its device stream, the "
         "clocks aligned with the model held, 'clock' in the result; iso9283: the plan.csv of "
         "plan(iso9283=True) the log follows, 'iso9283' in the result, conditions for its "
-        "report)");
+        "report; markers: a marker body 'X1,Y1,Z1,...' as --markers)");
   m.def("plan", &plan, "model"_a, "measurement"_a = py::none(), "poses"_a = 0, py::kw_only(),
         "candidates"_a = py::none(), "columns"_a = py::none(), "criterion"_a = "i", "seed"_a = 1ULL,
         "sigma"_a = 0.0, "sigma_e"_a = 0.0, "distance_range"_a = py::none(), "box"_a = py::none(),

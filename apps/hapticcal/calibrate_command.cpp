@@ -115,6 +115,11 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
       ->check(within(option_range::kAngle));
   add_model_options(calibrate, o);
   calibrate
+      ->add_option("--threads", o.threads,
+                   "Threads of the model search (default: one a core; its choices do not "
+                   "depend on it)")
+      ->check(whole_number(option_range::kThreads));
+  calibrate
       ->add_option("--folds", o.folds,
                    "K of the K-fold cross-validated (held-out) RMS by pose (default 5; 0: none)")
       ->check(whole_number(option_range::kFolds));
@@ -210,6 +215,7 @@ int run_calibrate(const CalibrateOptions& o) {
   for (const std::string& item : o.tolerances) hapticcal::add_tolerance(options.tolerances, item);
   if (o.prior_scale > 0) options.tolerances.scale = o.prior_scale;
   options.folds = o.folds;
+  options.threads = o.threads;
   options.loss = hapticcal::robust_loss(o.loss);
   options.strict = o.strict;
   options.fix = names(o.fix);

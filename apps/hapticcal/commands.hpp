@@ -27,6 +27,7 @@ struct CalibrateOptions {
   double prior_scale = 0;               // 0: by the evidence
   std::string loss = "cauchy";
   int samples = 0, folds = 5;
+  int threads = 0;  // the model search's; 0: one a core
   unsigned long long seed = 1;
   double sigma = 0;
   int polynomial_order = 0;

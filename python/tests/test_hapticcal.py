@@ -10,6 +10,7 @@ import json
 import math
 import os
 import pathlib
+import re
 import signal
 import subprocess
 import threading
@@ -562,6 +563,29 @@ def test_iso_plan_and_its_test_are_the_cli_s(tmp_path):
     ev = hapticcal.evaluate(MECA, str(log), iso9283=str(cli_out / "plan.csv"))
     assert_same(ev, json.loads(stdout))
     assert "iso9283" in ev
+
+
+def test_every_command_option_is_a_keyword_and_back():
+    """Each command's options (its --help) and its Python function's keywords name the same
+    things: a difference is an option one front end lacks. The differences that are not:
+    --no-search is search=False, --json is the command line's way to print what Python
+    returns, and the positional inputs (convert's input and output, import's recording)."""
+    commands = {"calibrate": "calibrate", "evaluate": "evaluate", "plan": "plan",
+                "simulate": "simulate", "force": "force", "convert": "convert",
+                "import": "import_recording", "compensate": "compensate"}
+    same = {"no_search": "search"}
+    cli_only = {"json"}
+    python_only = {"input", "output", "recording"}
+    for command, function in commands.items():
+        signature = getattr(hapticcal, function).__doc__.split("\n")[0]
+        keywords = set(re.findall(r"(\w+):", signature.split("(", 1)[1]))
+        code, stdout, stderr = cli(command, "--help")
+        assert code == 0, stderr
+        options = {same.get(o.replace("-", "_"), o.replace("-", "_"))
+                   for o in re.findall(r"^\s+(?:-\w, )?--([a-z0-9-]+)", stdout, re.M)}
+        options.discard("help")
+        assert options - keywords - cli_only == set(), command
+        assert keywords - options - python_only == set(), command
 
 
 def test_simulate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
