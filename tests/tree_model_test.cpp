@@ -23,6 +23,33 @@
 namespace hapticcal {
 namespace {
 
+// The chains' parameters and readings by the tree's slots and joints (its
+// slot_of and joint_of), the reference tree_model is checked against.
+Eigen::VectorXd tree_values(const DeviceTree& tree) {
+  Eigen::VectorXd out(tree.num_slots());
+  for (size_t c = 0; c < tree.chains.size(); ++c) {
+    const Eigen::VectorXd v = tree.chains[c].kinematic_parameters();
+    for (Eigen::Index k = 0; k < v.size(); ++k) out[tree.slot_of[c][static_cast<size_t>(k)]] = v[k];
+  }
+  return out;
+}
+
+void set_tree_values(DeviceTree& tree, const Eigen::VectorXd& values) {
+  for (size_t c = 0; c < tree.chains.size(); ++c) {
+    const std::vector<int>& map = tree.slot_of[c];
+    Eigen::VectorXd v(static_cast<Eigen::Index>(map.size()));
+    for (size_t k = 0; k < map.size(); ++k) v[static_cast<Eigen::Index>(k)] = values[map[k]];
+    tree.chains[c].set_kinematic_parameters(v);
+  }
+}
+
+Eigen::VectorXd chain_reading(const DeviceTree& tree, const Eigen::VectorXd& reading, int chain) {
+  const std::vector<int>& map = tree.joint_of[static_cast<size_t>(chain)];
+  Eigen::VectorXd out(static_cast<Eigen::Index>(map.size()));
+  for (size_t k = 0; k < map.size(); ++k) out[static_cast<Eigen::Index>(k)] = reading[map[k]];
+  return out;
+}
+
 const std::string kTwoArm = HAPTICCAL_SOURCE_DIR "/examples/two-arm/two_arm.urdf";
 const std::vector<std::string> kHands{"left_hand", "right_hand"};
 
@@ -163,18 +190,18 @@ TEST(TreeModel, EachTipMatchesKdlAndTheChains) {
   const std::vector<ParameterInfo> info = moved.parameter_info();
   ASSERT_EQ(info.size(), tree.parameters.size());
   for (const ParameterInfo& p : info) by_name[p.name] = v[p.slot];
-  Eigen::VectorXd tv = moved_tree.values();
+  Eigen::VectorXd tv = tree_values(moved_tree);
   for (const ParameterInfo& p : tree.parameters) {
     ASSERT_TRUE(by_name.count(p.name)) << p.name;
     tv[p.slot] = by_name[p.name];
   }
-  moved_tree.set_values(tv);
+  set_tree_values(moved_tree, tv);
   for (int tip = 0; tip < 2; ++tip) {
     const PreparedModel chain(moved_tree.chains[static_cast<size_t>(tip)]);
     for (int trial = 0; trial < 10; ++trial) {
       Eigen::VectorXd q(m.dof());
       for (int j = 0; j < m.dof(); ++j) q[j] = uniform(rng);
-      const Eigen::VectorXd qc = moved_tree.chain_reading(q, tip);
+      const Eigen::VectorXd qc = chain_reading(moved_tree, q, tip);
       const Frame<double> want = chain.forward(qc.data());
       const Frame<double> got = tip_frame(moved, tip, q);
       EXPECT_LT((got.p - want.p).norm(), 1e-12);
@@ -192,7 +219,7 @@ struct Truth {
 };
 Truth truth(std::uint64_t seed) {
   Truth t{two_arm_tree(), {}};
-  Eigen::VectorXd v = t.chains.values();
+  Eigen::VectorXd v = tree_values(t.chains);
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   for (const ParameterInfo& p : t.chains.parameters) {
@@ -200,7 +227,7 @@ Truth truth(std::uint64_t seed) {
     v[p.slot] += (p.unit == ParameterUnit::kLength ? 1e-3 : 2e-3) * gauss(rng);
   }
   v.head<6>() << 1.2, -0.4, 0.3, 0.05, -0.1, 2.0;
-  t.chains.set_values(v);
+  set_tree_values(t.chains, v);
   t.model = tree_model(t.chains);
   return t;
 }
@@ -216,7 +243,7 @@ Log hands_log(const DeviceTree& chains, int rows, double sigma, std::uint64_t se
     for (int j = 0; j < chains.dof(); ++j) log.q(r, j) = uniform(rng);
     for (int c = 0; c < 2; ++c) {
       const PreparedModel chain(chains.chains[static_cast<size_t>(c)]);
-      const Eigen::VectorXd q = chains.chain_reading(log.q.row(r).transpose(), c);
+      const Eigen::VectorXd q = chain_reading(chains, log.q.row(r).transpose(), c);
       const Eigen::Vector3d p = chain.forward(q.data()).p;
       for (int x = 0; x < 3; ++x) log.markers(r, 3 * c + x) = p[x] + sigma * gauss(rng);
     }
@@ -252,7 +279,7 @@ TEST(TreeModel, TheChainsProblemHoldsATree) {
   for (int i = 0; i < samples.rows; ++i) {
     const int c = samples.tip[static_cast<size_t>(i)];
     const PreparedModel chain(nominal_chains.chains[static_cast<size_t>(c)]);
-    const Eigen::VectorXd q = nominal_chains.chain_reading(samples.q.row(i).transpose(), c);
+    const Eigen::VectorXd q = chain_reading(nominal_chains, samples.q.row(i).transpose(), c);
     const Eigen::Vector3d want = chain.forward(q.data()).p - samples.position.row(i).transpose();
     EXPECT_LT((r.segment<3>(3 * i) - want).norm(), 1e-12) << i;
   }
@@ -405,7 +432,7 @@ TEST(TreeModel, GravityLoadsEachJointWithItsSubtree) {
   for (int trial = 0; trial < 10; ++trial) {
     Eigen::VectorXd q(m.dof());
     for (int j = 0; j < m.dof(); ++j) q[j] = uniform(rng);
-    const Eigen::VectorXd ql = chains.chain_reading(q, 0), qr = chains.chain_reading(q, 1);
+    const Eigen::VectorXd ql = chain_reading(chains, q, 0), qr = chain_reading(chains, q, 1);
     std::array<double, kMaxDof> t, tl, tr, lt, ltl, ltr;
     tree.torques(q.data(), t.data());
     left.torques(ql.data(), tl.data());

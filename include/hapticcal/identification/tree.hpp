@@ -34,13 +34,6 @@ struct DeviceTree {
 
   int dof() const { return static_cast<int>(joints.size()); }
   int num_slots() const { return static_cast<int>(parameters.size()); }
-  // The tree's parameter vector (gathered from the chains) and its inverse.
-  Eigen::VectorXd values() const;
-  void set_values(const Eigen::VectorXd& values);
-  // Chain c's part of a tree parameter vector.
-  Eigen::VectorXd chain_values(const Eigen::VectorXd& values, int chain) const;
-  // Chain c's readings of a tree reading (dof values).
-  Eigen::VectorXd chain_reading(const Eigen::VectorXd& reading, int chain) const;
 };
 
 // The tree of these chains, chain c ending at tips[c]. InputError (one line)

@@ -45,34 +45,6 @@ bool same_joint(const Link& a, const Link& b) {
 
 }  // namespace
 
-Eigen::VectorXd DeviceTree::values() const {
-  Eigen::VectorXd out(num_slots());
-  for (size_t c = 0; c < chains.size(); ++c) {
-    const Eigen::VectorXd v = chains[c].kinematic_parameters();
-    for (Eigen::Index k = 0; k < v.size(); ++k) out[slot_of[c][static_cast<size_t>(k)]] = v[k];
-  }
-  return out;
-}
-
-void DeviceTree::set_values(const Eigen::VectorXd& values) {
-  for (size_t c = 0; c < chains.size(); ++c)
-    chains[c].set_kinematic_parameters(chain_values(values, static_cast<int>(c)));
-}
-
-Eigen::VectorXd DeviceTree::chain_values(const Eigen::VectorXd& values, int chain) const {
-  const std::vector<int>& map = slot_of[static_cast<size_t>(chain)];
-  Eigen::VectorXd out(static_cast<Eigen::Index>(map.size()));
-  for (size_t k = 0; k < map.size(); ++k) out[static_cast<Eigen::Index>(k)] = values[map[k]];
-  return out;
-}
-
-Eigen::VectorXd DeviceTree::chain_reading(const Eigen::VectorXd& reading, int chain) const {
-  const std::vector<int>& map = joint_of[static_cast<size_t>(chain)];
-  Eigen::VectorXd out(static_cast<Eigen::Index>(map.size()));
-  for (size_t k = 0; k < map.size(); ++k) out[static_cast<Eigen::Index>(k)] = reading[map[k]];
-  return out;
-}
-
 DeviceTree make_tree(std::vector<DeviceModel> chains, const std::vector<std::string>& tips) {
   if (chains.size() < 2 || chains.size() != tips.size())
     throw InputError("a tree needs two tips or more, one chain each");
