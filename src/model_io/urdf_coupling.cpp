@@ -73,7 +73,6 @@ void couple_mimics(const std::vector<ChainMimic>& mimics, const std::string& ori
   model.coupling = C;
 }
 
-
 // A joint's <hapticcal_coupling> elements (none if its element is not in the text).
 std::vector<const XmlElement*> coupling_terms(const Document& doc, const std::string& joint) {
   const XmlElement* e = doc.joint(joint);
