@@ -303,24 +303,44 @@ DeviceModel::LimitCoordinates DeviceModel::limit_coordinates() const {
   Eigen::MatrixXd M = Eigen::MatrixXd::Identity(n, n);
   c.lower.resize(n);
   c.upper.resize(n);
+  c.reading_lower.resize(n);
+  c.reading_upper.resize(n);
   for (int i = 0; i < n; ++i) {
     const Link& l = links[i];
-    if (l.has_range() && coupled()) M.row(i) = coupling.row(i);
+    if (l.has_range() && coupled()) {
+      M.row(i) = coupling.row(i);
+      c.ranged = true;
+    }
     c.lower[i] = l.has_range() ? l.range_lower : l.lower;
     c.upper[i] = l.has_range() ? l.range_upper : l.upper;
+    c.reading_lower[i] = l.lower;
+    c.reading_upper[i] = l.upper;
   }
-  c.readings_of = M.fullPivLu().inverse();
+  const Eigen::FullPivLU<Eigen::MatrixXd> lu(M);
+  c.determined = lu.isInvertible();
+  c.readings_of = lu.inverse();
   return c;
 }
 
-Eigen::VectorXd DeviceModel::draw_readings(std::mt19937_64& rng) const {
+Eigen::VectorXd DeviceModel::LimitCoordinates::readings(const Eigen::VectorXd& x) const {
+  if (!ranged) return x;
+  return (readings_of * x).cwiseMax(reading_lower).cwiseMin(reading_upper);
+}
+
+std::optional<Eigen::VectorXd> DeviceModel::try_draw_readings(std::mt19937_64& rng,
+                                                              int draws) const {
   Eigen::VectorXd q(dof());
-  for (int draw = 0; draw < kRangeDraws; ++draw) {
+  for (int draw = 0; draw < draws; ++draw) {
     for (int j = 0; j < dof(); ++j) {
       q[j] = std::uniform_real_distribution<double>(links[j].lower, links[j].upper)(rng);
     }
     if (outside_range(q) < 0) return q;
   }
+  return std::nullopt;
+}
+
+Eigen::VectorXd DeviceModel::draw_readings(std::mt19937_64& rng) const {
+  if (std::optional<Eigen::VectorXd> q = try_draw_readings(rng, kRangeDraws)) return *q;
   throw std::runtime_error(
       fmt::format("{}: {} readings drawn within the limits all put a joint outside its range", name,
                   kRangeDraws));

@@ -406,23 +406,14 @@ std::pair<int, std::string> range_problem(const DeviceModel& model) {
     }
   }
   if (first < 0) return {-1, ""};
-  if (!model.limit_coordinates().readings_of.allFinite() ||
-      Eigen::FullPivLU<Eigen::MatrixXd>(model.limit_coordinates().readings_of).rank() <
-          model.dof()) {
+  if (!model.limit_coordinates().determined) {
     return {first,
             "the ranged joints' couplings and the other readings do not determine the "
             "readings (a joint's range must not repeat another's limits)"};
   }
   constexpr int kDraws = kRangeDraws / 100;
   std::mt19937_64 rng(1);
-  Eigen::VectorXd q(model.dof());
-  for (int draw = 0; draw < kDraws; ++draw) {
-    for (int j = 0; j < model.dof(); ++j) {
-      const Link& l = model.links[j];
-      q[j] = std::uniform_real_distribution<double>(l.lower, l.upper)(rng);
-    }
-    if (model.outside_range(q) < 0) return {-1, ""};
-  }
+  if (model.try_draw_readings(rng, kDraws)) return {-1, ""};
   return {first, fmt::format("none of {} readings drawn within the limits puts every coupled "
                              "joint within its range",
                              kDraws)};

@@ -1,6 +1,5 @@
 #include "hapticcal/study/paper.hpp"
 
-#include <algorithm>
 #include <cassert>
 #include <map>
 #include <numbers>
@@ -74,13 +73,8 @@ std::optional<double> paper_improvement_pct(const std::string& name) {
 Eigen::VectorXd default_posture(const DeviceModel& model) {
   Eigen::VectorXd q = Eigen::VectorXd::Zero(model.dof());
   if (model.dof() == 7) q[5] = 0.3;
-  if (model.within_limits(q)) return q;
-  // The middle of the limits' coordinates (a coupled joint's range), its readings.
-  const DeviceModel::LimitCoordinates box = model.limit_coordinates();
-  q = box.readings_of * ((box.lower + box.upper) / 2);
-  for (int j = 0; j < model.dof(); ++j)
-    q[j] = std::clamp(q[j], model.links[j].lower, model.links[j].upper);
-  return q;
+  // Else the middle of the limits' coordinates (a coupled joint's range).
+  return model.within_limits(q) ? q : model.limit_coordinates().middle();
 }
 
 }  // namespace hapticcal

@@ -21,7 +21,7 @@ constexpr double kSpread = 2.5;
 class HandMotion {
  public:
   HandMotion(const DeviceModel& model, const SessionOptions& o, std::mt19937_64& rng)
-      : model_(model), box_(model.limit_coordinates()), ranged_(!box_.readings_of.isIdentity(0)) {
+      : box_(model.limit_coordinates()) {
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     for (int i = 0; i < model.dof(); ++i) {
       Joint j;
@@ -39,11 +39,11 @@ class HandMotion {
     }
     // At rest: home (every reading 0) where the limits hold it, else the middle.
     home_ = Eigen::VectorXd::Zero(model.dof());
-    if (!model.within_limits(home_)) home_ = coordinates_to_readings(centres());
+    if (!model.within_limits(home_)) home_ = box_.middle();
     rest_ = o.rest_seconds;
   }
   void at(double t, double* q) const {
-    Eigen::VectorXd x(static_cast<Eigen::Index>(joints_.size()));
+    Eigen::Map<Eigen::VectorXd> out(q, static_cast<Eigen::Index>(joints_.size()));
     for (size_t i = 0; i < joints_.size(); ++i) {
       const Joint& j = joints_[i];
       double v = 0;
@@ -51,11 +51,10 @@ class HandMotion {
         v += j.amplitude[k] * std::sin(2 * std::numbers::pi * j.frequency[k] * t + j.phase[k]);
       // A smooth saturation spreads the sum (RMS about a third of its bound)
       // over the range, as a hand sweeping the workspace does.
-      x[static_cast<Eigen::Index>(i)] =
+      out[static_cast<Eigen::Index>(i)] =
           j.centre + j.half * std::tanh(kSpread * v) / std::tanh(kSpread);
     }
-    Eigen::Map<Eigen::VectorXd> out(q, x.size());
-    out = coordinates_to_readings(x);
+    if (box_.ranged) out = box_.readings(out);
     if (rest_ > 0) {  // at home, then picked up over kPickUpSeconds
       const double u = std::clamp((t - rest_) / kPickUpSeconds, 0.0, 1.0);
       out = home_ + u * u * (3 - 2 * u) * (out - home_);
@@ -64,27 +63,11 @@ class HandMotion {
 
  private:
   static constexpr double kPickUpSeconds = 2;
-  Eigen::VectorXd centres() const {
-    Eigen::VectorXd c(static_cast<Eigen::Index>(joints_.size()));
-    for (size_t i = 0; i < joints_.size(); ++i) c[static_cast<Eigen::Index>(i)] = joints_[i].centre;
-    return c;
-  }
-  // Readings of the limits' coordinates, kept within the readings' limits.
-  Eigen::VectorXd coordinates_to_readings(const Eigen::VectorXd& x) const {
-    if (!ranged_) return x;
-    Eigen::VectorXd q = box_.readings_of * x;
-    for (int j = 0; j < model_.dof(); ++j)
-      q[j] = std::clamp(q[j], model_.links[j].lower, model_.links[j].upper);
-    return q;
-  }
-
   struct Joint {
     double centre = 0, half = 0;
     double frequency[kSinusoids], phase[kSinusoids], amplitude[kSinusoids];
   };
-  const DeviceModel& model_;
   DeviceModel::LimitCoordinates box_;
-  bool ranged_ = false;
   std::vector<Joint> joints_;
   Eigen::VectorXd home_;
   double rest_ = 0;

@@ -375,7 +375,6 @@ Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_h
   // The motion sweeps the limits' coordinates (a coupled joint's value within
   // its range), then the readings are kept within their limits.
   const DeviceModel::LimitCoordinates box = actual.limit_coordinates();
-  const bool ranged = !box.readings_of.isIdentity(0);
   Eigen::VectorXd x(n), q(n);
   for (int r = 0; r < rows; ++r) {
     if ((r & 4095) == 4095) throw_if_cancelled();  // Python's Ctrl-C (core/cancel.hpp)
@@ -397,9 +396,7 @@ Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_h
       x[j] = std::clamp(home_inside ? envelope * half * v : centre + envelope * half * v, lower,
                         upper);
     }
-    q = ranged ? (box.readings_of * x).eval() : x;
-    for (int j = 0; j < n && ranged; ++j)
-      q[j] = std::clamp(q[j], actual.links[j].lower, actual.links[j].upper);
+    q = box.readings(x);
     log.t[r] = t;
     log.distance[r] = prepared.forward(q.data()).p.norm() + noise.sigma_distance * gauss(rng);
     for (int j = 0; j < n; ++j)

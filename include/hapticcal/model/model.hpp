@@ -351,16 +351,24 @@ struct DeviceModel {
   // The coordinates in which the limits are a box, for motions that sweep
   // them: x = M q, M's row i joint i's coupling row where the joint has a
   // range (x_i its value, within the range), the unit row elsewhere (x_i its
-  // reading, within its limits); q = readings_of x, then within the readings'
-  // limits when clamped to them. Without ranges, M is the identity.
+  // reading, within its limits). Without ranges, M is the identity.
   struct LimitCoordinates {
-    Eigen::MatrixXd readings_of;
-    Eigen::VectorXd lower, upper;
+    Eigen::MatrixXd readings_of;                   // M^-1
+    Eigen::VectorXd lower, upper;                  // of x
+    Eigen::VectorXd reading_lower, reading_upper;  // the readings' limits
+    bool ranged = false;                           // some joint has a range (M is not the identity)
+    bool determined = true;                        // M is invertible
+    // The readings of coordinates x, kept within the readings' limits (x
+    // itself without ranges).
+    Eigen::VectorXd readings(const Eigen::VectorXd& x) const;
+    // The readings at the middle of every coordinate's interval.
+    Eigen::VectorXd middle() const { return readings((lower + upper) / 2); }
   };
   LimitCoordinates limit_coordinates() const;
-  // Readings drawn uniformly within the limits, drawn again (up to
-  // kRangeDraws times) while a joint is outside its range; throws
-  // std::runtime_error when none is found.
+  // Readings drawn uniformly within the limits, drawn again (up to `draws`
+  // times) while a joint is outside its range; none if every draw was.
+  std::optional<Eigen::VectorXd> try_draw_readings(std::mt19937_64& rng, int draws) const;
+  // The same up to kRangeDraws times; throws std::runtime_error when none is found.
   Eigen::VectorXd draw_readings(std::mt19937_64& rng) const;
 };
 
