@@ -61,6 +61,13 @@ double robust_sd(const Eigen::MatrixXd& e) {
   return kMadToSd * median(all);
 }
 
+// The outlier test's threshold on an RMS component in robust sds: the
+// chi-square quantile with d dof at 1 - alpha / count (Bonferroni over `count`
+// tested units), at least kThresholdFloor.
+double outlier_threshold(double alpha, double count, int d) {
+  return std::max(std::sqrt(chi_square_quantile(1 - alpha / count, d) / d), kThresholdFloor);
+}
+
 // Each pose's RMS component in robust sds.
 Eigen::VectorXd statistics_of(const Eigen::MatrixXd& e, double sd) {
   return (e.rowwise().norm() / std::sqrt(static_cast<double>(e.cols()))) / sd;
@@ -100,10 +107,14 @@ void screen_repeats(const Log& log, std::vector<std::vector<int>>& poses, double
   constexpr size_t kMinRepeats = 5;  // a median and a spread worth the name
   constexpr size_t kNamed = 10;
   if (!log.has_position && !log.has_distance) return;
-  const int d = log.has_position ? 3 : 1;
+  // The measured lengths of a row (a pose's position, not its rotation).
+  const MeasurementType type = measurement_type(log);
+  const MeasurementTraits& t = traits(type);
+  const int d = std::min(t.length_rows, t.width);
+  Eigen::VectorXd value(t.width);
   const auto measured = [&](int r) {
-    return log.has_position ? Eigen::VectorXd(log.position.row(r).transpose())
-                            : Eigen::VectorXd::Constant(1, log.distance[r]);
+    measured_values(type, log, r, value.data());
+    return value.head(d);
   };
   // Each repeat's deviation from its pose's median, component by component.
   std::vector<std::pair<size_t, Eigen::MatrixXd>> deviations;
@@ -124,8 +135,7 @@ void screen_repeats(const Log& log, std::vector<std::vector<int>>& poses, double
   const double scale = kMadToSd * median(pooled);
   if (deviations.empty() || !(scale > 0)) return;
   const auto rows = static_cast<double>(pooled.size()) / d;
-  const double threshold =
-      std::max(std::sqrt(chi_square_quantile(1 - alpha / rows, d) / d), kThresholdFloor);
+  const double threshold = outlier_threshold(alpha, rows, d);
   std::vector<std::string> named;
   int flagged = 0;
   for (auto& [g, x] : deviations) {
@@ -198,7 +208,7 @@ RobustFit reweight_outliers(KinematicProblem& problem, const std::vector<int>& i
   }
   const Eigen::VectorXd base = problem.weights.size() ? problem.weights : Eigen::VectorXd::Ones(m);
   // |e|^2 / s^2 > chi^2_d(1 - alpha / m), as a threshold on the RMS component.
-  out.threshold = std::max(std::sqrt(chi_square_quantile(1 - alpha / m, d) / d), kThresholdFloor);
+  out.threshold = outlier_threshold(alpha, m, d);
   out.tested = true;
   Eigen::MatrixXd e = pose_residuals(problem, solution.parameters, base);
   out.robust_sd = robust_sd(e);
