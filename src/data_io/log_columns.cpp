@@ -10,11 +10,12 @@
 #include <string_view>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/identification/measurement.hpp"
 
 namespace hapticcal::detail {
 namespace {
 
-constexpr int kQuantities = static_cast<int>(Quantity::kMarkerZ) + 1;
+constexpr int kQuantities = static_cast<int>(Quantity::kKindValue) + 1;
 // Markers on one rigid body at most (a marker body carries 3 to 8).
 constexpr int kMaxMarkers = 32;
 
@@ -117,75 +118,9 @@ std::vector<std::string> split(const std::string& line) {
   return fields;
 }
 
-Column parse_column(const std::string& spec, const std::string& origin, int line) {
-  std::string base, index, unit;
-  if (!split_spec(spec, base, index, unit)) {
-    std::string why = "not a column name";
-    if (const std::string problem = text_problem(spec); !problem.empty()) why += ": " + problem;
-    throw InputError(origin, line, spec.empty() ? "(empty)" : printable(spec), why);
-  }
-  Column c;
-  c.name = printable(spec);                  // messages quote it
-  if (base == "point" || base == "plane") {  // a label; point<k>: a tree's tip k's
-    c.quantity = base == "point" ? Quantity::kPoint : Quantity::kPlane;
-    if (!unit.empty()) {
-      throw InputError(origin, line, c.name,
-                       fmt::format("unit '{}': a {} column holds labels", printable(unit), base));
-    }
-    if (index.size() > 3) throw InputError(origin, line, c.name, "tip number too large");
-    c.joint = index.empty() ? 0 : std::stoi(index);
-    if (!index.empty() && c.joint < 1)
-      throw InputError(origin, line, c.name, "tip numbers start at 1");
-    return c;
-  }
-  const bool marker = (base == "x" || base == "y" || base == "z") && !index.empty();
-  const bool indexed = base == "q" || base == "ext" || base == "dir" || marker;
-  if (base == "_" && index.empty() && unit.empty()) return c;
-  if (indexed != !index.empty()) {
-    throw InputError(origin, line, c.name, kExpectedColumns);
-  }
-  if (indexed) {
-    const char* what = marker ? "marker" : "joint";
-    if (index.size() > 3)
-      throw InputError(origin, line, c.name, fmt::format("{} number too large", what));
-    const int i = std::stoi(index);
-    if (i < 1) throw InputError(origin, line, c.name, fmt::format("{} numbers start at 1", what));
-    c.joint = i - 1;
-    if (marker) {
-      if (i > kMaxMarkers) {
-        throw InputError(origin, line, c.name,
-                         fmt::format("more than {} markers on one body", kMaxMarkers));
-      }
-      c.quantity = base == "x"   ? Quantity::kMarkerX
-                   : base == "y" ? Quantity::kMarkerY
-                                 : Quantity::kMarkerZ;
-    } else {
-      c.quantity = base == "q"     ? Quantity::kJoint
-                   : base == "ext" ? Quantity::kExternal
-                                   : Quantity::kDirection;
-    }
-    if (c.quantity == Quantity::kDirection && !unit.empty()) {
-      throw InputError(
-          origin, line, c.name,
-          fmt::format("unit '{}': a direction column holds -1, 0 or +1", printable(unit)));
-    }
-  } else if (base == "distance") {
-    c.quantity = Quantity::kDistance;
-  } else if (base == "x") {
-    c.quantity = Quantity::kX;
-  } else if (base == "y") {
-    c.quantity = Quantity::kY;
-  } else if (base == "z") {
-    c.quantity = Quantity::kZ;
-  } else if (base == "t") {
-    c.quantity = Quantity::kTime;
-  } else if (const int k = component_index(base, 'q', kQuaternionLetters); k >= 0) {
-    c.quantity = static_cast<Quantity>(static_cast<int>(Quantity::kQw) + k);
-  } else if (const int k = component_index(base, 'r', kRotationVectorLetters); k >= 0) {
-    c.quantity = static_cast<Quantity>(static_cast<int>(Quantity::kRx) + k);
-  } else {
-    throw InputError(origin, line, c.name, kExpectedColumns);
-  }
+// A column with its unit's scale to SI and its ReadingUnit: what the unit
+// means for its quantity, or an InputError.
+Column with_unit(Column c, const std::string& unit, const std::string& origin, int line) {
   const bool angle = c.quantity == Quantity::kJoint || c.quantity == Quantity::kExternal ||
                      is_rotation_vector(c.quantity);
   const bool time = c.quantity == Quantity::kTime;
@@ -231,6 +166,84 @@ Column parse_column(const std::string& spec, const std::string& origin, int line
       fmt::format("unit '{}' does not fit (angles, rx..rz: rad, deg; lengths, readings of "
                   "prismatic joints: m, mm, um; time: s, ms)",
                   printable(unit)));
+}
+
+Column parse_column(const std::string& spec, const std::string& origin, int line) {
+  std::string base, index, unit;
+  if (!split_spec(spec, base, index, unit)) {
+    std::string why = "not a column name";
+    if (const std::string problem = text_problem(spec); !problem.empty()) why += ": " + problem;
+    throw InputError(origin, line, spec.empty() ? "(empty)" : printable(spec), why);
+  }
+  Column c;
+  c.name = printable(spec);                  // messages quote it
+  if (base == "point" || base == "plane") {  // a label; point<k>: a tree's tip k's
+    c.quantity = base == "point" ? Quantity::kPoint : Quantity::kPlane;
+    if (!unit.empty()) {
+      throw InputError(origin, line, c.name,
+                       fmt::format("unit '{}': a {} column holds labels", printable(unit), base));
+    }
+    if (index.size() > 3) throw InputError(origin, line, c.name, "tip number too large");
+    c.joint = index.empty() ? 0 : std::stoi(index);
+    if (!index.empty() && c.joint < 1)
+      throw InputError(origin, line, c.name, "tip numbers start at 1");
+    return c;
+  }
+  const bool marker = (base == "x" || base == "y" || base == "z") && !index.empty();
+  const bool indexed = base == "q" || base == "ext" || base == "dir" || marker;
+  if (base == "_" && index.empty() && unit.empty()) return c;
+  const std::optional<std::pair<MeasurementType, int>> kind =
+      index.empty() ? measurement_column(base) : std::nullopt;
+  if (!kind && indexed != !index.empty()) {
+    throw InputError(origin, line, c.name, kExpectedColumns);
+  }
+  if (kind) {  // a registered kind's value: a length
+    c.quantity = Quantity::kKindValue;
+    c.joint = static_cast<int>(kind->first);
+    c.value = kind->second;
+  } else if (indexed) {
+    const char* what = marker ? "marker" : "joint";
+    if (index.size() > 3)
+      throw InputError(origin, line, c.name, fmt::format("{} number too large", what));
+    const int i = std::stoi(index);
+    if (i < 1) throw InputError(origin, line, c.name, fmt::format("{} numbers start at 1", what));
+    c.joint = i - 1;
+    if (marker) {
+      if (i > kMaxMarkers) {
+        throw InputError(origin, line, c.name,
+                         fmt::format("more than {} markers on one body", kMaxMarkers));
+      }
+      c.quantity = base == "x"   ? Quantity::kMarkerX
+                   : base == "y" ? Quantity::kMarkerY
+                                 : Quantity::kMarkerZ;
+    } else {
+      c.quantity = base == "q"     ? Quantity::kJoint
+                   : base == "ext" ? Quantity::kExternal
+                                   : Quantity::kDirection;
+    }
+    if (c.quantity == Quantity::kDirection && !unit.empty()) {
+      throw InputError(
+          origin, line, c.name,
+          fmt::format("unit '{}': a direction column holds -1, 0 or +1", printable(unit)));
+    }
+  } else if (base == "distance") {
+    c.quantity = Quantity::kDistance;
+  } else if (base == "x") {
+    c.quantity = Quantity::kX;
+  } else if (base == "y") {
+    c.quantity = Quantity::kY;
+  } else if (base == "z") {
+    c.quantity = Quantity::kZ;
+  } else if (base == "t") {
+    c.quantity = Quantity::kTime;
+  } else if (const int k = component_index(base, 'q', kQuaternionLetters); k >= 0) {
+    c.quantity = static_cast<Quantity>(static_cast<int>(Quantity::kQw) + k);
+  } else if (const int k = component_index(base, 'r', kRotationVectorLetters); k >= 0) {
+    c.quantity = static_cast<Quantity>(static_cast<int>(Quantity::kRx) + k);
+  } else {
+    throw InputError(origin, line, c.name, kExpectedColumns);
+  }
+  return with_unit(c, unit, origin, line);
 }
 
 // `f` as a number (a leading '+' allowed); false if it is not one.
@@ -310,6 +323,24 @@ void check_marker_columns(const std::vector<Column>& columns, const std::vector<
   }
 }
 
+// A registered kind's columns: all of them, if any.
+void check_kind_columns(const std::vector<Column>& columns, const std::string& origin, int line) {
+  for (const Column& c : columns) {
+    if (c.quantity != Quantity::kKindValue) continue;
+    const auto type = static_cast<MeasurementType>(c.joint);
+    for (const std::string& name : traits(type).columns) {
+      const bool found = std::any_of(columns.begin(), columns.end(), [&](const Column& d) {
+        return d.quantity == Quantity::kKindValue && traits(type).columns[d.value] == name &&
+               d.joint == c.joint;
+      });
+      if (!found) {
+        throw InputError(origin, line, name,
+                         fmt::format("missing: {} need all of their columns", traits(type).plural));
+      }
+    }
+  }
+}
+
 // Checks the set of columns as a whole; returns the number of joints.
 int check_columns(const std::vector<Column>& columns, const std::string& origin, int line,
                   bool pose_names) {
@@ -318,7 +349,7 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
   std::vector<std::string> seen;
   for (const Column& c : columns) {
     if (c.quantity == Quantity::kSkip) continue;
-    const std::string id = fmt::format("{}:{}", static_cast<int>(c.quantity), c.joint);
+    const std::string id = fmt::format("{}:{}:{}", static_cast<int>(c.quantity), c.joint, c.value);
     for (const std::string& s : seen) {
       if (s == id) throw InputError(origin, line, c.name, "column appears twice");
     }
@@ -366,6 +397,7 @@ int check_columns(const std::vector<Column>& columns, const std::string& origin,
     throw InputError(origin, line, missing, "missing: positions need all of x, y, z");
   }
   check_orientation_columns(columns, count, origin, line);
+  check_kind_columns(columns, origin, line);
   const int points = count[static_cast<int>(Quantity::kPoint)];
   const int planes = count[static_cast<int>(Quantity::kPlane)];
   if (points + planes > 0) {

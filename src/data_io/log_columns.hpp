@@ -1,6 +1,7 @@
 // Internal to the log reader (log_io.cpp): the fields of a log's lines and the
 // columns its header or --columns names (q<i>[unit], ext<i>, distance, x, y, z,
-// qw..qz, rx..rz, t, point, plane, _), read and checked by log_columns.cpp.
+// qw..qz, rx..rz, t, point, plane, _, and a registered measurement kind's
+// columns), read and checked by log_columns.cpp.
 #pragma once
 
 #include <string>
@@ -33,7 +34,8 @@ enum class Quantity {
   kDirection,  // dir<i>: the side joint i approached the pose from (-1, 0, +1)
   kMarkerX,    // x<k>, y<k>, z<k>: marker k of a rigid body (Column::joint = k - 1)
   kMarkerY,
-  kMarkerZ
+  kMarkerZ,
+  kKindValue,  // a registered measurement kind's value (Column::joint its type, ::value which)
 };
 
 inline bool is_quaternion(Quantity q) { return q >= Quantity::kQw && q <= Quantity::kQz; }
@@ -43,6 +45,7 @@ struct Column {
   std::string name;  // as written, for messages
   Quantity quantity = Quantity::kSkip;
   int joint = 0;                          // zero-based, for q and ext
+  int value = 0;                          // a kind's value: its index among the kind's
   double scale = 1;                       // to SI
   ReadingUnit unit = ReadingUnit::kNone;  // of a q column: as written
 };

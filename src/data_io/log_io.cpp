@@ -13,6 +13,7 @@
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/data_io/log.hpp"
+#include "hapticcal/identification/measurement.hpp"
 
 namespace hapticcal {
 namespace {
@@ -249,6 +250,11 @@ Log zero_log(Table& table, const std::string& origin) {
       case Quantity::kMarkerX:
         log.marker_count = std::max(log.marker_count, c.joint + 1);
         break;
+      case Quantity::kKindValue: {
+        const MeasurementTraits& kind = traits(static_cast<MeasurementType>(c.joint));
+        log.columns[kind.name].setZero(log.rows, kind.width);
+        break;
+      }
       default:
         log.has_orientation =
             log.has_orientation || is_quaternion(c.quantity) || is_rotation_vector(c.quantity);
@@ -269,6 +275,11 @@ Log zero_log(Table& table, const std::string& origin) {
 void fill_values(Log& log, const Table& table) {
   const std::vector<Column>& columns = table.columns;
   const std::vector<double>& values = table.values;
+  std::vector<Eigen::MatrixXd*> kind_values(columns.size(), nullptr);  // kKindValue's
+  for (size_t k = 0; k < columns.size(); ++k) {
+    if (columns[k].quantity == Quantity::kKindValue)
+      kind_values[k] = &log.columns[traits(static_cast<MeasurementType>(columns[k].joint)).name];
+  }
   for (int r = 0; r < log.rows; ++r) {
     for (size_t k = 0; k < columns.size(); ++k) {
       const Column& c = columns[k];
@@ -320,6 +331,9 @@ void fill_values(Log& log, const Table& table) {
         case Quantity::kMarkerZ:
           log.markers(r, 3 * c.joint + static_cast<int>(c.quantity) -
                              static_cast<int>(Quantity::kMarkerX)) = v;
+          break;
+        case Quantity::kKindValue:
+          (*kind_values[k])(r, c.value) = v;
           break;
         case Quantity::kSkip:
         case Quantity::kPoint:
@@ -394,6 +408,15 @@ std::string log_to_csv(const Log& log) {
   for (int k = 1; k <= log.marker_count; ++k) {
     for (const char* c : {"x", "y", "z"}) header.push_back(fmt::format("{}{}", c, k));
   }
+  // A registered kind's values under its columns' names (a kind without
+  // columns has none in a file).
+  std::vector<const Eigen::MatrixXd*> kind_values;
+  for (const auto& [name, values] : log.columns) {
+    const std::optional<MeasurementType> type = measurement_type_named(name);
+    if (!type || traits(*type).columns.empty()) continue;
+    header.insert(header.end(), traits(*type).columns.begin(), traits(*type).columns.end());
+    kind_values.push_back(&values);
+  }
   if (log.has_point || log.has_plane) {  // a tree's labels, tip by tip: point1 .. pointK
     const char* label = log.has_point ? "point" : "plane";
     const auto tips =
@@ -426,6 +449,9 @@ std::string log_to_csv(const Log& log) {
       for (int k = 0; k < 4; ++k) put(log.orientation(r, k));
     }
     for (int k = 0; k < 3 * log.marker_count; ++k) put(log.markers(r, k));
+    for (const Eigen::MatrixXd* values : kind_values) {
+      for (Eigen::Index k = 0; k < values->cols(); ++k) put((*values)(r, k));
+    }
     if (log.has_point || log.has_plane) {
       fmt::format_to(std::back_inserter(row), "{}{}", row.size() ? "," : "", log.label[r]);
     }

@@ -100,9 +100,11 @@ PlanSetup prepare_plan(const PlanRequest& o) {
                                    options.candidates.rows()));
     }
   }
-  setup.sigma = o.sigma > 0                     ? o.sigma
-                : traits(*type).distance_column ? kPaperSigmaMPaper
-                                                : kPlanSigmaPosition;
+  // The kind's own sd among a cable encoder's (the paper's) and a tracker's.
+  setup.sigma =
+      o.sigma > 0
+          ? o.sigma
+          : kind_of(*type).sigma({.distance = kPaperSigmaMPaper, .position = kPlanSigmaPosition});
   setup.sigma_e = o.sigma_e > 0 ? o.sigma_e : kPaperSigmaE;
   setup.analysis = options.candidates.size()
                        ? options.candidates

@@ -328,14 +328,8 @@ void transmission_section(const CalibrationResult& result, const DeviceModel& no
 FigureSpec errors_per_sample(const KinematicFit& k, const Log& log, const Evaluation& before,
                              const Evaluation& after) {
   const MeasurementTraits& kind = traits(k.type);
-  const bool fixture = kind.fixture;
-  const bool position = kind.position_columns;
-  const Eigen::VectorXd& error_before = fixture    ? before.fixture_error
-                                        : position ? before.position_error
-                                                   : before.distance_error;
-  const Eigen::VectorXd& error_after = fixture    ? after.fixture_error
-                                       : position ? after.position_error
-                                                  : after.distance_error;
+  const Eigen::VectorXd& error_before = sample_errors(before, k.type);
+  const Eigen::VectorXd& error_after = sample_errors(after, k.type);
   std::vector<double> sample, eb, ea;
   const int row_stride = static_cast<int>(detail::plot_stride(log.rows));
   for (int r = 0; r < log.rows; r += row_stride) {

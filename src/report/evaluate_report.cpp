@@ -117,6 +117,13 @@ Report evaluation_report(const DeviceModel& model, const std::string& model_path
                                         "|delta_model - delta_measured| [mm]", ev.distance_error,
                                         ref ? &ref->distance_error : nullptr, mine, theirs));
   }
+  for (size_t k = 0; k < ev.kinds.size(); ++k) {
+    const MeasurementTraits& kind = traits(ev.kinds[k].type);
+    report.figures.push_back(
+        per_sample(fmt::format("{}_errors_per_sample", kind.name), kind.error_title,
+                   kind.error_axis, ev.kinds[k].error,
+                   ref && k < ref->kinds.size() ? &ref->kinds[k].error : nullptr, mine, theirs));
+  }
   if (ev.orientation) {
     report.figures.push_back(per_sample(
         "orientation_errors_per_sample", "Orientation error per sample", "orientation error [mrad]",

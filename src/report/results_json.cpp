@@ -361,6 +361,10 @@ std::string evaluation_json(const EvaluationComparison* comparison, const Evalua
     j["rms_position"] = ev.position->rms;
     j["max_position"] = ev.position->max;
   }
+  for (const Evaluation::KindErrors& k : ev.kinds) {
+    j[fmt::format("rms_{}", traits(k.type).name)] = k.stats.rms;
+    j[fmt::format("max_{}", traits(k.type).name)] = k.stats.max;
+  }
   if (ev.mean_point_deviation) {
     j["mean_point_deviation"] = *ev.mean_point_deviation;
     j["rms_point_deviation"] = *ev.rms_point_deviation;
@@ -392,6 +396,12 @@ std::string evaluation_json(const EvaluationComparison* comparison, const Evalua
     if (ev.position) {
       j["reference_rms_position"] = ref->position->rms;
       j["improvement_position_pct"] = *comparison->improvement_position_pct;
+    }
+    for (size_t k = 0; k < ev.kinds.size() && k < ref->kinds.size(); ++k) {
+      const char* name = traits(ev.kinds[k].type).name;
+      j[fmt::format("reference_rms_{}", name)] = ref->kinds[k].stats.rms;
+      j[fmt::format("improvement_{}_pct", name)] =
+          rms_improvement_pct(ev.kinds[k].stats.rms, ref->kinds[k].stats.rms);
     }
     if (comparison->setup_only) j["setup_only"] = true;  // the improvement is the set-up's
   }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numeric>
 #include <optional>
+#include <vector>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/measurement.hpp"
@@ -15,6 +16,18 @@ namespace {
 
 ErrorStats stats(const Eigen::VectorXd& e) {
   return {std::sqrt(e.squaredNorm() / static_cast<double>(e.size())), e.cwiseAbs().maxCoeff()};
+}
+
+// Row r's error of a kind with columns of its own (Evaluation::KindErrors).
+double kind_error(MeasurementType type, const Frame<double>& tool, const Log& log, int r) {
+  const MeasurementTraits& t = traits(type);
+  std::vector<double> predicted(t.width), measured(t.width);
+  kind_of(type).predict(tool, predicted.data());
+  measured_values(type, log, r, measured.data());
+  if (t.length_rows == 1) return predicted[0] - measured[0];
+  double sum = 0;
+  for (int k = 0; k < t.length_rows; ++k) sum += std::pow(predicted[k] - measured[k], 2);
+  return std::sqrt(sum);
 }
 
 }  // namespace
@@ -114,6 +127,10 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
   if (log.has_distance) ev.distance_error.resize(log.rows);
   if (log.has_position) ev.position_error.resize(log.rows);
   if (log.has_orientation) ev.orientation_error.resize(log.rows);
+  for (MeasurementType t : measurement_types()) {
+    if (!traits(t).columns.empty() && kind_of(t).in_log(log))
+      ev.kinds.push_back({t, {}, Eigen::VectorXd(log.rows)});
+  }
   Eigen::VectorXd q(model.dof());
   // A backlash moves the joint values by the side each joint came from.
   const bool backlash = model.has_backlash() && log.any_direction();
@@ -150,10 +167,12 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
     }
     if (log.has_distance) ev.distance_error[r] = p.norm() - log.distance[r];
     if (log.has_position) ev.position_error[r] = (p - log.position.row(r).transpose()).norm();
+    for (Evaluation::KindErrors& k : ev.kinds) k.error[r] = kind_error(k.type, tool, log, r);
     // Squared: an error of 1e308 is finite, its square (the RMS) is not.
     auto square_finite = [](double e) { return std::isfinite(e * e); };
-    const bool finite = (!log.has_distance || square_finite(ev.distance_error[r])) &&
-                        (!log.has_position || square_finite(ev.position_error[r]));
+    bool finite = (!log.has_distance || square_finite(ev.distance_error[r])) &&
+                  (!log.has_position || square_finite(ev.position_error[r]));
+    for (const Evaluation::KindErrors& k : ev.kinds) finite = finite && square_finite(k.error[r]);
     if (!finite) {
       throw InputError(log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0, "",
                        "the model's error on this row is not finite: a value is too large");
@@ -162,6 +181,7 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
   if (log.has_distance) ev.distance = stats(ev.distance_error);
   if (log.has_position) ev.position = stats(ev.position_error);
   if (log.has_orientation) ev.orientation = stats(ev.orientation_error);
+  for (Evaluation::KindErrors& k : ev.kinds) k.stats = stats(k.error);
   if (log.has_point || log.has_plane) {
     evaluate_fixture(log, points, point_distances, known_points, ev);
   } else if (!point_distances.empty() || !known_points.empty()) {
@@ -169,6 +189,14 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
                      "known distances are between fixture points: the log has no point column");
   }
   return ev;
+}
+
+const Eigen::VectorXd& sample_errors(const Evaluation& ev, MeasurementType type) {
+  for (const Evaluation::KindErrors& k : ev.kinds) {
+    if (k.type == type) return k.error;
+  }
+  if (ev.fixture_error.size()) return ev.fixture_error;
+  return ev.position ? ev.position_error : ev.distance_error;
 }
 
 double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated) {
@@ -240,6 +268,10 @@ std::vector<std::string> evaluation_lines(const EvaluationComparison* cmp, const
     lines.push_back(fmt::format("position error: RMS {:.4f} mm, max {:.4f} mm",
                                 ev.position->rms * 1e3, ev.position->max * 1e3));
   }
+  for (const Evaluation::KindErrors& k : ev.kinds) {
+    lines.push_back(fmt::format("{} error: RMS {:.4f} mm, max {:.4f} mm", traits(k.type).name,
+                                k.stats.rms * 1e3, k.stats.max * 1e3));
+  }
   for (const auto& l : ev.labels) {
     lines.push_back(
         fmt::format("{} '{}' ({} samples): {} {:.4f} mm mean, {:.4f} mm RMS",
@@ -286,6 +318,13 @@ std::vector<std::string> evaluation_lines(const EvaluationComparison* cmp, const
         "against {}: position RMS {:.4f} mm -> {:.4f} mm, improvement {:.1f} % (eq. 9){}",
         reference_name, ref->position->rms * 1e3, ev.position->rms * 1e3,
         *cmp->improvement_position_pct, setup_only));
+  }
+  for (size_t k = 0; ref && k < ev.kinds.size() && k < ref->kinds.size(); ++k) {
+    const double mine = ev.kinds[k].stats.rms, theirs = ref->kinds[k].stats.rms;
+    lines.push_back(
+        fmt::format("against {}: {} RMS {:.4f} mm -> {:.4f} mm, improvement {:.1f} % (eq. 9){}",
+                    reference_name, traits(ev.kinds[k].type).name, theirs * 1e3, mine * 1e3,
+                    rms_improvement_pct(mine, theirs), setup_only));
   }
   return lines;
 }

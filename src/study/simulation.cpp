@@ -6,6 +6,7 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <optional>
 #include <random>
@@ -35,45 +36,16 @@ std::vector<double> drive_ratios(const DeviceModel& model) {
 
 namespace {
 
-// A log of `poses` rows; each row's readings from `draw(row, rng, q)` (in
-// order, from the same generator as the noise that follows them).
-// What a log measures: its columns.
-struct Columns {
-  bool distance = true, position = false, orientation = false;
-};
+// What a simulated log measures: its kinds, each a sample's values drawn in
+// this order (a log of distances and positions: distance, then position).
+using Kinds = std::vector<MeasurementType>;
 
-// The columns a measurement type fills. Fixture points and planes (a label
-// column, no measured values) are simulate_fixture_log's and simulate_plane_log's.
-Columns columns_of(MeasurementType type) {
-  const MeasurementTraits& t = traits(type);
-  if (t.distance_column || t.position_columns)
-    return {t.distance_column, t.position_columns, t.orientation_columns};
-  throw InputError(
-      fmt::format("{} have no measured columns: simulate them with "
-                  "simulate_fixture_log or simulate_plane_log",
-                  traits(type).plural));
-}
-
-// Row r's measured columns of the tool frame T_meas_tool, with noise; the
-// draws in the order distance, position, orientation.
-template <typename Rng>
-void simulated_measurement(const Frame<double>& T_meas_tool, const Columns& c,
-                           const SimulationNoise& noise, Rng& rng,
-                           std::normal_distribution<double>& gauss, Log& log, int r) {
-  const Eigen::Vector3d& p = T_meas_tool.p;
-  if (c.distance) log.distance[r] = p.norm() + noise.sigma_distance * gauss(rng);
-  if (c.position) {
-    for (int k = 0; k < 3; ++k) log.position(r, k) = p[k] + noise.sigma_position * gauss(rng);
-  }
-  if (c.orientation) {
-    Eigen::Vector3d w;
-    for (int k = 0; k < 3; ++k) w[k] = noise.sigma_orientation * gauss(rng);
-    const double angle = w.norm();
-    const Eigen::Matrix3d turn = angle > 0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
-                                           : Eigen::Matrix3d::Identity();
-    const Eigen::Quaterniond quat(turn * T_meas_tool.R);
-    log.orientation.row(r) << quat.w(), quat.x(), quat.y(), quat.z();
-  }
+// The kinds of simulate_log's columns.
+Kinds columns(bool distance, bool position) {
+  Kinds kinds;
+  if (distance) kinds.push_back(MeasurementType::kDistance);
+  if (position) kinds.push_back(MeasurementType::kPosition);
+  return kinds;
 }
 
 // The joints a simulated external encoder is on: those whose angle a
@@ -111,13 +83,14 @@ void simulated_encoders(const DeviceModel& encoders, const Eigen::VectorXd& q, d
   }
 }
 
+// A log of `poses` rows; each row's readings from `draw(row, rng, q)` (in
+// order, from the same generator as the noise that follows them).
 template <typename Draw>
 Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, std::uint64_t seed,
-            const Columns& columns, Draw draw) {
-  const bool distance = columns.distance, position = columns.position;
+            const Kinds& kinds, Draw draw) {
   // A tree's measurement: every tip's point, one marker a tip (x1 .. z<tips>).
   const int tips = actual.tree() ? actual.tips() : 0;
-  if (tips && (distance || columns.orientation || !position)) {
+  if (tips && kinds != Kinds{MeasurementType::kPosition}) {
     throw InputError(actual.name, 0, "measurement",
                      "a tree of several tips is simulated with one point a tip (position)");
   }
@@ -137,14 +110,13 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
   log.ext.setZero(poses, n);
   log.has_ext.resize(n);
   log.has_ext = encoder_joints(actual);
-  log.has_distance = distance;
-  log.has_position = position && !tips;
-  if (distance) log.distance.resize(poses);
-  if (log.has_position) log.position.resize(poses, 3);
   log.marker_count = tips;
   if (tips) log.markers.resize(poses, 3 * tips);
-  log.has_orientation = columns.orientation;
-  if (columns.orientation) log.orientation.resize(poses, 4);
+  // Each kind's values, one row a sample (a tree's are its markers).
+  std::vector<MeasuredValues> values;
+  for (MeasurementType kind : kinds) values.emplace_back(tips ? 0 : poses, traits(kind).width);
+  const InstrumentNoise instrument = noise.instrument();
+  const std::function<double()> draw_noise = [&] { return gauss(rng); };
   // A joint with backlash approaches each pose from a side drawn at random,
   // written as its dir<i> column (the encoders read the drive's side).
   const bool backlash = actual.has_backlash();
@@ -177,7 +149,8 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
       log.q(r, j) = quantized_reading(q[j], ratio[j], noise.motor_counts_per_rev);
     }
     if (!tips) {
-      simulated_measurement(T_meas_tool, columns, noise, rng, gauss, log, r);
+      for (size_t k = 0; k < kinds.size(); ++k)
+        kind_of(kinds[k]).simulate(T_meas_tool, instrument, draw_noise, values[k].row(r).data());
       continue;
     }
     for (int t = 0; t < tips; ++t) {  // tip 0's frame is T_meas_tool
@@ -185,6 +158,9 @@ Log measure(const DeviceModel& actual, int poses, const SimulationNoise& noise, 
       for (int k = 0; k < 3; ++k)
         log.markers(r, 3 * t + k) = p[k] + noise.sigma_position * gauss(rng);
     }
+  }
+  if (!tips) {
+    for (size_t k = 0; k < kinds.size(); ++k) kind_of(kinds[k]).to_log(values[k], log);
   }
   return log;
 }
@@ -211,21 +187,20 @@ auto given_readings(const DeviceModel& actual, const Eigen::MatrixXd& readings) 
 
 Log simulate_log(const DeviceModel& actual, int poses, const SimulationNoise& noise,
                  std::uint64_t seed, bool distance, bool position) {
-  return measure(actual, poses, noise, seed, Columns{distance, position, false},
-                 uniform_readings(actual));
+  return measure(actual, poses, noise, seed, columns(distance, position), uniform_readings(actual));
 }
 
 Log simulate_log_at(const DeviceModel& actual, const Eigen::MatrixXd& readings,
                     const SimulationNoise& noise, std::uint64_t seed, bool distance,
                     bool position) {
   return measure(actual, static_cast<int>(readings.rows()), noise, seed,
-                 Columns{distance, position, false}, given_readings(actual, readings));
+                 columns(distance, position), given_readings(actual, readings));
 }
 
 Log simulate_measurement_log(const DeviceModel& actual, MeasurementType type, int poses,
                              const Eigen::MatrixXd& readings, const SimulationNoise& noise,
                              std::uint64_t seed) {
-  const Columns c = columns_of(type);
+  const Kinds c{type};
   if (readings.size()) {
     return measure(actual, static_cast<int>(readings.rows()), noise, seed, c,
                    given_readings(actual, readings));

@@ -142,7 +142,7 @@ Log samples(const Scenario& sc, const Log& log) {
 }  // namespace
 
 double measurement_sigma(const Scenario& sc) {
-  return traits(sc.measurement).distance_column ? sc.noise.sigma_distance : sc.noise.sigma_position;
+  return kind_of(sc.measurement).sigma(sc.noise.instrument());
 }
 
 double improvement_pct(double assigned, double nominal, double identified) {

@@ -23,9 +23,11 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "hapticcal/core/log.hpp"
@@ -62,6 +64,19 @@ struct MeasurementTraits {
   const char* error_title = "";
   const char* error_axis = "";
   const char* tip = "position";
+  // A registered kind's columns in a log file, one a value (`width` of them),
+  // lengths (m, or with a unit [mm], [um]); read into and written from
+  // Log::columns under the kind's name. The built-in kinds have their own
+  // columns (distance, x, y, z, qw..qz) and leave this empty.
+  std::vector<std::string> columns = {};
+};
+
+// The noise of the instruments a simulation or a plan assumes: each one's sd
+// [m, rad]; a kind takes its own (MeasurementKind::sigma, simulate).
+struct InstrumentNoise {
+  double distance = 0;     // a cable encoder's [m]
+  double position = 0;     // a tracker's, per coordinate [m]
+  double orientation = 0;  // a pose's rotation, per axis [rad]
 };
 
 // One kind of measurement: its facts (traits), how a log holds it, what an
@@ -74,15 +89,24 @@ class MeasurementKind {
   virtual ~MeasurementKind() = default;
   const MeasurementTraits& traits() const { return traits_; }
 
-  // Whether a log holds this kind (the default: its built-in columns).
+  // Whether a log holds this kind (the default: its columns).
   virtual bool in_log(const Log& log) const;
-  // A log row's `width` values (the default: from its built-in columns).
+  // A log row's `width` values (the default: from its columns).
   virtual void from_log(const Log& log, int row, double* values) const;
   // The values (one row a sample) into the log's columns, which it marks present.
   virtual void to_log(const MeasuredValues& values, Log& log) const;
   // What an instrument without error reads of the tool frame T_meas_tool
   // (`width` values; a fixture's: zeros).
   virtual void predict(const Frame<double>& tool, double* values) const = 0;
+  // The sd of this kind's length values among an instrument noise's (the
+  // default: a tracker's, noise.position).
+  virtual double sigma(const InstrumentNoise& noise) const { return noise.position; }
+  // What an instrument of this kind reads of the tool frame with `noise`:
+  // predict's values, then the noise drawn by `gauss` (standard normal draws,
+  // one after another). The default: sigma(noise) times a draw on each value.
+  // A fixture's throws (its samples are placed, not read: simulate_fixture_log).
+  virtual void simulate(const Frame<double>& tool, const InstrumentNoise& noise,
+                        const std::function<double()>& gauss, double* values) const;
   // The residual rows (predicted - measured) of one sample and their analytic
   // Jacobian (dimension x num_slots) w.r.t. the parameters; a fixture sample's
   // raw rows, the tool point (3 rows; fixture_residuals makes the fit's rows).
@@ -109,6 +133,8 @@ MeasurementType register_measurement_kind(std::unique_ptr<MeasurementKind> kind)
 std::vector<MeasurementType> measurement_types();
 // The kind named `name` (traits(type).name), or none.
 std::optional<MeasurementType> measurement_type_named(const std::string& name);
+// The registered kind whose log column is `name` and the value it holds, or none.
+std::optional<std::pair<MeasurementType, int>> measurement_column(const std::string& name);
 
 // Fixture points and planes: labels, no measured values.
 inline bool is_fixture(MeasurementType t) { return traits(t).fixture; }

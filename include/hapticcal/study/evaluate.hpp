@@ -53,6 +53,15 @@ struct Evaluation {
   Eigen::VectorXd distance_error;     // per row, signed
   Eigen::VectorXd position_error;     // per row, Euclidean norm
   Eigen::VectorXd orientation_error;  // per row, the angle
+  // The values of a measurement kind with columns of its own (registered by a
+  // program, MeasurementTraits::columns): per row, predicted - measured over its
+  // length values (signed if it has one, else the norm) [m].
+  struct KindErrors {
+    MeasurementType type;
+    ErrorStats stats;
+    Eigen::VectorXd error;
+  };
+  std::vector<KindErrors> kinds;
 
   // Fixture logs. Points: each label's predicted tool points against their
   // mean; over all rows (labels weighted by their samples, as MUKCa's KPI)
@@ -74,6 +83,11 @@ struct Evaluation {
   std::optional<double> rms_known_point_error;
   Eigen::VectorXd fixture_error;  // per row: |p_i - centre| or the signed plane distance
 };
+
+// Each sample's error in the measurement `type` of the evaluated log (the
+// figure of its error per sample): a fixture's, a kind's with columns of its
+// own, a position's (a pose's too), else a distance's.
+const Eigen::VectorXd& sample_errors(const Evaluation& ev, MeasurementType type);
 
 // Throws InputError if the log does not fit the model (check_log_fits), or a
 // known distance or position names a label the log lacks (fixture_labels).

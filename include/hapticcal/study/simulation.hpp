@@ -22,6 +22,8 @@ struct SimulationNoise {
   // q is the motor count times 2 pi / (counts * R), R the joint's capstan ratio
   // (1 without one); the truth follows the unquantised angle.
   double motor_counts_per_rev = 0;
+  // The instruments' sds, as a measurement kind takes its own.
+  InstrumentNoise instrument() const { return {sigma_distance, sigma_position, sigma_orientation}; }
 };
 
 // The reading a motor encoder of `counts` per turn gives for joint angle q
@@ -48,9 +50,9 @@ Log simulate_log_at(const DeviceModel& actual, const Eigen::MatrixXd& readings,
 // position, and the orientation turned by a random rotation vector of
 // sigma_orientation per axis). A tree's position is every tip's point
 // with that noise, one marker a tip (x1 .. z<tips>; tip_samples turns it into
-// one sample a tip). The extension point of the measurement family:
-// a new MeasurementType fills its columns here (simulated_measurement in
-// simulation.cpp). For kDistance the same log as simulate_log(_at).
+// one sample a tip). Any kind but a fixture's: a sample's values are its
+// MeasurementKind::simulate's (a registered kind's too: its columns).
+// For kDistance the same log as simulate_log(_at).
 Log simulate_measurement_log(const DeviceModel& actual, MeasurementType type, int poses,
                              const Eigen::MatrixXd& readings, const SimulationNoise& noise,
                              std::uint64_t seed);

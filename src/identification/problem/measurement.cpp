@@ -15,8 +15,10 @@ namespace hapticcal {
 
 namespace {
 
-// The built-in kinds' log columns (MeasurementTraits): values in, values out.
+// The built-in kinds' log columns (MeasurementTraits), a registered kind's by
+// its name: values in, values out.
 bool columns_in_log(const MeasurementTraits& t, const Log& log) {
+  if (!t.columns.empty()) return log.columns.count(t.name) > 0;
   if (t.orientation_columns) return log.has_orientation;
   if (t.position_columns) return log.has_position;
   return t.distance_column && log.has_distance;
@@ -59,6 +61,7 @@ class Distance : public MeasurementKind {
   void predict(const Frame<double>& tool, double* values) const override {
     values[0] = tool.p.norm();
   }
+  double sigma(const InstrumentNoise& noise) const override { return noise.distance; }
   void rows(const ChainStructure& s, const ChainConstants<double>& constants, const double* params,
             const double* joint, const double* measured, double, double* residual,
             Eigen::Ref<Eigen::MatrixXd> J) const override {
@@ -123,6 +126,22 @@ class Pose : public MeasurementKind {
     values[5] = q.y();
     values[6] = q.z();
   }
+  // The position with noise, then the orientation turned by a rotation vector
+  // of noise.orientation per axis.
+  void simulate(const Frame<double>& tool, const InstrumentNoise& noise,
+                const std::function<double()>& gauss, double* values) const override {
+    for (int k = 0; k < 3; ++k) values[k] = tool.p[k] + noise.position * gauss();
+    Eigen::Vector3d w;
+    for (int k = 0; k < 3; ++k) w[k] = noise.orientation * gauss();
+    const double angle = w.norm();
+    const Eigen::Matrix3d turn = angle > 0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
+                                           : Eigen::Matrix3d::Identity();
+    const Eigen::Quaterniond q(turn * tool.R);
+    values[3] = q.w();
+    values[4] = q.x();
+    values[5] = q.y();
+    values[6] = q.z();
+  }
   void rows(const ChainStructure& s, const ChainConstants<double>& constants, const double* params,
             const double* joint, const double* measured, double rotation_scale, double* residual,
             Eigen::Ref<Eigen::MatrixXd> J) const override {
@@ -150,14 +169,21 @@ class FixtureKind : public ToolPointKind {
   void from_log(const Log&, int, double* values) const override {
     for (int k = 0; k < 3; ++k) values[k] = 0;  // the raw rows are the tool point itself
   }
-  void to_log(const MeasuredValues&, Log&) const override {
+  void to_log(const MeasuredValues&, Log&) const override { placed_not_read(); }
+  void predict(const Frame<double>&, double* values) const override {
+    for (int k = 0; k < 3; ++k) values[k] = 0;  // nothing measured
+  }
+  void simulate(const Frame<double>&, const InstrumentNoise&, const std::function<double()>&,
+                double*) const override {
+    placed_not_read();
+  }
+
+ private:
+  [[noreturn]] void placed_not_read() const {
     throw InputError(
         fmt::format("{} have no measured columns: simulate them with "
                     "simulate_fixture_log or simulate_plane_log",
                     traits().plural));
-  }
-  void predict(const Frame<double>&, double* values) const override {
-    for (int k = 0; k < 3; ++k) values[k] = 0;  // nothing measured
   }
 };
 
@@ -210,7 +236,10 @@ std::vector<std::unique_ptr<MeasurementKind>>& registry() {
 bool MeasurementKind::in_log(const Log& log) const { return columns_in_log(traits_, log); }
 
 void MeasurementKind::from_log(const Log& log, int row, double* values) const {
-  if (traits_.position_columns) {
+  if (!traits_.columns.empty()) {
+    const Eigen::MatrixXd& v = log.columns.at(traits_.name);
+    for (int k = 0; k < traits_.width; ++k) values[k] = v(row, k);
+  } else if (traits_.position_columns) {
     for (int k = 0; k < 3; ++k) values[k] = log.position(row, k);
   } else if (traits_.distance_column) {
     values[0] = log.distance[row];
@@ -218,6 +247,7 @@ void MeasurementKind::from_log(const Log& log, int row, double* values) const {
 }
 
 void MeasurementKind::to_log(const MeasuredValues& values, Log& log) const {
+  if (!traits_.columns.empty()) log.columns[traits_.name] = values;
   if (traits_.distance_column) {
     log.has_distance = true;
     log.distance = values.col(0);
@@ -232,6 +262,13 @@ void MeasurementKind::to_log(const MeasuredValues& values, Log& log) const {
   }
 }
 
+void MeasurementKind::simulate(const Frame<double>& tool, const InstrumentNoise& noise,
+                               const std::function<double()>& gauss, double* values) const {
+  predict(tool, values);
+  const double sd = sigma(noise);
+  for (int k = 0; k < traits_.width; ++k) values[k] += sd * gauss();
+}
+
 const MeasurementKind& kind_of(MeasurementType type) {
   const auto& kinds = registry();
   const auto i = static_cast<std::size_t>(type);
@@ -241,9 +278,24 @@ const MeasurementKind& kind_of(MeasurementType type) {
 
 MeasurementType register_measurement_kind(std::unique_ptr<MeasurementKind> kind) {
   if (!kind) throw std::invalid_argument("register_measurement_kind: no kind");
-  if (measurement_type_named(kind->traits().name)) {
+  const MeasurementTraits& t = kind->traits();
+  if (measurement_type_named(t.name)) {
     throw std::invalid_argument(
-        fmt::format("a measurement kind named '{}' is registered already", kind->traits().name));
+        fmt::format("a measurement kind named '{}' is registered already", t.name));
+  }
+  if (!t.columns.empty() && static_cast<int>(t.columns.size()) != t.width) {
+    throw std::invalid_argument(fmt::format("measurement kind '{}': {} columns for {} values",
+                                            t.name, t.columns.size(), t.width));
+  }
+  for (const std::string& c : t.columns) {
+    const bool name = !c.empty() && std::all_of(c.begin(), c.end(), [](char x) {
+      return (x >= 'a' && x <= 'z') || (x >= 'A' && x <= 'Z') || x == '_';
+    });
+    if (!name || measurement_column(c)) {
+      throw std::invalid_argument(fmt::format(
+          "measurement kind '{}': column '{}' is not a name of letters and '_' or is taken", t.name,
+          c));
+    }
   }
   registry().push_back(std::move(kind));
   return static_cast<MeasurementType>(registry().size() - 1);
@@ -254,6 +306,15 @@ std::vector<MeasurementType> measurement_types() {
   for (std::size_t i = 0; i < registry().size(); ++i)
     all.push_back(static_cast<MeasurementType>(i));
   return all;
+}
+
+std::optional<std::pair<MeasurementType, int>> measurement_column(const std::string& name) {
+  for (MeasurementType t : measurement_types()) {
+    const std::vector<std::string>& columns = traits(t).columns;
+    const auto it = std::find(columns.begin(), columns.end(), name);
+    if (it != columns.end()) return std::pair(t, static_cast<int>(it - columns.begin()));
+  }
+  return std::nullopt;
 }
 
 std::optional<MeasurementType> measurement_type_named(const std::string& name) {
