@@ -103,6 +103,15 @@ CalibrationResult search_model(CalibrationRun& run);
 CalibrationResult without_held_out_outliers(const DeviceModel& nominal, const Log& log,
                                             const CalibrationOptions& options,
                                             CalibrationResult result);
+// The options a caller may get wrong, checked before anything is read (the
+// CLI's ranges, for every caller: Python passed 1.0 and inf); input_checks.cpp.
+void check_options(const CalibrationOptions& options);
+// Too few measurements for `parameters` (the structural rank before these
+// poses' own analysis, or the identifiable ones after it): an InputError.
+void check_enough_rows(const CalibrationRun& run, std::size_t parameters, const char* what);
+// The nominal model's error on the poses: finite on every row, and plausible
+// for this device (check_reach). Sets fit.rms_before.
+void check_nominal(CalibrationRun& run);
 // The RMS [m] of the nominal model on the run's poses with `free` slots (the
 // set-up's: base, tool, an instrument's zero) fitted by Levenberg-Marquardt
 // (input_checks.cpp), and the fitted parameter vector.

@@ -1,5 +1,6 @@
-// Checks of a log before it is fitted: joint readings within the limits, encoder
-// readings that are readings, and a nominal error plausible for this device.
+// Checks of the options and of a log before it is fitted: joint readings within
+// the limits, encoder readings that are readings, enough rows for the
+// parameters, and a nominal error plausible for this device.
 #include <ceres/ceres.h>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -9,14 +10,19 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <random>
 #include <unordered_map>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/core/option_ranges.hpp"
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/joint_error_family.hpp"
+#include "hapticcal/identification/joint_errors.hpp"
 #include "hapticcal/identification/registration.hpp"
+#include "hapticcal/identification/tree.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "identification/calibration_run.hpp"
 #include "identification/problem/measurement_cost.hpp"
@@ -313,6 +319,138 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
       likely_mistake(s, p, free, joints, kind, measured, weights, rows, compressed, limit);
   if (!force) throw InputError(message + " (--force calibrates anyway)");
   notes.push_back("warning: " + message);
+}
+
+// The options a caller may get wrong, checked before anything is read (the
+// CLI's ranges, for every caller: Python passed 1.0 and inf).
+void check_options(const CalibrationOptions& options) {
+  if (options.samples < 0) throw InputError("--samples must not be negative");
+  check_option("--dependency-tolerance", options.dependency_tolerance,
+               option_range::kDependencyTolerance);
+  for (const std::string& name : options.fix) {
+    if (std::find(options.free.begin(), options.free.end(), name) != options.free.end()) {
+      throw InputError(fmt::format("'{}' is given to both --fix and --free", printable(name)));
+    }
+  }
+  if (!(options.selection_alpha > 0 && options.selection_alpha < 1)) {
+    throw InputError(
+        fmt::format("model selection level {} is not in (0, 1)", options.selection_alpha));
+  }
+  if (options.folds < 0 || options.folds == 1) {
+    throw InputError(fmt::format("--folds {}: K-fold cross-validation needs K = 0 (none) or K >= 2",
+                                 options.folds));
+  }
+  if (options.sigma && !(*options.sigma > 0 && std::isfinite(*options.sigma))) {
+    throw InputError("--sigma must be a positive number of metres");
+  }
+  if (options.encoder_resolution &&
+      !(*options.encoder_resolution > 0 && *options.encoder_resolution <= 1)) {
+    throw InputError("--encoder-resolution must be a positive number of radians, at most 1");
+  }
+  for (const std::string& family : options.joint_errors) {
+    if (family != "none" && !detail::find_joint_error_family(family)) {
+      std::vector<std::string_view> names;
+      for (const detail::JointErrorFamily* f : detail::joint_error_families())
+        names.push_back(f->name());
+      throw InputError(fmt::format("--joint-errors: '{}' is not a joint-error family ({}, or none)",
+                                   printable(family), fmt::join(names, ", ")));
+    }
+    if (family == "none" && options.joint_errors.size() > 1) {
+      throw InputError("--joint-errors: none names no family and goes alone");
+    }
+  }
+  if (options.keep_all + options.select + options.prior > 1) {
+    throw InputError(
+        "--keep-all, --select and --prior exclude each other (plain least squares, the "
+        "significance cut or the tolerance prior)");
+  }
+  const Tolerances& t = options.tolerances;
+  // A tolerance or scale is positive and within 1e-9..1e3 (m, rad): beyond, the
+  // evidence's sums would leave double's range.
+  const auto positive = [](double v) { return v >= 1e-9 && v <= 1e3; };
+  if (!positive(t.length) || !positive(t.angle)) {
+    throw InputError("--tolerance length=... and angle=... must be in [1e-9, 1000] (m, rad)");
+  }
+  for (const auto& [name, value] : t.by_name) {
+    if (!positive(value)) {
+      throw InputError(
+          fmt::format("--tolerance {}={}: not in [1e-9, 1000] (SI)", printable(name), value));
+    }
+  }
+  for (const auto& [name, value] : t.by_family) {
+    if (!detail::find_joint_error_family(name) || !positive(value)) {
+      throw InputError(fmt::format(
+          "tolerance of the joint-error family {}={}: no such family, or not in [1e-9, 1000] (SI)",
+          printable(name), value));
+    }
+  }
+  if (t.scale && !(*t.scale >= 1e-6 && *t.scale <= 1e6)) {
+    throw InputError("--prior-scale must be in [1e-6, 1e6]");
+  }
+}
+
+// Too few measurements for `parameters` (the structural rank before these
+// poses' own analysis, or the identifiable ones after it). A fixture's points
+// or planes take 3 unknowns each out of its rows (known points none).
+void check_enough_rows(const CalibrationRun& run, std::size_t parameters, const char* what) {
+  const int m = run.m;
+  const int nuisance = run.problem.labels.unknowns();
+  const int kind_rows = run.kind().rows(m);
+  if (kind_rows - nuisance > static_cast<int>(parameters)) return;
+  throw InputError(
+      run.log.origin, 0, "",
+      fmt::format("too few measurements: {} give{} {} residual{}{} for {} {} parameters",
+                  samples_text(m, run.nominal.tips(), "pose"), m == run.nominal.tips() ? "s" : "",
+                  kind_rows - nuisance, kind_rows - nuisance == 1 ? "" : "s",
+                  nuisance ? fmt::format(" (less 3 a fixture point or plane)") : std::string(),
+                  parameters, what));
+}
+
+// The nominal model's error on the poses: finite on every row (else the row
+// with the largest measured value is named), and plausible for this device
+// (check_reach). Sets fit.rms_before.
+void check_nominal(CalibrationRun& run) {
+  const int m = run.m;
+  const int d = traits(run.fit().type).dimension;
+  const ChainStructure s = run.model.structure();
+  const RowsOf kind = run.kind();
+  // step2_nominal: its compensate leaves a fitted compliance to the stages (kind).
+  const StepTwoJoints step_two(run.step2_nominal);
+  std::vector<Eigen::VectorXd> nominal_joints(m);
+  for (int i = 0; i < m; ++i) nominal_joints[i] = step_two.row(run.poses, i);
+  const Eigen::VectorXd r0 =
+      residuals_at(s, run.step2_nominal.kinematic_parameters(), nominal_joints, kind,
+                   run.problem.measured, run.problem.weights);
+  run.nominal_joints = nominal_joints;
+  for (Eigen::Index i = 0; i < r0.size(); ++i) {
+    if (std::isfinite(r0[i] * r0[i])) continue;
+    if (kind.labels || i >= static_cast<Eigen::Index>(m) * d) {  // no measured value to blame
+      throw InputError(run.log.origin, 0, "",
+                       "the nominal model's tool point is not finite on some row: a reading is "
+                       "too large");
+    }
+    // The row of the pose with the largest measured value is the culprit.
+    // (The size of its length values: a distance, a position.)
+    const MeasurementTraits& t = traits(kind.type);
+    std::vector<double> value(t.width);
+    auto size = [&](int row) {
+      measured_values(kind.type, run.log, row, value.data());
+      return Eigen::Map<const Eigen::VectorXd>(value.data(), std::min(t.length_rows, t.width))
+          .norm();
+    };
+    const std::vector<int>& rows = run.result.poses[i / d];
+    const int culprit = *std::max_element(rows.begin(), rows.end(),
+                                          [&](int a, int b) { return size(a) < size(b); });
+    throw InputError(run.log.origin, run.log.line[culprit], "",
+                     "the nominal model's error on this row is not finite: a value is too large");
+  }
+  run.fit().rms_before = measurement_rms(position_rss(r0, kind), run.fit().rows);
+  run.fit().tip_rms_before = detail::tip_rms(run.problem, r0, kind, run.problem.weights);
+  DeviceModel registered = run.step2_nominal;  // the nominal in the registered frame, if it was
+  registered.base = run.problem.model.base;
+  check_reach(s, registered, nominal_joints, kind, run.problem.measured, run.problem.weights,
+              run.fit().rows, run.problem.compressed, run.fit().rms_before, run.options.force,
+              run.result.notes);
 }
 
 }  // namespace detail
