@@ -1,6 +1,7 @@
-// Internal to the tracker export readers (tracker_export.cpp, tracker_formats.cpp):
-// the lines and fields of a CSV export (bounded: a line at most 1 MiB, at most
-// 4096 fields), units, rotations and the rows of samples every layout ends in.
+// Internal to the tracker export readers (tracker_export.cpp, tracker_generic.cpp,
+// tracker_formats.cpp): the lines and fields of a CSV export (bounded: a line at
+// most 1 MiB, at most 4096 fields), units, rotations and the rows of samples every
+// layout ends in.
 #pragma once
 
 #include <array>
