@@ -1,7 +1,7 @@
 // Trackers' CSV exports, the parts every layout shares: lines and fields
 // (bounded), units, rotations, the rows of samples; and which layout a file is.
 // The generic CSV read with a column map is tracker_generic.cpp's; the layouts of
-// Motive and Vicon exports are tracker_formats.cpp's.
+// Motive and Vicon exports are tracker_formats.cpp's and tracker_vicon.cpp's.
 //
 // A row of samples (all layouts): an empty field is a sample the tracker lost (an
 // occluded marker, OptiTrack: "When there is an occlusion in a marker, the CSV
