@@ -1,10 +1,11 @@
 // What the Python module's files share: running a job so that Ctrl-C cancels
-// it, and the keyword conversions (a list as Python's list or the command
-// line's text; a path that may be None).
+// it, the keyword conversions (a list as Python's list or the command line's
+// text; a path that may be None), and the Model the functions take and return.
 #pragma once
 
 #include <pybind11/pybind11.h>
 
+#include <Eigen/Core>
 #include <chrono>
 #include <future>
 #include <optional>
@@ -15,6 +16,8 @@
 
 #include "hapticcal/core/cancel.hpp"
 #include "hapticcal/data_io/log.hpp"
+#include "hapticcal/model/frame.hpp"
+#include "hapticcal/model/model.hpp"
 
 namespace hapticcal::python {
 
@@ -84,6 +87,20 @@ inline std::vector<std::string> names(const std::optional<Names>& value) {
 using Text = std::optional<std::string>;
 
 inline std::string text(const Text& t) { return t.value_or(""); }
+
+// A device model and the file it came from (the path results.json names; empty
+// once its parameters are changed in Python).
+struct Model {
+  DeviceModel model;
+  std::string path;
+  std::string tip, root;  // a URDF's chain, as it was loaded
+};
+
+// T as a 4x4 homogeneous matrix (model_module.cpp).
+Eigen::Matrix4d homogeneous(const Frame<double>& T);
+
+// The Model class (model_module.cpp): forward, jacobian, inverse, parameters, save, ...
+void bind_model(py::module_& m);
 
 // The recording functions (recording_module.cpp): import_recording.
 void add_recording_functions(py::module_& m);

@@ -24,214 +24,27 @@
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/recording/recording.hpp"
 #include "recording/byte_reader.hpp"
+#include "recording/ros1_records.hpp"
 
 namespace hapticcal::recording {
 namespace {
 
 constexpr std::string_view kMagic = "#ROSBAG V2.0\n";
-// Far above any header a recorder writes (about six fields); keeps a hostile
-// header's field list (and the duplicate search over it) small.
-constexpr std::size_t kMaxHeaderFields = 4096;
 // An lz4 frame cannot expand more: a match's length grows by at most 255 for
 // each byte that encodes it (LZ4 block format), so larger claims are corrupt.
 constexpr std::uint64_t kMaxLz4Expansion = 255;
 
-enum Op : std::uint8_t {
-  kMessageDefinition = 0x01,  // format 1.2 only
-  kMessageData = 0x02,
-  kBagHeader = 0x03,
-  kIndexData = 0x04,
-  kChunk = 0x05,
-  kChunkInfo = 0x06,
-  kConnection = 0x07,
-};
-
-const char* op_name(std::uint8_t op) {
-  switch (op) {
-    case kMessageDefinition:
-      return "message definition";
-    case kMessageData:
-      return "message data";
-    case kBagHeader:
-      return "bag header";
-    case kIndexData:
-      return "index data";
-    case kChunk:
-      return "chunk";
-    case kChunkInfo:
-      return "chunk info";
-    case kConnection:
-      return "connection";
-    default:
-      return nullptr;
-  }
-}
-
-// Where an error points: the file, the byte offset of the record (or of the
-// compressed chunk holding it) and what the record is.
-struct Where {
-  const std::string& name;
-  std::uint64_t offset = 0;
-  std::string record;
-  [[noreturn]] void fail(const std::string& what) const { fail_at(name, offset, record, what); }
-};
-
-std::string quoted(std::string_view text) { return "'" + printable(std::string(text)) + "'"; }
-
-// A header's fields, sorted by name (names are unique).
-class Header {
- public:
-  // `fields` is a header's bytes after its length; `what` names it in errors
-  // ("header", "connection header").
-  Header(std::string_view fields, const Where& where, const char* what)
-      : where_(where), what_(what) {
-    std::size_t pos = 0;
-    while (pos < fields.size()) {
-      const std::size_t left = fields.size() - pos;
-      if (left < 4)
-        fail(fmt::format("{} byte(s) after the last field, too few for a field's length", left));
-      std::uint32_t length;
-      std::memcpy(&length, fields.data() + pos, 4);
-      if (length > left - 4)
-        fail(fmt::format("a field of {} bytes at byte {} of the header, {} left", length, pos,
-                         left - 4));
-      const std::string_view field = fields.substr(pos + 4, length);
-      const std::size_t equals = field.find('=');
-      if (equals == std::string_view::npos) fail(fmt::format("field {} has no '='", quoted(field)));
-      if (equals == 0) fail(fmt::format("field {} has no name", quoted(field)));
-      if (fields_.size() == kMaxHeaderFields)
-        fail(fmt::format("more than {} fields", kMaxHeaderFields));
-      fields_.emplace_back(field.substr(0, equals), field.substr(equals + 1));
-      pos += 4 + std::size_t{length};
-    }
-    std::sort(fields_.begin(), fields_.end(),
-              [](const auto& a, const auto& b) { return a.first < b.first; });
-    const auto twice =
-        std::adjacent_find(fields_.begin(), fields_.end(),
-                           [](const auto& a, const auto& b) { return a.first == b.first; });
-    if (twice != fields_.end()) fail(fmt::format("field {} appears twice", quoted(twice->first)));
-  }
-
-  std::optional<std::string_view> find(std::string_view name) const {
-    const auto it =
-        std::lower_bound(fields_.begin(), fields_.end(), name,
-                         [](const auto& field, std::string_view n) { return field.first < n; });
-    if (it == fields_.end() || it->first != name) return std::nullopt;
-    return it->second;
-  }
-  std::string_view string(std::string_view name) const {
-    const std::optional<std::string_view> value = find(name);
-    if (!value) fail(fmt::format("no '{}' field", name));
-    return *value;
-  }
-  template <typename T>
-  T number(std::string_view name) const {
-    const std::string_view value = string(name);
-    if (value.size() != sizeof(T))
-      fail(fmt::format("field '{}' of {} bytes, not {}", name, value.size(), sizeof(T)));
-    T out;
-    std::memcpy(&out, value.data(), sizeof(T));
-    return out;
-  }
-  // A time field (uint32 sec, uint32 nsec) in nanoseconds since the epoch.
-  std::int64_t time_ns(std::string_view name) const {
-    const auto both = number<std::uint64_t>(name);
-    const std::uint64_t sec = both & 0xffffffffu, nsec = both >> 32;
-    if (nsec >= 1000000000u) fail(fmt::format("field '{}': nsec {} is not below 1e9", name, nsec));
-    return static_cast<std::int64_t>(sec * 1000000000u + nsec);
-  }
-  [[noreturn]] void fail(const std::string& what) const {
-    where_.fail(std::string(what_) + ": " + what);
-  }
-
- private:
-  std::vector<std::pair<std::string_view, std::string_view>> fields_;
-  const Where& where_;
-  const char* what_;
-};
-
-// The op of a header (or of a cut one) when a sound field before any unsound
-// one holds it: only to name the record in errors.
-std::optional<std::uint8_t> op_of_partial_header(std::string_view fields) {
-  std::size_t pos = 0;
-  while (fields.size() - pos >= 4) {
-    std::uint32_t length;
-    std::memcpy(&length, fields.data() + pos, 4);
-    if (length > fields.size() - pos - 4) break;
-    const std::string_view field = fields.substr(pos + 4, length);
-    if (field.size() == 4 && field.substr(0, 3) == "op=")
-      return static_cast<std::uint8_t>(field[3]);
-    pos += 4 + std::size_t{length};
-  }
-  return std::nullopt;
-}
-
-// One record of a block (the file, or a chunk's contents). Not copied: its
-// header refers to `where`.
-struct Record {
-  explicit Record(Where w) : where(std::move(w)) {}
-  Record(const Record&) = delete;
-  Record& operator=(const Record&) = delete;
-
-  Where where;  // the record's offset (or its chunk's) and its name
-  std::uint8_t op = 0;
-  std::optional<Header> header;
-  std::string_view data;
-  std::uint64_t data_offset = 0;  // the data's offset within the block
-  std::size_t size = 0;           // header and data with their lengths
-};
-
-// The record at `pos` of `block`: the file, or a chunk's contents (decompressed
-// when `compressed`). `r.where` holds the offset its errors name.
-void read_record(std::string_view block, std::size_t pos, bool in_chunk, bool compressed,
-                 const RecordingLimits& limits, Record& r) {
-  const Where& w = r.where;
-  const char* block_name = in_chunk ? "chunk" : "file";
-  const auto name_record = [&](const char* name) {
-    r.where.record =
-        compressed ? fmt::format("chunk: {} at byte {} uncompressed", name, pos) : name;
-  };
-  name_record("record");
-  const std::size_t left = block.size() - pos;
-  if (left < 4)
-    w.fail(fmt::format("the {} ends inside the record's header length ({} of 4 bytes)", block_name,
-                       left));
-  std::uint32_t header_bytes;
-  std::memcpy(&header_bytes, block.data() + pos, 4);
-  if (header_bytes > limits.max_record_bytes)
-    w.fail(fmt::format("a header of {} bytes: more than the bound of {} bytes (max_record_bytes)",
-                       header_bytes, limits.max_record_bytes));
-  if (header_bytes > left - 4) {
-    if (const auto op = op_of_partial_header(block.substr(pos + 4)); op && op_name(*op))
-      name_record(op_name(*op));
-    w.fail(fmt::format("the {} ends inside the record's header of {} bytes ({} left)", block_name,
-                       header_bytes, left - 4));
-  }
-  const std::string_view header = block.substr(pos + 4, header_bytes);
-  // Named by its op (when that field is sound) also in errors of its other fields.
-  if (const auto op = op_of_partial_header(header); op && op_name(*op)) name_record(op_name(*op));
-  r.header.emplace(header, w, "header");
-  r.op = r.header->number<std::uint8_t>("op");
-  const char* name = op_name(r.op);
-  if (name == nullptr) w.fail(fmt::format("unknown op 0x{:02x}", r.op));
-  name_record(name);
-  const std::size_t after_header = left - 4 - header_bytes;
-  if (after_header < 4)
-    w.fail(fmt::format("the {} ends inside the record's data length ({} of 4 bytes)", block_name,
-                       after_header));
-  std::uint32_t data_bytes;
-  std::memcpy(&data_bytes, block.data() + pos + 4 + header_bytes, 4);
-  if (std::uint64_t{header_bytes} + data_bytes > limits.max_record_bytes)
-    w.fail(fmt::format(
-        "{} bytes of header and data: more than the bound of {} bytes (max_record_bytes)",
-        std::uint64_t{header_bytes} + data_bytes, limits.max_record_bytes));
-  if (data_bytes > after_header - 4)
-    w.fail(fmt::format("the {} ends inside the record's data of {} bytes ({} left)", block_name,
-                       data_bytes, after_header - 4));
-  r.data_offset = pos + 8 + header_bytes;
-  r.data = block.substr(r.data_offset, data_bytes);
-  r.size = 8 + std::size_t{header_bytes} + data_bytes;
-}
+using detail::Header;
+using detail::kBagHeader;
+using detail::kChunk;
+using detail::kChunkInfo;
+using detail::kConnection;
+using detail::kIndexData;
+using detail::kMessageData;
+using detail::quoted;
+using detail::read_record;
+using detail::Record;
+using detail::Where;
 
 struct Connection {
   Channel channel;

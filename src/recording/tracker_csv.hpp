@@ -1,6 +1,7 @@
-// Internal to the tracker export readers (tracker_export.cpp, tracker_formats.cpp):
-// the lines and fields of a CSV export (bounded: a line at most 1 MiB, at most
-// 4096 fields), units, rotations and the rows of samples every layout ends in.
+// Internal to the tracker export readers (tracker_export.cpp, tracker_generic.cpp,
+// tracker_formats.cpp, tracker_vicon.cpp): the lines and fields of a CSV export
+// (bounded: a line at most 1 MiB, at most 4096 fields), units, rotations, the
+// matching of names and the rows of samples every layout ends in.
 #pragma once
 
 #include <array>
@@ -133,5 +134,17 @@ std::array<double, 4> euler_quaternion(const std::string& order, double ax, doub
 // True if `full` names `wanted`: equal, or "Subject:wanted" (a Vicon subject's or
 // a Motive rigid body's prefix).
 bool names_match(std::string_view full, std::string_view wanted);
+
+// The names of a list, each once, in order.
+std::vector<std::string> unique(const std::vector<std::string>& names);
+// The one of `names` that `wanted` names: itself, "PREFIX:wanted" with `prefix`
+// (the body given with markers), or the only "ANY:wanted" (names_match); "" if
+// none; InputError naming `line` if several.
+std::string match_one(const std::vector<std::string>& names, const std::string& wanted,
+                      const std::string& file, int line, const char* what,
+                      const std::string& prefix = "");
+// A row's fields as strings, and its field k ("" past its end).
+std::vector<std::string> copy(const std::vector<std::string_view>& fields);
+std::string at(const std::vector<std::string>& row, std::size_t k);
 
 }  // namespace hapticcal::recording::detail
