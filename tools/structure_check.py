@@ -16,7 +16,7 @@ import sys
 
 # Where the targets stand. Lower a number when a change lowers its count.
 CEILINGS = {
-    "file_lines": 700,             # issue 24: no file over 700 lines
+    "file_lines": 600,             # issue 60: no file over 600 lines (issue 24: 700)
     "files_over": 0,
     "function_lines": 120,         # issue 24: no function longer than 120 lines
     "functions_over": 0,
