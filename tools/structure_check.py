@@ -58,6 +58,7 @@ EXTENSION_TESTS = [
     ("tests/joint_error_family_test.cpp", "register_joint_error_family"),
     ("tests/transmission_kind_test.cpp", "register_transmission_kind"),
     ("tests/measurement_kind_test.cpp", "register_measurement_kind"),
+    ("tests/joint_effect_test.cpp", "register_joint_effect_family"),
 ]
 # An include of the library's own sources, not its installed headers.
 INTERNAL_INCLUDE = re.compile(r'#include\s+"(?!hapticcal/|support/)[a-z_]+/')

@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model/joint_effect.hpp"
 
 namespace hapticcal {
 
@@ -175,7 +176,8 @@ void GravityModel::deflect(double* joint) const {
 Eigen::VectorXd DeviceModel::compensate(const Eigen::VectorXd& q) const {
   assert(q.size() == dof());
   Eigen::VectorXd joint(dof());
-  for (int i = 0; i < dof(); ++i) joint[i] = q[i] + links[i].transmission.error(q[i]);
+  for (int i = 0; i < dof(); ++i)
+    joint[i] = q[i] + links[i].transmission.error(q[i]) + effects_error(links[i], q[i]);
   if (coupled()) joint = coupling * joint;
   if (compliant()) GravityModel(*this).deflect(joint.data());
   return joint;
@@ -195,7 +197,8 @@ Eigen::MatrixXd DeviceModel::reading_jacobian(const Eigen::VectorXd& q) const {
     return D;
   }
   Eigen::VectorXd slope(dof());
-  for (int k = 0; k < dof(); ++k) slope[k] = 1 + links[k].transmission.derivative(q[k]);
+  for (int k = 0; k < dof(); ++k)
+    slope[k] = 1 + links[k].transmission.derivative(q[k]) + effects_slope(links[k], q[k]);
   if (coupled()) return coupling * slope.asDiagonal();
   return slope.asDiagonal();
 }

@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "hapticcal/model/joint_effect.hpp"
 #include "kinematics/fast_math.hpp"
 
 namespace hapticcal {
@@ -91,6 +92,13 @@ PreparedModel::PreparedModel(const DeviceModel& model) : structure_(model.struct
       }
     }
   }
+  for (int i = 0; i < structure_.dof; ++i) {
+    for (const auto& [name, c] : model.links[i].effects) {
+      const JointEffect* effect = find_joint_effect(name);
+      if (!effect) throw std::invalid_argument("joint effect '" + name + "' is not registered");
+      effects_.push_back({i, effect, c});
+    }
+  }
 }
 
 void PreparedModel::compensate(const double* q, double* joint) const {
@@ -107,13 +115,14 @@ std::optional<ChainConstants<double>> PreparedModel::bent_constants(const double
 
 void PreparedModel::rigid_joints(const double* q, double* joint) const {
   const int n = structure_.dof;
-  if (coupling_.empty() && !gravity_) {
+  if (coupling_.empty() && !gravity_ && effects_.empty()) {
     for (int i = 0; i < n; ++i) joint[i] = q[i] + transmissions_[i].error(q[i]);
     return;
   }
-  std::array<double, kMaxDof> u;  // each reading through its own transmission
+  std::array<double, kMaxDof> u;  // each reading through its own transmission and effects
   transmission_errors(q, u.data());
   for (int k = 0; k < n; ++k) u[k] += q[k];
+  for (const EffectTerm& e : effects_) u[e.joint] += e.c * e.effect->feature(q[e.joint]);
   if (coupling_.empty()) {
     std::copy(u.begin(), u.begin() + n, joint);
   } else {
@@ -176,14 +185,19 @@ void PreparedModel::reading_jacobian(const double* q, double* J_joint_reading) c
     return;
   }
   std::fill(J_joint_reading, J_joint_reading + n * n, 0.0);
+  std::array<double, kMaxDof> slope;
+  reading_slopes(q, slope.data());
   if (coupling_.empty()) {
-    for (int i = 0; i < n; ++i) J_joint_reading[i * n + i] = 1 + transmissions_[i].derivative(q[i]);
+    for (int i = 0; i < n; ++i) J_joint_reading[i * n + i] = slope[i];
     return;
   }
-  for (const CouplingTerm& t : coupling_) {
-    J_joint_reading[t.reading * n + t.joint] +=
-        t.coefficient * (1 + transmissions_[t.reading].derivative(q[t.reading]));
-  }
+  for (const CouplingTerm& t : coupling_)
+    J_joint_reading[t.reading * n + t.joint] += t.coefficient * slope[t.reading];
+}
+
+void PreparedModel::reading_slopes(const double* q, double* slope) const {
+  for (int k = 0; k < structure_.dof; ++k) slope[k] = 1 + transmissions_[k].derivative(q[k]);
+  for (const EffectTerm& e : effects_) slope[e.joint] += e.c * e.effect->slope(q[e.joint]);
 }
 
 void PreparedModel::joint_angles(const double* joint, double* cos_theta, double* sin_theta,
@@ -257,7 +271,7 @@ Frame<double> PreparedModel::compose_bent(const double* cos_theta, const double*
 // theta = q + (error + offset) is turned from (cos q, sin q) by that small angle.
 Frame<double> PreparedModel::chain(const double* q, Frame<double>* frames) const {
   if (gravity_) return compliant_chain(q, frames);
-  if (!coupling_.empty()) {
+  if (!coupling_.empty() || !effects_.empty()) {
     std::array<double, kMaxDof> joint;
     compensate(q, joint.data());
     return chain_from_joints(joint.data(), frames);

@@ -12,6 +12,7 @@
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model/frame.hpp"
+#include "hapticcal/model/joint_effect.hpp"
 #include "hapticcal/model_io/device.hpp"
 #include "model_io/device_tree.hpp"
 
@@ -179,6 +180,12 @@ void read_base(const Reader& r, const YAML::Node& root, DeviceModel& model) {
   }
 }
 
+// A version-2 link's keys: `keys`, then the registered joint effects' names.
+std::vector<std::string> with_effects(std::vector<std::string> keys) {
+  for (const JointEffect* e : joint_effects()) keys.emplace_back(e->name());
+  return keys;
+}
+
 // One entry of `links` (at `path`), read as its file's version and convention
 // allow; the checks against the other links are check_link's.
 Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
@@ -189,15 +196,15 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
     link.geometry = r.geometry(node["geometry"], join(path, "geometry"), file.v2);
   }
   if (!link.dh_parameters()) {
-    r.check_keys(
-        node, path,
-        {"name", "geometry", "type", "origin", "axis", "offset", "limits", "transmission",
-         "coupling", "range", "mass", "compliance", "lateral_compliance", "backlash", "parent"});
+    r.check_keys(node, path,
+                 with_effects({"name", "geometry", "type", "origin", "axis", "offset", "limits",
+                               "transmission", "coupling", "range", "mass", "compliance",
+                               "lateral_compliance", "backlash", "parent"}));
   } else if (file.v2) {
-    r.check_keys(
-        node, path,
-        {"name", "geometry", "type", "a", "alpha", "d", "theta", "beta", "limits", "transmission",
-         "coupling", "range", "mass", "compliance", "lateral_compliance", "backlash", "parent"});
+    r.check_keys(node, path,
+                 with_effects({"name", "geometry", "type", "a", "alpha", "d", "theta", "beta",
+                               "limits", "transmission", "coupling", "range", "mass", "compliance",
+                               "lateral_compliance", "backlash", "parent"}));
   } else {
     r.check_keys(node, path,
                  {"name", "a", "alpha", "d", "theta", "beta", "limits", "transmission"});
@@ -256,6 +263,10 @@ Link read_link(const Reader& r, const YAML::Node& node, const std::string& path,
         r.number(node["lateral_compliance"], join(path, "lateral_compliance"));
   }
   if (node["backlash"]) link.backlash = r.number(node["backlash"], join(path, "backlash"));
+  for (const JointEffect* e : joint_effects()) {
+    const std::string name(e->name());
+    if (file.v2 && node[name]) link.effects[name] = r.number(node[name], join(path, name));
+  }
   return link;
 }
 
@@ -376,6 +387,14 @@ std::pair<std::string, std::string> check_link(const DeviceModel& model, int i) 
             fmt::format("{} is not a backlash of magnitude at most {} {}", link.backlash,
                         kMaxBacklash, link.prismatic() ? "m" : "rad")};
   }
+  for (const auto& [name, c] : link.effects) {
+    const JointEffect* e = find_joint_effect(name);
+    if (!e) return {key + "." + name, "not a registered joint effect"};
+    if (!(std::abs(c) <= e->bound())) {
+      return {key + "." + name,
+              fmt::format("{} is not a value of magnitude at most {}", c, e->bound())};
+    }
+  }
   const std::string why = link.transmission.check(link.lower, link.upper);
   if (!why.empty()) return {key + ".transmission", why};
   for (double v : link.transmission.parameters()) {
@@ -448,14 +467,9 @@ DeviceModel parse_device(const std::string& text, const std::string& origin) {
     model.links.push_back(read_link(r, node, fmt::format("links[{}]", i), file));
     const auto [key, why] = check_link(model, static_cast<int>(i));
     if (!why.empty()) {
-      const YAML::Node at = key.ends_with(".transmission")         ? node["transmission"]
-                            : key.ends_with(".name")               ? node["name"]
-                            : key.ends_with(".mass")               ? node["mass"]
-                            : key.ends_with(".lateral_compliance") ? node["lateral_compliance"]
-                            : key.ends_with(".compliance")         ? node["compliance"]
-                            : key.ends_with(".backlash")           ? node["backlash"]
-                            : key.ends_with(".range")              ? node["range"]
-                                                                   : node;
+      // The key's own node (links[i].<field>), else the link's.
+      const std::string field = key.substr(key.rfind('.') + 1);
+      const YAML::Node at = node[field] ? node[field] : node;
       r.fail(at, key, why);
     }
   }

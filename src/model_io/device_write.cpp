@@ -9,6 +9,7 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
+#include "hapticcal/model/joint_effect.hpp"
 #include "hapticcal/model_io/device.hpp"
 #include "model_io/device_tree.hpp"
 
@@ -103,7 +104,8 @@ std::string device_to_yaml(const DeviceModel& model) {
   bool masses = false;  // masses, compliance, gravity and backlash are version 2's, like a coupling
   for (const Link& l : model.links)
     masses = masses || l.mass != 0 || l.compliance != 0 || l.lateral_compliance != 0;
-  uniform = uniform && !model.coupled() && !masses && !model.has_backlash() && !model.tree();
+  uniform = uniform && !model.coupled() && !masses && !model.has_backlash() && !model.tree() &&
+            !has_joint_effects(model);
   auto geometry_name = [](Geometry g) { return traits(g).name; };
   out += fmt::format("format: {}\n", uniform ? kFormat : kFormat2);
   out += fmt::format("name: {}\n", quoted(model.name));
@@ -161,6 +163,7 @@ std::string device_to_yaml(const DeviceModel& model) {
     if (l.lateral_compliance != 0)
       out += fmt::format("    lateral_compliance: {}\n", num(l.lateral_compliance));
     if (l.backlash != 0) out += fmt::format("    backlash: {}\n", num(l.backlash));
+    for (const auto& [name, c] : l.effects) out += fmt::format("    {}: {}\n", name, num(c));
   }
   if (masses) {
     const Eigen::Vector3d& g = model.gravity;

@@ -11,6 +11,7 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model/joint_effect.hpp"
 
 namespace hapticcal {
 namespace {
@@ -33,16 +34,16 @@ double zero_change(const Link& c, const Link& n) {
 }
 
 // A transmission's best line dtheta(r) ~ a + b r over the reading's limits
-// (least squares on 101 points): {b, a}; none: {0, 0}.
+// (least squares on 101 points), with the joint's effects: {b, a}; none: {0, 0}.
 std::pair<double, double> transmission_line(const Link& l) {
-  if (l.transmission.is_none()) return {0, 0};
+  if (l.transmission.is_none() && l.effects.empty()) return {0, 0};
   Eigen::MatrixXd A(101, 2);
   Eigen::VectorXd y(101);
   for (int k = 0; k <= 100; ++k) {
     const double r = l.lower + (l.upper - l.lower) * k / 100.0;
     A(k, 0) = r;
     A(k, 1) = 1;
-    y[k] = l.transmission.error(r);
+    y[k] = l.transmission.error(r) + effects_error(l, r);
   }
   const Eigen::Vector2d line = A.colPivHouseholderQr().solve(y);
   return {line[0], line[1]};

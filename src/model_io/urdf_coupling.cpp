@@ -10,6 +10,7 @@
 #include <string_view>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/model/joint_effect.hpp"
 #include "hapticcal/model_io/device.hpp"
 #include "model_io/urdf_internal.hpp"
 
@@ -92,8 +93,8 @@ constexpr std::string_view kRangeElement = "hapticcal_range";
 // refused, wherever it is, as the file is read.
 void check_coupling_elements(const Document& doc, const std::string& origin) {
   for (const XmlElement& e : doc.elements) {
-    const bool coupling = e.name == kCouplingElement;
-    if (!coupling && e.name != kRangeElement) continue;
+    const bool coupling = e.name == kCouplingElement, effect = e.name == kEffectElement;
+    if (!coupling && !effect && e.name != kRangeElement) continue;
     const std::string key = fmt::format("<{}>", e.name);
     const XmlElement* parent = e.parent >= 0 ? &doc.elements[e.parent] : nullptr;
     if (!parent || parent->name != "joint" || parent->parent != doc.robot) {
@@ -107,17 +108,16 @@ void check_coupling_elements(const Document& doc, const std::string& origin) {
                                             name ? " name=\"" + printable(name->value, 80) + "\""
                                                  : std::string())));
     }
+    // Each element's own attributes.
+    const std::pair<const char*, const char*> own = coupling ? std::pair{"joint", "multiplier"}
+                                                    : effect ? std::pair{"name", "value"}
+                                                             : std::pair{"lower", "upper"};
     for (const XmlAttribute& a : e.attributes) {
-      if (coupling ? a.name == "joint" || a.name == "multiplier"
-                   : a.name == "lower" || a.name == "upper") {
-        continue;
-      }
+      if (a.name == own.first || a.name == own.second) continue;
       throw InputError(origin, e.line, key,
-                       coupling ? fmt::format("unknown attribute '{}' (joint= and multiplier= "
-                                              "only; a joint's offset is its <origin>'s)",
-                                              printable(a.name, 40))
-                                : fmt::format("unknown attribute '{}' (lower= and upper= only)",
-                                              printable(a.name, 40)));
+                       fmt::format("unknown attribute '{}' ({}= and {}= only{})",
+                                   printable(a.name, 40), own.first, own.second,
+                                   coupling ? "; a joint's offset is its <origin>'s" : ""));
     }
   }
 }
@@ -147,6 +147,31 @@ void read_ranges(const Document& doc, const std::string& origin, DeviceModel& mo
     }
     link.range_lower = *lo;
     link.range_upper = *hi;
+  }
+}
+
+void read_effects(const Document& doc, const std::string& origin, DeviceModel& model) {
+  for (Link& link : model.links) {
+    const XmlElement* joint = doc.joint(link.name);
+    if (!joint) continue;
+    for (const XmlElement* e : doc.children(*joint, kEffectElement)) {
+      auto fail = [&](const std::string& why) {
+        throw InputError(origin, e->line, joint_key(link.name),
+                         fmt::format("<{}>: {}", kEffectElement, why));
+      };
+      const XmlAttribute* name = e->attribute("name");
+      const XmlAttribute* value = e->attribute("value");
+      if (!name || !value) fail("needs name=\"<a joint effect>\" and value=\"<c>\"");
+      if (!find_joint_effect(name->value)) {
+        fail(fmt::format("'{}' is not a joint effect this program registered",
+                         printable(name->value, 80)));
+      }
+      const std::optional<double> c = attribute_number(value->value);
+      if (!c)
+        fail(fmt::format("value '{}': a finite number is needed", printable(value->value, 40)));
+      if (!link.effects.emplace(name->value, *c).second)
+        fail(fmt::format("'{}' given twice", printable(name->value, 80)));
+    }
   }
 }
 

@@ -14,6 +14,7 @@
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model/frame.hpp"
+#include "hapticcal/model/joint_effect.hpp"
 #include "hapticcal/model_io/device.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "model_io/urdf_internal.hpp"
@@ -254,6 +255,8 @@ void write_joint(std::string& out, const std::string& name, const std::string& t
       out += fmt::format("    <hapticcal_range lower=\"{}\" upper=\"{}\"/>\n", link->range_lower,
                          link->range_upper);
     }
+    for (const auto& [effect, c] : link->effects)  // likewise
+      out += fmt::format("    <{} name=\"{}\" value=\"{}\"/>\n", detail::kEffectElement, effect, c);
   }
   out += extra;
   out += "  </joint>\n";
@@ -426,6 +429,7 @@ std::string not_in_urdf(const DeviceModel& m) {
   if (m.compliant()) parts.push_back("joint compliance");
   if (m.laterally_compliant()) parts.push_back("lateral compliance");
   if (m.has_backlash()) parts.push_back("backlash");
+  if (has_joint_effects(m)) parts.push_back("the joint effects");
   for (const Link& l : m.links) {
     if (!l.transmission.is_none()) {
       parts.push_back("the transmissions' errors");

@@ -152,6 +152,10 @@ void couple_readings(const std::vector<ChainCoupling>& couplings, const std::str
                      DeviceModel& model);
 // The joints' <hapticcal_range> into their links' ranges.
 void read_ranges(const Document& doc, const std::string& origin, DeviceModel& model);
+// The joints' <hapticcal_effect name="" value=""/> into their links' effects
+// (Link::effects: a joint effect a program registered, model/joint_effect.hpp).
+constexpr std::string_view kEffectElement = "hapticcal_effect";
+void read_effects(const Document& doc, const std::string& origin, DeviceModel& model);
 
 // ---------------------------------------------------------------------------
 // The chain root -> tip.

@@ -461,6 +461,7 @@ UrdfChain read_chain(const std::string& text, const std::string& origin, const s
   couple_mimics(mimics, origin, model);
   couple_readings(couplings, origin, model);
   read_ranges(chain.doc, origin, model);
+  read_effects(chain.doc, origin, model);
   chain.tool_origins = std::move(fixed_origins);
   chain.tool_elements = std::move(fixed_elements);
   check_chain_model(chain, origin);

@@ -111,6 +111,14 @@ void drop_block(DeviceModel& model, std::string_view family);
 // calibration runs). std::invalid_argument if a family has its name.
 void register_joint_error_family(const JointErrorFamily* family);
 
+// A joint effect (model/joint_effect.hpp) and its step-2 family, registered
+// together: the family's name is the effect's, one parameter c a joint whose
+// reading is its own, its feature the effect's f at the reading, its fold the
+// links' effects, its tolerance the effect's bound (a weak prior). The one
+// call a new effect needs (families/effect.cpp).
+class JointEffect;
+void register_joint_effect_family(const JointEffect* effect);
+
 // Every family, in the model search's order (registry.cpp).
 const std::vector<const JointErrorFamily*>& joint_error_families();
 // The family of this name, or null.

@@ -21,6 +21,8 @@
 
 namespace hapticcal {
 
+class JointEffect;
+
 // In which frame the geometric Jacobian is expressed; the reference point is the
 // tool point in both cases.
 enum class JacobianFrame { kMeasurement, kTool };
@@ -541,6 +543,16 @@ class PreparedModel {
     double coefficient;
   };
   std::vector<CouplingTerm> coupling_;
+  // The joint effects (model/joint_effect.hpp): c f(q_joint) added to a
+  // reading's value where its transmission's error is.
+  struct EffectTerm {
+    int joint;
+    const JointEffect* effect;
+    double c;
+  };
+  std::vector<EffectTerm> effects_;
+  // 1 + dtheta_k'(q_k) + the effects' slopes: each reading's own slope.
+  void reading_slopes(const double* q, double* slope) const;
   std::shared_ptr<const GravityModel> gravity_;  // a compliant model's; else null
   // kDh / kMdh: every joint revolute with that geometry (the register recursion);
   // else per joint through compose_link.

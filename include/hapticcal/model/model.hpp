@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <optional>
 #include <random>
 #include <string>
@@ -111,6 +112,9 @@ struct Link {
   // tau_x is formed on the chain at the joint values, before the bend
   // (GravityModel::pose_constants).
   double lateral_compliance = 0.0;
+  // The joint effects a program registered (model/joint_effect.hpp) on this
+  // joint, by name: c of the term c f(q) in the joint's value.
+  std::map<std::string, double> effects;
 
   bool prismatic() const { return type == JointType::kPrismatic; }
   bool has_range() const { return std::isfinite(range_lower) || std::isfinite(range_upper); }
