@@ -30,6 +30,7 @@
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/markers.hpp"
+#include "hapticcal/identification/stream.hpp"
 #include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/jobs/evaluate_job.hpp"
 #include "hapticcal/jobs/force_job.hpp"
@@ -469,17 +470,24 @@ PYBIND11_MODULE(hapticcal, m) {
       .def_readonly("lines", &Calibration::lines,
                     "The summary the command line prints, a line each");
 
+  // The defaults are the library's, as the command line's are.
+  const hapticcal::CalibrationOptions calibration_defaults;
+  const double clock_search_default = hapticcal::StreamOptions{}.search_range;
   m.def("calibrate", &calibrate, "model"_a, "log"_a, py::kw_only(), "no_transmission"_a = false,
-        "samples"_a = 0, "seed"_a = 1ULL, "sigma"_a = py::none(), "fix"_a = py::none(),
-        "free"_a = py::none(), "point_distance"_a = py::none(), "fixture"_a = py::none(),
-        "keep_all"_a = false, "folds"_a = 5, "columns"_a = py::none(), "force"_a = false,
-        "polynomial_order"_a = py::none(), "dependency_tolerance"_a = 1e-6, "loss"_a = "cauchy",
-        "strict"_a = false, "tip"_a = py::none(), "root"_a = py::none(), "out"_a = py::none(),
-        "select"_a = false, "tolerance"_a = py::none(), "prior_scale"_a = py::none(),
+        "samples"_a = calibration_defaults.samples,
+        "seed"_a = static_cast<unsigned long long>(calibration_defaults.seed),
+        "sigma"_a = py::none(), "fix"_a = py::none(), "free"_a = py::none(),
+        "point_distance"_a = py::none(), "fixture"_a = py::none(), "keep_all"_a = false,
+        "folds"_a = calibration_defaults.folds, "columns"_a = py::none(), "force"_a = false,
+        "polynomial_order"_a = py::none(),
+        "dependency_tolerance"_a = calibration_defaults.dependency_tolerance,
+        "loss"_a = std::string(to_string(calibration_defaults.loss)), "strict"_a = false,
+        "tip"_a = py::none(), "root"_a = py::none(), "out"_a = py::none(), "select"_a = false,
+        "tolerance"_a = py::none(), "prior_scale"_a = py::none(),
         "encoder_resolution"_a = py::none(), "joint_errors"_a = py::none(),
-        "tracker"_a = py::none(), "clock_search"_a = 10.0, "clock_drift"_a = false,
-        "markers"_a = py::none(), "search"_a = true, "prior"_a = false, "threads"_a = 0,
-        "tool_point"_a = py::none(),
+        "tracker"_a = py::none(), "clock_search"_a = clock_search_default, "clock_drift"_a = false,
+        "markers"_a = py::none(), "search"_a = true, "prior"_a = false,
+        "threads"_a = calibration_defaults.threads, "tool_point"_a = py::none(),
         "hapticcal calibrate: the two-step identification of a log, its model found by the "
         "model search (search=False: exactly the model the other keywords name). Does not raise "
         "when the calibration is not usable (the command line's exit 3): .usable is False, "
@@ -487,7 +495,7 @@ PYBIND11_MODULE(hapticcal, m) {
   m.def("evaluate", &evaluate, "model"_a, "log"_a, py::kw_only(), "columns"_a = py::none(),
         "point_distance"_a = py::none(), "fixture"_a = py::none(), "reference"_a = py::none(),
         "tip"_a = py::none(), "root"_a = py::none(), "register"_a = py::none(),
-        "out"_a = py::none(), "tracker"_a = py::none(), "clock_search"_a = 10.0,
+        "out"_a = py::none(), "tracker"_a = py::none(), "clock_search"_a = clock_search_default,
         "clock_drift"_a = false, "iso9283"_a = py::none(), "conditions"_a = py::none(),
         "markers"_a = py::none(),
         "hapticcal evaluate --json: the same keys, in metres (register='frame' or "

@@ -95,8 +95,11 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
   calibrate
       ->add_option("--samples", o.samples,
                    "Use N random poses of the log (0: all; repeated rows count as one pose)")
-      ->check(whole_number(option_range::kSamples));
-  calibrate->add_option("--seed", o.seed, "Seed of the row sample")->check(whole_number(0));
+      ->check(whole_number(option_range::kSamples))
+      ->capture_default_str();
+  calibrate->add_option("--seed", o.seed, "Seed of the row sample")
+      ->check(whole_number(0))
+      ->capture_default_str();
   calibrate
       ->add_option("--sigma", o.sigma,
                    "Measurement noise sd [m] for the standard deviations (default: "
@@ -116,19 +119,22 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
   add_model_options(calibrate, o);
   calibrate
       ->add_option("--threads", o.threads,
-                   "Threads of the model search (default: one a core; its choices do not "
-                   "depend on it)")
-      ->check(whole_number(option_range::kThreads));
+                   "Threads of the model search (0: one a core; its choices do not depend on "
+                   "it)")
+      ->check(whole_number(option_range::kThreads))
+      ->capture_default_str();
   calibrate
       ->add_option("--folds", o.folds,
-                   "K of the K-fold cross-validated (held-out) RMS by pose (default 5; 0: none)")
-      ->check(whole_number(option_range::kFolds));
+                   "K of the K-fold cross-validated (held-out) RMS by pose (0: none)")
+      ->check(whole_number(option_range::kFolds))
+      ->capture_default_str();
   calibrate
       ->add_option("--loss", o.loss,
                    "Loss for poses the outlier test flags (residual beyond the Bonferroni "
-                   "quantile in robust sds): cauchy (default), huber, or none (plain least "
-                   "squares; outliers still named)")
-      ->check(CLI::IsMember({"cauchy", "huber", "none"}));
+                   "quantile in robust sds): cauchy, huber, or none (plain least squares; "
+                   "outliers still named)")
+      ->check(CLI::IsMember({"cauchy", "huber", "none"}))
+      ->capture_default_str();
   calibrate->add_flag("--strict", o.strict,
                       "A suspect fit (training RMS beyond 100 x the repeatability, or held-out "
                       "RMS above the nominal model's with its base fitted) is unusable: exit 3, "
@@ -137,8 +143,9 @@ CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& o) {
   calibrate
       ->add_option("--dependency-tolerance", o.tolerance,
                    "A parameter whose scaled Jacobian column lies within this relative "
-                   "distance of the span of those before it is held (default 1e-6)")
-      ->check(within(option_range::kDependencyTolerance));
+                   "distance of the span of those before it is held")
+      ->check(within(option_range::kDependencyTolerance))
+      ->capture_default_str();
   calibrate->add_flag(
       "--force", o.force,
       "Calibrate even if the log looks implausible for the model (readings "

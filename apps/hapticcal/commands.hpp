@@ -11,11 +11,14 @@
 #include <vector>
 
 #include "command_support.hpp"
+#include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/stream.hpp"
 #include "hapticcal/study/control.hpp"
 
 namespace hapticcal::cli {
 
-// `hapticcal calibrate`: two-step identification from a log.
+// `hapticcal calibrate`: two-step identification from a log. The defaults are
+// the library's (CalibrationOptions, StreamOptions), as Python's keywords are.
 struct CalibrateOptions {
   std::string fixture;
   std::vector<std::string> point_distance;
@@ -25,17 +28,17 @@ struct CalibrateOptions {
   bool prior = false, no_search = false;
   std::vector<std::string> tolerances;  // NAME=SD
   double prior_scale = 0;               // 0: by the evidence
-  std::string loss = "cauchy";
-  int samples = 0, folds = 5;
-  int threads = 0;  // the model search's; 0: one a core
-  unsigned long long seed = 1;
+  std::string loss = to_string(CalibrationOptions{}.loss);
+  int samples = CalibrationOptions{}.samples, folds = CalibrationOptions{}.folds;
+  int threads = CalibrationOptions{}.threads;  // the model search's; 0: one a core
+  unsigned long long seed = CalibrationOptions{}.seed;
   double sigma = 0;
   int polynomial_order = 0;
   double encoder_resolution = 0;  // 0: not given
-  double tolerance = 1e-6;
-  std::string tracker;       // a tracker's stream on its own clock
-  std::string markers;       // X1,Y1,Z1,...: a marker body in the tool frame
-  double clock_search = 10;  // s
+  double tolerance = CalibrationOptions{}.dependency_tolerance;
+  std::string tracker;  // a tracker's stream on its own clock
+  std::string markers;  // X1,Y1,Z1,...: a marker body in the tool frame
+  double clock_search = StreamOptions{}.search_range;  // s
   bool clock_drift = false;
   std::string tool_point;  // X,Y,Z or "nominal": device.yaml's tool ("": the measured point)
 };
@@ -49,7 +52,7 @@ struct EvaluateOptions {
   std::vector<std::string> point_distance;
   std::string model, log, columns, reference, out = "hapticcal-out/evaluate";
   std::string tracker;  // a second session's tracker stream (--log is the device's)
-  double clock_search = 10;
+  double clock_search = StreamOptions{}.search_range;
   bool clock_drift = false;
   std::string register_what;    // --register: frame or frame,tool
   bool register_given = false;  // --register "" is refused, not taken as absent

@@ -87,8 +87,9 @@ inline void add_clock_options(CLI::App* command, CLI::Option* tracker, double& s
                               bool& drift) {
   command
       ->add_option("--clock-search", search,
-                   "With --tracker: the clocks' offset is searched within +-SECONDS (default 10)")
+                   "With --tracker: the clocks' offset is searched within +-SECONDS")
       ->check(within(option_range::kClockSearch))
+      ->capture_default_str()
       ->needs(tracker);
   command
       ->add_flag("--clock-drift", drift,

@@ -588,6 +588,32 @@ def test_every_command_option_is_a_keyword_and_back():
         assert keywords - options - python_only == set(), command
 
 
+def test_the_command_lines_defaults_are_the_keywords_defaults():
+    """A default the command line shows (`--folds INT:in [0, 1000]=5` in its --help) is the
+    default of the Python keyword of that name: both are the library's (CalibrationOptions,
+    StreamOptions), not a number written twice."""
+    checked = 0
+    for command, function in {"calibrate": "calibrate", "evaluate": "evaluate"}.items():
+        signature = getattr(hapticcal, function).__doc__.split("\n")[0]
+        code, stdout, stderr = cli(command, "--help")
+        assert code == 0, stderr
+        # An option's own column: its name, type, check and default, up to two spaces.
+        for option, column in re.findall(r"^\s+--([a-z0-9-]+) ((?:(?!  ).)*)", stdout, re.M):
+            shown = re.search(r"=(\S+)", column)
+            if not shown:
+                continue
+            keyword = option.replace("-", "_")
+            match = re.search(r"\b" + keyword + r": [^=]+? = ([^,)]+)", signature)
+            assert match, (command, option)
+            default = match.group(1).strip().strip("'")
+            try:
+                assert float(default) == float(shown.group(1)), (command, option, default, shown)
+            except ValueError:
+                assert default == shown.group(1), (command, option, default, shown)
+            checked += 1
+    assert checked >= 8  # calibrate's seven shown defaults and evaluate's clock search
+
+
 def test_simulate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
     """simulate runs one job (jobs/simulate_job.hpp) for both front ends: the same folders, byte
     for byte (trial logs, results.json, the report and its figures)."""
