@@ -12,6 +12,7 @@
 
 #include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/core/log_rows.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
@@ -265,7 +266,7 @@ std::string fast_motion_note(const Log& tracker, const std::vector<int>& lines) 
 }
 
 Log without_rows(const Log& log, const std::vector<int>& rows) {
-  std::vector<Eigen::Index> keep;
+  std::vector<int> keep;
   size_t next = 0;
   for (int r = 0; r < log.rows; ++r) {
     if (next < rows.size() && rows[next] == r) {
@@ -274,24 +275,7 @@ Log without_rows(const Log& log, const std::vector<int>& rows) {
     }
     keep.push_back(r);
   }
-  Log out = log;
-  out.rows = static_cast<int>(keep.size());
-  const auto take = [&](Eigen::MatrixXd& m) {
-    if (m.rows() == log.rows) m = Eigen::MatrixXd(m(keep, Eigen::all));
-  };
-  take(out.q), take(out.ext), take(out.direction), take(out.position), take(out.orientation),
-      take(out.markers);
-  if (out.t.size() == log.rows) out.t = Eigen::VectorXd(log.t(keep));
-  if (out.distance.size() == log.rows) out.distance = Eigen::VectorXd(log.distance(keep));
-  const auto take_each = [&](auto& v) {
-    if (v.size() != static_cast<size_t>(log.rows)) return;
-    auto all = v;
-    v.clear();
-    for (const Eigen::Index r : keep) v.push_back(all[static_cast<size_t>(r)]);
-  };
-  take_each(out.line), take_each(out.tip), take_each(out.label);
-  for (auto& [name, m] : out.columns) take(m);
-  return out;
+  return select_rows(log, keep);
 }
 
 ReadingInterpolator::ReadingInterpolator(const Log& device) : log_(device) {
