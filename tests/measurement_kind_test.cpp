@@ -141,11 +141,11 @@ TEST(MeasurementKind, ItsRowsMatchCentralDifferences) {
   }
 }
 
-TEST(MeasurementKind, CalibratesEndToEndAndPredictsUnseenHeights) {
-  const DeviceModel nominal = testing::meca500();
-  // The truth: every length and twist of the arm moved by up to 0.5 mm / 0.5 mrad.
-  std::mt19937_64 rng(24);
-  DeviceModel truth = nominal;
+// The truth of the end-to-end tests: every length and twist of the arm moved
+// by up to 0.5 mm / 0.5 mrad.
+DeviceModel moved_meca500(std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  DeviceModel truth = testing::meca500();
   for (Link& l : truth.links) {
     std::uniform_real_distribution<double> u(-5e-4, 5e-4);
     l.a += u(rng);
@@ -153,6 +153,11 @@ TEST(MeasurementKind, CalibratesEndToEndAndPredictsUnseenHeights) {
     l.alpha += u(rng);
     l.theta += u(rng);
   }
+  return truth;
+}
+
+TEST(MeasurementKind, CalibratesEndToEndAndPredictsUnseenHeights) {
+  const DeviceModel nominal = testing::meca500(), truth = moved_meca500(24);
   constexpr double kSigma = 5e-6;  // m: the probe's noise
   const Log log = height_log(truth, 300, kSigma, 7);
   const Log unseen = height_log(truth, 500, 0, 8);
@@ -170,21 +175,6 @@ TEST(MeasurementKind, CalibratesEndToEndAndPredictsUnseenHeights) {
               after * 1e3);
   EXPECT_GT(before, 1e-4);
   EXPECT_LT(after, 5 * kSigma) << "before " << before;
-}
-
-// The truth of the end-to-end tests: every length and twist of the arm moved
-// by up to 0.5 mm / 0.5 mrad.
-DeviceModel moved_meca500(std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  DeviceModel truth = testing::meca500();
-  for (Link& l : truth.links) {
-    std::uniform_real_distribution<double> u(-5e-4, 5e-4);
-    l.a += u(rng);
-    l.d += u(rng);
-    l.alpha += u(rng);
-    l.theta += u(rng);
-  }
-  return truth;
 }
 
 // The height of the tool point by the plane's equation, from the forward

@@ -50,23 +50,19 @@ class EffectFamily : public JointErrorFamily {
   // it: the model's effects are the fold's).
   DeviceModel::FittedBlock block(const DeviceModel& model) const override {
     DeviceModel::FittedBlock b{name_.c_str(), {}};
-    const std::string& key = name_;
     for (int i = 0; i < model.dof(); ++i) {
       if (!own_reading(model, i)) continue;
-      DeviceModel::FittedParameter p{key, ParameterUnit::kAngle, i, i};
+      DeviceModel::FittedParameter p{name_, ParameterUnit::kAngle, i, i};
       if (model.links[i].prismatic()) p.unit = ParameterUnit::kLength;
-      const auto it = model.links[i].effects.find(key);
-      p.value = it == model.links[i].effects.end() ? 0.0 : it->second;
+      p.value = value(model.links[i]);
       b.parameters.push_back(p);
     }
     return b;
   }
   // Each stage's value in the joint values: the link's own (compensate adds it).
   void add_stages(const DeviceModel& model, const AddStage& add) const override {
-    const std::string& key = name_;
     add_block_stages(model, name(), add, [&](const DeviceModel::FittedParameter& f) {
-      const auto it = model.links[f.link].effects.find(key);
-      return it == model.links[f.link].effects.end() ? 0.0 : it->second;
+      return value(model.links[f.link]);
     });
   }
   std::unique_ptr<PoseFeatures> pose_features(const DeviceModel& model) const override {
@@ -90,6 +86,12 @@ class EffectFamily : public JointErrorFamily {
   double tolerance() const override { return effect_.bound(); }
 
  private:
+  // The link's c of this effect (0 without it).
+  double value(const Link& link) const {
+    const auto it = link.effects.find(name_);
+    return it == link.effects.end() ? 0.0 : it->second;
+  }
+
   const JointEffect& effect_;
   const std::string name_;  // the block's family name lives as long as the family
 };

@@ -130,17 +130,13 @@ class Pose : public MeasurementKind {
   // of noise.orientation per axis.
   void simulate(const Frame<double>& tool, const InstrumentNoise& noise,
                 const std::function<double()>& gauss, double* values) const override {
-    for (int k = 0; k < 3; ++k) values[k] = tool.p[k] + noise.position * gauss();
-    Eigen::Vector3d w;
+    Eigen::Vector3d e, w;
+    for (int k = 0; k < 3; ++k) e[k] = noise.position * gauss();
     for (int k = 0; k < 3; ++k) w[k] = noise.orientation * gauss();
     const double angle = w.norm();
     const Eigen::Matrix3d turn = angle > 0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
                                            : Eigen::Matrix3d::Identity();
-    const Eigen::Quaterniond q(turn * tool.R);
-    values[3] = q.w();
-    values[4] = q.x();
-    values[5] = q.y();
-    values[6] = q.z();
+    predict({turn * tool.R, tool.p + e}, values);
   }
   void rows(const ChainStructure& s, const ChainConstants<double>& constants, const double* params,
             const double* joint, const double* measured, double rotation_scale, double* residual,
