@@ -33,8 +33,8 @@ constexpr double kOffset = 0.05;  // c [m]: the plane's distance from the measur
 
 class Height : public MeasurementKind {
  public:
-  Height()
-      : MeasurementKind({.name = "height",
+  explicit Height(const char* name = "height", const char* column = "height")
+      : MeasurementKind({.name = name,
                          .plural = "heights",
                          .dimension = 1,
                          .width = 1,
@@ -42,7 +42,7 @@ class Height : public MeasurementKind {
                          .error_title = "Height error per sample",
                          .error_axis = "|h_model - h_measured| [mm]",
                          .tip = "height",
-                         .columns = {"height"}}) {}
+                         .columns = {column}}) {}
   void predict(const Frame<double>& tool, double* values) const override {
     values[0] = kNormal.dot(tool.p) - kOffset;
   }
@@ -111,6 +111,9 @@ TEST(MeasurementKind, ANewKindIsFoundByNameAndInItsLog) {
   EXPECT_EQ(measurement_type(log), kHeight);
   // A second kind of the same name is refused.
   EXPECT_THROW(register_measurement_kind(std::make_unique<Height>()), std::invalid_argument);
+  // So is a kind whose column is one of the log's own (it would read the tracker's x).
+  EXPECT_THROW(register_measurement_kind(std::make_unique<Height>("x_height", "x")),
+               std::invalid_argument);
 }
 
 TEST(MeasurementKind, ItsRowsMatchCentralDifferences) {

@@ -283,11 +283,18 @@ MeasurementType register_measurement_kind(std::unique_ptr<MeasurementKind> kind)
     throw std::invalid_argument(fmt::format("measurement kind '{}': {} columns for {} values",
                                             t.name, t.columns.size(), t.width));
   }
+  // The log's own column names of letters alone (data_io/log_columns.cpp's
+  // grammar; q, ext and dir take a joint's number): a kind may not take one.
+  static const char* const kLogColumns[] = {"distance", "x",     "y",  "z",   "t",  "qw",
+                                            "qx",       "qy",    "qz", "rx",  "ry", "rz",
+                                            "point",    "plane", "q",  "ext", "dir"};
   for (const std::string& c : t.columns) {
     const bool name = !c.empty() && std::all_of(c.begin(), c.end(), [](char x) {
       return (x >= 'a' && x <= 'z') || (x >= 'A' && x <= 'Z') || x == '_';
     });
-    if (!name || measurement_column(c)) {
+    const bool built_in =
+        std::find(std::begin(kLogColumns), std::end(kLogColumns), c) != std::end(kLogColumns);
+    if (!name || c == "_" || built_in || measurement_column(c)) {
       throw std::invalid_argument(fmt::format(
           "measurement kind '{}': column '{}' is not a name of letters and '_' or is taken", t.name,
           c));
