@@ -27,8 +27,11 @@ void add_compensate_function(py::module_& m) {
         request.options.load = load;  // checked by the job (with_load)
         request.out = out.value_or("hapticcal-out/compensate");
         const CompensateJob job = interruptible([&] { return run_compensate_job(request); });
-        return py::dict("results"_a = py::module_::import("json").attr("loads")(job.results_json),
-                        "lines"_a = job.lines, "out"_a = request.out);
+        return settled([&] {
+          return py::dict(
+              "results"_a = py::module_::import("json").attr("loads")(job.results_json),
+              "lines"_a = job.lines, "out"_a = request.out);
+        });
       },
       "model"_a, "nominal"_a, "targets"_a, py::kw_only(), "load"_a = 0.0, "columns"_a = py::none(),
       "tip"_a = py::none(), "root"_a = py::none(), "out"_a = py::none(),

@@ -110,6 +110,8 @@ struct Calibration {
   std::optional<Eigen::Matrix4d> device_frame;
 };
 
+Calibration calibration(const CalibrateJob& job, const CalibrateRequest& request);
+
 Calibration calibrate(const std::variant<Model, std::string>& model_arg,
                       const std::string& log_path, bool no_transmission, int samples,
                       unsigned long long seed, std::optional<double> sigma,
@@ -192,6 +194,11 @@ Calibration calibrate(const std::variant<Model, std::string>& model_arg,
   options.free = names(free);
   CalibrateJob job;
   job = interruptible([&] { return run_calibrate_job(request); });
+  return settled([&] { return calibration(job, request); });
+}
+
+// The Python view of a calibrate job's outcome.
+Calibration calibration(const CalibrateJob& job, const CalibrateRequest& request) {
   const CalibrationResult& result = job.result;
   const std::string& json = job.results_json;
   Calibration c;
@@ -266,7 +273,7 @@ py::object evaluate(const std::variant<Model, std::string>& model_arg, const std
     request.marker_body = parse_marker_body(text(markers_arg), "markers");
   EvaluateJob job;
   job = interruptible([&] { return run_evaluate_job(request); });
-  return parsed(job.json);
+  return settled([&] { return parsed(job.json); });
 }
 
 // plan(iso9283=True): the standard's test cube (jobs/iso_plan_job.hpp).
@@ -285,9 +292,11 @@ py::dict iso_plan(const std::string& model_path, const std::string& tip, const s
   Eigen::MatrixXd readings(static_cast<Eigen::Index>(job.plan.poses.size()), job.model.dof());
   for (size_t k = 0; k < job.plan.poses.size(); ++k)
     readings.row(static_cast<Eigen::Index>(k)) = job.plan.poses[k].readings.transpose();
-  return py::dict("plan"_a = parsed(job.json), "readings"_a = readings, "out"_a = out,
-                  "files"_a = std::vector<std::string>{out + "/plan.csv", out + "/iso9283.json",
-                                                       out + "/report.html"});
+  return settled([&] {
+    return py::dict("plan"_a = parsed(job.json), "readings"_a = readings, "out"_a = out,
+                    "files"_a = std::vector<std::string>{out + "/plan.csv", out + "/iso9283.json",
+                                                         out + "/report.html"});
+  });
 }
 
 py::dict plan(const std::variant<Model, std::string>& model_arg, const Text& measurement_arg,
@@ -346,9 +355,11 @@ py::dict plan(const std::variant<Model, std::string>& model_arg, const Text& mea
   job = interruptible([&] { return run_plan_job(request, out); });
   const std::string& json = job.json;
   const Plan& result = job.plan;
-  return py::dict("plan"_a = parsed(json), "readings"_a = result.readings, "out"_a = out,
-                  "files"_a = std::vector<std::string>{out + "/plan.csv", out + "/plan.json",
-                                                       out + "/report.html"});
+  return settled([&] {
+    return py::dict("plan"_a = parsed(json), "readings"_a = result.readings, "out"_a = out,
+                    "files"_a = std::vector<std::string>{out + "/plan.csv", out + "/plan.json",
+                                                         out + "/report.html"});
+  });
 }
 
 py::dict simulate(const Text& scenario_arg, int trials, long long seed, int threads,
@@ -371,9 +382,12 @@ py::dict simulate(const Text& scenario_arg, int trials, long long seed, int thre
   SimulateJob job;
   job = interruptible([&] { return run_simulate_job(request); });
   const std::string& out = request.out;
-  return py::dict("results"_a = parsed(job.results_json), "out"_a = out,
-                  "files"_a = std::vector<std::string>{out + "/results.json", out + "/report.html",
-                                                       out + "/calibrated.yaml"});
+  return settled([&] {
+    return py::dict("results"_a = parsed(job.results_json), "out"_a = out,
+                    "files"_a = std::vector<std::string>{out + "/results.json",
+                                                         out + "/report.html",
+                                                         out + "/calibrated.yaml"});
+  });
 }
 
 py::dict force(const std::string& actual, const std::string& nominal, const std::string& calibrated,
@@ -408,7 +422,8 @@ py::dict force(const std::string& actual, const std::string& nominal, const std:
   request.out = out_arg.value_or("hapticcal-out/force");
   ForceJob job;
   job = interruptible([&] { return run_force_job(request); });
-  return py::dict("results"_a = parsed(job.results_json), "out"_a = request.out);
+  return settled(
+      [&] { return py::dict("results"_a = parsed(job.results_json), "out"_a = request.out); });
 }
 
 py::dict convert(const std::string& in, const std::string& out, const Text& tip_arg,

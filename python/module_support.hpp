@@ -32,6 +32,15 @@ inline constexpr int kSignalPollMs = 50;
 // committing its output set (the previous one stays), and KeyboardInterrupt is
 // raised here; a job that finished before it saw the request returns its
 // result with a RuntimeWarning.
+// Says that a Ctrl-C came as a job finished: its output set is committed and
+// its result stands (a RuntimeWarning, an error if warnings are errors).
+inline void warn_finished_despite_ctrl_c() {
+  PyErr_Clear();
+  if (PyErr_WarnEx(PyExc_RuntimeWarning,
+                   "hapticcal: Ctrl-C came as the job finished: its results are written", 1) != 0)
+    throw py::error_already_set();
+}
+
 template <class Job>
 auto interruptible(Job&& job) {
   reset_cancel();
@@ -57,11 +66,7 @@ auto interruptible(Job&& job) {
     // if the previous results were kept.
     try {
       auto value = result.get();
-      PyErr_Clear();
-      if (PyErr_WarnEx(PyExc_RuntimeWarning,
-                       "hapticcal: Ctrl-C came as the job finished: its results are written",
-                       1) != 0)
-        throw py::error_already_set();
+      warn_finished_despite_ctrl_c();
       return value;
     } catch (const py::error_already_set&) {
       throw;
@@ -70,6 +75,29 @@ auto interruptible(Job&& job) {
     }
   }
   return result.get();
+}
+
+// A job's result handed to Python by `convert`, after interruptible()
+// returned: the job's output set is committed, so a Ctrl-C that comes while the
+// result is converted (json.loads is Python code, where the interpreter raises
+// KeyboardInterrupt) must not end the call as if the previous set were kept.
+// The conversion is done again and the Ctrl-C said, as in interruptible(); what
+// is left is the interpreter's own moment between the last check here and the
+// call's return.
+template <class Convert>
+auto settled(Convert&& convert) {
+  bool came = false;
+  for (;;) {
+    try {
+      auto result = convert();
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+      if (came) warn_finished_despite_ctrl_c();
+      return result;
+    } catch (const py::error_already_set& e) {
+      if (!e.matches(PyExc_KeyboardInterrupt)) throw;
+      came = true;  // each retry needs another Ctrl-C: this ends
+    }
+  }
 }
 
 // A list option given as a Python list of strings or as the command line's

@@ -72,7 +72,8 @@ py::dict import_recording(const Text& recording, const Text& joints, const Text&
   request.clock_offset = clock_offset;
   request.out = text(out);
   request.list = list;
-  return summary(interruptible([&] { return recording::run_import(request); }));
+  const auto result = interruptible([&] { return recording::run_import(request); });
+  return settled([&] { return summary(result); });
 }
 
 }  // namespace

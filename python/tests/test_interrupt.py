@@ -131,3 +131,42 @@ def test_ctrl_c_during_an_import(tmp_path):
         call = f"hapticcal.import_recording({str(bag)!r}, out={str(out)!r}{options})"
         exec(call)  # the previous set
         check(interrupt_at_random(call, out, (0.0, 0.4), seed=seed), name)
+
+
+# The child for a Ctrl-C that comes as the job's result is handed back: json.loads (Python
+# code, run once the job has committed its output set) sends the process SIGINT first.
+SIGNAL_IN_CONVERSION = """
+import json, os, signal, sys, warnings
+import hapticcal
+loads = json.loads
+def loads_after_ctrl_c(text, **keywords):
+    json.loads = loads
+    os.kill(os.getpid(), signal.SIGINT)
+    return loads(text, **keywords)
+json.loads = loads_after_ctrl_c
+with warnings.catch_warnings(record=True) as said:
+    warnings.simplefilter("always")
+    try:
+        {call}
+    except KeyboardInterrupt:
+        print("interrupted", flush=True)
+        sys.exit(130)
+print("finished", *[str(w.message) for w in said], flush=True)
+"""
+
+
+def test_ctrl_c_as_the_result_is_handed_back(tmp_path):
+    """A Ctrl-C after the job committed its set, while its results are converted for Python:
+    the call returns them with a RuntimeWarning, never KeyboardInterrupt beside a replaced
+    set."""
+    for name, call in [
+            ("simulate", "hapticcal.simulate(trials=2, threads=2, seed=3, out={out!r})"),
+            ("calibrate", f"hapticcal.calibrate({MECA!r}, {CAL_LOG!r}, out={{out!r}})")]:
+        out = tmp_path / name
+        child = subprocess.run(
+            [sys.executable, "-c", SIGNAL_IN_CONVERSION.format(call=call.format(out=str(out)))],
+            capture_output=True, text=True, timeout=120)
+        what = f"{name}: exit {child.returncode}\n{child.stdout}{child.stderr[-2000:]}"
+        assert child.returncode == 0, what
+        assert "finished" in child.stdout and "Ctrl-C came as the job finished" in child.stdout, what
+        assert (out / "results.json").is_file(), what
