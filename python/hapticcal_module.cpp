@@ -47,6 +47,7 @@
 #include "hapticcal/report/results_json.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/study.hpp"
+#include "bound_command.hpp"
 #include "module_support.hpp"
 
 namespace py = pybind11;
@@ -110,88 +111,34 @@ struct Calibration {
   std::optional<Eigen::Matrix4d> device_frame;
 };
 
+// calibrate(): the command line's job (jobs/calibrate_job.hpp) from its options'
+// table; the model may be a Model (its URDF's tips and root with it).
+const BoundCommand<CalibrateRequest>& calibrate_command() {
+  static const BoundCommand<CalibrateRequest> command{
+      "calibrate",
+      "hapticcal calibrate: the two-step identification of a log, its model found by the model "
+      "search (search=False: exactly the model the other keywords name). Does not raise when "
+      "the calibration is not usable (the command line's exit 3): .usable is False, .model "
+      "None.",
+      "Calibration",
+      &calibrate_options(),
+      [](CalibrateRequest& request, const std::string& name, py::handle value) {
+        if (name != "model" || !py::isinstance<Model>(value)) return false;
+        const Model& m = value.cast<const Model&>();
+        request.nominal = m.model;
+        request.model = m.path;
+        request.tip = m.tip;
+        request.root = m.root;
+        return true;
+      },
+      {{"model", "Model | str"}, {"markers", "str | list[float]"}, {"tool_point", "str | list[float]"}}};
+  return command;
+}
+
 Calibration calibration(const CalibrateJob& job, const CalibrateRequest& request);
 
-Calibration calibrate(const std::variant<Model, std::string>& model_arg,
-                      const std::string& log_path, bool no_transmission, int samples,
-                      unsigned long long seed, std::optional<double> sigma,
-                      const std::optional<Names>& fix, const std::optional<Names>& free,
-                      const std::optional<Names>& point_distance, const Text& fixture_arg,
-                      bool keep_all, int folds, const std::optional<Names>& columns, bool force,
-                      std::optional<int> polynomial_order, double dependency_tolerance,
-                      const std::string& loss, bool strict, const Text& tip_arg,
-                      const Text& root_arg, const Text& out_arg, bool select,
-                      const std::optional<Names>& tolerance, std::optional<double> prior_scale,
-                      std::optional<double> encoder_resolution,
-                      const std::optional<Names>& joint_errors, const Text& tracker_arg,
-                      double clock_search, bool clock_drift, const Text& markers_arg, bool search,
-                      bool prior, int threads, const std::optional<Numbers>& tool_point) {
-  // The command line's job (jobs/calibrate_job.hpp), from keywords.
-  // The command line's ranges (an out-of-range number is a ValueError).
-  namespace range = option_range;
-  check_option("--samples", samples, range::kSamples, true);
-  if (sigma) check_option("--sigma", *sigma, range::kSigma);
-  check_option("--folds", folds, range::kFolds, true);
-  if (polynomial_order)
-    check_option("--polynomial-order", *polynomial_order, range::kPolynomialOrder);
-  check_option("--dependency-tolerance", dependency_tolerance, range::kDependencyTolerance);
-  if (prior_scale) check_option("--prior-scale", *prior_scale, range::kPriorScale);
-  if (encoder_resolution) check_option("--encoder-resolution", *encoder_resolution, range::kAngle);
-  check_option("--clock-search", clock_search, range::kClockSearch);
-  check_option("--threads", threads, {0, range::kThreads.hi});  // 0: one a core
-  CalibrateRequest request;
-  if (tool_point && std::holds_alternative<std::string>(*tool_point) &&
-      std::get<std::string>(*tool_point) == "nominal") {
-    request.nominal_tool = true;
-  } else if (tool_point) {
-    request.tool_point = fixed_numbers<3>(tool_point, "tool_point");
-    for (double x : *request.tool_point) {
-      if (!std::isfinite(x) || std::abs(x) > 10)
-        throw InputError("tool_point: a coordinate in metres (|x| <= 10), or 'nominal'");
-    }
-  }
-  request.tracker = text(tracker_arg);
-  request.stream.search_range = clock_search;
-  request.stream.drift = clock_drift;
-  if (!text(markers_arg).empty())
-    request.options.marker_body = parse_marker_body(text(markers_arg), "markers");
-  request.tip = text(tip_arg);
-  request.root = text(root_arg);
-  if (const auto* m = std::get_if<Model>(&model_arg)) {
-    request.nominal = m->model;
-    request.model = m->path;
-    request.tip = m->tip;
-    request.root = m->root;
-  } else {
-    request.model = std::get<std::string>(model_arg);
-  }
-  request.log = log_path;
-  request.columns = names(columns);
-  request.fixture = text(fixture_arg);
-  request.point_distances = names(point_distance);
-  if (out_arg) request.out = *out_arg;
-  CalibrationOptions& options = request.options;
-  options.force = force;
-  options.transmissions = !no_transmission;
-  options.samples = samples;
-  options.seed = seed;
-  options.sigma = sigma;
-  options.polynomial_order = polynomial_order;
-  options.encoder_resolution = encoder_resolution;
-  options.joint_errors = names(joint_errors);
-  options.dependency_tolerance = dependency_tolerance;
-  options.keep_all = keep_all;
-  options.select = select;
-  options.prior = prior;
-  options.search = search;
-  options.threads = threads;
-  for (const std::string& item : names(tolerance)) add_tolerance(options.tolerances, item);
-  if (prior_scale) options.tolerances.scale = prior_scale;
-  options.folds = folds;
-  options.loss = robust_loss(loss);
-  options.strict = strict;
-  options.fix = names(fix);
-  options.free = names(free);
+Calibration calibrate(const py::args& args, const py::kwargs& kwargs) {
+  const CalibrateRequest request = request_from(calibrate_command(), args, kwargs);
   CalibrateJob job;
   job = interruptible([&] { return run_calibrate_job(request); });
   return settled([&] { return calibration(job, request); });
@@ -231,46 +178,33 @@ Calibration calibration(const CalibrateJob& job, const CalibrateRequest& request
   return c;
 }
 
-py::object evaluate(const std::variant<Model, std::string>& model_arg, const std::string& log_path,
-                    const std::optional<Names>& columns, const std::optional<Names>& point_distance,
-                    const Text& fixture_arg,
-                    const std::optional<std::variant<Model, std::string>>& reference,
-                    const Text& tip_arg, const Text& root_arg, const Text& register_arg,
-                    const Text& out_arg, const Text& tracker_arg, double clock_search,
-                    bool clock_drift, const Text& iso9283_arg, const Text& conditions_arg,
-                    const Text& markers_arg) {
-  // The command line's job (jobs/evaluate_job.hpp), from keywords.
-  EvaluateRequest request;
-  request.tip = text(tip_arg);
-  request.root = text(root_arg);
-  if (const auto* m = std::get_if<Model>(&model_arg)) {
-    request.given = m->model;
-    request.model = m->path;
-  } else {
-    request.model = std::get<std::string>(model_arg);
-  }
-  if (reference) {
-    if (const auto* m = std::get_if<Model>(&*reference)) {
-      request.given_reference = m->model;
-      request.reference = m->path;
-    } else {
-      request.reference = std::get<std::string>(*reference);
-    }
-  }
-  request.log = log_path;
-  request.columns = names(columns);
-  request.fixture = text(fixture_arg);
-  request.point_distances = names(point_distance);
-  if (!text(register_arg).empty()) request.registration = parse_register(text(register_arg));
-  if (out_arg) request.out = *out_arg;
-  check_option("--clock-search", clock_search, option_range::kClockSearch);
-  request.tracker = text(tracker_arg);
-  request.stream.search_range = clock_search;
-  request.stream.drift = clock_drift;
-  request.iso9283 = text(iso9283_arg);
-  request.conditions = text(conditions_arg);
-  if (!text(markers_arg).empty())
-    request.marker_body = parse_marker_body(text(markers_arg), "markers");
+// evaluate(): the command line's job (jobs/evaluate_job.hpp) from its options'
+// table; the model and the reference may be Models.
+const BoundCommand<EvaluateRequest>& evaluate_command() {
+  static const BoundCommand<EvaluateRequest> command{
+      "evaluate",
+      "hapticcal evaluate --json: the same keys, in metres ('clock' in the result with a "
+      "tracker, 'iso9283' with an ISO 9283 plan).",
+      "dict",
+      &evaluate_options(),
+      [](EvaluateRequest& request, const std::string& name, py::handle value) {
+        if (!py::isinstance<Model>(value)) return false;
+        const Model& m = value.cast<const Model&>();
+        if (name == "model") {
+          request.given = m.model;
+          request.model = m.path;
+        } else {
+          request.given_reference = m.model;
+          request.reference = m.path;
+        }
+        return true;
+      },
+      {{"model", "Model | str"}, {"reference", "Model | str"}, {"markers", "str | list[float]"}}};
+  return command;
+}
+
+py::object evaluate(const py::args& args, const py::kwargs& kwargs) {
+  const EvaluateRequest request = request_from(evaluate_command(), args, kwargs);
   EvaluateJob job;
   job = interruptible([&] { return run_evaluate_job(request); });
   return settled([&] { return parsed(job.json); });
@@ -362,23 +296,16 @@ py::dict plan(const std::variant<Model, std::string>& model_arg, const Text& mea
   });
 }
 
-py::dict simulate(const Text& scenario_arg, int trials, long long seed, int threads,
-                  const Text& device_arg, const Text& tip_arg, const Text& root_arg,
-                  const Text& out_arg) {
-  // The command line's job (jobs/simulate_job.hpp), from keywords.
-  // The command line's ranges; 0 (-1 for the seed) keeps the scenario's.
-  if (trials != 0) check_option("--trials", trials, option_range::kTrials);
-  if (threads != 0) check_option("--threads", threads, option_range::kThreads);
-  if (seed < -1) throw InputError(fmt::format("--seed {}: less than 0", seed));
-  SimulateRequest request;
-  request.scenario = text(scenario_arg);
-  request.device = text(device_arg);
-  request.tip = text(tip_arg);
-  request.root = text(root_arg);
-  request.trials = trials;
-  if (seed >= 0) request.seed = static_cast<std::uint64_t>(seed);
-  request.threads = threads;
-  request.out = out_arg.value_or("hapticcal-out/simulate");
+// simulate(): the command line's job (jobs/simulate_job.hpp) from its options' table.
+const BoundCommand<SimulateRequest>& simulate_command() {
+  static const BoundCommand<SimulateRequest> command{
+      "simulate", "hapticcal simulate: writes its files into out.",
+      "dict(results=results.json parsed, out, files)", &simulate_options(), {}, {}};
+  return command;
+}
+
+py::dict simulate(const py::args& args, const py::kwargs& kwargs) {
+  const SimulateRequest request = request_from(simulate_command(), args, kwargs);
   SimulateJob job;
   job = interruptible([&] { return run_simulate_job(request); });
   const std::string& out = request.out;
@@ -390,36 +317,17 @@ py::dict simulate(const Text& scenario_arg, int trials, long long seed, int thre
   });
 }
 
-py::dict force(const std::string& actual, const std::string& nominal, const std::string& calibrated,
-               std::optional<double> gain, std::optional<double> noise,
-               std::optional<double> stiffness, std::optional<double> travel,
-               std::optional<double> seconds, const std::optional<std::vector<double>>& posture,
-               std::optional<unsigned long long> seed, std::optional<int> lock, const Text& tip_arg,
-               const Text& root_arg, const Text& out_arg) {
-  // The command line's job (jobs/force_job.hpp), from keywords.
-  ForceRequest request;
-  request.actual = actual;
-  request.nominal = nominal;
-  request.calibrated = calibrated;
-  request.tip = text(tip_arg);
-  request.root = text(root_arg);
-  ForceScenario& sc = request.scenario;
-  namespace range = option_range;
-  if (gain) check_option("--gain", *gain, range::kForceGain);
-  if (noise) check_option("--noise", *noise, range::kForceNoise);
-  if (stiffness) check_option("--stiffness", *stiffness, range::kWallStiffness);
-  if (travel) check_option("--travel", *travel, range::kWallTravel);
-  if (seconds) check_option("--seconds", *seconds, range::kWallSeconds);
-  if (lock) check_option("--lock", *lock, range::kLockedJoint);
-  if (gain) sc.gain = *gain;
-  if (noise) sc.sensor_noise = *noise;
-  if (stiffness) sc.stiffness = *stiffness;
-  if (travel) sc.travel = *travel;
-  if (seconds) sc.move_seconds = *seconds;
-  if (seed) sc.seed = *seed;
-  if (lock) request.lock = *lock;
-  request.posture = posture;
-  request.out = out_arg.value_or("hapticcal-out/force");
+// force(): the command line's job (jobs/force_job.hpp) from its options' table.
+const BoundCommand<ForceRequest>& force_command() {
+  static const BoundCommand<ForceRequest> command{
+      "force", "hapticcal force: the virtual-wall study into out.",
+      "dict(results=results.json parsed, out)", &force_options(), {},
+      {{"posture", "str | list[float]"}}};
+  return command;
+}
+
+py::dict force(const py::args& args, const py::kwargs& kwargs) {
+  const ForceRequest request = request_from(force_command(), args, kwargs);
   ForceJob job;
   job = interruptible([&] { return run_force_job(request); });
   return settled(
@@ -485,40 +393,15 @@ PYBIND11_MODULE(hapticcal, m) {
       .def_readonly("lines", &Calibration::lines,
                     "The summary the command line prints, a line each");
 
-  // The defaults are the library's, as the command line's are.
-  const hapticcal::CalibrationOptions calibration_defaults;
-  const double clock_search_default = hapticcal::StreamOptions{}.search_range;
-  m.def("calibrate", &calibrate, "model"_a, "log"_a, py::kw_only(), "no_transmission"_a = false,
-        "samples"_a = calibration_defaults.samples,
-        "seed"_a = static_cast<unsigned long long>(calibration_defaults.seed),
-        "sigma"_a = py::none(), "fix"_a = py::none(), "free"_a = py::none(),
-        "point_distance"_a = py::none(), "fixture"_a = py::none(), "keep_all"_a = false,
-        "folds"_a = calibration_defaults.folds, "columns"_a = py::none(), "force"_a = false,
-        "polynomial_order"_a = py::none(),
-        "dependency_tolerance"_a = calibration_defaults.dependency_tolerance,
-        "loss"_a = std::string(to_string(calibration_defaults.loss)), "strict"_a = false,
-        "tip"_a = py::none(), "root"_a = py::none(), "out"_a = py::none(), "select"_a = false,
-        "tolerance"_a = py::none(), "prior_scale"_a = py::none(),
-        "encoder_resolution"_a = py::none(), "joint_errors"_a = py::none(),
-        "tracker"_a = py::none(), "clock_search"_a = clock_search_default, "clock_drift"_a = false,
-        "markers"_a = py::none(), "search"_a = true, "prior"_a = false,
-        "threads"_a = calibration_defaults.threads, "tool_point"_a = py::none(),
-        "hapticcal calibrate: the two-step identification of a log, its model found by the "
-        "model search (search=False: exactly the model the other keywords name). Does not raise "
-        "when the calibration is not usable (the command line's exit 3): .usable is False, "
-        ".model None.");
-  m.def("evaluate", &evaluate, "model"_a, "log"_a, py::kw_only(), "columns"_a = py::none(),
-        "point_distance"_a = py::none(), "fixture"_a = py::none(), "reference"_a = py::none(),
-        "tip"_a = py::none(), "root"_a = py::none(), "register"_a = py::none(),
-        "out"_a = py::none(), "tracker"_a = py::none(), "clock_search"_a = clock_search_default,
-        "clock_drift"_a = false, "iso9283"_a = py::none(), "conditions"_a = py::none(),
-        "markers"_a = py::none(),
-        "hapticcal evaluate --json: the same keys, in metres (register='frame' or "
-        "'frame,tool' as --register; out: a folder, the command line's report.html and "
-        "results.json; tracker: a second session's tracker stream, log its device stream, the "
-        "clocks aligned with the model held, 'clock' in the result; iso9283: the plan.csv of "
-        "plan(iso9283=True) the log follows, 'iso9283' in the result, conditions for its "
-        "report; markers: a marker body 'X1,Y1,Z1,...' as --markers)");
+  {
+    // The signatures and the keywords' help are the options tables' (doc_of).
+    py::options bound;
+    bound.disable_function_signatures();
+    m.def("calibrate", &calibrate, doc_of(calibrate_command()).c_str());
+    m.def("evaluate", &evaluate, doc_of(evaluate_command()).c_str());
+    m.def("simulate", &simulate, doc_of(simulate_command()).c_str());
+    m.def("force", &force, doc_of(force_command()).c_str());
+  }
   m.def("plan", &plan, "model"_a, "measurement"_a = py::none(), "poses"_a = 0, py::kw_only(),
         "candidates"_a = py::none(), "columns"_a = py::none(), "criterion"_a = "i", "seed"_a = 1ULL,
         "sigma"_a = 0.0, "sigma_e"_a = 0.0, "distance_range"_a = py::none(), "box"_a = py::none(),
@@ -529,18 +412,6 @@ PYBIND11_MODULE(hapticcal, m) {
         "dict(plan=plan.json parsed, readings=poses x dof array, out, files). iso9283=True: "
         "the ISO 9283 test cube instead (cube_centre [x, y, z] m and cube_size m, else "
         "searched; cycles), plan the parsed iso9283.json, readings those of P1..P5");
-  m.def("simulate", &simulate, "scenario"_a = py::none(), py::kw_only(), "trials"_a = 0,
-        "seed"_a = -1LL, "threads"_a = 0, "device"_a = py::none(), "tip"_a = py::none(),
-        "root"_a = py::none(), "out"_a = "hapticcal-out/simulate",
-        "hapticcal simulate: writes its files into out; returns dict(results=results.json "
-        "parsed, out, files)");
-  m.def("force", &force, "actual"_a, "nominal"_a, "calibrated"_a, py::kw_only(),
-        "gain"_a = py::none(), "noise"_a = py::none(), "stiffness"_a = py::none(),
-        "travel"_a = py::none(), "seconds"_a = py::none(), "posture"_a = py::none(),
-        "seed"_a = py::none(), "lock"_a = py::none(), "tip"_a = py::none(), "root"_a = py::none(),
-        "out"_a = py::none(),
-        "hapticcal force: the virtual-wall study into `out` (default hapticcal-out/force); "
-        "returns {results: results.json, out}");
   m.def("convert", &convert, "input"_a, "output"_a, py::kw_only(), "tip"_a = py::none(),
         "root"_a = py::none(),
         "hapticcal convert: a device file to URDF or back; returns {out, name, dof, "

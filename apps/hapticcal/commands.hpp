@@ -10,82 +10,51 @@
 #include <string>
 #include <vector>
 
+#include "bound_options.hpp"
 #include "command_support.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/stream.hpp"
+#include "hapticcal/jobs/calibrate_job.hpp"
+#include "hapticcal/jobs/evaluate_job.hpp"
+#include "hapticcal/jobs/force_job.hpp"
+#include "hapticcal/jobs/simulate_job.hpp"
 #include "hapticcal/study/control.hpp"
 
 namespace hapticcal::cli {
 
-// `hapticcal calibrate`: two-step identification from a log. The defaults are
-// the library's (CalibrationOptions, StreamOptions), as Python's keywords are.
+// `hapticcal calibrate`: two-step identification from a log; its options are
+// the library's table (calibrate_options), as Python's keywords are.
 struct CalibrateOptions {
-  std::string fixture;
-  std::vector<std::string> point_distance;
-  std::string model, log, columns, out = "hapticcal-out/calibrate", fix, free, joint_errors;
-  ChainOptions chain;
-  bool no_transmission = false, force = false, keep_all = false, select = false, strict = false;
-  bool prior = false, no_search = false;
-  std::vector<std::string> tolerances;  // NAME=SD
-  double prior_scale = 0;               // 0: by the evidence
-  std::string loss = to_string(CalibrationOptions{}.loss);
-  int samples = CalibrationOptions{}.samples, folds = CalibrationOptions{}.folds;
-  int threads = CalibrationOptions{}.threads;  // the model search's; 0: one a core
-  unsigned long long seed = CalibrationOptions{}.seed;
-  double sigma = 0;
-  int polynomial_order = 0;
-  double encoder_resolution = 0;  // 0: not given
-  double tolerance = CalibrationOptions{}.dependency_tolerance;
-  std::string tracker;  // a tracker's stream on its own clock
-  std::string markers;  // X1,Y1,Z1,...: a marker body in the tool frame
-  double clock_search = StreamOptions{}.search_range;  // s
-  bool clock_drift = false;
-  std::string tool_point;  // X,Y,Z or "nominal": device.yaml's tool ("": the measured point)
+  BoundOptions<hapticcal::CalibrateRequest> bound;
 };
 CLI::App* add_calibrate_command(CLI::App& app, CalibrateOptions& options);
 // 0, or kExitUnusable when the calibration is not usable (no calibrated model replaced).
 int run_calibrate(const CalibrateOptions& options);
 
-// `hapticcal evaluate`: RMS and max error of a model on a log.
+// `hapticcal evaluate`: RMS and max error of a model on a log; its options are
+// the library's table (evaluate_options) and --json, the command line's own.
 struct EvaluateOptions {
-  std::string fixture;
-  std::vector<std::string> point_distance;
-  std::string model, log, columns, reference, out = "hapticcal-out/evaluate";
-  std::string tracker;  // a second session's tracker stream (--log is the device's)
-  double clock_search = StreamOptions{}.search_range;
-  bool clock_drift = false;
-  std::string register_what;    // --register: frame or frame,tool
-  bool register_given = false;  // --register "" is refused, not taken as absent
-  ChainOptions chain;
+  BoundOptions<hapticcal::EvaluateRequest> bound;
   bool json = false;
-  bool out_given = false;  // --json writes no files unless --out is given
-  std::string markers;     // X1,Y1,Z1,...: a marker body in the tool frame
-  std::string iso9283;     // an ISO 9283 test plan's plan.csv the log follows
-  std::string conditions;  // its test conditions, as the user states them
 };
 CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& options);
-// register_given and out_given are set from the parsed command first.
 int run_evaluate(const EvaluateOptions& options);
 
-// `hapticcal simulate`: the paper's simulation study, or one on any device.
+// `hapticcal simulate`: the paper's simulation study, or one on any device; its
+// options are the library's table (simulate_options).
 struct SimulateOptions {
-  std::string scenario, out = "hapticcal-out/simulate", device;
-  ChainOptions chain;
-  int trials = 0, threads = 0;
-  long long seed = -1;
+  BoundOptions<hapticcal::SimulateRequest> bound;
 };
 CLI::App* add_simulate_command(CLI::App& app, SimulateOptions& options);
 int run_simulate(const SimulateOptions& options);
 
-// `hapticcal force`: the force-control study (virtual wall, paper Figs 11-12).
+// `hapticcal force`: the force-control study (virtual wall, paper Figs 11-12);
+// its options are the library's table (force_options).
 struct ForceOptions {
-  std::string actual, nominal, calibrated, out = "hapticcal-out/force", posture;
-  int lock = -1;  // 1-based; 0: none; -1: the default (ForceScenario::kLockRedundant)
-  ChainOptions chain;
-  hapticcal::ForceScenario scenario;
+  BoundOptions<hapticcal::ForceRequest> bound;
 };
 CLI::App* add_force_command(CLI::App& app, ForceOptions& options);
-int run_force(ForceOptions options);
+int run_force(const ForceOptions& options);
 
 // `hapticcal convert`: a device file to URDF or a URDF to a device file.
 struct ConvertOptions {

@@ -60,11 +60,7 @@ int main(int argc, char** argv) {
 
   int code = 1;
   try {
-    if (*evaluate) {
-      eval.out_given = evaluate->get_option("--out")->count() > 0;
-      eval.register_given = evaluate->get_option("--register")->count() > 0;
-      code = hapticcal::cli::run_evaluate(eval);
-    }
+    if (*evaluate) code = hapticcal::cli::run_evaluate(eval);
     if (*simulate) code = hapticcal::cli::run_simulate(sim);
     if (*calibrate) code = hapticcal::cli::run_calibrate(cal);
     if (*force) code = hapticcal::cli::run_force(fo);

@@ -195,20 +195,10 @@ void print_iso_study(const hapticcal::IsoSimulation& iso, const hapticcal::IsoSt
 }  // namespace
 
 CLI::App* add_simulate_command(CLI::App& app, SimulateOptions& o) {
-  o.device = hapticcal::builtin_device_path();  // --device's default
   auto* simulate = app.add_subcommand(
       "simulate",
       "Run the paper's simulation study (main job), or one on any device and measurement");
-  simulate->add_option("--scenario", o.scenario, "Scenario file (YAML)");
-  simulate->add_option("--trials", o.trials, "Monte Carlo trials (default 1)")
-      ->check(whole_number(option_range::kTrials));
-  simulate->add_option("--seed", o.seed, "Random seed (default 1)")->check(whole_number(0));
-  simulate->add_option("--threads", o.threads, "Threads (default: all cores)")
-      ->check(whole_number(option_range::kThreads));
-  simulate->add_option("--device", o.device,
-                       "Nominal device file or URDF (default: the built-in 7-DOF)");
-  simulate->add_option("--out", o.out, "Output directory (default hapticcal-out/simulate)");
-  add_chain_options(simulate, o.chain);
+  o.bound.bind(simulate, hapticcal::simulate_options());
   simulate->footer(
       "Examples:\n"
       "  hapticcal simulate --trials 20 --seed 7\n"
@@ -218,14 +208,8 @@ CLI::App* add_simulate_command(CLI::App& app, SimulateOptions& o) {
 
 int run_simulate(const SimulateOptions& o) {
   hapticcal::SimulateRequest request;
-  request.scenario = o.scenario;
-  request.device = o.device;
-  request.tip = o.chain.tip;
-  request.root = o.chain.root;
-  request.trials = o.trials;
-  if (o.seed >= 0) request.seed = static_cast<std::uint64_t>(o.seed);
-  request.threads = o.threads;
-  request.out = o.out;
+  o.bound.apply(request);
+  const std::string& out = request.out;
   bool bar = false;
   request.started = [&](const hapticcal::Scenario& sc, int threads) {
     if (sc.session) {
@@ -247,14 +231,14 @@ int run_simulate(const SimulateOptions& o) {
   const hapticcal::SimulateJob job = hapticcal::run_simulate_job(request);
   if (job.session) {
     for (const std::string& line : job.session->lines) fmt::print("{}\n", line);
-    fmt::print("{}", report_said(job.figures, job.report_note, o.out));
-    fmt::print("{}", hapticcal::cli::output_summary(*job.out, o.out));
+    fmt::print("{}", report_said(job.figures, job.report_note, out));
+    fmt::print("{}", hapticcal::cli::output_summary(*job.out, out));
     return 0;
   }
   print_study(job.scenario, job.result);
   if (job.result.iso) print_iso_study(*job.scenario.iso9283, *job.result.iso);
-  fmt::print("{}", report_said(job.figures, job.report_note, o.out));
-  fmt::print("{}", hapticcal::cli::output_summary(*job.out, o.out));
+  fmt::print("{}", report_said(job.figures, job.report_note, out));
+  fmt::print("{}", hapticcal::cli::output_summary(*job.out, out));
   return 0;
 }
 

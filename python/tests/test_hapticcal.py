@@ -117,7 +117,7 @@ def test_device_model_is_the_cli_device_yaml_in_the_devices_frame(cli_calibratio
         assert np.abs(r.device_model.forward(q) - expected).max() < 1e-12
     tipped = hapticcal.calibrate(MECA, CAL_LOG, tool_point=[0.0, 0.0, 0.07])
     assert tipped.device_model.parameters()["tool.z"] == pytest.approx(0.07, abs=1e-15)
-    with pytest.raises(ValueError, match="tool_point"):
+    with pytest.raises(ValueError, match="--tool-point"):
         hapticcal.calibrate(MECA, CAL_LOG, tool_point=[0.0, 0.07])
 
 
@@ -588,12 +588,50 @@ def test_every_command_option_is_a_keyword_and_back():
         assert keywords - options - python_only == set(), command
 
 
+def test_a_commands_keywords_are_read_as_its_options(tmp_path):
+    """calibrate's and evaluate's keywords are their options' table (the command line's):
+    Python's errors for a keyword unknown, given twice, missing or of the wrong type; each
+    keyword's help in the doc, as the command line's --help gives it; a list as a list or as
+    the command line's comma-separated text; a point as numbers or as text."""
+    with pytest.raises(TypeError, match="unexpected keyword argument 'fold'"):
+        hapticcal.calibrate(MECA, CAL_LOG, fold=3)
+    with pytest.raises(TypeError, match="multiple values for argument 'log'"):
+        hapticcal.calibrate(MECA, CAL_LOG, log=CAL_LOG)
+    with pytest.raises(TypeError, match="missing required argument: 'log'"):
+        hapticcal.evaluate(MECA)
+    with pytest.raises(TypeError, match="takes 2 positional arguments but 3"):
+        hapticcal.evaluate(MECA, CAL_LOG, "x")
+    for keywords in (dict(folds=2.5), dict(folds=True), dict(keep_all=1), dict(fix=3),
+                     dict(sigma="0.001"), dict(fix=["j1.a", 2])):
+        with pytest.raises(TypeError, match="takes"):
+            hapticcal.calibrate(MECA, CAL_LOG, **keywords)
+    with pytest.raises(ValueError, match="--clock-search: needs --tracker"):
+        hapticcal.calibrate(MECA, CAL_LOG, clock_search=5.0)
+    with pytest.raises(ValueError, match="--loss tukey: not one of cauchy, huber, none"):
+        hapticcal.calibrate(MECA, CAL_LOG, loss="tukey")
+    code, stdout, _ = cli("calibrate", "--help")
+    assert code == 0
+    for keyword, help_line in re.findall(r"^(\w+): (.+)$", hapticcal.calibrate.__doc__, re.M):
+        flag = "--no-search" if keyword == "search" else "--" + keyword.replace("_", "-")
+        assert flag in stdout, keyword
+        assert help_line[:60] in " ".join(stdout.split()), keyword
+    as_list = hapticcal.calibrate(MECA, CAL_LOG, fix=["j1.a", "j2.d"], no_transmission=True,
+                                  folds=0, search=False, tool_point=[0.0, 0.0, 0.07])
+    as_text = hapticcal.calibrate(MECA, CAL_LOG, fix="j1.a,j2.d", no_transmission=True,
+                                  folds=0, search=False, tool_point="0,0,0.07")
+    assert as_list.parameters["j1.a"]["value"] == as_list.parameters["j1.a"]["nominal"]
+    assert ({k: p["value"] for k, p in as_list.parameters.items()}
+            == {k: p["value"] for k, p in as_text.parameters.items()})
+    assert as_list.device_model.parameters() == as_text.device_model.parameters()
+
+
 def test_the_command_lines_defaults_are_the_keywords_defaults():
     """A default the command line shows (`--folds INT:in [0, 1000]=5` in its --help) is the
     default of the Python keyword of that name: both are the library's (CalibrationOptions,
     StreamOptions), not a number written twice."""
     checked = 0
-    for command, function in {"calibrate": "calibrate", "evaluate": "evaluate"}.items():
+    for command, function in {"calibrate": "calibrate", "evaluate": "evaluate",
+                              "simulate": "simulate", "force": "force"}.items():
         signature = getattr(hapticcal, function).__doc__.split("\n")[0]
         code, stdout, stderr = cli(command, "--help")
         assert code == 0, stderr
@@ -611,7 +649,9 @@ def test_the_command_lines_defaults_are_the_keywords_defaults():
             except ValueError:
                 assert default == shown.group(1), (command, option, default, shown)
             checked += 1
-    assert checked >= 8  # calibrate's seven shown defaults and evaluate's clock search
+    # calibrate's seven shown defaults, evaluate's clock search, simulate's threads and out,
+    # force's out, gain, noise, three of the wall and seed
+    assert checked >= 17
 
 
 def test_simulate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):

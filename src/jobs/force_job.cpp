@@ -50,7 +50,7 @@ ForceJob run_force_job(const ForceRequest& request) {
   const DeviceModel nominal = load_force_model(request, request.nominal);
   const DeviceModel calibrated = load_force_model(request, request.calibrated);
   ForceScenario sc = request.scenario;
-  if (request.lock >= 0) sc.locked_joint = request.lock - 1;  // 0 -> kNoLock
+  if (request.lock) sc.locked_joint = *request.lock - 1;  // 0 -> kNoLock
   sc.locked_joint = resolved_locked_joint(sc, job.actual);
   job.out = std::make_unique<OutputSet>(request.out, "force");
   if (request.posture) {

@@ -26,11 +26,11 @@ SimulateJob run_simulate_job(const SimulateRequest& request) {
   sc = request.scenario.empty()
            ? default_scenario(device, request.tip, request.root)
            : load_scenario(request.scenario, device, request.tip, request.root);
-  if (request.trials > 0) sc.trials = request.trials;
+  if (request.trials) sc.trials = *request.trials;
   if (sc.session && sc.trials > 1) {
     const std::string why =
         "a hand-guided session study runs one session (give each session a seed of its own)";
-    if (request.trials > 1) throw InputError(fmt::format("--trials {}: {}", sc.trials, why));
+    if (request.trials) throw InputError(fmt::format("--trials {}: {}", sc.trials, why));
     throw InputError(request.scenario, 0, "trials", fmt::format("{} trials: {}", sc.trials, why));
   }
   if (request.seed) sc.seed = *request.seed;

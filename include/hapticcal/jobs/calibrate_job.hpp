@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "hapticcal/core/output_set.hpp"
+#include "hapticcal/jobs/command_options.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/stream.hpp"
 #include "hapticcal/model/model.hpp"
@@ -64,5 +65,8 @@ struct CalibrateJob {
 // same procedure and writers; its set holds calibrated.urdf, no device file.
 // Throws InputError for bad input (a tree: a model that is not a URDF).
 CalibrateJob run_calibrate_job(const CalibrateRequest& request);
+
+// calibrate's options, bound by the command line and the Python module alike.
+const CommandOptions<CalibrateRequest>& calibrate_options();
 
 }  // namespace hapticcal

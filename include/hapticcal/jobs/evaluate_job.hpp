@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "hapticcal/core/output_set.hpp"
+#include "hapticcal/jobs/command_options.hpp"
 #include "hapticcal/identification/stream.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/study/evaluate.hpp"
@@ -65,5 +66,8 @@ struct EvaluateJob {
 // --tip / --root given without a URDF among the models is bad input, as every
 // other problem with the request (InputError).
 EvaluateJob run_evaluate_job(const EvaluateRequest& request);
+
+// evaluate's options, bound by the command line and the Python module alike.
+const CommandOptions<EvaluateRequest>& evaluate_options();
 
 }  // namespace hapticcal

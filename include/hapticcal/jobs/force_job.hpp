@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "hapticcal/core/output_set.hpp"
+#include "hapticcal/jobs/command_options.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/study/control.hpp"
 
@@ -16,7 +17,7 @@ namespace hapticcal {
 struct ForceRequest {
   std::string actual, nominal, calibrated;     // model files (device files or URDFs)
   std::string tip, root;                       // the chain of each URDF among them
-  int lock = -1;                               // 1-based; 0: none; -1: ForceScenario's default
+  std::optional<int> lock;                     // 1-based; 0: none; none: ForceScenario's default
   std::optional<std::vector<double>> posture;  // q [rad or m]; none: the default posture
   ForceScenario scenario;                      // the wall, the gain, the noise, the seed
   std::string out = "hapticcal-out/force";
@@ -36,6 +37,9 @@ struct ForceJob {
 // outside the stable range (InputError), runs the study and writes
 // force_nominal.csv, force_calibrated.csv, results.json and the report.
 ForceJob run_force_job(const ForceRequest& request);
+
+// force's options, bound by the command line and the Python module alike.
+const CommandOptions<ForceRequest>& force_options();
 
 struct ConvertRequest {
   std::string in, out;  // a device file and a URDF, either way round

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "hapticcal/core/output_set.hpp"
+#include "hapticcal/jobs/command_options.hpp"
 #include "hapticcal/study/study.hpp"
 
 namespace hapticcal {
@@ -17,7 +18,7 @@ struct SimulateRequest {
   std::string scenario;  // a scenario file ("": the paper's study on `device`)
   std::string device;    // the device file or URDF ("": the built-in device)
   std::string tip, root;
-  int trials = 0;                     // 0: the scenario's
+  std::optional<int> trials;          // none: the scenario's
   std::optional<std::uint64_t> seed;  // none: the scenario's
   int threads = 0;                    // 0: one per core
   std::string out = "hapticcal-out/simulate";
@@ -40,5 +41,8 @@ struct SimulateJob {
 // results.json, report.html) and commits it. --tip / --root without a URDF
 // device (and no scenario) is bad input (InputError).
 SimulateJob run_simulate_job(const SimulateRequest& request);
+
+// simulate's options, bound by the command line and the Python module alike.
+const CommandOptions<SimulateRequest>& simulate_options();
 
 }  // namespace hapticcal
