@@ -6,26 +6,35 @@
 #include <string>
 
 #include "hapticcal/jobs/compensate_job.hpp"
+#include "bound_command.hpp"
 #include "module_support.hpp"
 
 namespace hapticcal::python {
 
 using namespace pybind11::literals;
 
+namespace {
+
+// compensate(): the command line's job (jobs/compensate_job.hpp) from its
+// options' table.
+const BoundCommand<CompensateRequest>& compensate_command() {
+  static const BoundCommand<CompensateRequest> command{
+      "compensate",
+      "hapticcal compensate: a program's targets for a controller that runs the nominal model "
+      "(compensated.csv and results.json in out).",
+      "dict(results, lines, out)", &compensate_options(), {}, {}};
+  return command;
+}
+
+}  // namespace
+
 void add_compensate_function(py::module_& m) {
+  py::options bound;
+  bound.disable_function_signatures();
   m.def(
       "compensate",
-      [](const std::string& model, const std::string& nominal, const std::string& targets,
-         double load, const Text& columns, const Text& tip, const Text& root, const Text& out) {
-        CompensateRequest request;
-        request.model = model;
-        request.nominal = nominal;
-        request.targets = targets;
-        request.columns = text(columns);
-        request.tip = text(tip);
-        request.root = text(root);
-        request.options.load = load;  // checked by the job (with_load)
-        request.out = out.value_or("hapticcal-out/compensate");
+      [](const py::args& args, const py::kwargs& kwargs) {
+        const CompensateRequest request = request_from(compensate_command(), args, kwargs);
         const CompensateJob job = interruptible([&] { return run_compensate_job(request); });
         return settled([&] {
           return py::dict(
@@ -33,11 +42,7 @@ void add_compensate_function(py::module_& m) {
               "lines"_a = job.lines, "out"_a = request.out);
         });
       },
-      "model"_a, "nominal"_a, "targets"_a, py::kw_only(), "load"_a = 0.0, "columns"_a = py::none(),
-      "tip"_a = py::none(), "root"_a = py::none(), "out"_a = py::none(),
-      "hapticcal compensate: a program's targets for a controller that runs the nominal model "
-      "(compensated.csv and results.json in `out`, default hapticcal-out/compensate); returns "
-      "{results, lines, out}");
+      doc_of(compensate_command()).c_str());
 }
 
 }  // namespace hapticcal::python

@@ -15,8 +15,10 @@
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/stream.hpp"
 #include "hapticcal/jobs/calibrate_job.hpp"
+#include "hapticcal/jobs/compensate_job.hpp"
 #include "hapticcal/jobs/evaluate_job.hpp"
 #include "hapticcal/jobs/force_job.hpp"
+#include "hapticcal/jobs/import_job.hpp"
 #include "hapticcal/jobs/simulate_job.hpp"
 #include "hapticcal/study/control.hpp"
 
@@ -65,24 +67,18 @@ CLI::App* add_convert_command(CLI::App& app, ConvertOptions& options);
 // kExitBadInput, with a line on stderr, when the files are not a pair to convert.
 int run_convert(const ConvertOptions& options);
 
-// `hapticcal compensate`: a program's targets for a controller running the nominal model.
+// `hapticcal compensate`: a program's targets for a controller running the
+// nominal model; its options are the library's table (compensate_options).
 struct CompensateOptions {
-  std::string model, nominal, targets, columns, out = "hapticcal-out/compensate";
-  double load = 0;  // kg at the tool point
-  ChainOptions chain;
+  BoundOptions<hapticcal::CompensateRequest> bound;
 };
 CLI::App* add_compensate_command(CLI::App& app, CompensateOptions& options);
 int run_compensate(const CompensateOptions& options);
 
-// `hapticcal import`: a recording or a tracker's export in, hapticcal's streams out.
+// `hapticcal import`: a recording or a tracker's export in, hapticcal's streams
+// out; its options are the library's table (import_options).
 struct ImportOptions {
-  std::string recording, joints, tracker_topic, frames, time = "header", model, convention;
-  std::vector<std::string> fields;
-  std::string tracker_export, body, markers, column_map, length_unit, time_unit;
-  std::string out;  // empty: recording::kDefaultImportOut
-  bool list = false;
-  double still_seconds = 0, clock_offset = 0;
-  std::optional<double> still_tolerance, tracker_still;  // unset: the library's defaults
+  BoundOptions<hapticcal::recording::ImportRequest> bound;
 };
 CLI::App* add_import_command(CLI::App& app, ImportOptions& options);
 int run_import(const ImportOptions& options);

@@ -631,7 +631,8 @@ def test_the_command_lines_defaults_are_the_keywords_defaults():
     StreamOptions), not a number written twice."""
     checked = 0
     for command, function in {"calibrate": "calibrate", "evaluate": "evaluate",
-                              "simulate": "simulate", "force": "force"}.items():
+                              "simulate": "simulate", "force": "force",
+                              "compensate": "compensate", "import": "import_recording"}.items():
         signature = getattr(hapticcal, function).__doc__.split("\n")[0]
         code, stdout, stderr = cli(command, "--help")
         assert code == 0, stderr
@@ -650,8 +651,9 @@ def test_the_command_lines_defaults_are_the_keywords_defaults():
                 assert default == shown.group(1), (command, option, default, shown)
             checked += 1
     # calibrate's seven shown defaults, evaluate's clock search, simulate's threads and out,
-    # force's out, gain, noise, three of the wall and seed
-    assert checked >= 17
+    # force's out, gain, noise, three of the wall and seed, compensate's load and out,
+    # import's time and clock offset
+    assert checked >= 21
 
 
 def test_simulate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):

@@ -6,6 +6,7 @@
 #include "hapticcal/identification/markers.hpp"
 #include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/jobs/command_options.hpp"
+#include "hapticcal/jobs/compensate_job.hpp"
 #include "hapticcal/jobs/evaluate_job.hpp"
 #include "hapticcal/jobs/force_job.hpp"
 #include "hapticcal/jobs/simulate_job.hpp"
@@ -379,7 +380,40 @@ CommandOptions<ForceRequest> force_table() {
   return t;
 }
 
+CommandOptions<CompensateRequest> compensate_table() {
+  using R = CompensateRequest;
+  CommandOptions<R> t;
+  t.push_back(required(
+      field_option<R>("model", "The calibrated model in the robot's frame (device.yaml; or a URDF)",
+                      [](R& r) -> auto& { return r.model; })));
+  t.push_back(required(field_option<R>(
+      "nominal",
+      "The model the controller runs (its maker's nominal; a file or a built-in device's name)",
+      [](R& r) -> auto& { return r.nominal; })));
+  t.push_back(required(field_option<R>(
+      "targets",
+      "The program (CSV): q1..qn, its readings (joint targets), and for Cartesian targets x, y, "
+      "z with qw, qx, qy, qz or rx, ry, rz (the readings then its configuration)",
+      [](R& r) -> auto& { return r.targets; })));
+  t.push_back(field_option<R>("columns",
+                              "Column names of a targets file without header, comma separated",
+                              [](R& r) -> auto& { return r.columns; }));
+  t.push_back(field_option<R>("load",
+                              "A payload at the tool point [kg], for the model's joint compliance",
+                              [](R& r) -> auto& { return r.options.load; },
+                              OptionRange{0, 1000, "kg"}));
+  add_chain_options(t);
+  t.push_back(field_option<R>("out", "Output directory: compensated.csv, results.json",
+                              [](R& r) -> auto& { return r.out; }));
+  return t;
+}
+
 }  // namespace
+
+const CommandOptions<CompensateRequest>& compensate_options() {
+  static const CommandOptions<CompensateRequest> table = compensate_table();
+  return table;
+}
 
 const CommandOptions<ForceRequest>& force_options() {
   static const CommandOptions<ForceRequest> table = force_table();

@@ -1,5 +1,7 @@
 #include "hapticcal/report/results_json.hpp"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -43,6 +44,7 @@ struct CommandOption {
   std::vector<std::string> words;    // a text's only words (none: any text)
   bool required = false;             // Python: a positional parameter, in the table's order
   bool positional = false;           // Python: positional though not required (after those)
+  bool argument = false;             // the command line's positional argument (NAME), no --flag
   bool negated = false;              // a flag on unless --no-<name> (Python: name=False)
   std::string needs;                 // the option it needs (clock_search: tracker)
   std::optional<OptionValue> shown;  // its default as both show it (none: not given)
@@ -53,6 +55,11 @@ struct CommandOption {
   std::string flag() const {
     std::string dashed = name;
     std::replace(dashed.begin(), dashed.end(), '_', '-');
+    if (argument) {
+      std::transform(dashed.begin(), dashed.end(), dashed.begin(),
+                     [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+      return dashed;
+    }
     return (negated ? "--no-" : "--") + dashed;
   }
 };

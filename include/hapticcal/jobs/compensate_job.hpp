@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "hapticcal/core/output_set.hpp"
+#include "hapticcal/jobs/command_options.hpp"
 #include "hapticcal/study/compensation.hpp"
 
 namespace hapticcal {
@@ -35,5 +36,8 @@ struct CompensateJob {
 // to give the nominal controller, the outcome; a target that is not usable
 // has no command: its values are empty) and results.json.
 CompensateJob run_compensate_job(const CompensateRequest& request);
+
+// compensate's options, bound by the command line and the Python module alike.
+const CommandOptions<CompensateRequest>& compensate_options();
 
 }  // namespace hapticcal
