@@ -56,40 +56,6 @@ using namespace pybind11::literals;
 namespace hapticcal::python {
 namespace {
 
-// A number list option (--box, --distance-range): numbers, or the command line's text.
-using Numbers = std::variant<std::string, std::vector<double>>;
-
-// `N` numbers of a list option (a Python list, or the command line's text), or
-// none; InputError naming the keyword for another count or a value that is not
-// a finite number.
-template <size_t N>
-std::optional<std::array<double, N>> fixed_numbers(const std::optional<Numbers>& value,
-                                                   const char* keyword) {
-  if (!value) return std::nullopt;
-  std::vector<double> v;
-  if (const auto* list = std::get_if<std::vector<double>>(&*value)) {
-    v = *list;
-  } else {
-    for (const std::string& part : split_columns(std::get<std::string>(*value))) {
-      size_t used = 0;
-      double x = NAN;
-      try {
-        x = std::stod(part, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used != part.size()) {
-        throw InputError(fmt::format("{}: '{}' is not a number", keyword, printable(part)));
-      }
-      v.push_back(x);
-    }
-  }
-  if (v.size() != N) throw InputError(fmt::format("{}: expected {} numbers", keyword, N));
-  std::array<double, N> out{};
-  std::copy(v.begin(), v.end(), out.begin());
-  return out;
-}
-
 py::object parsed(const std::string& json_text) {
   return py::module_::import("json").attr("loads")(json_text);
 }
@@ -211,16 +177,7 @@ py::object evaluate(const py::args& args, const py::kwargs& kwargs) {
 }
 
 // plan(iso9283=True): the standard's test cube (jobs/iso_plan_job.hpp).
-py::dict iso_plan(const std::string& model_path, const std::string& tip, const std::string& root,
-                  const std::optional<Numbers>& cube_centre, double cube_size, int cycles,
-                  const std::string& out) {
-  IsoPlanRequest request;
-  request.model = model_path;
-  request.tip = tip;
-  request.root = root;
-  request.cube_centre = fixed_numbers<3>(cube_centre, "cube_centre");
-  request.cube_size = cube_size;
-  request.cycles = cycles;
+py::dict iso_plan(const IsoPlanRequest& request, const std::string& out) {
   IsoPlanJob job;
   job = interruptible([&] { return run_iso_plan_job(request, out); });
   Eigen::MatrixXd readings(static_cast<Eigen::Index>(job.plan.poses.size()), job.model.dof());
@@ -233,58 +190,36 @@ py::dict iso_plan(const std::string& model_path, const std::string& tip, const s
   });
 }
 
-py::dict plan(const std::variant<Model, std::string>& model_arg, const Text& measurement_arg,
-              int poses, const Text& candidates_arg, const std::optional<Names>& columns,
-              const std::string& criterion, unsigned long long seed, double sigma, double sigma_e,
-              const std::optional<Numbers>& distance_range, const std::optional<Numbers>& box,
-              int refine_passes, const std::optional<Names>& fix, const std::optional<Names>& free,
-              int pool, const Text& tip_arg, const Text& root_arg, const Text& out_arg,
-              bool iso9283, const std::optional<Numbers>& cube_centre, double cube_size,
-              int cycles) {
-  const std::string* path = std::get_if<std::string>(&model_arg);
-  const std::string model_path = path ? *path : std::get<Model>(model_arg).path;
-  if (model_path.empty()) {
-    throw InputError("plan: the model must be a file (save a Model changed in Python first)");
-  }
-  const std::string measurement = text(measurement_arg), candidates = text(candidates_arg),
-                    tip = text(tip_arg), root = text(root_arg),
-                    out = out_arg.value_or("hapticcal-out/plan");
-  if (iso9283) {
-    if (!measurement.empty() || poses != 0 || !candidates.empty())
-      throw InputError(
-          "plan(iso9283=True): the test's poses are the standard's: no measurement, poses or "
-          "candidates");
-    return iso_plan(model_path, tip, root, cube_centre, cube_size, cycles, out);
-  }
-  if (cube_centre || cube_size != 0 || cycles != 30)
-    throw InputError("plan: cube_centre, cube_size and cycles apply to iso9283=True");
-  if (measurement.empty() || poses == 0)
-    throw InputError("plan: measurement and poses are required (or iso9283=True)");
-  // The command line's ranges; 0 (-1 for refine_passes) keeps a default.
-  namespace range = option_range;
-  check_option("--poses", poses, range::kPlanPoses, true);
-  if (sigma != 0) check_option("--sigma", sigma, range::kSigma);
-  if (sigma_e != 0) check_option("--sigma-e", sigma_e, range::kAngle);
-  if (refine_passes != -1) check_option("--refine-passes", refine_passes, range::kRefinePasses);
-  if (pool != 0) check_option("--pool", pool, range::kPool);
-  PlanRequest request;
-  request.model = model_path;
-  request.measurement = measurement;
-  request.poses = poses;
-  request.candidates = candidates;
-  request.columns = names(columns);
-  request.criterion = criterion;
-  request.seed = seed;
-  request.sigma = sigma;
-  request.sigma_e = sigma_e;
-  request.distance_range = fixed_numbers<2>(distance_range, "distance_range");
-  request.box = fixed_numbers<6>(box, "box");
-  request.refine_passes = refine_passes;
-  request.fix = names(fix);
-  request.free = names(free);
-  request.pool = pool;
-  request.tip = tip;
-  request.root = root;
+// plan(): the command line's jobs (jobs/plan_job.hpp, jobs/iso_plan_job.hpp)
+// from its options' table; a Model given is its file.
+const BoundCommand<PlanCommandRequest>& plan_command() {
+  static const BoundCommand<PlanCommandRequest> command{
+      "plan",
+      "hapticcal plan: writes plan.csv, plan.json and the report into out. iso9283=True: the "
+      "ISO 9283 test cube instead, plan the parsed iso9283.json, readings those of P1..P5.",
+      "dict(plan=plan.json parsed, readings=poses x dof array, out, files)",
+      &plan_options(),
+      [](PlanCommandRequest& request, const std::string& name, py::handle value) {
+        if (name != "model" || !py::isinstance<Model>(value)) return false;
+        const std::string& path = value.cast<const Model&>().path;
+        if (path.empty())
+          throw InputError("plan: the model must be a file (save a Model changed in Python first)");
+        request.plan.model = request.iso.model = path;
+        return true;
+      },
+      {{"model", "Model | str"},
+       {"cube_centre", "str | list[float]"},
+       {"distance_range", "str | list[float]"},
+       {"box", "str | list[float]"}}};
+  return command;
+}
+
+py::dict plan(const py::args& args, const py::kwargs& kwargs) {
+  const PlanCommandRequest command = request_from(plan_command(), args, kwargs);
+  check_plan_command(command);
+  if (command.iso9283) return iso_plan(command.iso, command.out);
+  const PlanRequest& request = command.plan;
+  const std::string& out = command.out;
   PlanJob job;
   job = interruptible([&] { return run_plan_job(request, out); });
   const std::string& json = job.json;
@@ -334,10 +269,18 @@ py::dict force(const py::args& args, const py::kwargs& kwargs) {
       [&] { return py::dict("results"_a = parsed(job.results_json), "out"_a = request.out); });
 }
 
-py::dict convert(const std::string& in, const std::string& out, const Text& tip_arg,
-                 const Text& root_arg) {
-  const ConvertJob job = run_convert_job({in, out, text(tip_arg), text(root_arg)});
-  return py::dict("out"_a = out, "name"_a = job.model.name, "dof"_a = job.model.dof(),
+// convert(): the command line's job (jobs/force_job.hpp) from its options' table.
+const BoundCommand<ConvertRequest>& convert_command() {
+  static const BoundCommand<ConvertRequest> command{
+      "convert", "hapticcal convert: a device file to URDF or back.",
+      "dict(out, name, dof, with_transmission)", &convert_options(), {}, {}};
+  return command;
+}
+
+py::dict convert(const py::args& args, const py::kwargs& kwargs) {
+  const ConvertRequest request = request_from(convert_command(), args, kwargs);
+  const ConvertJob job = run_convert_job(request);
+  return py::dict("out"_a = request.out, "name"_a = job.model.name, "dof"_a = job.model.dof(),
                   "with_transmission"_a = job.with_transmission);
 }
 
@@ -401,19 +344,7 @@ PYBIND11_MODULE(hapticcal, m) {
     m.def("evaluate", &evaluate, doc_of(evaluate_command()).c_str());
     m.def("simulate", &simulate, doc_of(simulate_command()).c_str());
     m.def("force", &force, doc_of(force_command()).c_str());
+    m.def("convert", &convert, doc_of(convert_command()).c_str());
+    m.def("plan", &plan, doc_of(plan_command()).c_str());
   }
-  m.def("plan", &plan, "model"_a, "measurement"_a = py::none(), "poses"_a = 0, py::kw_only(),
-        "candidates"_a = py::none(), "columns"_a = py::none(), "criterion"_a = "i", "seed"_a = 1ULL,
-        "sigma"_a = 0.0, "sigma_e"_a = 0.0, "distance_range"_a = py::none(), "box"_a = py::none(),
-        "refine_passes"_a = -1, "fix"_a = py::none(), "free"_a = py::none(), "pool"_a = 0,
-        "tip"_a = py::none(), "root"_a = py::none(), "out"_a = "hapticcal-out/plan",
-        "iso9283"_a = false, "cube_centre"_a = py::none(), "cube_size"_a = 0.0, "cycles"_a = 30,
-        "hapticcal plan: writes plan.csv, plan.json and the report into out; returns "
-        "dict(plan=plan.json parsed, readings=poses x dof array, out, files). iso9283=True: "
-        "the ISO 9283 test cube instead (cube_centre [x, y, z] m and cube_size m, else "
-        "searched; cycles), plan the parsed iso9283.json, readings those of P1..P5");
-  m.def("convert", &convert, "input"_a, "output"_a, py::kw_only(), "tip"_a = py::none(),
-        "root"_a = py::none(),
-        "hapticcal convert: a device file to URDF or back; returns {out, name, dof, "
-        "with_transmission}");
 }

@@ -100,22 +100,6 @@ auto settled(Convert&& convert) {
   }
 }
 
-// A list option given as a Python list of strings or as the command line's
-// comma-separated text.
-using Names = std::variant<std::string, std::vector<std::string>>;
-
-inline std::vector<std::string> names(const std::optional<Names>& value) {
-  if (!value) return {};
-  if (const auto* list = std::get_if<std::vector<std::string>>(&*value)) return *list;
-  const std::string& text = std::get<std::string>(*value);
-  return text.empty() ? std::vector<std::string>{} : split_columns(text);
-}
-
-// A path option: None or '' for none.
-using Text = std::optional<std::string>;
-
-inline std::string text(const Text& t) { return t.value_or(""); }
-
 // A device model and the file it came from (the path results.json names; empty
 // once its parameters are changed in Python).
 struct Model {

@@ -28,7 +28,7 @@ TEST(PlanCli, BadOptionsExitWith2AndOneLineNamingTheOption) {
   };
   const std::vector<Case> cases = {
       {"--measurement distance --poses 0", "--poses"},
-      {"--measurement distance --poses 5 --criterion x", "--criterion 'x'"},
+      {"--measurement distance --poses 5 --criterion x", "--criterion: x not in {d,a,i,e}"},
       {"--measurement distance --poses 5 --candidates " + two_joints + " --pool 10",
        "--candidates excludes --pool"},
       {"--measurement distance --poses 5 --candidates " + two_joints,

@@ -58,10 +58,10 @@ struct ForceOptions {
 CLI::App* add_force_command(CLI::App& app, ForceOptions& options);
 int run_force(const ForceOptions& options);
 
-// `hapticcal convert`: a device file to URDF or a URDF to a device file.
+// `hapticcal convert`: a device file to URDF or a URDF to a device file; its
+// options are the library's table (convert_options).
 struct ConvertOptions {
-  std::string in, out;
-  ChainOptions chain;
+  BoundOptions<hapticcal::ConvertRequest> bound;
 };
 CLI::App* add_convert_command(CLI::App& app, ConvertOptions& options);
 // kExitBadInput, with a line on stderr, when the files are not a pair to convert.

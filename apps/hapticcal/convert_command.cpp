@@ -16,9 +16,7 @@ namespace hapticcal::cli {
 CLI::App* add_convert_command(CLI::App& app, ConvertOptions& o) {
   auto* convert = app.add_subcommand(
       "convert", "Convert a device file (.yaml, .yml) to URDF (.urdf) or a URDF to a device file");
-  convert->add_option("IN", o.in, "Model to read")->required();
-  convert->add_option("OUT", o.out, "File to write (replaced atomically)")->required();
-  add_chain_options(convert, o.chain);
+  o.bound.bind(convert, hapticcal::convert_options());
   convert->footer(
       "Examples:\n"
       "  hapticcal convert examples/meca500/meca500.yaml meca500.urdf\n"
@@ -28,8 +26,9 @@ CLI::App* add_convert_command(CLI::App& app, ConvertOptions& o) {
 
 // Device file -> URDF or URDF -> device file, by the file names' extensions.
 int run_convert(const ConvertOptions& o) {
-  const hapticcal::ConvertJob job =
-      hapticcal::run_convert_job({o.in, o.out, o.chain.tip, o.chain.root});
+  hapticcal::ConvertRequest request;
+  o.bound.apply(request);
+  const hapticcal::ConvertJob job = hapticcal::run_convert_job(request);
   if (job.to_urdf) {
     if (!job.with_transmission.empty()) {
       std::string links;
@@ -39,7 +38,7 @@ int run_convert(const ConvertOptions& o) {
           stderr,
           "hapticcal: warning: URDF cannot express transmissions: those of {} are only "
           "XML comments in {}\n",
-          links, o.out);
+          links, request.out);
     }
     if (!job.families_left_out.empty()) {
       hapticcal::cli::say(
@@ -47,14 +46,15 @@ int run_convert(const ConvertOptions& o) {
           "hapticcal: warning: URDF cannot express the {} of {}: {} is the model without it (XML "
           "comments hold it), not a model fitted without it; calibrate from a URDF writes "
           "calibrated.urdf, the geometry fitted alone\n",
-          job.families_left_out, o.in, o.out);
+          job.families_left_out, request.in, request.out);
     }
-    fmt::print("wrote {} ({}, {} joints; its chain is hapticcal_measurement -> tool)\n", o.out,
+    fmt::print("wrote {} ({}, {} joints; its chain is hapticcal_measurement -> tool)\n",
+               request.out,
                job.model.name, job.model.dof());
   } else {
     std::string names;
     for (const hapticcal::Link& l : job.model.links) names += (names.empty() ? "" : " ") + l.name;
-    fmt::print("wrote {} ({}, {} joints: {})\n", o.out, job.model.name, job.model.dof(), names);
+    fmt::print("wrote {} ({}, {} joints: {})\n", request.out, job.model.name, job.model.dof(), names);
   }
   return 0;
 }

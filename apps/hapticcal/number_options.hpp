@@ -81,20 +81,4 @@ inline CLI::Validator whole_number(const OptionRange& r) {
   return whole_number(static_cast<long long>(r.lo), static_cast<long long>(r.hi));
 }
 
-// --clock-search and --clock-drift of a command that reads a tracker's stream
-// on its own clock (`tracker`: the option both need).
-inline void add_clock_options(CLI::App* command, CLI::Option* tracker, double& search,
-                              bool& drift) {
-  command
-      ->add_option("--clock-search", search,
-                   "With --tracker: the clocks' offset is searched within +-SECONDS")
-      ->check(within(option_range::kClockSearch))
-      ->capture_default_str()
-      ->needs(tracker);
-  command
-      ->add_flag("--clock-drift", drift,
-                 "With --tracker: estimate the clocks' drift (rate difference) too")
-      ->needs(tracker);
-}
-
 }  // namespace hapticcal::cli

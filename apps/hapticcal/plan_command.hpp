@@ -5,21 +5,14 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "bound_options.hpp"
 #include "hapticcal/jobs/plan_job.hpp"
 
 namespace hapticcal::cli {
 
+// plan's options are the library's table (plan_options), as Python's keywords are.
 struct PlanCommandOptions {
-  PlanRequest request;
-  // The options given as text, parsed into the request by run_plan.
-  std::string columns, fix, free, distance_range, box;
-  // An ISO 9283 test plan instead (--iso9283): the cube's centre X,Y,Z [m] and
-  // edge [m] (none: found), the cycles.
-  bool iso9283 = false;
-  std::string cube_centre;
-  double cube_size = 0;
-  int cycles = 30;
-  std::string out = "hapticcal-out/plan";
+  BoundOptions<PlanCommandRequest> bound;
 };
 
 // Registers `plan` on the app; returns the subcommand (true when given).

@@ -523,7 +523,7 @@ def test_plan_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):
     files = same_folders(cli_out, py_out)
     assert "plan.csv" in files and "plan.json" in files
     assert json.loads((cli_out / "plan.json").read_text()) == r["plan"]
-    with pytest.raises(ValueError, match="distance_range: expected 2 numbers"):
+    with pytest.raises(ValueError, match="--distance-range .0.2.: expected 2 comma-separated numbers"):
         hapticcal.plan(MECA, "position", 12, distance_range=[0.2], out=str(py_out))
 
 
@@ -541,9 +541,9 @@ def test_iso_plan_and_its_test_are_the_cli_s(tmp_path):
     assert r["plan"] == json.loads((cli_out / "iso9283.json").read_text())
     assert f"test cube: edge {r['plan']['size'] * 1e3:.1f} mm" in stdout
     assert r["readings"].shape == (5, 6)
-    with pytest.raises(ValueError, match="apply to iso9283=True"):
+    with pytest.raises(ValueError, match="apply to an ISO 9283 plan"):
         hapticcal.plan(MECA, "position", 12, cycles=5, out=str(py_out))
-    with pytest.raises(ValueError, match="no measurement, poses or candidates"):
+    with pytest.raises(ValueError, match="no --measurement, --poses or --candidates"):
         hapticcal.plan(MECA, "position", 12, iso9283=True, out=str(py_out))
     # The test measured: the model's own tool points, 20 um off at P1.
     m = hapticcal.load_model(MECA)
@@ -632,7 +632,8 @@ def test_the_command_lines_defaults_are_the_keywords_defaults():
     checked = 0
     for command, function in {"calibrate": "calibrate", "evaluate": "evaluate",
                               "simulate": "simulate", "force": "force",
-                              "compensate": "compensate", "import": "import_recording"}.items():
+                              "compensate": "compensate", "import": "import_recording",
+                              "plan": "plan", "convert": "convert"}.items():
         signature = getattr(hapticcal, function).__doc__.split("\n")[0]
         code, stdout, stderr = cli(command, "--help")
         assert code == 0, stderr
@@ -652,8 +653,8 @@ def test_the_command_lines_defaults_are_the_keywords_defaults():
             checked += 1
     # calibrate's seven shown defaults, evaluate's clock search, simulate's threads and out,
     # force's out, gain, noise, three of the wall and seed, compensate's load and out,
-    # import's time and clock offset
-    assert checked >= 21
+    # import's time and clock offset, plan's cycles, criterion, seed and out
+    assert checked >= 25
 
 
 def test_simulate_job_gives_the_cli_output_folder_byte_for_byte(tmp_path):

@@ -46,22 +46,11 @@ void read_tool_point(CalibrateRequest& r, const OptionValue& v, const std::strin
     r.nominal_tool = true;
     return;
   }
-  const std::vector<std::string> items = split_columns(text);
-  std::array<double, 3> point{};
-  bool numbers = items.size() == 3;
-  for (size_t i = 0; numbers && i < 3; ++i) {
-    size_t used = 0;
-    try {
-      point[i] = std::stod(items[i], &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    numbers = used == items[i].size() && std::isfinite(point[i]);
-  }
-  if (!numbers) {
+  if (text.find(',') == std::string::npos) {
     throw InputError(
         fmt::format("{} '{}': expected X,Y,Z in metres or 'nominal'", as, printable(text)));
   }
+  const std::array<double, 3> point = comma_numbers<3>(text, as);
   for (double x : point) {
     if (std::abs(x) > 10)
       throw InputError(fmt::format("{}: {} is not a coordinate in metres (|x| <= 10)", as, x));
@@ -408,7 +397,26 @@ CommandOptions<CompensateRequest> compensate_table() {
   return t;
 }
 
+CommandOptions<ConvertRequest> convert_table() {
+  using R = ConvertRequest;
+  CommandOptions<R> t;
+  auto in = required(field_option<R>("input", "Model to read", [](R& r) -> auto& { return r.in; }));
+  in.argument = true;
+  t.push_back(in);
+  auto out = required(field_option<R>("output", "File to write (replaced atomically)",
+                                      [](R& r) -> auto& { return r.out; }));
+  out.argument = true;
+  t.push_back(out);
+  add_chain_options(t);
+  return t;
+}
+
 }  // namespace
+
+const CommandOptions<ConvertRequest>& convert_options() {
+  static const CommandOptions<ConvertRequest> table = convert_table();
+  return table;
+}
 
 const CommandOptions<CompensateRequest>& compensate_options() {
   static const CommandOptions<CompensateRequest> table = compensate_table();

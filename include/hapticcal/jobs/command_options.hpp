@@ -9,7 +9,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -223,6 +225,30 @@ inline std::string shown_text(const OptionValue& v) {
   }
   if (const auto* s = std::get_if<std::string>(&v)) return *s;
   return fmt::format("{}", fmt::join(std::get<std::vector<std::string>>(v), ","));
+}
+
+// N comma-separated finite numbers (X,Y,Z), or an InputError naming the option
+// as `as`.
+template <std::size_t N>
+std::array<double, N> comma_numbers(const std::string& text, const std::string& as) {
+  const std::vector<std::string> items = text.empty() ? std::vector<std::string>{}
+                                                      : split_columns(text);
+  std::array<double, N> numbers{};
+  bool read = items.size() == N;
+  for (std::size_t i = 0; read && i < N; ++i) {
+    std::size_t used = 0;
+    try {
+      numbers[i] = std::stod(items[i], &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    read = used == items[i].size() && std::isfinite(numbers[i]);
+  }
+  if (!read) {
+    throw InputError(
+        fmt::format("{} '{}': expected {} comma-separated numbers", as, printable(text), N));
+  }
+  return numbers;
 }
 
 // The options every command that reads a URDF's chain takes.

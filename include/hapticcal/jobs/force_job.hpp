@@ -60,4 +60,7 @@ struct ConvertJob {
 // device file and a URDF, or a tree to a URDF (a URDF is written from one chain).
 ConvertJob run_convert_job(const ConvertRequest& request);
 
+// convert's options, bound by the command line and the Python module alike.
+const CommandOptions<ConvertRequest>& convert_options();
+
 }  // namespace hapticcal

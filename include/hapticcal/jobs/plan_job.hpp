@@ -13,6 +13,8 @@
 
 #include "hapticcal/core/output_set.hpp"
 #include "hapticcal/design/plan.hpp"
+#include "hapticcal/jobs/command_options.hpp"
+#include "hapticcal/jobs/iso_plan_job.hpp"
 #include "hapticcal/model/model.hpp"
 
 namespace hapticcal {
@@ -68,6 +70,23 @@ struct PlanJob {
 PlanJob run_plan_job(const PlanRequest& request, const std::string& out,
                      const std::function<void(const PlanSetup&, const PlanProblem&)>& started = {},
                      const std::function<void(const std::string&)>& progress = {});
+
+// `plan` as both front ends give it: an experiment design, or with iso9283 the
+// ISO 9283 test cube instead (jobs/iso_plan_job.hpp); the model, tip and root
+// go to both requests.
+struct PlanCommandRequest {
+  PlanRequest plan;
+  bool iso9283 = false;
+  IsoPlanRequest iso;
+  std::string out = "hapticcal-out/plan";
+};
+
+// plan's options, bound by the command line and the Python module alike.
+const CommandOptions<PlanCommandRequest>& plan_options();
+
+// The options that belong to the other kind of plan, or a design without its
+// measurement and poses: an InputError naming them.
+void check_plan_command(const PlanCommandRequest& request);
 
 // Writes plan.csv, plan.json (its text `json`, plan_json's) and report.html
 // with its figures into `dir`; returns the number of figures drawn and sets
