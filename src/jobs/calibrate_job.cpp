@@ -47,8 +47,8 @@ std::string tip_order_hint(const CalibrateRequest& request, const std::string& u
   do {
     if (order == tips) continue;
     try {
-      const DeviceModel other =
-          tree_model(parse_tree(urdf_text, request.model, order, request.root));
+      const DeviceModel other = load_model_or_tree(
+          request.model, fmt::format("{}", fmt::join(order, ",")), request.root, &urdf_text);
       calibrate(other, tip_samples(other, raw), quick);
     } catch (const InputError&) {
       continue;
@@ -67,14 +67,9 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
   CalibrateJob job;
   const bool urdf = !request.model.empty() && is_urdf_path(request.model);
   const std::string urdf_text = urdf ? read_file(request.model, FileKind::kUrdf) : std::string();
-  if (request.nominal) {
-    job.nominal = *request.nominal;
-  } else if (tips.size() > 1) {
-    job.nominal = tree_model(parse_tree(urdf_text, request.model, tips, request.root));
-  } else {
-    job.nominal = urdf ? parse_urdf(urdf_text, request.model, request.tip, request.root)
-                       : load_model(request.model, request.tip, request.root);
-  }
+  job.nominal = request.nominal ? *request.nominal
+                                : load_model_or_tree(request.model, request.tip, request.root,
+                                                     urdf ? &urdf_text : nullptr);
   // A URDF's tips named, or a device file's (or a model in memory) holding them.
   const bool tree = job.nominal.tree();
   if (tree && (request.tool_point || request.nominal_tool))

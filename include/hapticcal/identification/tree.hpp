@@ -56,10 +56,13 @@ DeviceTree load_tree(const std::string& path, const std::vector<std::string>& ti
 
 // The tips of a --tip value: its comma-separated names (one: a chain).
 std::vector<std::string> tip_names(const std::string& tip);
-// The model of `path` with a --tip value: several tips, the URDF's tree
-// (tree_model of load_tree); else load_model's (a device file may hold a tree).
+// The one way a command loads its model: `path` with a --tip value. Several
+// tips, the URDF's tree (tree_model of parse_tree); else load_model's (a
+// device file may hold a tree). `urdf_text`: the URDF's text already read (the
+// text calibrate writes calibrated.urdf into) instead of reading `path` again.
 DeviceModel load_model_or_tree(const std::string& path, const std::string& tip,
-                               const std::string& root = "");
+                               const std::string& root = "",
+                               const std::string* urdf_text = nullptr);
 
 // The tree as one model (DeviceModel::tree): its links the tree's joints in
 // order (a log's q1..qN), each with its parent on the path from the root, the
