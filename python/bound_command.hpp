@@ -34,10 +34,22 @@ struct BoundCommand {
 
 namespace bound_detail {
 
-inline bool is_bool(py::handle v) { return py::isinstance<py::bool_>(v); }
-inline bool is_int(py::handle v) { return py::isinstance<py::int_>(v) && !is_bool(v); }
+// Python's True and False, and NumPy's (numpy.bool_).
+inline bool is_bool(py::handle v) {
+  const std::string type = Py_TYPE(v.ptr())->tp_name;
+  return py::isinstance<py::bool_>(v) || type == "numpy.bool_" || type == "numpy.bool";
+}
+// A whole number: an int or what stands for one (numpy.int64), not a bool.
+inline bool is_int(py::handle v) { return PyIndex_Check(v.ptr()) && !is_bool(v); }
+// A real number: an int, a float or NumPy's, not a bool or a text.
+inline bool is_number(py::handle v) {
+  return (is_int(v) || PyFloat_Check(v.ptr()) || PyNumber_Check(v.ptr())) && !is_bool(v) &&
+         !py::isinstance<py::str>(v);
+}
+// A list, a tuple or an array of them (numpy.ndarray), not a text.
 inline bool is_sequence(py::handle v) {
-  return py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v);
+  return py::isinstance<py::sequence>(v) && !py::isinstance<py::str>(v) &&
+         !py::isinstance<py::bytes>(v);
 }
 
 inline std::string annotation(OptionKind kind) {
@@ -57,10 +69,11 @@ inline std::string annotation(OptionKind kind) {
 }
 
 // A keyword's value as the command line's option would give it; a wrong type
-// is Python's TypeError.
+// is Python's TypeError. `numbers`: a text option that also takes numbers (a
+// point, a marker body), written X,Y,Z as the command line's.
 template <class Request>
-OptionValue value_of(const std::string& function, const CommandOption<Request>& o,
-                     py::handle v) {
+OptionValue value_of(const std::string& function, const CommandOption<Request>& o, py::handle v,
+                     bool numbers) {
   const auto wrong = [&] {
     return py::type_error(fmt::format("{}(): {} takes {}, not {}", function, o.name,
                                       annotation(o.kind), py::str(py::type::of(v).attr("__name__"))
@@ -69,20 +82,28 @@ OptionValue value_of(const std::string& function, const CommandOption<Request>& 
   switch (o.kind) {
     case OptionKind::kFlag:
       if (!is_bool(v)) throw wrong();
-      return v.cast<bool>();  // the field's value: search=False is --no-search
-    case OptionKind::kWhole:
+      return PyObject_IsTrue(v.ptr()) == 1;  // the field's value: search=False is --no-search
+    case OptionKind::kWhole: {
       if (!is_int(v)) throw wrong();
-      return v.cast<long long>();
+      const long long whole = PyLong_AsLongLong(py::reinterpret_steal<py::object>(
+                                                    PyNumber_Index(v.ptr())).ptr());
+      if (whole == -1 && PyErr_Occurred()) {
+        PyErr_Clear();
+        throw InputError(fmt::format("{} {}: too large", o.flag(), py::str(v).cast<std::string>()));
+      }
+      return whole;
+    }
     case OptionKind::kNumber:
-      if (!is_int(v) && !py::isinstance<py::float_>(v)) throw wrong();
-      return v.cast<double>();
+      if (!is_number(v)) throw wrong();
+      return py::float_(py::reinterpret_borrow<py::object>(v)).cast<double>();
     case OptionKind::kText:
       if (py::isinstance<py::str>(v)) return v.cast<std::string>();
-      if (is_sequence(v)) {  // numbers (a point, a marker body): X,Y,Z as the command line's
+      if (numbers && is_sequence(v)) {
         std::vector<std::string> items;
         for (py::handle item : v) {
-          if (!is_int(item) && !py::isinstance<py::float_>(item)) throw wrong();
-          items.push_back(py::repr(item).cast<std::string>());
+          if (!is_number(item)) throw wrong();
+          items.push_back(
+              fmt::format("{}", py::float_(py::reinterpret_borrow<py::object>(item)).cast<double>()));
         }
         return fmt::format("{}", fmt::join(items, ","));
       }
@@ -186,13 +207,15 @@ Request request_from(const BoundCommand<Request>& c, const py::args& args,
       set.insert(name);
       continue;
     }
-    set_option(*o, request, bound_detail::value_of(c.name, *o, value), o->flag());
-    set.insert(name);
+    const OptionValue read = bound_detail::value_of(c.name, *o, value, c.types.count(name) > 0);
+    set_option(*o, request, read, o->flag());
+    // A flag given as its default (clock_drift=False) is not an option used.
+    if (o->kind != OptionKind::kFlag || std::get<bool>(read) != o->negated) set.insert(name);
   }
   for (const auto& [name, value] : specials) {
     if (!c.special(request, name, value)) {
       const CommandOption<Request>* o = find_option(*c.table, name);
-      set_option(*o, request, bound_detail::value_of(c.name, *o, value), o->flag());
+      set_option(*o, request, bound_detail::value_of(c.name, *o, value, true), o->flag());
     }
   }
   for (const CommandOption<Request>& o : *c.table) {

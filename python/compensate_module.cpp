@@ -21,8 +21,8 @@ const BoundCommand<CompensateRequest>& compensate_command() {
   static const BoundCommand<CompensateRequest> command{
       "compensate",
       "hapticcal compensate: a program's targets for a controller that runs the nominal model "
-      "(compensated.csv and results.json in out).",
-      "dict(results, lines, out)", &compensate_options(), {}, {}};
+      "(compensated.csv and results.json in out); returns dict(results, lines, out).",
+      "dict", &compensate_options(), {}, {}};
   return command;
 }
 

@@ -154,7 +154,8 @@ const BoundCommand<EvaluateRequest>& evaluate_command() {
       "dict",
       &evaluate_options(),
       [](EvaluateRequest& request, const std::string& name, py::handle value) {
-        if (!py::isinstance<Model>(value)) return false;
+        if ((name != "model" && name != "reference") || !py::isinstance<Model>(value))
+          return false;
         const Model& m = value.cast<const Model&>();
         if (name == "model") {
           request.given = m.model;
@@ -195,9 +196,10 @@ py::dict iso_plan(const IsoPlanRequest& request, const std::string& out) {
 const BoundCommand<PlanCommandRequest>& plan_command() {
   static const BoundCommand<PlanCommandRequest> command{
       "plan",
-      "hapticcal plan: writes plan.csv, plan.json and the report into out. iso9283=True: the "
+      "hapticcal plan: writes plan.csv, plan.json and the report into out; returns "
+      "dict(plan=plan.json parsed, readings=poses x dof array, out, files). iso9283=True: the "
       "ISO 9283 test cube instead, plan the parsed iso9283.json, readings those of P1..P5.",
-      "dict(plan=plan.json parsed, readings=poses x dof array, out, files)",
+      "dict",
       &plan_options(),
       [](PlanCommandRequest& request, const std::string& name, py::handle value) {
         if (name != "model" || !py::isinstance<Model>(value)) return false;
@@ -234,8 +236,10 @@ py::dict plan(const py::args& args, const py::kwargs& kwargs) {
 // simulate(): the command line's job (jobs/simulate_job.hpp) from its options' table.
 const BoundCommand<SimulateRequest>& simulate_command() {
   static const BoundCommand<SimulateRequest> command{
-      "simulate", "hapticcal simulate: writes its files into out.",
-      "dict(results=results.json parsed, out, files)", &simulate_options(), {}, {}};
+      "simulate",
+      "hapticcal simulate: writes its files into out; returns dict(results=results.json "
+      "parsed, out, files).",
+      "dict", &simulate_options(), {}, {}};
   return command;
 }
 
@@ -255,8 +259,10 @@ py::dict simulate(const py::args& args, const py::kwargs& kwargs) {
 // force(): the command line's job (jobs/force_job.hpp) from its options' table.
 const BoundCommand<ForceRequest>& force_command() {
   static const BoundCommand<ForceRequest> command{
-      "force", "hapticcal force: the virtual-wall study into out.",
-      "dict(results=results.json parsed, out)", &force_options(), {},
+      "force",
+      "hapticcal force: the virtual-wall study into out; returns dict(results=results.json "
+      "parsed, out).",
+      "dict", &force_options(), {},
       {{"posture", "str | list[float]"}}};
   return command;
 }
@@ -272,8 +278,10 @@ py::dict force(const py::args& args, const py::kwargs& kwargs) {
 // convert(): the command line's job (jobs/force_job.hpp) from its options' table.
 const BoundCommand<ConvertRequest>& convert_command() {
   static const BoundCommand<ConvertRequest> command{
-      "convert", "hapticcal convert: a device file to URDF or back.",
-      "dict(out, name, dof, with_transmission)", &convert_options(), {}, {}};
+      "convert",
+      "hapticcal convert: a device file to URDF or back; returns dict(out, name, dof, "
+      "with_transmission).",
+      "dict", &convert_options(), {}, {}};
   return command;
 }
 

@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <string>
 #include <utility>
 #include <vector>
@@ -34,15 +35,15 @@ class BoundOptions {
     }
   }
 
-  bool given(const std::string& name) const {
-    for (const auto& [option, value] : given_)
-      if (option->name == name) return true;
-    return false;
-  }
-
-  // Reads the values given into `request`, in the order given.
+  // Reads the values given into `request`, in the order given, then the flags.
   void apply(Request& request) const {
     for (const auto& [option, value] : given_) set_option(*option, request, value, option->flag());
+    for (const Flag& f : flags_) {
+      if (f.parsed->count() == 0) continue;
+      // --no-search (true) turns the field off; --strict=false leaves it off.
+      set_option(*f.option, request, OptionValue(*f.value != f.option->negated),
+                 f.option->flag());
+    }
   }
 
  private:
@@ -50,10 +51,13 @@ class BoundOptions {
     const std::string flag = o.flag();
     CLI::Option* added = nullptr;
     switch (o.kind) {
-      case OptionKind::kFlag:
-        added = command->add_flag_function(
-            flag, [this, &o](std::int64_t) { given_.emplace_back(&o, !o.negated); }, o.help);
+      case OptionKind::kFlag: {
+        // add_flag's own reading: --strict=false is false.
+        bool& value = flag_values_.emplace_back(false);
+        added = command->add_flag(flag, value, o.help);
+        flags_.push_back({&o, added, &value});
         break;
+      }
       case OptionKind::kWhole: {
         added = command->add_option_function<long long>(
             flag, [this, &o](const long long& v) { given_.emplace_back(&o, v); }, o.help);
@@ -75,16 +79,32 @@ class BoundOptions {
         if (!o.words.empty()) added->check(CLI::IsMember(o.words));
         break;
       case OptionKind::kList:
-        added = command->add_option_function<std::vector<std::string>>(
-            flag, [this, &o](const std::vector<std::string>& v) { given_.emplace_back(&o, v); },
-            o.help);
+        // One value an occurrence (A,B or --fix A --fix B): a word after it is
+        // the command's argument (import's RECORDING), not another item.
+        added = command
+                    ->add_option_function<std::vector<std::string>>(
+                        flag,
+                        [this, &o](const std::vector<std::string>& v) {
+                          given_.emplace_back(&o, v);
+                        },
+                        o.help)
+                    ->expected(1)
+                    ->allow_extra_args(false)
+                    ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
         break;
     }
     if (o.required) added->required();
     if (o.shown && o.kind != OptionKind::kFlag) added->default_str(shown_text(*o.shown));
   }
 
+  struct Flag {
+    const CommandOption<Request>* option;
+    const CLI::Option* parsed;
+    const bool* value;
+  };
   std::vector<std::pair<const CommandOption<Request>*, OptionValue>> given_;
+  std::deque<bool> flag_values_;  // add_flag's storage: stable addresses
+  std::vector<Flag> flags_;
 };
 
 }  // namespace hapticcal::cli

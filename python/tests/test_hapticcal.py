@@ -618,7 +618,16 @@ def test_a_commands_keywords_are_read_as_its_options(tmp_path):
     as_list = hapticcal.calibrate(MECA, CAL_LOG, fix=["j1.a", "j2.d"], no_transmission=True,
                                   folds=0, search=False, tool_point=[0.0, 0.0, 0.07])
     as_text = hapticcal.calibrate(MECA, CAL_LOG, fix="j1.a,j2.d", no_transmission=True,
-                                  folds=0, search=False, tool_point="0,0,0.07")
+                                  folds=0, search=False, tool_point="0,0,0.07",
+                                  clock_drift=False)  # a flag's default: no tracker needed
+    as_array = hapticcal.calibrate(MECA, CAL_LOG, fix=("j1.a", "j2.d"), no_transmission=True,
+                                   folds=np.int64(0), search=np.bool_(False),
+                                   tool_point=np.array([0.0, 0.0, 0.07]))
+    assert as_array.device_model.parameters() == as_text.device_model.parameters()
+    with pytest.raises(TypeError, match="markers takes"):
+        hapticcal.evaluate(MECA, CAL_LOG, markers=hapticcal.load_model(MECA))
+    with pytest.raises(TypeError, match="log takes"):
+        hapticcal.evaluate(MECA, [1.0, 2.0])
     assert as_list.parameters["j1.a"]["value"] == as_list.parameters["j1.a"]["nominal"]
     assert ({k: p["value"] for k, p in as_list.parameters.items()}
             == {k: p["value"] for k, p in as_text.parameters.items()})
