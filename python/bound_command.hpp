@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "hapticcal/jobs/command_options.hpp"
+#include "module_support.hpp"
 
 namespace hapticcal::python {
 
@@ -26,10 +27,10 @@ struct BoundCommand {
   std::string summary;  // its doc's first paragraph
   std::string returns;  // its return annotation
   const CommandOptions<Request>* table = nullptr;
-  // A keyword the module takes in another form (a Model instead of a path):
-  // returns true when it took the value. Run after the table's keywords.
-  std::function<bool(Request&, const std::string&, py::handle)> special;
-  std::map<std::string, std::string> types;  // such a keyword's annotation
+  // The keywords the module also takes as a Model instead of a path, and how:
+  // run after the table's keywords (a Model's tip and root win).
+  std::set<std::string> models;
+  std::function<void(Request&, const std::string&, const Model&)> take_model;
 };
 
 namespace bound_detail {
@@ -52,7 +53,8 @@ inline bool is_sequence(py::handle v) {
          !py::isinstance<py::bytes>(v);
 }
 
-inline std::string annotation(OptionKind kind) {
+inline std::string annotation(OptionKind kind, bool numbers = false) {
+  if (numbers) return "str | list[float]";
   switch (kind) {
     case OptionKind::kFlag:
       return "bool";
@@ -69,15 +71,15 @@ inline std::string annotation(OptionKind kind) {
 }
 
 // A keyword's value as the command line's option would give it; a wrong type
-// is Python's TypeError. `numbers`: a text option that also takes numbers (a
-// point, a marker body), written X,Y,Z as the command line's.
+// is Python's TypeError. A text of numbers (a point, a marker body) also takes
+// a list of them, written X,Y,Z as the command line's.
 template <class Request>
-OptionValue value_of(const std::string& function, const CommandOption<Request>& o, py::handle v,
-                     bool numbers) {
+OptionValue value_of(const std::string& function, const CommandOption<Request>& o,
+                     py::handle v) {
   const auto wrong = [&] {
-    return py::type_error(fmt::format("{}(): {} takes {}, not {}", function, o.name,
-                                      annotation(o.kind), py::str(py::type::of(v).attr("__name__"))
-                                          .cast<std::string>()));
+    return py::type_error(
+        fmt::format("{}(): {} takes {}, not {}", function, o.name, annotation(o.kind, o.numbers),
+                    py::str(py::type::of(v).attr("__name__")).cast<std::string>()));
   };
   switch (o.kind) {
     case OptionKind::kFlag:
@@ -98,7 +100,7 @@ OptionValue value_of(const std::string& function, const CommandOption<Request>& 
       return py::float_(py::reinterpret_borrow<py::object>(v)).cast<double>();
     case OptionKind::kText:
       if (py::isinstance<py::str>(v)) return v.cast<std::string>();
-      if (numbers && is_sequence(v)) {
+      if (o.numbers && is_sequence(v)) {
         std::vector<std::string> items;
         for (py::handle item : v) {
           if (!is_number(item)) throw wrong();
@@ -144,9 +146,8 @@ std::string doc_of(const BoundCommand<Request>& c) {
   for (size_t i = 0; i < in_order.size(); ++i) {
     const CommandOption<Request>& o = *in_order[i];
     if (i == positional) parameters.push_back("*");
-    const auto type = c.types.find(o.name);
-    std::string parameter =
-        o.name + ": " + (type != c.types.end() ? type->second : bound_detail::annotation(o.kind));
+    std::string parameter = o.name + ": " + (c.models.count(o.name) ? "Model | str"
+                                                  : bound_detail::annotation(o.kind, o.numbers));
     if (o.kind == OptionKind::kFlag) {
       parameter += o.negated ? " = True" : " = False";
     } else if (o.shown && std::holds_alternative<std::string>(*o.shown)) {
@@ -195,29 +196,25 @@ Request request_from(const BoundCommand<Request>& c, const py::args& args,
           fmt::format("{}() missing required argument: '{}'", c.name, o->name));
   }
   Request request;
-  std::vector<std::pair<std::string, py::handle>> specials;
+  std::vector<std::pair<std::string, py::handle>> models;
   std::set<std::string> set;
   for (const auto& [name, value] : given) {
     const CommandOption<Request>* o = find_option(*c.table, name);
     if (!o) throw py::type_error(fmt::format("{}() got an unexpected keyword argument '{}'",
                                              c.name, name));
     if (value.is_none()) continue;
-    if (c.special && c.types.count(name) && !py::isinstance<py::str>(value)) {
-      specials.emplace_back(name, value);
+    if (c.models.count(name) && py::isinstance<Model>(value)) {
+      models.emplace_back(name, value);
       set.insert(name);
       continue;
     }
-    const OptionValue read = bound_detail::value_of(c.name, *o, value, c.types.count(name) > 0);
+    const OptionValue read = bound_detail::value_of(c.name, *o, value);
     set_option(*o, request, read, o->flag());
     // A flag given as its default (clock_drift=False) is not an option used.
     if (o->kind != OptionKind::kFlag || std::get<bool>(read) != o->negated) set.insert(name);
   }
-  for (const auto& [name, value] : specials) {
-    if (!c.special(request, name, value)) {
-      const CommandOption<Request>* o = find_option(*c.table, name);
-      set_option(*o, request, bound_detail::value_of(c.name, *o, value, true), o->flag());
-    }
-  }
+  for (const auto& [name, value] : models)
+    c.take_model(request, name, py::cast<const Model&>(value));
   for (const CommandOption<Request>& o : *c.table) {
     if (!o.needs.empty() && set.count(o.name) && !set.count(o.needs))
       throw InputError(

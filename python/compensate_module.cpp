@@ -37,9 +37,8 @@ void add_compensate_function(py::module_& m) {
         const CompensateRequest request = request_from(compensate_command(), args, kwargs);
         const CompensateJob job = interruptible([&] { return run_compensate_job(request); });
         return settled([&] {
-          return py::dict(
-              "results"_a = py::module_::import("json").attr("loads")(job.results_json),
-              "lines"_a = job.lines, "out"_a = request.out);
+          return py::dict("results"_a = parsed(job.results_json), "lines"_a = job.lines,
+                          "out"_a = request.out);
         });
       },
       doc_of(compensate_command()).c_str());

@@ -56,10 +56,6 @@ using namespace pybind11::literals;
 namespace hapticcal::python {
 namespace {
 
-py::object parsed(const std::string& json_text) {
-  return py::module_::import("json").attr("loads")(json_text);
-}
-
 // What `hapticcal calibrate` computes, with the results.json it would write.
 struct Calibration {
   std::optional<Model> model;  // the calibrated model, if usable (exit 0)
@@ -88,16 +84,13 @@ const BoundCommand<CalibrateRequest>& calibrate_command() {
       "None.",
       "Calibration",
       &calibrate_options(),
-      [](CalibrateRequest& request, const std::string& name, py::handle value) {
-        if (name != "model" || !py::isinstance<Model>(value)) return false;
-        const Model& m = value.cast<const Model&>();
+      {"model"},
+      [](CalibrateRequest& request, const std::string&, const Model& m) {
         request.nominal = m.model;
         request.model = m.path;
         request.tip = m.tip;
         request.root = m.root;
-        return true;
-      },
-      {{"model", "Model | str"}, {"markers", "str | list[float]"}, {"tool_point", "str | list[float]"}}};
+      }};
   return command;
 }
 
@@ -153,10 +146,8 @@ const BoundCommand<EvaluateRequest>& evaluate_command() {
       "tracker, 'iso9283' with an ISO 9283 plan).",
       "dict",
       &evaluate_options(),
-      [](EvaluateRequest& request, const std::string& name, py::handle value) {
-        if ((name != "model" && name != "reference") || !py::isinstance<Model>(value))
-          return false;
-        const Model& m = value.cast<const Model&>();
+      {"model", "reference"},
+      [](EvaluateRequest& request, const std::string& name, const Model& m) {
         if (name == "model") {
           request.given = m.model;
           request.model = m.path;
@@ -164,9 +155,7 @@ const BoundCommand<EvaluateRequest>& evaluate_command() {
           request.given_reference = m.model;
           request.reference = m.path;
         }
-        return true;
-      },
-      {{"model", "Model | str"}, {"reference", "Model | str"}, {"markers", "str | list[float]"}}};
+      }};
   return command;
 }
 
@@ -201,18 +190,12 @@ const BoundCommand<PlanCommandRequest>& plan_command() {
       "ISO 9283 test cube instead, plan the parsed iso9283.json, readings those of P1..P5.",
       "dict",
       &plan_options(),
-      [](PlanCommandRequest& request, const std::string& name, py::handle value) {
-        if (name != "model" || !py::isinstance<Model>(value)) return false;
-        const std::string& path = value.cast<const Model&>().path;
-        if (path.empty())
+      {"model"},
+      [](PlanCommandRequest& request, const std::string&, const Model& m) {
+        if (m.path.empty())
           throw InputError("plan: the model must be a file (save a Model changed in Python first)");
-        request.plan.model = request.iso.model = path;
-        return true;
-      },
-      {{"model", "Model | str"},
-       {"cube_centre", "str | list[float]"},
-       {"distance_range", "str | list[float]"},
-       {"box", "str | list[float]"}}};
+        request.plan.model = request.iso.model = m.path;
+      }};
   return command;
 }
 
@@ -262,8 +245,7 @@ const BoundCommand<ForceRequest>& force_command() {
       "force",
       "hapticcal force: the virtual-wall study into out; returns dict(results=results.json "
       "parsed, out).",
-      "dict", &force_options(), {},
-      {{"posture", "str | list[float]"}}};
+      "dict", &force_options(), {}, {}};
   return command;
 }
 

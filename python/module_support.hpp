@@ -100,6 +100,11 @@ auto settled(Convert&& convert) {
   }
 }
 
+// A job's JSON text as Python's dicts and lists (json.loads).
+inline py::object parsed(const std::string& json_text) {
+  return py::module_::import("json").attr("loads")(json_text);
+}
+
 // A device model and the file it came from (the path results.json names; empty
 // once its parameters are changed in Python).
 struct Model {

@@ -76,7 +76,7 @@ int run_plan(const PlanCommandOptions& options) {
         "hapticcal plan: {} poses of {} ({} joints), {} measurements, {}-optimal, seed {}\n"
         "  parameters: {} ({} kinematic, the rest step-1 transmissions and encoder zeros); "
         "sigma_m {:.4g} um, sigma_e {:.4g} urad\n",
-        o.poses, model.name, model.dof(), traits(setup.type).name,
+        setup.options.poses, model.name, model.dof(), traits(setup.type).name,
         to_string(setup.options.criterion), o.seed, problem.parameters(),
         problem.kinematic_slots().size(), setup.sigma * 1e6, setup.sigma_e * 1e6);
   };
@@ -93,7 +93,7 @@ int run_plan(const PlanCommandOptions& options) {
   fmt::print(
       "  predicted RMS {} sd over the workspace: planned {:.3f} um, random {} poses {:.3f} um "
       "(median of {} draws): ratio {:.3f}\n",
-      tip, plan.planned.rms_sd * 1e6, o.poses, plan.random_median_rms_sd * 1e6,
+      tip, plan.planned.rms_sd * 1e6, job.setup.options.poses, plan.random_median_rms_sd * 1e6,
       plan.random_rms_sd.size(),
       plan.random_median_rms_sd > 0 ? plan.planned.rms_sd / plan.random_median_rms_sd : 0.0);
   fmt::print("  observability O1 {:.4g} (random {:.4g}), condition number {:.4g} (random {:.4g})\n",

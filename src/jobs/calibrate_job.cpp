@@ -47,8 +47,7 @@ std::string tip_order_hint(const CalibrateRequest& request, const std::string& u
   do {
     if (order == tips) continue;
     try {
-      const DeviceModel other = load_model_or_tree(
-          request.model, fmt::format("{}", fmt::join(order, ",")), request.root, &urdf_text);
+      const DeviceModel other = load_model_or_tree(request.model, order, request.root, &urdf_text);
       calibrate(other, tip_samples(other, raw), quick);
     } catch (const InputError&) {
       continue;

@@ -139,13 +139,13 @@ CommandOptions<CalibrateRequest> calibrate_table() {
       "A tracker's stream (CSV: t and x, y, z [, qw..qz | x1, y1, z1, ...: a marker body], on "
       "its own clock): the clocks' offset is estimated with the kinematics, the readings "
       "interpolated at the tracker's samples");
-  t.push_back(parsed_option<R>(
+  t.push_back(of_numbers(parsed_option<R>(
       "markers", OptionKind::kText,
       "A log of several markers on one rigid body (x1, y1, z1, x2, ...): their positions in the "
       "tool frame, X1,Y1,Z1,X2,... [m] (default: estimated from the log)",
       [](R& r, const OptionValue& v, const std::string& as) {
         r.options.marker_body = parse_marker_body(std::get<std::string>(v), as);
-      }));
+      })));
   t.push_back(parsed_option<R>(
       "no_transmission", OptionKind::kFlag, "Skip step 1: kinematic-only calibration",
       [](R& r, const OptionValue& v, const std::string&) {
@@ -209,11 +209,11 @@ CommandOptions<CalibrateRequest> calibrate_table() {
       "Calibrate even if the log looks implausible for the model (readings outside the joint "
       "limits, nominal error beyond 5 % of the reach with the base fitted)",
       [](R& r) -> auto& { return r.options.force; }));
-  t.push_back(parsed_option<R>(
+  t.push_back(of_numbers(parsed_option<R>(
       "tool_point", OptionKind::kText,
       "Where device.yaml's tool ends: X,Y,Z in metres in the last link's frame (a stylus tip), "
       "or 'nominal' for the device file's tool (default: the point the instrument measured)",
-      read_tool_point));
+      read_tool_point)));
   t.push_back(field_option<R>(
       "out",
       "Output folder, replaced as a whole when the run succeeds (Python: none, nothing "
@@ -240,13 +240,13 @@ CommandOptions<EvaluateRequest> evaluate_table() {
       "conditions",
       "The ISO 9283 test's conditions for its report, e.g. \"load 1 kg, speed 100 %, 21 C\"",
       [](R& r) -> auto& { return r.conditions; }));
-  t.push_back(parsed_option<R>(
+  t.push_back(of_numbers(parsed_option<R>(
       "markers", OptionKind::kText,
       "A log of several markers on one rigid body: their positions in the tool frame, "
       "X1,Y1,Z1,X2,... [m] (calibrate's results.json markers; default: estimated from the log)",
       [](R& r, const OptionValue& v, const std::string& as) {
         r.marker_body = parse_marker_body(std::get<std::string>(v), as);
-      }));
+      })));
   t.push_back(field_option<R>(
       "out",
       "Output directory: report.html, results.json (Python: none, nothing written; the "
@@ -353,11 +353,11 @@ CommandOptions<ForceRequest> force_table() {
                               "Time the wall takes [s] (at most 600 s at the 1 kHz loop rate)",
                               [](R& r) -> auto& { return r.scenario.move_seconds; },
                               option_range::kWallSeconds));
-  t.push_back(parsed_option<R>(
+  t.push_back(of_numbers(parsed_option<R>(
       "posture", OptionKind::kText,
       "Readings q of the fixed handle, comma separated (default: home, j6 = 0.3 rad on a "
       "7-joint device)",
-      read_posture));
+      read_posture)));
   t.push_back(field_option<R>("seed", "Seed of the sensor noise",
                               [](R& r) -> auto& { return r.scenario.seed; }, kAtLeastZero));
   t.push_back(field_option<R>(

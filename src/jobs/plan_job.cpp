@@ -48,11 +48,11 @@ PlanSetup prepare_plan(const PlanRequest& o) {
   setup.type = *type;
   const DeviceModel& model = setup.model;
   PlanOptions& options = setup.options;
-  options.poses = o.poses;
+  options.poses = o.poses.value_or(0);  // none: refused by run_plan_job
   options.criterion = *criterion;
   options.seed = o.seed;
-  if (o.pool > 0) options.pool = o.pool;
-  if (o.refine_passes >= 0) options.refine_passes = o.refine_passes;
+  if (o.pool) options.pool = *o.pool;
+  if (o.refine_passes) options.refine_passes = *o.refine_passes;
   const auto finite = [](const auto& values, const char* option) {
     for (double v : values) {
       if (!std::isfinite(v))
@@ -94,18 +94,16 @@ PlanSetup prepare_plan(const PlanRequest& o) {
     options.candidates.resize(static_cast<Eigen::Index>(groups.size()), model.dof());
     for (size_t g = 0; g < groups.size(); ++g)
       options.candidates.row(static_cast<Eigen::Index>(g)) = log.q.row(groups[g].front());
-    if (o.poses > options.candidates.rows()) {
+    if (options.poses > options.candidates.rows()) {
       throw InputError(o.candidates, 0, "",
-                       fmt::format("--poses {}: the log has only {} distinct poses", o.poses,
+                       fmt::format("--poses {}: the log has only {} distinct poses", options.poses,
                                    options.candidates.rows()));
     }
   }
   // The kind's own sd among a cable encoder's (the paper's) and a tracker's.
-  setup.sigma =
-      o.sigma > 0
-          ? o.sigma
-          : kind_of(*type).sigma({.distance = kPaperSigmaMPaper, .position = kPlanSigmaPosition});
-  setup.sigma_e = o.sigma_e > 0 ? o.sigma_e : kPaperSigmaE;
+  setup.sigma = o.sigma.value_or(
+      kind_of(*type).sigma({.distance = kPaperSigmaMPaper, .position = kPlanSigmaPosition}));
+  setup.sigma_e = o.sigma_e.value_or(kPaperSigmaE);
   setup.analysis = options.candidates.size()
                        ? options.candidates
                        : random_readings(model, 300, options.seed ^ 0x5eed, options.constraints);
@@ -123,7 +121,7 @@ std::string plan_json(const PlanRequest& o, const PlanSetup& setup, const PlanPr
   j["measurement"] = traits(setup.type).name;
   j["criterion"] = to_string(setup.options.criterion);
   j["seed"] = o.seed;
-  j["poses"] = o.poses;
+  j["poses"] = setup.options.poses;
   j["candidates"] = setup.user_candidates ? o.candidates : "random";
   j["pool"] = plan.pool;
   j["sigma_m"] = setup.sigma;
@@ -161,7 +159,7 @@ int write_plan_files(const std::string& dir, const std::string& json, const Plan
 PlanJob run_plan_job(const PlanRequest& request, const std::string& out,
                      const std::function<void(const PlanSetup&, const PlanProblem&)>& started,
                      const std::function<void(const std::string&)>& progress) {
-  if (request.poses < 1 || request.poses > 100000)
+  if (!request.poses || *request.poses < 1 || *request.poses > 100000)
     throw InputError("--poses: expected 1 to 100000 poses");
   PlanJob job;
   job.setup = prepare_plan(request);
@@ -169,7 +167,7 @@ PlanJob run_plan_job(const PlanRequest& request, const std::string& out,
   job.out = std::make_unique<OutputSet>(out, "plan");
   if (progress) setup.options.progress = progress;
   // The transmissions step 1 can fit from the planned poses.
-  job.problem = std::make_unique<PlanProblem>(step_one_model(setup.model, request.poses),
+  job.problem = std::make_unique<PlanProblem>(step_one_model(setup.model, *request.poses),
                                               setup.type, setup.sigma, setup.sigma_e,
                                               setup.analysis, setup.fix, setup.free);
   if (started) started(setup, *job.problem);

@@ -9,32 +9,14 @@ namespace {
 
 using R = PlanCommandRequest;
 
-// A number of the design whose absence keeps the library's default (0 or -1
-// in PlanRequest): it shows no default of its own.
-template <class T>
-CommandOption<R> design_number(std::string name, std::string help, T PlanRequest::*field,
-                               OptionRange range) {
-  constexpr OptionKind kind =
-      std::is_integral_v<T> ? OptionKind::kWhole : OptionKind::kNumber;
-  auto o = parsed_option<R>(std::move(name), kind, std::move(help),
-                            [field](R& r, const OptionValue& v, const std::string&) {
-                              if constexpr (std::is_integral_v<T>) {
-                                r.plan.*field = static_cast<T>(std::get<long long>(v));
-                              } else {
-                                r.plan.*field = std::get<double>(v);
-                              }
-                            });
-  o.range = range;
-  return o;
-}
-
 void add_design_options(CommandOptions<R>& t) {
   auto candidates = field_option<R>(
       "candidates", "A log of recorded poses to choose from (repeated rows count as one pose)",
       [](R& r) -> auto& { return r.plan.candidates; });
   t.push_back(candidates);
-  t.push_back(design_number("pool", "Random candidate poses within the joint limits (default 10000)",
-                            &PlanRequest::pool, option_range::kPool));
+  t.push_back(field_option<R>("pool",
+                              "Random candidate poses within the joint limits (default 10000)",
+                              [](R& r) -> auto& { return r.plan.pool; }, option_range::kPool));
   t.push_back(field_option<R>("columns", "Column names of a candidates log without header",
                               [](R& r) -> auto& { return r.plan.columns; }));
   auto criterion = field_option<R>(
@@ -46,30 +28,30 @@ void add_design_options(CommandOptions<R>& t) {
   t.push_back(criterion);
   t.push_back(field_option<R>("seed", "Random seed", [](R& r) -> auto& { return r.plan.seed; },
                               kAtLeastZero));
-  t.push_back(design_number(
+  t.push_back(field_option<R>(
       "sigma",
       "Measurement sd [m] (default: the paper's sigma_m for distances, 10 um for positions and "
       "poses)",
-      &PlanRequest::sigma, option_range::kSigma));
-  t.push_back(design_number("sigma_e", "External encoder sd [rad] (default: the paper's 2 pi / 20000 / 3)",
-                            &PlanRequest::sigma_e, option_range::kAngle));
-  t.push_back(parsed_option<R>(
+      [](R& r) -> auto& { return r.plan.sigma; }, option_range::kSigma));
+  t.push_back(field_option<R>(
+      "sigma_e", "External encoder sd [rad] (default: the paper's 2 pi / 20000 / 3)",
+      [](R& r) -> auto& { return r.plan.sigma_e; }, option_range::kAngle));
+  t.push_back(of_numbers(parsed_option<R>(
       "distance_range", OptionKind::kText,
       "MIN,MAX: the tool point's distance from the measurement origin [m] (a cable encoder's "
       "range)",
       [](R& r, const OptionValue& v, const std::string& as) {
         r.plan.distance_range = comma_numbers<2>(std::get<std::string>(v), as);
-      }));
-  t.push_back(parsed_option<R>(
+      })));
+  t.push_back(of_numbers(parsed_option<R>(
       "box", OptionKind::kText,
       "XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX: a box the tool point must be in (measurement frame) [m]",
       [](R& r, const OptionValue& v, const std::string& as) {
         r.plan.box = comma_numbers<6>(std::get<std::string>(v), as);
-      }));
-  t.push_back(design_number("refine_passes",
-                            "Continuous refinement passes of random candidates (default 20; 0: "
-                            "none)",
-                            &PlanRequest::refine_passes, option_range::kRefinePasses));
+      })));
+  t.push_back(field_option<R>(
+      "refine_passes", "Continuous refinement passes of random candidates (default 20; 0: none)",
+      [](R& r) -> auto& { return r.plan.refine_passes; }, option_range::kRefinePasses));
   t.push_back(field_option<R>("fix", "Kinematic parameters held at nominal, e.g. j1.a,j2.d",
                               [](R& r) -> auto& { return r.plan.fix; }));
   t.push_back(field_option<R>("free", "Parameters added to the candidates, e.g. j2.beta",
@@ -82,13 +64,13 @@ void add_iso_options(CommandOptions<R>& t) {
       "An ISO 9283 test instead: the test cube, its five poses P1..P5 as joint targets and the "
       "cycles (plan.csv, a row a pose visited; iso9283.json)",
       [](R& r) -> auto& { return r.iso9283; }));
-  t.push_back(parsed_option<R>(
+  t.push_back(of_numbers(parsed_option<R>(
       "cube_centre", OptionKind::kText,
       "X,Y,Z: the test cube's centre in the measurement frame [m] (default: searched over the "
       "workspace for the largest cube)",
       [](R& r, const OptionValue& v, const std::string& as) {
         r.iso.cube_centre = comma_numbers<3>(std::get<std::string>(v), as);
-      }));
+      })));
   auto size = parsed_option<R>(
       "cube_size", OptionKind::kNumber,
       "The test cube's edge [m] (default: the largest the workspace holds)",
@@ -113,8 +95,9 @@ CommandOptions<R> plan_table() {
                                      [](R& r) -> auto& { return r.plan.measurement; });
   measurement.positional = true;
   t.push_back(measurement);
-  auto poses = design_number("poses", "Number of poses to plan (required unless --iso9283)",
-                             &PlanRequest::poses, option_range::kPlanPoses);
+  auto poses = field_option<R>("poses", "Number of poses to plan (required unless --iso9283)",
+                               [](R& r) -> auto& { return r.plan.poses; },
+                               option_range::kPlanPoses);
   poses.positional = true;
   t.push_back(poses);
   add_iso_options(t);
@@ -141,7 +124,7 @@ const CommandOptions<PlanCommandRequest>& plan_options() {
 void check_plan_command(const PlanCommandRequest& r) {
   const PlanCommandRequest defaults;
   if (r.iso9283) {
-    if (!r.plan.measurement.empty() || r.plan.poses != 0 || !r.plan.candidates.empty())
+    if (!r.plan.measurement.empty() || r.plan.poses || !r.plan.candidates.empty())
       throw InputError(
           "--iso9283: the test's poses are the standard's: no --measurement, --poses or "
           "--candidates");
@@ -151,9 +134,9 @@ void check_plan_command(const PlanCommandRequest& r) {
       r.iso.cycles != defaults.iso.cycles)
     throw InputError(
         "--cube-centre, --cube-size and --cycles: apply to an ISO 9283 plan (--iso9283)");
-  if (r.plan.measurement.empty() || r.plan.poses == 0)
+  if (r.plan.measurement.empty() || !r.plan.poses)
     throw InputError("plan: --measurement and --poses are required (or --iso9283)");
-  if (!r.plan.candidates.empty() && r.plan.pool != 0)
+  if (!r.plan.candidates.empty() && r.plan.pool)
     throw InputError("--candidates excludes --pool: the candidates are the log's poses");
 }
 

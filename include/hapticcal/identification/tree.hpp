@@ -63,6 +63,9 @@ std::vector<std::string> tip_names(const std::string& tip);
 DeviceModel load_model_or_tree(const std::string& path, const std::string& tip,
                                const std::string& root = "",
                                const std::string* urdf_text = nullptr);
+// The same with the tips already named (a tree's, in order).
+DeviceModel load_model_or_tree(const std::string& path, const std::vector<std::string>& tips,
+                               const std::string& root, const std::string* urdf_text = nullptr);
 
 // The tree as one model (DeviceModel::tree): its links the tree's joints in
 // order (a log's q1..qN), each with its parent on the path from the root, the

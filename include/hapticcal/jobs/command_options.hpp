@@ -44,6 +44,7 @@ struct CommandOption {
   std::string help;
   std::optional<OptionRange> range;  // a number's
   std::vector<std::string> words;    // a text's only words (none: any text)
+  bool numbers = false;              // a text of comma-separated numbers (Python: or a list)
   bool required = false;             // Python: a positional parameter, in the table's order
   bool positional = false;           // Python: positional though not required (after those)
   bool argument = false;             // the command line's positional argument (NAME), no --flag
@@ -171,6 +172,14 @@ CommandOption<Request> parsed_option(std::string name, OptionKind kind, std::str
   o.help = std::move(help);
   o.set = std::move(set);
   o.shown = std::move(shown);
+  return o;
+}
+
+// `o` as a text of comma-separated numbers (X,Y,Z), which Python also takes as
+// a list of numbers.
+template <class Request>
+CommandOption<Request> of_numbers(CommandOption<Request> o) {
+  o.numbers = true;
   return o;
 }
 

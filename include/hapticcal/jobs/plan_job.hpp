@@ -28,10 +28,13 @@ struct PlanRequest {
   // of the measurement frame, and inside the box [x0, x1, y0, y1, z0, z1] m.
   std::optional<std::array<double, 2>> distance_range;
   std::optional<std::array<double, 6>> box;
-  int poses = 0, pool = 0;  // pool 0: PlanOptions' default
+  std::optional<int> poses;  // required (check_plan_command)
+  std::optional<int> pool;   // none: PlanOptions' default
   unsigned long long seed = 1;
-  double sigma = 0, sigma_e = 0;  // 0: the defaults (kPaperSigmaMPaper or kPlanSigmaPosition)
-  int refine_passes = -1;         // -1: PlanOptions' default
+  // None: the defaults (the kind's among kPaperSigmaMPaper and kPlanSigmaPosition;
+  // kPaperSigmaE).
+  std::optional<double> sigma, sigma_e;
+  std::optional<int> refine_passes;  // none: PlanOptions' default
 };
 
 // A request resolved: what PlanProblem and plan_poses take.

@@ -171,13 +171,17 @@ std::vector<std::string> tip_names(const std::string& tip) {
 
 DeviceModel load_model_or_tree(const std::string& path, const std::string& tip,
                                const std::string& root, const std::string* urdf_text) {
-  const std::vector<std::string> tips = tip_names(tip);
-  if (urdf_text) {
-    return tips.size() > 1 ? tree_model(parse_tree(*urdf_text, path, tips, root))
-                           : parse_urdf(*urdf_text, path, tip, root);
-  }
-  if (tips.size() > 1) return tree_model(load_tree(path, tips, root));
-  return load_model(path, tip, root);
+  if (const std::vector<std::string> tips = tip_names(tip); tips.size() > 1)
+    return load_model_or_tree(path, tips, root, urdf_text);
+  return urdf_text ? parse_urdf(*urdf_text, path, tip, root) : load_model(path, tip, root);
+}
+
+DeviceModel load_model_or_tree(const std::string& path, const std::vector<std::string>& tips,
+                               const std::string& root, const std::string* urdf_text) {
+  if (tips.size() <= 1)
+    return load_model_or_tree(path, tips.empty() ? std::string() : tips[0], root, urdf_text);
+  return tree_model(urdf_text ? parse_tree(*urdf_text, path, tips, root)
+                              : load_tree(path, tips, root));
 }
 
 DeviceModel tree_model(const DeviceTree& tree) {
