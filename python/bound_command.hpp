@@ -74,8 +74,7 @@ inline std::string annotation(OptionKind kind, bool numbers = false) {
 // is Python's TypeError. A text of numbers (a point, a marker body) also takes
 // a list of them, written X,Y,Z as the command line's.
 template <class Request>
-OptionValue value_of(const std::string& function, const CommandOption<Request>& o,
-                     py::handle v) {
+OptionValue value_of(const std::string& function, const CommandOption<Request>& o, py::handle v) {
   const auto wrong = [&] {
     return py::type_error(
         fmt::format("{}(): {} takes {}, not {}", function, o.name, annotation(o.kind, o.numbers),
@@ -87,8 +86,8 @@ OptionValue value_of(const std::string& function, const CommandOption<Request>& 
       return PyObject_IsTrue(v.ptr()) == 1;  // the field's value: search=False is --no-search
     case OptionKind::kWhole: {
       if (!is_int(v)) throw wrong();
-      const long long whole = PyLong_AsLongLong(py::reinterpret_steal<py::object>(
-                                                    PyNumber_Index(v.ptr())).ptr());
+      const long long whole =
+          PyLong_AsLongLong(py::reinterpret_steal<py::object>(PyNumber_Index(v.ptr())).ptr());
       if (whole == -1 && PyErr_Occurred()) {
         PyErr_Clear();
         throw InputError(fmt::format("{} {}: too large", o.flag(), py::str(v).cast<std::string>()));
@@ -104,8 +103,8 @@ OptionValue value_of(const std::string& function, const CommandOption<Request>& 
         std::vector<std::string> items;
         for (py::handle item : v) {
           if (!is_number(item)) throw wrong();
-          items.push_back(
-              fmt::format("{}", py::float_(py::reinterpret_borrow<py::object>(item)).cast<double>()));
+          items.push_back(fmt::format(
+              "{}", py::float_(py::reinterpret_borrow<py::object>(item)).cast<double>()));
         }
         return fmt::format("{}", fmt::join(items, ","));
       }
@@ -146,8 +145,9 @@ std::string doc_of(const BoundCommand<Request>& c) {
   for (size_t i = 0; i < in_order.size(); ++i) {
     const CommandOption<Request>& o = *in_order[i];
     if (i == positional) parameters.push_back("*");
-    std::string parameter = o.name + ": " + (c.models.count(o.name) ? "Model | str"
-                                                  : bound_detail::annotation(o.kind, o.numbers));
+    std::string parameter =
+        o.name + ": " +
+        (c.models.count(o.name) ? "Model | str" : bound_detail::annotation(o.kind, o.numbers));
     if (o.kind == OptionKind::kFlag) {
       parameter += o.negated ? " = True" : " = False";
     } else if (o.shown && std::holds_alternative<std::string>(*o.shown)) {
@@ -173,8 +173,8 @@ Request request_from(const BoundCommand<Request>& c, const py::args& args,
                      const py::kwargs& kwargs) {
   const std::vector<const CommandOption<Request>*> positional = positional_options(*c.table);
   if (args.size() > positional.size()) {
-    throw py::type_error(fmt::format("{}() takes {} positional arguments but {} were given",
-                                     c.name, positional.size(), args.size()));
+    throw py::type_error(fmt::format("{}() takes {} positional arguments but {} were given", c.name,
+                                     positional.size(), args.size()));
   }
   std::vector<std::pair<std::string, py::handle>> given;
   for (size_t i = 0; i < args.size(); ++i) given.emplace_back(positional[i]->name, args[i]);
@@ -192,16 +192,16 @@ Request request_from(const BoundCommand<Request>& c, const py::args& args,
     bool found = false;
     for (const auto& [name, value] : given) found = found || (name == o->name && !value.is_none());
     if (!found)
-      throw py::type_error(
-          fmt::format("{}() missing required argument: '{}'", c.name, o->name));
+      throw py::type_error(fmt::format("{}() missing required argument: '{}'", c.name, o->name));
   }
   Request request;
   std::vector<std::pair<std::string, py::handle>> models;
   std::set<std::string> set;
   for (const auto& [name, value] : given) {
     const CommandOption<Request>* o = find_option(*c.table, name);
-    if (!o) throw py::type_error(fmt::format("{}() got an unexpected keyword argument '{}'",
-                                             c.name, name));
+    if (!o)
+      throw py::type_error(
+          fmt::format("{}() got an unexpected keyword argument '{}'", c.name, name));
     if (value.is_none()) continue;
     if (c.models.count(name) && py::isinstance<Model>(value)) {
       models.emplace_back(name, value);

@@ -5,8 +5,8 @@
 
 #include <string>
 
-#include "hapticcal/jobs/compensate_job.hpp"
 #include "bound_command.hpp"
+#include "hapticcal/jobs/compensate_job.hpp"
 #include "module_support.hpp"
 
 namespace hapticcal::python {
@@ -22,7 +22,10 @@ const BoundCommand<CompensateRequest>& compensate_command() {
       "compensate",
       "hapticcal compensate: a program's targets for a controller that runs the nominal model "
       "(compensated.csv and results.json in out); returns dict(results, lines, out).",
-      "dict", &compensate_options(), {}, {}};
+      "dict",
+      &compensate_options(),
+      {},
+      {}};
   return command;
 }
 

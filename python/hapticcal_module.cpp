@@ -21,6 +21,7 @@
 #include <variant>
 #include <vector>
 
+#include "bound_command.hpp"
 #include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
@@ -47,7 +48,6 @@
 #include "hapticcal/report/results_json.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/study.hpp"
-#include "bound_command.hpp"
 #include "module_support.hpp"
 
 namespace py = pybind11;
@@ -222,7 +222,10 @@ const BoundCommand<SimulateRequest>& simulate_command() {
       "simulate",
       "hapticcal simulate: writes its files into out; returns dict(results=results.json "
       "parsed, out, files).",
-      "dict", &simulate_options(), {}, {}};
+      "dict",
+      &simulate_options(),
+      {},
+      {}};
   return command;
 }
 
@@ -233,9 +236,8 @@ py::dict simulate(const py::args& args, const py::kwargs& kwargs) {
   const std::string& out = request.out;
   return settled([&] {
     return py::dict("results"_a = parsed(job.results_json), "out"_a = out,
-                    "files"_a = std::vector<std::string>{out + "/results.json",
-                                                         out + "/report.html",
-                                                         out + "/calibrated.yaml"});
+                    "files"_a = std::vector<std::string>{
+                        out + "/results.json", out + "/report.html", out + "/calibrated.yaml"});
   });
 }
 
@@ -245,7 +247,10 @@ const BoundCommand<ForceRequest>& force_command() {
       "force",
       "hapticcal force: the virtual-wall study into out; returns dict(results=results.json "
       "parsed, out).",
-      "dict", &force_options(), {}, {}};
+      "dict",
+      &force_options(),
+      {},
+      {}};
   return command;
 }
 
@@ -263,7 +268,10 @@ const BoundCommand<ConvertRequest>& convert_command() {
       "convert",
       "hapticcal convert: a device file to URDF or back; returns dict(out, name, dof, "
       "with_transmission).",
-      "dict", &convert_options(), {}, {}};
+      "dict",
+      &convert_options(),
+      {},
+      {}};
   return command;
 }
 

@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
+#include "bound_command.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/jobs/import_job.hpp"
 #include "hapticcal/recording/import.hpp"
-#include "bound_command.hpp"
 #include "module_support.hpp"
 
 namespace hapticcal::python {

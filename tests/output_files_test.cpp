@@ -112,8 +112,8 @@ TEST_F(OutputFiles, EachCommandHasItsOwnDefaultFolder) {
   for (const std::string command : {"evaluate", "force", "plan"}) {
     const testing::CliResult help = testing::run_cli({command, "--help"});
     const bool said = help.out.find("default hapticcal-out/" + command + ")") != std::string::npos;
-    const bool shown = help.out.find("--out TEXT=hapticcal-out/" + command + "\n") !=
-                       std::string::npos;
+    const bool shown =
+        help.out.find("--out TEXT=hapticcal-out/" + command + "\n") != std::string::npos;
     EXPECT_TRUE(said || shown) << help.out;
   }
 }

@@ -41,8 +41,7 @@ class BoundOptions {
     for (const Flag& f : flags_) {
       if (f.parsed->count() == 0) continue;
       // --no-search (true) turns the field off; --strict=false leaves it off.
-      set_option(*f.option, request, OptionValue(*f.value != f.option->negated),
-                 f.option->flag());
+      set_option(*f.option, request, OptionValue(*f.value != f.option->negated), f.option->flag());
     }
   }
 
@@ -62,8 +61,8 @@ class BoundOptions {
         added = command->add_option_function<long long>(
             flag, [this, &o](const long long& v) { given_.emplace_back(&o, v); }, o.help);
         if (o.range) {
-          const auto hi = std::isinf(o.range->hi) ? kNoUpperLimit
-                                                  : static_cast<long long>(o.range->hi);
+          const auto hi =
+              std::isinf(o.range->hi) ? kNoUpperLimit : static_cast<long long>(o.range->hi);
           added->check(whole_number(static_cast<long long>(o.range->lo), hi));
         }
         break;
@@ -81,16 +80,15 @@ class BoundOptions {
       case OptionKind::kList:
         // One value an occurrence (A,B or --fix A --fix B): a word after it is
         // the command's argument (import's RECORDING), not another item.
-        added = command
-                    ->add_option_function<std::vector<std::string>>(
-                        flag,
-                        [this, &o](const std::vector<std::string>& v) {
-                          given_.emplace_back(&o, v);
-                        },
-                        o.help)
-                    ->expected(1)
-                    ->allow_extra_args(false)
-                    ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+        added =
+            command
+                ->add_option_function<std::vector<std::string>>(
+                    flag,
+                    [this, &o](const std::vector<std::string>& v) { given_.emplace_back(&o, v); },
+                    o.help)
+                ->expected(1)
+                ->allow_extra_args(false)
+                ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
         break;
     }
     if (o.required) added->required();

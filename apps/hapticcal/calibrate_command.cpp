@@ -55,8 +55,7 @@ int run_calibrate(const CalibrateOptions& o) {
   for (const std::string& line : job.lines) fmt::print("{}\n", line);
   const std::string& out = *request.out;
   fmt::print("{}", report_said(job.written.figures, job.written.report_note, out));
-  fmt::print("{}",
-             output_summary(*job.out, out, fmt::format(" (seed {})", request.options.seed)));
+  fmt::print("{}", output_summary(*job.out, out, fmt::format(" (seed {})", request.options.seed)));
   const char* model_file = "calibrated.yaml";
   if (!job.written.model_written) {
     fmt::print("status: {}: {}; {}\n", to_string(job.result.status), job.result.status_reason,

@@ -49,12 +49,12 @@ int run_convert(const ConvertOptions& o) {
           job.families_left_out, request.in, request.out);
     }
     fmt::print("wrote {} ({}, {} joints; its chain is hapticcal_measurement -> tool)\n",
-               request.out,
-               job.model.name, job.model.dof());
+               request.out, job.model.name, job.model.dof());
   } else {
     std::string names;
     for (const hapticcal::Link& l : job.model.links) names += (names.empty() ? "" : " ") + l.name;
-    fmt::print("wrote {} ({}, {} joints: {})\n", request.out, job.model.name, job.model.dof(), names);
+    fmt::print("wrote {} ({}, {} joints: {})\n", request.out, job.model.name, job.model.dof(),
+               names);
   }
   return 0;
 }

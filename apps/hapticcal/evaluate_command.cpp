@@ -50,8 +50,7 @@ int run_evaluate(const EvaluateOptions& o) {
       fmt::print("log:   {} ({} rows)\n", request.log, job.evaluation.n);
     } else {
       fmt::print("log:   {} and {} ({} tracker samples at the clocks found)\n", request.log,
-               request.tracker,
-                 job.evaluation.n);
+                 request.tracker, job.evaluation.n);
     }
     for (const std::string& line : job.lines) fmt::print("{}\n", line);
   }

@@ -33,8 +33,10 @@ int run_import(const ImportOptions& o) {
   o.bound.apply(request);
   const recording::ImportResult r = recording::run_import(request);
   if (!r.format.empty())
-    fmt::print("{}: {}\n", printable(request.recording.empty() ? request.tracker_export : request.recording, 200),
-               r.format);
+    fmt::print(
+        "{}: {}\n",
+        printable(request.recording.empty() ? request.tracker_export : request.recording, 200),
+        r.format);
   if (!r.topics.empty()) {
     fmt::print("{:<32} {:<32} {:>9} {:>10} {:>10} {:>9} {:>5} {}\n", "topic", "type", "messages",
                "first [s]", "last [s]", "rate [Hz]", "gaps", "imported as");

@@ -12,30 +12,31 @@ using R = PlanCommandRequest;
 void add_design_options(CommandOptions<R>& t) {
   auto candidates = field_option<R>(
       "candidates", "A log of recorded poses to choose from (repeated rows count as one pose)",
-      [](R& r) -> auto& { return r.plan.candidates; });
+      [](R & r) -> auto& { return r.plan.candidates; });
   t.push_back(candidates);
-  t.push_back(field_option<R>("pool",
-                              "Random candidate poses within the joint limits (default 10000)",
-                              [](R& r) -> auto& { return r.plan.pool; }, option_range::kPool));
-  t.push_back(field_option<R>("columns", "Column names of a candidates log without header",
-                              [](R& r) -> auto& { return r.plan.columns; }));
+  t.push_back(field_option<R>(
+      "pool", "Random candidate poses within the joint limits (default 10000)",
+      [](R & r) -> auto& { return r.plan.pool; }, option_range::kPool));
+  t.push_back(field_option<R>(
+      "columns", "Column names of a candidates log without header",
+      [](R & r) -> auto& { return r.plan.columns; }));
   auto criterion = field_option<R>(
       "criterion",
       "d (log det), a (trace of the scaled covariance), i (mean prediction variance over the "
       "workspace), e (smallest eigenvalue)",
-      [](R& r) -> auto& { return r.plan.criterion; });
+      [](R & r) -> auto& { return r.plan.criterion; });
   criterion.words = {"d", "a", "i", "e"};
   t.push_back(criterion);
-  t.push_back(field_option<R>("seed", "Random seed", [](R& r) -> auto& { return r.plan.seed; },
-                              kAtLeastZero));
+  t.push_back(field_option<R>(
+      "seed", "Random seed", [](R & r) -> auto& { return r.plan.seed; }, kAtLeastZero));
   t.push_back(field_option<R>(
       "sigma",
       "Measurement sd [m] (default: the paper's sigma_m for distances, 10 um for positions and "
       "poses)",
-      [](R& r) -> auto& { return r.plan.sigma; }, option_range::kSigma));
+      [](R & r) -> auto& { return r.plan.sigma; }, option_range::kSigma));
   t.push_back(field_option<R>(
       "sigma_e", "External encoder sd [rad] (default: the paper's 2 pi / 20000 / 3)",
-      [](R& r) -> auto& { return r.plan.sigma_e; }, option_range::kAngle));
+      [](R & r) -> auto& { return r.plan.sigma_e; }, option_range::kAngle));
   t.push_back(of_numbers(parsed_option<R>(
       "distance_range", OptionKind::kText,
       "MIN,MAX: the tool point's distance from the measurement origin [m] (a cable encoder's "
@@ -51,11 +52,13 @@ void add_design_options(CommandOptions<R>& t) {
       })));
   t.push_back(field_option<R>(
       "refine_passes", "Continuous refinement passes of random candidates (default 20; 0: none)",
-      [](R& r) -> auto& { return r.plan.refine_passes; }, option_range::kRefinePasses));
-  t.push_back(field_option<R>("fix", "Kinematic parameters held at nominal, e.g. j1.a,j2.d",
-                              [](R& r) -> auto& { return r.plan.fix; }));
-  t.push_back(field_option<R>("free", "Parameters added to the candidates, e.g. j2.beta",
-                              [](R& r) -> auto& { return r.plan.free; }));
+      [](R & r) -> auto& { return r.plan.refine_passes; }, option_range::kRefinePasses));
+  t.push_back(field_option<R>(
+      "fix", "Kinematic parameters held at nominal, e.g. j1.a,j2.d",
+      [](R & r) -> auto& { return r.plan.fix; }));
+  t.push_back(field_option<R>(
+      "free", "Parameters added to the candidates, e.g. j2.beta",
+      [](R & r) -> auto& { return r.plan.free; }));
 }
 
 void add_iso_options(CommandOptions<R>& t) {
@@ -63,7 +66,7 @@ void add_iso_options(CommandOptions<R>& t) {
       "iso9283",
       "An ISO 9283 test instead: the test cube, its five poses P1..P5 as joint targets and the "
       "cycles (plan.csv, a row a pose visited; iso9283.json)",
-      [](R& r) -> auto& { return r.iso9283; }));
+      [](R & r) -> auto& { return r.iso9283; }));
   t.push_back(of_numbers(parsed_option<R>(
       "cube_centre", OptionKind::kText,
       "X,Y,Z: the test cube's centre in the measurement frame [m] (default: searched over the "
@@ -71,33 +74,36 @@ void add_iso_options(CommandOptions<R>& t) {
       [](R& r, const OptionValue& v, const std::string& as) {
         r.iso.cube_centre = comma_numbers<3>(std::get<std::string>(v), as);
       })));
-  auto size = parsed_option<R>(
-      "cube_size", OptionKind::kNumber,
-      "The test cube's edge [m] (default: the largest the workspace holds)",
-      [](R& r, const OptionValue& v, const std::string&) { r.iso.cube_size = std::get<double>(v); });
+  auto size =
+      parsed_option<R>("cube_size", OptionKind::kNumber,
+                       "The test cube's edge [m] (default: the largest the workspace holds)",
+                       [](R& r, const OptionValue& v, const std::string&) {
+                         r.iso.cube_size = std::get<double>(v);
+                       });
   size.range = OptionRange{1e-3, 10, "m"};
   t.push_back(size);
-  t.push_back(field_option<R>("cycles", "ISO 9283 cycles (the standard's 30)",
-                              [](R& r) -> auto& { return r.iso.cycles; }, OptionRange{1, 1000}));
+  t.push_back(field_option<R>(
+      "cycles", "ISO 9283 cycles (the standard's 30)", [](R & r) -> auto& { return r.iso.cycles; },
+      OptionRange{1, 1000}));
 }
 
 CommandOptions<R> plan_table() {
   CommandOptions<R> t;
-  auto model = parsed_option<R>("model", OptionKind::kText,
-                                "Device file (YAML) or URDF (.urdf, with --tip)",
-                                [](R& r, const OptionValue& v, const std::string&) {
-                                  r.plan.model = r.iso.model = std::get<std::string>(v);
-                                });
+  auto model =
+      parsed_option<R>("model", OptionKind::kText, "Device file (YAML) or URDF (.urdf, with --tip)",
+                       [](R& r, const OptionValue& v, const std::string&) {
+                         r.plan.model = r.iso.model = std::get<std::string>(v);
+                       });
   model.required = true;
   t.push_back(model);
-  auto measurement = field_option<R>("measurement",
-                                     "distance, position or pose (required unless --iso9283)",
-                                     [](R& r) -> auto& { return r.plan.measurement; });
+  auto measurement = field_option<R>(
+      "measurement", "distance, position or pose (required unless --iso9283)",
+      [](R & r) -> auto& { return r.plan.measurement; });
   measurement.positional = true;
   t.push_back(measurement);
-  auto poses = field_option<R>("poses", "Number of poses to plan (required unless --iso9283)",
-                               [](R& r) -> auto& { return r.plan.poses; },
-                               option_range::kPlanPoses);
+  auto poses = field_option<R>(
+      "poses", "Number of poses to plan (required unless --iso9283)",
+      [](R & r) -> auto& { return r.plan.poses; }, option_range::kPlanPoses);
   poses.positional = true;
   t.push_back(poses);
   add_iso_options(t);
@@ -110,7 +116,8 @@ CommandOptions<R> plan_table() {
                                [](R& r, const OptionValue& v, const std::string&) {
                                  r.plan.root = r.iso.root = std::get<std::string>(v);
                                }));
-  t.push_back(field_option<R>("out", "Output folder", [](R& r) -> auto& { return r.out; }));
+  t.push_back(field_option<R>(
+      "out", "Output folder", [](R & r) -> auto& { return r.out; }));
   return t;
 }
 

@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "hapticcal/core/output_set.hpp"
-#include "hapticcal/jobs/command_options.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/stream.hpp"
+#include "hapticcal/jobs/command_options.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/report/calibration_outputs.hpp"
 

@@ -161,11 +161,10 @@ CommandOption<Request> field_option(std::string name, std::string help, Field fi
 // An option read in by its own function (a text parsed, a value folded into
 // another field); it shows no default unless given one.
 template <class Request>
-CommandOption<Request> parsed_option(std::string name, OptionKind kind, std::string help,
-                                     std::function<void(Request&, const OptionValue&,
-                                                        const std::string&)>
-                                         set,
-                                     std::optional<OptionValue> shown = {}) {
+CommandOption<Request> parsed_option(
+    std::string name, OptionKind kind, std::string help,
+    std::function<void(Request&, const OptionValue&, const std::string&)> set,
+    std::optional<OptionValue> shown = {}) {
   CommandOption<Request> o;
   o.name = std::move(name);
   o.kind = kind;
@@ -206,8 +205,8 @@ void set_option(const CommandOption<Request>& o, Request& request, OptionValue v
   if (!o.words.empty()) {
     const std::string& text = std::get<std::string>(value);
     if (std::find(o.words.begin(), o.words.end(), text) == o.words.end()) {
-      throw InputError(fmt::format("{} {}: not one of {}", as, printable(text),
-                                   fmt::join(o.words, ", ")));
+      throw InputError(
+          fmt::format("{} {}: not one of {}", as, printable(text), fmt::join(o.words, ", ")));
     }
   }
   if (o.kind == OptionKind::kList) value = list_items(std::get<std::vector<std::string>>(value));
@@ -240,8 +239,8 @@ inline std::string shown_text(const OptionValue& v) {
 // as `as`.
 template <std::size_t N>
 std::array<double, N> comma_numbers(const std::string& text, const std::string& as) {
-  const std::vector<std::string> items = text.empty() ? std::vector<std::string>{}
-                                                      : split_columns(text);
+  const std::vector<std::string> items =
+      text.empty() ? std::vector<std::string>{} : split_columns(text);
   std::array<double, N> numbers{};
   bool read = items.size() == N;
   for (std::size_t i = 0; read && i < N; ++i) {
@@ -265,10 +264,10 @@ template <class Request>
 void add_chain_options(CommandOptions<Request>& table) {
   table.push_back(field_option<Request>(
       "tip", "Tip link of a URDF model's chain (needed unless the URDF has one leaf)",
-      [](Request& r) -> auto& { return r.tip; }));
+      [](Request & r) -> auto& { return r.tip; }));
   table.push_back(field_option<Request>(
       "root", "Root link of a URDF model's chain (default: the URDF's root link)",
-      [](Request& r) -> auto& { return r.root; }));
+      [](Request & r) -> auto& { return r.root; }));
 }
 
 }  // namespace hapticcal

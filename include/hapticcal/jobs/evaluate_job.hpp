@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "hapticcal/core/output_set.hpp"
-#include "hapticcal/jobs/command_options.hpp"
 #include "hapticcal/identification/stream.hpp"
+#include "hapticcal/jobs/command_options.hpp"
 #include "hapticcal/model/model.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/iso9283.hpp"
