@@ -60,7 +60,7 @@ inline double score(const Case& c, const DeviceModel& model) {
     return c.mean_deviation ? *e.mean_point_deviation : *e.rms_point_deviation;
   }
   const Evaluation e = evaluate(model, c.held_out);
-  return c.distance ? e.distance->rms : e.position->rms;
+  return c.distance ? e.figure("distance")->stats.rms : e.figure("position")->stats.rms;
 }
 
 inline bool has(const std::string& list, const char* item) {

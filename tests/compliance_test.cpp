@@ -161,20 +161,20 @@ TEST(Compliance, JointComplianceIsRecoveredFromTrackerPositions) {
   geometry_alone.joint_errors = {"none"};
   const CalibrationResult geometric = calibrate(nominal, cal, geometry_alone);
   ASSERT_EQ(geometric.status, CalibrationStatus::kConverged) << geometric.status_reason;
-  const double geometric_rms = evaluate(geometric.calibrated, val).position->rms;
+  const double geometric_rms = evaluate(geometric.calibrated, val).figure("position")->stats.rms;
   EXPECT_GT(geometric_rms, 3 * floor) << geometric_rms;
   // The default's search finds the family by itself.
   const CalibrationResult found = calibrate(nominal, cal, {});
   ASSERT_EQ(found.status, CalibrationStatus::kConverged) << found.status_reason;
   const std::vector<std::string>& families = found.kinematics.joint_error_families;
   EXPECT_NE(std::find(families.begin(), families.end(), "compliance"), families.end());
-  EXPECT_LT(evaluate(found.calibrated, val).position->rms, 1.1 * floor);
+  EXPECT_LT(evaluate(found.calibrated, val).figure("position")->stats.rms, 1.1 * floor);
 
   CalibrationOptions options;
   options.joint_errors = {"compliance"};
   const CalibrationResult r = calibrate(nominal, cal, options);
   ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
-  const double rms = evaluate(r.calibrated, val).position->rms;
+  const double rms = evaluate(r.calibrated, val).figure("position")->stats.rms;
   EXPECT_LT(rms, 1.1 * floor) << rms << " vs " << floor;
   std::printf("compliance: held-out %.4f mm geometric, %.4f mm with k (floor %.4f mm)\n",
               geometric_rms * 1e3, rms * 1e3, floor * 1e3);

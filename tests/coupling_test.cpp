@@ -174,9 +174,9 @@ TEST(Coupling, PassiveJointCoupledToTwoOthersCalibratesOnTheFirstRun) {
 
   const CalibrationResult r = calibrate(nominal, cal, CalibrationOptions{});
   ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
-  const double held_out = evaluate(r.calibrated, val).position->rms;
+  const double held_out = evaluate(r.calibrated, val).figure("position")->stats.rms;
   EXPECT_LT(held_out, 1.2 * floor) << held_out << " vs " << floor;
-  const double before = evaluate(nominal, val).position->rms;
+  const double before = evaluate(nominal, val).figure("position")->stats.rms;
   EXPECT_GT(before, 10 * floor);
   EXPECT_EQ(r.calibrated.coupling, nominal.coupling);
   std::printf("passive joint: held-out %.4f mm (nominal %.3f mm, noise floor %.4f mm)\n",
@@ -241,19 +241,19 @@ TEST(Coupling, CouplingCoefficientsAreFittedWithJointErrorsCoupling) {
   CalibrationOptions geometry_alone;
   geometry_alone.joint_errors = {"none"};
   const CalibrationResult geometric = calibrate(nominal, cal, geometry_alone);
-  const double geometric_rms = evaluate(geometric.calibrated, val).position->rms;
+  const double geometric_rms = evaluate(geometric.calibrated, val).figure("position")->stats.rms;
   EXPECT_GT(geometric_rms, 3 * floor);
   // The default's search finds the family by itself.
   const CalibrationResult found = calibrate(nominal, cal, {});
   ASSERT_EQ(found.status, CalibrationStatus::kConverged) << found.status_reason;
   EXPECT_EQ(found.kinematics.joint_error_families, std::vector<std::string>{"coupling"});
-  EXPECT_LT(evaluate(found.calibrated, val).position->rms, 1.2 * floor);
+  EXPECT_LT(evaluate(found.calibrated, val).figure("position")->stats.rms, 1.2 * floor);
 
   CalibrationOptions options;
   options.joint_errors = {"coupling"};
   const CalibrationResult r = calibrate(nominal, cal, options);
   ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
-  const double held_out = evaluate(r.calibrated, val).position->rms;
+  const double held_out = evaluate(r.calibrated, val).figure("position")->stats.rms;
   EXPECT_LT(held_out, 1.2 * floor);
   EXPECT_TRUE(r.calibrated.fitted.empty());
   bool left_out = false;

@@ -160,16 +160,16 @@ TEST(EvaluateRegister, PoseLogRecoversFrameAndToolRotation) {
   const Frame<double> T = random_motion(rng, 0.5, 30 * M_PI / 180);
   const Log log = moved(testing::pose_log(truth, 30, rng), T);
   const Evaluation e = evaluate_registered(model, log, RegisterWhat::kFrameAndTool);
-  ASSERT_TRUE(e.registered && e.registered->tool && e.orientation && e.position);
-  EXPECT_LT(e.position->rms, 1e-9);
-  EXPECT_LT(e.orientation->rms, 1e-9);
+  ASSERT_TRUE(e.registered && e.registered->tool && e.figure("orientation") && e.figure("position"));
+  EXPECT_LT(e.figure("position")->stats.rms, 1e-9);
+  EXPECT_LT(e.figure("orientation")->stats.rms, 1e-9);
   EXPECT_NEAR(e.registered->tool_offset.z(), 0.02, 1e-9);
   EXPECT_NEAR(e.registered->tool_turned, 0.05, 1e-9);
   const std::array<double, 6>& b = e.registered->base;
   expect_same_frame(pose_frame(b[0], b[1], b[2], b[3], b[4], b[5]), T * base_of(model), 1e-9, 1e-9);
   // The frame alone on the same log: the tool's turn is left as orientation error.
   const Evaluation frame_only = evaluate_registered(model, log, RegisterWhat::kFrame);
-  EXPECT_GT(frame_only.orientation->rms, 0.01);
+  EXPECT_GT(frame_only.figure("orientation")->stats.rms, 0.01);
 }
 
 // A DH base (the Phantom's) is registered as a pose; the device file's base kind
@@ -180,8 +180,8 @@ TEST(EvaluateRegister, DhBaseIsRegisteredAsAPose) {
   const Frame<double> T = random_motion(rng, 0.5, 30 * M_PI / 180);
   const Log log = moved(position_log(model, 40, 0, rng), T);
   const Evaluation e = evaluate_registered(model, log, RegisterWhat::kFrame);
-  ASSERT_TRUE(e.registered && e.position);
-  EXPECT_LT(e.position->rms, 1e-9);
+  ASSERT_TRUE(e.registered && e.figure("position"));
+  EXPECT_LT(e.figure("position")->stats.rms, 1e-9);
   const std::array<double, 6>& b = e.registered->base;
   expect_same_frame(pose_frame(b[0], b[1], b[2], b[3], b[4], b[5]), T * base_of(model), 1e-9, 1e-9);
 }

@@ -166,14 +166,14 @@ TEST(Evaluate, PoseLogsReportTheOrientationError) {
   truth.tool = {0, 0, 0.05, 0, 0, 0};
   std::mt19937_64 rng(4);
   const Log log = testing::pose_log(truth, 20, rng);
-  EXPECT_LT(evaluate(truth, log).orientation->max, 1e-12);
+  EXPECT_LT(evaluate(truth, log).figure("orientation")->stats.max, 1e-12);
   DeviceModel turned = truth;
   turned.tool[5] = 0.01;
   const Evaluation e = evaluate(turned, log);
-  ASSERT_TRUE(e.orientation && e.position);
-  EXPECT_NEAR(e.orientation->rms, 0.01, 1e-12);
-  EXPECT_NEAR(e.orientation->max, 0.01, 1e-12);
-  EXPECT_LT(e.position->max, 1e-12);
+  ASSERT_TRUE(e.figure("orientation") && e.figure("position"));
+  EXPECT_NEAR(e.figure("orientation")->stats.rms, 0.01, 1e-12);
+  EXPECT_NEAR(e.figure("orientation")->stats.max, 0.01, 1e-12);
+  EXPECT_LT(e.figure("position")->stats.max, 1e-12);
 }
 
 // Without --register nothing is fitted: stdout is byte for byte what evaluate

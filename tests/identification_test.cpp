@@ -128,13 +128,13 @@ TEST(Identification, Meca500ValidationRmsAfterCalibration) {
     const CalibrationResult selected = calibrate(nominal, cal, cut);
     const CalibrationResult searched = calibrate(nominal, cal, {});
     EXPECT_EQ(searched.status, CalibrationStatus::kConverged) << set;
-    EXPECT_LT(evaluate(searched.calibrated, val).position->rms, 0.07e-3) << set;
+    EXPECT_LT(evaluate(searched.calibrated, val).figure("position")->stats.rms, 0.07e-3) << set;
     EXPECT_TRUE(r.kinematics.converged) << set;
     EXPECT_FALSE(r.kinematics.rank_deficient) << set;
     EXPECT_EQ(selected.status, CalibrationStatus::kConverged) << set;
-    const double before = evaluate(nominal, val).position->rms;
-    const double after = evaluate(r.calibrated, val).position->rms;
-    const double after_selected = evaluate(selected.calibrated, val).position->rms;
+    const double before = evaluate(nominal, val).figure("position")->stats.rms;
+    const double after = evaluate(r.calibrated, val).figure("position")->stats.rms;
+    const double after_selected = evaluate(selected.calibrated, val).figure("position")->stats.rms;
     std::printf("%-32s validation RMS %.4f mm -> %.4f mm (%d parameters), %.4f mm (--select: %d)\n",
                 set, before * 1e3, after * 1e3, r.kinematics.identified, after_selected * 1e3,
                 selected.kinematics.identified);
@@ -168,7 +168,7 @@ TEST(Identification, Meca500ValidationRmsAfterCalibration) {
   const Log val =
       read_log(testing::source_path("examples/meca500/val-norm_dist_data_0deg_80cube.csv"));
   const double across =
-      evaluate(calibrate(nominal, cal, all).calibrated, val).position->rms;  // one model
+      evaluate(calibrate(nominal, cal, all).calibrated, val).figure("position")->stats.rms;  // one model
   std::printf("calibrated on 0deg_160cube, validated on 0deg_80cube: %.4f mm\n", across * 1e3);
   EXPECT_LT(across, 0.05e-3);
 }
@@ -216,8 +216,8 @@ TEST(Identification, Meca500JointErrorModelsNestTheGeometricFitWhichMatchesEvalu
   every.search = false;  // one model
   const DeviceModel calibrated = calibrate(testing::meca500(), cal, every).calibrated;
   // Printed to 0.0001 mm; the two solvers stop within a few 1e-5 mm.
-  EXPECT_NEAR(rms[0].first, evaluate(calibrated, cal).position->rms * 1e3, 2e-4);
-  EXPECT_NEAR(rms[0].second, evaluate(calibrated, val).position->rms * 1e3, 2e-4);
+  EXPECT_NEAR(rms[0].first, evaluate(calibrated, cal).figure("position")->stats.rms * 1e3, 2e-4);
+  EXPECT_NEAR(rms[0].second, evaluate(calibrated, val).figure("position")->stats.rms * 1e3, 2e-4);
   for (std::size_t k = 1; k < rms.size(); ++k) EXPECT_LE(rms[k].first, rms[0].first + 1e-4) << k;
 }
 
@@ -502,8 +502,8 @@ TEST(Identification, Meca500WithUnknownTrackerFrameCalibratesLikeWithItsBasePose
       return n.find("registered in closed form") != std::string::npos;
     });
     EXPECT_TRUE(noted);
-    const double rms_a = evaluate(a.calibrated, val).position->rms;
-    const double rms_b = evaluate(b.calibrated, val).position->rms;
+    const double rms_a = evaluate(a.calibrated, val).figure("position")->stats.rms;
+    const double rms_b = evaluate(b.calibrated, val).figure("position")->stats.rms;
     EXPECT_NEAR(rms_b, rms_a, 1e-8);
     EXPECT_NEAR(b.kinematics.rms_after, a.kinematics.rms_after, 1e-8);
   }
@@ -575,8 +575,8 @@ TEST(Identification, Meca500ThroughItsUrdfValidatesLikeTheMdhModel) {
     const CalibrationResult a = calibrate(mdh, cal, all);
     const CalibrationResult b = calibrate(urdf, cal, all);
     EXPECT_EQ(b.status, CalibrationStatus::kConverged) << b.status_reason;
-    const double rms_a = evaluate(a.calibrated, val).position->rms;
-    const double rms_b = evaluate(b.calibrated, val).position->rms;
+    const double rms_a = evaluate(a.calibrated, val).figure("position")->stats.rms;
+    const double rms_b = evaluate(b.calibrated, val).figure("position")->stats.rms;
     std::printf("%-32s validation RMS: MDH %.5f mm, URDF %.5f mm (%d and %d parameters)\n", set,
                 rms_a * 1e3, rms_b * 1e3, a.kinematics.identified, b.kinematics.identified);
     EXPECT_NEAR(rms_b, rms_a, 1e-6);
@@ -634,7 +634,7 @@ TEST(Identification, PoseLogWithAToolFarTurnedIsCalibrated) {
   EXPECT_LT(r.kinematics.rms_before, 1e-12);  // the tool point itself is where it was
   EXPECT_NEAR(r.calibrated.tool[3], 0.2, 1e-9);
   EXPECT_NEAR(r.calibrated.tool[4], -0.15, 1e-9);
-  EXPECT_LT(evaluate(r.calibrated, log).orientation->max, 1e-9);
+  EXPECT_LT(evaluate(r.calibrated, log).figure("orientation")->stats.max, 1e-9);
 }
 
 }  // namespace

@@ -134,7 +134,7 @@ TEST(JointEffect, ASimulatedLogIsTheDeviceWithItsEffect) {
     const Eigen::VectorXd s = scaled(actual, log.q.row(r).transpose());
     EXPECT_LT((plain.forward(s.data()).p - log.position.row(r).transpose()).norm(), 1e-12) << r;
   }
-  EXPECT_GT(evaluate(without_effects(actual), log).position->rms, 1e-4);
+  EXPECT_GT(evaluate(without_effects(actual), log).figure("position")->stats.rms, 1e-4);
 }
 
 TEST(JointEffect, CalibrateFitsItFoldsItAndItsFileScoresTheSame) {
@@ -151,7 +151,7 @@ TEST(JointEffect, CalibrateFitsItFoldsItAndItsFileScoresTheSame) {
   const CalibrationResult r = calibrate(nominal, data.cal, options);
   ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
   EXPECT_TRUE(r.calibrated.fitted.empty());
-  const double held_out = evaluate(r.calibrated, data.val).position->rms;
+  const double held_out = evaluate(r.calibrated, data.val).figure("position")->stats.rms;
   std::printf("ratio effect: held-out %.4f mm (noise floor %.4f mm)\n", held_out * 1e3,
               data.floor * 1e3);
   EXPECT_LT(held_out, 1.2 * data.floor);
@@ -173,14 +173,14 @@ TEST(JointEffect, CalibrateFitsItFoldsItAndItsFileScoresTheSame) {
   save_device(r.calibrated, path);
   const DeviceModel loaded = load_device(path);
   std::filesystem::remove(path);
-  EXPECT_NEAR(evaluate(loaded, data.val).position->rms, held_out, 1e-12);
+  EXPECT_NEAR(evaluate(loaded, data.val).figure("position")->stats.rms, held_out, 1e-12);
 
   // The default's search offers it without being asked.
   const CalibrationResult found = calibrate(nominal, data.cal, {});
   ASSERT_EQ(found.status, CalibrationStatus::kConverged) << found.status_reason;
   const auto& families = found.kinematics.joint_error_families;
   EXPECT_NE(std::find(families.begin(), families.end(), "ratio"), families.end());
-  EXPECT_LT(evaluate(found.calibrated, data.val).position->rms, 1.2 * data.floor);
+  EXPECT_LT(evaluate(found.calibrated, data.val).figure("position")->stats.rms, 1.2 * data.floor);
 }
 
 }  // namespace

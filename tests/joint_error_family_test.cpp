@@ -133,14 +133,14 @@ TEST(JointErrorFamily, ARegisteredFamilyIsFittedFoldedAndNamed) {
   CalibrationOptions geometry_alone;
   geometry_alone.joint_errors = {"none"};
   const CalibrationResult geometric = calibrate(s.nominal, s.data.cal, geometry_alone);
-  const double geometric_rms = evaluate(geometric.calibrated, s.data.val).position->rms;
+  const double geometric_rms = evaluate(geometric.calibrated, s.data.val).figure("position")->stats.rms;
 
   CalibrationOptions options;
   options.joint_errors = {"scale"};
   const CalibrationResult r = calibrate(s.nominal, s.data.cal, options);
   ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
   EXPECT_TRUE(r.calibrated.fitted.empty());
-  const double held_out = evaluate(r.calibrated, s.data.val).position->rms;
+  const double held_out = evaluate(r.calibrated, s.data.val).figure("position")->stats.rms;
   std::printf("scale family: held-out %.4f mm (geometry alone %.4f mm, noise floor %.4f mm)\n",
               held_out * 1e3, geometric_rms * 1e3, floor * 1e3);
   EXPECT_GT(geometric_rms, 3 * floor);
@@ -200,7 +200,7 @@ TEST(JointErrorFamily, TheDefaultSearchOffersARegisteredFamily) {
   ASSERT_EQ(found.status, CalibrationStatus::kConverged) << found.status_reason;
   const auto& families = found.kinematics.joint_error_families;
   EXPECT_NE(std::find(families.begin(), families.end(), "scale"), families.end());
-  EXPECT_LT(evaluate(found.calibrated, s.data.val).position->rms, 1.2 * s.data.floor);
+  EXPECT_LT(evaluate(found.calibrated, s.data.val).figure("position")->stats.rms, 1.2 * s.data.floor);
 
   DeviceModel driven = s.nominal;
   for (Link& l : driven.links) l.transmission = ratio_error(0.0);

@@ -73,21 +73,21 @@ TEST(JointErrors, HarmonicGearErrorIsRecoveredFromTrackerPositions) {
   const DeviceModel nominal = testing::meca500();
   const DeviceModel actual = geared_meca500();
   const Log cal = tracker_log(actual, 300, 1), val = tracker_log(actual, 300, 2);
-  const double floor = evaluate(actual, val).position->rms;  // the noise: sqrt(3) x 10 um
+  const double floor = evaluate(actual, val).figure("position")->stats.rms;  // the noise: sqrt(3) x 10 um
   EXPECT_NEAR(floor, std::sqrt(3.0) * kNoise, 0.15 * std::sqrt(3.0) * kNoise);
 
   CalibrationOptions geometry_alone;
   geometry_alone.joint_errors = {"none"};
   const CalibrationResult geometric = calibrate(nominal, cal, geometry_alone);
   ASSERT_EQ(geometric.status, CalibrationStatus::kConverged) << geometric.status_reason;
-  const double geometric_rms = evaluate(geometric.calibrated, val).position->rms;
+  const double geometric_rms = evaluate(geometric.calibrated, val).figure("position")->stats.rms;
   EXPECT_GT(geometric_rms, 3 * floor) << geometric_rms;
 
   CalibrationOptions harmonic;
   harmonic.joint_errors = {"harmonic"};
   const CalibrationResult r = calibrate(nominal, cal, harmonic);
   ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
-  const double rms = evaluate(r.calibrated, val).position->rms;
+  const double rms = evaluate(r.calibrated, val).figure("position")->stats.rms;
   std::printf(
       "held-out position RMS: noise floor %.4f mm, geometric %.4f mm, with harmonics %.4f "
       "mm; cross-validated %.4f mm without, %.4f mm with\n",
@@ -107,7 +107,7 @@ TEST(JointErrors, HarmonicGearErrorIsRecoveredFromTrackerPositions) {
   const CalibrationResult found = calibrate(nominal, cal, {});
   ASSERT_EQ(found.status, CalibrationStatus::kConverged) << found.status_reason;
   EXPECT_EQ(found.kinematics.joint_error_families, std::vector<std::string>{"harmonic"});
-  EXPECT_LT(evaluate(found.calibrated, val).position->rms, 1.1 * floor);
+  EXPECT_LT(evaluate(found.calibrated, val).figure("position")->stats.rms, 1.1 * floor);
 
   // Every harmonic of every turning joint was a candidate; the true ones are
   // recovered within 3 sd, the others (those the default's choice kept) are
@@ -148,7 +148,7 @@ TEST(JointErrors, HarmonicGearErrorIsRecoveredFromTrackerPositions) {
                   r.calibrated.links[i].transmission.error(q), 1e-12);
     }
   }
-  EXPECT_EQ(evaluate(reread, val).position->rms, rms);
+  EXPECT_EQ(evaluate(reread, val).figure("position")->stats.rms, rms);
 }
 
 // Options naming a joint error reach the fit, and the geometry alone is fitted
@@ -215,7 +215,7 @@ TEST(JointErrors, BacklashIsRecoveredFromTheApproachDirections) {
   geometry_alone.joint_errors = {"none"};
   const CalibrationResult geometric = calibrate(nominal, cal, geometry_alone);
   ASSERT_EQ(geometric.status, CalibrationStatus::kConverged) << geometric.status_reason;
-  const double geometric_rms = evaluate(geometric.calibrated, val).position->rms;
+  const double geometric_rms = evaluate(geometric.calibrated, val).figure("position")->stats.rms;
   EXPECT_GT(geometric_rms, 3 * floor) << geometric_rms;
   // The default's search finds the family (the log's dir<i> offer it).
   const CalibrationResult found = calibrate(nominal, cal, {});
@@ -226,7 +226,7 @@ TEST(JointErrors, BacklashIsRecoveredFromTheApproachDirections) {
   options.joint_errors = {"backlash"};
   const CalibrationResult r = calibrate(nominal, cal, options);
   ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
-  const double rms = evaluate(r.calibrated, val).position->rms;
+  const double rms = evaluate(r.calibrated, val).figure("position")->stats.rms;
   EXPECT_LT(rms, 1.1 * floor);
   std::printf("backlash: held-out %.4f mm geometric, %.4f mm with backlash (floor %.4f mm)\n",
               geometric_rms * 1e3, rms * 1e3, floor * 1e3);
@@ -243,10 +243,10 @@ TEST(JointErrors, BacklashIsRecoveredFromTheApproachDirections) {
   EXPECT_TRUE(r.calibrated.fitted.empty());
 
   const DeviceModel reread = parse_device(device_to_yaml(r.calibrated), "calibrated.yaml");
-  EXPECT_EQ(evaluate(reread, val).position->rms, rms);
+  EXPECT_EQ(evaluate(reread, val).figure("position")->stats.rms, rms);
   const Log reread_log = parse_log(log_to_csv(val), "val.csv");
   EXPECT_EQ(reread_log.direction, val.direction);
-  EXPECT_EQ(evaluate(reread, reread_log).position->rms, rms);
+  EXPECT_EQ(evaluate(reread, reread_log).figure("position")->stats.rms, rms);
 
   Log undirected = cal;
   undirected.has_direction.clear();

@@ -215,11 +215,11 @@ TEST(LateralCompliance, StatedComplianceIsHeldInStepTwo) {
   options.joint_errors = {"none"};
   const CalibrationResult r = calibrate(start, cal, options);
   ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
-  const double rms = evaluate(r.calibrated, val).position->rms;
+  const double rms = evaluate(r.calibrated, val).figure("position")->stats.rms;
   EXPECT_LT(rms, 1.1 * floor) << rms;
   DeviceModel stiff = truth;
   for (Link& l : stiff.links) l.lateral_compliance = 0;
-  EXPECT_GT(evaluate(stiff, val).position->rms, 3 * floor);
+  EXPECT_GT(evaluate(stiff, val).figure("position")->stats.rms, 3 * floor);
 }
 
 // Acceptance: the arm with joint and lateral compliance measured by a tracker
@@ -241,13 +241,13 @@ TEST(LateralCompliance, IsRecoveredFromTrackerPositions) {
   joint_only.joint_errors = {"compliance"};
   const CalibrationResult j = calibrate(nominal, cal, joint_only);
   ASSERT_EQ(j.status, CalibrationStatus::kConverged) << j.status_reason;
-  const double joint_rms = evaluate(j.calibrated, val).position->rms;
+  const double joint_rms = evaluate(j.calibrated, val).figure("position")->stats.rms;
 
   CalibrationOptions both;
   both.joint_errors = {"compliance", "lateral"};
   const CalibrationResult r = calibrate(nominal, cal, both);
   ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
-  const double rms = evaluate(r.calibrated, val).position->rms;
+  const double rms = evaluate(r.calibrated, val).figure("position")->stats.rms;
   std::printf("lateral: held-out %.4f mm joint compliance, %.4f mm with lateral (floor %.4f mm)\n",
               joint_rms * 1e3, rms * 1e3, floor * 1e3);
   EXPECT_LT(rms, 1.1 * floor);
@@ -277,7 +277,7 @@ TEST(LateralCompliance, IsRecoveredFromTrackerPositions) {
   ASSERT_EQ(found.status, CalibrationStatus::kConverged) << found.status_reason;
   const std::vector<std::string>& families = found.kinematics.joint_error_families;
   EXPECT_NE(std::find(families.begin(), families.end(), "lateral"), families.end());
-  EXPECT_LT(evaluate(found.calibrated, val).position->rms, 1.1 * floor);
+  EXPECT_LT(evaluate(found.calibrated, val).figure("position")->stats.rms, 1.1 * floor);
 }
 
 }  // namespace

@@ -246,14 +246,14 @@ TEST(MeasurementKind, EvaluateScoresItsValues) {
     worst = std::max(worst, std::abs(e));
   }
   const Evaluation ev = evaluate(nominal, log);
-  ASSERT_EQ(ev.kinds.size(), 1u);
-  EXPECT_EQ(ev.kinds[0].type, kHeight);
-  EXPECT_NEAR(ev.kinds[0].stats.rms, std::sqrt(sum2 / log.rows), 1e-12);
-  EXPECT_NEAR(ev.kinds[0].stats.max, worst, 1e-12);
-  EXPECT_GT(ev.kinds[0].stats.rms, 1e-5);  // the nominal model is off
-  EXPECT_FALSE(ev.distance || ev.position);
+  ASSERT_EQ(ev.figures.size(), 1u);  // its own figure, not a distance's or a position's
+  EXPECT_EQ(ev.figures[0].type, kHeight);
+  EXPECT_STREQ(ev.figures[0].figure.name, "height");
+  EXPECT_NEAR(ev.figures[0].stats.rms, std::sqrt(sum2 / log.rows), 1e-12);
+  EXPECT_NEAR(ev.figures[0].stats.max, worst, 1e-12);
+  EXPECT_GT(ev.figures[0].stats.rms, 1e-5);  // the nominal model is off
   const EvaluationComparison c = compare_to_reference(truth, nominal, log);
-  EXPECT_LT(c.model.kinds[0].stats.rms, 1e-12);  // the truth made the log
+  EXPECT_LT(c.model.figures[0].stats.rms, 1e-12);  // the truth made the log
   const std::vector<std::string> lines = evaluation_lines(&c, c.model, "nominal");
   EXPECT_NE(std::find_if(lines.begin(), lines.end(),
                          [](const std::string& l) {

@@ -89,7 +89,7 @@ TEST(ModelSearch, HeldOutErrorsAreThoseOfCalibratingEachFoldByHand) {
           calibrate(nominal, average_repeats(log, train), one_model(estimators[k]));
       ASSERT_EQ(c.status, CalibrationStatus::kConverged) << c.status_reason;
       const Evaluation e = evaluate(c.calibrated, average_repeats(log, test));
-      by_hand += e.position_error.squaredNorm();
+      by_hand += e.figure("position")->error.squaredNorm();
     }
     const double linearised = errors[k].sum();
     std::printf("%s: held-out RMS %.6f mm linearised, %.6f mm by hand\n", to_string(estimators[k]),
@@ -236,9 +236,9 @@ TEST(ModelSearch, InstrumentZeroIsFittedOnlyWhereTheDataSupportIt) {
     const Log log = simulate_log(actual, 200, SimulationNoise{}, seed);
     CalibrationOptions free_zero;
     free_zero.free = {"instrument.zero"};
-    held += std::pow(evaluate(calibrate(nominal, log, {}).calibrated, check).distance->rms, 2);
+    held += std::pow(evaluate(calibrate(nominal, log, {}).calibrated, check).figure("distance")->stats.rms, 2);
     fitted +=
-        std::pow(evaluate(calibrate(nominal, log, free_zero).calibrated, check).distance->rms, 2);
+        std::pow(evaluate(calibrate(nominal, log, free_zero).calibrated, check).figure("distance")->stats.rms, 2);
   }
   std::printf("distance RMS on new poses over 10 draws: zero held %.2f um, fitted %.2f um\n",
               std::sqrt(held / 10) * 1e6, std::sqrt(fitted / 10) * 1e6);

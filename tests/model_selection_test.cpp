@@ -56,8 +56,8 @@ TEST(ModelSelection, Meca500SevenSetValidationMeanDoesNotGetWorse) {
     const CalibrationResult a = calibrate(nominal, cal, keep_all());
     ASSERT_EQ(d.status, CalibrationStatus::kConverged) << set;
     ASSERT_EQ(a.status, CalibrationStatus::kConverged) << set;
-    const double vd = evaluate(d.calibrated, val).position->rms;
-    const double va = evaluate(a.calibrated, val).position->rms;
+    const double vd = evaluate(d.calibrated, val).figure("position")->stats.rms;
+    const double va = evaluate(a.calibrated, val).figure("position")->stats.rms;
     std::printf(
         "%-32s default %2d params: train %.4f cv %.4f val %.4f mm | keep-all %2d: train %.4f cv "
         "%.4f val %.4f mm\n",
@@ -95,8 +95,8 @@ TEST(ModelSelection, Meca500TenPosesValidateBetterThanKeepingEveryParameter) {
     const CalibrationResult rd = calibrate(nominal, cal, d);
     const CalibrationResult ra = calibrate(nominal, cal, a);
     ASSERT_EQ(rd.status, CalibrationStatus::kConverged) << seed;
-    const double vd = evaluate(rd.calibrated, val).position->rms;
-    const double va = evaluate(ra.calibrated, val).position->rms;
+    const double vd = evaluate(rd.calibrated, val).figure("position")->stats.rms;
+    const double va = evaluate(ra.calibrated, val).figure("position")->stats.rms;
     std::printf(
         "seed %d: default %2d params val %.4f mm (cv %.4f) | keep-all %2d params val %.4f mm\n",
         static_cast<int>(seed), rd.kinematics.identified, vd * 1e3, rd.kinematics.cv_rms * 1e3,
@@ -143,8 +143,8 @@ TEST(ModelSelection, HoldsWhatTheTruthLeavesAtNominalAndPredictsTheTruthBetter) 
       if (!deviated.count(e.name) && e.held_by_selection) ++held_unchanged;
     }
     EXPECT_GE(held_unchanged, 11) << "seed " << seed;  // of the 21 left at nominal
-    selected_error.push_back(evaluate(d.calibrated, check).position->rms);
-    all_error.push_back(evaluate(a.calibrated, check).position->rms);
+    selected_error.push_back(evaluate(d.calibrated, check).figure("position")->stats.rms);
+    all_error.push_back(evaluate(a.calibrated, check).figure("position")->stats.rms);
     std::printf(
         "seed %d: %d kept, %d unchanged held; error vs truth %.2f um (default), %.2f um "
         "(--keep-all)\n",
@@ -180,7 +180,7 @@ TEST(CrossValidation, EqualsCalibratingOnTheOtherFoldsAndEvaluatingOnEachFold) {
     by_hand.folds = 0;
     const CalibrationResult c = calibrate(nominal, average_repeats(log, train), by_hand);
     ASSERT_EQ(c.kinematics.identified_names, r.kinematics.identified_names);
-    const double rms = evaluate(c.calibrated, average_repeats(log, test)).position->rms;
+    const double rms = evaluate(c.calibrated, average_repeats(log, test)).figure("position")->stats.rms;
     sum += rms * rms * static_cast<double>(test.size());
   }
   const double by_hand = std::sqrt(sum / log.rows);

@@ -75,7 +75,7 @@ TEST(PlanMeca500, TwentyPlannedOfSeventyRecordedPosesAgainstRandomSubsets) {
     auto validated = [&](const std::vector<int>& poses) {
       const CalibrationResult r = calibrate(nominal, rows_of(cal, groups, poses), {});
       EXPECT_EQ(r.status, CalibrationStatus::kConverged) << set << ": " << r.status_reason;
-      const double rms = evaluate(r.calibrated, val).position->rms;
+      const double rms = evaluate(r.calibrated, val).figure("position")->stats.rms;
       EXPECT_TRUE(std::isfinite(rms)) << set;
       return rms;
     };

@@ -202,8 +202,8 @@ TEST(TolerancePrior, Meca500DefaultIsWithinTheValidationNoiseOfTheCut) {
         EXPECT_TRUE(r.kinematics.search.ran) << set;
       }
       const Evaluation e = evaluate(r.calibrated, val);
-      v[k] = e.position->rms;
-      errors[k] = e.position_error.array().square();
+      v[k] = e.figure("position")->stats.rms;
+      errors[k] = e.figure("position")->error.array().square();
     }
     for (Eigen::Index row = 0; row + 2 < errors[0].size(); row += 3) {
       difference.push_back(errors[0].segment(row, 3).mean() - errors[1].segment(row, 3).mean());
@@ -213,7 +213,7 @@ TEST(TolerancePrior, Meca500DefaultIsWithinTheValidationNoiseOfTheCut) {
       CalibrationOptions o;
       o.tolerances.scale = scale;
       o.search = false;  // the prior itself, not the choice
-      v[3] = std::min(v[3], evaluate(calibrate(nominal, cal, o).calibrated, val).position->rms);
+      v[3] = std::min(v[3], evaluate(calibrate(nominal, cal, o).calibrated, val).figure("position")->stats.rms);
     }
     for (int k = 0; k < 4; ++k) {
       sum[k] += v[k];
@@ -259,8 +259,8 @@ TEST(TolerancePrior, PaperStudyDefaultPredictsAsWellAsLeastSquares) {
     const CalibrationResult d = calibrate(sc.nominal, log, {});
     const CalibrationResult a = calibrate(sc.nominal, log, all);
     ASSERT_EQ(d.status, CalibrationStatus::kConverged) << d.status_reason;
-    const double ed = evaluate(d.calibrated, check).distance->rms;
-    const double ea = evaluate(a.calibrated, check).distance->rms;
+    const double ed = evaluate(d.calibrated, check).figure("distance")->stats.rms;
+    const double ea = evaluate(a.calibrated, check).figure("distance")->stats.rms;
     std::printf("trial %d: default (%s) %.2f um, least squares %.2f um\n", t,
                 d.kinematics.choice.c_str(), ed * 1e6, ea * 1e6);
     sum_default += ed;

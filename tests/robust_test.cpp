@@ -59,7 +59,7 @@ const Study& study() {
 // study: its distances leave the base's orientation unknown).
 double validation(const CalibrationResult& r, const Log& val) {
   const Evaluation e = evaluate(r.calibrated, val);
-  return val.has_distance ? e.distance->rms : e.position->rms;
+  return val.has_distance ? e.figure("distance")->stats.rms : e.figure("position")->stats.rms;
 }
 
 CalibrationOptions with_loss(RobustLoss loss) {

@@ -133,8 +133,8 @@ TEST(StepOne, FourteenSamplesKeepASmallOrderThatPredictsTheEncoder) {
   EXPECT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
   // Usable: on 200 poses it never saw, far better than the nominal model.
   const Log unseen = simulate_log(actual, 200, noise, 4, false, true);
-  const double before = evaluate(nominal, unseen).position->rms;
-  const double after = evaluate(r.calibrated, unseen).position->rms;
+  const double before = evaluate(nominal, unseen).figure("position")->stats.rms;
+  const double after = evaluate(r.calibrated, unseen).figure("position")->stats.rms;
   EXPECT_LT(after, 0.1 * before) << after << " " << before;
 }
 

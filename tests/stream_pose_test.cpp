@@ -196,9 +196,9 @@ TEST(StreamPose, ASecondSessionIsScoredWithItsOwnClocks) {
       << c.clock.offset << " +- " << c.offset_sd;
   EXPECT_LT(std::abs(c.clock.drift - second.clock_drift), 3 * c.drift_sd)
       << c.clock.drift << " +- " << c.drift_sd;
-  ASSERT_TRUE(job.evaluation.position);
+  ASSERT_TRUE(job.evaluation.figure("position"));
   const double noise = std::sqrt(3.0) * second.sigma_position;
-  const double rms = job.evaluation.position->rms;
+  const double rms = job.evaluation.figure("position")->stats.rms;
   EXPECT_LT(std::abs(rms - noise), 0.1 * noise) << rms << " vs noise " << noise;
   std::printf(
       "second session: offset %.4f ms +- %.4f (truth %.4f), drift %.3f ppm +- %.3f (truth %.1f); "
@@ -212,7 +212,7 @@ TEST(StreamPose, ASecondSessionIsScoredWithItsOwnClocks) {
   nominal_request.given = nominal;
   nominal_request.given->base = truth.base;
   const EvaluateJob nominal_job = run_evaluate_job(nominal_request);
-  EXPECT_GT(nominal_job.evaluation.position->rms, 3 * rms);
+  EXPECT_GT(nominal_job.evaluation.figure("position")->stats.rms, 3 * rms);
 
   // The command line: the clocks first, "clock" in the JSON.
   const testing::CliResult r =

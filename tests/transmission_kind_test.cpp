@@ -183,9 +183,9 @@ TEST(TransmissionKind, StepOneFitsItAndTheCalibratedModelCarriesIt) {
     EXPECT_EQ(kept.parameters(), f.value);
   }
   EXPECT_EQ(r.transmissions[0].names[1], "panda_joint2.phase");
-  const double floor = evaluate(actual, val).position->rms;
-  const double held_out = evaluate(r.calibrated, val).position->rms;
-  const double before = evaluate(nominal, val).position->rms;
+  const double floor = evaluate(actual, val).figure("position")->stats.rms;
+  const double held_out = evaluate(r.calibrated, val).figure("position")->stats.rms;
+  const double before = evaluate(nominal, val).figure("position")->stats.rms;
   std::printf("cam: held-out %.4f mm (nominal %.4f mm, noise floor %.4f mm)\n", held_out * 1e3,
               before * 1e3, floor * 1e3);
   EXPECT_LT(held_out, 1.2 * floor);

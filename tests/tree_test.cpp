@@ -92,7 +92,7 @@ Log hands_log(const DeviceModel& truth, int rows, double sigma, std::uint64_t se
 std::vector<double> tip_rms(const DeviceModel& m, const Log& log) {
   std::vector<double> out;
   for (int t = 0; t < m.tips(); ++t)
-    out.push_back(evaluate(m, tip_samples(m, log, t)).position->rms);
+    out.push_back(evaluate(m, tip_samples(m, log, t)).figure("position")->stats.rms);
   return out;
 }
 
@@ -155,8 +155,8 @@ TEST(Tree, JointFitValidatesBetterThanSeparateFits) {
       const CalibrationResult r = calibrate(arm, arm_log(nominal, fit, c), {});
       ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
       separate.push_back(r.calibrated);
-      apart_held.push_back(evaluate(r.calibrated, arm_log(nominal, held, c)).position->rms);
-      apart_truth.push_back(evaluate(r.calibrated, arm_log(nominal, held_truth, c)).position->rms);
+      apart_held.push_back(evaluate(r.calibrated, arm_log(nominal, held, c)).figure("position")->stats.rms);
+      apart_truth.push_back(evaluate(r.calibrated, arm_log(nominal, held_truth, c)).figure("position")->stats.rms);
     }
     const auto mean = [](const std::vector<double>& v) { return (v[0] + v[1]) / 2; };
     std::printf(
@@ -536,8 +536,8 @@ TEST(Tree, CalibratesFromSeveralMarkersOnEachHand) {
   const EvaluateJob evaluated = run_evaluate_job(check);
   ASSERT_EQ(evaluated.tip_evaluations.size(), 2u);
   for (const Evaluation& e : evaluated.tip_evaluations) {
-    ASSERT_TRUE(e.position.has_value());
-    EXPECT_LT(e.position->rms, 5e-4);
+    ASSERT_TRUE(e.figure("position"));
+    EXPECT_LT(e.figure("position")->stats.rms, 5e-4);
   }
   EXPECT_LT(urdf_round_trip_gap(job.result.calibrated, dir + "/cal/calibrated.urdf"), 1e-9);
   std::filesystem::remove_all(dir);
@@ -582,7 +582,7 @@ TEST(Tree, CalibrateAndEvaluateOnTheCommandLine) {
   for (int t = 0; t < 2; ++t) {
     const double rms =
         evaluate(in_process.result.calibrated, tip_samples(in_process.result.calibrated, fit, t))
-            .position->rms;
+            .figure("position")->stats.rms;
     EXPECT_NEAR(in_process.result.kinematics.tip_rms_after[static_cast<size_t>(t)], rms, 1e-9 * rms)
         << t;
     EXPECT_NEAR(j["tips"][kTips[static_cast<size_t>(t)]]["rms_after"].get<double>(), rms,

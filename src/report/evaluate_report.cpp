@@ -96,7 +96,7 @@ Report evaluation_report(const DeviceModel& model, const std::string& model_path
                                           "RMS error against its known position [mm]"},
                                          rows));
   }
-  const std::string mine = "this model", theirs = "reference model";
+  const std::string mine = "this model", theirs_name = "reference model";
   const Evaluation* ref = reference;
   if (ev.fixture_error.size() > 0) {
     const bool points = ev.mean_point_deviation.has_value();
@@ -105,29 +105,13 @@ Report evaluation_report(const DeviceModel& model, const std::string& model_path
         points ? "Distance of each sample's tool point from its fixture point's centre"
                : "Distance of each sample's tool point from its plane",
         points ? "|p_model - centre| [mm]" : "|n . (p_model - centre)| [mm]", ev.fixture_error,
-        ref && ref->fixture_error.size() ? &ref->fixture_error : nullptr, mine, theirs));
+        ref && ref->fixture_error.size() ? &ref->fixture_error : nullptr, mine, theirs_name));
   }
-  if (ev.position) {
-    report.figures.push_back(per_sample("position_errors_per_sample", "Position error per sample",
-                                        "|p_model - p_measured| [mm]", ev.position_error,
-                                        ref ? &ref->position_error : nullptr, mine, theirs));
-  }
-  if (ev.distance) {
-    report.figures.push_back(per_sample("distance_errors_per_sample", "Distance error per sample",
-                                        "|delta_model - delta_measured| [mm]", ev.distance_error,
-                                        ref ? &ref->distance_error : nullptr, mine, theirs));
-  }
-  for (size_t k = 0; k < ev.kinds.size(); ++k) {
-    const MeasurementTraits& kind = traits(ev.kinds[k].type);
-    report.figures.push_back(
-        per_sample(fmt::format("{}_errors_per_sample", kind.name), kind.error_title,
-                   kind.error_axis, ev.kinds[k].error,
-                   ref && k < ref->kinds.size() ? &ref->kinds[k].error : nullptr, mine, theirs));
-  }
-  if (ev.orientation) {
-    report.figures.push_back(per_sample(
-        "orientation_errors_per_sample", "Orientation error per sample", "orientation error [mrad]",
-        ev.orientation_error, ref ? &ref->orientation_error : nullptr, mine, theirs));
+  for (const Evaluation::FigureErrors& f : ev.figures) {
+    const Evaluation::FigureErrors* theirs = ref ? ref->figure(f.figure.name) : nullptr;
+    report.figures.push_back(per_sample(fmt::format("{}_errors_per_sample", f.figure.name),
+                                        f.figure.title, f.figure.axis, f.error,
+                                        theirs ? &theirs->error : nullptr, mine, theirs_name));
   }
   return report;
 }

@@ -351,21 +351,9 @@ std::string evaluation_json(const EvaluationComparison* comparison, const Evalua
   nlohmann::ordered_json j;
   j["n"] = ev.n;
   if (ev.registered) j["registered"] = registration_json(*ev.registered);
-  if (ev.distance) {
-    j["rms_distance"] = ev.distance->rms;
-    j["max_distance"] = ev.distance->max;
-  }
-  if (ev.orientation) {
-    j["rms_orientation"] = ev.orientation->rms;
-    j["max_orientation"] = ev.orientation->max;
-  }
-  if (ev.position) {
-    j["rms_position"] = ev.position->rms;
-    j["max_position"] = ev.position->max;
-  }
-  for (const Evaluation::KindErrors& k : ev.kinds) {
-    j[fmt::format("rms_{}", traits(k.type).name)] = k.stats.rms;
-    j[fmt::format("max_{}", traits(k.type).name)] = k.stats.max;
+  for (const Evaluation::FigureErrors& f : ev.figures) {
+    j[fmt::format("rms_{}", f.figure.name)] = f.stats.rms;
+    j[fmt::format("max_{}", f.figure.name)] = f.stats.max;
   }
   if (ev.mean_point_deviation) {
     j["mean_point_deviation"] = *ev.mean_point_deviation;
@@ -391,19 +379,12 @@ std::string evaluation_json(const EvaluationComparison* comparison, const Evalua
       j["reference_mean_point_deviation"] = *ref->mean_point_deviation;
     }
     if (ref->rms_plane_distance) j["reference_rms_plane_distance"] = *ref->rms_plane_distance;
-    if (ev.distance) {
-      j["reference_rms_distance"] = ref->distance->rms;
-      j["improvement_distance_pct"] = *comparison->improvement_distance_pct;
-    }
-    if (ev.position) {
-      j["reference_rms_position"] = ref->position->rms;
-      j["improvement_position_pct"] = *comparison->improvement_position_pct;
-    }
-    for (size_t k = 0; k < ev.kinds.size() && k < ref->kinds.size(); ++k) {
-      const char* name = traits(ev.kinds[k].type).name;
-      j[fmt::format("reference_rms_{}", name)] = ref->kinds[k].stats.rms;
-      j[fmt::format("improvement_{}_pct", name)] =
-          rms_improvement_pct(ev.kinds[k].stats.rms, ref->kinds[k].stats.rms);
+    for (const Evaluation::FigureErrors& f : ev.figures) {
+      const Evaluation::FigureErrors* theirs = ref->figure(f.figure.name);
+      if (!theirs) continue;
+      j[fmt::format("reference_rms_{}", f.figure.name)] = theirs->stats.rms;
+      j[fmt::format("improvement_{}_pct", f.figure.name)] =
+          rms_improvement_pct(f.stats.rms, theirs->stats.rms);
     }
     if (comparison->setup_only) j["setup_only"] = true;  // the improvement is the set-up's
   }

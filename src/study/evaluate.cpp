@@ -18,16 +18,28 @@ ErrorStats stats(const Eigen::VectorXd& e) {
   return {std::sqrt(e.squaredNorm() / static_cast<double>(e.size())), e.cwiseAbs().maxCoeff()};
 }
 
-// Row r's error of a kind with columns of its own (Evaluation::KindErrors).
-double kind_error(MeasurementType type, const Frame<double>& tool, const Log& log, int r) {
-  const MeasurementTraits& t = traits(type);
-  std::vector<double> predicted(t.width), measured(t.width);
-  kind_of(type).predict(tool, predicted.data());
-  measured_values(type, log, r, measured.data());
-  if (t.length_rows == 1) return predicted[0] - measured[0];
-  double sum = 0;
-  for (int k = 0; k < t.length_rows; ++k) sum += std::pow(predicted[k] - measured[k], 2);
-  return std::sqrt(sum);
+// The figures the kinds in `log` report, a name once (Evaluation::figures),
+// each with where its error sits among its kind's (`at`).
+struct Reported {
+  MeasurementType type;
+  std::vector<int> at;  // per figure of the kind: its index in ev.figures, or -1
+};
+std::vector<Reported> reported_figures(const Log& log, Evaluation& ev) {
+  std::vector<Reported> out;
+  for (MeasurementType t : measurement_types()) {
+    if (!kind_of(t).in_log(log)) continue;
+    Reported r{t, {}};
+    for (const ErrorFigure& f : kind_of(t).error_figures()) {
+      if (ev.figure(f.name)) {
+        r.at.push_back(-1);
+        continue;
+      }
+      r.at.push_back(static_cast<int>(ev.figures.size()));
+      ev.figures.push_back({f, t, {}, Eigen::VectorXd(log.rows)});
+    }
+    if (!r.at.empty()) out.push_back(std::move(r));
+  }
+  return out;
 }
 
 }  // namespace
@@ -124,14 +136,10 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
   const PreparedModel prepared(model);
   Evaluation ev;
   ev.n = log.rows;
-  if (log.has_distance) ev.distance_error.resize(log.rows);
-  if (log.has_position) ev.position_error.resize(log.rows);
-  if (log.has_orientation) ev.orientation_error.resize(log.rows);
-  for (MeasurementType t : measurement_types()) {
-    if (!traits(t).columns.empty() && kind_of(t).in_log(log))
-      ev.kinds.push_back({t, {}, Eigen::VectorXd(log.rows)});
-  }
+  const std::vector<Reported> reported = reported_figures(log, ev);
+  const bool fixture = !log.label.empty();  // a fixture's samples: each row's label
   Eigen::VectorXd q(model.dof());
+  std::vector<double> measured, errors;
   // A backlash moves the joint values by the side each joint came from.
   const bool backlash = model.has_backlash() && log.any_direction();
   if (backlash && model.tree())
@@ -152,37 +160,33 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
       tool = prepared.forward(q.data(), log.tip.empty() ? 0 : log.tip[static_cast<size_t>(r)]);
     }
     const Eigen::Vector3d& p = tool.p;
-    if (log.has_point || log.has_plane) {
+    if (fixture) {
       if (!p.allFinite()) {
         throw InputError(log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0, "",
                          "the model's tool point on this row is not finite");
       }
       points.push_back(p);
     }
-    if (log.has_orientation) {
-      const Eigen::Quaterniond measured(log.orientation(r, 0), log.orientation(r, 1),
-                                        log.orientation(r, 2), log.orientation(r, 3));
-      ev.orientation_error[r] =
-          rotation_log(Eigen::Matrix3d(tool.R * measured.toRotationMatrix().transpose())).norm();
+    for (const Reported& k : reported) {
+      const int width = traits(k.type).width;
+      measured.resize(static_cast<size_t>(width));
+      errors.resize(k.at.size());
+      measured_values(k.type, log, r, measured.data());
+      kind_of(k.type).errors(tool, measured.data(), errors.data());
+      for (size_t f = 0; f < k.at.size(); ++f)
+        if (k.at[f] >= 0) ev.figures[static_cast<size_t>(k.at[f])].error[r] = errors[f];
     }
-    if (log.has_distance) ev.distance_error[r] = p.norm() - log.distance[r];
-    if (log.has_position) ev.position_error[r] = (p - log.position.row(r).transpose()).norm();
-    for (Evaluation::KindErrors& k : ev.kinds) k.error[r] = kind_error(k.type, tool, log, r);
     // Squared: an error of 1e308 is finite, its square (the RMS) is not.
-    auto square_finite = [](double e) { return std::isfinite(e * e); };
-    bool finite = (!log.has_distance || square_finite(ev.distance_error[r])) &&
-                  (!log.has_position || square_finite(ev.position_error[r]));
-    for (const Evaluation::KindErrors& k : ev.kinds) finite = finite && square_finite(k.error[r]);
+    bool finite = true;
+    for (const Evaluation::FigureErrors& f : ev.figures)
+      finite = finite && std::isfinite(f.error[r] * f.error[r]);
     if (!finite) {
       throw InputError(log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0, "",
                        "the model's error on this row is not finite: a value is too large");
     }
   }
-  if (log.has_distance) ev.distance = stats(ev.distance_error);
-  if (log.has_position) ev.position = stats(ev.position_error);
-  if (log.has_orientation) ev.orientation = stats(ev.orientation_error);
-  for (Evaluation::KindErrors& k : ev.kinds) k.stats = stats(k.error);
-  if (log.has_point || log.has_plane) {
+  for (Evaluation::FigureErrors& f : ev.figures) f.stats = stats(f.error);
+  if (fixture) {
     evaluate_fixture(log, points, point_distances, known_points, ev);
   } else if (!point_distances.empty() || !known_points.empty()) {
     throw InputError(log.origin, 0, point_distances.empty() ? "--fixture" : "--point-distance",
@@ -191,12 +195,24 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
   return ev;
 }
 
+const Evaluation::FigureErrors* Evaluation::figure(std::string_view name) const {
+  for (const FigureErrors& f : figures)
+    if (name == f.figure.name) return &f;
+  return nullptr;
+}
+
+std::optional<double> Evaluation::rms(std::string_view name) const {
+  const FigureErrors* f = figure(name);
+  if (!f) return std::nullopt;
+  return f->stats.rms;
+}
+
 const Eigen::VectorXd& sample_errors(const Evaluation& ev, MeasurementType type) {
-  for (const Evaluation::KindErrors& k : ev.kinds) {
-    if (k.type == type) return k.error;
-  }
   if (ev.fixture_error.size()) return ev.fixture_error;
-  return ev.position ? ev.position_error : ev.distance_error;
+  for (const ErrorFigure& f : kind_of(type).error_figures())
+    if (const Evaluation::FigureErrors* e = ev.figure(f.name)) return e->error;
+  static const Eigen::VectorXd none;
+  return ev.figures.empty() ? none : ev.figures[0].error;
 }
 
 double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated) {
@@ -237,15 +253,7 @@ EvaluationComparison compare_to_reference(const DeviceModel& model, const Device
     return registration ? evaluate_registered(m, log, *registration, point_distances, known_points)
                         : evaluate(m, log, point_distances, known_points);
   };
-  EvaluationComparison c{score(model), score(reference), {}, {}};
-  if (c.model.distance && c.reference.distance) {
-    c.improvement_distance_pct =
-        rms_improvement_pct(c.model.distance->rms, c.reference.distance->rms);
-  }
-  if (c.model.position && c.reference.position) {
-    c.improvement_position_pct =
-        rms_improvement_pct(c.model.position->rms, c.reference.position->rms);
-  }
+  EvaluationComparison c{score(model), score(reference), {}};
   c.setup_only = differs_in_setup_only(model, reference, log);
   return c;
 }
@@ -256,21 +264,10 @@ std::vector<std::string> evaluation_lines(const EvaluationComparison* cmp, const
   const Evaluation* ref = cmp ? &cmp->reference : nullptr;
   if (ev.registered) registration_lines(*ev.registered, "", lines);
   if (ref && ref->registered) registration_lines(*ref->registered, reference_name, lines);
-  if (ev.distance) {
-    lines.push_back(fmt::format("distance error: RMS {:.4f} mm, max {:.4f} mm",
-                                ev.distance->rms * 1e3, ev.distance->max * 1e3));
-  }
-  if (ev.orientation) {
-    lines.push_back(fmt::format("orientation error: RMS {:.4f} mrad, max {:.4f} mrad",
-                                ev.orientation->rms * 1e3, ev.orientation->max * 1e3));
-  }
-  if (ev.position) {
-    lines.push_back(fmt::format("position error: RMS {:.4f} mm, max {:.4f} mm",
-                                ev.position->rms * 1e3, ev.position->max * 1e3));
-  }
-  for (const Evaluation::KindErrors& k : ev.kinds) {
-    lines.push_back(fmt::format("{} error: RMS {:.4f} mm, max {:.4f} mm", traits(k.type).name,
-                                k.stats.rms * 1e3, k.stats.max * 1e3));
+  for (const Evaluation::FigureErrors& f : ev.figures) {
+    lines.push_back(fmt::format("{} error: RMS {:.4f} {}, max {:.4f} {}", f.figure.name,
+                                f.stats.rms * 1e3, f.figure.unit(), f.stats.max * 1e3,
+                                f.figure.unit()));
   }
   for (const auto& l : ev.labels) {
     lines.push_back(
@@ -307,24 +304,14 @@ std::vector<std::string> evaluation_lines(const EvaluationComparison* cmp, const
           ? "; the models differ only in their set-up (the frame, the tool): the set-up's "
             "improvement, not the device's"
           : "";
-  if (ref && ev.distance) {
+  for (const Evaluation::FigureErrors& f : ev.figures) {
+    const Evaluation::FigureErrors* theirs = ref ? ref->figure(f.figure.name) : nullptr;
+    if (!theirs) continue;
     lines.push_back(fmt::format(
-        "against {}: distance RMS {:.4f} mm -> {:.4f} mm, improvement {:.1f} % (eq. 9){}",
-        reference_name, ref->distance->rms * 1e3, ev.distance->rms * 1e3,
-        *cmp->improvement_distance_pct, setup_only));
-  }
-  if (ref && ev.position) {
-    lines.push_back(fmt::format(
-        "against {}: position RMS {:.4f} mm -> {:.4f} mm, improvement {:.1f} % (eq. 9){}",
-        reference_name, ref->position->rms * 1e3, ev.position->rms * 1e3,
-        *cmp->improvement_position_pct, setup_only));
-  }
-  for (size_t k = 0; ref && k < ev.kinds.size() && k < ref->kinds.size(); ++k) {
-    const double mine = ev.kinds[k].stats.rms, theirs = ref->kinds[k].stats.rms;
-    lines.push_back(
-        fmt::format("against {}: {} RMS {:.4f} mm -> {:.4f} mm, improvement {:.1f} % (eq. 9){}",
-                    reference_name, traits(ev.kinds[k].type).name, theirs * 1e3, mine * 1e3,
-                    rms_improvement_pct(mine, theirs), setup_only));
+        "against {}: {} RMS {:.4f} {} -> {:.4f} {}, improvement {:.1f} % (eq. 9){}",
+        reference_name, f.figure.name, theirs->stats.rms * 1e3, f.figure.unit(),
+        f.stats.rms * 1e3, f.figure.unit(), rms_improvement_pct(f.stats.rms, theirs->stats.rms),
+        setup_only));
   }
   return lines;
 }

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
@@ -192,18 +193,20 @@ Session simulate_session(const DeviceModel& actual, const SessionOptions& o, std
   const auto m = static_cast<Eigen::Index>(stamps.size());
   s.tracker = empty_log(actual, "simulated tracker stream", m, false);
   const int markers = actual.tree() ? tips : static_cast<int>(o.marker_body.cols());
-  Eigen::MatrixXd& measured = markers > 0 ? s.tracker.markers : s.tracker.position;
-  s.tracker.has_position = markers == 0;
-  s.tracker.marker_count = markers;
-  s.tracker.has_orientation = markers == 0 && o.orientation;
-  measured.resize(m, 3 * std::max(markers, 1));
-  if (s.tracker.has_orientation) s.tracker.orientation.resize(m, 4);
+  // Each sample's values: the markers' (or a tree's tips') points, else the
+  // tool's position or pose, which that kind puts in the log.
+  const MeasurementType kind = o.orientation ? MeasurementType::kPose : MeasurementType::kPosition;
+  MeasuredValues values(m, markers > 0 ? 3 * markers : traits(kind).width);
   for (Eigen::Index r = 0; r < m; ++r) {
     s.tracker.t[r] = stamps[static_cast<size_t>(r)];
-    const Eigen::VectorXd& point = points[static_cast<size_t>(r)];
-    measured.row(r) = point.head(measured.cols()).transpose();
-    if (s.tracker.has_orientation) s.tracker.orientation.row(r) = point.tail<4>().transpose();
+    values.row(r) = points[static_cast<size_t>(r)].head(values.cols()).transpose();
     s.tracker.line.push_back(static_cast<int>(r) + 2);
+  }
+  if (markers > 0) {
+    s.tracker.marker_count = markers;
+    s.tracker.markers = values;
+  } else {
+    kind_of(kind).to_log(values, s.tracker);
   }
   s.tracker.rows = static_cast<int>(m);
   return s;

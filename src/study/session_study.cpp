@@ -22,7 +22,7 @@ namespace {
 
 // RMS position error [m] of a model on a log (evaluate's).
 double position_rms(const DeviceModel& model, const Log& log) {
-  return evaluate(model, log).position->rms;
+  return evaluate(model, log).figure("position")->stats.rms;
 }
 
 // results.json of a session study.

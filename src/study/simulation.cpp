@@ -342,9 +342,9 @@ Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_h
   log.q.resize(rows, n);
   log.ext.setZero(rows, n);
   log.has_ext.assign(n, false);
-  log.has_distance = log.has_time = true;
-  log.distance.resize(rows);
+  log.has_time = true;
   log.t.resize(rows);
+  MeasuredValues distance(rows, 1);  // a cable encoder's, which the kind puts in the log
   const PreparedModel prepared(actual);
   const std::vector<double> ratio = drive_ratios(actual);
   // The motion sweeps the limits' coordinates (a coupled joint's value within
@@ -373,12 +373,13 @@ Log simulate_trajectory(const DeviceModel& actual, double seconds, double rate_h
     }
     q = box.readings(x);
     log.t[r] = t;
-    log.distance[r] = prepared.forward(q.data()).p.norm() + noise.sigma_distance * gauss(rng);
+    distance(r, 0) = prepared.forward(q.data()).p.norm() + noise.sigma_distance * gauss(rng);
     for (int j = 0; j < n; ++j)
       q[j] = quantized_reading(q[j], ratio[j], noise.motor_counts_per_rev);
     log.q.row(r) = q.transpose();
     log.line.push_back(r + 2);
   }
+  kind_of(MeasurementType::kDistance).to_log(distance, log);
   return log;
 }
 

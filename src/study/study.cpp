@@ -39,7 +39,7 @@ double rms_of_values(const std::vector<double>& v) {
 
 // Distance errors of a model on a log with distances.
 double distance_rms(const DeviceModel& model, const Log& log) {
-  return evaluate(model, log).distance->rms;
+  return evaluate(model, log).figure("distance")->stats.rms;
 }
 
 Eigen::VectorXd readings(const Log& log, int r) { return log.q.row(r).transpose(); }
@@ -325,15 +325,15 @@ void trajectory_figure(const Scenario& sc, std::uint64_t seed, const std::string
   traj = read_log(out + "/trajectory.csv");
   const Evaluation eb = evaluate(sc.nominal, traj), ef = evaluate(t.full.calibrated, traj),
                    ek = evaluate(t.kinematic_only.calibrated, traj);
-  t.trajectory_rms_before = eb.distance->rms;
-  t.trajectory_rms_full = ef.distance->rms;
-  t.trajectory_rms_kinematic = ek.distance->rms;
+  t.trajectory_rms_before = eb.figure("distance")->stats.rms;
+  t.trajectory_rms_full = ef.figure("distance")->stats.rms;
+  t.trajectory_rms_kinematic = ek.figure("distance")->stats.rms;
   std::string fig10 = "t,distance,error_nominal,error_full,error_kinematic_only\n";
   t.figures.fig10.assign(5, {});
   const int step = std::max(1, static_cast<int>(sc.trajectory_rate_hz / 100));  // 100 Hz
   for (int r = 0; r < traj.rows; r += step) {
-    const double row[] = {traj.t[r], traj.distance[r], eb.distance_error[r], ef.distance_error[r],
-                          ek.distance_error[r]};
+    const double row[] = {traj.t[r], traj.distance[r], eb.figure("distance")->error[r],
+                          ef.figure("distance")->error[r], ek.figure("distance")->error[r]};
     fig10 += fmt::format("{},{},{},{},{}\n", row[0], row[1], row[2], row[3], row[4]);
     for (int c = 0; c < 5; ++c) t.figures.fig10[c].push_back(row[c]);
   }

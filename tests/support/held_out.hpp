@@ -28,7 +28,7 @@ inline HeldOutStudy held_out_study(const DeviceModel& actual, int poses, double 
   HeldOutStudy s;
   s.cal = simulate_log(actual, poses, noise, seed, /*distance=*/false, /*position=*/true);
   s.val = simulate_log(actual, poses, noise, seed + 1, /*distance=*/false, /*position=*/true);
-  s.floor = evaluate(actual, s.val).position->rms;
+  s.floor = evaluate(actual, s.val).figure("position")->stats.rms;
   return s;
 }
 

@@ -79,6 +79,17 @@ struct InstrumentNoise {
   double orientation = 0;  // a pose's rotation, per axis [rad]
 };
 
+// A figure evaluate reports of a kind: each sample's error, its RMS and
+// largest, and its plot. A length in metres (printed in mm) or an angle in
+// radians (printed in mrad).
+struct ErrorFigure {
+  const char* name;   // "distance", "position", "orientation", a registered kind's name
+  const char* title;  // the per-sample plot's title
+  const char* axis;   // and its axis
+  bool angle = false;
+  const char* unit() const { return angle ? "mrad" : "mm"; }
+};
+
 // One kind of measurement: its facts (traits), how a log holds it, what an
 // instrument without error reads of the tool frame, and its residual rows with
 // their analytic Jacobian. A new kind is one subclass and one
@@ -107,6 +118,14 @@ class MeasurementKind {
   // A fixture's throws (its samples are placed, not read: simulate_fixture_log).
   virtual void simulate(const Frame<double>& tool, const InstrumentNoise& noise,
                         const std::function<double()>& gauss, double* values) const;
+  // What evaluate reports of a log of this kind, one error a sample each (the
+  // default: one figure named as the kind, its traits' title and axis; a
+  // fixture kind's: none, evaluate scores its labels).
+  virtual std::vector<ErrorFigure> error_figures() const;
+  // One sample's errors, one a figure, from the tool frame and the sample's
+  // measured values (the default: predicted - measured over the length values,
+  // signed if there is one, else the norm).
+  virtual void errors(const Frame<double>& tool, const double* measured, double* out) const;
   // The residual rows (predicted - measured) of one sample and their analytic
   // Jacobian (dimension x num_slots) w.r.t. the parameters; a fixture sample's
   // raw rows, the tool point (3 rows; fixture_residuals makes the fit's rows).

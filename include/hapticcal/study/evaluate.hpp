@@ -6,6 +6,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "hapticcal/data_io/log.hpp"
@@ -46,22 +47,22 @@ struct Evaluation {
   int n = 0;
   // Set when the model was registered to the log first (evaluate_registered).
   std::optional<FrameFit> registered;
-  std::optional<ErrorStats> distance;  // predicted - measured distance [m]
-  std::optional<ErrorStats> position;  // |p_predicted - p_measured| [m]
-  // Pose logs: the angle of R_predicted R_measured^T [rad]
-  std::optional<ErrorStats> orientation;
-  Eigen::VectorXd distance_error;     // per row, signed
-  Eigen::VectorXd position_error;     // per row, Euclidean norm
-  Eigen::VectorXd orientation_error;  // per row, the angle
-  // The values of a measurement kind with columns of its own (registered by a
-  // program, MeasurementTraits::columns): per row, predicted - measured over its
-  // length values (signed if it has one, else the norm) [m].
-  struct KindErrors {
-    MeasurementType type;
+  // What the log's kinds report (MeasurementKind::error_figures), in the
+  // kinds' order, a figure's name once: a distance log's distance (predicted -
+  // measured, signed) [m], a position log's position (|p_model - p_measured|)
+  // [m], a pose log's position and orientation (the angle of R_model
+  // R_measured^T) [rad], a registered kind's own.
+  struct FigureErrors {
+    ErrorFigure figure;
+    MeasurementType type;   // the kind that reports it
     ErrorStats stats;
-    Eigen::VectorXd error;
+    Eigen::VectorXd error;  // per row
   };
-  std::vector<KindErrors> kinds;
+  std::vector<FigureErrors> figures;
+  // The figure named `name`, or null if the log's kinds do not report it.
+  const FigureErrors* figure(std::string_view name) const;
+  // Its RMS, or none.
+  std::optional<double> rms(std::string_view name) const;
 
   // Fixture logs. Points: each label's predicted tool points against their
   // mean; over all rows (labels weighted by their samples, as MUKCa's KPI)
@@ -84,9 +85,8 @@ struct Evaluation {
   Eigen::VectorXd fixture_error;  // per row: |p_i - centre| or the signed plane distance
 };
 
-// Each sample's error in the measurement `type` of the evaluated log (the
-// figure of its error per sample): a fixture's, a kind's with columns of its
-// own, a position's (a pose's too), else a distance's.
+// Each sample's error in the measurement `type` of the evaluated log: a
+// fixture's, else the first figure the kind reports (a pose's: its position's).
 const Eigen::VectorXd& sample_errors(const Evaluation& ev, MeasurementType type);
 
 // Throws InputError if the log does not fit the model (check_log_fits), or a
@@ -119,11 +119,9 @@ Evaluation evaluate_registered(const DeviceModel& model, const Log& log, Registe
 double rms_improvement_pct(double rms_calibrated, double rms_uncalibrated);
 
 // A model against a reference model on the same log (evaluate --reference):
-// both evaluations and eq. (9)'s improvement of each error the log measures.
+// both evaluations (eq. (9)'s improvement of each figure: rms_improvement_pct).
 struct EvaluationComparison {
   Evaluation model, reference;
-  std::optional<double> improvement_distance_pct;  // set when the log has distances
-  std::optional<double> improvement_position_pct;  // set when it has positions
   // The model is the reference but for its set-up (base, tool, an instrument's
   // zero): at every row of the log the two agree once the model takes the
   // reference's set-up. The improvement is then the set-up's, not the device's.

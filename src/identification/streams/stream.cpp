@@ -414,48 +414,34 @@ Log readings_at_tracker(const ReadingInterpolator& readings, const Log& device, 
                         const std::vector<int>& samples, const StreamClock& clock,
                         std::vector<int>& kept) {
   const int n = device.dof();
-  Log out;
-  out.origin = tracker.origin;
+  const auto most = static_cast<Eigen::Index>(samples.size());
+  Eigen::MatrixXd q_at(most, n), ext_at(most, n);
+  Eigen::VectorXd q(n), ext(n);
+  kept.clear();
+  for (const int r : samples) {
+    const double t = clock.device_time(tracker.t[r]);
+    // The velocity (the clock's column) needs readings either side.
+    if (!readings.around(t, q.data(), ext.data()) || !readings.at(t, q.data(), ext.data()))
+      continue;
+    const auto row = static_cast<Eigen::Index>(kept.size());
+    q_at.row(row) = q.transpose();
+    ext_at.row(row) = ext.transpose();
+    kept.push_back(r);
+  }
+  // The tracker's samples kept, with whatever they measure, and the device's
+  // readings at each.
+  Log out = select_rows(tracker, kept);
+  const auto m = static_cast<Eigen::Index>(kept.size());
+  out.q = q_at.topRows(m);
+  out.ext = ext_at.topRows(m);
+  out.direction.setZero(m, n);
   out.q_unit = device.q_unit;
   out.q_column = device.q_column;
   out.ext_unit = device.ext_unit;
   out.ext_column = device.ext_column;
   out.has_ext = device.has_ext;
   out.has_direction.assign(static_cast<size_t>(n), false);
-  out.has_position = true;
-  out.has_orientation = tracker.has_orientation;
-  out.has_time = true;
-  const auto m = static_cast<Eigen::Index>(samples.size());
-  out.q.resize(m, n);
-  out.ext.setZero(m, n);
-  out.direction.setZero(m, n);
-  out.position.resize(m, 3);
-  out.t.resize(m);
-  if (tracker.has_orientation) out.orientation.resize(m, 4);
-  kept.clear();
-  Eigen::VectorXd q(n), ext(n);
-  Eigen::Index row = 0;
-  for (const int r : samples) {
-    const double t = clock.device_time(tracker.t[r]);
-    // The velocity (the clock's column) needs readings either side.
-    if (!readings.around(t, q.data(), ext.data()) || !readings.at(t, q.data(), ext.data()))
-      continue;
-    out.q.row(row) = q.transpose();
-    out.ext.row(row) = ext.transpose();
-    out.position.row(row) = tracker.position.row(r);
-    if (tracker.has_orientation) out.orientation.row(row) = tracker.orientation.row(r);
-    out.t[row] = tracker.t[r];
-    out.line.push_back(tracker.line[static_cast<size_t>(r)]);
-    kept.push_back(r);
-    ++row;
-  }
-  out.rows = static_cast<int>(row);
-  out.q.conservativeResize(row, n);
-  out.ext.conservativeResize(row, n);
-  out.direction.conservativeResize(row, n);
-  out.position.conservativeResize(row, 3);
-  out.t.conservativeResize(row);
-  if (tracker.has_orientation) out.orientation.conservativeResize(row, 4);
+  out.comment.clear();  // the tracker's file's, not the readings'
   return out;
 }
 

@@ -61,15 +61,8 @@ Log first_tip_stream(const Log& tracker) {
 Log samples_at(const DeviceModel& nominal, const ReadingInterpolator& readings, const Log& device,
                const Log& tracker, const Log& first, const std::vector<int>& rows,
                const StreamClock& clock, std::vector<int>& kept) {
-  Log at = readings_at_tracker(readings, device, first, rows, clock, kept);
-  if (!nominal.tree()) return at;
-  at.has_position = false;
-  at.position.resize(0, 0);
-  at.marker_count = tracker.marker_count;
-  at.markers.resize(at.rows, tracker.markers.cols());
-  for (int r = 0; r < at.rows; ++r)
-    at.markers.row(r) = tracker.markers.row(kept[static_cast<size_t>(r)]);
-  return tip_samples(nominal, at);
+  if (!nominal.tree()) return readings_at_tracker(readings, device, first, rows, clock, kept);
+  return tip_samples(nominal, readings_at_tracker(readings, device, tracker, rows, clock, kept));
 }
 
 // The tracker rows the fit may use at a clock: those whose device time the
