@@ -30,7 +30,7 @@ CEILINGS = {
     # A log's measurement-kind flag (has_distance, has_position, has_orientation,
     # has_point, has_plane) read outside the log and the measurement family: what
     # a kind's values held in the log per kind would remove (issue 60: <= 10).
-    "log_kind_flags": 42,
+    "log_kind_flags": 2,
     "slot_decoding": 3,           # a line decoding a parameter's block from ParameterInfo.joint
     "transmission_kind_checks": 23,  # a transmission's kind asked outside its family
     "layer_violations": 0,

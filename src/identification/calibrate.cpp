@@ -19,6 +19,7 @@
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/log_fit.hpp"
 #include "hapticcal/identification/markers.hpp"
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/identification/registration.hpp"
 #include "hapticcal/identification/tree.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
@@ -206,7 +207,7 @@ void prepare_poses(CalibrationRun& run) {
   fit.repeatability = encoders_only(run.log)
                           ? std::numeric_limits<double>::quiet_NaN()
                           : detail::repeatability(run.log, run.result.poses, fit.type);
-  if (run.log.has_position && run.log.has_distance) {
+  if (holds(run.log, MeasurementType::kPosition) && holds(run.log, MeasurementType::kDistance)) {
     run.result.notes.push_back("the log has positions and distances: positions are used");
   }
 }

@@ -11,6 +11,7 @@
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
 #include "hapticcal/data_io/log.hpp"
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 
 namespace hapticcal {
@@ -110,7 +111,10 @@ CompensateJob run_compensate_job(const CompensateRequest& request) {
   const Log targets =
       read_log(request.targets, request.columns.empty() ? std::vector<std::string>()
                                                         : split_columns(request.columns));
-  if (targets.has_distance || targets.marker_count > 0 || targets.has_point || targets.has_plane)
+  // Readings, with the tool's positions (and orientations: poses) for Cartesian targets.
+  const bool cartesian = holds(targets, MeasurementType::kPosition);
+  const size_t tool_kinds = cartesian ? (holds(targets, MeasurementType::kPose) ? 2 : 1) : 0;
+  if (targets.marker_count > 0 || kinds_in(targets).size() != tool_kinds)
     throw InputError(targets.origin, 0, "",
                      "a program's targets are readings q1..qn, with x, y, z (and an orientation) "
                      "for Cartesian targets: no distance, markers, points or planes");
@@ -124,7 +128,7 @@ CompensateJob run_compensate_job(const CompensateRequest& request) {
       "{} of {} targets compensated ({}, {}): the calibrated model's tool at the program's "
       "readings is {:.4f} mm RMS from its targets, at the readings the controller solves the "
       "compensated poses to {:.2g} mm",
-      job.usable, total, targets.has_position ? "Cartesian targets" : "joint targets",
+      job.usable, total, cartesian ? "Cartesian targets" : "joint targets",
       job.targets.empty() || job.targets.front().orientation ? "position and orientation"
                                                              : "position",
       before * 1e3, after * 1e3));

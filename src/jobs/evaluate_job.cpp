@@ -13,6 +13,7 @@
 #include "hapticcal/data_io/fixture.hpp"
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/markers.hpp"
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/identification/tree.hpp"
 #include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/model_io/model_source.hpp"
@@ -254,7 +255,7 @@ nlohmann::ordered_json iso_json(const IsoCriteria& c) {
 void add_iso(const std::string& plan_path, const std::string& conditions, const Log& log,
              const DeviceModel& model, const DeviceModel* reference, EvaluateJob& job) {
   const Log plan = read_log(plan_path);
-  if (!plan.has_point) {
+  if (!holds(plan, MeasurementType::kPoint)) {
     throw InputError(plan_path, 0, "--iso9283",
                      "not a test plan: no point column naming each row's pose (plan --iso9283 "
                      "writes one)");

@@ -107,7 +107,7 @@ struct SamplePlan {
   std::ptrdiff_t sub_frame_column = -1;  // Vicon's sub frame: must be 0
   std::array<std::size_t, 3> position{};  // x, y, z
   std::array<double, 3> position_scale{1, 1, 1};
-  bool has_position = false;
+  bool reads_position = false;  // x, y, z (position) are read
   Rotation rotation = Rotation::kNone;
   std::array<std::size_t, 4> rotation_columns{};    // quaternion w, x, y, z; else about x, y, z
   double angle_scale = 1;                           // rotation vector / Euler angles to radians

@@ -312,7 +312,7 @@ bool row_rotation(const CsvLines& lines, const SamplePlan& plan, std::array<doub
 bool add_row(const CsvLines& lines, const SamplePlan& plan, double t, TrackerStream& stream) {
   bool all = true;
   std::array<double, 3> p{};
-  if (plan.has_position) {
+  if (plan.reads_position) {
     for (std::size_t k = 0; k < 3; ++k) {
       all = value(lines, plan.position[k], plan.position_scale[k], p[k]) && all;
     }
@@ -327,7 +327,7 @@ bool add_row(const CsvLines& lines, const SamplePlan& plan, double t, TrackerStr
   }
   if (!all) return false;
   stream.t.push_back(t);
-  if (plan.has_position) stream.p.push_back(p);
+  if (plan.reads_position) stream.p.push_back(p);
   if (plan.rotation != Rotation::kNone) stream.q.push_back(q);
   if (!plan.markers.empty()) stream.markers.push_back(std::move(markers));
   return true;
@@ -336,7 +336,7 @@ bool add_row(const CsvLines& lines, const SamplePlan& plan, double t, TrackerStr
 // The first of the row's columns read that is empty (a lost sample's), 0-based.
 std::size_t first_empty(const CsvLines& lines, const SamplePlan& plan) {
   std::vector<std::size_t> read;
-  if (plan.has_position) read.insert(read.end(), plan.position.begin(), plan.position.end());
+  if (plan.reads_position) read.insert(read.end(), plan.position.begin(), plan.position.end());
   if (plan.rotation != Rotation::kNone) {
     read.insert(read.end(), plan.rotation_columns.begin(),
                 plan.rotation_columns.begin() + (plan.rotation == Rotation::kQuaternion ? 4 : 3));

@@ -174,7 +174,7 @@ void motive_pose(const MotiveHeader& h, const std::string& body, const std::stri
     }
     return it->second;
   };
-  plan.has_position = true;
+  plan.reads_position = true;
   for (std::size_t k = 0; k < 3; ++k) plan.position[k] = need(position, "XYZ"[k], "Position");
   const auto type = h.info.find("Rotation Type");
   if (type == h.info.end()) {

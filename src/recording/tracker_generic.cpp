@@ -178,7 +178,7 @@ TrackerStream read_generic_csv(const std::string& text, const std::string& name,
     }
   };
   if (map.markers == 0) {
-    plan.has_position = true;
+    plan.reads_position = true;
     position("", plan.position, plan.position_scale);
   }
   for (std::size_t m = 1; m <= map.markers; ++m) {

@@ -269,7 +269,7 @@ TrackerStream read_vicon_csv(const std::string& text, const std::string& name,
                                  did_you_mean(options.body, names)));
   }
   if (pose != nullptr) {
-    plan.has_position = true;
+    plan.reads_position = true;
     plan.rotation = Rotation::kRotationVector;
     for (std::size_t k = 0; k < 3; ++k) {
       const char* t[] = {"TX", "TY", "TZ"};

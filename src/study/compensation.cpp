@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
@@ -84,7 +85,9 @@ std::vector<CompensatedTarget> compensate_targets(const DeviceModel& calibrated_
   std::vector<double> lower(static_cast<size_t>(nominal_model.dof())), upper(lower);
   reading_limits(nominal_model, lower.data(), upper.data());
   // A joint program holds the tool's pose; a Cartesian one what it gives.
-  const bool orientation = !targets.has_position || targets.has_orientation;
+  const bool cartesian = holds(targets, MeasurementType::kPosition);
+  const bool posed = holds(targets, MeasurementType::kPose);
+  const bool orientation = !cartesian || posed;
   InverseOptions inverse = options.inverse;
   inverse.orientation = orientation;
   std::vector<CompensatedTarget> out;
@@ -95,10 +98,10 @@ std::vector<CompensatedTarget> compensate_targets(const DeviceModel& calibrated_
     t.orientation = orientation;
     const Eigen::VectorXd q = targets.q.row(r).transpose();
     t.nominal_readings = q;
-    if (targets.has_position) {
+    if (cartesian) {
       t.target.p = targets.position.row(r).transpose();
       t.target.R = Mat3<double>::Identity();
-      if (targets.has_orientation) {
+      if (posed) {
         t.target.R = Eigen::Quaterniond(targets.orientation(r, 0), targets.orientation(r, 1),
                                         targets.orientation(r, 2), targets.orientation(r, 3))
                          .normalized()

@@ -26,8 +26,7 @@ struct Reported {
 };
 std::vector<Reported> reported_figures(const Log& log, Evaluation& ev) {
   std::vector<Reported> out;
-  for (MeasurementType t : measurement_types()) {
-    if (!kind_of(t).in_log(log)) continue;
+  for (MeasurementType t : kinds_in(log)) {
     Reported r{t, {}};
     for (const ErrorFigure& f : kind_of(t).error_figures()) {
       if (ev.figure(f.name)) {

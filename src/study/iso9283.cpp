@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/identification/registration.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
@@ -129,7 +130,7 @@ IsoCriteria iso_criteria(const std::vector<IsoPoseRuns>& poses) {
 
 std::vector<IsoPoseRuns> iso_runs(const DeviceModel& model, const Log& log,
                                   const std::vector<std::string>& labels) {
-  if (!log.has_position)
+  if (!holds(log, MeasurementType::kPosition))
     throw InputError(log.origin, 0, "--iso9283", "the log has no measured x, y, z to score");
   if (static_cast<int>(labels.size()) != log.rows) {
     throw InputError(log.origin, 0, "--iso9283",
@@ -137,6 +138,7 @@ std::vector<IsoPoseRuns> iso_runs(const DeviceModel& model, const Log& log,
                                  "plan row by row",
                                  log.rows, labels.size()));
   }
+  const bool posed = holds(log, MeasurementType::kPose);
   std::vector<std::string> names = labels;
   std::sort(names.begin(), names.end(), pose_order);
   names.erase(std::unique(names.begin(), names.end()), names.end());
@@ -145,7 +147,7 @@ std::vector<IsoPoseRuns> iso_runs(const DeviceModel& model, const Log& log,
   for (const std::string& name : names) {
     IsoPoseRuns runs;
     runs.label = name;
-    runs.orientation = log.has_orientation;
+    runs.orientation = posed;
     Eigen::VectorXd mean = Eigen::VectorXd::Zero(log.dof());
     int cycle = 0;
     for (int r = 0; r < log.rows; ++r) {
@@ -154,7 +156,7 @@ std::vector<IsoPoseRuns> iso_runs(const DeviceModel& model, const Log& log,
       runs.cycles.push_back(++cycle);
       Frame<double> attained = Frame<double>::Identity();
       attained.p = log.position.row(r).transpose();
-      if (log.has_orientation) {
+      if (posed) {
         const Eigen::Quaterniond q(log.orientation(r, 0), log.orientation(r, 1),
                                    log.orientation(r, 2), log.orientation(r, 3));
         attained.R = q.normalized().toRotationMatrix();

@@ -162,6 +162,10 @@ inline bool measures_orientation(MeasurementType t) { return traits(t).rotation;
 // A measurement with a distance column (a cable encoder's).
 inline bool measures_distance(MeasurementType t) { return traits(t).distance_column; }
 
+// Whether a log holds the values (or the labels) of kind `type`.
+inline bool holds(const Log& log, MeasurementType type) { return kind_of(type).in_log(log); }
+// The kinds a log holds (MeasurementKind::in_log), built-in ones first.
+std::vector<MeasurementType> kinds_in(const Log& log);
 // What a log measures: the last registered kind it holds (so fixture points
 // or planes if it has labels, a pose if it has orientations, else positions,
 // else distances; a log with positions and distances is fitted on its

@@ -365,6 +365,13 @@ std::optional<MeasurementType> measurement_type_named(const std::string& name) {
   return std::nullopt;
 }
 
+std::vector<MeasurementType> kinds_in(const Log& log) {
+  std::vector<MeasurementType> held;
+  for (MeasurementType t : measurement_types())
+    if (kind_of(t).in_log(log)) held.push_back(t);
+  return held;
+}
+
 MeasurementType measurement_type(const Log& log) {
   const std::vector<MeasurementType> all = measurement_types();
   for (auto it = all.rbegin(); it != all.rend(); ++it) {

@@ -13,6 +13,7 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/identification.hpp"
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/identification/stream.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "identification/calibration_run.hpp"
@@ -106,7 +107,8 @@ void screen_repeats(const Log& log, std::vector<std::vector<int>>& poses, double
                     std::vector<std::string>& notes) {
   constexpr size_t kMinRepeats = 5;  // a median and a spread worth the name
   constexpr size_t kNamed = 10;
-  if (!log.has_position && !log.has_distance) return;
+  // Measured values only: a fixture's labels (its samples' labels) have none.
+  if (kinds_in(log).empty() || !log.label.empty()) return;
   // The measured lengths of a row (a pose's position, not its rotation).
   const MeasurementType type = measurement_type(log);
   const MeasurementTraits& t = traits(type);

@@ -11,6 +11,7 @@
 #include <numeric>
 
 #include "hapticcal/core/error.hpp"
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/identification/registration.hpp"
 
 namespace hapticcal {
@@ -128,9 +129,7 @@ MarkerPoses markers_to_poses(const Log& log, const Eigen::Matrix3Xd& body) {
   p = log;
   p.markers.resize(0, 0);
   p.marker_count = 0;
-  p.has_position = p.has_orientation = true;
-  p.position.resize(log.rows, 3);
-  p.orientation.resize(log.rows, 4);
+  MeasuredValues poses(log.rows, traits(MeasurementType::kPose).width);  // x, y, z, qw .. qz
   std::vector<double> rms(static_cast<size_t>(log.rows));
   for (int r = 0; r < log.rows; ++r) {
     Registration reg;
@@ -140,10 +139,10 @@ MarkerPoses markers_to_poses(const Log& log, const Eigen::Matrix3Xd& body) {
       throw InputError(log.origin, log.line[static_cast<size_t>(r)], "x1", e.what());
     }
     const Eigen::Quaterniond q(reg.R);
-    p.position.row(r) = reg.t.transpose();
-    p.orientation.row(r) << q.w(), q.x(), q.y(), q.z();
+    poses.row(r) << reg.t.transpose(), q.w(), q.x(), q.y(), q.z();
     rms[static_cast<size_t>(r)] = reg.rms;
   }
+  kind_of(MeasurementType::kPose).to_log(poses, p);
   std::nth_element(rms.begin(), rms.begin() + static_cast<std::ptrdiff_t>(rms.size() / 2),
                    rms.end());
   out.fit_rms = rms[rms.size() / 2];

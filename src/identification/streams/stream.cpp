@@ -13,6 +13,7 @@
 #include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/log_rows.hpp"
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 
 namespace hapticcal {
@@ -204,7 +205,7 @@ std::vector<int> tracker_glitches(const Log& tracker) {
   if (tracker.marker_count > 0) {
     for (int m = 0; m < tracker.marker_count; ++m)
       points.push_back(tracker.markers.middleCols(3 * m, 3));
-  } else if (tracker.has_position) {
+  } else if (holds(tracker, MeasurementType::kPosition)) {
     points.push_back(tracker.position);
   }
   std::vector<bool> glitch(static_cast<size_t>(tracker.rows), false);
@@ -236,7 +237,8 @@ std::vector<int> tracker_glitches(const Log& tracker) {
 
 std::string fast_motion_note(const Log& tracker, const std::vector<int>& lines) {
   constexpr size_t kFewest = 3;
-  if (lines.size() < kFewest || tracker.rows < 3 || !tracker.has_time || !tracker.has_position)
+  if (lines.size() < kFewest || tracker.rows < 3 || !tracker.has_time ||
+      !holds(tracker, MeasurementType::kPosition))
     return "";
   std::vector<double> speed(static_cast<size_t>(tracker.rows), 0.0);
   std::unordered_map<int, int> row_of;
@@ -325,7 +327,7 @@ void check_streams(const Log& device, const Log& tracker) {
                      "the device log has no joint readings q<i>: the readings come from the "
                      "device's stream, the positions from the tracker's");
   }
-  if (!tracker.has_position) {
+  if (!holds(tracker, MeasurementType::kPosition)) {
     throw InputError(tracker.origin, 0, "x",
                      "the tracker log has no positions x, y, z: the tracker's stream gives the "
                      "measurements, the device's the readings");
@@ -335,8 +337,8 @@ void check_streams(const Log& device, const Log& tracker) {
                      "a marker body's stream is aligned as the body's poses (calibrate_streams "
                      "turns the markers into poses first)");
   }
-  if (device.has_position || device.has_distance) {
-    throw InputError(device.origin, 0, device.has_position ? "x" : "distance",
+  if (const std::vector<MeasurementType> held = kinds_in(device); !held.empty()) {
+    throw InputError(device.origin, 0, traits(held.front()).name,
                      "the device log has measurements: with --tracker they come from the tracker "
                      "log only");
   }

@@ -13,6 +13,7 @@
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/option_ranges.hpp"
 #include "hapticcal/identification/markers.hpp"
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/identification/stream.hpp"
 #include "hapticcal/identification/tree.hpp"
 #include "hapticcal/identification/two_step.hpp"
@@ -48,11 +49,10 @@ constexpr size_t kGlitchesNamed = 5;
 // first tip's positions: the clock's search, the samples and the residual
 // curve follow that tip (the prepared tree's forward(q) is its pose).
 Log first_tip_stream(const Log& tracker) {
-  Log first = tracker;
-  first.has_position = tracker.marker_count > 0;
-  first.position = tracker.markers.leftCols(std::min<Eigen::Index>(3, tracker.markers.cols()));
+  Log first = tracker;  // one marker a tip (calibrate_streams checks)
   first.marker_count = 0;
   first.markers.resize(0, 0);
+  kind_of(MeasurementType::kPosition).to_log(tracker.markers.leftCols(3), first);
   return first;
 }
 

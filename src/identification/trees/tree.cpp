@@ -15,6 +15,7 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
+#include "hapticcal/identification/measurement.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/model_io/urdf.hpp"
@@ -303,13 +304,14 @@ std::vector<std::string> row_labels(const Log& log, int r, int tips) {
     from = comma + 1;
   }
   out.push_back(joined.substr(from));
-  if (static_cast<int>(out.size()) != tips)
+  if (static_cast<int>(out.size()) != tips) {
+    const char* label = traits(measurement_type(log)).name;  // "point" or "plane"
     throw InputError(log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0,
-                     log.has_point ? "point1" : "plane1",
+                     fmt::format("{}1", label),
                      fmt::format("the tree has {} tips: a fixture log names a label a tip "
                                  "({}1 .. {}{}); this row has {}",
-                                 tips, log.has_point ? "point" : "plane",
-                                 log.has_point ? "point" : "plane", tips, out.size()));
+                                 tips, label, label, tips, out.size()));
+  }
   return out;
 }
 
@@ -318,7 +320,7 @@ std::vector<std::string> row_labels(const Log& log, int r, int tips) {
 Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
   const int k = tree.tips();
   if (only >= k) throw std::out_of_range("tip_samples: tip " + std::to_string(only));
-  const bool fixture = log.has_point || log.has_plane;
+  const bool fixture = !log.label.empty();  // a fixture's samples: each row's label
   // Markers a tip: 1, a point; 3 or more, a rigid body on each tip (the same
   // layout on every one), x1 .. x<M> the first tip's, x<M+1> .. the second's.
   const int per_tip = fixture ? 0 : log.marker_count / k;
@@ -334,8 +336,8 @@ Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
                                      : std::string("none")) +
             fmt::format(" (a rigid body of M >= 3 markers on each tip: x1 .. x{}M)", k));
   }
-  if (log.has_orientation || log.has_distance || !log.columns.empty() ||
-      (fixture && log.marker_count > 0))
+  // Nothing measured but the markers, or but the labels.
+  if (kinds_in(log).size() > (fixture ? 1u : 0u) || (fixture && log.marker_count > 0))
     throw InputError(log.origin, 0, "x1",
                      "a tree's log gives each tip's point, or each tip's fixture label, only (no "
                      "orientations, distances or other measurements yet)");
@@ -344,8 +346,7 @@ Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
   out.rows = log.rows * per_row;
   out.marker_count = per_tip > 1 ? per_tip : 0;
   out.markers.resize(per_tip > 1 ? out.rows : 0, 3 * out.marker_count);
-  out.has_position = per_tip == 1;
-  out.position.resize(per_tip == 1 ? out.rows : 0, 3);
+  MeasuredValues points(per_tip == 1 ? out.rows : 0, 3);  // a marker a tip: its positions
   out.q.resize(out.rows, log.dof());
   out.ext.resize(out.rows, log.ext.cols());
   out.direction.resize(out.rows, log.direction.cols());
@@ -365,7 +366,7 @@ Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
       if (fixture) {
         out.label.push_back(labels[static_cast<size_t>(t)]);
       } else if (per_tip == 1) {
-        out.position.row(row) = log.markers.row(r).segment<3>(3 * t);
+        points.row(row) = log.markers.row(r).segment<3>(3 * t);
       } else {
         out.markers.row(row) = log.markers.row(r).segment(3 * per_tip * t, 3 * per_tip);
       }
@@ -373,6 +374,7 @@ Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
       out.tip.push_back(t);
     }
   }
+  if (per_tip == 1) kind_of(MeasurementType::kPosition).to_log(points, out);
   return out;
 }
 
@@ -395,8 +397,7 @@ Log chain_log(const DeviceTree& tree, const Log& log, int chain) {
     out.ext_unit.push_back(ReadingUnit::kNone);
     out.ext_column.push_back("");
   }
-  out.position = log.markers.middleCols(3 * chain, 3);
-  out.has_position = true;
+  kind_of(MeasurementType::kPosition).to_log(log.markers.middleCols(3 * chain, 3), out);
   return out;
 }
 
