@@ -264,7 +264,7 @@ void expect_stage_rows(const DeviceModel& model, const DeviceModel& folded, Meas
     // A folded lateral compliance bends the links per pose (what the prepared
     // model does).
     const StepTwoJoints folded_values(folded);
-    if (folded_values.bends() >= 0) {
+    if (folded_values.bends()) {
       moved = folded_values.with_features(moved, readings[i], direction[i]);
     }
     detail::measurement_rows(fs, chain_constants(fs, fp.data()), fp.data(), moved.data(),

@@ -262,7 +262,7 @@ void identify_and_solve(CalibrationRun& run) {
   fit.structurally_identified = static_cast<int>(run.identified.size());
   // A fixture problem's cost is flat along motions its unknown points nearly
   // absorb: Levenberg-Marquardt needs more steps (the MUKCa Panda: up to 130).
-  run.iterations = is_fixture(run.problem.type) ? kFixtureIterations : kIterations;
+  run.iterations = run.problem.labelled() ? kFixtureIterations : kIterations;
   run.solution = solve_kinematics(run.problem, run.identified, run.iterations);
   reform_on_fit(run);
   run.plain_weights = run.problem.weights;

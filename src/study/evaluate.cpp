@@ -61,7 +61,7 @@ void evaluate_fixture(const Log& log, const std::vector<Eigen::Vector3d>& points
   for (int r = 0; r < log.rows; ++r) raw.segment<3>(3 * r) = points[r];
   Eigen::VectorXd residual(fixture_rows(type, labels, log.rows));
   fixture_residuals(type, labels, Eigen::VectorXd(), raw, nullptr, residual.data(), nullptr);
-  const bool point = traits(type).label_points;
+  const bool point = labels.points;
   ev.fixture_error.resize(log.rows);
   ev.labels.resize(labels.count());
   for (int l = 0; l < labels.count(); ++l) ev.labels[l].name = labels.names[l];

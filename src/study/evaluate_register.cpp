@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <optional>
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/identification/registration.hpp"
@@ -143,12 +144,12 @@ RegisteredModel register_for_evaluation(const DeviceModel& model, const Log& log
   // Each pose's joint values (compensated, with backlash) and a lateral
   // compliance's bends of its links (StepTwoJoints).
   const StepTwoJoints step_two(m);
-  const int bends = step_two.bends();
+  const std::optional<int> bends = step_two.bends();
   for (int r = 0; r < log.rows; ++r) {
     joints[r] = step_two.row(log, r);
     measured_values(type, log, r, measured.row(r).data());
     ChainConstants<double> bent = constants;
-    if (bends >= 0) bend_links(s, joints[r].data() + bends, bent.links.data());
+    if (bends) bend_links(s, joints[r].data() + *bends, bent.links.data());
     a.col(r) = forward_kinematics(s, bent, joints[r].data()).p;
     b.col(r) = log.position.row(r).transpose();
     if (!a.col(r).allFinite()) {

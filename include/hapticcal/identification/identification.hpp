@@ -277,6 +277,9 @@ struct KinematicProblem {
   double rotation_scale = 1;            // m/rad of a pose's rotation rows: the length scale
   bool compressed = false;              // the Jacobian too large: work on its R factor
   FixtureLabels labels;                 // fixture points or planes: the poses' labels
+  // The poses are a fixture's labelled samples: nothing measured, each label's
+  // point or plane eliminated from the rows (fixture_residuals).
+  bool labelled() const { return labels.count() > 0; }
   // The tolerance prior's rows in solve_kinematics, per slot: weight
   // sqrt(lambda) / tolerance (0: none) and centre (the nominal); empty: none.
   Eigen::VectorXd prior_weight, prior_centre;
@@ -287,11 +290,11 @@ struct KinematicProblem {
   // The model's joint-error stages (joint_error_stages).
   std::vector<JointErrorStage> joint_errors;
   // Where each pose's values hold its links' lateral bends (a lateral
-  // compliance step 2 holds: StepTwoJoints::bends), or -1.
-  int bends = -1;
+  // compliance step 2 holds: StepTwoJoints::bends), if they do.
+  std::optional<int> bends;
   // A tree's (DeviceModel::tree): where each pose's values hold the tip it
-  // measures (StepTwoJoints::tip), or -1.
-  int tip = -1;
+  // measures (StepTwoJoints::tip); none: a chain.
+  std::optional<int> tip;
   // Where Levenberg-Marquardt starts (every slot), if not at the model: a
   // nearby fit's (the model search's family sets start at the geometry's).
   // The model stays the start of everything else (the prior's centre, what a

@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -77,17 +78,17 @@ class StepTwoJoints {
   // Where a pose's values hold its links' lateral bends [rad] (dof values, after
   // the features) when the model has a lateral compliance step 2 holds
   // (DeviceModel::laterally_compliant), formed from the readings' joint values
-  // before any deflection (GravityModel::bends); -1: none.
-  int bends() const { return bends_; }
-  // Where a tree's pose's values hold the tip it measures; -1: a chain.
-  int tip() const { return tip_; }
+  // before any deflection (GravityModel::bends); none without one.
+  std::optional<int> bends() const { return bends_; }
+  // Where a tree's pose's values hold the tip it measures; none: a chain.
+  std::optional<int> tip() const { return tip_; }
 
  private:
   const DeviceModel& model_;
   std::unique_ptr<const PreparedModel> prepared_;
   std::unique_ptr<const GravityModel> gravity_;  // the held lateral compliance's
-  int bends_ = -1;
-  int tip_ = -1;
+  std::optional<int> bends_;
+  std::optional<int> tip_;
   // Each family's features of a pose and where they start in its values.
   std::vector<std::pair<std::unique_ptr<const PoseFeatures>, int>> features_;
   int stored_ = 0;  // features a pose

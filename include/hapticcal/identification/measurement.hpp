@@ -204,6 +204,7 @@ struct KnownPoint {
 
 // The labels of a fixture problem's poses and the known distances between them.
 struct FixtureLabels {
+  bool points = true;              // points (sockets) the tool point is at, else planes it touches
   std::vector<std::string> names;  // in order of first appearance
   std::vector<int> of_pose;        // label index of each pose
   struct Known {

@@ -240,7 +240,7 @@ namespace {
 
 std::vector<Eigen::VectorXd> consistent_joints(const ChainStructure& s, const Eigen::VectorXd& p,
                                                std::vector<Eigen::VectorXd> joints,
-                                               MeasurementType type, const FixtureLabels& labels) {
+                                               const FixtureLabels& labels) {
   constexpr int kSteps = 30;
   const ChainConstants<double> constants = chain_constants(s, p.data());
   const int m = static_cast<int>(joints.size());
@@ -272,7 +272,7 @@ std::vector<Eigen::VectorXd> consistent_joints(const ChainStructure& s, const Ei
     for (int step = 0; step < kSteps; ++step) {
       const Frame<double> tool = forward_kinematics(s, constants, joints[i].data(), frames.data());
       Eigen::Vector3d e = mean[l] - tool.p;
-      if (!traits(type).label_points) e = normal * normal.dot(e);  // onto the plane
+      if (!labels.points) e = normal * normal.dot(e);  // onto the plane
       if (e.norm() < 1e-13) break;
       geometric_jacobian(s, frames.data(), tool, JacobianFrame::kMeasurement, J);
       const Eigen::MatrixXd Jp = J.topRows<3>();
@@ -304,7 +304,7 @@ struct RankFindings {
 void record_verdicts(const KinematicProblem& problem, const RankFindings& f,
                      const std::map<int, std::string>& name, IdentifiabilityAnalysis& out) {
   const ChainStructure s = problem.model.structure();
-  const bool labels = is_fixture(problem.type);
+  const bool labels = problem.labelled();
   const bool rigid = f.rigid, sizeless = f.sizeless;
   const auto is_base = [&](int slot) { return slot < s.base_slots(); };
   std::map<int, bool>& sized = f.sized;
@@ -332,8 +332,8 @@ void record_verdicts(const KinematicProblem& problem, const RankFindings& f,
         out.reason[slot] += fmt::format(
             " (with them, a uniform scale of the robot: {} cannot see its size; give a known "
             "distance between points, --point-distance)",
-            traits(problem.type).label_points ? "fixture points without a known distance"
-                                              : "plane contacts");
+            problem.labels.points ? "fixture points without a known distance"
+                                  : "plane contacts");
       }
     } else if (s.instrument && slot == s.instrument_slot()) {
       // The instrument's, not the device's: these poses leave it at 0 (held),
@@ -388,7 +388,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   // x axis would tell apart an rpy and an offset that turn about the joint's
   // axis alike (a gauge the geometry cannot see), and the fit would drift along it.
   RowsOf kind = rows_of(problem);
-  kind.bends = -1;
+  kind.bends.reset();
   // On synthetic poses over the joint limits (structural) and on the data.
   const std::vector<Eigen::VectorXd> synthetic = structural_joints(model);
   // A fixture's rows change with the residual itself (p_i - m_L turns with the
@@ -398,7 +398,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   // least squares in the joints) until its tool point is at its label's mean
   // point, or on its label's best plane.
   std::vector<Eigen::VectorXd> joints =
-      kind.labels ? consistent_joints(s, p0, problem.joints, problem.type, problem.labels)
+      kind.labels ? consistent_joints(s, p0, problem.joints, problem.labels)
                   : problem.joints;
   if (kind.labels) {  // the moved poses' features of their joint values
     const StepTwoJoints step_two(model);
@@ -456,7 +456,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   // (every length times 1 + e leaves the residuals as they are): the rank test
   // finds one length dependent on the others; its reason says so.
   const bool sizeless =
-      kind.labels && (!traits(problem.type).label_points ||
+      kind.labels && (!problem.labels.points ||
                       (problem.labels.distances.empty() && problem.labels.known_points() < 2));
   // A slot the rank test holds only because of that: one it accepts once a row
   // that measures the scale (d size = lengths . d params) is added.
@@ -481,7 +481,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   std::vector<int> size_held;
   // (Points only: plane contacts leave many dependencies among lengths, and
   // exchanging there made their fits crawl.)
-  if (sizeless && traits(problem.type).label_points) {
+  if (sizeless && problem.labels.points) {
     const auto is_length = [&](int slot) {
       return !is_base(slot) && length[static_cast<size_t>(slot)];
     };

@@ -71,7 +71,7 @@ StepTwoJoints::StepTwoJoints(const DeviceModel& model)
     gravity_ = std::make_unique<const GravityModel>(model);
     bends_ = model.dof() + stored_;
   }
-  if (model.tree()) tip_ = model.dof() + stored_ + (bends_ >= 0 ? model.dof() : 0);
+  if (model.tree()) tip_ = model.dof() + stored_ + (bends_ ? model.dof() : 0);
 }
 
 StepTwoJoints::~StepTwoJoints() = default;
@@ -96,19 +96,19 @@ Eigen::VectorXd StepTwoJoints::with_features(const Eigen::VectorXd& values,
                                              const Eigen::Ref<const Eigen::RowVectorXd>& direction,
                                              int tip) const {
   const int n = model_.dof();
-  Eigen::VectorXd joint(n + stored_ + (bends_ >= 0 ? n : 0) + (tip_ >= 0 ? 1 : 0));
-  if (tip_ >= 0) joint[tip_] = tip;
+  Eigen::VectorXd joint(n + stored_ + (bends_ ? n : 0) + (tip_ ? 1 : 0));
+  if (tip_) joint[*tip_] = tip;
   joint.head(n) = values;
   for (const auto& [features, first] : features_)
     (*features)(joint.data(), q, direction, joint.data() + first);
-  if (bends_ >= 0) {  // from the joint values before any deflection (the readings')
+  if (bends_) {  // from the joint values before any deflection (the readings')
     std::array<double, kMaxDof> rigid;
     if (q.size() == n) {
       prepared_->rigid_joints(q.data(), rigid.data());
     } else {
       std::copy(values.data(), values.data() + n, rigid.begin());
     }
-    gravity_->bends(rigid.data(), joint.data() + bends_);
+    gravity_->bends(rigid.data(), joint.data() + *bends_);
   }
   return joint;
 }
@@ -118,7 +118,7 @@ void StepTwoJoints::refresh(Eigen::VectorXd& values) const {
     if (features->of_joint_values())
       (*features)(values.data(), Eigen::VectorXd(), Eigen::RowVectorXd(), values.data() + first);
   }
-  if (bends_ >= 0) gravity_->bends(values.data(), values.data() + bends_);
+  if (bends_) gravity_->bends(values.data(), values.data() + *bends_);
 }
 
 Eigen::RowVectorXd direction_row(const Log& log, int r) {

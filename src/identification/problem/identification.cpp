@@ -71,11 +71,11 @@ double position_rss(const Eigen::VectorXd& r, const RowsOf& kind) {
 
 std::vector<double> tip_rms(const KinematicProblem& problem, const Eigen::VectorXd& r,
                             const RowsOf& kind, const Eigen::VectorXd& repeat_weights) {
-  if (problem.tip < 0) return {};
+  if (!problem.tip) return {};
   const int d = kind.dimension(), length_rows = traits(kind.type).length_rows;
   std::vector<double> rss(static_cast<size_t>(problem.model.tips()), 0.0), rows(rss.size(), 0.0);
   for (size_t i = 0; i < problem.joints.size(); ++i) {
-    const auto tip = static_cast<size_t>(problem.joints[i][problem.tip]);
+    const auto tip = static_cast<size_t>(problem.joints[i][*problem.tip]);
     const Eigen::Index at = static_cast<Eigen::Index>(i) * d;
     rss[tip] += r.segment(at, std::min(d, length_rows)).squaredNorm();
     const double w = repeat_weights.size() > 0 ? repeat_weights[static_cast<Eigen::Index>(i)] : 1;
@@ -100,7 +100,7 @@ ceres::CostFunction* measurement_cost(const ChainStructure& s,
 RowMatrix predicted_values(const ChainStructure& s, const Eigen::VectorXd& params,
                            const std::vector<Eigen::VectorXd>& joints, const RowsOf& kind) {
   RowMatrix out(joints.size(), traits(kind.type).width);
-  if (is_fixture(kind.type)) return RowMatrix::Zero(out.rows(), out.cols());  // nothing measured
+  if (kind.labels) return RowMatrix::Zero(out.rows(), out.cols());  // a fixture's: nothing measured
   const ChainConstants<double> constants = chain_constants(s, params.data());
   for (size_t i = 0; i < joints.size(); ++i) {
     const Frame<double> tool = pose_tool(s, constants, params.data(), joints[i].data(), kind.tip);
@@ -452,7 +452,7 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
   // Beyond options.max_jacobian_bytes the Jacobian is never formed (issue 10:
   // 10^6 rows): its R factor carries the same column geometry.
   // (A fixture problem's rows couple the poses of a label: never compressed.)
-  problem.compressed = !is_fixture(problem.type) &&
+  problem.compressed = !problem.labelled() &&
                        static_cast<double>(m) * d * model.structure().num_slots() * sizeof(double) >
                            static_cast<double>(options.max_jacobian_bytes);
   set_scales(problem);

@@ -29,11 +29,11 @@ struct RowsOf {
   const FixtureLabels* labels = nullptr;  // a fixture problem's (fixture points or planes)
   const std::vector<JointErrorStage>* errors = nullptr;  // step 2's joint-error stages
   // Where a pose's values hold its links' lateral bends (StepTwoJoints::bends:
-  // a lateral compliance step 2 holds), or -1.
-  int bends = -1;
+  // a lateral compliance step 2 holds), if they do.
+  std::optional<int> bends;
   // A tree's (ChainStructure::tips > 1): where a pose's values hold the tip it
-  // measures (StepTwoJoints::tip), or -1: the first.
-  int tip = -1;
+  // measures (StepTwoJoints::tip); none: the first.
+  std::optional<int> tip;
   int dimension() const { return traits(type).dimension; }
   // Residual rows of `poses` poses: a fixture problem's include its known distances.
   int rows(int poses) const {
@@ -62,14 +62,15 @@ inline void tip_chain(const ChainStructure& tree, const ChainConstants<double>& 
   }
 }
 // The tip a pose's values name (a chain's: 0).
-inline int tip_of(const ChainStructure& s, const double* values, int tip_at) {
-  return s.tips > 1 && tip_at >= 0 ? static_cast<int>(values[tip_at]) : 0;
+inline int tip_of(const ChainStructure& s, const double* values, std::optional<int> tip_at) {
+  return s.tips > 1 && tip_at ? static_cast<int>(values[*tip_at]) : 0;
 }
 
 // T_meas_tool of a pose at its values (a tree's: of the tip they name, at
 // tip_at: RowsOf::tip).
 inline Frame<double> pose_tool(const ChainStructure& s, const ChainConstants<double>& constants,
-                               const double* params, const double* values, int tip_at) {
+                               const double* params, const double* values,
+                               std::optional<int> tip_at) {
   if (s.tips == 1) return forward_kinematics(s, constants, values);
   TipChain chain;
   tip_chain(s, constants, params, values, tip_of(s, values, tip_at), chain);
@@ -103,7 +104,7 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
                              const double* params, const double* joint, const RowsOf& kind,
                              const double* measured, double* residual,
                              Eigen::Ref<Eigen::MatrixXd> J) {
-  if (!kind.errors && kind.bends < 0) {
+  if (!kind.errors && !kind.bends) {
     tip_rows(s, constants, params, joint, joint, kind, measured, residual, J);
     return;
   }
@@ -119,12 +120,12 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
     return e.feature >= 0 ? joint + e.feature : formed[e.link].data();
   };
   const bool bent =
-      kind.bends >= 0 || std::any_of(stages.begin(), stages.end(),
+      kind.bends || std::any_of(stages.begin(), stages.end(),
                                      [](const JointErrorStage& e) { return e.geometry; });
   std::optional<ChainConstants<double>> pose;
   if (bent) pose.emplace(constants);
   std::array<double, kMaxDof> bend{};
-  if (kind.bends >= 0) std::copy(joint + kind.bends, joint + kind.bends + s.dof, bend.begin());
+  if (kind.bends) std::copy(joint + *kind.bends, joint + *kind.bends + s.dof, bend.begin());
   for (const JointErrorStage& e : stages) {
     if (e.feature < 0) e.harmonic.parameter_jacobian(joint[e.link], formed[e.link].data());
     const double* x = features(e);

@@ -35,6 +35,7 @@ FixtureLabels fixture_labels(MeasurementType type, const Log& log, const std::ve
                              const std::vector<PointDistance>& distances,
                              const std::vector<KnownPoint>& known_points) {
   FixtureLabels out;
+  out.points = traits(type).label_points;
   std::vector<int> samples;
   for (int r : rows) {
     const std::string& name = log.label.at(static_cast<size_t>(r));

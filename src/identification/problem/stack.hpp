@@ -98,7 +98,7 @@ std::vector<double> tip_rms(const KinematicProblem& problem, const Eigen::Vector
 inline RowsOf rows_of(const KinematicProblem& problem) {
   return {problem.type,
           problem.rotation_scale,
-          is_fixture(problem.type) ? &problem.labels : nullptr,
+          problem.labelled() ? &problem.labels : nullptr,
           problem.joint_errors.empty() ? nullptr : &problem.joint_errors,
           problem.bends,
           problem.tip};

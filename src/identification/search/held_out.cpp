@@ -280,7 +280,7 @@ HeldOutSystem held_out_system(const KinematicProblem& problem, const Stack& at,
   for (Eigen::Index i = 0; i < static_cast<Eigen::Index>(m) * d; ++i) {
     if (i % d >= length_rows) s.measuring[i] = 0;
   }
-  if (!is_fixture(problem.type)) {
+  if (!problem.labelled()) {
     // A pose a unit; a tree's samples of one pose are one (pose_units).
     const std::vector<int> unit = pose_units(problem);
     for (int i = 0; i < m; ++i) {

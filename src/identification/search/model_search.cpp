@@ -332,7 +332,7 @@ CalibrationResult Search::run() {
   out_.seed = plan_.seed;
   out_.units = units;
   out_.measured_rows = geometry.system.measuring.sum();
-  out_.unit = is_fixture(geometry.run->problem.type) ? "fixture group" : "pose";
+  out_.unit = geometry.run->problem.labelled() ? "fixture group" : "pose";
   if (note.empty() && (o.folds < 2 || units < kMinUnits)) {
     notes_.push_back(o.folds < 2 ? std::string("--folds 0: no held-out poses")
                                  : fmt::format("{} {}{} to hold out, fewer than {}", units,

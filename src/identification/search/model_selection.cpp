@@ -158,7 +158,7 @@ std::vector<int> pose_units(const KinematicProblem& problem) {
   int units = 0;
   for (int i = 0; i < m; ++i) {
     const bool same_pose =
-        problem.tip >= 0 && i > 0 && problem.joints[i].head(n) == problem.joints[i - 1].head(n);
+        problem.tip && i > 0 && problem.joints[i].head(n) == problem.joints[i - 1].head(n);
     unit[i] = same_pose ? units - 1 : units++;
   }
   return unit;
@@ -339,7 +339,7 @@ CrossValidation cross_validate(const KinematicProblem& problem, const std::vecto
     out.note = "not computed: the log is too long for per-pose fits (compressed Jacobian)";
     return out;
   }
-  if (is_fixture(problem.type)) {
+  if (problem.labelled()) {
     out.note =
         "not computed for fixture logs (a held-out pose's point or plane comes from the other "
         "poses): evaluate the model on a fixture placement left out of the fit instead";

@@ -185,7 +185,7 @@ RobustFit reweight_outliers(KinematicProblem& problem, const std::vector<int>& i
   }
   RobustFit out;
   out.loss = loss;
-  if (is_fixture(problem.type)) {
+  if (problem.labelled()) {
     out.note =
         "not tested: a fixture's residuals are projections with its unknown points or planes "
         "eliminated, not one pose's error";
@@ -300,7 +300,7 @@ SuspectFit check_suspect(const KinematicFit& fit, const KinematicProblem& proble
           kSuspectRepeatabilityRatio));
     }
   }
-  if (std::isfinite(fit.cv_rms) && !is_fixture(problem.type)) {
+  if (std::isfinite(fit.cv_rms) && !problem.labelled()) {
     // The nominal model, readings compensated by its own transmissions, with
     // its base pose alone fitted (Levenberg-Marquardt over the base slots).
     KinematicProblem base_only = problem;
