@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "hapticcal/jobs/import_job.hpp"
 #include "hapticcal/recording/import.hpp"
 #include "hapticcal/recording/ros_message.hpp"
 #include "ratio_main.hpp"
@@ -77,7 +78,7 @@ void import(benchmark::State& state, const std::string& bag, const std::string& 
   request.frames = frames;
   request.out = scratch() + "/out";
   for (auto _ : state) {
-    const recording::ImportResult r = recording::run_import(request);
+    const recording::ImportResult r = run_import(request);
     benchmark::DoNotOptimize(r.device_rows + r.tracker_rows);
   }
 }

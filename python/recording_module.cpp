@@ -32,7 +32,7 @@ py::dict summary(const recording::ImportResult& r) {
                   "notes"_a = r.notes, "written"_a = r.written, "out"_a = r.out);
 }
 
-// import_recording(): `hapticcal import` (recording::run_import) from its options' table.
+// import_recording(): `hapticcal import` (run_import) from its options' table.
 const BoundCommand<recording::ImportRequest>& import_command() {
   static const BoundCommand<recording::ImportRequest> command{
       "import_recording",
@@ -50,7 +50,7 @@ const BoundCommand<recording::ImportRequest>& import_command() {
 
 py::dict import_recording(const py::args& args, const py::kwargs& kwargs) {
   const recording::ImportRequest request = request_from(import_command(), args, kwargs);
-  const auto result = interruptible([&] { return recording::run_import(request); });
+  const auto result = interruptible([&] { return hapticcal::run_import(request); });
   return settled([&] { return summary(result); });
 }
 

@@ -31,7 +31,7 @@ CLI::App* add_import_command(CLI::App& app, ImportOptions& o) {
 int run_import(const ImportOptions& o) {
   recording::ImportRequest request;
   o.bound.apply(request);
-  const recording::ImportResult r = recording::run_import(request);
+  const recording::ImportResult r = hapticcal::run_import(request);
   if (!r.format.empty())
     fmt::print(
         "{}: {}\n",

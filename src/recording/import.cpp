@@ -15,7 +15,6 @@
 #include "hapticcal/core/cancel.hpp"
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/core/files.hpp"
-#include "hapticcal/core/output_set.hpp"
 #include "hapticcal/model_io/model_source.hpp"
 #include "recording/import_request.hpp"
 #include "recording/import_streams.hpp"
@@ -442,7 +441,7 @@ void summarise(const std::vector<TopicBuffer>& topics, const std::optional<Strea
 
 }  // namespace
 
-ImportResult run_import(const ImportRequest& request) {
+ImportResult import_recording(const ImportRequest& request, const ImportSink& write) {
   const std::vector<FieldRequest> fields = parse_fields(request.fields);
   check_request(request, fields);
   ImportResult result;
@@ -490,7 +489,6 @@ ImportResult run_import(const ImportRequest& request) {
   result.time_origin_ns = origin;
   summarise(topics, device, tracker, origin, result);
 
-  OutputSet out(request.out.empty() ? kDefaultImportOut : request.out, "import");
   // Said in the files' comment: calibrate names it when the readings do not fit the model.
   const std::string convention =
       request.convention.empty() ? "" : "; --convention " + request.convention;
@@ -506,8 +504,8 @@ ImportResult run_import(const ImportRequest& request) {
                     what, device->what, tracker->what,
                     request.stamps == StampSource::kHeader ? "header" : "recorder's",
                     seconds_text(origin), convention);
-    write_file_atomically(
-        out.dir() + "/log.csv",
+    write(
+        "log.csv",
         static_csv(*device, *tracker, request, model ? &*model : nullptr, origin, comment, result));
     device.reset(), tracker.reset();
   }
@@ -517,7 +515,7 @@ ImportResult run_import(const ImportRequest& request) {
         fmt::format("# hapticcal import of {}: {}; {} stamps less {} s; joints: {}{}\n", what,
                     device->what, request.stamps == StampSource::kHeader ? "header" : "recorder's",
                     seconds_text(origin), fmt::join(result.joint_names, ", "), convention);
-    write_file_atomically(out.dir() + "/device.csv", stream_csv(*device, origin, comment));
+    write("device.csv", stream_csv(*device, origin, comment));
   }
   if (tracker) {
     result.tracker_rows = tracker->samples->stamp_ns.size();
@@ -525,7 +523,7 @@ ImportResult run_import(const ImportRequest& request) {
     const std::string comment = fmt::format(
         "# hapticcal import of {}: {}; {} stamps less {} s\n", what, tracker->what,
         request.stamps == StampSource::kHeader ? "header" : "recorder's", seconds_text(origin));
-    write_file_atomically(out.dir() + "/tracker.csv", stream_csv(*tracker, origin, comment));
+    write("tracker.csv", stream_csv(*tracker, origin, comment));
   }
   if (!request.tracker_export.empty()) {
     const TrackerStream s = read_tracker_export(request.tracker_export, request.export_options);
@@ -535,13 +533,13 @@ ImportResult run_import(const ImportRequest& request) {
     result.notes.push_back(
         fmt::format("{}: {} samples{}", s.source, s.t.size(),
                     s.lost > 0 ? fmt::format(", {} lost (occluded) left out", s.lost) : ""));
-    write_file_atomically(out.dir() + "/tracker.csv", export_csv(s));
+    write("tracker.csv", export_csv(s));
   }
-  write_file_atomically(out.dir() + "/import.json", summary_json(request, result).dump(2) + "\n");
-  out.commit();
-  result.written = out.written();
-  result.out = out.target();
   return result;
+}
+
+std::string import_summary_json(const ImportRequest& request, const ImportResult& result) {
+  return summary_json(request, result).dump(2) + "\n";
 }
 
 }  // namespace hapticcal::recording

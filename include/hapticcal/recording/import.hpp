@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -86,6 +87,15 @@ struct ImportResult {
   std::string out;                   // the folder written
 };
 
-ImportResult run_import(const ImportRequest& request);
+// Where an import hands each file it makes, once it is made: its name in the
+// output set (device.csv, tracker.csv, log.csv) and its text.
+using ImportSink = std::function<void(const std::string& name, const std::string& text)>;
+
+// Reads the recording (or the tracker's export) and hands each file it makes to
+// `write`; with `list`, reads the topics only and makes none. The result's
+// `written` and `out` are the job's (run_import, jobs/import_job.hpp).
+ImportResult import_recording(const ImportRequest& request, const ImportSink& write);
+// import.json: what was read, chosen and made.
+std::string import_summary_json(const ImportRequest& request, const ImportResult& result);
 
 }  // namespace hapticcal::recording

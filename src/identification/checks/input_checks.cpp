@@ -348,9 +348,9 @@ void check_options(const CalibrationOptions& options) {
     throw InputError("--encoder-resolution must be a positive number of radians, at most 1");
   }
   for (const std::string& family : options.joint_errors) {
-    if (family != "none" && !detail::find_joint_error_family(family)) {
+    if (family != "none" && !find_joint_error_family(family)) {
       std::vector<std::string_view> names;
-      for (const detail::JointErrorFamily* f : detail::joint_error_families())
+      for (const JointErrorFamily* f : joint_error_families())
         names.push_back(f->name());
       throw InputError(fmt::format("--joint-errors: '{}' is not a joint-error family ({}, or none)",
                                    printable(family), fmt::join(names, ", ")));
@@ -378,7 +378,7 @@ void check_options(const CalibrationOptions& options) {
     }
   }
   for (const auto& [name, value] : t.by_family) {
-    if (!detail::find_joint_error_family(name) || !positive(value)) {
+    if (!find_joint_error_family(name) || !positive(value)) {
       throw InputError(fmt::format(
           "tolerance of the joint-error family {}={}: no such family, or not in [1e-9, 1000] (SI)",
           printable(name), value));
