@@ -563,6 +563,9 @@ TEST(Iso9283, CarelessPlansAndLogsAreRefused) {
   ASSERT_EQ(with_labels.exit_code, 0) << with_labels.err;
   EXPECT_EQ(nlohmann::json::parse(with_labels.out)["iso9283"],
             nlohmann::json::parse(good.out)["iso9283"]);
+  // The whole evaluation, not only the ISO part: the pose names are no fixture's
+  // labels (no labels, no plane or point figures), the position's figures are the same.
+  EXPECT_EQ(nlohmann::json::parse(with_labels.out), nlohmann::json::parse(good.out));
   std::string mislabelled = kept;
   mislabelled.replace(mislabelled.find(",P5,"), 4, ",P3,");  // line 3: cycle 1's second row
   refused(score(mislabelled, dir + "/plan/plan.csv"),

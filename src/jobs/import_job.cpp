@@ -13,17 +13,14 @@ namespace hapticcal {
 recording::ImportResult run_import(const recording::ImportRequest& request) {
   const std::string folder =
       request.out.empty() ? recording::kDefaultImportOut : request.out;
-  std::optional<OutputSet> out;  // begun with the first file made
-  const auto begin = [&]() -> OutputSet& {
-    if (!out) out.emplace(folder, "import");
-    return *out;
-  };
+  std::optional<OutputSet> out;  // none for a listing, which writes nothing
+  if (!request.list) out.emplace(folder, "import");
   recording::ImportResult result =
       recording::import_recording(request, [&](const std::string& name, const std::string& text) {
-        write_file_atomically(begin().dir() + "/" + name, text);
+        write_file_atomically(out.value().dir() + "/" + name, text);
       });
-  if (request.list) return result;
-  OutputSet& set = begin();
+  if (!out) return result;
+  OutputSet& set = *out;
   write_file_atomically(set.dir() + "/import.json",
                         recording::import_summary_json(request, result));
   set.commit();

@@ -136,7 +136,7 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
   Evaluation ev;
   ev.n = log.rows;
   const std::vector<Reported> reported = reported_figures(log, ev);
-  const bool fixture = !log.label.empty();  // a fixture's samples: each row's label
+  const bool fixture = holds_fixture(log);
   Eigen::VectorXd q(model.dof());
   std::vector<double> measured, errors;
   // A backlash moves the joint values by the side each joint came from.
@@ -198,12 +198,6 @@ const Evaluation::FigureErrors* Evaluation::figure(std::string_view name) const 
   for (const FigureErrors& f : figures)
     if (name == f.figure.name) return &f;
   return nullptr;
-}
-
-std::optional<double> Evaluation::rms(std::string_view name) const {
-  const FigureErrors* f = figure(name);
-  if (!f) return std::nullopt;
-  return f->stats.rms;
 }
 
 const Eigen::VectorXd& sample_errors(const Evaluation& ev, MeasurementType type) {

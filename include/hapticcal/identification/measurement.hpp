@@ -164,6 +164,9 @@ inline bool measures_distance(MeasurementType t) { return traits(t).distance_col
 
 // Whether a log holds the values (or the labels) of kind `type`.
 inline bool holds(const Log& log, MeasurementType type) { return kind_of(type).in_log(log); }
+// Whether a log holds a fixture's labels (its rows' points or planes; an ISO
+// 9283 test log's pose names are not a fixture's).
+bool holds_fixture(const Log& log);
 // The kinds a log holds (MeasurementKind::in_log), built-in ones first.
 std::vector<MeasurementType> kinds_in(const Log& log);
 // What a log measures: the last registered kind it holds (so fixture points

@@ -61,8 +61,6 @@ struct Evaluation {
   std::vector<FigureErrors> figures;
   // The figure named `name`, or null if the log's kinds do not report it.
   const FigureErrors* figure(std::string_view name) const;
-  // Its RMS, or none.
-  std::optional<double> rms(std::string_view name) const;
 
   // Fixture logs. Points: each label's predicted tool points against their
   // mean; over all rows (labels weighted by their samples, as MUKCa's KPI)

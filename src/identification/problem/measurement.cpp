@@ -372,6 +372,12 @@ std::vector<MeasurementType> kinds_in(const Log& log) {
   return held;
 }
 
+bool holds_fixture(const Log& log) {
+  for (MeasurementType t : kinds_in(log))
+    if (traits(t).fixture) return true;
+  return false;
+}
+
 MeasurementType measurement_type(const Log& log) {
   const std::vector<MeasurementType> all = measurement_types();
   for (auto it = all.rbegin(); it != all.rend(); ++it) {

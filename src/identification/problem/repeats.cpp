@@ -26,7 +26,7 @@ namespace detail {
 // (rows of no pose, a screened outlier's, do not end a visit).
 double repeatability(const Log& log, const std::vector<std::vector<int>>& poses,
                      MeasurementType type) {
-  if (!log.label.empty()) return std::numeric_limits<double>::quiet_NaN();  // a fixture's labels
+  if (holds_fixture(log)) return std::numeric_limits<double>::quiet_NaN();  // nothing measured
   // Each row's next row of some pose (log.rows: none).
   std::vector<int> next_used(static_cast<std::size_t>(log.rows) + 1, log.rows);
   {

@@ -107,8 +107,8 @@ void screen_repeats(const Log& log, std::vector<std::vector<int>>& poses, double
                     std::vector<std::string>& notes) {
   constexpr size_t kMinRepeats = 5;  // a median and a spread worth the name
   constexpr size_t kNamed = 10;
-  // Measured values only: a fixture's labels (its samples' labels) have none.
-  if (kinds_in(log).empty() || !log.label.empty()) return;
+  // Measured values only: a fixture's labels have none.
+  if (kinds_in(log).empty() || holds_fixture(log)) return;
   // The measured lengths of a row (a pose's position, not its rotation).
   const MeasurementType type = measurement_type(log);
   const MeasurementTraits& t = traits(type);

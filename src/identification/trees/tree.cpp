@@ -320,7 +320,7 @@ std::vector<std::string> row_labels(const Log& log, int r, int tips) {
 Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
   const int k = tree.tips();
   if (only >= k) throw std::out_of_range("tip_samples: tip " + std::to_string(only));
-  const bool fixture = !log.label.empty();  // a fixture's samples: each row's label
+  const bool fixture = holds_fixture(log);
   // Markers a tip: 1, a point; 3 or more, a rigid body on each tip (the same
   // layout on every one), x1 .. x<M> the first tip's, x<M+1> .. the second's.
   const int per_tip = fixture ? 0 : log.marker_count / k;
