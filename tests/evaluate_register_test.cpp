@@ -160,7 +160,8 @@ TEST(EvaluateRegister, PoseLogRecoversFrameAndToolRotation) {
   const Frame<double> T = random_motion(rng, 0.5, 30 * M_PI / 180);
   const Log log = moved(testing::pose_log(truth, 30, rng), T);
   const Evaluation e = evaluate_registered(model, log, RegisterWhat::kFrameAndTool);
-  ASSERT_TRUE(e.registered && e.registered->tool && e.figure("orientation") && e.figure("position"));
+  ASSERT_TRUE(e.registered && e.registered->tool && e.figure("orientation") &&
+              e.figure("position"));
   EXPECT_LT(e.figure("position")->stats.rms, 1e-9);
   EXPECT_LT(e.figure("orientation")->stats.rms, 1e-9);
   EXPECT_NEAR(e.registered->tool_offset.z(), 0.02, 1e-9);

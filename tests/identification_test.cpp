@@ -167,8 +167,9 @@ TEST(Identification, Meca500ValidationRmsAfterCalibration) {
       read_log(testing::source_path("examples/meca500/cal-norm_dist_data_0deg_160cube.csv"));
   const Log val =
       read_log(testing::source_path("examples/meca500/val-norm_dist_data_0deg_80cube.csv"));
-  const double across =
-      evaluate(calibrate(nominal, cal, all).calibrated, val).figure("position")->stats.rms;  // one model
+  const double across = evaluate(calibrate(nominal, cal, all).calibrated, val)
+                            .figure("position")
+                            ->stats.rms;  // one model
   std::printf("calibrated on 0deg_160cube, validated on 0deg_80cube: %.4f mm\n", across * 1e3);
   EXPECT_LT(across, 0.05e-3);
 }

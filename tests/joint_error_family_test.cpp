@@ -133,7 +133,8 @@ TEST(JointErrorFamily, ARegisteredFamilyIsFittedFoldedAndNamed) {
   CalibrationOptions geometry_alone;
   geometry_alone.joint_errors = {"none"};
   const CalibrationResult geometric = calibrate(s.nominal, s.data.cal, geometry_alone);
-  const double geometric_rms = evaluate(geometric.calibrated, s.data.val).figure("position")->stats.rms;
+  const double geometric_rms =
+      evaluate(geometric.calibrated, s.data.val).figure("position")->stats.rms;
 
   CalibrationOptions options;
   options.joint_errors = {"scale"};
@@ -200,7 +201,8 @@ TEST(JointErrorFamily, TheDefaultSearchOffersARegisteredFamily) {
   ASSERT_EQ(found.status, CalibrationStatus::kConverged) << found.status_reason;
   const auto& families = found.kinematics.joint_error_families;
   EXPECT_NE(std::find(families.begin(), families.end(), "scale"), families.end());
-  EXPECT_LT(evaluate(found.calibrated, s.data.val).figure("position")->stats.rms, 1.2 * s.data.floor);
+  EXPECT_LT(evaluate(found.calibrated, s.data.val).figure("position")->stats.rms,
+            1.2 * s.data.floor);
 
   DeviceModel driven = s.nominal;
   for (Link& l : driven.links) l.transmission = ratio_error(0.0);

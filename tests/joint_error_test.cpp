@@ -73,7 +73,8 @@ TEST(JointErrors, HarmonicGearErrorIsRecoveredFromTrackerPositions) {
   const DeviceModel nominal = testing::meca500();
   const DeviceModel actual = geared_meca500();
   const Log cal = tracker_log(actual, 300, 1), val = tracker_log(actual, 300, 2);
-  const double floor = evaluate(actual, val).figure("position")->stats.rms;  // the noise: sqrt(3) x 10 um
+  const double floor =
+      evaluate(actual, val).figure("position")->stats.rms;  // the noise: sqrt(3) x 10 um
   EXPECT_NEAR(floor, std::sqrt(3.0) * kNoise, 0.15 * std::sqrt(3.0) * kNoise);
 
   CalibrationOptions geometry_alone;

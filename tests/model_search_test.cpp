@@ -236,9 +236,12 @@ TEST(ModelSearch, InstrumentZeroIsFittedOnlyWhereTheDataSupportIt) {
     const Log log = simulate_log(actual, 200, SimulationNoise{}, seed);
     CalibrationOptions free_zero;
     free_zero.free = {"instrument.zero"};
-    held += std::pow(evaluate(calibrate(nominal, log, {}).calibrated, check).figure("distance")->stats.rms, 2);
-    fitted +=
-        std::pow(evaluate(calibrate(nominal, log, free_zero).calibrated, check).figure("distance")->stats.rms, 2);
+    held += std::pow(
+        evaluate(calibrate(nominal, log, {}).calibrated, check).figure("distance")->stats.rms, 2);
+    fitted += std::pow(evaluate(calibrate(nominal, log, free_zero).calibrated, check)
+                           .figure("distance")
+                           ->stats.rms,
+                       2);
   }
   std::printf("distance RMS on new poses over 10 draws: zero held %.2f um, fitted %.2f um\n",
               std::sqrt(held / 10) * 1e6, std::sqrt(fitted / 10) * 1e6);

@@ -180,7 +180,8 @@ TEST(CrossValidation, EqualsCalibratingOnTheOtherFoldsAndEvaluatingOnEachFold) {
     by_hand.folds = 0;
     const CalibrationResult c = calibrate(nominal, average_repeats(log, train), by_hand);
     ASSERT_EQ(c.kinematics.identified_names, r.kinematics.identified_names);
-    const double rms = evaluate(c.calibrated, average_repeats(log, test)).figure("position")->stats.rms;
+    const double rms =
+        evaluate(c.calibrated, average_repeats(log, test)).figure("position")->stats.rms;
     sum += rms * rms * static_cast<double>(test.size());
   }
   const double by_hand = std::sqrt(sum / log.rows);

@@ -213,7 +213,8 @@ TEST(TolerancePrior, Meca500DefaultIsWithinTheValidationNoiseOfTheCut) {
       CalibrationOptions o;
       o.tolerances.scale = scale;
       o.search = false;  // the prior itself, not the choice
-      v[3] = std::min(v[3], evaluate(calibrate(nominal, cal, o).calibrated, val).figure("position")->stats.rms);
+      v[3] = std::min(
+          v[3], evaluate(calibrate(nominal, cal, o).calibrated, val).figure("position")->stats.rms);
     }
     for (int k = 0; k < 4; ++k) {
       sum[k] += v[k];

@@ -106,7 +106,8 @@ TEST(SmallLogs, AUsableCalibrationNeverPredictsWorseThanTheNominalWithItsSetUp) 
       mine.clean += outliers == 0;
       if (outliers == 0 && left_out > 0) ++mine.false_flags;
       const double kept = evaluate(r.calibrated, val).figure("position")->stats.rms;
-      const double setup = evaluate(nominal_with_setup(robot.nominal, cal), val).figure("position")->stats.rms;
+      const double setup =
+          evaluate(nominal_with_setup(robot.nominal, cal), val).figure("position")->stats.rms;
       const ModelSearch& s = r.kinematics.search;
       const double stated =
           s.ran && s.kept >= 0 ? s.candidates[static_cast<size_t>(s.kept)].se : 0.0;

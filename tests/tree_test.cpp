@@ -155,8 +155,10 @@ TEST(Tree, JointFitValidatesBetterThanSeparateFits) {
       const CalibrationResult r = calibrate(arm, arm_log(nominal, fit, c), {});
       ASSERT_EQ(r.status, CalibrationStatus::kConverged) << r.status_reason;
       separate.push_back(r.calibrated);
-      apart_held.push_back(evaluate(r.calibrated, arm_log(nominal, held, c)).figure("position")->stats.rms);
-      apart_truth.push_back(evaluate(r.calibrated, arm_log(nominal, held_truth, c)).figure("position")->stats.rms);
+      apart_held.push_back(
+          evaluate(r.calibrated, arm_log(nominal, held, c)).figure("position")->stats.rms);
+      apart_truth.push_back(
+          evaluate(r.calibrated, arm_log(nominal, held_truth, c)).figure("position")->stats.rms);
     }
     const auto mean = [](const std::vector<double>& v) { return (v[0] + v[1]) / 2; };
     std::printf(
@@ -582,7 +584,8 @@ TEST(Tree, CalibrateAndEvaluateOnTheCommandLine) {
   for (int t = 0; t < 2; ++t) {
     const double rms =
         evaluate(in_process.result.calibrated, tip_samples(in_process.result.calibrated, fit, t))
-            .figure("position")->stats.rms;
+            .figure("position")
+            ->stats.rms;
     EXPECT_NEAR(in_process.result.kinematics.tip_rms_after[static_cast<size_t>(t)], rms, 1e-9 * rms)
         << t;
     EXPECT_NEAR(j["tips"][kTips[static_cast<size_t>(t)]]["rms_after"].get<double>(), rms,

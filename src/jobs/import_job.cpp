@@ -11,8 +11,7 @@
 namespace hapticcal {
 
 recording::ImportResult run_import(const recording::ImportRequest& request) {
-  const std::string folder =
-      request.out.empty() ? recording::kDefaultImportOut : request.out;
+  const std::string folder = request.out.empty() ? recording::kDefaultImportOut : request.out;
   std::optional<OutputSet> out;  // none for a listing, which writes nothing
   if (!request.list) out.emplace(folder, "import");
   recording::ImportResult result =

@@ -504,9 +504,8 @@ ImportResult import_recording(const ImportRequest& request, const ImportSink& wr
                     what, device->what, tracker->what,
                     request.stamps == StampSource::kHeader ? "header" : "recorder's",
                     seconds_text(origin), convention);
-    write(
-        "log.csv",
-        static_csv(*device, *tracker, request, model ? &*model : nullptr, origin, comment, result));
+    write("log.csv", static_csv(*device, *tracker, request, model ? &*model : nullptr, origin,
+                                comment, result));
     device.reset(), tracker.reset();
   }
   if (device) {

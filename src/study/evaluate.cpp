@@ -301,10 +301,9 @@ std::vector<std::string> evaluation_lines(const EvaluationComparison* cmp, const
     const Evaluation::FigureErrors* theirs = ref ? ref->figure(f.figure.name) : nullptr;
     if (!theirs) continue;
     lines.push_back(fmt::format(
-        "against {}: {} RMS {:.4f} {} -> {:.4f} {}, improvement {:.1f} % (eq. 9){}",
-        reference_name, f.figure.name, theirs->stats.rms * 1e3, f.figure.unit(),
-        f.stats.rms * 1e3, f.figure.unit(), rms_improvement_pct(f.stats.rms, theirs->stats.rms),
-        setup_only));
+        "against {}: {} RMS {:.4f} {} -> {:.4f} {}, improvement {:.1f} % (eq. 9){}", reference_name,
+        f.figure.name, theirs->stats.rms * 1e3, f.figure.unit(), f.stats.rms * 1e3, f.figure.unit(),
+        rms_improvement_pct(f.stats.rms, theirs->stats.rms), setup_only));
   }
   return lines;
 }

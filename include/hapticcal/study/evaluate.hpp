@@ -54,7 +54,7 @@ struct Evaluation {
   // R_measured^T) [rad], a registered kind's own.
   struct FigureErrors {
     ErrorFigure figure;
-    MeasurementType type;   // the kind that reports it
+    MeasurementType type;  // the kind that reports it
     ErrorStats stats;
     Eigen::VectorXd error;  // per row
   };

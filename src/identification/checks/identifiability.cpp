@@ -332,8 +332,7 @@ void record_verdicts(const KinematicProblem& problem, const RankFindings& f,
         out.reason[slot] += fmt::format(
             " (with them, a uniform scale of the robot: {} cannot see its size; give a known "
             "distance between points, --point-distance)",
-            problem.labels.points ? "fixture points without a known distance"
-                                  : "plane contacts");
+            problem.labels.points ? "fixture points without a known distance" : "plane contacts");
       }
     } else if (s.instrument && slot == s.instrument_slot()) {
       // The instrument's, not the device's: these poses leave it at 0 (held),
@@ -398,8 +397,7 @@ IdentifiabilityAnalysis analyze_identifiability(const KinematicProblem& problem,
   // least squares in the joints) until its tool point is at its label's mean
   // point, or on its label's best plane.
   std::vector<Eigen::VectorXd> joints =
-      kind.labels ? consistent_joints(s, p0, problem.joints, problem.labels)
-                  : problem.joints;
+      kind.labels ? consistent_joints(s, p0, problem.joints, problem.labels) : problem.joints;
   if (kind.labels) {  // the moved poses' features of their joint values
     const StepTwoJoints step_two(model);
     for (Eigen::VectorXd& j : joints) step_two.refresh(j);

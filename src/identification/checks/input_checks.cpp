@@ -350,8 +350,7 @@ void check_options(const CalibrationOptions& options) {
   for (const std::string& family : options.joint_errors) {
     if (family != "none" && !find_joint_error_family(family)) {
       std::vector<std::string_view> names;
-      for (const JointErrorFamily* f : joint_error_families())
-        names.push_back(f->name());
+      for (const JointErrorFamily* f : joint_error_families()) names.push_back(f->name());
       throw InputError(fmt::format("--joint-errors: '{}' is not a joint-error family ({}, or none)",
                                    printable(family), fmt::join(names, ", ")));
     }

@@ -283,8 +283,7 @@ std::vector<ErrorFigure> MeasurementKind::error_figures() const {
   return {{traits_.name, traits_.error_title, traits_.error_axis}};
 }
 
-void MeasurementKind::errors(const Frame<double>& tool, const double* measured,
-                             double* out) const {
+void MeasurementKind::errors(const Frame<double>& tool, const double* measured, double* out) const {
   std::vector<double> predicted(static_cast<size_t>(traits_.width));
   predict(tool, predicted.data());
   if (traits_.length_rows == 1) {

@@ -119,9 +119,8 @@ inline void measurement_rows(const ChainStructure& s, const ChainConstants<doubl
   auto features = [&](const JointErrorStage& e) {
     return e.feature >= 0 ? joint + e.feature : formed[e.link].data();
   };
-  const bool bent =
-      kind.bends || std::any_of(stages.begin(), stages.end(),
-                                     [](const JointErrorStage& e) { return e.geometry; });
+  const bool bent = kind.bends || std::any_of(stages.begin(), stages.end(),
+                                              [](const JointErrorStage& e) { return e.geometry; });
   std::optional<ChainConstants<double>> pose;
   if (bent) pose.emplace(constants);
   std::array<double, kMaxDof> bend{};
