@@ -1,14 +1,11 @@
-// Joint compliance (issue 25, item 2a): gravity torques from the links' masses
-// and the deflection k tau they cause, in the one place readings become joint
-// values (DeviceModel::compensate is defined here, beside the kinematics its
-// compliance needs).
+// Joint compliance: gravity torques from the links' masses and the deflection
+// k tau they cause (GravityModel), which DeviceModel::compensate adds to the
+// joint values (joint_values.cpp).
 #include <algorithm>
 #include <array>
-#include <cassert>
 #include <cmath>
 
 #include "hapticcal/kinematics/kinematics.hpp"
-#include "hapticcal/model/joint_effect.hpp"
 
 namespace hapticcal {
 
@@ -171,36 +168,6 @@ void GravityModel::deflect(double* joint) const {
   std::array<double, kMaxDof> tau;
   torques(joint, tau.data());
   for (int i = 0; i < structure.dof; ++i) joint[i] += compliance[i] * tau[i];
-}
-
-Eigen::VectorXd DeviceModel::compensate(const Eigen::VectorXd& q) const {
-  assert(q.size() == dof());
-  Eigen::VectorXd joint(dof());
-  for (int i = 0; i < dof(); ++i)
-    joint[i] = q[i] + links[i].transmission.error(q[i]) + effects_error(links[i], q[i]);
-  if (coupled()) joint = coupling * joint;
-  if (compliant()) GravityModel(*this).deflect(joint.data());
-  return joint;
-}
-
-Eigen::MatrixXd DeviceModel::reading_jacobian(const Eigen::VectorXd& q) const {
-  assert(q.size() == dof());
-  if (compliant()) {  // the deflection's slope by central differences
-    const double h = 1e-6;
-    Eigen::MatrixXd D(dof(), dof());
-    for (int k = 0; k < dof(); ++k) {
-      Eigen::VectorXd plus = q, minus = q;
-      plus[k] += h;
-      minus[k] -= h;
-      D.col(k) = (compensate(plus) - compensate(minus)) / (2 * h);
-    }
-    return D;
-  }
-  Eigen::VectorXd slope(dof());
-  for (int k = 0; k < dof(); ++k)
-    slope[k] = 1 + links[k].transmission.derivative(q[k]) + effects_slope(links[k], q[k]);
-  if (coupled()) return coupling * slope.asDiagonal();
-  return slope.asDiagonal();
 }
 
 }  // namespace hapticcal

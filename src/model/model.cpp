@@ -270,7 +270,7 @@ std::vector<ParameterInfo> DeviceModel::parameter_info() const {
   return info;
 }
 
-// DeviceModel::compensate and reading_jacobian: kinematics/compliance.cpp
+// DeviceModel::compensate and reading_jacobian: kinematics/joint_values.cpp
 // (the gravity torques of joint compliance need the kinematics).
 
 void DeviceModel::apply_backlash(const Eigen::Ref<const Eigen::RowVectorXd>& direction,
