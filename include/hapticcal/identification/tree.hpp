@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -94,8 +95,8 @@ std::string tree_urdf(const std::string& text, const std::string& origin, const 
 // them into the body's poses, markers.hpp).
 // A fixture log of a tree names a label a tip (point1 .. pointK, which the
 // log reader keeps joined by ','): each sample its tip's label.
-// `only` >= 0: that tip's sample of each row alone.
-Log tip_samples(const DeviceModel& tree, const Log& log, int only = -1);
+// `only`: that tip's sample of each row alone (none: every tip's).
+Log tip_samples(const DeviceModel& tree, const Log& log, std::optional<int> only = std::nullopt);
 
 // How many of the log's `noun`s ("row", "pose") `samples` of a fit are: "10
 // poses" for a chain; a tree's a sample a tip of each, "5 poses of 2 tips, 10

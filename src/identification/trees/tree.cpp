@@ -317,9 +317,10 @@ std::vector<std::string> row_labels(const Log& log, int r, int tips) {
 
 }  // namespace
 
-Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
+Log tip_samples(const DeviceModel& tree, const Log& log, std::optional<int> only) {
   const int k = tree.tips();
-  if (only >= k) throw std::out_of_range("tip_samples: tip " + std::to_string(only));
+  if (only && (*only < 0 || *only >= k))
+    throw std::out_of_range("tip_samples: tip " + std::to_string(*only));
   const bool fixture = holds_fixture(log);
   // Markers a tip: 1, a point; 3 or more, a rigid body on each tip (the same
   // layout on every one), x1 .. x<M> the first tip's, x<M+1> .. the second's.
@@ -342,7 +343,7 @@ Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
                      "a tree's log gives each tip's point, or each tip's fixture label, only (no "
                      "orientations, distances or other measurements yet)");
   Log out = log;
-  const int per_row = only >= 0 ? 1 : k;
+  const int per_row = only ? 1 : k;
   out.rows = log.rows * per_row;
   out.marker_count = per_tip > 1 ? per_tip : 0;
   out.markers.resize(per_tip > 1 ? out.rows : 0, 3 * out.marker_count);
@@ -357,8 +358,8 @@ Log tip_samples(const DeviceModel& tree, const Log& log, int only) {
   for (int r = 0; r < log.rows; ++r) {
     const std::vector<std::string> labels =
         fixture ? row_labels(log, r, k) : std::vector<std::string>();
-    for (int t = std::max(only, 0); t < (only >= 0 ? only + 1 : k); ++t) {
-      const int row = only >= 0 ? r : r * k + t;
+    for (int t = only.value_or(0); t < (only ? *only + 1 : k); ++t) {
+      const int row = only ? r : r * k + t;
       out.q.row(row) = log.q.row(r);
       if (log.ext.cols() > 0) out.ext.row(row) = log.ext.row(r);
       if (log.direction.cols() > 0) out.direction.row(row) = log.direction.row(r);
