@@ -31,16 +31,8 @@ namespace {
 void print_validation_and_trajectory(const hapticcal::Scenario& sc,
                                      const hapticcal::TrialResult& t) {
   const bool paper = sc.paper_comparison();
-  fmt::print("Validation ({} poses{}): position RMS {:.4f} -> {:.4f} mm{}{}\n", sc.validation_poses,
-             paper ? ", Fig. 8" : "", t.position_rms_before * 1e3, t.position_rms_after * 1e3,
-             hapticcal::shows_orientation(sc)
-                 ? fmt::format(", orientation RMS {:.4f} -> {:.4f} mrad",
-                               t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3)
-                 : "",
-             hapticcal::measures_distance(sc.measurement)
-                 ? fmt::format(", distance RMS {:.4f} -> {:.4f} mm", t.distance_rms_before * 1e3,
-                               t.distance_rms_after * 1e3)
-                 : "");
+  fmt::print("Validation ({} poses{}): {}\n", sc.validation_poses, paper ? ", Fig. 8" : "",
+             hapticcal::validation_figures(sc, t));
   if (!hapticcal::shows_trajectory(sc, t)) return;
   fmt::print(
       "Trajectory ({:.0f} s at {:.0f} Hz{}): distance RMS {:.4f} mm nominal, {:.4f} mm "
@@ -73,9 +65,7 @@ void print_general_study(const hapticcal::Scenario& sc, const hapticcal::StudyRe
   fmt::print("Truth: {} transmissions; kinematics {}. Measurement: {} (sigma_m {:.3g} m{})\n",
              sc.paper_transmissions ? "the paper's (Table 2)" : "the device's own", kinematics,
              hapticcal::traits(sc.measurement).plural, hapticcal::measurement_sigma(sc),
-             hapticcal::measures_orientation(sc.measurement)
-                 ? fmt::format(", sigma_r {:.3g} rad", sc.noise.sigma_orientation)
-                 : "");
+             hapticcal::rotation_noise(sc));
   const std::vector<hapticcal::StudyRow> rows = hapticcal::study_rows(sc, t.full);
   auto crlb = [&](const hapticcal::StudyRow& row) {
     const auto it = r.monte_carlo.find(row.name);

@@ -218,7 +218,7 @@ void prepare_poses(CalibrationRun& run) {
 // --fix instrument.zero (or options.instrument_zero false): no slot at all.
 // (Other logs have no such parameter: fixing it is refused as unknown.)
 void offer_instrument_zero(CalibrationRun& run) {
-  const bool distances = traits(run.fit().type).zero && run.options.instrument_zero;
+  const bool distances = run.zero_offered();
   run.fix = run.options.fix;
   const auto fixed_zero = std::find(run.fix.begin(), run.fix.end(), "instrument.zero");
   const bool zero_fixed = distances && fixed_zero != run.fix.end();

@@ -64,6 +64,9 @@ struct CalibrationRun {
   KinematicFit& fit() { return result.kinematics; }
   const KinematicFit& fit() const { return result.kinematics; }
   RowsOf kind() const { return rows_of(problem); }
+  // Whether step 2 may estimate the instrument's zero: its kind reads one
+  // (MeasurementKind::reads_zero) and the options do not turn it off.
+  bool zero_offered() const { return kind_of(fit().type).reads_zero() && options.instrument_zero; }
 };
 
 // Rows far from their pose's other repeats (5 rows or more: a device at rest

@@ -40,18 +40,8 @@ Outcome study_outcome(const Scenario& sc, const StudyResult& r) {
   o.usable = t.full.status == CalibrationStatus::kConverged;
   o.status = fmt::format("{} trial(s), seed {}; the first trial's calibration: {}", r.trials,
                          sc.seed, to_string(t.full.status));
-  std::string validation =
-      fmt::format("validation ({} poses): position RMS {:.4f} -> {:.4f} mm", sc.validation_poses,
-                  t.position_rms_before * 1e3, t.position_rms_after * 1e3);
-  if (shows_orientation(sc)) {
-    validation += fmt::format(", orientation RMS {:.4f} -> {:.4f} mrad",
-                              t.orientation_rms_before * 1e3, t.orientation_rms_after * 1e3);
-  }
-  if (measures_distance(sc.measurement)) {
-    validation += fmt::format(", distance RMS {:.4f} -> {:.4f} mm", t.distance_rms_before * 1e3,
-                              t.distance_rms_after * 1e3);
-  }
-  o.headline.push_back(validation);
+  o.headline.push_back(
+      fmt::format("validation ({} poses): {}", sc.validation_poses, validation_figures(sc, t)));
   if (shows_trajectory(sc, t)) {
     o.headline.push_back(fmt::format(
         "trajectory ({:.0f} s at {:.0f} Hz): distance RMS {:.4f} mm nominal, {:.4f} mm full "
@@ -322,6 +312,26 @@ void monte_carlo_figures(const Scenario& sc, const StudyResult& r, Report& repor
 
 }  // namespace
 
+std::string validation_figures(const Scenario& sc, const TrialResult& t) {
+  std::string out = fmt::format("position RMS {:.4f} -> {:.4f} mm", t.position_rms_before * 1e3,
+                                t.position_rms_after * 1e3);
+  if (shows_orientation(sc)) {
+    out += fmt::format(", orientation RMS {:.4f} -> {:.4f} mrad", t.orientation_rms_before * 1e3,
+                       t.orientation_rms_after * 1e3);
+  }
+  if (measures_distance(sc.measurement)) {
+    out += fmt::format(", distance RMS {:.4f} -> {:.4f} mm", t.distance_rms_before * 1e3,
+                       t.distance_rms_after * 1e3);
+  }
+  return out;
+}
+
+std::string rotation_noise(const Scenario& sc) {
+  return measures_orientation(sc.measurement)
+             ? fmt::format(", sigma_r {:.4g} rad", sc.noise.sigma_orientation)
+             : std::string();
+}
+
 bool shows_orientation(const Scenario& sc) {
   return measures_orientation(sc.measurement) || sc.paper_comparison();
 }
@@ -346,10 +356,7 @@ Report study_report(const Scenario& sc, const StudyResult& r) {
       r.trials, sc.seed, sc.identification_poses, sc.validation_poses,
       paper_study || step_one_ran(t) ? fmt::format("sigma_e {:.4g} rad, ", sc.noise.sigma_ext)
                                      : std::string(),
-      measurement_sigma(sc), sc.sigma_m_formula,
-      measures_orientation(sc.measurement)
-          ? fmt::format(", sigma_r {:.4g} rad", sc.noise.sigma_orientation)
-          : std::string(),
+      measurement_sigma(sc), sc.sigma_m_formula, rotation_noise(sc),
       paper_study ? std::string()
                   : fmt::format(" Truth: {} transmissions, {} kinematics.",
                                 sc.paper_transmissions ? "the paper's" : "the device's own",

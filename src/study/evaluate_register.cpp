@@ -80,8 +80,7 @@ double rotation_scale(const ChainStructure& s, const Eigen::VectorXd& p,
 // position (and its rotation, which only a pose log sees); every other slot held.
 void refine(const ChainStructure& s, Eigen::VectorXd& p, const std::vector<Eigen::VectorXd>& joints,
             const detail::RowsOf& kind, const detail::RowMatrix& measured, RegisterWhat what) {
-  const int tool_free =
-      what == RegisterWhat::kFrameAndTool ? (traits(kind.type).rotation ? kPoseSlots : 3) : 0;
+  const int tool_free = what == RegisterWhat::kFrameAndTool ? observed_tool_slots(kind.type) : 0;
   std::vector<int> constant;
   for (int k = s.base_slots(); k < s.num_slots(); ++k) {
     if (k < s.tool_slot() || k >= s.tool_slot() + tool_free) constant.push_back(k);

@@ -97,12 +97,11 @@ std::vector<double> iso_predicted_ap(const CalibrationResult& calibration,
         calibration.calibrated, fit.type, fit.rotation_scale, slots, step_one, identification.q);
     // Each row's variance: a distance's or a position coordinate's, a pose's
     // rotation rows (the last three of each tip's six) scaled as the fit scales them.
-    const int d = at_identification.dimension;
     Eigen::VectorXd variance(at_identification.kinematic.rows());
     for (Eigen::Index r = 0; r < variance.size(); ++r) {
-      const bool rotation_row = measures_orientation(fit.type) && (r % d) % 6 >= 3;
-      variance[r] = rotation_row ? std::pow(fit.rotation_scale * noise.rotation, 2)
-                                 : noise.measurement * noise.measurement;
+      variance[r] = rotation_row(fit.type, static_cast<int>(r))
+                        ? std::pow(fit.rotation_scale * noise.rotation, 2)
+                        : noise.measurement * noise.measurement;
     }
     C = two_step_sandwich(at_identification, variance, noise.encoder);
   }

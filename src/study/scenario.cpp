@@ -291,8 +291,8 @@ void complete_fixture(const ScenarioFile& file, Scenario& sc) {
   if (plane_fixture(sc.measurement) && sc.planes.empty()) sc.planes = default_planes(sc.nominal);
   // Enough samples a label: 2 a socket (a point is 3 unknowns), 4 a plane (any
   // 3 points lie on one).
-  if (is_fixture(sc.measurement)) {
-    const bool point = socket_fixture(sc.measurement);
+  if (!sc.sockets.empty() || !sc.planes.empty()) {
+    const bool point = !sc.sockets.empty();
     const int labels = static_cast<int>(point ? sc.sockets.size() : sc.planes.size());
     const int least = point ? 2 : 4;
     if (sc.identification_poses / labels < least) {
@@ -404,7 +404,7 @@ void read_noise(const ScenarioFile& file, Scenario& sc) {
     if (noise["sigma_e"])
       sc.noise.sigma_ext = level(noise["sigma_e"], "noise.sigma_e", kMaxSigmaAngle, "rad");
     // The paper's formulas are of its cable encoder: its device, distances.
-    const bool paper_encoder = sc.paper_device && traits(sc.measurement).distance_column;
+    const bool paper_encoder = sc.paper_encoder();
     if (paper_encoder) sc.noise.sigma_distance = paper_sigma_m(sc.noise.sigma_ext);  // the default
     if (const YAML::Node m = noise["sigma_m"]) {
       const bool formula = m.IsScalar() && (m.Scalar() == "consistent" || m.Scalar() == "paper");

@@ -121,12 +121,11 @@ double rotation_angle(const Eigen::Matrix3d& R) { return Eigen::AngleAxisd(R).an
 // or at `readings`, with `noise` (a fixture's: its position sd).
 Log simulated_log(const Scenario& sc, const SimulationNoise& noise, const DeviceModel& model,
                   int poses, const Eigen::MatrixXd& readings, std::uint64_t seed) {
-  const MeasurementTraits& kind = traits(sc.measurement);
-  if (kind.fixture && kind.label_points) {
+  if (!sc.sockets.empty()) {
     return simulate_fixture_log(model, sc.sockets, poses / static_cast<int>(sc.sockets.size()),
                                 noise.sigma_position, seed);
   }
-  if (kind.fixture) {
+  if (!sc.planes.empty()) {
     return simulate_plane_log(model, sc.planes, poses / static_cast<int>(sc.planes.size()),
                               noise.sigma_position, seed);
   }
@@ -212,15 +211,18 @@ std::vector<PointDistance> socket_distances(
   return out;
 }
 
-// The kinematic parameters `type` identifies on `nominal` (calibrate's
+// The distances between the scenario's sockets the calibration is given
+// (--point-distance): every pair's if they are known, else none.
+std::vector<PointDistance> given_distances(const Scenario& sc) {
+  return sc.socket_distances_known ? socket_distances(sc.sockets) : std::vector<PointDistance>{};
+}
+
+// The kinematic parameters the scenario's measurement identifies on `nominal` (calibrate's
 // candidates and priority order, its rank test on exact synthetic measurements
 // over the joint limits): those random deviations move, so that the truth is
 // one a calibration can recover.
 std::vector<int> identifiable_slots(const DeviceModel& nominal, const Scenario& sc) {
-  const MeasurementType type = sc.measurement;
   const std::vector<std::string>& fix = sc.fix;
-  const auto& sockets = sc.sockets;
-  const bool known = sc.socket_distances_known;
   constexpr int kPoses = 200;
   constexpr std::uint64_t kSeed = 20130101;
   SimulationNoise exact;
@@ -228,7 +230,7 @@ std::vector<int> identifiable_slots(const DeviceModel& nominal, const Scenario& 
   CalibrationOptions options;
   options.fix = fix;
   const Log log = samples(sc, simulated_log(sc, exact, nominal, kPoses, {}, kSeed));
-  if (traits(type).label_points && known) options.point_distances = socket_distances(sockets);
+  options.point_distances = given_distances(sc);
   KinematicProblem problem = kinematic_problem(nominal, log, {}, options);
   const std::vector<int> candidates = candidate_slots(nominal, fix, {});
   // As calibrate orders them: a tracker's frame unknown, the base first.
@@ -398,8 +400,7 @@ TrialResult run_trial(const Scenario& sc, std::uint64_t seed, const std::string&
   // The simulated instruments read without a zero error: the study is of the
   // device's parameters (and their Cramer-Rao bound), as the paper's.
   options.instrument_zero = false;
-  if (traits(sc.measurement).label_points && sc.socket_distances_known)
-    options.point_distances = socket_distances(sc.sockets);
+  options.point_distances = given_distances(sc);
   const Log fit_log = samples(sc, ident);
   const Log check_log = samples(sc, val);  // a tree's: one sample a tip, each with its tip
   t.full = calibrate(sc.nominal, fit_log, options);

@@ -55,7 +55,6 @@ struct MeasurementTraits {
   bool fixture = false;       // labels, no measured values (fixture points, plane contacts)
   bool rotation = false;      // rotation rows: a rotation scale, an orientation noise, a tool pose
   bool own_frame = false;     // values in the instrument's own frame (a tracker's): registrable
-  bool zero = false;          // the reading has an unknown additive zero (a cable encoder's)
   bool label_points = false;  // fixture labels are points: known distances fix the robot's size
   // The log's built-in columns its values come from and go to.
   bool distance_column = false, position_columns = false, orientation_columns = false;
@@ -109,6 +108,11 @@ class MeasurementKind {
   // What an instrument without error reads of the tool frame T_meas_tool
   // (`width` values; a fixture's: zeros).
   virtual void predict(const Frame<double>& tool, double* values) const = 0;
+  // Whether the instrument reads an unknown additive zero on top of its values
+  // (a cable encoder's d0, step 2's candidate "instrument.zero"; the default:
+  // no), and a reading `values` with that zero (the default: unchanged).
+  virtual bool reads_zero() const { return false; }
+  virtual void add_zero(double /*zero*/, double* /*values*/) const {}
   // The sd of this kind's length values among an instrument noise's (the
   // default: a tracker's, noise.position).
   virtual double sigma(const InstrumentNoise& noise) const { return noise.position; }
@@ -161,6 +165,14 @@ inline bool is_fixture(MeasurementType t) { return traits(t).fixture; }
 inline bool measures_orientation(MeasurementType t) { return traits(t).rotation; }
 // A measurement with a distance column (a cable encoder's).
 inline bool measures_distance(MeasurementType t) { return traits(t).distance_column; }
+// The tool frame's slots a kind's rows see: its pose's (kPoseSlots) with
+// rotation rows, its point's 3 else; "pose" or "point" in words.
+int observed_tool_slots(MeasurementType t);
+const char* observed_tool(MeasurementType t);
+// Whether residual row `row` (of a sample's `dimension`) is a rotation row.
+inline bool rotation_row(MeasurementType t, int row) {
+  return row % traits(t).dimension >= traits(t).length_rows;
+}
 
 // Whether a log holds the values (or the labels) of kind `type`.
 inline bool holds(const Log& log, MeasurementType type) { return kind_of(type).in_log(log); }

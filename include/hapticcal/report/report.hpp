@@ -103,6 +103,13 @@ bool shows_orientation(const Scenario& scenario);
 // kinematic-only calibration): the paper's study, or a distance study whose
 // step 1 ran (else the two calibrations are one).
 bool shows_trajectory(const Scenario& scenario, const TrialResult& trial);
+// The validation's errors before and after a trial's calibration, as the
+// report and the terminal print them: the position's RMS, and the
+// orientation's and the distance's where the study shows them.
+std::string validation_figures(const Scenario& scenario, const TrialResult& trial);
+// The instrument's noise beyond sigma_m: ", sigma_r X rad" where the
+// measurement has rotation rows, else nothing.
+std::string rotation_noise(const Scenario& scenario);
 // force: the Fig. 12 analogue for the nominal and the calibrated model.
 Report force_report(const ForceRun& nominal, const ForceRun& calibrated);
 // force's outcome block: the transverse force before and after, the final Fz

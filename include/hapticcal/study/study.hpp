@@ -100,11 +100,13 @@ struct Scenario {
   // iso9283: ISO 9283's test after each trial's calibration (simulate_iso_test).
   std::optional<IsoSimulation> iso9283;
 
+  // The paper's cable encoder: its device measured by distances (its sigma_m
+  // formulas apply).
+  bool paper_encoder() const { return paper_device && measures_distance(measurement); }
   // The paper's comparisons apply (its Table 2/3 I % column, its Fig. 10
   // percentages): the paper's device with the paper's truth, measured by distance.
   bool paper_comparison() const {
-    return paper_device && paper_transmissions && !random.enabled() &&
-           traits(measurement).distance_column;
+    return paper_encoder() && paper_transmissions && !random.enabled();
   }
 };
 

@@ -296,13 +296,13 @@ void check_reach(const ChainStructure& s, const DeviceModel& nominal,
                                   s.instrument ? " and the instrument's zero" : "");
   double rms_fitted = rms_base;
   if (!(rms_base <= limit)) {
-    const int tool_slots = traits(kind.type).rotation ? kPoseSlots : 3;
+    const int tool_slots = observed_tool_slots(kind.type);
     for (int t = 0; t < s.tips; ++t) {  // every tip's tool
       for (int k = 0; k < tool_slots; ++k) free.push_back(s.tool_slot() + kPoseSlots * t + k);
     }
     rms_fitted = rms_with_fitted(s, p, free, joints, kind, measured, weights, rows, compressed);
     tried += fmt::format(", {:.1f} mm with its base pose and tool {} fitted", rms_fitted * 1e3,
-                         traits(kind.type).rotation ? "pose" : "point");
+                         observed_tool(kind.type));
   }
   if (rms_fitted <= limit) {
     notes.push_back(fmt::format(

@@ -107,7 +107,7 @@ RowMatrix predicted_values(const ChainStructure& s, const Eigen::VectorXd& param
     double* row = out.row(i).data();
     hapticcal::predicted_values(kind.type, tool, row);
     // The instrument reads its zero d0 on top (step 2's "instrument.zero").
-    if (traits(kind.type).zero && s.instrument) row[0] += params[s.instrument_slot()];
+    if (s.instrument) kind_of(kind.type).add_zero(params[s.instrument_slot()], row);
   }
   return out;
 }

@@ -53,7 +53,6 @@ class Distance : public MeasurementKind {
                          .dimension = 1,
                          .width = 1,
                          .length_rows = 1,
-                         .zero = true,
                          .distance_column = true,
                          .error_title = "Distance error per sample, before and after calibration",
                          .error_axis = "|delta_model - delta_measured| [mm]",
@@ -61,6 +60,8 @@ class Distance : public MeasurementKind {
   void predict(const Frame<double>& tool, double* values) const override {
     values[0] = tool.p.norm();
   }
+  bool reads_zero() const override { return true; }
+  void add_zero(double zero, double* values) const override { values[0] += zero; }
   double sigma(const InstrumentNoise& noise) const override { return noise.distance; }
   std::vector<ErrorFigure> error_figures() const override {
     return {{"distance", "Distance error per sample", "|delta_model - delta_measured| [mm]"}};
@@ -370,6 +371,9 @@ std::vector<MeasurementType> kinds_in(const Log& log) {
     if (kind_of(t).in_log(log)) held.push_back(t);
   return held;
 }
+
+int observed_tool_slots(MeasurementType t) { return traits(t).rotation ? kPoseSlots : 3; }
+const char* observed_tool(MeasurementType t) { return traits(t).rotation ? "pose" : "point"; }
 
 bool holds_fixture(const Log& log) {
   for (MeasurementType t : kinds_in(log))

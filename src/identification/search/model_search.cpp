@@ -75,7 +75,7 @@ SearchSpace search_space(const CalibrationRun& run) {
   } else {
     space.estimators = {Estimator::kPrior, Estimator::kCut, Estimator::kLeastSquares};
   }
-  if (traits(run.fit().type).zero && o.instrument_zero) {
+  if (run.zero_offered()) {
     if (names_it(o.fix, "instrument.zero")) {
       space.zero = {false};
     } else if (names_it(o.free, "instrument.zero")) {
