@@ -306,7 +306,8 @@ PYBIND11_MODULE(hapticcal, m) {
                      tip.value_or(""), root.value_or("")};
       },
       "path"_a, "tip"_a = py::none(), "root"_a = py::none(),
-      "A device file (YAML) or a URDF (.urdf, with tip and root as --tip and --root)");
+      "A device file (YAML) or a URDF (.urdf, with tip and root as --tip and --root; "
+      "several tips, comma-separated, its tree)");
 
   py::class_<Calibration>(m, "CalibrationResult")
       .def_readonly("model", &Calibration::model, "The calibrated Model, None if not usable")

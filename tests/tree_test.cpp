@@ -5,6 +5,7 @@
 // the command line.
 #include "hapticcal/identification/tree.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -23,6 +24,7 @@
 #include "hapticcal/jobs/calibrate_job.hpp"
 #include "hapticcal/jobs/evaluate_job.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
+#include "hapticcal/model_io/model_source.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/session.hpp"
@@ -310,6 +312,57 @@ std::string urdf_folder(const std::string& name) {
   const std::string dir = testing::fresh_folder(name);
   std::filesystem::copy_file(kUrdf, dir + "/two_arm.urdf");
   return dir;
+}
+
+// One loader for chains and trees: several tips give the URDF's tree, one the
+// chain; the commands that need one tool point refuse a tree by name.
+TEST(Tree, OneLoaderForChainsAndTrees) {
+  const DeviceModel tree = load_model(kUrdf, "left_hand,right_hand");
+  const DeviceModel expected = tree_model(nominal_tree());
+  ASSERT_TRUE(tree.tree());
+  auto names = [](const DeviceModel& m) {
+    std::vector<std::string> out;
+    for (const ParameterInfo& p : m.parameter_info()) out.push_back(p.name);
+    return out;
+  };
+  EXPECT_EQ(names(tree), names(expected));
+  EXPECT_EQ(tree.kinematic_parameters(), expected.kinematic_parameters());
+  const std::string text = two_arm_urdf();
+  EXPECT_EQ(
+      load_model("two_arm.urdf", std::vector<std::string>{"left_hand", "right_hand"}, "", &text)
+          .kinematic_parameters(),
+      expected.kinematic_parameters());
+  const DeviceModel left = load_model(kUrdf, "left_hand");
+  EXPECT_FALSE(left.tree());
+  EXPECT_EQ(left.kinematic_parameters(),
+            parse_urdf(text, "two_arm.urdf", "left_hand").kinematic_parameters());
+  EXPECT_THROW(load_model(kUrdf, "left_hand,"), InputError);  // an empty tip's name
+  try {
+    load_model(builtin_device_path(), "a,b");
+    ADD_FAILURE() << "a device file with several tips was loaded";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("several tips apply to a URDF"), std::string::npos)
+        << e.what();
+  }
+  const std::string dir = urdf_folder("tree_refused");
+  const std::string urdf = dir + "/two_arm.urdf";
+  const testing::CliResult force =
+      testing::run_cli({"force", "--actual", urdf, "--nominal", urdf, "--calibrated", urdf, "--tip",
+                        "left_hand,right_hand", "--out", dir + "/force"});
+  EXPECT_EQ(force.exit_code, 2) << force.out << force.err;
+  EXPECT_NE(force.err.find("force: a tree has several tips"), std::string::npos) << force.err;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/force"));
+  std::string targets, zeros;  // joint targets: every joint at zero
+  for (int j = 0; j < tree.dof(); ++j) {
+    targets += fmt::format("{}q{}", j ? "," : "", j + 1);
+    zeros += j ? ",0" : "0";
+  }
+  std::ofstream(dir + "/targets.csv") << targets << "\n" << zeros << "\n";
+  const testing::CliResult compensate = testing::run_cli(
+      {"compensate", "--model", urdf, "--nominal", urdf, "--tip", "left_hand,right_hand",
+       "--targets", dir + "/targets.csv", "--out", dir + "/compensated"});
+  EXPECT_EQ(compensate.exit_code, 2) << compensate.out << compensate.err;
+  EXPECT_NE(compensate.err.find("a tree has several tips"), std::string::npos) << compensate.err;
 }
 
 // The largest distance [m] between the tips of a calibration's tree and of

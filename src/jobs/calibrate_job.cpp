@@ -47,7 +47,7 @@ std::string tip_order_hint(const CalibrateRequest& request, const std::string& u
   do {
     if (order == tips) continue;
     try {
-      const DeviceModel other = load_model_or_tree(request.model, order, request.root, &urdf_text);
+      const DeviceModel other = load_model(request.model, order, request.root, &urdf_text);
       calibrate(other, tip_samples(other, raw), quick);
     } catch (const InputError&) {
       continue;
@@ -67,8 +67,8 @@ CalibrateJob run_calibrate_job(const CalibrateRequest& request) {
   const bool urdf = !request.model.empty() && is_urdf_path(request.model);
   const std::string urdf_text = urdf ? read_file(request.model, FileKind::kUrdf) : std::string();
   job.nominal = request.nominal ? *request.nominal
-                                : load_model_or_tree(request.model, request.tip, request.root,
-                                                     urdf ? &urdf_text : nullptr);
+                                : load_model(request.model, request.tip, request.root,
+                                             urdf ? &urdf_text : nullptr);
   // A URDF's tips named, or a device file's (or a model in memory) holding them.
   const bool tree = job.nominal.tree();
   if (tree && (request.tool_point || request.nominal_tool))

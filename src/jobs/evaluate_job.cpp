@@ -114,7 +114,7 @@ DeviceModel evaluated_tree(const EvaluateRequest& request, const std::string& pa
           "fitted in; --root ROOT reads another tree)",
           path, root);
   }
-  return load_model_or_tree(path, tips, root, &text);
+  return load_model(path, tips, root, &text);
 }
 
 // Each tip of a tree evaluated on its samples (the log's x<k> its point), by

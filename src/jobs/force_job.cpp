@@ -28,9 +28,14 @@ std::string force_csv(const ForceRun& run) {
   return out;
 }
 
-// A model file: a URDF with the request's chain, a device file as it is.
+// A model file: a URDF with the request's chain, a device file as it is; a
+// tree is refused (the force study is of one tool point).
 DeviceModel load_force_model(const ForceRequest& request, const std::string& path) {
-  return is_urdf_path(path) ? load_model(path, request.tip, request.root) : load_model(path);
+  DeviceModel model =
+      is_urdf_path(path) ? load_model(path, request.tip, request.root) : load_model(path);
+  if (model.tree())
+    throw InputError(path, 0, "--tip", "force: a tree has several tips; give one chain (--tip)");
+  return model;
 }
 
 }  // namespace

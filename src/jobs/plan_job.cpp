@@ -35,7 +35,7 @@ PlanSetup prepare_plan(const PlanRequest& o) {
     throw InputError(fmt::format("{}: applies to URDF models (.urdf); none is given",
                                  o.tip.empty() ? "--root" : "--tip"));
   }
-  setup.model = load_model_or_tree(o.model, o.tip, o.root);
+  setup.model = load_model(o.model, o.tip, o.root);
   if (setup.model.tree()) {
     // A tree: each pose measures every tip's point (tree_model).
     if (*type != MeasurementType::kPosition)

@@ -6,6 +6,7 @@
 
 #include "hapticcal/core/error.hpp"
 #include "hapticcal/model_io/device.hpp"
+#include "hapticcal/model_io/tree_model.hpp"
 #include "hapticcal/model_io/urdf.hpp"
 
 #ifndef HAPTICCAL_DEFAULT_DEVICE
@@ -35,19 +36,65 @@ bool is_yaml_path(const std::string& path) {
   return ext == ".yaml" || ext == ".yml";
 }
 
-DeviceModel load_model(const std::string& given, const std::string& tip, const std::string& root) {
+std::vector<std::string> tip_names(const std::string& tip) {
+  std::vector<std::string> out;
+  if (tip.empty()) return out;
+  size_t from = 0;
+  for (size_t comma = tip.find(','); comma != std::string::npos; comma = tip.find(',', from)) {
+    out.push_back(tip.substr(from, comma - from));
+    from = comma + 1;
+  }
+  out.push_back(tip.substr(from));
+  for (const std::string& name : out) {
+    if (name.empty()) throw InputError("--tip: an empty tip name in '" + tip + "'");
+  }
+  return out;
+}
+
+namespace {
+
+// The file a model's path names (resolve_model_path); InputError for a xacro file.
+std::string model_file(const std::string& given) {
   const std::string path = resolve_model_path(given);
   if (lower_extension(path) == ".xacro") {
     throw InputError(path, 0, "",
                      "a xacro file: hapticcal reads URDF; expand it with xacro first (xacro "
                      "robot.urdf.xacro > robot.urdf)");
   }
+  return path;
+}
+
+// A chain: the URDF text given, else the file (a URDF or a device file).
+DeviceModel load_chain(const std::string& given, const std::string& tip, const std::string& root,
+                       const std::string* urdf_text) {
+  if (urdf_text) return parse_urdf(*urdf_text, given, tip, root);
+  const std::string path = model_file(given);
   if (is_urdf_path(path)) return load_urdf(path, tip, root);
   if (!tip.empty() || !root.empty()) {
     throw InputError(path, 0, tip.empty() ? "--root" : "--tip",
                      "a tip or root link applies to a URDF model (.urdf), not to a device file");
   }
   return load_device(path);
+}
+
+}  // namespace
+
+DeviceModel load_model(const std::string& path, const std::string& tip, const std::string& root,
+                       const std::string* urdf_text) {
+  return load_model(path, tip_names(tip), root, urdf_text);
+}
+
+DeviceModel load_model(const std::string& path, const std::vector<std::string>& tips,
+                       const std::string& root, const std::string* urdf_text) {
+  if (tips.size() <= 1) return load_chain(path, tips.empty() ? "" : tips[0], root, urdf_text);
+  if (urdf_text) return tree_model(parse_tree(*urdf_text, path, tips, root));
+  const std::string file = model_file(path);
+  if (!is_urdf_path(file)) {
+    throw InputError(file, 0, "--tip",
+                     "several tips apply to a URDF model (.urdf), not to a device file (which "
+                     "holds its tree itself)");
+  }
+  return tree_model(load_tree(file, tips, root));
 }
 
 // An installed program's devices first (PREFIX/share/hapticcal/devices beside

@@ -290,7 +290,7 @@ Scenario default_scenario(const std::string& device_path, const std::string& tip
   sc.device_path = device_path;
   sc.tip = tip;
   sc.root = root;
-  sc.nominal = load_model_or_tree(device_path, tip, root);
+  sc.nominal = load_model(device_path, tip, root);
   // A tree is measured by one point a tip (simulate_measurement_log).
   if (sc.nominal.tree()) sc.measurement = MeasurementType::kPosition;
   sc.paper_device = is_paper_device(sc.nominal);
