@@ -41,6 +41,9 @@ CEILINGS = {
     # identification/ in rooms: a header in a room includes nothing from the
     # folder above it, and the top holds the entry points alone.
     "upward_includes": 0,
+    # A library file including another layer's internal header (src/<layer>/..,
+    # not its public hapticcal/ one); core's internal helpers are everyone's.
+    "internal_includes": 0,
     "identification_top_files": 0,
 }
 
@@ -263,6 +266,19 @@ def identification_top_files(root):
             if os.path.isfile(os.path.join(top, f)) and f not in IDENTIFICATION_ENTRY]
 
 
+def internal_includes(path, text):
+    """Includes of another layer's internal header (core's excepted) from src/."""
+    own = layer_of(path)
+    if own is None or not path.startswith("src/"):
+        return []
+    out = []
+    for i, line in enumerate(text.split("\n")):
+        m = re.match(r'\s*#\s*include\s+"([a-z_]+)/[^"]+"', line)
+        if m and m.group(1) in LAYERS and m.group(1) not in (own, "core"):
+            out.append(f"{path}:{i + 1}: {own} includes {m.group(0).split(chr(34))[1]}")
+    return out
+
+
 def layer_violations(path, text):
     """Includes from this file into a higher layer."""
     own = layer_of(path)
@@ -306,6 +322,10 @@ int g(int a) {
     assert layer_violations("include/hapticcal/core/x.hpp", '#include "model/y.hpp"\n')
     assert not layer_violations("src/study/x.cpp", '#include "hapticcal/core/log.hpp"\n')
     assert layer_violations("src/misc/x.cpp", "")  # a folder that is not a layer
+    assert internal_includes("src/study/x.cpp", '#include "identification/problem/stack.hpp"\n')
+    assert not internal_includes("src/study/x.cpp", '#include "hapticcal/identification/a.hpp"\n')
+    assert not internal_includes("src/study/x.cpp", '#include "core/yaml_reader.hpp"\n')
+    assert not internal_includes("src/identification/x.cpp", '#include "identification/a.hpp"\n')
     assert upward_includes("src/identification/search/x.hpp",
                            '#include "identification/calibration_run.hpp"\n')
     assert not upward_includes("src/identification/search/x.hpp",
@@ -349,6 +369,7 @@ def main():
         with open(os.path.join(root, path), encoding="utf-8") as f:
             text = f.read()
         offenders["layer_violations"] += layer_violations(path, text)
+        offenders["internal_includes"] += internal_includes(path, text)
         offenders["upward_includes"] += upward_includes(path, text)
         lines = text.count("\n")
         if lines > CEILINGS["file_lines"]:
@@ -394,7 +415,7 @@ def main():
                 "transmission_string_compares", "trait_flag_branches", "log_kind_flags",
                 "slot_decoding",
                 "transmission_kind_checks", "layer_violations", "extension_files",
-                "upward_includes", "identification_top_files"]:
+                "upward_includes", "internal_includes", "identification_top_files"]:
         n = len(offenders[key])
         ceiling = CEILINGS[key]
         ok = ceiling is None or n <= ceiling

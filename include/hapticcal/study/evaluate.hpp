@@ -11,6 +11,7 @@
 
 #include "hapticcal/data_io/log.hpp"
 #include "hapticcal/identification/measurement.hpp"
+#include "hapticcal/identification/registration.hpp"
 #include "hapticcal/model/model.hpp"
 
 namespace hapticcal {
@@ -18,29 +19,6 @@ namespace hapticcal {
 struct ErrorStats {
   double rms = 0;
   double max = 0;  // largest absolute error
-};
-
-// evaluate --register: what is fitted on the evaluated log before it is scored,
-// for a tracker moved between sessions (its log is in a new frame).
-enum class RegisterWhat { kFrame, kFrameAndTool };
-// "frame" or "frame,tool"; anything else is an InputError listing the choices.
-RegisterWhat parse_register(const std::string& text);
-const char* to_string(RegisterWhat what);
-
-// The measurement frame (and tool) fitted on a log. Poses are x, y, z, roll,
-// pitch, yaw [m, rad] (URDF roll-pitch-yaw, as the device file's base).
-struct FrameFit {
-  RegisterWhat what = RegisterWhat::kFrame;
-  std::array<double, 6> base{};    // the fitted T_meas_base
-  std::array<double, 6> change{};  // T_meas_model = fitted base * model's base^-1
-  double moved = 0;                // how far the base origin moved [m]
-  double turned = 0;               // the angle of the change's rotation [rad]
-  // frame,tool: the fitted tool (position; its orientation too on a pose log)
-  // and the tool point's move from the model's, in the last link's frame.
-  std::optional<std::array<double, 6>> tool;
-  Eigen::Vector3d tool_offset = Eigen::Vector3d::Zero();
-  double tool_turned = 0;          // the angle between fitted and model tool rotations [rad]
-  double rms_position_before = 0;  // the model's RMS position error before registration [m]
 };
 
 struct Evaluation {
@@ -93,18 +71,6 @@ Evaluation evaluate(const DeviceModel& model, const Log& log,
                     const std::vector<PointDistance>& point_distances = {},
                     const std::vector<KnownPoint>& known_points = {});
 
-// The model with its measurement frame (its base, made a pose) and with
-// kFrameAndTool its tool fitted on the log's positions (and orientations): the
-// closed form (register_points, Horn/Kabsch) on predicted and measured tool
-// points, then Levenberg-Marquardt over those slots alone.
-struct RegisteredModel {
-  DeviceModel model;
-  FrameFit fit;
-};
-// Throws InputError if the log does not fit the model, measures no positions
-// (distances, fixture points or planes), or has fewer than 3 positions off a line.
-RegisteredModel register_for_evaluation(const DeviceModel& model, const Log& log,
-                                        RegisterWhat what);
 // evaluate() of the registered model, with `registered` set (known distances
 // and points are refused as evaluate() refuses them on a log of positions).
 Evaluation evaluate_registered(const DeviceModel& model, const Log& log, RegisterWhat what,
