@@ -20,6 +20,7 @@
 #include "hapticcal/design/plan.hpp"
 #include "hapticcal/identification/identification.hpp"
 #include "hapticcal/identification/measurement.hpp"
+#include "hapticcal/identification/registration.hpp"
 #include "hapticcal/kinematics/kinematics.hpp"
 #include "hapticcal/study/evaluate.hpp"
 #include "hapticcal/study/simulation.hpp"
@@ -261,6 +262,23 @@ TEST(MeasurementKind, EvaluateScoresItsValues) {
                                   l.find("improvement 100.0 %") != std::string::npos;
                          }),
             lines.end());
+}
+
+// A height does not hold the tool point in the sensor's frame: nothing for
+// evaluate --register to align, which it says.
+TEST(MeasurementKind, RegistrationNeedsAKindThatMeasuresThePoint) {
+  EXPECT_FALSE(kind_of(kHeight).measures_point());
+  EXPECT_TRUE(kind_of(MeasurementType::kPosition).measures_point());
+  const Log log =
+      simulate_measurement_log(moved_meca500(9), kHeight, 50, {}, SimulationNoise{}, 16);
+  try {
+    register_for_evaluation(testing::meca500(), log, RegisterWhat::kFrame);
+    ADD_FAILURE() << "a log of heights was registered";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("registration needs measured positions"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(MeasurementKind, APlanOfItsPosesBeatsRandomOnesAndCalibrates) {

@@ -54,7 +54,6 @@ struct MeasurementTraits {
   int length_rows;
   bool fixture = false;       // labels, no measured values (fixture points, plane contacts)
   bool rotation = false;      // rotation rows: a rotation scale, an orientation noise, a tool pose
-  bool own_frame = false;     // values in the instrument's own frame (a tracker's): registrable
   bool label_points = false;  // fixture labels are points: known distances fix the robot's size
   // The log's built-in columns its values come from and go to.
   bool distance_column = false, position_columns = false, orientation_columns = false;
@@ -108,6 +107,14 @@ class MeasurementKind {
   // What an instrument without error reads of the tool frame T_meas_tool
   // (`width` values; a fixture's: zeros).
   virtual void predict(const Frame<double>& tool, double* values) const = 0;
+  // Whether a sample's values hold the tool point in the instrument's own frame
+  // (a tracker's x, y, z: its frame can be registered to the model's tool
+  // points; the default: no), and that point of a sample's values (the
+  // default: its first three).
+  virtual bool measures_point() const { return false; }
+  virtual Eigen::Vector3d measured_point(const double* values) const {
+    return {values[0], values[1], values[2]};
+  }
   // Whether the instrument reads an unknown additive zero on top of its values
   // (a cable encoder's d0, step 2's candidate "instrument.zero"; the default:
   // no), and a reading `values` with that zero (the default: unchanged).

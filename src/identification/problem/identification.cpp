@@ -163,7 +163,7 @@ std::optional<std::string> register_frame(DeviceModel& model,
                                           const RowsOf& kind, const RowMatrix& measured,
                                           const Eigen::VectorXd& weights,
                                           const std::vector<int>& candidates) {
-  if (!traits(kind.type).own_frame || !model.base_is_pose()) {
+  if (!kind_of(kind.type).measures_point() || !model.base_is_pose()) {
     return {};  // no measured points to register to
   }
   for (int k = 0; k < kPoseSlots; ++k) {  // every base slot free
@@ -176,7 +176,7 @@ std::optional<std::string> register_frame(DeviceModel& model,
   Eigen::Matrix3Xd a(3, m), b(3, m);
   for (Eigen::Index i = 0; i < m; ++i) {
     a.col(i) = detail::pose_tool(s, constants, p.data(), joints[i].data(), kind.tip).p;
-    b.col(i) = measured.row(i).head<3>().transpose();
+    b.col(i) = kind_of(kind.type).measured_point(measured.row(i).data());
   }
   const Eigen::VectorXd w =
       weights.size() ? Eigen::VectorXd(weights.cwiseAbs2()) : Eigen::VectorXd();
@@ -461,7 +461,7 @@ KinematicProblem kinematic_problem(const DeviceModel& model, const Log& poses,
 
 bool measurement_frame_unknown(const KinematicProblem& problem, const std::vector<int>& candidates,
                                bool registered) {
-  if (!traits(problem.type).own_frame) {
+  if (!kind_of(problem.type).measures_point()) {
     return false;
   }
   if (!problem.model.base_is_pose()) return false;

@@ -97,10 +97,10 @@ class Position : public ToolPointKind {
                        .dimension = 3,
                        .width = 3,
                        .length_rows = 3,
-                       .own_frame = true,
                        .position_columns = true,
                        .error_title = "Position error per sample, before and after calibration",
                        .error_axis = "|p_model - p_measured| [mm]"}) {}
+  bool measures_point() const override { return true; }
   void predict(const Frame<double>& tool, double* values) const override {
     for (int k = 0; k < 3; ++k) values[k] = tool.p[k];
   }
@@ -120,11 +120,11 @@ class Pose : public MeasurementKind {
                          .width = 7,
                          .length_rows = 3,
                          .rotation = true,
-                         .own_frame = true,
-                         .position_columns = true,
+                           .position_columns = true,
                          .orientation_columns = true,
                          .error_title = "Position error per sample, before and after calibration",
                          .error_axis = "|p_model - p_measured| [mm]"}) {}
+  bool measures_point() const override { return true; }
   void from_log(const Log& log, int row, double* values) const override {
     for (int k = 0; k < 3; ++k) values[k] = log.position(row, k);
     for (int k = 0; k < 4; ++k) values[3 + k] = log.orientation(row, k);

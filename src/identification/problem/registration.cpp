@@ -138,7 +138,7 @@ DeviceModel with_pose_base(DeviceModel m) {
 // Registration needs the log to say where the tool point was.
 MeasurementType registrable_type(const Log& log) {
   const MeasurementType type = measurement_type(log);
-  if (!traits(type).own_frame) {
+  if (!kind_of(type).measures_point()) {
     throw InputError(log.origin, 0, "--register",
                      fmt::format("registration needs measured positions (x, y, z columns); this "
                                  "log has {}",
@@ -254,7 +254,7 @@ RegisteredModel register_for_evaluation(const DeviceModel& model, const Log& log
     ChainConstants<double> bent = constants;
     if (bends) bend_links(s, joints[r].data() + *bends, bent.links.data());
     a.col(r) = forward_kinematics(s, bent, joints[r].data()).p;
-    b.col(r) = log.position.row(r).transpose();
+    b.col(r) = kind_of(type).measured_point(measured.row(r).data());
     if (!a.col(r).allFinite()) {
       throw InputError(log.origin, r < static_cast<int>(log.line.size()) ? log.line[r] : 0, "",
                        "the model's tool point on this row is not finite");
