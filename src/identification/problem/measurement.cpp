@@ -120,7 +120,7 @@ class Pose : public MeasurementKind {
                          .width = 7,
                          .length_rows = 3,
                          .rotation = true,
-                           .position_columns = true,
+                         .position_columns = true,
                          .orientation_columns = true,
                          .error_title = "Position error per sample, before and after calibration",
                          .error_axis = "|p_model - p_measured| [mm]"}) {}
